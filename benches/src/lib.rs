@@ -1,0 +1,1 @@
+//! Shared helpers for the vatcal benchmarks (nothing public yet).

@@ -1,0 +1,2 @@
+//! The `vatcal` command.
+fn main() {}

@@ -1,0 +1,33 @@
+//! # vatcal-core
+//!
+//! The small crate every other vatcal crate depends on. It holds *types only*:
+//!
+//! * [`units`] — degree/radian conversions and the [`JointVector`] (q1 in mm, q2..q7 in rad);
+//! * [`cell`] — serde types for the canonical cell file (`format = "meca500-zaber-cell"`),
+//!   with validation that names the offending field;
+//! * [`params`] — stable, human-readable parameter identifiers ([`ParamId`]) and the named
+//!   parameter sets (`paper34`, `geometric`, ...);
+//! * [`frame`] — a small rigid transform ([`Frame`]);
+//! * [`effects`] — the names of the error-effect catalog ([`EffectKind`]);
+//! * [`measurement`] — probe / tracker measurements and their per-sample context.
+//!
+//! Units: every public Rust API uses **mm, rad, N·m, rad/(N·m), kg**. Degrees appear only at the
+//! file and CLI boundary (the cell file, CSV files), and conversions happen here.
+
+pub mod cell;
+pub mod effects;
+pub mod frame;
+pub mod measurement;
+pub mod params;
+pub mod units;
+
+pub use cell::{CellError, CellFile};
+pub use effects::{EffectKind, EffectSpec, ThermalDriver};
+pub use frame::Frame;
+pub use measurement::{Measurement, MeasurementContext, Target};
+pub use params::{Axis, BaseParam, ParamId, ParamSet, ToolFrameDof};
+pub use units::{JointVector, deg_to_rad, rad_to_deg};
+
+/// Number of joints of the cell: the linear guide (joint 1, prismatic) and the six Meca500
+/// joints (2..7, revolute).
+pub const JOINT_COUNT: usize = 7;

@@ -1,0 +1,67 @@
+//! Measurements: what the cell recorded, in internal units.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::units::JointVector;
+
+/// Optional per-sample data that some effects need.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct MeasurementContext {
+    /// sign (+1/-1) of the last motion of joints 2..7 before the record (`dir2`..`dir7`);
+    /// index 0 is joint 2
+    pub dir: Option<[i8; 6]>,
+    /// seconds since the campaign start
+    pub time_s: Option<f64>,
+    /// temperature [°C]
+    pub temperature_c: Option<f64>,
+}
+
+/// What a measurement observed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum Target {
+    /// The TCP sat on the probe origin at calibration position `position` (residual
+    /// `calibration_position - FK`).
+    Probe {
+        /// calibration position id
+        position: u32,
+    },
+    /// The TCP was measured at `xyz_mm` in the world frame (residual `measured - FK`).
+    Tracker {
+        /// measured world position [mm]
+        xyz_mm: Vector3<f64>,
+    },
+}
+
+/// One measurement: joints, which TCP, what was observed.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Measurement {
+    /// TCP id
+    pub tcp: u32,
+    /// joints (internal units)
+    pub q: JointVector,
+    /// what was observed
+    pub target: Target,
+    /// optional per-sample data
+    pub context: MeasurementContext,
+}
+
+impl Measurement {
+    /// A probe measurement without context data.
+    pub fn probe(position: u32, tcp: u32, q: JointVector) -> Self {
+        Self { tcp, q, target: Target::Probe { position }, context: MeasurementContext::default() }
+    }
+
+    /// A tracker measurement without context data.
+    pub fn tracker(tcp: u32, q: JointVector, xyz_mm: Vector3<f64>) -> Self {
+        Self { tcp, q, target: Target::Tracker { xyz_mm }, context: MeasurementContext::default() }
+    }
+
+    /// Calibration position id for probe measurements.
+    pub fn position(&self) -> Option<u32> {
+        match self.target {
+            Target::Probe { position } => Some(position),
+            Target::Tracker { .. } => None,
+        }
+    }
+}

@@ -1,0 +1,607 @@
+//! Stable, human-readable parameter identifiers and named parameter sets.
+//!
+//! Naming follows the paper's subscripts. MDH row `i` (1..=7, the transform from frame i-1 to
+//! frame i) carries `alpha_{i-1}`, `a_{i-1}`, `beta_{i-1}`, `theta_offset_i` and `d_i`:
+//!
+//! | identifier | name | unit inside vatcal |
+//! |---|---|---|
+//! | `ParamId::Alpha(i)` | `alpha_{i-1}` | rad |
+//! | `ParamId::A(i)` | `a_{i-1}` | mm |
+//! | `ParamId::Beta(i)` | `beta_{i-1}` | rad |
+//! | `ParamId::ThetaOffset(i)` | `theta_offset_i` | rad |
+//! | `ParamId::D(i)` | `d_i` (row 1: the guide offset `d_OFS,1`) | mm |
+//! | `ParamId::Compliance(i)` | `c_i`, i = 2..7 | rad/(N·m) |
+//! | `ParamId::Base(..)` | `base_x`, `base_y`, `base_z` (mm), `base_alpha`, `base_beta`, `base_gamma` (rad) | |
+//! | `ParamId::Tcp{id, axis}` | `tcp{id}_{x,y,z}` | mm |
+//! | `ParamId::Position{id, axis}` | `position{id}_{x,y,z}` | mm |
+//! | `ParamId::Effect(..)` | see [`EffectParam`] | see there |
+//!
+//! Names round-trip: `ParamId::from_name(&p.name()) == Some(p)`.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+/// A Cartesian axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Axis {
+    /// x
+    X,
+    /// y
+    Y,
+    /// z
+    Z,
+}
+
+impl Axis {
+    /// All three axes in order.
+    pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
+
+    /// Index 0..3.
+    pub fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+
+    /// Lower-case letter.
+    pub fn letter(self) -> &'static str {
+        match self {
+            Axis::X => "x",
+            Axis::Y => "y",
+            Axis::Z => "z",
+        }
+    }
+
+    fn from_letter(s: &str) -> Option<Self> {
+        match s {
+            "x" => Some(Axis::X),
+            "y" => Some(Axis::Y),
+            "z" => Some(Axis::Z),
+            _ => None,
+        }
+    }
+}
+
+/// One of the six base-pose parameters `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum BaseParam {
+    /// x translation [mm]
+    X,
+    /// y translation [mm]
+    Y,
+    /// z translation [mm]
+    Z,
+    /// rotation about x [rad]
+    Alpha,
+    /// rotation about the new y [rad]
+    Beta,
+    /// rotation about the new z [rad]
+    Gamma,
+}
+
+impl BaseParam {
+    /// All six in the order x, y, z, alpha, beta, gamma.
+    pub const ALL: [BaseParam; 6] = [
+        BaseParam::X,
+        BaseParam::Y,
+        BaseParam::Z,
+        BaseParam::Alpha,
+        BaseParam::Beta,
+        BaseParam::Gamma,
+    ];
+
+    fn suffix(self) -> &'static str {
+        match self {
+            BaseParam::X => "x",
+            BaseParam::Y => "y",
+            BaseParam::Z => "z",
+            BaseParam::Alpha => "alpha",
+            BaseParam::Beta => "beta",
+            BaseParam::Gamma => "gamma",
+        }
+    }
+}
+
+/// The four degrees of freedom of the `tool-frame` effect:
+/// `H_7 -> H_7 · T(tx, ty, 0) · Rx(rx) · Ry(ry)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum ToolFrameDof {
+    /// lateral offset along x7 [mm]
+    Tx,
+    /// lateral offset along y7 [mm]
+    Ty,
+    /// tilt about x [rad]
+    Rx,
+    /// tilt about y [rad]
+    Ry,
+}
+
+impl ToolFrameDof {
+    /// All four in order.
+    pub const ALL: [ToolFrameDof; 4] =
+        [ToolFrameDof::Tx, ToolFrameDof::Ty, ToolFrameDof::Rx, ToolFrameDof::Ry];
+
+    fn suffix(self) -> &'static str {
+        match self {
+            ToolFrameDof::Tx => "tx",
+            ToolFrameDof::Ty => "ty",
+            ToolFrameDof::Rx => "rx",
+            ToolFrameDof::Ry => "ry",
+        }
+    }
+}
+
+/// Parameters of the optional effect blocks (see the `effects` catalog in vatcal-kinematics).
+///
+/// `joint` is always the **cell joint index 1..=7** (2..=7 for the Meca500 joints).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum EffectParam {
+    /// `joint-cyclic`: sine amplitude [rad] of harmonic `harmonic` of joint `joint`
+    /// (`theta_i += s sin(k q_i) + c cos(k q_i)`). Name `cyclic{joint}_h{k}_sin`.
+    CyclicSin {
+        /// cell joint 2..=7
+        joint: u8,
+        /// harmonic k >= 1
+        harmonic: u8,
+    },
+    /// `joint-cyclic`: cosine amplitude [rad]. Name `cyclic{joint}_h{k}_cos`.
+    CyclicCos {
+        /// cell joint 2..=7
+        joint: u8,
+        /// harmonic k >= 1
+        harmonic: u8,
+    },
+    /// `joint-scale`: `theta_i += g_i q_i` [rad/rad]. Name `scale{joint}`.
+    JointScale {
+        /// cell joint 2..=7
+        joint: u8,
+    },
+    /// `joint-backlash`: `theta_i += b_i dir_i` [rad]. Name `backlash{joint}`.
+    Backlash {
+        /// cell joint 2..=7
+        joint: u8,
+    },
+    /// `guide-angular`: rotation of the carriage about its `axis` [rad], coefficient of the
+    /// Legendre polynomial `P_order(u)`, `u = (q1 - mid) / half_stroke`. Name
+    /// `guide_angular_{x,y,z}_p{order}`.
+    GuideAngular {
+        /// carriage axis
+        axis: Axis,
+        /// polynomial order (1 = linear, 2 = quadratic, ...)
+        order: u8,
+    },
+    /// `guide-straightness`: lateral carriage deviation along `axis` (x or y) [mm], coefficient
+    /// of `P_order(u)`. Name `guide_straightness_{x,y}_p{order}`.
+    GuideStraightness {
+        /// carriage axis (x or y)
+        axis: Axis,
+        /// polynomial order (>= 2 is separable; 1 is absorbed by the base pose)
+        order: u8,
+    },
+    /// `guide-scale`: `d_1 += s q1` [mm/mm]. Name `guide_scale`.
+    GuideScale,
+    /// `tool-frame`: offset/tilt of the tool-changer frame. Names `tool_tx`, `tool_ty`,
+    /// `tool_rx`, `tool_ry`.
+    ToolFrame(ToolFrameDof),
+    /// `thermal-drift` driven by time: arm lengths scale by `1 + k t` [1/s]. Name
+    /// `thermal_per_s`.
+    ThermalPerSecond,
+    /// `thermal-drift` driven by temperature: arm lengths scale by `1 + k (T - T_ref)` [1/K].
+    /// Name `thermal_per_k`.
+    ThermalPerKelvin,
+}
+
+/// A stable identifier of one model parameter. See the module docs for names and units.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum ParamId {
+    /// `alpha_{i-1}` of MDH row i (1..=7) [rad]
+    Alpha(u8),
+    /// `a_{i-1}` of MDH row i [mm]
+    A(u8),
+    /// Hayati `beta_{i-1}` of MDH row i [rad]
+    Beta(u8),
+    /// `theta_offset_i` of row i [rad]
+    ThetaOffset(u8),
+    /// `d_i` of row i [mm] (row 1: the guide offset)
+    D(u8),
+    /// joint compliance `c_i`, i = 2..=7 [rad/(N·m)]
+    Compliance(u8),
+    /// base pose in the world
+    Base(BaseParam),
+    /// TCP coordinate in frame 7 [mm]
+    Tcp {
+        /// TCP id
+        id: u32,
+        /// axis
+        axis: Axis,
+    },
+    /// calibration-position coordinate in the world [mm]
+    Position {
+        /// calibration position id
+        id: u32,
+        /// axis
+        axis: Axis,
+    },
+    /// a parameter of an optional effect block
+    Effect(EffectParam),
+}
+
+/// Physical kind of a parameter, which fixes its unit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ParamUnit {
+    /// millimetres
+    Mm,
+    /// radians (shown in degrees at the boundary)
+    Rad,
+    /// rad/(N·m)
+    RadPerNm,
+    /// dimensionless ratio (mm/mm or rad/rad)
+    Ratio,
+    /// 1/s
+    PerSecond,
+    /// 1/K
+    PerKelvin,
+}
+
+impl ParamUnit {
+    /// Unit label used in reports.
+    pub fn label(self) -> &'static str {
+        match self {
+            ParamUnit::Mm => "mm",
+            ParamUnit::Rad => "rad",
+            ParamUnit::RadPerNm => "rad/(N*m)",
+            ParamUnit::Ratio => "1",
+            ParamUnit::PerSecond => "1/s",
+            ParamUnit::PerKelvin => "1/K",
+        }
+    }
+}
+
+impl ParamId {
+    /// The stable name (e.g. `alpha_1`, `theta_offset_2`, `c_4`, `base_gamma`, `tcp2_z`).
+    pub fn name(&self) -> String {
+        match *self {
+            ParamId::Alpha(i) => format!("alpha_{}", i - 1),
+            ParamId::A(i) => format!("a_{}", i - 1),
+            ParamId::Beta(i) => format!("beta_{}", i - 1),
+            ParamId::ThetaOffset(i) => format!("theta_offset_{i}"),
+            ParamId::D(i) => format!("d_{i}"),
+            ParamId::Compliance(i) => format!("c_{i}"),
+            ParamId::Base(b) => format!("base_{}", b.suffix()),
+            ParamId::Tcp { id, axis } => format!("tcp{id}_{}", axis.letter()),
+            ParamId::Position { id, axis } => format!("position{id}_{}", axis.letter()),
+            ParamId::Effect(e) => match e {
+                EffectParam::CyclicSin { joint, harmonic } => {
+                    format!("cyclic{joint}_h{harmonic}_sin")
+                }
+                EffectParam::CyclicCos { joint, harmonic } => {
+                    format!("cyclic{joint}_h{harmonic}_cos")
+                }
+                EffectParam::JointScale { joint } => format!("scale{joint}"),
+                EffectParam::Backlash { joint } => format!("backlash{joint}"),
+                EffectParam::GuideAngular { axis, order } => {
+                    format!("guide_angular_{}_p{order}", axis.letter())
+                }
+                EffectParam::GuideStraightness { axis, order } => {
+                    format!("guide_straightness_{}_p{order}", axis.letter())
+                }
+                EffectParam::GuideScale => "guide_scale".to_string(),
+                EffectParam::ToolFrame(d) => format!("tool_{}", d.suffix()),
+                EffectParam::ThermalPerSecond => "thermal_per_s".to_string(),
+                EffectParam::ThermalPerKelvin => "thermal_per_k".to_string(),
+            },
+        }
+    }
+
+    /// Parses a name produced by [`ParamId::name`]. Returns `None` for unknown names.
+    pub fn from_name(name: &str) -> Option<ParamId> {
+        let row = |s: &str, shift: u8| -> Option<u8> {
+            let v: u8 = s.parse().ok()?;
+            let r = v.checked_add(shift)?;
+            (1..=7).contains(&r).then_some(r)
+        };
+        if let Some(s) = name.strip_prefix("alpha_") {
+            return row(s, 1).map(ParamId::Alpha);
+        }
+        if let Some(s) = name.strip_prefix("beta_") {
+            return row(s, 1).map(ParamId::Beta);
+        }
+        if let Some(s) = name.strip_prefix("theta_offset_") {
+            return row(s, 0).map(ParamId::ThetaOffset);
+        }
+        if let Some(s) = name.strip_prefix("a_") {
+            return row(s, 1).map(ParamId::A);
+        }
+        if let Some(s) = name.strip_prefix("d_") {
+            return row(s, 0).map(ParamId::D);
+        }
+        if let Some(s) = name.strip_prefix("c_") {
+            return row(s, 0).filter(|j| *j >= 2).map(ParamId::Compliance);
+        }
+        if let Some(s) = name.strip_prefix("base_") {
+            return BaseParam::ALL.iter().find(|b| b.suffix() == s).map(|b| ParamId::Base(*b));
+        }
+        if let Some(s) = name.strip_prefix("tcp") {
+            let (id, ax) = s.split_once('_')?;
+            return Some(ParamId::Tcp { id: id.parse().ok()?, axis: Axis::from_letter(ax)? });
+        }
+        if let Some(s) = name.strip_prefix("position") {
+            let (id, ax) = s.split_once('_')?;
+            return Some(ParamId::Position { id: id.parse().ok()?, axis: Axis::from_letter(ax)? });
+        }
+        let joint = |s: &str| -> Option<u8> { s.parse().ok().filter(|j| (2..=7).contains(j)) };
+        if let Some(s) = name.strip_prefix("cyclic") {
+            let mut it = s.split('_');
+            let j = joint(it.next()?)?;
+            let h: u8 = it.next()?.strip_prefix('h')?.parse().ok().filter(|h| *h >= 1)?;
+            let kind = it.next()?;
+            if it.next().is_some() {
+                return None;
+            }
+            return match kind {
+                "sin" => Some(ParamId::Effect(EffectParam::CyclicSin { joint: j, harmonic: h })),
+                "cos" => Some(ParamId::Effect(EffectParam::CyclicCos { joint: j, harmonic: h })),
+                _ => None,
+            };
+        }
+        if let Some(s) = name.strip_prefix("scale") {
+            return joint(s).map(|j| ParamId::Effect(EffectParam::JointScale { joint: j }));
+        }
+        if let Some(s) = name.strip_prefix("backlash") {
+            return joint(s).map(|j| ParamId::Effect(EffectParam::Backlash { joint: j }));
+        }
+        let axis_order = |s: &str| -> Option<(Axis, u8)> {
+            let (ax, p) = s.split_once("_p")?;
+            Some((Axis::from_letter(ax)?, p.parse().ok().filter(|o| *o >= 1)?))
+        };
+        if let Some(s) = name.strip_prefix("guide_angular_") {
+            let (axis, order) = axis_order(s)?;
+            return Some(ParamId::Effect(EffectParam::GuideAngular { axis, order }));
+        }
+        if let Some(s) = name.strip_prefix("guide_straightness_") {
+            let (axis, order) = axis_order(s)?;
+            if axis == Axis::Z {
+                return None;
+            }
+            return Some(ParamId::Effect(EffectParam::GuideStraightness { axis, order }));
+        }
+        if let Some(s) = name.strip_prefix("tool_") {
+            return ToolFrameDof::ALL
+                .iter()
+                .find(|d| d.suffix() == s)
+                .map(|d| ParamId::Effect(EffectParam::ToolFrame(*d)));
+        }
+        match name {
+            "guide_scale" => Some(ParamId::Effect(EffectParam::GuideScale)),
+            "thermal_per_s" => Some(ParamId::Effect(EffectParam::ThermalPerSecond)),
+            "thermal_per_k" => Some(ParamId::Effect(EffectParam::ThermalPerKelvin)),
+            _ => None,
+        }
+    }
+
+    /// The physical unit of the parameter inside vatcal.
+    pub fn unit(&self) -> ParamUnit {
+        match self {
+            ParamId::Alpha(_) | ParamId::Beta(_) | ParamId::ThetaOffset(_) => ParamUnit::Rad,
+            ParamId::A(_) | ParamId::D(_) => ParamUnit::Mm,
+            ParamId::Compliance(_) => ParamUnit::RadPerNm,
+            ParamId::Base(b) => match b {
+                BaseParam::X | BaseParam::Y | BaseParam::Z => ParamUnit::Mm,
+                _ => ParamUnit::Rad,
+            },
+            ParamId::Tcp { .. } | ParamId::Position { .. } => ParamUnit::Mm,
+            ParamId::Effect(e) => match e {
+                EffectParam::CyclicSin { .. }
+                | EffectParam::CyclicCos { .. }
+                | EffectParam::Backlash { .. }
+                | EffectParam::GuideAngular { .. } => ParamUnit::Rad,
+                EffectParam::ToolFrame(ToolFrameDof::Rx | ToolFrameDof::Ry) => ParamUnit::Rad,
+                EffectParam::ToolFrame(_) | EffectParam::GuideStraightness { .. } => ParamUnit::Mm,
+                EffectParam::JointScale { .. } | EffectParam::GuideScale => ParamUnit::Ratio,
+                EffectParam::ThermalPerSecond => ParamUnit::PerSecond,
+                EffectParam::ThermalPerKelvin => ParamUnit::PerKelvin,
+            },
+        }
+    }
+
+    /// A typical a-priori standard deviation of the parameter's *error*, in internal units.
+    /// Used for column scaling and as a default prior (background.md §6.3).
+    pub fn typical_scale(&self) -> f64 {
+        match self.unit() {
+            ParamUnit::Mm => match self {
+                ParamId::Base(_) => 1.0,
+                _ => 0.1,
+            },
+            ParamUnit::Rad => match self {
+                ParamId::Base(_) => 1e-2,
+                _ => 1e-3,
+            },
+            ParamUnit::RadPerNm => 1e-4,
+            ParamUnit::Ratio => 1e-4,
+            ParamUnit::PerSecond => 1e-8,
+            ParamUnit::PerKelvin => 2.3e-5,
+        }
+    }
+}
+
+impl fmt::Display for ParamId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+/// An ordered list of parameters (the columns of a Jacobian, the unknowns of a fit).
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct ParamSet(pub Vec<ParamId>);
+
+/// Error when a parameter-set specification cannot be parsed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ParamSetError {
+    /// a name in a comma-separated list is not a known parameter
+    #[error("unknown parameter name `{0}` (examples of valid names: alpha_1, a_2, d_4, theta_offset_2, beta_3, c_2, base_x, tcp1_x, position2_z, cyclic4_h1_sin)")]
+    UnknownName(String),
+    /// a parameter appears twice
+    #[error("parameter `{0}` is listed twice")]
+    Duplicate(String),
+    /// empty list
+    #[error("the parameter list is empty")]
+    Empty,
+}
+
+impl ParamSet {
+    /// The paper's 34 identifiable parameters, in the order of Eq. (7):
+    /// alpha_1..6, a_2..6, d_4..7, theta_offset_2..7, beta_3, c_2..7, base pose.
+    pub fn paper34() -> Self {
+        let mut v = Vec::with_capacity(34);
+        v.extend((2..=7).map(ParamId::Alpha)); // alpha_1..alpha_6
+        v.extend((3..=7).map(ParamId::A)); // a_2..a_6
+        v.extend((4..=7).map(ParamId::D)); // d_4..d_7
+        v.extend((2..=7).map(ParamId::ThetaOffset));
+        v.push(ParamId::Beta(4)); // beta_3
+        v.extend((2..=7).map(ParamId::Compliance));
+        v.extend(BaseParam::ALL.iter().map(|b| ParamId::Base(*b)));
+        Self(v)
+    }
+
+    /// The paper's 28 geometric parameters (paper34 without the compliances).
+    pub fn geometric() -> Self {
+        Self(
+            Self::paper34()
+                .0
+                .into_iter()
+                .filter(|p| !matches!(p, ParamId::Compliance(_)))
+                .collect(),
+        )
+    }
+
+    /// Every built-in parameter of the model: the 5 MDH values of all 7 rows, c_2..c_7, the
+    /// base pose, and the coordinates of the given TCPs and calibration positions.
+    pub fn all_builtin(tcp_ids: &[u32], position_ids: &[u32]) -> Self {
+        let mut v = Vec::new();
+        for i in 1..=7u8 {
+            v.extend([
+                ParamId::Alpha(i),
+                ParamId::A(i),
+                ParamId::Beta(i),
+                ParamId::ThetaOffset(i),
+                ParamId::D(i),
+            ]);
+        }
+        v.extend((2..=7).map(ParamId::Compliance));
+        v.extend(BaseParam::ALL.iter().map(|b| ParamId::Base(*b)));
+        for id in tcp_ids {
+            v.extend(Axis::ALL.iter().map(|a| ParamId::Tcp { id: *id, axis: *a }));
+        }
+        for id in position_ids {
+            v.extend(Axis::ALL.iter().map(|a| ParamId::Position { id: *id, axis: *a }));
+        }
+        Self(v)
+    }
+
+    /// Parses `paper34`, `geometric`, or a comma-separated list of parameter names.
+    /// (`all-identifiable` needs data and is resolved by the observability crate.)
+    pub fn parse(spec: &str) -> Result<Self, ParamSetError> {
+        match spec.trim() {
+            "paper34" => return Ok(Self::paper34()),
+            "geometric" => return Ok(Self::geometric()),
+            _ => {}
+        }
+        let mut v: Vec<ParamId> = Vec::new();
+        for raw in spec.split(',') {
+            let name = raw.trim();
+            if name.is_empty() {
+                continue;
+            }
+            let id = ParamId::from_name(name)
+                .ok_or_else(|| ParamSetError::UnknownName(name.to_string()))?;
+            if v.contains(&id) {
+                return Err(ParamSetError::Duplicate(name.to_string()));
+            }
+            v.push(id);
+        }
+        if v.is_empty() {
+            return Err(ParamSetError::Empty);
+        }
+        Ok(Self(v))
+    }
+
+    /// Number of parameters.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// Iterator over the ids.
+    pub fn iter(&self) -> std::slice::Iter<'_, ParamId> {
+        self.0.iter()
+    }
+
+    /// Position of `id` in the set.
+    pub fn index_of(&self, id: ParamId) -> Option<usize> {
+        self.0.iter().position(|p| *p == id)
+    }
+
+    /// Names of all parameters, in order.
+    pub fn names(&self) -> Vec<String> {
+        self.0.iter().map(|p| p.name()).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper34_has_34_unique_params_with_paper_names() {
+        let s = ParamSet::paper34();
+        assert_eq!(s.len(), 34);
+        let names = s.names();
+        for n in ["alpha_1", "alpha_6", "a_2", "a_6", "d_4", "d_7", "theta_offset_2", "beta_3", "c_2", "c_7", "base_gamma"] {
+            assert!(names.contains(&n.to_string()), "{n} missing");
+        }
+        let mut sorted = s.0.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted.len(), 34);
+        assert_eq!(ParamSet::geometric().len(), 28);
+    }
+
+    #[test]
+    fn names_round_trip() {
+        let mut all = ParamSet::all_builtin(&[1, 2, 3], &[1, 2, 3]).0;
+        for j in 2..=7 {
+            all.push(ParamId::Effect(EffectParam::CyclicSin { joint: j, harmonic: 2 }));
+            all.push(ParamId::Effect(EffectParam::CyclicCos { joint: j, harmonic: 1 }));
+            all.push(ParamId::Effect(EffectParam::JointScale { joint: j }));
+            all.push(ParamId::Effect(EffectParam::Backlash { joint: j }));
+        }
+        for a in Axis::ALL {
+            all.push(ParamId::Effect(EffectParam::GuideAngular { axis: a, order: 2 }));
+        }
+        all.push(ParamId::Effect(EffectParam::GuideStraightness { axis: Axis::Y, order: 2 }));
+        all.push(ParamId::Effect(EffectParam::GuideScale));
+        all.extend(ToolFrameDof::ALL.iter().map(|d| ParamId::Effect(EffectParam::ToolFrame(*d))));
+        all.push(ParamId::Effect(EffectParam::ThermalPerSecond));
+        all.push(ParamId::Effect(EffectParam::ThermalPerKelvin));
+        for p in all {
+            assert_eq!(ParamId::from_name(&p.name()), Some(p), "{}", p.name());
+        }
+    }
+
+    #[test]
+    fn parse_lists_and_errors() {
+        assert_eq!(ParamSet::parse("paper34").map(|s| s.len()), Ok(34));
+        assert_eq!(ParamSet::parse("alpha_1, d_4").map(|s| s.len()), Ok(2));
+        assert!(matches!(ParamSet::parse("alpha_9"), Err(ParamSetError::UnknownName(_))));
+        assert!(matches!(ParamSet::parse("d_4,d_4"), Err(ParamSetError::Duplicate(_))));
+        assert!(matches!(ParamSet::parse(" , "), Err(ParamSetError::Empty)));
+        assert_eq!(ParamId::from_name("c_1"), None);
+    }
+}

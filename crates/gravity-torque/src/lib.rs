@@ -1,0 +1,115 @@
+//! # vatcal-gravity-torque
+//!
+//! Static gravity torques `tau_2..tau_7` [N·m] on the six Meca500 joints of the cell, computed
+//! by Craig's static outward/inward recursion (background.md §2.2):
+//!
+//! * outward: `R_i^W = R_{i-1}^W R_i^{i-1}`, gravity in frame i `g_i = (R_i^W)^T g^W`;
+//! * inward (i = 7..2, `f_8 = n_8 = 0`):
+//!   `f_i = R f_{i+1} - m_i g_i`,
+//!   `n_i = R n_{i+1} + p × (R f_{i+1}) + c_i × (-m_i g_i)`,
+//!   with `R`, `p` the rotation and translation (metres) of `H_{i+1}^i`;
+//! * `tau_i = -n_i · z` — the moment **exerted by gravity** about `+z_i` (the actuator holds
+//!   `-tau_i`). A positive compliance makes the joint yield the way gravity pushes:
+//!   `theta_i = q_i + theta_offset_i + c_i tau_i`.
+//!
+//! The tool (tool changer + end-effector) is lumped into link 7.
+//!
+//! The function takes the seven link transforms `H_i^{i-1}` (translations in mm) and the base
+//! rotation, so the caller decides which geometry the torques are evaluated on. vatcal's
+//! convention (see `docs/conventions.md`): the evaluated model's own MDH rows including beta,
+//! its base orientation, all `c_i = 0`, no iteration.
+
+use nalgebra::{Matrix3, Vector3};
+use vatcal_core::Frame;
+use vatcal_core::cell::Inertials;
+
+/// Mass and centre of mass of one body.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Body {
+    /// mass [kg]
+    pub mass_kg: f64,
+    /// centre of mass in the body's MDH frame [mm]
+    pub com_mm: Vector3<f64>,
+}
+
+/// Masses of the moving links 2..7, the tool lumped into link 7.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MassModel {
+    /// `links[k]` is the body of MDH frame `k + 2` (k = 0..6); link 7 includes the tool.
+    pub links: [Body; 6],
+}
+
+impl MassModel {
+    /// Builds the mass model from the cell file's `[inertials]` (missing links have zero mass).
+    pub fn from_inertials(inertials: &Inertials) -> Self {
+        let mut links = [Body::default(); 6];
+        for l in &inertials.links {
+            if (2..=7).contains(&l.frame) {
+                links[(l.frame - 2) as usize] =
+                    Body { mass_kg: l.mass_kg, com_mm: Vector3::from(l.com_mm) };
+            }
+        }
+        let tool = Body { mass_kg: inertials.tool.mass_kg, com_mm: Vector3::from(inertials.tool.com_mm) };
+        links[5] = combine(links[5], tool);
+        Self { links }
+    }
+
+    /// Total moving mass [kg].
+    pub fn total_mass_kg(&self) -> f64 {
+        self.links.iter().map(|b| b.mass_kg).sum()
+    }
+}
+
+/// Combines two bodies expressed in the same frame.
+pub fn combine(a: Body, b: Body) -> Body {
+    let m = a.mass_kg + b.mass_kg;
+    if m <= 0.0 {
+        return Body { mass_kg: 0.0, com_mm: Vector3::zeros() };
+    }
+    Body { mass_kg: m, com_mm: (a.com_mm * a.mass_kg + b.com_mm * b.mass_kg) / m }
+}
+
+/// Gravity torques `[tau_2, ..., tau_7]` [N·m] about `+z_i`, exerted by gravity on everything
+/// distal to joint i.
+///
+/// * `links[i-1]` = `H_i^{i-1}` for rows i = 1..7 (translation in mm), evaluated on the geometry
+///   the torques should describe (vatcal: own geometry, no compliance);
+/// * `base_rotation` = `R_0^W`;
+/// * `gravity_world` = gravity vector in the world frame [m/s²].
+///
+/// Cost: ~0.1 µs (no allocation).
+pub fn gravity_torques(
+    links: &[Frame; 7],
+    base_rotation: &Matrix3<f64>,
+    masses: &MassModel,
+    gravity_world: &Vector3<f64>,
+) -> [f64; 6] {
+    // outward: gravity in frames 2..7
+    let mut r_w: Matrix3<f64> = *base_rotation;
+    let mut g_frame = [Vector3::zeros(); 8];
+    for (i, link) in links.iter().enumerate() {
+        r_w *= link.r;
+        g_frame[i + 1] = r_w.transpose() * gravity_world;
+    }
+    // inward
+    let mut f = Vector3::zeros(); // force of link i on link i+1, in frame i+1 [N]
+    let mut n = Vector3::zeros(); // moment [N m]
+    let mut tau = [0.0; 6];
+    for i in (2..=7usize).rev() {
+        let body = masses.links[i - 2];
+        let weight = -body.mass_kg * g_frame[i]; // -m g in frame i, i.e. the "inertial" force
+        let (rf, rn) = if i < 7 {
+            let next = &links[i]; // H_{i+1}^i
+            let r = next.r;
+            let p_m = next.p * 1e-3;
+            let rf = r * f;
+            (rf, r * n + p_m.cross(&rf))
+        } else {
+            (Vector3::zeros(), Vector3::zeros())
+        };
+        f = rf + weight;
+        n = rn + (body.com_mm * 1e-3).cross(&weight);
+        tau[i - 2] = -n.z;
+    }
+    tau
+}

@@ -1,0 +1,307 @@
+//! Forward kinematics: every frame of the chain in the world.
+
+use nalgebra::{Matrix3, Vector3};
+use vatcal_core::effects::{EffectSpec, ThermalDriver};
+use vatcal_core::params::{Axis, EffectParam};
+use vatcal_core::{Frame, JointVector, MeasurementContext};
+use vatcal_gravity_torque::gravity_torques;
+
+use crate::model::{Model, ModelError, rx, ry, rz};
+
+/// World-frame axes of one MDH row, needed by the Jacobian.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct RowAxes {
+    /// x axis of frame i-1 (alpha rotation axis, a translation direction)
+    pub x_prev: Vector3<f64>,
+    /// origin of frame i-1
+    pub o_prev: Vector3<f64>,
+    /// y axis after Rx(alpha) Tx(a) (beta rotation axis)
+    pub y_beta: Vector3<f64>,
+    /// origin after Tx(a)
+    pub o_beta: Vector3<f64>,
+    /// z axis of frame i (theta rotation axis, d translation direction)
+    pub z: Vector3<f64>,
+    /// origin of frame i (before any inserted effect transform)
+    pub o: Vector3<f64>,
+}
+
+/// Axes of an inserted `T(sx, sy, 0) Rx(ex) Ry(ey) Rz(ez)`-type transform.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct InsertAxes {
+    pub tx: Vector3<f64>,
+    pub ty: Vector3<f64>,
+    pub rot: [Vector3<f64>; 3],
+    pub o: Vector3<f64>,
+}
+
+/// All frames of the chain for one joint vector, in the world (tank) frame.
+#[derive(Debug, Clone)]
+pub struct Chain {
+    /// World poses of MDH frames 0..=7. Frame 1 is the carriage, including the guide effects
+    /// when they are switched on; frame 7 is the last-joint (flange) frame.
+    pub frames: [Frame; 8],
+    /// The tool-changer frame in which TCPs are given: frame 7, times the `tool-frame` effect
+    /// transform when that effect is on.
+    pub tool: Frame,
+    /// Gravity torques tau_2..tau_7 [N·m] used for the compliance (zeros when not evaluated).
+    pub torques: [f64; 6],
+    /// Whether `torques` were evaluated.
+    pub torques_evaluated: bool,
+    /// Joint angles theta_1..theta_7 [rad] that entered Eq. (1).
+    pub theta: [f64; 7],
+    pub(crate) axes: [RowAxes; 7],
+    pub(crate) guide: Option<InsertAxes>,
+    pub(crate) tool_axes: Option<InsertAxes>,
+    pub(crate) thermal_factor: f64,
+}
+
+impl Chain {
+    /// World position of a point given in the tool-changer frame (e.g. a TCP) [mm].
+    pub fn tool_point(&self, t: &Vector3<f64>) -> Vector3<f64> {
+        self.tool.transform_point(t)
+    }
+}
+
+/// Legendre polynomial P_n(u).
+pub(crate) fn legendre(n: u8, u: f64) -> f64 {
+    match n {
+        0 => 1.0,
+        1 => u,
+        2 => 0.5 * (3.0 * u * u - 1.0),
+        3 => 0.5 * (5.0 * u * u * u - 3.0 * u),
+        4 => (35.0 * u.powi(4) - 30.0 * u * u + 3.0) / 8.0,
+        _ => {
+            let (mut p0, mut p1) = (1.0, u);
+            for k in 1..n {
+                let kf = f64::from(k);
+                let p2 = ((2.0 * kf + 1.0) * u * p1 - kf * p0) / (kf + 1.0);
+                p0 = p1;
+                p1 = p2;
+            }
+            p1
+        }
+    }
+}
+
+#[inline]
+fn rz_tz(fixed: &Frame, theta: f64, d: f64) -> Frame {
+    let (s, c) = theta.sin_cos();
+    let m = &fixed.r;
+    let c0 = m.column(0) * c + m.column(1) * s;
+    let c1 = m.column(1) * c - m.column(0) * s;
+    let c2 = m.column(2).into_owned();
+    let r = Matrix3::from_columns(&[c0, c1, c2]);
+    Frame { r, p: fixed.p + c2 * d }
+}
+
+impl Model {
+    /// Gravity torques `[tau_2..tau_7]` [N·m] at `q`, on this model's own geometry (its MDH rows
+    /// incl. beta, its base orientation), with all compliances zero and no iteration.
+    pub fn gravity_torques(&self, q: &JointVector) -> [f64; 6] {
+        let mut links = [Frame::identity(); 7];
+        for (k, link) in links.iter_mut().enumerate() {
+            let row = &self.rows[k];
+            let (theta, d) = if k == 0 {
+                (row.theta_offset, q.0[0] + row.d)
+            } else {
+                (q.0[k] + row.theta_offset, row.d)
+            };
+            *link = rz_tz(&self.row_fixed[k], theta, d);
+        }
+        gravity_torques(&links, &self.base_frame.r, &self.masses, &self.gravity)
+    }
+
+    fn thermal(&self, ctx: &MeasurementContext) -> f64 {
+        let mut f = 1.0;
+        for e in &self.effects {
+            if let EffectSpec::ThermalDrift { driver } = e {
+                match driver {
+                    ThermalDriver::Time => {
+                        f += self.effect_value(EffectParam::ThermalPerSecond) * ctx.time_s.unwrap_or(0.0)
+                    }
+                    ThermalDriver::Temperature => {
+                        f += self.effect_value(EffectParam::ThermalPerKelvin)
+                            * ctx.temperature_c.map_or(0.0, |t| t - self.thermal_reference_c)
+                    }
+                }
+            }
+        }
+        f
+    }
+
+    /// Additive joint-angle effects (cyclic, scale, backlash) on cell joint `j` (2..=7) [rad].
+    pub(crate) fn joint_effect_angle(&self, j: u8, q: &JointVector, ctx: &MeasurementContext) -> f64 {
+        let qj = q.0[j as usize - 1];
+        let mut dtheta = 0.0;
+        for e in &self.effects {
+            match *e {
+                EffectSpec::JointCyclic { joint, harmonic } if joint == j => {
+                    let (s, c) = (f64::from(harmonic) * qj).sin_cos();
+                    dtheta += self.effect_value(EffectParam::CyclicSin { joint, harmonic }) * s
+                        + self.effect_value(EffectParam::CyclicCos { joint, harmonic }) * c;
+                }
+                EffectSpec::JointScale { joint } if joint == j => {
+                    dtheta += self.effect_value(EffectParam::JointScale { joint }) * qj;
+                }
+                EffectSpec::JointBacklash { joint } if joint == j => {
+                    let dir = ctx.dir.map_or(0.0, |d| f64::from(d[j as usize - 2]));
+                    dtheta += self.effect_value(EffectParam::Backlash { joint }) * dir;
+                }
+                _ => {}
+            }
+        }
+        dtheta
+    }
+
+    /// The inserted guide transform `T(sx, sy, 0) Rx(ex) Ry(ey) Rz(ez)` at guide coordinate u,
+    /// if a guide effect is on: returns `(sx, sy, [ex, ey, ez])`.
+    fn guide_insert(&self, u: f64) -> Option<(f64, f64, [f64; 3])> {
+        let mut any = false;
+        let (mut sx, mut sy, mut e) = (0.0, 0.0, [0.0; 3]);
+        for spec in &self.effects {
+            match *spec {
+                EffectSpec::GuideAngular { order } => {
+                    any = true;
+                    for o in 1..=order {
+                        let p = legendre(o, u);
+                        for axis in Axis::ALL {
+                            e[axis.index()] +=
+                                self.effect_value(EffectParam::GuideAngular { axis, order: o }) * p;
+                        }
+                    }
+                }
+                EffectSpec::GuideStraightness { order } => {
+                    any = true;
+                    for o in 2..=order {
+                        let p = legendre(o, u);
+                        sx += self.effect_value(EffectParam::GuideStraightness { axis: Axis::X, order: o }) * p;
+                        sy += self.effect_value(EffectParam::GuideStraightness { axis: Axis::Y, order: o }) * p;
+                    }
+                }
+                _ => {}
+            }
+        }
+        any.then_some((sx, sy, e))
+    }
+
+    fn tool_insert(&self) -> Option<[f64; 4]> {
+        use vatcal_core::ToolFrameDof as T;
+        self.effects.contains(&EffectSpec::ToolFrame).then(|| {
+            [T::Tx, T::Ty, T::Rx, T::Ry].map(|d| self.effect_value(EffectParam::ToolFrame(d)))
+        })
+    }
+
+    /// Computes every frame at `q`. Torques are evaluated when a compliance is non-zero or
+    /// `with_torques` is set; `fixed_torques` overrides them (used to check the Jacobian,
+    /// which holds tau fixed).
+    pub fn chain_full(
+        &self,
+        q: &JointVector,
+        ctx: &MeasurementContext,
+        with_torques: bool,
+        fixed_torques: Option<&[f64; 6]>,
+    ) -> Chain {
+        let (torques, torques_evaluated) = match fixed_torques {
+            Some(t) => (*t, true),
+            None if with_torques || self.any_compliance => (self.gravity_torques(q), true),
+            None => ([0.0; 6], false),
+        };
+        let thermal_factor = if self.effects.is_empty() { 1.0 } else { self.thermal(ctx) };
+        let guide_scale = if self.effects.contains(&EffectSpec::GuideScale) {
+            self.effect_value(EffectParam::GuideScale)
+        } else {
+            0.0
+        };
+        let mut frames = [Frame::identity(); 8];
+        let mut axes = [RowAxes::default(); 7];
+        let mut theta = [0.0; 7];
+        let mut guide = None;
+        let mut w = self.base_frame;
+        frames[0] = w;
+        for k in 0..7 {
+            let row = &self.rows[k];
+            let mut fixed = self.row_fixed[k];
+            let (th, d) = if k == 0 {
+                (row.theta_offset, q.0[0] * (1.0 + guide_scale) + row.d)
+            } else {
+                let mut th = q.0[k] + row.theta_offset + self.compliance[k] * torques[k - 1];
+                if self.has_joint_effects {
+                    th += self.joint_effect_angle(k as u8 + 1, q, ctx);
+                }
+                let mut d = row.d;
+                if thermal_factor != 1.0 {
+                    fixed.p *= thermal_factor;
+                    d *= thermal_factor;
+                }
+                (th, d)
+            };
+            theta[k] = th;
+            let (sa, ca) = self.row_trig[k];
+            let x_prev = w.x_axis();
+            axes[k].x_prev = x_prev;
+            axes[k].o_prev = w.p;
+            axes[k].y_beta = w.r * Vector3::new(0.0, ca, sa);
+            axes[k].o_beta = w.p + x_prev * fixed.p.x;
+            w = w.compose(&rz_tz(&fixed, th, d));
+            axes[k].z = w.z_axis();
+            axes[k].o = w.p;
+            if k == 0
+                && !self.effects.is_empty()
+                && let Some((sx, sy, e)) = self.guide_insert(self.guide_u(q.0[0]))
+            {
+                let (ins, ax) = insert_transform(&w, sx, sy, e[0], e[1], Some(e[2]));
+                guide = Some(ax);
+                w = w.compose(&ins);
+            }
+            frames[k + 1] = w;
+        }
+        let mut tool = w;
+        let mut tool_axes = None;
+        if let Some([tx, ty, rx_, ry_]) = self.tool_insert() {
+            let (ins, ax) = insert_transform(&w, tx, ty, rx_, ry_, None);
+            tool_axes = Some(ax);
+            tool = w.compose(&ins);
+        }
+        Chain { frames, tool, torques, torques_evaluated, theta, axes, guide, tool_axes, thermal_factor }
+    }
+
+    /// Every frame at `q` (no per-sample context).
+    pub fn chain(&self, q: &JointVector) -> Chain {
+        self.chain_full(q, &MeasurementContext::default(), false, None)
+    }
+
+    /// World position [mm] of TCP `tcp` at `q` with per-sample context `ctx`.
+    pub fn tcp_position_ctx(
+        &self,
+        q: &JointVector,
+        ctx: &MeasurementContext,
+        tcp: u32,
+    ) -> Result<Vector3<f64>, ModelError> {
+        let t = self.tcp_or_err(tcp)?;
+        Ok(self.chain_full(q, ctx, false, None).tool_point(&t))
+    }
+
+    /// World position [mm] of TCP `tcp` at `q`.
+    pub fn tcp_position(&self, q: &JointVector, tcp: u32) -> Result<Vector3<f64>, ModelError> {
+        self.tcp_position_ctx(q, &MeasurementContext::default(), tcp)
+    }
+}
+
+/// `T(tx, ty, 0) Rx(ex) Ry(ey) [Rz(ez)]` relative to `w`, and its world axes for the Jacobian.
+fn insert_transform(w: &Frame, tx: f64, ty: f64, ex: f64, ey: f64, ez: Option<f64>) -> (Frame, InsertAxes) {
+    let rxm = rx(ex);
+    let rxy = rxm * ry(ey);
+    let r = match ez {
+        Some(z) => rxy * rz(z),
+        None => rxy,
+    };
+    let local = Frame { r, p: Vector3::new(tx, ty, 0.0) };
+    let o = w.p + w.r * local.p;
+    let ax = InsertAxes {
+        tx: w.x_axis(),
+        ty: w.y_axis(),
+        rot: [w.x_axis(), w.r * rxm.column(1), w.r * rxy.column(2)],
+        o,
+    };
+    (local, ax)
+}

@@ -1,0 +1,256 @@
+//! Analytic parameter Jacobians of TCP positions and of measurement predictions.
+//!
+//! Every parameter enters the chain as an elementary motion of a known frame: a rotation about
+//! a world axis `w` through a point `o` (column `w × (p - o)`) or a translation along `v`
+//! (column `v`), scaled by the derivative of the joint angle / polynomial with respect to the
+//! parameter. Gravity torques are held fixed (paper Section 4.4): the column of `c_i` is
+//! `(∂p/∂theta_i) tau_i`.
+//!
+//! Columns of effect parameters whose effect is *not* switched on are the derivatives at a zero
+//! value of that effect — exactly what a score test for adding the effect needs.
+
+use nalgebra::{Matrix3xX, Vector3};
+use vatcal_core::params::{Axis, BaseParam, EffectParam, ToolFrameDof};
+use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, Target};
+
+use crate::chain::{Chain, InsertAxes, legendre};
+use crate::model::{Model, ModelError};
+
+fn unit(axis: Axis) -> Vector3<f64> {
+    let mut v = Vector3::zeros();
+    v[axis.index()] = 1.0;
+    v
+}
+
+impl Model {
+    fn zero_insert(frame: &vatcal_core::Frame) -> InsertAxes {
+        InsertAxes {
+            tx: frame.x_axis(),
+            ty: frame.y_axis(),
+            rot: [frame.x_axis(), frame.y_axis(), frame.z_axis()],
+            o: frame.p,
+        }
+    }
+
+    /// One Jacobian column ∂p/∂param of the world point `p` (given in the tool frame as `t`).
+    fn column(
+        &self,
+        chain: &Chain,
+        q: &JointVector,
+        ctx: &MeasurementContext,
+        tcp: u32,
+        p: &Vector3<f64>,
+        id: ParamId,
+    ) -> Result<Vector3<f64>, ModelError> {
+        let rot = |w: Vector3<f64>, o: Vector3<f64>| w.cross(&(p - o));
+        let thermal = |i: u8| if i >= 2 { chain.thermal_factor } else { 1.0 };
+        let dtheta = |j: u8| {
+            let a = &chain.axes[j as usize - 1];
+            rot(a.z, a.o)
+        };
+        let row_ok = |i: u8| (1..=7).contains(&i);
+        if !self.has_param(id) && !matches!(id, ParamId::Effect(_)) {
+            return Err(ModelError::ParamNotInModel(id.name()));
+        }
+        Ok(match id {
+            ParamId::Alpha(i) if row_ok(i) => {
+                let a = &chain.axes[i as usize - 1];
+                rot(a.x_prev, a.o_prev)
+            }
+            ParamId::A(i) if row_ok(i) => chain.axes[i as usize - 1].x_prev * thermal(i),
+            ParamId::Beta(i) if row_ok(i) => {
+                let a = &chain.axes[i as usize - 1];
+                rot(a.y_beta, a.o_beta)
+            }
+            ParamId::ThetaOffset(i) if row_ok(i) => dtheta(i),
+            ParamId::D(i) if row_ok(i) => chain.axes[i as usize - 1].z * thermal(i),
+            ParamId::Compliance(j) => {
+                let tau = if chain.torques_evaluated { chain.torques[j as usize - 2] } else { self.gravity_torques(q)[j as usize - 2] };
+                dtheta(j) * tau
+            }
+            ParamId::Base(b) => {
+                let o = chain.frames[0].p;
+                let (sa, ca) = self.base[3].sin_cos();
+                match b {
+                    BaseParam::X => Vector3::x(),
+                    BaseParam::Y => Vector3::y(),
+                    BaseParam::Z => Vector3::z(),
+                    BaseParam::Alpha => rot(Vector3::x(), o),
+                    BaseParam::Beta => rot(Vector3::new(0.0, ca, sa), o),
+                    BaseParam::Gamma => rot(chain.frames[0].z_axis(), o),
+                }
+            }
+            ParamId::Tcp { id: t, axis } => {
+                if t == tcp {
+                    chain.tool.r * unit(axis)
+                } else {
+                    Vector3::zeros()
+                }
+            }
+            ParamId::Position { .. } => Vector3::zeros(),
+            ParamId::Effect(e) => self.effect_column(chain, q, ctx, p, e)?,
+            _ => return Err(ModelError::ParamNotInModel(id.name())),
+        })
+    }
+
+    fn effect_column(
+        &self,
+        chain: &Chain,
+        q: &JointVector,
+        ctx: &MeasurementContext,
+        p: &Vector3<f64>,
+        e: EffectParam,
+    ) -> Result<Vector3<f64>, ModelError> {
+        let rot = |w: Vector3<f64>, o: Vector3<f64>| w.cross(&(p - o));
+        let joint_ok = |j: u8| {
+            if (2..=7).contains(&j) {
+                Ok(())
+            } else {
+                Err(ModelError::ParamNotInModel(ParamId::Effect(e).name()))
+            }
+        };
+        let dtheta = |j: u8| {
+            let a = &chain.axes[j as usize - 1];
+            rot(a.z, a.o)
+        };
+        let u = self.guide_u(q.0[0]);
+        Ok(match e {
+            EffectParam::CyclicSin { joint, harmonic } => {
+                joint_ok(joint)?;
+                dtheta(joint) * (f64::from(harmonic) * q.get(joint as usize)).sin()
+            }
+            EffectParam::CyclicCos { joint, harmonic } => {
+                joint_ok(joint)?;
+                dtheta(joint) * (f64::from(harmonic) * q.get(joint as usize)).cos()
+            }
+            EffectParam::JointScale { joint } => {
+                joint_ok(joint)?;
+                dtheta(joint) * q.get(joint as usize)
+            }
+            EffectParam::Backlash { joint } => {
+                joint_ok(joint)?;
+                dtheta(joint) * ctx.dir.map_or(0.0, |d| f64::from(d[joint as usize - 2]))
+            }
+            EffectParam::GuideAngular { axis, order } => {
+                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[1]));
+                rot(ax.rot[axis.index()], ax.o) * legendre(order, u)
+            }
+            EffectParam::GuideStraightness { axis, order } => {
+                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[1]));
+                let dir = match axis {
+                    Axis::X => ax.tx,
+                    Axis::Y => ax.ty,
+                    Axis::Z => return Err(ModelError::ParamNotInModel(ParamId::Effect(e).name())),
+                };
+                dir * legendre(order, u)
+            }
+            EffectParam::GuideScale => chain.axes[0].z * q.0[0],
+            EffectParam::ToolFrame(dof) => {
+                let ax = chain.tool_axes.unwrap_or_else(|| Self::zero_insert(&chain.frames[7]));
+                match dof {
+                    ToolFrameDof::Tx => ax.tx,
+                    ToolFrameDof::Ty => ax.ty,
+                    ToolFrameDof::Rx => rot(ax.rot[0], ax.o),
+                    ToolFrameDof::Ry => rot(ax.rot[1], ax.o),
+                }
+            }
+            EffectParam::ThermalPerSecond | EffectParam::ThermalPerKelvin => {
+                let v = if e == EffectParam::ThermalPerSecond {
+                    ctx.time_s.unwrap_or(0.0)
+                } else {
+                    ctx.temperature_c.map_or(0.0, |t| t - self.thermal_reference_c)
+                };
+                let mut col = Vector3::zeros();
+                for k in 1..7 {
+                    let a = &chain.axes[k];
+                    col += a.x_prev * self.rows[k].a + a.z * self.rows[k].d;
+                }
+                col * v
+            }
+        })
+    }
+
+    /// Analytic Jacobian of the world position of TCP `tcp` with respect to `params`, written
+    /// column-major into `out` (`out[3*j..3*j+3]` = column j; length `3 * params.len()`).
+    /// Returns the TCP position. Units: mm per (param unit).
+    ///
+    /// # Panics
+    /// If `out.len() != 3 * params.len()` (a programming error).
+    #[track_caller]
+    pub fn jacobian_into(
+        &self,
+        q: &JointVector,
+        ctx: &MeasurementContext,
+        tcp: u32,
+        params: &[ParamId],
+        out: &mut [f64],
+    ) -> Result<Vector3<f64>, ModelError> {
+        assert_eq!(out.len(), 3 * params.len(), "jacobian_into: out has the wrong length");
+        let t = self.tcp_or_err(tcp)?;
+        let needs_tau = params.iter().any(|p| matches!(p, ParamId::Compliance(_)));
+        let chain = self.chain_full(q, ctx, needs_tau, None);
+        let p = chain.tool_point(&t);
+        for (j, id) in params.iter().enumerate() {
+            let c = self.column(&chain, q, ctx, tcp, &p, *id)?;
+            out[3 * j..3 * j + 3].copy_from_slice(c.as_slice());
+        }
+        Ok(p)
+    }
+
+    /// Analytic Jacobian (3 × n) of TCP `tcp`'s world position at `q` (no per-sample context).
+    pub fn jacobian(&self, q: &JointVector, tcp: u32, params: &[ParamId]) -> Result<Matrix3xX<f64>, ModelError> {
+        let mut out = vec![0.0; 3 * params.len()];
+        self.jacobian_into(q, &MeasurementContext::default(), tcp, params, &mut out)?;
+        Ok(Matrix3xX::from_column_slice(&out))
+    }
+
+    /// What the model predicts a measurement should read: `FK - calibration_position` for a
+    /// probe measurement (ideally 0), `FK` for a tracker measurement [mm].
+    pub fn predict(&self, m: &Measurement) -> Result<Vector3<f64>, ModelError> {
+        let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
+        Ok(match m.target {
+            Target::Probe { position } => p - self.position_or_err(position)?,
+            Target::Tracker { .. } => p,
+        })
+    }
+
+    /// Residual of a measurement [mm]: `calibration_position - FK` (probe) or
+    /// `measured_xyz - FK` (tracker).
+    pub fn residual(&self, m: &Measurement) -> Result<Vector3<f64>, ModelError> {
+        let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
+        Ok(match m.target {
+            Target::Probe { position } => self.position_or_err(position)? - p,
+            Target::Tracker { xyz_mm } => xyz_mm - p,
+        })
+    }
+
+    /// Jacobian of [`Model::predict`] (= minus the Jacobian of [`Model::residual`]) with respect
+    /// to `params`, column-major into `out`; returns the residual. Calibration-position
+    /// parameters contribute `-e_axis` to probe measurements at that position.
+    ///
+    /// # Panics
+    /// If `out.len() != 3 * params.len()`.
+    #[track_caller]
+    pub fn measurement_jacobian_into(
+        &self,
+        m: &Measurement,
+        params: &[ParamId],
+        out: &mut [f64],
+    ) -> Result<Vector3<f64>, ModelError> {
+        let p = self.jacobian_into(&m.q, &m.context, m.tcp, params, out)?;
+        match m.target {
+            Target::Probe { position } => {
+                let target = self.position_or_err(position)?;
+                for (j, id) in params.iter().enumerate() {
+                    if let ParamId::Position { id: pid, axis } = id
+                        && *pid == position
+                    {
+                        out[3 * j + axis.index()] -= 1.0;
+                    }
+                }
+                Ok(target - p)
+            }
+            Target::Tracker { xyz_mm } => Ok(xyz_mm - p),
+        }
+    }
+}

@@ -1,0 +1,27 @@
+//! # vatcal-kinematics
+//!
+//! The cell's geometric model (paper Section 3) with joint compliance and a catalog of further
+//! error effects, in internal units (mm, rad):
+//!
+//! * MDH rows exactly as Eq. (1): `H_i^{i-1} = Rx(alpha_{i-1}) Tx(a_{i-1}) Ry(beta_{i-1})
+//!   Rz(theta_i) Tz(d_i)`, beta accepted on every row;
+//! * joint 1 prismatic (`d_1 = q1 + d_offset`), joints 2..7 revolute
+//!   (`theta_i = q_i + theta_offset_i + c_i tau_i + effects`);
+//! * base pose `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`;
+//! * TCP k at `t_k` in the tool-changer frame.
+//!
+//! [`Model`] holds the parameters, [`Model::chain`] computes every frame, [`Model::tcp_position`]
+//! the TCP, and [`Model::jacobian`] the analytic derivative of a TCP position with respect to
+//! any list of [`ParamId`]s (gravity torques held fixed, as in the paper). Effects of the
+//! catalog ([`vatcal_core::EffectSpec`]) are switched on with [`Model::enable_effect`]; they
+//! change FK and contribute Jacobian columns through the same code path (see [`effects`]).
+
+mod chain;
+pub mod effects;
+mod jacobian;
+mod model;
+
+pub use chain::Chain;
+pub use vatcal_core::Frame;
+pub use model::{MdhRow, Model, ModelError};
+pub use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, ParamSet, Target};

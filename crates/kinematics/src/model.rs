@@ -1,0 +1,598 @@
+//! The parameterised cell model.
+
+use std::collections::BTreeMap;
+
+use nalgebra::{Matrix3, Vector3};
+use vatcal_core::cell::{CellFile, EffectEntry};
+use vatcal_core::effects::{EffectKind, EffectSpec, ThermalDriver};
+use vatcal_core::params::{BaseParam, EffectParam, ParamUnit};
+use vatcal_core::{JointVector, ParamId, ParamSet, deg_to_rad, rad_to_deg};
+use vatcal_gravity_torque::MassModel;
+
+use vatcal_core::Frame;
+
+/// One MDH row in internal units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MdhRow {
+    /// alpha_{i-1} [rad]
+    pub alpha: f64,
+    /// a_{i-1} [mm]
+    pub a: f64,
+    /// beta_{i-1} [rad]
+    pub beta: f64,
+    /// theta offset of joint i [rad]
+    pub theta_offset: f64,
+    /// d offset of joint i [mm]
+    pub d: f64,
+}
+
+/// Errors of the model layer.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelError {
+    /// The TCP id is not in the model.
+    #[error("unknown TCP id {0} (the model has TCPs {1:?})")]
+    UnknownTcp(u32, Vec<u32>),
+    /// The calibration position id is not in the model.
+    #[error("unknown calibration position id {0} (the model has positions {1:?})")]
+    UnknownPosition(u32, Vec<u32>),
+    /// The parameter does not exist in this model (e.g. an effect that is not switched on).
+    #[error("parameter `{0}` is not part of this model (switch its effect on first)")]
+    ParamNotInModel(String),
+    /// An effect specification is invalid.
+    #[error("invalid effect {0}: {1}")]
+    InvalidEffect(String, String),
+    /// A value is not finite.
+    #[error("parameter `{0}`: value must be finite, got {1}")]
+    NonFinite(String, f64),
+    /// Wrong number of values.
+    #[error("expected {expected} parameter values, got {got}")]
+    Length {
+        /// expected count
+        expected: usize,
+        /// given count
+        got: usize,
+    },
+}
+
+/// The cell model: MDH rows, compliances, base pose, TCPs, calibration positions, masses and
+/// switched-on effects. Internal units (mm, rad). Cheap to clone.
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub(crate) rows: [MdhRow; 7],
+    /// c_i for cell joint i at index i-1 (index 0 unused)
+    pub(crate) compliance: [f64; 7],
+    /// x, y, z [mm], alpha, beta, gamma [rad]
+    pub(crate) base: [f64; 6],
+    pub(crate) tcps: Vec<(u32, Vector3<f64>)>,
+    pub(crate) positions: Vec<(u32, Vector3<f64>)>,
+    pub(crate) limits: [(f64, f64); 7],
+    pub(crate) masses: MassModel,
+    pub(crate) gravity: Vector3<f64>,
+    pub(crate) effects: Vec<EffectSpec>,
+    pub(crate) effect_values: BTreeMap<ParamId, f64>,
+    pub(crate) thermal_reference_c: f64,
+    // caches (kept in sync by `refresh_caches`)
+    pub(crate) row_fixed: [Frame; 7],
+    pub(crate) row_trig: [(f64, f64); 7],
+    pub(crate) base_frame: Frame,
+    pub(crate) any_compliance: bool,
+    pub(crate) has_joint_effects: bool,
+    template: CellFile,
+}
+
+fn rot_x(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+}
+fn rot_y(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
+}
+fn rot_z(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+}
+
+/// `Rx(a) Ry(b)` and the fixed part of an MDH row `Rx(alpha) Tx(a) Ry(beta)`.
+pub(crate) fn row_fixed_frame(row: &MdhRow) -> Frame {
+    Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) }
+}
+
+/// `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`.
+pub(crate) fn base_frame(b: &[f64; 6]) -> Frame {
+    Frame { r: rot_x(b[3]) * rot_y(b[4]) * rot_z(b[5]), p: Vector3::new(b[0], b[1], b[2]) }
+}
+
+pub(crate) fn rx(a: f64) -> Matrix3<f64> {
+    rot_x(a)
+}
+pub(crate) fn ry(a: f64) -> Matrix3<f64> {
+    rot_y(a)
+}
+pub(crate) fn rz(a: f64) -> Matrix3<f64> {
+    rot_z(a)
+}
+
+/// File-unit key of an effect parameter in `[[effects]].values`.
+pub fn effect_value_key(id: ParamId) -> String {
+    match id.unit() {
+        ParamUnit::Rad => format!("{}_deg", id.name()),
+        ParamUnit::Mm => format!("{}_mm", id.name()),
+        _ => id.name(),
+    }
+}
+
+fn to_file_units(id: ParamId, v: f64) -> f64 {
+    if id.unit() == ParamUnit::Rad { rad_to_deg(v) } else { v }
+}
+fn from_file_units(id: ParamId, v: f64) -> f64 {
+    if id.unit() == ParamUnit::Rad { deg_to_rad(v) } else { v }
+}
+
+impl Model {
+    /// Builds the model from a validated cell file (degrees → radians).
+    pub fn from_cell(cell: &CellFile) -> Result<Self, ModelError> {
+        let mut rows = [MdhRow { alpha: 0.0, a: 0.0, beta: 0.0, theta_offset: 0.0, d: 0.0 }; 7];
+        let mut compliance = [0.0; 7];
+        let mut limits = [(0.0, 0.0); 7];
+        for j in &cell.joints {
+            let k = (j.index as usize).saturating_sub(1).min(6);
+            rows[k] = MdhRow {
+                alpha: deg_to_rad(j.alpha_deg),
+                a: j.a_mm,
+                beta: deg_to_rad(j.beta_deg),
+                theta_offset: deg_to_rad(j.theta_deg),
+                d: j.d_mm,
+            };
+            if j.index >= 2 {
+                compliance[k] = j.compliance_rad_per_n_m;
+                limits[k] = (deg_to_rad(j.q_min), deg_to_rad(j.q_max));
+            } else {
+                limits[k] = (j.q_min, j.q_max);
+            }
+        }
+        let b = &cell.base_in_world;
+        let base = [
+            b.x_mm,
+            b.y_mm,
+            b.z_mm,
+            deg_to_rad(b.alpha_deg),
+            deg_to_rad(b.beta_deg),
+            deg_to_rad(b.gamma_deg),
+        ];
+        let point = |p: &vatcal_core::cell::PointEntry| (p.id, Vector3::new(p.x_mm, p.y_mm, p.z_mm));
+        let mut model = Self {
+            rows,
+            compliance,
+            base,
+            tcps: cell.tcps.iter().map(point).collect(),
+            positions: cell.calibration_positions.iter().map(point).collect(),
+            limits,
+            masses: MassModel::from_inertials(&cell.inertials),
+            gravity: Vector3::from(cell.gravity.vector_m_per_s2),
+            effects: Vec::new(),
+            effect_values: BTreeMap::new(),
+            thermal_reference_c: 20.0,
+            row_fixed: [Frame::identity(); 7],
+            row_trig: [(0.0, 1.0); 7],
+            base_frame: Frame::identity(),
+            any_compliance: false,
+            has_joint_effects: false,
+            template: cell.clone(),
+        };
+        for (k, e) in cell.effects.iter().enumerate() {
+            let spec = spec_from_entry(e).map_err(|m| {
+                ModelError::InvalidEffect(format!("effects[{k}] ({})", e.effect), m)
+            })?;
+            model.enable_effect(spec)?;
+            if let Some(t) = e.reference_temperature_c {
+                model.thermal_reference_c = t;
+            }
+            for (key, v) in &e.values {
+                let id = spec
+                    .params()
+                    .into_iter()
+                    .find(|p| effect_value_key(*p) == *key || p.name() == *key)
+                    .ok_or_else(|| {
+                        ModelError::InvalidEffect(
+                            format!("effects[{k}] ({})", e.effect),
+                            format!(
+                                "unknown value key `{key}` (expected one of {:?})",
+                                spec.params().into_iter().map(effect_value_key).collect::<Vec<_>>()
+                            ),
+                        )
+                    })?;
+                let x = v.as_float().or_else(|| v.as_integer().map(|i| i as f64)).unwrap_or(f64::NAN);
+                let x = if effect_value_key(id) == *key { from_file_units(id, x) } else { x };
+                model.set_param(id, x)?;
+            }
+        }
+        model.refresh_caches();
+        Ok(model)
+    }
+
+    /// Writes the model back into the cell-file format (radians → degrees). Inertials,
+    /// obstacles, motion limits and unknown tables are those of the file the model came from.
+    pub fn to_cell(&self) -> CellFile {
+        let mut cell = self.template.clone();
+        for j in cell.joints.iter_mut() {
+            let k = (j.index as usize).saturating_sub(1).min(6);
+            let r = &self.rows[k];
+            j.alpha_deg = rad_to_deg(r.alpha);
+            j.a_mm = r.a;
+            j.beta_deg = rad_to_deg(r.beta);
+            j.theta_deg = rad_to_deg(r.theta_offset);
+            j.d_mm = r.d;
+            if j.index >= 2 {
+                j.compliance_rad_per_n_m = self.compliance[k];
+            }
+        }
+        let b = &mut cell.base_in_world;
+        b.x_mm = self.base[0];
+        b.y_mm = self.base[1];
+        b.z_mm = self.base[2];
+        b.alpha_deg = rad_to_deg(self.base[3]);
+        b.beta_deg = rad_to_deg(self.base[4]);
+        b.gamma_deg = rad_to_deg(self.base[5]);
+        for t in cell.tcps.iter_mut() {
+            if let Some(v) = self.tcp(t.id) {
+                (t.x_mm, t.y_mm, t.z_mm) = (v.x, v.y, v.z);
+            }
+        }
+        for p in cell.calibration_positions.iter_mut() {
+            if let Some(v) = self.position(p.id) {
+                (p.x_mm, p.y_mm, p.z_mm) = (v.x, v.y, v.z);
+            }
+        }
+        cell.effects = self.effects.iter().map(|s| self.entry_of(s)).collect();
+        cell
+    }
+
+    fn entry_of(&self, spec: &EffectSpec) -> EffectEntry {
+        let mut e = EffectEntry {
+            effect: spec.kind().name().to_string(),
+            joint: None,
+            harmonic: None,
+            order: None,
+            driver: None,
+            reference_temperature_c: None,
+            tcp: None,
+            position: None,
+            row: None,
+            values: toml::Table::new(),
+        };
+        match *spec {
+            EffectSpec::JointCompliance { joint }
+            | EffectSpec::JointScale { joint }
+            | EffectSpec::JointBacklash { joint } => e.joint = Some(joint),
+            EffectSpec::JointCyclic { joint, harmonic } => {
+                e.joint = Some(joint);
+                e.harmonic = Some(harmonic);
+            }
+            EffectSpec::GuideAngular { order } | EffectSpec::GuideStraightness { order } => {
+                e.order = Some(order)
+            }
+            EffectSpec::ThermalDrift { driver } => {
+                e.driver = Some(
+                    match driver {
+                        ThermalDriver::Time => "time",
+                        ThermalDriver::Temperature => "temperature",
+                    }
+                    .to_string(),
+                );
+                if driver == ThermalDriver::Temperature {
+                    e.reference_temperature_c = Some(self.thermal_reference_c);
+                }
+            }
+            EffectSpec::TcpOffset { tcp } => e.tcp = Some(tcp),
+            EffectSpec::PositionOffset { position } => e.position = Some(position),
+            EffectSpec::HayatiBeta { row } => e.row = Some(row),
+            EffectSpec::GuideScale | EffectSpec::ToolFrame => {}
+        }
+        if !spec.kind().is_builtin() {
+            for id in spec.params() {
+                let v = self.effect_values.get(&id).copied().unwrap_or(0.0);
+                e.values.insert(effect_value_key(id), toml::Value::Float(to_file_units(id, v)));
+            }
+        }
+        e
+    }
+
+    /// MDH row `i` (1..=7).
+    ///
+    /// # Panics
+    /// If `i` is not in 1..=7.
+    #[track_caller]
+    pub fn row(&self, i: usize) -> &MdhRow {
+        &self.rows[i - 1]
+    }
+
+    /// Base pose `[x, y, z] mm, [alpha, beta, gamma] rad`.
+    pub fn base_params(&self) -> [f64; 6] {
+        self.base
+    }
+
+    /// The base frame `H_0^W`.
+    pub fn base_frame(&self) -> Frame {
+        self.base_frame
+    }
+
+    /// Compliance `c_i` of cell joint `i` (2..=7) [rad/(N·m)].
+    pub fn compliance(&self, i: usize) -> f64 {
+        self.compliance[i - 1]
+    }
+
+    /// Joint limits in internal units (mm for joint 1, rad otherwise), index = cell joint - 1.
+    pub fn joint_limits(&self) -> [(f64, f64); 7] {
+        self.limits
+    }
+
+    /// Returns the first joint outside its limits as `(cell joint, value, min, max)`.
+    pub fn limit_violation(&self, q: &JointVector) -> Option<(usize, f64, f64, f64)> {
+        (0..7).find_map(|k| {
+            let (lo, hi) = self.limits[k];
+            let v = q.0[k];
+            (!(lo..=hi).contains(&v)).then_some((k + 1, v, lo, hi))
+        })
+    }
+
+    /// TCP ids in file order.
+    pub fn tcp_ids(&self) -> Vec<u32> {
+        self.tcps.iter().map(|t| t.0).collect()
+    }
+
+    /// Calibration position ids in file order.
+    pub fn position_ids(&self) -> Vec<u32> {
+        self.positions.iter().map(|t| t.0).collect()
+    }
+
+    /// TCP `id` in the tool-changer frame [mm].
+    pub fn tcp(&self, id: u32) -> Option<Vector3<f64>> {
+        self.tcps.iter().find(|t| t.0 == id).map(|t| t.1)
+    }
+
+    /// Calibration position `id` in the world [mm].
+    pub fn position(&self, id: u32) -> Option<Vector3<f64>> {
+        self.positions.iter().find(|t| t.0 == id).map(|t| t.1)
+    }
+
+    pub(crate) fn tcp_or_err(&self, id: u32) -> Result<Vector3<f64>, ModelError> {
+        self.tcp(id).ok_or_else(|| ModelError::UnknownTcp(id, self.tcp_ids()))
+    }
+
+    pub(crate) fn position_or_err(&self, id: u32) -> Result<Vector3<f64>, ModelError> {
+        self.position(id).ok_or_else(|| ModelError::UnknownPosition(id, self.position_ids()))
+    }
+
+    /// Gravity vector in the world [m/s²].
+    pub fn gravity(&self) -> Vector3<f64> {
+        self.gravity
+    }
+
+    /// The mass model used for gravity torques.
+    pub fn masses(&self) -> &MassModel {
+        &self.masses
+    }
+
+    /// Effects switched on in this model, in the order they were added.
+    pub fn effects(&self) -> &[EffectSpec] {
+        &self.effects
+    }
+
+    /// Reference temperature [°C] of a temperature-driven thermal drift.
+    pub fn thermal_reference_c(&self) -> f64 {
+        self.thermal_reference_c
+    }
+
+    /// Switches an effect on (its parameters start at zero, i.e. the model's predictions do not
+    /// change). Built-in effects only record that they belong to the model. Adding an effect
+    /// twice is a no-op.
+    pub fn enable_effect(&mut self, spec: EffectSpec) -> Result<(), ModelError> {
+        let invalid = |m: &str| Err(ModelError::InvalidEffect(spec.label(), m.to_string()));
+        match spec {
+            EffectSpec::JointCompliance { joint }
+            | EffectSpec::JointScale { joint }
+            | EffectSpec::JointBacklash { joint }
+                if !(2..=7).contains(&joint) =>
+            {
+                return invalid("joint must be a revolute joint 2..=7");
+            }
+            EffectSpec::JointCyclic { joint, harmonic } if !(2..=7).contains(&joint) || harmonic == 0 => {
+                return invalid("joint must be 2..=7 and harmonic >= 1");
+            }
+            EffectSpec::GuideAngular { order } if !(1..=4).contains(&order) => {
+                return invalid("order must be 1..=4");
+            }
+            EffectSpec::GuideStraightness { order } if !(2..=4).contains(&order) => {
+                return invalid("order must be 2..=4 (order 1 is a tilted guide, absorbed by the base pose)");
+            }
+            EffectSpec::TcpOffset { tcp } if self.tcp(tcp).is_none() => {
+                return invalid("unknown TCP id");
+            }
+            EffectSpec::PositionOffset { position } if self.position(position).is_none() => {
+                return invalid("unknown calibration position id");
+            }
+            EffectSpec::HayatiBeta { row } if !(1..=7).contains(&row) => {
+                return invalid("row must be 1..=7");
+            }
+            _ => {}
+        }
+        if self.effects.contains(&spec) {
+            return Ok(());
+        }
+        // guide polynomials: a higher order replaces a lower one of the same kind
+        if let EffectSpec::GuideAngular { .. } | EffectSpec::GuideStraightness { .. } = spec
+            && let Some(k) = self.effects.iter().position(|e| e.kind() == spec.kind())
+        {
+            self.effects[k] = spec;
+        } else {
+            self.effects.push(spec);
+        }
+        if !spec.kind().is_builtin() {
+            for id in spec.params() {
+                self.effect_values.entry(id).or_insert(0.0);
+            }
+        }
+        self.refresh_caches();
+        Ok(())
+    }
+
+    /// True when `id` exists in this model (built-in, or belonging to a switched-on effect).
+    pub fn has_param(&self, id: ParamId) -> bool {
+        match id {
+            ParamId::Alpha(i) | ParamId::A(i) | ParamId::Beta(i) | ParamId::ThetaOffset(i) | ParamId::D(i) => {
+                (1..=7).contains(&i)
+            }
+            ParamId::Compliance(i) => (2..=7).contains(&i),
+            ParamId::Base(_) => true,
+            ParamId::Tcp { id, .. } => self.tcp(id).is_some(),
+            ParamId::Position { id, .. } => self.position(id).is_some(),
+            ParamId::Effect(_) => self.effect_values.contains_key(&id),
+        }
+    }
+
+    /// Value of one parameter (internal units).
+    pub fn param(&self, id: ParamId) -> Result<f64, ModelError> {
+        let missing = || ModelError::ParamNotInModel(id.name());
+        let row = |i: u8| -> Result<&MdhRow, ModelError> {
+            self.rows.get((i as usize).wrapping_sub(1)).ok_or_else(missing)
+        };
+        Ok(match id {
+            ParamId::Alpha(i) => row(i)?.alpha,
+            ParamId::A(i) => row(i)?.a,
+            ParamId::Beta(i) => row(i)?.beta,
+            ParamId::ThetaOffset(i) => row(i)?.theta_offset,
+            ParamId::D(i) => row(i)?.d,
+            ParamId::Compliance(i) if (2..=7).contains(&i) => self.compliance[i as usize - 1],
+            ParamId::Compliance(_) => return Err(missing()),
+            ParamId::Base(b) => self.base[base_index(b)],
+            ParamId::Tcp { id: t, axis } => self.tcp(t).ok_or_else(missing)?[axis.index()],
+            ParamId::Position { id: p, axis } => self.position(p).ok_or_else(missing)?[axis.index()],
+            ParamId::Effect(_) => *self.effect_values.get(&id).ok_or_else(missing)?,
+        })
+    }
+
+    /// Sets one parameter (internal units).
+    pub fn set_param(&mut self, id: ParamId, value: f64) -> Result<(), ModelError> {
+        if !value.is_finite() {
+            return Err(ModelError::NonFinite(id.name(), value));
+        }
+        if !self.has_param(id) {
+            return Err(ModelError::ParamNotInModel(id.name()));
+        }
+        match id {
+            ParamId::Alpha(i) => self.rows[i as usize - 1].alpha = value,
+            ParamId::A(i) => self.rows[i as usize - 1].a = value,
+            ParamId::Beta(i) => self.rows[i as usize - 1].beta = value,
+            ParamId::ThetaOffset(i) => self.rows[i as usize - 1].theta_offset = value,
+            ParamId::D(i) => self.rows[i as usize - 1].d = value,
+            ParamId::Compliance(i) => self.compliance[i as usize - 1] = value,
+            ParamId::Base(b) => self.base[base_index(b)] = value,
+            ParamId::Tcp { id: t, axis } => {
+                if let Some(e) = self.tcps.iter_mut().find(|e| e.0 == t) {
+                    e.1[axis.index()] = value;
+                }
+            }
+            ParamId::Position { id: p, axis } => {
+                if let Some(e) = self.positions.iter_mut().find(|e| e.0 == p) {
+                    e.1[axis.index()] = value;
+                }
+            }
+            ParamId::Effect(_) => {
+                self.effect_values.insert(id, value);
+            }
+        }
+        self.refresh_caches();
+        Ok(())
+    }
+
+    /// Values of a parameter set, in order.
+    pub fn params(&self, set: &ParamSet) -> Result<Vec<f64>, ModelError> {
+        set.iter().map(|p| self.param(*p)).collect()
+    }
+
+    /// Sets the values of a parameter set, in order.
+    pub fn set_params(&mut self, set: &ParamSet, values: &[f64]) -> Result<(), ModelError> {
+        if set.len() != values.len() {
+            return Err(ModelError::Length { expected: set.len(), got: values.len() });
+        }
+        for (p, v) in set.iter().zip(values) {
+            self.set_param(*p, *v)?;
+        }
+        Ok(())
+    }
+
+    /// Every parameter this model has: the built-ins and those of switched-on effects.
+    pub fn all_params(&self) -> ParamSet {
+        let mut s = ParamSet::all_builtin(&self.tcp_ids(), &self.position_ids());
+        s.0.extend(self.effect_values.keys().copied());
+        s
+    }
+
+    pub(crate) fn effect_value(&self, p: EffectParam) -> f64 {
+        self.effect_values.get(&ParamId::Effect(p)).copied().unwrap_or(0.0)
+    }
+
+    pub(crate) fn refresh_caches(&mut self) {
+        for (k, row) in self.rows.iter().enumerate() {
+            self.row_fixed[k] = row_fixed_frame(row);
+            self.row_trig[k] = row.alpha.sin_cos();
+        }
+        self.base_frame = base_frame(&self.base);
+        self.any_compliance = self.compliance[1..].iter().any(|c| *c != 0.0);
+        self.has_joint_effects = self.effects.iter().any(|e| {
+            matches!(
+                e,
+                EffectSpec::JointCyclic { .. } | EffectSpec::JointScale { .. } | EffectSpec::JointBacklash { .. }
+            )
+        });
+    }
+
+    /// Normalised guide coordinate `u = (q1 - mid) / half_stroke` in [-1, 1] over the stroke.
+    pub fn guide_u(&self, q1_mm: f64) -> f64 {
+        let (lo, hi) = self.limits[0];
+        let half = 0.5 * (hi - lo);
+        if half > 0.0 { (q1_mm - 0.5 * (hi + lo)) / half } else { 0.0 }
+    }
+}
+
+pub(crate) fn base_index(b: BaseParam) -> usize {
+    match b {
+        BaseParam::X => 0,
+        BaseParam::Y => 1,
+        BaseParam::Z => 2,
+        BaseParam::Alpha => 3,
+        BaseParam::Beta => 4,
+        BaseParam::Gamma => 5,
+    }
+}
+
+fn spec_from_entry(e: &EffectEntry) -> Result<EffectSpec, String> {
+    let kind = EffectKind::from_name(&e.effect).ok_or_else(|| format!("unknown effect `{}`", e.effect))?;
+    let joint = || e.joint.ok_or_else(|| "needs `joint`".to_string());
+    Ok(match kind {
+        EffectKind::JointCompliance => EffectSpec::JointCompliance { joint: joint()? },
+        EffectKind::JointCyclic => EffectSpec::JointCyclic {
+            joint: joint()?,
+            harmonic: e.harmonic.ok_or("needs `harmonic`")?,
+        },
+        EffectKind::JointScale => EffectSpec::JointScale { joint: joint()? },
+        EffectKind::JointBacklash => EffectSpec::JointBacklash { joint: joint()? },
+        EffectKind::GuideAngular => EffectSpec::GuideAngular { order: e.order.unwrap_or(2) },
+        EffectKind::GuideStraightness => EffectSpec::GuideStraightness { order: e.order.unwrap_or(2) },
+        EffectKind::GuideScale => EffectSpec::GuideScale,
+        EffectKind::ToolFrame => EffectSpec::ToolFrame,
+        EffectKind::TcpOffset => EffectSpec::TcpOffset { tcp: e.tcp.ok_or("needs `tcp`")? },
+        EffectKind::PositionOffset => EffectSpec::PositionOffset {
+            position: e.position.ok_or("needs `position`")?,
+        },
+        EffectKind::ThermalDrift => EffectSpec::ThermalDrift {
+            driver: match e.driver.as_deref() {
+                Some("time") | None => ThermalDriver::Time,
+                Some("temperature") => ThermalDriver::Temperature,
+                Some(o) => return Err(format!("driver must be `time` or `temperature`, got `{o}`")),
+            },
+        },
+        EffectKind::HayatiBeta => EffectSpec::HayatiBeta { row: e.row.ok_or("needs `row`")? },
+    })
+}
