@@ -1,0 +1,1 @@
+//! # vatcal-discovery (being written)

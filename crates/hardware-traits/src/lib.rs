@@ -1,0 +1,1 @@
+//! # vatcal-hardware-traits (being written)

@@ -1,0 +1,1 @@
+//! # vatcal-identification (being written)

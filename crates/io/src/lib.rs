@@ -1,0 +1,1 @@
+//! # vatcal-io (being written)

@@ -1,0 +1,1 @@
+//! # vatcal-observability (being written)

@@ -1,0 +1,1 @@
+//! # vatcal-planning (being written)

@@ -1,0 +1,1 @@
+//! # vatcal-report (being written)

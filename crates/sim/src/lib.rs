@@ -1,0 +1,1 @@
+//! # vatcal-sim (being written)
