@@ -1,1 +1,8 @@
-//! # vatcal-sim (being written)
+//! # vatcal-sim
+//!
+//! The virtual cell. [`truth`] builds a hidden "true" cell (nominal model + realistic random
+//! errors + any catalog effects) and synthesises measurements from it: probe measurements
+//! (the true TCP put on a calibration position, with the paper's noise budget) and tracker
+//! measurements at random poses. Every random process takes a seed (ChaCha8).
+
+pub mod truth;
