@@ -1,10 +1,32 @@
-//! `vatcal fk` (being written).
+//! `vatcal fk`: world position of each row's TCP.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::Context;
 
 /// Arguments of `vatcal fk`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Cell model file (TOML, format meca500-zaber-cell).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Joint rows: CSV with columns tcp,q1..q7 (q1 in mm, q2..q7 in degrees).
+    #[arg(long)]
+    pub input: PathBuf,
+}
 
-/// Runs the subcommand.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`vatcal fk` is not implemented yet")
+/// Prints `x,y,z` (world, mm) per input row, in order.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let model = super::load_model(&args.model)?;
+    let rows = vatcal_io::read_joint_rows(&args.input, &model)?;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "x,y,z")?;
+    for row in rows {
+        let p = model
+            .tcp_position(&row.q, row.tcp)
+            .with_context(|| format!("{}:{}", args.input.display(), row.line))?;
+        writeln!(out, "{},{},{}", p.x, p.y, p.z)?;
+    }
+    Ok(())
 }

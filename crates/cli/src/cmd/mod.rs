@@ -9,3 +9,15 @@ pub mod plan;
 pub mod select;
 pub mod torque;
 pub mod validate;
+
+use std::path::Path;
+
+use anyhow::Context;
+use vatcal_core::CellFile;
+use vatcal_kinematics::Model;
+
+/// Loads and validates a cell file and builds the model.
+pub fn load_model(path: &Path) -> anyhow::Result<Model> {
+    let cell = CellFile::load(path)?;
+    Model::from_cell(&cell).with_context(|| format!("{}: cannot build the model", path.display()))
+}
