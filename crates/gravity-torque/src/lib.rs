@@ -84,12 +84,11 @@ pub fn gravity_torques(
     masses: &MassModel,
     gravity_world: &Vector3<f64>,
 ) -> [f64; 6] {
-    // outward: gravity in frames 2..7
-    let mut r_w: Matrix3<f64> = *base_rotation;
+    // outward: gravity expressed in frames 0..7, g_i = (R_i^{i-1})^T g_{i-1}
     let mut g_frame = [Vector3::zeros(); 8];
+    g_frame[0] = base_rotation.tr_mul(gravity_world);
     for (i, link) in links.iter().enumerate() {
-        r_w *= link.r;
-        g_frame[i + 1] = r_w.transpose() * gravity_world;
+        g_frame[i + 1] = link.r.tr_mul(&g_frame[i]);
     }
     // inward
     let mut f = Vector3::zeros(); // force of link i on link i+1, in frame i+1 [N]

@@ -85,7 +85,12 @@ pub(crate) fn legendre(n: u8, u: f64) -> f64 {
 
 #[inline]
 fn rz_tz(fixed: &Frame, theta: f64, d: f64) -> Frame {
-    let (s, c) = theta.sin_cos();
+    rz_tz_trig(fixed, theta.sin_cos(), d)
+}
+
+/// `fixed · Rz(theta) · Tz(d)` with `(sin theta, cos theta)` given.
+#[inline]
+fn rz_tz_trig(fixed: &Frame, (s, c): (f64, f64), d: f64) -> Frame {
     let m = &fixed.r;
     let c0 = m.column(0) * c + m.column(1) * s;
     let c1 = m.column(1) * c - m.column(0) * s;
@@ -98,17 +103,49 @@ impl Model {
     /// Gravity torques `[tau_2..tau_7]` [N·m] at `q`, on this model's own geometry (its MDH rows
     /// incl. beta, its base orientation), with all compliances zero and no iteration.
     pub fn gravity_torques(&self, q: &JointVector) -> [f64; 6] {
+        let trig = self.undeflected_trig(q);
+        self.gravity_torques_trig(q, &trig)
+    }
+
+    /// `(sin, cos)` of the undeflected joint angles `q_i + theta_offset_i` (row 1: constant).
+    fn undeflected_trig(&self, q: &JointVector) -> [(f64, f64); 7] {
+        let mut trig = [(0.0, 1.0); 7];
+        for (k, t) in trig.iter_mut().enumerate() {
+            let th = if k == 0 { 0.0 } else { q.0[k] };
+            *t = (th + self.rows[k].theta_offset).sin_cos();
+        }
+        trig
+    }
+
+    fn gravity_torques_trig(&self, q: &JointVector, trig: &[(f64, f64); 7]) -> [f64; 6] {
         let mut links = [Frame::identity(); 7];
         for (k, link) in links.iter_mut().enumerate() {
-            let row = &self.rows[k];
-            let (theta, d) = if k == 0 {
-                (row.theta_offset, q.0[0] + row.d)
-            } else {
-                (q.0[k] + row.theta_offset, row.d)
-            };
-            *link = rz_tz(&self.row_fixed[k], theta, d);
+            let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
+            *link = rz_tz_trig(&self.row_fixed[k], trig[k], d);
         }
         gravity_torques(&links, &self.base_frame.r, &self.masses, &self.gravity)
+    }
+
+    /// Lean FK of a point in the tool frame when no effect is switched on: no Jacobian axes,
+    /// and the deflected angles reuse the trigonometry of the torque pass.
+    fn fast_tool_point(&self, q: &JointVector, t: &Vector3<f64>) -> Vector3<f64> {
+        let trig = self.undeflected_trig(q);
+        let mut w = self.base_frame;
+        if self.any_compliance {
+            let tau = self.gravity_torques_trig(q, &trig);
+            for k in 0..7 {
+                let (s, c) = trig[k];
+                let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
+                let tr = if k == 0 { (s, c) } else { add_small_angle((s, c), self.compliance[k] * tau[k - 1]) };
+                w = w.compose(&rz_tz_trig(&self.row_fixed[k], tr, d));
+            }
+        } else {
+            for k in 0..7 {
+                let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
+                w = w.compose(&rz_tz_trig(&self.row_fixed[k], trig[k], d));
+            }
+        }
+        w.transform_point(t)
     }
 
     fn thermal(&self, ctx: &MeasurementContext) -> f64 {
@@ -278,6 +315,9 @@ impl Model {
         tcp: u32,
     ) -> Result<Vector3<f64>, ModelError> {
         let t = self.tcp_or_err(tcp)?;
+        if self.effects.is_empty() {
+            return Ok(self.fast_tool_point(q, &t));
+        }
         Ok(self.chain_full(q, ctx, false, None).tool_point(&t))
     }
 
@@ -285,6 +325,19 @@ impl Model {
     pub fn tcp_position(&self, q: &JointVector, tcp: u32) -> Result<Vector3<f64>, ModelError> {
         self.tcp_position_ctx(q, &MeasurementContext::default(), tcp)
     }
+}
+
+/// `(sin, cos)` of `theta + delta` from those of `theta`; exact to rounding for any delta
+/// (a Taylor series for the small compliance deflections, `sin_cos` otherwise).
+#[inline]
+fn add_small_angle((s, c): (f64, f64), delta: f64) -> (f64, f64) {
+    let (sd, cd) = if delta.abs() < 1e-2 {
+        let d2 = delta * delta;
+        (delta * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0))), 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0))))
+    } else {
+        delta.sin_cos()
+    };
+    (s * cd + c * sd, c * cd - s * sd)
 }
 
 /// `T(tx, ty, 0) Rx(ex) Ry(ey) [Rz(ez)]` relative to `w`, and its world axes for the Jacobian.
