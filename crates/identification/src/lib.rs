@@ -1,1 +1,163 @@
-//! # vatcal-identification (being written)
+//! # vatcal-identification
+//!
+//! Least-squares identification of the cell's parameters from probe and/or tracker
+//! measurements, the statistics of the result, and validation on independent data
+//! (background.md §6).
+//!
+//! * [`identify`] — Levenberg–Marquardt (default) or Gauss–Newton on the **stacked** Jacobian
+//!   of all measurements, column-scaled, every step solved by faer QR of the (augmented)
+//!   scaled Jacobian — never by the normal equations. Gravity torques are recomputed from the
+//!   current estimate at every iteration. Optional weights per measurement kind and Gaussian
+//!   priors toward the starting values (MAP / ridge). Rank-deficient data is refused before
+//!   solving, naming the unidentifiable parameters (vatcal-observability). The paper's
+//!   Table 7 read literally is available as [`Method::PaperLiteral`], for comparison only.
+//! * [`Identification`] — calibrated model, values, σ, covariance, correlations, iteration
+//!   log, residual statistics, σ̂, condition number, predicted TCP uncertainty at any pose.
+//! * [`IdentificationReport`] — the JSON report (file units).
+//! * [`validate`], [`compare_models`] — position errors of one or two models on a validation
+//!   set; [`ErrorStats`] — mean / RMS / median / 95th percentile / max / per-axis statistics,
+//!   shared by every crate that reports position errors.
+//!
+//! Units: internal (mm, rad, rad/(N·m)) in every Rust API; the JSON report and the cell file
+//! use degrees for angles.
+
+mod dense;
+mod error;
+mod literal;
+mod options;
+mod problem;
+mod report;
+mod result;
+mod solver;
+mod statistics;
+pub mod stats;
+mod validation;
+
+use vatcal_core::{Measurement, ParamId, ParamSet, Target};
+use vatcal_kinematics::Model;
+use vatcal_observability::ObservabilityError;
+
+pub use error::{FailureReport, IdentifyError};
+pub use literal::PAPER_ERROR_CHANGE_MM;
+pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
+pub use problem::residual_vector;
+pub use report::{CorrelationReport, IdentificationReport, ParameterReport, REPORT_FORMAT, file_unit_label, to_file_units};
+pub use result::{Identification, IterationLog, Termination};
+pub use stats::ErrorStats;
+pub use validation::{ModelComparison, ValidationReport, compare_models, validate};
+
+use problem::Problem;
+
+/// Identifies `params` from `measurements`, starting from `start`.
+///
+/// Steps: check the inputs and options; refuse data that cannot identify `params`
+/// (`vatcal_observability::check_identifiable`, unless `options.check_identifiability` is off
+/// or finite priors cover every unidentifiable parameter); iterate with `options.method`;
+/// compute the statistics at the solution.
+///
+/// # Errors
+/// * [`IdentifyError::NoMeasurements`], [`IdentifyError::NoParameters`],
+///   [`IdentifyError::TooFewMeasurements`] (3n ≤ L), [`IdentifyError::InvalidOptions`];
+/// * [`IdentifyError::Model`] — a parameter that is not in the model (e.g. an effect that is
+///   not switched on); [`IdentifyError::Measurement`] — an unknown TCP / position id;
+/// * [`IdentifyError::Unidentifiable`] — rank-deficient data, naming the parameters;
+/// * [`IdentifyError::NotConverged`] — divergence, non-finite values, a stall, or the
+///   iteration cap (unless `accept_iteration_cap`), with the full iteration log;
+/// * [`IdentifyError::Numerical`] — a singular information matrix at the solution.
+pub fn identify(
+    start: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+    options: &IdentifyOptions,
+) -> Result<Identification, IdentifyError> {
+    if measurements.is_empty() {
+        return Err(IdentifyError::NoMeasurements);
+    }
+    if params.is_empty() {
+        return Err(IdentifyError::NoParameters);
+    }
+    if let Some(dup) = first_duplicate(params) {
+        return Err(IdentifyError::InvalidOptions(format!("parameter `{dup}` is listed twice")));
+    }
+    options.check(params)?;
+    let start_values = start.params(params)?;
+    let equations = 3 * measurements.len();
+    if equations <= params.len() {
+        return Err(IdentifyError::TooFewMeasurements { equations, params: params.len() });
+    }
+    if options.check_identifiability {
+        check_rank(start, measurements, params, options)?;
+    }
+    let problem = Problem::new(measurements, params, start_values.clone(), options);
+    let outcome = match options.method {
+        Method::LevenbergMarquardt | Method::GaussNewton => solver::least_squares(&problem, start, options)?,
+        Method::PaperLiteral => literal::paper_literal(&problem, start, options)?,
+    };
+    let converged = outcome.termination.is_converged();
+    let accepted_cap = outcome.termination == Termination::MaxIterations && options.accept_iteration_cap;
+    if !converged && !accepted_cap {
+        return Err(IdentifyError::NotConverged(Box::new(FailureReport {
+            method: options.method,
+            termination: outcome.termination,
+            iterations: outcome.log,
+            params: params.clone(),
+            start_values,
+            last_values: outcome.values,
+        })));
+    }
+    let s = statistics::statistics(&problem, &outcome.model, &outcome.values, options.correlation_threshold)?;
+    let n_probe = measurements.iter().filter(|m| matches!(m.target, Target::Probe { .. })).count();
+    Ok(Identification {
+        method: options.method,
+        model: outcome.model,
+        params: params.clone(),
+        start_values,
+        values: outcome.values,
+        sigma: s.sigma,
+        covariance: s.covariance,
+        correlation: s.correlation,
+        strong_correlations: s.strong_correlations,
+        correlation_threshold: options.correlation_threshold,
+        iterations: outcome.log,
+        residuals: s.residuals,
+        residual_stats: s.residual_stats,
+        rss: s.rss,
+        sigma_hat_mm: s.sigma_hat_mm,
+        dof: s.dof,
+        condition_number: s.condition_number,
+        singular_values: s.singular_values,
+        converged,
+        termination: outcome.termination,
+        n_probe,
+        n_tracker: measurements.len() - n_probe,
+    })
+}
+
+fn first_duplicate(params: &ParamSet) -> Option<ParamId> {
+    params.iter().enumerate().find(|(k, p)| params.0[..*k].contains(p)).map(|(_, p)| *p)
+}
+
+/// Refuses rank-deficient data unless finite priors cover every unidentifiable parameter.
+fn check_rank(
+    start: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+    options: &IdentifyOptions,
+) -> Result<(), IdentifyError> {
+    match vatcal_observability::check_identifiable(start, measurements, params) {
+        Ok(_) => Ok(()),
+        Err(ObservabilityError::RankDeficient { unidentifiable, .. })
+            if priors_cover(params, options.priors.as_deref(), &unidentifiable) =>
+        {
+            Ok(())
+        }
+        Err(e) => Err(e.into()),
+    }
+}
+
+fn priors_cover(params: &ParamSet, priors: Option<&[f64]>, unidentifiable: &[ParamId]) -> bool {
+    let Some(priors) = priors else { return false };
+    unidentifiable
+        .iter()
+        .all(|p| params.index_of(*p).is_some_and(|k| priors[k].is_finite()))
+}

@@ -6,3 +6,15 @@
 //! measurements at random poses. Every random process takes a seed (ChaCha8).
 
 pub mod truth;
+
+// --- simulated devices (virtual cell) ---
+mod cell;
+mod config;
+mod controller;
+mod devices;
+mod noise;
+mod world;
+
+pub use cell::VirtualCell;
+pub use config::{NoiseBudget, ProbeImperfections, SimConfig, SimFaults, SimTiming};
+pub use devices::{SIM_IO_TIMEOUT, SimArm, SimGauge, SimGuide, SimOperator, SimTracker};

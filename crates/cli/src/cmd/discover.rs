@@ -1,10 +1,133 @@
-//! `vatcal discover` (being written).
+//! `vatcal discover`: find missing physical effects in a model, add them one at a time, and show
+//! how much the gap to the data shrinks (see `docs/discovery.md`).
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::Context;
+use vatcal_core::{Measurement, ParamSet};
+use vatcal_discovery::{DiscoverOptions, Discovery, discover, write_effect_plots};
+use vatcal_kinematics::Model;
 
 /// Arguments of `vatcal discover`.
 #[derive(Debug, clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Cell model file (TOML) to start from (usually the nominal cell).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Measurements to fit: probe rows (`position,tcp,q1..q7`) and/or tracker rows
+    /// (`tcp,q1..q7,x,y,z`); optional `time_s`, `temperature_c`, `dir2..dir7` columns enable the
+    /// drift and backlash candidates.
+    #[arg(long)]
+    pub measurements: PathBuf,
+    /// Independent validation measurements (e.g. tracker rows), used only to report the gap.
+    #[arg(long)]
+    pub validation: Option<PathBuf>,
+    /// Starting parameter set: `paper34`, `geometric`, `all-identifiable`, or a comma-separated
+    /// list of parameter names.
+    #[arg(long, default_value = "paper34")]
+    pub params: String,
+    /// Write the final model (with the added effects) here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write the full report (JSON) here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Write one SVG per added effect (residual vs its driving variable, before/after) here.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Seed of the cross-validation folds.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Family-wise false-alarm probability per round (Bonferroni over the candidates).
+    #[arg(long, default_value_t = 0.01)]
+    pub alpha: f64,
+    /// Number of cross-validation folds.
+    #[arg(long, default_value_t = 5)]
+    pub folds: usize,
+    /// Known measurement noise per axis [mm]; by default it is estimated from each fit.
+    #[arg(long)]
+    pub noise_mm: Option<f64>,
+}
+
+fn read_all(path: &PathBuf, model: &Model) -> anyhow::Result<Vec<Measurement>> {
+    let m = vatcal_io::read_measurements(path, model)?;
+    anyhow::ensure!(!m.is_empty(), "{}: no measurement rows", path.display());
+    Ok(m)
+}
+
+fn parameter_set(spec: &str, model: &Model, measurements: &[Measurement]) -> anyhow::Result<ParamSet> {
+    if spec.trim() == "all-identifiable" {
+        return vatcal_observability::all_identifiable(model, measurements)
+            .context("--params all-identifiable: identifiability analysis failed");
+    }
+    ParamSet::parse(spec).with_context(|| format!("--params `{spec}`"))
+}
+
+fn check_options(args: &Args) -> anyhow::Result<()> {
+    anyhow::ensure!(args.alpha > 0.0 && args.alpha < 1.0, "--alpha must be in (0, 1), got {}", args.alpha);
+    anyhow::ensure!(args.folds >= 2, "--folds must be at least 2, got {}", args.folds);
+    if let Some(s) = args.noise_mm {
+        anyhow::ensure!(s.is_finite() && s > 0.0, "--noise-mm must be a positive number, got {s}");
+    }
+    Ok(())
+}
+
+fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
+    for round in &d.rounds {
+        let driver = round
+            .location
+            .first()
+            .map(|s| format!("; residual depends most on {}", s.sentence()))
+            .unwrap_or_default();
+        writeln!(
+            out,
+            "round {}: {} parameters, RMS residual {:.4} mm{driver}",
+            round.index,
+            round.fit.params.len(),
+            round.fit.fit_errors.rms
+        )?;
+        writeln!(out, "  {}", round.decision)?;
+    }
+    for note in &d.notes {
+        writeln!(out, "note: {note}")?;
+    }
+    let names: Vec<&str> = d.added_effects.iter().map(|a| a.label.as_str()).collect();
+    writeln!(
+        out,
+        "result: {} effect(s) added{}; gap {:.4} -> {:.4} mm",
+        names.len(),
+        if names.is_empty() { String::new() } else { format!(" ({})", names.join(", ")) },
+        d.initial_gap_mm,
+        d.final_gap_mm
+    )
+}
 
 /// Runs the subcommand.
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`vatcal discover` is not implemented yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    check_options(&args)?;
+    let model = super::load_model(&args.model)?;
+    let measurements = read_all(&args.measurements, &model)?;
+    let validation = args.validation.as_ref().map(|p| read_all(p, &model)).transpose()?;
+    let params = parameter_set(&args.params, &model, &measurements)?;
+    let options = DiscoverOptions {
+        alpha: args.alpha,
+        folds: args.folds,
+        seed: args.seed,
+        known_sigma_mm: args.noise_mm,
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&model, &measurements, &params, validation.as_deref(), &options)?;
+    print_text(&mut std::io::stdout().lock(), &d)?;
+    if let Some(path) = &args.out {
+        d.model.to_cell().save(path).with_context(|| format!("writing the final model to {}", path.display()))?;
+    }
+    if let Some(path) = &args.report {
+        let json = serde_json::to_string_pretty(&d)?;
+        std::fs::write(path, json).with_context(|| format!("writing the report to {}", path.display()))?;
+    }
+    if let Some(dir) = &args.plots {
+        write_effect_plots(&d, dir).with_context(|| format!("writing plots to {}", dir.display()))?;
+    }
+    Ok(())
 }

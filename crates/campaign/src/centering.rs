@@ -1,0 +1,192 @@
+//! Auto-centering (paper §2.4): drive a ball onto the probe origin with the robot alone.
+//!
+//! Read the probe offset `c` (probe frame, nominal gauge axes), command the TCP by `−c`
+//! (mapped into the world through the placement's nominal orientation, then into the flange
+//! frame through the controller's nominal model), repeat until the composite error `|c|` is
+//! below the tolerance (5 µm). The guide is never moved. Because the gauges read zero only
+//! when the ball is centred, neither the gauge axes nor the robot's model need to be exact: they
+//! only set the contraction rate (background §7.4).
+//!
+//! Safety: each step is capped in length, the loop stops with a typed error if the error grows
+//! (beyond a noise allowance), if a reading leaves the gauge range (or comes within a margin of
+//! it), or after an iteration cap.
+
+use nalgebra::Vector3;
+use vatcal_hardware_traits::{
+    ArmJoints, ErrorKind, LinearAxis, LinearFrame, MotionOptions, Probe3d, ProbeReading, RobotArm,
+};
+use vatcal_kinematics::Model;
+
+/// Settings of [`auto_center`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CenteringConfig {
+    /// stop when the composite error is below this [mm] (paper: 0.005)
+    pub tolerance_mm: f64,
+    /// maximum number of corrective moves
+    pub max_iterations: usize,
+    /// a corrective move longer than this is shortened to it (same direction) [mm]
+    pub max_step_mm: f64,
+    /// abort when the composite error exceeds the previous one by more than this [mm] (noise
+    /// allowance: robot repeatability + gauge error)
+    pub growth_allowance_mm: f64,
+    /// abort when any gauge reading comes within this margin of the probe's range [mm]
+    pub range_margin_mm: f64,
+    /// speed and timeout of the corrective moves
+    pub motion: MotionOptions,
+}
+
+impl Default for CenteringConfig {
+    /// 5 µm tolerance, 12 iterations, 2 mm step cap, 10 µm growth allowance, 0.25 mm range
+    /// margin, 10 % speed with a 30 s timeout.
+    fn default() -> Self {
+        Self {
+            tolerance_mm: 0.005,
+            max_iterations: 12,
+            max_step_mm: 2.0,
+            growth_allowance_mm: 0.010,
+            range_margin_mm: 0.25,
+            motion: MotionOptions { speed_fraction: 0.1, timeout: std::time::Duration::from_secs(30) },
+        }
+    }
+}
+
+/// Why auto-centering stopped without converging. Every variant leaves the arm where the last
+/// command put it; nothing else moves.
+#[derive(Debug, thiserror::Error)]
+pub enum CenteringError {
+    /// The probe has no orientation for this calibration position.
+    #[error("the probe has no placement configured for calibration position {position}")]
+    NoPlacement {
+        /// calibration position
+        position: u32,
+    },
+    /// A reading is outside the gauge range or within the safety margin of it: the ball is
+    /// not (or no longer) in the probe.
+    #[error("ball not in the probe's safe range (±{range_mm} mm less a {margin_mm} mm margin): {detail}")]
+    OutOfRange {
+        /// the readings (empty when the probe itself refused to read)
+        readings_mm: Vec<f64>,
+        /// probe range [mm]
+        range_mm: f64,
+        /// safety margin [mm]
+        margin_mm: f64,
+        /// the readings or the probe's own message
+        detail: String,
+    },
+    /// The composite error grew: the loop diverges (wrong placement orientation, wrong frame,
+    /// a fault in the arm).
+    #[error("the composite error grew from {previous_mm:.4} mm to {current_mm:.4} mm after corrective move {iteration}; stopped")]
+    ErrorGrew {
+        /// before the move [mm]
+        previous_mm: f64,
+        /// after the move [mm]
+        current_mm: f64,
+        /// 1-based index of the move that made it grow
+        iteration: usize,
+    },
+    /// The iteration cap was reached.
+    #[error("not centred after {iterations} corrective moves: composite error still {composite_mm:.4} mm")]
+    IterationCap {
+        /// moves made
+        iterations: usize,
+        /// last composite error [mm]
+        composite_mm: f64,
+    },
+    /// A device failed.
+    #[error(transparent)]
+    Device(#[from] vatcal_hardware_traits::Error),
+}
+
+/// Result of a converged auto-centering.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CenteringOutcome {
+    /// the last reading (below the tolerance); an option worth keeping is to correct the
+    /// target by its offset instead of treating it as noise
+    pub final_reading: ProbeReading,
+    /// the final offset in world axes (through the nominal placement orientation) [mm]
+    pub final_offset_world_mm: Vector3<f64>,
+    /// corrective moves made
+    pub iterations: usize,
+    /// composite error of every reading, first to last [mm]
+    pub composite_history_mm: Vec<f64>,
+    /// the corrective moves commanded, in world axes [mm]
+    pub steps_world_mm: Vec<Vector3<f64>>,
+    /// arm joints read before each corrective move, then the final joints
+    /// (`iterations + 1` entries) [rad]
+    pub joint_trace: Vec<ArmJoints>,
+}
+
+/// Auto-centres the ball in the probe at calibration position `position`.
+///
+/// `controller` is the kinematic model the robot controller uses (the nominal one): it maps
+/// the world correction into the flange frame at the current joints, so the arm's
+/// [`LinearFrame::Tool`] move realises it as well as the controller can. The guide is only read.
+pub fn auto_center(
+    arm: &mut dyn RobotArm,
+    guide: &mut dyn LinearAxis,
+    probe: &mut dyn Probe3d,
+    controller: &Model,
+    position: u32,
+    config: &CenteringConfig,
+) -> Result<CenteringOutcome, CenteringError> {
+    let placement = probe.placement(position).ok_or(CenteringError::NoPlacement { position })?;
+    let range_mm = probe.range_mm();
+    let guide_mm = guide.position_mm()?;
+    let mut history: Vec<f64> = Vec::new();
+    let mut steps: Vec<Vector3<f64>> = Vec::new();
+    let mut trace: Vec<ArmJoints> = Vec::new();
+    loop {
+        let reading = read_safely(probe, range_mm, config.range_margin_mm)?;
+        let composite = reading.composite_mm();
+        if let Some(&previous) = history.last()
+            && composite > previous + config.growth_allowance_mm
+        {
+            return Err(CenteringError::ErrorGrew { previous_mm: previous, current_mm: composite, iteration: steps.len() });
+        }
+        history.push(composite);
+        let offset_world = placement.to_world(&reading.offset_mm);
+        if composite < config.tolerance_mm {
+            trace.push(arm.joints()?);
+            return Ok(CenteringOutcome {
+                final_reading: reading,
+                final_offset_world_mm: offset_world,
+                iterations: steps.len(),
+                composite_history_mm: history,
+                steps_world_mm: steps,
+                joint_trace: trace,
+            });
+        }
+        if steps.len() >= config.max_iterations {
+            return Err(CenteringError::IterationCap { iterations: steps.len(), composite_mm: composite });
+        }
+        let mut step_world = -offset_world;
+        let length = step_world.norm();
+        if length > config.max_step_mm {
+            step_world *= config.max_step_mm / length;
+        }
+        let joints = arm.joints()?;
+        trace.push(joints);
+        let q = joints.with_guide(guide_mm);
+        let flange = controller.chain(&q).frames[7];
+        let step_tool = flange.r.transpose() * step_world;
+        arm.move_linear_relative_and_wait(&step_tool, LinearFrame::Tool, &config.motion)?;
+        steps.push(step_world);
+    }
+}
+
+/// Reads the probe; out-of-range readings (from the probe or within the margin) become
+/// [`CenteringError::OutOfRange`].
+fn read_safely(probe: &mut dyn Probe3d, range_mm: f64, margin_mm: f64) -> Result<ProbeReading, CenteringError> {
+    let reading = match probe.read() {
+        Ok(r) => r,
+        Err(e) if e.kind() == ErrorKind::OutOfRange => {
+            return Err(CenteringError::OutOfRange { readings_mm: Vec::new(), range_mm, margin_mm, detail: e.to_string() });
+        }
+        Err(e) => return Err(e.into()),
+    };
+    if reading.gauges_mm.iter().any(|g| g.abs() > range_mm - margin_mm) {
+        let detail = format!("readings {:?} mm", reading.gauges_mm);
+        return Err(CenteringError::OutOfRange { readings_mm: reading.gauges_mm.to_vec(), range_mm, margin_mm, detail });
+    }
+    Ok(reading)
+}

@@ -1,0 +1,59 @@
+//! An [`Operator`] for a terminal: prints each instruction and waits for Enter.
+
+use std::io::{BufRead, BufReader, Stdin, Stderr, Write};
+
+use vatcal_hardware_traits::{Error, ErrorKind, Operator, OperatorInstruction, Result};
+
+/// Prints the instruction to `output` and reads one line from `input`: an empty line (Enter)
+/// confirms, `abort` (or end of input) cancels with [`ErrorKind::Cancelled`].
+#[derive(Debug)]
+pub struct ConsoleOperator<R, W> {
+    input: R,
+    output: W,
+}
+
+impl ConsoleOperator<BufReader<Stdin>, Stderr> {
+    /// Instructions on stderr, confirmations from stdin.
+    pub fn stdio() -> Self {
+        Self { input: BufReader::new(std::io::stdin()), output: std::io::stderr() }
+    }
+}
+
+impl<R: BufRead + Send, W: Write + Send> ConsoleOperator<R, W> {
+    /// An operator on any line-based input and output.
+    pub fn new(input: R, output: W) -> Self {
+        Self { input, output }
+    }
+}
+
+impl<R: BufRead + Send, W: Write + Send> Operator for ConsoleOperator<R, W> {
+    fn perform(&mut self, instruction: &OperatorInstruction) -> Result<()> {
+        let io = |e| Error::from_io("console operator", e);
+        writeln!(self.output, "\n>>> {instruction}.\n    Press Enter when done, or type `abort`: ").map_err(io)?;
+        self.output.flush().map_err(io)?;
+        let mut line = String::new();
+        let n = self.input.read_line(&mut line).map_err(io)?;
+        if n == 0 || line.trim().eq_ignore_ascii_case("abort") {
+            return Err(Error::new(ErrorKind::Cancelled, "console operator", format!("operator cancelled: {instruction}")));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn enter_confirms_abort_and_eof_cancel() {
+        let mut out = Vec::new();
+        let mut op = ConsoleOperator::new("\nabort\n".as_bytes(), &mut out);
+        op.perform(&OperatorInstruction::PlaceProbe { position: 2 }).expect("enter");
+        let e = op.perform(&OperatorInstruction::RemoveMasterBall).expect_err("abort");
+        assert_eq!(e.kind(), ErrorKind::Cancelled);
+        let e = op.perform(&OperatorInstruction::RemoveMasterBall).expect_err("eof");
+        assert_eq!(e.kind(), ErrorKind::Cancelled);
+        let text = String::from_utf8(out).expect("utf8");
+        assert!(text.contains("place the probe plate at calibration position 2"), "{text}");
+    }
+}

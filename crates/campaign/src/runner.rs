@@ -1,0 +1,500 @@
+//! The campaign runner: executes a [`CampaignPlan`] on any devices, step by step, journaling
+//! every completed step, and resumes a journal exactly where it stopped.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use vatcal_core::{JointVector, Measurement};
+use vatcal_hardware_traits::{
+    ArmJoints, Clock, LinearAxis, MotionOptions, Operator, OperatorInstruction, PositionTracker, Probe3d, RobotArm,
+};
+use vatcal_kinematics::Model;
+
+use crate::centering::{CenteringConfig, CenteringError, auto_center};
+use crate::journal::{CellState, Journal, JournalError, JournalHeader, StepOutcome, StepRecord};
+use crate::plan::{CampaignPlan, CampaignStep, PlanError};
+
+/// The devices a campaign drives — trait objects only, so any driver (real or simulated) fits.
+pub struct CellDevices<'a> {
+    /// the robot arm
+    pub arm: &'a mut dyn RobotArm,
+    /// the linear guide carrying the arm
+    pub guide: &'a mut dyn LinearAxis,
+    /// the 3D probe (TriCal)
+    pub probe: &'a mut dyn Probe3d,
+    /// a tracker, needed only by [`CampaignStep::Track`] steps
+    pub tracker: Option<&'a mut dyn PositionTracker>,
+    /// the operator (re-places the probe plate)
+    pub operator: &'a mut dyn Operator,
+    /// the clock time stamps come from
+    pub clock: &'a dyn Clock,
+}
+
+impl std::fmt::Debug for CellDevices<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CellDevices")
+            .field("tracker", &self.tracker.is_some())
+            .field("clock", &self.clock)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Optional warm-up before the first step of a fresh campaign (paper: ~30 min).
+#[derive(Debug, Clone, PartialEq)]
+pub struct WarmUp {
+    /// poses visited in a loop
+    pub path: Vec<JointVector>,
+    /// keep looping until this much clock time has passed
+    pub duration: Duration,
+}
+
+/// Settings of a campaign.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CampaignConfig {
+    /// auto-centering settings
+    pub centering: CenteringConfig,
+    /// speed and timeout of the plan's moves
+    pub motion: MotionOptions,
+    /// timeout of arm activation/homing and guide homing
+    pub home_timeout: Duration,
+    /// warm-up motion before a fresh campaign
+    pub warm_up: Option<WarmUp>,
+    /// when auto-centering refuses (unsafe step, out of range, cap): record the step as skipped,
+    /// return the arm to the approach pose and go on (`true`), or stop the campaign (`false`)
+    pub skip_failed_measurements: bool,
+    /// draw a progress bar with ETA on stderr
+    pub show_progress: bool,
+    /// after a crash the arm re-approaches the last recorded pose from this far on the side
+    /// each joint last moved from [rad], restoring every joint's backlash side
+    pub recovery_approach_rad: f64,
+    /// free text stored in the journal header
+    pub note: String,
+}
+
+impl Default for CampaignConfig {
+    /// Default centering, 25 % speed with 120 s timeouts, no warm-up, stop on failures,
+    /// progress bar on, 0.01 rad recovery approach.
+    fn default() -> Self {
+        Self {
+            centering: CenteringConfig::default(),
+            motion: MotionOptions::default(),
+            home_timeout: Duration::from_secs(120),
+            warm_up: None,
+            skip_failed_measurements: false,
+            show_progress: true,
+            recovery_approach_rad: 0.01,
+            note: String::new(),
+        }
+    }
+}
+
+/// Errors of a campaign. The journal keeps every completed step: fix the cause and run the
+/// same plan on the same journal to resume.
+#[derive(Debug, thiserror::Error)]
+pub enum CampaignError {
+    /// The plan is invalid for the model.
+    #[error("invalid plan: {0}")]
+    Plan(#[from] PlanError),
+    /// The journal cannot be read or written.
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+    /// The journal was started with another plan.
+    #[error("journal {path} belongs to another plan (fingerprint {journal:016x}, this plan {plan:016x}): resume with the original plan or start a new journal")]
+    PlanMismatch {
+        /// journal file
+        path: PathBuf,
+        /// fingerprint in the journal
+        journal: u64,
+        /// fingerprint of the given plan
+        plan: u64,
+    },
+    /// A device failed.
+    #[error("step {step}: {action}: {source}")]
+    Device {
+        /// plan step (`None` before the first step: homing, recovery, warm-up)
+        step: StepLabel,
+        /// what the campaign was doing
+        action: String,
+        /// the device error
+        source: vatcal_hardware_traits::Error,
+    },
+    /// Auto-centering refused to go on.
+    #[error("step {step}: auto-centering TCP {tcp} at calibration position {position}: {source}")]
+    Centering {
+        /// plan step
+        step: usize,
+        /// calibration position
+        position: u32,
+        /// TCP id
+        tcp: u32,
+        /// why
+        source: CenteringError,
+    },
+    /// A `track` step without a tracker.
+    #[error("step {step}: the plan measures with a tracker but none is connected")]
+    NoTracker {
+        /// plan step
+        step: usize,
+    },
+    /// Writing the measurements CSV failed.
+    #[error(transparent)]
+    Output(#[from] vatcal_io::IoError),
+}
+
+/// A plan step index, or the phase before the first step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepLabel {
+    /// before the plan (homing, recovery after a crash, warm-up)
+    Setup,
+    /// plan step (0-based)
+    Step(usize),
+}
+
+impl std::fmt::Display for StepLabel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepLabel::Setup => f.write_str("setup"),
+            StepLabel::Step(s) => write!(f, "{s}"),
+        }
+    }
+}
+
+/// What a campaign run produced.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CampaignReport {
+    /// every measurement of the journal (including those recorded before a crash), in order
+    pub measurements: Vec<Measurement>,
+    /// every journal record
+    pub records: Vec<StepRecord>,
+    /// the step this run resumed at (`None`: fresh start)
+    pub resumed_at_step: Option<usize>,
+    /// bytes of a torn last record dropped from the journal
+    pub torn_bytes_dropped: usize,
+    /// measurements skipped because auto-centering refused
+    pub skipped: usize,
+}
+
+/// Runs campaigns on a set of devices.
+pub struct Campaign<'a> {
+    devices: CellDevices<'a>,
+    controller: &'a Model,
+    config: CampaignConfig,
+    observer: Option<Box<dyn FnMut(&StepRecord) + 'a>>,
+}
+
+impl std::fmt::Debug for Campaign<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Campaign").field("devices", &self.devices).field("config", &self.config).finish_non_exhaustive()
+    }
+}
+
+/// What the campaign knows about the cell while it runs (the journal's [`CellState`]).
+type State = CellState;
+
+fn device_err(step: StepLabel, action: impl Into<String>) -> impl FnOnce(vatcal_hardware_traits::Error) -> CampaignError {
+    move |source| CampaignError::Device { step, action: action.into(), source }
+}
+
+impl<'a> Campaign<'a> {
+    /// A campaign on `devices`. `controller` is the kinematic model the robot controller
+    /// believes (the nominal cell): auto-centering uses it to express corrections in the
+    /// flange frame, and the plan is validated against its limits and ids.
+    pub fn new(devices: CellDevices<'a>, controller: &'a Model, config: CampaignConfig) -> Self {
+        Self { devices, controller, config, observer: None }
+    }
+
+    /// Calls `f` after every journaled step (logging, a live display, tests).
+    pub fn on_record(mut self, f: impl FnMut(&StepRecord) + 'a) -> Self {
+        self.observer = Some(Box::new(f));
+        self
+    }
+
+    /// Runs `plan`, journaling into `journal_path`. A journal that already holds records of the
+    /// same plan is resumed: the cell is put back into the last recorded state (after the
+    /// operator confirmed) and execution continues with the next step, so no measurement is
+    /// lost or repeated.
+    pub fn run(&mut self, plan: &CampaignPlan, journal_path: impl AsRef<Path>) -> Result<CampaignReport, CampaignError> {
+        plan.validate(self.controller)?;
+        let journal_path = journal_path.as_ref();
+        let fingerprint = plan.fingerprint();
+        let header = JournalHeader::new(fingerprint, plan.steps.len(), self.devices.clock.now_s(), self.config.note.clone());
+        let (mut journal, _) = Journal::open_or_create(journal_path, header)?;
+        if journal.header().plan_fingerprint != fingerprint || journal.header().plan_steps != plan.steps.len() {
+            return Err(CampaignError::PlanMismatch {
+                path: journal_path.into(),
+                journal: journal.header().plan_fingerprint,
+                plan: fingerprint,
+            });
+        }
+        self.prepare_devices()?;
+        let mut state = self.initial_state()?;
+        let mut time_offset_s = 0.0;
+        let resumed_at_step = match journal.records().last().cloned() {
+            Some(last) => {
+                self.recover(&last.state)?;
+                state = last.state;
+                // a clock that restarted (virtual, or monotonic after a reboot) must not make
+                // time go backwards in the journal
+                time_offset_s = (last.time_s - self.elapsed_s(journal.header())).max(0.0);
+                Some(journal.next_step())
+            }
+            None => {
+                if let Some(w) = self.config.warm_up.clone() {
+                    self.warm_up(&w, &mut state)?;
+                }
+                None
+            }
+        };
+        let progress = self.progress_bar(plan.steps.len(), journal.next_step());
+        let mut skipped = 0;
+        for step in journal.next_step()..plan.steps.len() {
+            progress.set_message(describe(&plan.steps[step]));
+            let outcome = self.execute(step, &plan.steps[step], &mut state)?;
+            if matches!(outcome, StepOutcome::Skipped { .. }) {
+                skipped += 1;
+            }
+            let time_s = self.elapsed_s(journal.header()) + time_offset_s;
+            let record = StepRecord { step, time_s, state: state.clone(), outcome };
+            journal.append(record.clone())?;
+            if let Some(f) = self.observer.as_mut() {
+                f(&record);
+            }
+            progress.inc(1);
+        }
+        progress.finish_with_message("campaign complete");
+        Ok(CampaignReport {
+            measurements: journal.measurements(),
+            records: journal.records().to_vec(),
+            resumed_at_step,
+            torn_bytes_dropped: journal.torn_bytes_dropped(),
+            skipped,
+        })
+    }
+
+    fn elapsed_s(&self, header: &JournalHeader) -> f64 {
+        self.devices.clock.now_s() - header.start_clock_s
+    }
+
+    fn progress_bar(&self, steps: usize, done: usize) -> ProgressBar {
+        let target = if self.config.show_progress { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() };
+        let bar = ProgressBar::with_draw_target(Some(steps as u64), target);
+        if let Ok(style) =
+            ProgressStyle::with_template("[{elapsed_precise}] {wide_bar} {pos}/{len} steps, ETA {eta} — {msg}")
+        {
+            bar.set_style(style);
+        }
+        bar.set_position(done as u64);
+        bar.reset_eta();
+        bar
+    }
+
+    fn prepare_devices(&mut self) -> Result<(), CampaignError> {
+        let t = self.config.home_timeout;
+        let d = &mut self.devices;
+        d.arm.activate_and_home(t).map_err(device_err(StepLabel::Setup, "activating and homing the arm"))?;
+        let homed = d.guide.is_homed().map_err(device_err(StepLabel::Setup, "reading the guide state"))?;
+        if !homed {
+            d.guide.home(t).map_err(device_err(StepLabel::Setup, "homing the guide"))?;
+        }
+        Ok(())
+    }
+
+    fn read_joints(&mut self, step: StepLabel) -> Result<JointVector, CampaignError> {
+        let arm = self.devices.arm.joints().map_err(device_err(step, "reading the arm joints"))?;
+        let guide = self.devices.guide.position_mm().map_err(device_err(step, "reading the guide position"))?;
+        Ok(arm.with_guide(guide))
+    }
+
+    fn initial_state(&mut self) -> Result<State, CampaignError> {
+        let joints = self.read_joints(StepLabel::Setup)?;
+        Ok(CellState {
+            arm_from: ArmJoints::from_joint_vector(&joints).0,
+            guide_from_mm: joints.guide_mm(),
+            joints,
+            dir: [0; 6],
+            placement: None,
+        })
+    }
+
+    /// Commands guide and arm to `target` together, waits for both, and updates the state
+    /// (`*_from` = the joints before this command, `dir` from the joints that changed).
+    fn move_to(&mut self, step: StepLabel, target: &JointVector, state: &mut State) -> Result<(), CampaignError> {
+        let options = self.config.motion;
+        let before = self.read_joints(step)?;
+        let d = &mut self.devices;
+        let what = |s: &str| format!("{s} to q = {:?} (mm/deg)", target.to_mm_deg());
+        d.guide.move_absolute_mm(target.guide_mm(), &options).map_err(device_err(step, what("moving the guide")))?;
+        d.arm
+            .move_joints(&ArmJoints::from_joint_vector(target), &options)
+            .map_err(device_err(step, what("moving the arm")))?;
+        d.guide.wait_idle(options.timeout).map_err(device_err(step, what("waiting for the guide")))?;
+        d.arm.wait_idle(options.timeout).map_err(device_err(step, what("waiting for the arm")))?;
+        let after = self.read_joints(step)?;
+        state.arm_from = ArmJoints::from_joint_vector(&before).0;
+        state.guide_from_mm = before.guide_mm();
+        update_dir(&mut state.dir, &before, &after);
+        state.joints = after;
+        Ok(())
+    }
+
+    /// Puts the cell back into the recorded state `s`: plate confirmed at its position, then
+    /// guide and arm replay the last motion of the recorded step (from `*_from` to the recorded
+    /// joints), the arm first approaching `arm_from` from the side each joint last moved on.
+    fn recover(&mut self, s: &State) -> Result<(), CampaignError> {
+        let step = StepLabel::Setup;
+        if let Some(position) = s.placement {
+            self.devices
+                .operator
+                .perform(&OperatorInstruction::PlaceProbe { position })
+                .map_err(device_err(step, "confirming the probe plate after a restart"))?;
+        }
+        let description = format!(
+            "resuming: the guide and the arm return to the last recorded pose q = {:?} (mm/deg)",
+            s.joints.to_mm_deg()
+        );
+        self.devices
+            .operator
+            .perform(&OperatorInstruction::ConfirmMotion { description })
+            .map_err(device_err(step, "confirming the recovery motion"))?;
+        let target_arm = ArmJoints::from_joint_vector(&s.joints);
+        let limits = self.controller.joint_limits();
+        let mut pre = s.arm_from;
+        for j in 0..6 {
+            if s.arm_from[j] == target_arm.0[j] && s.dir[j] != 0 {
+                let (lo, hi) = limits[j + 1];
+                pre[j] = (pre[j] - f64::from(s.dir[j]) * self.config.recovery_approach_rad).clamp(lo, hi);
+            }
+        }
+        let mut scratch = s.clone();
+        let guide_from = s.guide_from_mm;
+        for (guide, arm) in [
+            (guide_from, ArmJoints(pre)),
+            (guide_from, ArmJoints(s.arm_from)),
+            (s.joints.guide_mm(), target_arm),
+        ] {
+            self.move_to(step, &arm.with_guide(guide), &mut scratch)?;
+        }
+        Ok(())
+    }
+
+    fn warm_up(&mut self, w: &WarmUp, state: &mut State) -> Result<(), CampaignError> {
+        if w.path.is_empty() {
+            return Ok(());
+        }
+        let start = self.devices.clock.now();
+        while self.devices.clock.now().saturating_sub(start) < w.duration {
+            for q in &w.path {
+                self.move_to(StepLabel::Setup, q, state)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn execute(&mut self, step: usize, s: &CampaignStep, state: &mut State) -> Result<StepOutcome, CampaignError> {
+        let label = StepLabel::Step(step);
+        match s {
+            CampaignStep::PlaceProbe { position } => {
+                self.devices
+                    .operator
+                    .perform(&OperatorInstruction::PlaceProbe { position: *position })
+                    .map_err(device_err(label, format!("placing the probe plate at position {position}")))?;
+                state.placement = Some(*position);
+                Ok(StepOutcome::ProbePlaced { position: *position })
+            }
+            CampaignStep::ZeroProbe { position } => {
+                let d = &mut self.devices;
+                d.operator
+                    .perform(&OperatorInstruction::SeatMasterBall { position: *position })
+                    .map_err(device_err(label, "seating the master ball"))?;
+                d.probe.preset_master().map_err(device_err(label, "presetting the gauges"))?;
+                d.operator
+                    .perform(&OperatorInstruction::RemoveMasterBall)
+                    .map_err(device_err(label, "removing the master ball"))?;
+                Ok(StepOutcome::ProbeZeroed { position: *position })
+            }
+            CampaignStep::Move { path } => {
+                for q in path {
+                    self.move_to(label, q, state)?;
+                }
+                Ok(StepOutcome::Moved)
+            }
+            CampaignStep::Measure { position, tcp } => self.measure(step, *position, *tcp, state),
+            CampaignStep::Track { tcp } => {
+                let tracker = self.devices.tracker.as_mut().ok_or(CampaignError::NoTracker { step })?;
+                let p = tracker.measure_mm(*tcp).map_err(device_err(label, format!("tracking target {tcp}")))?;
+                Ok(StepOutcome::Tracked { tcp: *tcp, xyz_mm: [p.x, p.y, p.z] })
+            }
+        }
+    }
+
+    fn measure(&mut self, step: usize, position: u32, tcp: u32, state: &mut State) -> Result<StepOutcome, CampaignError> {
+        let label = StepLabel::Step(step);
+        let d = &mut self.devices;
+        let result = auto_center(&mut *d.arm, &mut *d.guide, &mut *d.probe, self.controller, position, &self.config.centering);
+        match result {
+            Ok(o) => {
+                for pair in o.joint_trace.windows(2) {
+                    let (a, b) = (pair[0].with_guide(0.0), pair[1].with_guide(0.0));
+                    update_dir(&mut state.dir, &a, &b);
+                }
+                if o.joint_trace.len() >= 2 {
+                    state.arm_from = o.joint_trace[o.joint_trace.len() - 2].0;
+                }
+                state.joints = self.read_joints(label)?;
+                let g = o.final_reading.gauges_mm;
+                let c = o.final_reading.offset_mm;
+                Ok(StepOutcome::Measured {
+                    position,
+                    tcp,
+                    readings_mm: g,
+                    offset_mm: [c.x, c.y, c.z],
+                    iterations: o.iterations,
+                    composite_history_mm: o.composite_history_mm,
+                })
+            }
+            Err(source) if self.config.skip_failed_measurements => {
+                let reason = format!("auto-centering TCP {tcp} at position {position}: {source}");
+                // back to the approach pose (clearing a controller fault first)
+                let approach = state.joints;
+                let status = d.arm.status().map_err(device_err(label, "reading the arm status"))?;
+                if status.error.is_some() {
+                    d.arm.reset_error().map_err(device_err(label, "resetting the arm error"))?;
+                }
+                self.move_to(label, &approach, state)?;
+                Ok(StepOutcome::Skipped { reason })
+            }
+            Err(source) => Err(CampaignError::Centering { step, position, tcp, source }),
+        }
+    }
+}
+
+/// Signs of the arm joints that changed between `before` and `after`.
+fn update_dir(dir: &mut [i8; 6], before: &JointVector, after: &JointVector) {
+    for j in 0..6 {
+        let (a, b) = (before.0[j + 1], after.0[j + 1]);
+        if b != a {
+            dir[j] = if b > a { 1 } else { -1 };
+        }
+    }
+}
+
+fn describe(step: &CampaignStep) -> String {
+    match step {
+        CampaignStep::PlaceProbe { position } => format!("placing the probe at position {position}"),
+        CampaignStep::ZeroProbe { position } => format!("zeroing the probe at position {position}"),
+        CampaignStep::Move { path } => format!("moving ({} waypoints)", path.len()),
+        CampaignStep::Measure { position, tcp } => format!("centring TCP {tcp} at position {position}"),
+        CampaignStep::Track { tcp } => format!("tracking target {tcp}"),
+    }
+}
+
+/// Writes the measurements of a (possibly unfinished) journal as a measurements CSV
+/// (`position,tcp,q1..q7,time_s,dir2..dir7`, mm/deg; tracker rows with `x,y,z`). Returns the
+/// number of measurements written.
+pub fn export_measurements(journal: impl AsRef<Path>, csv: impl AsRef<Path>) -> Result<usize, CampaignError> {
+    let j = Journal::open(journal)?;
+    let m = j.measurements();
+    vatcal_io::write_measurements(csv, &m)?;
+    Ok(m.len())
+}

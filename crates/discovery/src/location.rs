@@ -1,0 +1,322 @@
+//! "Where" the current model disagrees with the data: the residuals of a fit against every
+//! variable that could drive a missing effect (each joint, the gravity torques, TCP,
+//! calibration position, time, temperature, approach direction, measurement order).
+//!
+//! For each variable the residual vectors are regressed, component by component, on a few
+//! functions of the variable (angles: `sin q, cos q, sin 2q, cos 2q`; other continuous
+//! variables: a centred quadratic; categories: one indicator per level), with an intercept. The
+//! fraction of the residual sum of squares this explains and its F-test p-value say how strongly
+//! the residuals depend on that variable; binned residual norms show how.
+
+use nalgebra::Vector3;
+use serde::Serialize;
+use vatcal_core::{Measurement, Target, deg_to_rad};
+use vatcal_kinematics::Model;
+
+use crate::DiscoveryError;
+use crate::distributions::f_ln_sf;
+use crate::linear::ColumnSpace;
+
+/// A variable the residuals can be plotted against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+pub enum Driver {
+    /// cell joint 1..=7 (q1 in mm, the others in degrees)
+    Joint(u8),
+    /// gravity torque of cell joint 2..=7 [N·m] (on the fitted model)
+    Torque(u8),
+    /// the TCP id
+    Tcp,
+    /// the calibration position id (probe measurements; tracker measurements count as 0)
+    Position,
+    /// `time_s`
+    Time,
+    /// `temperature_c`
+    Temperature,
+    /// sign of the last motion of cell joint 2..=7
+    Direction(u8),
+    /// index of the measurement in the file (a proxy for time when no time stamps exist)
+    Order,
+}
+
+/// How a driver's values are treated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum DriverKind {
+    /// an angle in degrees: periodic basis
+    Angle,
+    /// a continuous quantity: quadratic basis
+    Continuous,
+    /// a label: one indicator per level
+    Categorical,
+}
+
+impl Driver {
+    /// Axis label with unit, e.g. `q4 [deg]`, `tau3 [N*m]`.
+    pub fn label(&self) -> String {
+        match self {
+            Driver::Joint(1) => "q1 (guide) [mm]".to_string(),
+            Driver::Joint(j) => format!("q{j} [deg]"),
+            Driver::Torque(j) => format!("tau{j} [N*m]"),
+            Driver::Tcp => "TCP id".to_string(),
+            Driver::Position => "calibration position id".to_string(),
+            Driver::Time => "time [s]".to_string(),
+            Driver::Temperature => "temperature [degC]".to_string(),
+            Driver::Direction(j) => format!("dir{j} (sign of last motion)"),
+            Driver::Order => "measurement order".to_string(),
+        }
+    }
+
+    /// How the values are treated.
+    pub fn kind(&self) -> DriverKind {
+        match self {
+            Driver::Joint(j) if *j >= 2 => DriverKind::Angle,
+            Driver::Tcp | Driver::Position | Driver::Direction(_) => DriverKind::Categorical,
+            _ => DriverKind::Continuous,
+        }
+    }
+
+    /// The value of this variable for measurement `index` (None when the data lacks it), in
+    /// the units of [`Driver::label`]. `torques` are the gravity torques of that measurement.
+    pub fn value(&self, index: usize, m: &Measurement, torques: &[f64; 6]) -> Option<f64> {
+        match *self {
+            Driver::Joint(1) => Some(m.q.get(1)),
+            Driver::Joint(j) => Some(m.q.get(j as usize).to_degrees()),
+            Driver::Torque(j) => Some(torques[j as usize - 2]),
+            Driver::Tcp => Some(f64::from(m.tcp)),
+            Driver::Position => Some(match m.target {
+                Target::Probe { position } => f64::from(position),
+                Target::Tracker { .. } => 0.0,
+            }),
+            Driver::Time => m.context.time_s,
+            Driver::Temperature => m.context.temperature_c,
+            Driver::Direction(j) => m.context.dir.map(|d| f64::from(d[j as usize - 2])),
+            Driver::Order => Some(index as f64),
+        }
+    }
+
+    /// Every driver, in a fixed order.
+    pub fn all() -> Vec<Driver> {
+        let mut v: Vec<Driver> = (1..=7).map(Driver::Joint).collect();
+        v.extend((2..=7).map(Driver::Torque));
+        v.extend([Driver::Tcp, Driver::Position, Driver::Time, Driver::Temperature]);
+        v.extend((2..=7).map(Driver::Direction));
+        v.push(Driver::Order);
+        v
+    }
+}
+
+/// Residuals of the measurements falling into one range (or level) of a driver.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Bin {
+    /// lowest driver value in the bin
+    pub lo: f64,
+    /// highest driver value in the bin
+    pub hi: f64,
+    /// number of measurements
+    pub count: usize,
+    /// mean residual norm [mm]
+    pub mean_mm: f64,
+    /// RMS residual norm [mm]
+    pub rms_mm: f64,
+}
+
+/// How strongly the residuals depend on one driver.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DriverSummary {
+    /// the variable
+    pub driver: Driver,
+    /// its label with unit
+    pub label: String,
+    /// fraction of the residual sum of squares explained by functions of the variable
+    pub explained_fraction: f64,
+    /// fraction expected by chance alone (number of regressors / number of residuals)
+    pub chance_fraction: f64,
+    /// `ln p` of the regression F-test (very negative = the residuals clearly depend on it)
+    pub ln_p_value: f64,
+    /// residual norms in equal-count bins (continuous) or per level (categorical)
+    pub bins: Vec<Bin>,
+}
+
+impl DriverSummary {
+    /// One line for people, e.g. `q4 [deg]: explains 61.2 % of the residual (chance 2.2 %)`.
+    pub fn sentence(&self) -> String {
+        format!(
+            "{}: explains {:.1} % of the residual sum of squares (chance {:.1} %, log10 p = {:.1})",
+            self.label,
+            100.0 * self.explained_fraction,
+            100.0 * self.chance_fraction,
+            self.ln_p_value / std::f64::consts::LN_10
+        )
+    }
+}
+
+const BINS: usize = 6;
+
+/// Regressors (without intercept) for the values `v` of a driver of kind `kind`.
+fn regressors(kind: DriverKind, v: &[f64]) -> Vec<Vec<f64>> {
+    match kind {
+        DriverKind::Angle => {
+            let r: Vec<f64> = v.iter().map(|x| deg_to_rad(*x)).collect();
+            vec![
+                r.iter().map(|x| x.sin()).collect(),
+                r.iter().map(|x| x.cos()).collect(),
+                r.iter().map(|x| (2.0 * x).sin()).collect(),
+                r.iter().map(|x| (2.0 * x).cos()).collect(),
+            ]
+        }
+        DriverKind::Continuous => {
+            let n = v.len() as f64;
+            let mean = v.iter().sum::<f64>() / n;
+            let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
+            if sd <= 0.0 {
+                return Vec::new();
+            }
+            let t: Vec<f64> = v.iter().map(|x| (x - mean) / sd).collect();
+            vec![t.clone(), t.iter().map(|x| x * x - 1.0).collect()]
+        }
+        DriverKind::Categorical => {
+            let levels = levels(v);
+            levels.iter().skip(1).map(|l| v.iter().map(|x| f64::from(u8::from(x == l))).collect()).collect()
+        }
+    }
+}
+
+fn levels(v: &[f64]) -> Vec<f64> {
+    let mut l: Vec<f64> = v.to_vec();
+    l.sort_by(f64::total_cmp);
+    l.dedup();
+    l
+}
+
+fn bin_of(members: &[(f64, f64)]) -> Bin {
+    let count = members.len();
+    let n = count.max(1) as f64;
+    Bin {
+        lo: members.iter().map(|m| m.0).fold(f64::INFINITY, f64::min),
+        hi: members.iter().map(|m| m.0).fold(f64::NEG_INFINITY, f64::max),
+        count,
+        mean_mm: members.iter().map(|m| m.1).sum::<f64>() / n,
+        rms_mm: (members.iter().map(|m| m.1 * m.1).sum::<f64>() / n).sqrt(),
+    }
+}
+
+fn bins(kind: DriverKind, v: &[f64], norms: &[f64]) -> Vec<Bin> {
+    let mut pairs: Vec<(f64, f64)> = v.iter().copied().zip(norms.iter().copied()).collect();
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    match kind {
+        DriverKind::Categorical => levels(v)
+            .iter()
+            .map(|l| bin_of(&pairs.iter().copied().filter(|p| p.0 == *l).collect::<Vec<_>>()))
+            .collect(),
+        _ => {
+            let n = pairs.len();
+            let b = BINS.min(n);
+            (0..b).map(|k| bin_of(&pairs[k * n / b..(k + 1) * n / b])).collect()
+        }
+    }
+}
+
+/// Summarises how the residuals depend on `driver`; `None` if the data lacks the variable or it
+/// does not vary.
+pub fn summarize_driver(
+    driver: Driver,
+    measurements: &[Measurement],
+    residuals: &[Vector3<f64>],
+    torques: &[[f64; 6]],
+) -> Result<Option<DriverSummary>, DiscoveryError> {
+    let values: Option<Vec<f64>> =
+        measurements.iter().enumerate().map(|(i, m)| driver.value(i, m, &torques[i])).collect();
+    let Some(v) = values else { return Ok(None) };
+    let kind = driver.kind();
+    let regs = regressors(kind, &v);
+    let n = v.len();
+    if regs.is_empty() || n <= regs.len() + 2 {
+        return Ok(None);
+    }
+    // block-diagonal design: the same regressors (with intercept) for x, y and z
+    let b = regs.len() + 1;
+    let design = faer::Mat::from_fn(3 * n, 3 * b, |row, col| {
+        let (k, c) = (row / 3, row % 3);
+        if col / b != c {
+            return 0.0;
+        }
+        match col % b {
+            0 => 1.0,
+            j => regs[j - 1][k],
+        }
+    });
+    let space = ColumnSpace::of(design.as_ref())?;
+    let r: Vec<f64> = residuals.iter().flat_map(|x| [x.x, x.y, x.z]).collect();
+    let total: f64 = r.iter().map(|x| x * x).sum();
+    let left: f64 = space.project_out_vec(&r).iter().map(|x| x * x).sum();
+    let q = space.rank();
+    let dof2 = (3 * n).saturating_sub(q);
+    let explained = if total > 0.0 { ((total - left) / total).clamp(0.0, 1.0) } else { 0.0 };
+    let ln_p_value = if q == 0 || dof2 == 0 || left <= 0.0 {
+        0.0
+    } else {
+        f_ln_sf(((total - left) / q as f64) / (left / dof2 as f64), q, dof2)
+    };
+    let norms: Vec<f64> = residuals.iter().map(|x| x.norm()).collect();
+    Ok(Some(DriverSummary {
+        driver,
+        label: driver.label(),
+        explained_fraction: explained,
+        chance_fraction: q as f64 / (3 * n) as f64,
+        ln_p_value,
+        bins: bins(kind, &v, &norms),
+    }))
+}
+
+/// Summaries of every available driver, most significant first.
+pub fn locate(model: &Model, measurements: &[Measurement], residuals: &[Vector3<f64>]) -> Result<Vec<DriverSummary>, DiscoveryError> {
+    let torques: Vec<[f64; 6]> = measurements.iter().map(|m| model.gravity_torques(&m.q)).collect();
+    let mut out = Vec::new();
+    for d in Driver::all() {
+        if let Some(s) = summarize_driver(d, measurements, residuals, &torques)? {
+            out.push(s);
+        }
+    }
+    out.sort_by(|a, b| a.ln_p_value.total_cmp(&b.ln_p_value));
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::rngs::ChaCha8Rng;
+    use rand::{RngExt, SeedableRng};
+    use vatcal_core::JointVector;
+
+    #[test]
+    fn a_residual_that_oscillates_with_q4_is_located_on_q4() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let mut ms = Vec::new();
+        let mut res = Vec::new();
+        for i in 0..150 {
+            let mut q = [0.0; 7];
+            q[0] = rng.random_range(0.0..300.0);
+            for v in q.iter_mut().skip(1) {
+                *v = rng.random_range(-2.5..2.5);
+            }
+            let m = Measurement::probe(1 + (i % 3) as u32, 1 + (i % 3) as u32, JointVector(q));
+            let noise = Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * 0.002;
+            res.push(Vector3::new(0.02 * q[3].sin(), -0.01 * q[3].sin(), 0.0) + noise);
+            ms.push(m);
+        }
+        let torques = vec![[0.0; 6]; ms.len()];
+        let all: Vec<DriverSummary> = Driver::all()
+            .into_iter()
+            .filter_map(|d| summarize_driver(d, &ms, &res, &torques).expect("ok"))
+            .collect();
+        let best = all.iter().min_by(|a, b| a.ln_p_value.total_cmp(&b.ln_p_value)).expect("some");
+        assert_eq!(best.driver, Driver::Joint(4), "{}", best.sentence());
+        assert!(best.explained_fraction > 0.8);
+        // variables that are not in the data are left out
+        assert!(!all.iter().any(|s| s.driver == Driver::Time || s.driver == Driver::Direction(3)));
+        // pure noise on an unrelated joint is not significant
+        let q2 = all.iter().find(|s| s.driver == Driver::Joint(2)).expect("q2");
+        assert!(q2.ln_p_value > (1e-4f64).ln(), "{}", q2.sentence());
+        assert_eq!(q2.bins.len(), BINS);
+        assert_eq!(q2.bins.iter().map(|b| b.count).sum::<usize>(), 150);
+    }
+}

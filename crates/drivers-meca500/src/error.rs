@@ -1,0 +1,115 @@
+//! The driver's own error type and its mapping onto the portable
+//! [`vatcal_hardware_traits::ErrorKind`].
+
+use std::time::Duration;
+
+use vatcal_hardware_traits::{Error as HwError, ErrorKind};
+
+use crate::codec::{BannerError, FrameError, ReplyError, code};
+
+/// Everything that can go wrong talking to a Meca500.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Meca500Error {
+    /// Socket error.
+    #[error("I/O error: {0}")]
+    Io(#[from] std::io::Error),
+    /// The robot closed the connection.
+    #[error("the robot closed the connection")]
+    Disconnected,
+    /// No answer in time.
+    #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
+    Timeout {
+        /// what the driver was waiting for
+        waiting_for: String,
+        /// the timeout that expired
+        after: Duration,
+    },
+    /// The robot refused a command or reported an error (codes 1000–1999, 3005, 3070, …).
+    #[error("robot error [{code}]: {text}")]
+    Robot {
+        /// the robot's code
+        code: u16,
+        /// the robot's text (wording varies between firmware versions; never matched on)
+        text: String,
+    },
+    /// The banner was a refusal or could not be understood.
+    #[error("connection: {0}")]
+    Banner(#[from] BannerError),
+    /// A message could not be parsed.
+    #[error("malformed message: {0}")]
+    Malformed(#[from] ReplyError),
+    /// A framing error (message without terminator).
+    #[error("framing: {0}")]
+    Frame(#[from] FrameError),
+    /// A checkpoint was discarded (`[3040]`): the motion queue was cleared before reaching it.
+    #[error("checkpoint {0} discarded: the motion was cleared")]
+    CheckpointDiscarded(u32),
+    /// A caller passed an unusable value (NaN, infinite, non-positive speed).
+    #[error("invalid argument: {0}")]
+    InvalidArgument(String),
+}
+
+impl Meca500Error {
+    /// The portable kind: 1005/1006 → [`ErrorKind::NotHomed`], 1000 (buffer full) and 3001
+    /// (another client) → [`ErrorKind::Busy`], every other robot code →
+    /// [`ErrorKind::DeviceFault`] with that code.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Meca500Error::Io(e) => io_kind(e),
+            Meca500Error::Disconnected => ErrorKind::Disconnected,
+            Meca500Error::Timeout { .. } => ErrorKind::Timeout,
+            Meca500Error::Robot { code, .. } => robot_code_kind(*code),
+            Meca500Error::Banner(BannerError::Refused(r)) => robot_code_kind(r.code),
+            Meca500Error::Banner(_) | Meca500Error::Malformed(_) | Meca500Error::Frame(_) => ErrorKind::Protocol,
+            Meca500Error::CheckpointDiscarded(_) => ErrorKind::Cancelled,
+            Meca500Error::InvalidArgument(_) => ErrorKind::OutOfRange,
+        }
+    }
+
+    /// Converts into the trait-level error of device `device`, keeping `self` as source.
+    pub fn into_hw(self, device: &str) -> HwError {
+        match self {
+            Meca500Error::Io(e) => HwError::from_io(device, e),
+            other => HwError::new(other.kind(), device, other.to_string()).with_source(other),
+        }
+    }
+}
+
+/// Portable kind of a robot code.
+pub fn robot_code_kind(c: u16) -> ErrorKind {
+    match c {
+        code::NOT_ACTIVATED | code::NOT_HOMED => ErrorKind::NotHomed,
+        code::BUFFER_FULL | code::ANOTHER_USER => ErrorKind::Busy,
+        other => ErrorKind::DeviceFault { code: i32::from(other) },
+    }
+}
+
+fn io_kind(e: &std::io::Error) -> ErrorKind {
+    // same mapping as `vatcal_hardware_traits::Error::from_io`, which owns the io::Error
+    HwError::from_io("", std::io::Error::new(e.kind(), "")).kind()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::codec::Reply;
+
+    #[test]
+    fn kinds() {
+        let robot = |code| Meca500Error::Robot { code, text: String::new() };
+        assert_eq!(robot(1007).kind(), ErrorKind::DeviceFault { code: 1007 });
+        assert_eq!(robot(3005).kind(), ErrorKind::DeviceFault { code: 3005 });
+        assert_eq!(robot(1005).kind(), ErrorKind::NotHomed);
+        assert_eq!(robot(1006).kind(), ErrorKind::NotHomed);
+        assert_eq!(robot(1000).kind(), ErrorKind::Busy);
+        assert_eq!(Meca500Error::Banner(BannerError::Refused(Reply::new(3001, "x"))).kind(), ErrorKind::Busy);
+        assert_eq!(Meca500Error::Disconnected.kind(), ErrorKind::Disconnected);
+        let io = Meca500Error::Io(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "x"));
+        assert_eq!(io.kind(), ErrorKind::Disconnected);
+        let hw = robot(1007).into_hw("meca500");
+        assert_eq!(hw.kind(), ErrorKind::DeviceFault { code: 1007 });
+        assert_eq!(hw.device(), "meca500");
+        assert!(std::error::Error::source(&hw).is_some());
+    }
+}

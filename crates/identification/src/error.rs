@@ -1,0 +1,134 @@
+//! The error type of this crate.
+
+use std::path::PathBuf;
+
+use vatcal_core::{ParamId, ParamSet};
+use vatcal_kinematics::ModelError;
+use vatcal_observability::ObservabilityError;
+
+use crate::{IterationLog, Method, Termination};
+
+/// What a failed fit leaves behind: why it stopped, the full iteration log and the last
+/// parameter values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FailureReport {
+    /// method that was run
+    pub method: Method,
+    /// why it stopped
+    pub termination: Termination,
+    /// the per-iteration log, iteration 0 = the start
+    pub iterations: Vec<IterationLog>,
+    /// the parameters that were estimated
+    pub params: ParamSet,
+    /// starting values (internal units)
+    pub start_values: Vec<f64>,
+    /// values when the fit stopped (the last finite iterate; internal units)
+    pub last_values: Vec<f64>,
+}
+
+impl FailureReport {
+    /// One paragraph: method, reason, and the residual at the start and at the end.
+    pub fn summary(&self) -> String {
+        let first = self.iterations.first();
+        let last = self.iterations.last();
+        let evolution = match (first, last) {
+            (Some(a), Some(b)) => format!(
+                "; mean residual {:.4} mm at the start, {:.4} mm after {} iteration(s)",
+                a.mean_mm, b.mean_mm, b.iteration
+            ),
+            _ => String::new(),
+        };
+        format!("{} did not converge: {}{}", self.method, self.termination.describe(), evolution)
+    }
+}
+
+/// Everything that can go wrong in identification and validation.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum IdentifyError {
+    /// The model rejected a measurement (unknown TCP or calibration position) or produced a
+    /// non-finite prediction for it.
+    #[error("measurement {index}: {source}")]
+    Measurement {
+        /// 0-based index of the measurement
+        index: usize,
+        /// the model's error
+        #[source]
+        source: ModelError,
+    },
+    /// The model rejected a parameter (not part of the model, non-finite value).
+    #[error("{0}")]
+    Model(#[from] ModelError),
+    /// No measurements were given.
+    #[error("no measurements given")]
+    NoMeasurements,
+    /// The parameter set is empty.
+    #[error("the parameter set is empty")]
+    NoParameters,
+    /// Not more equations than unknowns: the noise level (and hence the uncertainties) cannot
+    /// be estimated.
+    #[error("{equations} equations (3 per measurement) for {params} parameters: need more than {params} equations, i.e. at least {} measurements", params / 3 + 1)]
+    TooFewMeasurements {
+        /// 3 × number of measurements
+        equations: usize,
+        /// number of parameters
+        params: usize,
+    },
+    /// The measurements cannot identify the parameter set; the message names the parameters.
+    #[error("rank-deficient data: {message}")]
+    Unidentifiable {
+        /// numerical rank found
+        rank: usize,
+        /// number of parameters
+        needed: usize,
+        /// the parameters that cannot be identified together with the others
+        unidentifiable: Vec<ParamId>,
+        /// explanation from the identifiability analysis
+        message: String,
+    },
+    /// The identifiability analysis itself failed.
+    #[error("identifiability check failed: {0}")]
+    Observability(ObservabilityError),
+    /// An option is invalid; the message names it.
+    #[error("invalid identification options: {0}")]
+    InvalidOptions(String),
+    /// The fit diverged, produced non-finite values, stalled or hit the iteration cap. The
+    /// report carries the iteration log.
+    #[error("{}", .0.summary())]
+    NotConverged(Box<FailureReport>),
+    /// A factorisation failed or the information matrix is singular.
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+    /// A report file could not be read or written.
+    #[error("{path}: {message}")]
+    File {
+        /// file
+        path: PathBuf,
+        /// what went wrong
+        message: String,
+    },
+}
+
+impl IdentifyError {
+    /// The failure report of a fit that did not converge, if that is what this error is.
+    pub fn failure(&self) -> Option<&FailureReport> {
+        match self {
+            IdentifyError::NotConverged(r) => Some(r),
+            _ => None,
+        }
+    }
+}
+
+impl From<ObservabilityError> for IdentifyError {
+    fn from(e: ObservabilityError) -> Self {
+        match e {
+            ObservabilityError::RankDeficient { rank, needed, unidentifiable, message } => {
+                IdentifyError::Unidentifiable { rank, needed, unidentifiable, message }
+            }
+            ObservabilityError::NoMeasurements => IdentifyError::NoMeasurements,
+            ObservabilityError::NoParameters => IdentifyError::NoParameters,
+            ObservabilityError::Model { index, source } => IdentifyError::Measurement { index, source },
+            other => IdentifyError::Observability(other),
+        }
+    }
+}

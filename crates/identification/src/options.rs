@@ -1,0 +1,212 @@
+//! Options of [`identify`](crate::identify).
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Serialize};
+use vatcal_core::ParamSet;
+
+use crate::IdentifyError;
+
+/// The estimation method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Levenberg–Marquardt on the stacked, column-scaled Jacobian, gain-ratio damping control,
+    /// each step by QR of the augmented matrix `[J_s; √λ I]` (background.md §6.3). Default.
+    #[default]
+    LevenbergMarquardt,
+    /// Undamped Gauss–Newton on the stacked Jacobian: `Δρ = J⁺ r` by QR (what the paper's
+    /// Table 7 is meant to do, background.md §6.2).
+    GaussNewton,
+    /// The paper's Table 7 / Eqs. (10)–(13) read literally: one minimum-norm pseudo-inverse
+    /// correction per pose, summed over the poses. Kept **for comparison only**: it does not
+    /// minimise the least-squares cost and diverges on realistic data (see
+    /// `docs/identification.md`).
+    PaperLiteral,
+}
+
+impl Method {
+    /// Short name used by the CLI: `lm`, `gn`, `paper`.
+    pub fn short_name(self) -> &'static str {
+        match self {
+            Method::LevenbergMarquardt => "lm",
+            Method::GaussNewton => "gn",
+            Method::PaperLiteral => "paper",
+        }
+    }
+}
+
+impl fmt::Display for Method {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Method::LevenbergMarquardt => "Levenberg-Marquardt",
+            Method::GaussNewton => "Gauss-Newton",
+            Method::PaperLiteral => "paper-literal (Table 7, per-pose pseudo-inverses)",
+        })
+    }
+}
+
+impl FromStr for Method {
+    type Err = String;
+
+    /// Parses `lm`, `gn`, `paper` (and the long kebab-case names).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "lm" | "levenberg-marquardt" => Ok(Method::LevenbergMarquardt),
+            "gn" | "gauss-newton" => Ok(Method::GaussNewton),
+            "paper" | "paper-literal" => Ok(Method::PaperLiteral),
+            other => Err(format!("unknown method `{other}` (expected lm, gn or paper)")),
+        }
+    }
+}
+
+/// Relative weights of the measurement kinds in the weighted least-squares cost
+/// `Σ_k w_k ‖r_k‖²`: an inverse-variance ratio. With probe noise σ_p and tracker noise σ_t,
+/// `tracker = (σ_p / σ_t)²` (probe = 1) gives the statistically efficient combination.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct KindWeights {
+    /// weight of probe measurements (> 0)
+    pub probe: f64,
+    /// weight of tracker measurements (> 0)
+    pub tracker: f64,
+}
+
+impl Default for KindWeights {
+    fn default() -> Self {
+        Self { probe: 1.0, tracker: 1.0 }
+    }
+}
+
+/// How the unknowns are scaled for the damped step (`ρ = ρ_ref + D δ`, `J_s = J D`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Scaling {
+    /// `D = diag(1/‖J_j‖)`, updated as the running maximum of the column norms (Moré's
+    /// MINPACK rule): damping is then invariant to the parameter units. Default.
+    #[default]
+    ColumnNorms,
+    /// `D = diag(typical a-priori standard deviation)` ([`vatcal_core::ParamId::typical_scale`]).
+    APriori,
+    /// No scaling (natural units: mm, rad, rad/(N·m)); damping then favours the parameters with
+    /// the largest columns. For experiments only.
+    None,
+}
+
+/// Options of [`identify`](crate::identify). `Default` is Levenberg–Marquardt with the
+/// tolerances below.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdentifyOptions {
+    /// estimation method
+    pub method: Method,
+    /// iteration cap (Jacobian evaluations)
+    pub max_iterations: usize,
+    /// stop when the largest parameter change of a step, in units of the parameter's typical
+    /// a-priori standard deviation, is below this (default 1e-10: 1e-11 mm for a length)
+    pub step_tolerance: f64,
+    /// stop when every column of the weighted Jacobian is orthogonal to the residual up to this
+    /// cosine: `max_j |J_jᵀ r| / (‖J_j‖ ‖r‖)` (default 1e-10)
+    pub gradient_tolerance: f64,
+    /// stop when both the actual and the predicted relative cost reduction of an accepted step
+    /// are below this (default 1e-12)
+    pub cost_tolerance: f64,
+    /// weights of probe and tracker measurements
+    pub weights: KindWeights,
+    /// optional priors: per-parameter standard deviations (internal units, same order as the
+    /// parameter set) of a Gaussian prior centred on the **starting** values; the fit is then
+    /// the maximum a-posteriori estimate (ridge regression toward the start). `f64::INFINITY`
+    /// leaves a parameter free. With finite priors on every unidentifiable parameter a
+    /// rank-deficient problem is accepted.
+    pub priors: Option<Vec<f64>>,
+    /// standard deviation [mm] of one coordinate of a weight-1 measurement; used only to
+    /// balance priors against the data (the prior row of parameter j is
+    /// `(σ_meas / σ_j)(ρ_j − ρ_start,j)`). Default 0.003 mm.
+    pub measurement_sigma_mm: f64,
+    /// scaling of the unknowns for the damped step
+    pub scaling: Scaling,
+    /// initial damping λ₀ = `initial_lambda · max diag(J_sᵀ J_s)` (default 1e-3)
+    pub initial_lambda: f64,
+    /// |correlation| above which a parameter pair is reported as strongly correlated (0.9)
+    pub correlation_threshold: f64,
+    /// refuse rank-deficient data before solving (vatcal-observability's check). Default true.
+    pub check_identifiability: bool,
+    /// return `Ok` with `converged = false` when the iteration cap is reached (default false:
+    /// the cap is a failure reported with its log)
+    pub accept_iteration_cap: bool,
+    /// Gauss–Newton and the paper-literal method: the fit has diverged when the mean residual
+    /// exceeds this factor times the starting mean residual (default 1e3)
+    pub divergence_factor: f64,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::LevenbergMarquardt,
+            max_iterations: 50,
+            step_tolerance: 1e-10,
+            gradient_tolerance: 1e-10,
+            cost_tolerance: 1e-12,
+            weights: KindWeights::default(),
+            priors: None,
+            measurement_sigma_mm: 0.003,
+            scaling: Scaling::ColumnNorms,
+            initial_lambda: 1e-3,
+            correlation_threshold: 0.9,
+            check_identifiability: true,
+            accept_iteration_cap: false,
+            divergence_factor: 1e3,
+        }
+    }
+}
+
+impl IdentifyOptions {
+    /// Default options with another method.
+    pub fn with_method(method: Method) -> Self {
+        Self { method, ..Self::default() }
+    }
+
+    /// Checks every option; errors name the field.
+    pub fn check(&self, params: &ParamSet) -> Result<(), IdentifyError> {
+        let bad = |m: String| Err(IdentifyError::InvalidOptions(m));
+        if self.max_iterations == 0 {
+            return bad("max_iterations must be at least 1".into());
+        }
+        let nonneg = [
+            ("step_tolerance", self.step_tolerance),
+            ("gradient_tolerance", self.gradient_tolerance),
+            ("cost_tolerance", self.cost_tolerance),
+        ];
+        for (name, v) in nonneg {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(format!("{name} must be finite and >= 0, got {v}"));
+            }
+        }
+        let positive = [
+            ("weights.probe", self.weights.probe),
+            ("weights.tracker", self.weights.tracker),
+            ("measurement_sigma_mm", self.measurement_sigma_mm),
+            ("initial_lambda", self.initial_lambda),
+            ("divergence_factor", self.divergence_factor),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return bad(format!("{name} must be finite and > 0, got {v}"));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.correlation_threshold) {
+            return bad(format!("correlation_threshold must be in [0, 1], got {}", self.correlation_threshold));
+        }
+        if let Some(p) = &self.priors {
+            if p.len() != params.len() {
+                return bad(format!("priors: {} standard deviations for {} parameters", p.len(), params.len()));
+            }
+            if let Some((k, v)) = p.iter().enumerate().find(|(_, v)| v.is_nan() || **v <= 0.0) {
+                return bad(format!("priors: standard deviation of `{}` must be > 0 (or inf), got {v}", params.0[k]));
+            }
+            if self.method == Method::PaperLiteral && p.iter().any(|v| v.is_finite()) {
+                return bad("priors are not supported by the paper-literal method".into());
+            }
+        }
+        Ok(())
+    }
+}

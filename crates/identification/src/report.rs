@@ -1,0 +1,176 @@
+//! The JSON report of a fit (serde), with parameter values in **file units**.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use vatcal_core::ParamId;
+use vatcal_core::params::ParamUnit;
+
+use crate::{ErrorStats, Identification, IdentifyError, IterationLog, Method, Termination};
+
+/// Unit of a parameter in the cell file and the reports: angles in degrees, lengths in mm.
+pub fn file_unit_label(id: ParamId) -> &'static str {
+    match id.unit() {
+        ParamUnit::Rad => "deg",
+        ParamUnit::Mm => "mm",
+        ParamUnit::RadPerNm => "rad/(N*m)",
+        ParamUnit::Ratio => "1",
+        ParamUnit::PerSecond => "1/s",
+        ParamUnit::PerKelvin => "1/K",
+    }
+}
+
+/// Converts an internal value (or difference, or standard deviation) of `id` to file units.
+pub fn to_file_units(id: ParamId, internal: f64) -> f64 {
+    if id.unit() == ParamUnit::Rad { internal.to_degrees() } else { internal }
+}
+
+/// One parameter in the report. Every number is in the file unit named by `unit`
+/// (degrees for angles, mm for lengths, rad/(N·m) for compliances).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ParameterReport {
+    /// stable parameter name (e.g. `theta_offset_2`)
+    pub name: String,
+    /// file unit of the values below
+    pub unit: String,
+    /// value of the starting (nominal) model
+    pub nominal_file_units: f64,
+    /// identified value
+    pub identified_file_units: f64,
+    /// identified − nominal
+    pub delta_file_units: f64,
+    /// standard deviation of the identified value
+    pub sigma_file_units: f64,
+}
+
+/// A strongly correlated parameter pair.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CorrelationReport {
+    /// first parameter
+    pub a: String,
+    /// second parameter
+    pub b: String,
+    /// correlation coefficient
+    pub correlation: f64,
+}
+
+/// The JSON report written by `vatcal identify --report`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct IdentificationReport {
+    /// report format marker
+    pub format: String,
+    /// estimation method
+    pub method: Method,
+    /// whether a convergence criterion fired
+    pub converged: bool,
+    /// why the iteration stopped
+    pub termination: Termination,
+    /// number of measurements (probe + tracker)
+    pub n_measurements: usize,
+    /// probe measurements
+    pub n_probe: usize,
+    /// tracker measurements
+    pub n_tracker: usize,
+    /// number of identified parameters
+    pub n_parameters: usize,
+    /// degrees of freedom 3n − L
+    pub dof: usize,
+    /// weighted residual sum of squares [mm²]
+    pub rss_mm2: f64,
+    /// estimated noise of one coordinate of a weight-1 measurement [mm]
+    pub sigma_hat_mm: f64,
+    /// condition number of the weighted, column-normalised Jacobian at the solution
+    pub condition_number: f64,
+    /// its singular values, descending
+    pub singular_values: Vec<f64>,
+    /// the parameters, in file units
+    pub parameters: Vec<ParameterReport>,
+    /// per-iteration log (iteration 0 = start)
+    pub iterations: Vec<IterationLog>,
+    /// residuals at the solution
+    pub residual_stats: ErrorStats,
+    /// |correlation| threshold
+    pub correlation_threshold: f64,
+    /// pairs above the threshold, strongest first
+    pub strong_correlations: Vec<CorrelationReport>,
+}
+
+/// Value of [`IdentificationReport::format`].
+pub const REPORT_FORMAT: &str = "vatcal-identification-report/1";
+
+impl IdentificationReport {
+    /// Builds the report of a fit.
+    pub fn from_identification(id: &Identification) -> Self {
+        let parameters = id
+            .params
+            .iter()
+            .enumerate()
+            .map(|(k, p)| ParameterReport {
+                name: p.name(),
+                unit: file_unit_label(*p).to_string(),
+                nominal_file_units: to_file_units(*p, id.start_values[k]),
+                identified_file_units: to_file_units(*p, id.values[k]),
+                delta_file_units: to_file_units(*p, id.values[k] - id.start_values[k]),
+                sigma_file_units: to_file_units(*p, id.sigma[k]),
+            })
+            .collect();
+        Self {
+            format: REPORT_FORMAT.to_string(),
+            method: id.method,
+            converged: id.converged,
+            termination: id.termination,
+            n_measurements: id.n_probe + id.n_tracker,
+            n_probe: id.n_probe,
+            n_tracker: id.n_tracker,
+            n_parameters: id.params.len(),
+            dof: id.dof,
+            rss_mm2: id.rss,
+            sigma_hat_mm: id.sigma_hat_mm,
+            condition_number: id.condition_number,
+            singular_values: id.singular_values.clone(),
+            parameters,
+            iterations: id.iterations.clone(),
+            residual_stats: id.residual_stats.clone(),
+            correlation_threshold: id.correlation_threshold,
+            strong_correlations: id
+                .strong_correlations
+                .iter()
+                .map(|(a, b, c)| CorrelationReport { a: a.name(), b: b.name(), correlation: *c })
+                .collect(),
+        }
+    }
+
+    /// Pretty-printed JSON.
+    pub fn to_json(&self) -> Result<String, IdentifyError> {
+        serde_json::to_string_pretty(self)
+            .map_err(|e| IdentifyError::Numerical(format!("cannot serialise the report: {e}")))
+    }
+
+    /// Parses a report.
+    pub fn from_json(text: &str, origin: &str) -> Result<Self, IdentifyError> {
+        serde_json::from_str(text).map_err(|e| IdentifyError::File {
+            path: origin.into(),
+            message: format!("line {}, column {}: {e}", e.line(), e.column()),
+        })
+    }
+
+    /// Writes the report as JSON.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), IdentifyError> {
+        let path = path.as_ref();
+        std::fs::write(path, self.to_json()?)
+            .map_err(|e| IdentifyError::File { path: path.to_path_buf(), message: e.to_string() })
+    }
+
+    /// Reads a report written by [`Self::save`].
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, IdentifyError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| IdentifyError::File { path: path.to_path_buf(), message: e.to_string() })?;
+        Self::from_json(&text, &path.display().to_string())
+    }
+
+    /// The entry of parameter `name`.
+    pub fn parameter(&self, name: &str) -> Option<&ParameterReport> {
+        self.parameters.iter().find(|p| p.name == name)
+    }
+}

@@ -1,0 +1,1156 @@
+//! D-optimal pose selection: Detmax exchange with rank-3 updates (background.md §4).
+//!
+//! # Problem
+//! Choose `n` of `N` candidate poses maximising `ln det M(S)`, `M(S) = Σ_{k∈S} B_kᵀ B_k (+ R)`,
+//! where `B_k` is the 3 × L Jacobian block of candidate k ([`Candidates`]) and R an optional
+//! ridge. At fixed `n` this is the same as maximising O1 (O1^{2L} = det M / n^L), and the
+//! choice does not depend on the column scaling.
+//!
+//! # Fast path (O1)
+//! The exchange keeps, at all times,
+//! * `M⁻¹` (L × L) and `ln det M`,
+//! * for **every** candidate the symmetric 3 × 3 matrix `G_k = B_k M⁻¹ B_kᵀ`.
+//!
+//! The gain of adding k is `ln det(I₃ + G_k)` and the loss of removing a member is
+//! `−ln det(I₃ − G_k)` (matrix determinant lemma). One exchange step (add the best candidate,
+//! remove the member with the smallest loss, Wynn–Mitchell) changes `M` by a rank-6 term
+//! `b_inᵀ b_in − b_outᵀ b_out`; by Sherman–Morrison–Woodbury
+//!
+//! ```text
+//! M'⁻¹ = M⁻¹ − Z_in C_in Z_inᵀ + Z_out C_out Z_outᵀ,
+//! Z_in = M⁻¹ b_inᵀ,  C_in = (I + b_in Z_in)⁻¹,
+//! Z_out = M₁⁻¹ b_outᵀ (M₁ = M + b_inᵀ b_in),  C_out = (I − b_out Z_out)⁻¹,
+//! G_k' = G_k − P_k C_in P_kᵀ + Q_k C_out Q_kᵀ,  [P_k Q_k] = B_k [Z_in Z_out].
+//! ```
+//!
+//! So a step costs one tall product `B · [Z_in Z_out]` (3N × L times L × 6, batched with faer
+//! matmul over fixed-size chunks of candidates, in parallel with rayon) plus O(N) 3 × 3 work —
+//! no determinant or factorisation per candidate. The losses of the n+1 members after the add
+//! need only their own `P_k`. `M⁻¹`, `ln det M` and all `G_k` are recomputed from a Cholesky
+//! factorisation every [`DetmaxOptions::refactor_every`] steps to stop drift.
+//!
+//! # Algorithm
+//! 1. Start: `fixed` poses plus a random subset (ChaCha8, seed per restart). If that design is
+//!    singular (a Cholesky pivot loses all but 1e-13 of its column's information), start
+//!    greedily instead: from the fixed poses plus a tiny ridge, add the best candidate `n`
+//!    times (Dykstra), then drop the ridge. [`Initialisation::Greedy`] always starts greedily.
+//! 2. Exchange until the member removed is the one just added (ties are resolved in favour of
+//!    stopping, then the lowest candidate index), or the gain of a step is below 1e-12, or
+//!    `max_exchanges` steps.
+//! 3. Optional excursions ([`DetmaxOptions::excursions`], a simplified form of Mitchell's
+//!    DETMAX): at depth d = 1, 2, … try "add the d best, then remove the d least useful" and
+//!    "remove d, then add d"; an improvement is polished by step 2 and resets d to 1; the walk
+//!    stops when d exceeds the maximum depth. (Mitchell's failure set is not kept: the
+//!    excursions here are deterministic, so revisiting a design cannot happen without an
+//!    improvement in between.)
+//! 4. Restarts run in parallel; each has its own seed derived from `seed` and its index, and
+//!    all arithmetic inside a restart is sequential over fixed-size candidate chunks, so the
+//!    result does not depend on the number of threads. The best restart wins (ties: lowest
+//!    restart index).
+//!
+//! # Other objectives
+//! O2..O5 ([`Objective`]) are not determinant-based, so they have no cheap update. They run
+//! the O1 Detmax first, then a best-improvement swap search with *exact* evaluation: every
+//! member × each of the `shortlist` non-members with the largest D-gain, objective from the
+//! eigenvalues of the updated L × L information matrix (σ_i = √λ_i). Slower (≈ n × shortlist
+//! eigen-decompositions per swap) and dependent on the column scaling of the candidates.
+//!
+//! # Reference
+//! [`naive_detmax`] runs the same exchange with every gain and loss computed from scratch from
+//! the singular values of the stacked design Jacobian — for tests and the benchmark.
+
+use std::cmp::Ordering;
+
+use faer::linalg::matmul::matmul;
+use faer::linalg::solvers::DenseSolveCore;
+use faer::{Accum, Mat, MatRef, Par, Side};
+use nalgebra::Matrix3;
+use rand::rngs::ChaCha8Rng;
+use rand::{RngExt, SeedableRng};
+use rayon::prelude::*;
+use vatcal_core::{Measurement, ParamSet};
+use vatcal_kinematics::Model;
+
+use crate::error::ObservabilityError;
+use crate::identifiability::{AnalysisOptions, analyze_jacobian, assemble_jacobian, rank_deficient_error};
+use crate::indices::ObservabilityIndices;
+use crate::identifiability::ColumnScaling;
+
+/// Candidates per chunk of the batched updates. Fixed, so results do not depend on the
+/// number of threads.
+const CHUNK: usize = 1024;
+/// A Cholesky pivot `L_ii²` below this fraction of `M_ii` counts as singular.
+const PIVOT_FRACTION: f64 = 1e-13;
+/// Relative ridge used by the greedy start before it is removed again.
+const GREEDY_RIDGE: f64 = 1e-6;
+/// Minimum improvement of ln det for an exchange or excursion to count.
+const MIN_IMPROVEMENT: f64 = 1e-12;
+
+/// The candidate poses as stacked 3 × L Jacobian blocks (candidate k = rows `3k..3k+3`).
+#[derive(Debug, Clone)]
+pub struct Candidates {
+    blocks: Mat<f64>,
+    params: ParamSet,
+}
+
+impl Candidates {
+    /// From a stacked natural-unit Jacobian (3 rows per candidate) and its parameters.
+    pub fn from_stacked(blocks: Mat<f64>, params: ParamSet) -> Result<Self, ObservabilityError> {
+        if params.is_empty() {
+            return Err(ObservabilityError::NoParameters);
+        }
+        if blocks.ncols() != params.len() || blocks.nrows() % 3 != 0 {
+            return Err(ObservabilityError::InvalidInput(format!(
+                "candidate blocks are {} × {}; expected 3 rows per candidate and {} columns",
+                blocks.nrows(),
+                blocks.ncols(),
+                params.len()
+            )));
+        }
+        for c in 0..blocks.ncols() {
+            if let Some(r) = blocks.col(c).iter().position(|x| !x.is_finite()) {
+                return Err(ObservabilityError::NonFinite { index: r / 3, param: params.0[c] });
+            }
+        }
+        Ok(Self { blocks, params })
+    }
+
+    /// The Jacobian blocks of probe/tracker measurements ([`assemble_jacobian`]).
+    pub fn from_measurements(
+        model: &Model,
+        measurements: &[Measurement],
+        params: &ParamSet,
+    ) -> Result<Self, ObservabilityError> {
+        Self::from_stacked(assemble_jacobian(model, measurements, params)?, params.clone())
+    }
+
+    /// Number of candidates N.
+    pub fn len(&self) -> usize {
+        self.blocks.nrows() / 3
+    }
+
+    /// True when there are no candidates.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Number of parameters L.
+    pub fn parameter_count(&self) -> usize {
+        self.blocks.ncols()
+    }
+
+    /// The parameters (columns).
+    pub fn params(&self) -> &ParamSet {
+        &self.params
+    }
+
+    /// The 3 × L block of candidate `k`.
+    ///
+    /// # Panics
+    /// If `k >= len()`.
+    #[track_caller]
+    pub fn block(&self, k: usize) -> MatRef<'_, f64> {
+        self.blocks.as_ref().subrows(3 * k, 3)
+    }
+
+    /// All blocks stacked (3N × L).
+    pub fn stacked(&self) -> MatRef<'_, f64> {
+        self.blocks.as_ref()
+    }
+
+    /// The stacked Jacobian (3n × L) of a design.
+    pub fn design_jacobian(&self, design: &[usize]) -> Mat<f64> {
+        Mat::from_fn(3 * design.len(), self.parameter_count(), |r, c| self.blocks[(3 * design[r / 3] + r % 3, c)])
+    }
+
+    /// The candidates `indices` (in that order).
+    pub fn subset(&self, indices: &[usize]) -> Self {
+        Self { blocks: self.design_jacobian(indices), params: self.params.clone() }
+    }
+
+    /// The same candidates with column j multiplied by `factors[j]` (e.g. unit-norm factors
+    /// computed over the whole candidate set, for O2..O5).
+    pub fn scaled(&self, factors: &[f64]) -> Self {
+        let mut blocks = self.blocks.clone();
+        crate::identifiability::scale_columns(&mut blocks, factors);
+        Self { blocks, params: self.params.clone() }
+    }
+
+    /// Information matrix `Σ_{k∈design} B_kᵀ B_k`.
+    pub fn information(&self, design: &[usize]) -> Mat<f64> {
+        let j = self.design_jacobian(design);
+        let l = self.parameter_count();
+        let mut m = Mat::<f64>::zeros(l, l);
+        matmul(m.as_mut(), Accum::Replace, j.transpose(), j.as_ref(), 1.0, Par::Seq);
+        m
+    }
+
+    /// `Σ_k B_kᵀ B_k` over all candidates (chunked, deterministic summation order).
+    fn total_information(&self) -> Mat<f64> {
+        let l = self.parameter_count();
+        let n = self.len();
+        let parts: Vec<Mat<f64>> = (0..n.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|ci| {
+                let start = ci * CHUNK;
+                let len = CHUNK.min(n - start);
+                let b = self.blocks.as_ref().subrows(3 * start, 3 * len);
+                let mut m = Mat::<f64>::zeros(l, l);
+                matmul(m.as_mut(), Accum::Replace, b.transpose(), b, 1.0, Par::Seq);
+                m
+            })
+            .collect();
+        let mut total = Mat::<f64>::zeros(l, l);
+        for p in parts {
+            total += p;
+        }
+        total
+    }
+}
+
+/// The objective a selection maximises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Objective {
+    /// O1 — D-optimality (fast rank-3 path; scale-invariant)
+    #[default]
+    O1,
+    /// O2 = σ_min/σ_max (exact evaluation)
+    O2,
+    /// O3 = σ_min (exact evaluation)
+    O3,
+    /// O4 = σ_min²/σ_max (exact evaluation)
+    O4,
+    /// O5 = 1/Σ 1/σ_i (exact evaluation)
+    O5,
+}
+
+impl Objective {
+    /// Parses `o1`..`o5` (case-insensitive).
+    pub fn parse(s: &str) -> Option<Self> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "o1" => Some(Self::O1),
+            "o2" => Some(Self::O2),
+            "o3" => Some(Self::O3),
+            "o4" => Some(Self::O4),
+            "o5" => Some(Self::O5),
+            _ => None,
+        }
+    }
+
+    /// The objective's value for a design with these singular values and `poses` poses.
+    pub fn evaluate(self, singular_values: &[f64], parameter_count: usize, poses: usize) -> f64 {
+        let i = ObservabilityIndices::from_singular_values(singular_values, parameter_count, poses, ColumnScaling::None);
+        match self {
+            Self::O1 => i.o1,
+            Self::O2 => i.o2,
+            Self::O3 => i.o3,
+            Self::O4 => i.o4,
+            Self::O5 => i.o5,
+        }
+    }
+}
+
+/// How each restart starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Initialisation {
+    /// `fixed` plus a random subset (greedy if that is singular)
+    #[default]
+    Random,
+    /// greedy (Dykstra) from `fixed` — deterministic, so all restarts coincide
+    Greedy,
+}
+
+/// Options of [`detmax`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DetmaxOptions {
+    /// design size n
+    pub count: usize,
+    /// number of restarts (≥ 1), run in parallel
+    pub restarts: usize,
+    /// master seed; restart r uses a seed derived from (seed, r)
+    pub seed: u64,
+    /// cap on exchange steps per restart (and on exact-objective swaps)
+    pub max_exchanges: usize,
+    /// maximum excursion depth (None = plain exchange)
+    pub excursions: Option<usize>,
+    /// candidate indices that must be in the design
+    pub fixed: Vec<usize>,
+    /// the objective
+    pub objective: Objective,
+    /// relative ridge: `R = ridge · diag(Σ_all B_kᵀB_k) / N` is added to every design's
+    /// information matrix (0 = none). Needed only to select from a candidate set that cannot
+    /// identify all parameters (e.g. the one-position ablation).
+    pub ridge: f64,
+    /// refactor `M⁻¹` and all `G_k` from scratch after this many updates
+    pub refactor_every: usize,
+    /// non-members (largest D-gain) tried per swap by the exact objectives O2..O5
+    pub shortlist: usize,
+    /// how restarts start
+    pub init: Initialisation,
+}
+
+impl DetmaxOptions {
+    /// Defaults for a design of `count` poses: 8 restarts, seed 0, no excursions, O1.
+    pub fn new(count: usize) -> Self {
+        Self {
+            count,
+            restarts: 8,
+            seed: 0,
+            max_exchanges: 10_000,
+            excursions: None,
+            fixed: Vec::new(),
+            objective: Objective::O1,
+            ridge: 0.0,
+            refactor_every: 32,
+            shortlist: 32,
+            init: Initialisation::Random,
+        }
+    }
+}
+
+/// What one restart did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RestartOutcome {
+    /// the restart's own seed
+    pub seed: u64,
+    /// ln det of its final design (from scratch, ridge included)
+    pub log_det: f64,
+    /// objective value of its final design
+    pub objective_value: f64,
+    /// exchange steps taken (excursion steps included)
+    pub exchanges: usize,
+    /// excursions that improved the design
+    pub excursions_accepted: usize,
+    /// true when the start was greedy (requested, or the random start was singular)
+    pub greedy_start: bool,
+}
+
+/// Result of a selection.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selection {
+    /// selected candidate indices, ascending
+    pub selected: Vec<usize>,
+    /// ln det(M + R) of the selection, computed from scratch (Cholesky)
+    pub log_det: f64,
+    /// ln det as tracked incrementally by the winning restart (equals `log_det` up to
+    /// round-off)
+    pub tracked_log_det: f64,
+    /// objective value of the selection
+    pub objective_value: f64,
+    /// index of the winning restart
+    pub best_restart: usize,
+    /// every restart, in order
+    pub restarts: Vec<RestartOutcome>,
+}
+
+impl Selection {
+    /// O1 of the selection from its log-determinant (exact when there is no ridge):
+    /// `exp(ln det / 2L) / √n`, in the units of the candidate blocks.
+    pub fn o1(&self, parameter_count: usize) -> f64 {
+        o1_from_log_det(self.log_det, parameter_count, self.selected.len())
+    }
+}
+
+/// `exp(ln det M / 2L) / √n`.
+pub fn o1_from_log_det(log_det: f64, parameter_count: usize, poses: usize) -> f64 {
+    (log_det / (2.0 * parameter_count as f64)).exp() / (poses.max(1) as f64).sqrt()
+}
+
+/// `ln det(Σ_{k∈design} B_kᵀB_k + R)` from scratch (Cholesky), `R = ridge · diag(Σ_all)/N`;
+/// `None` when singular.
+pub fn log_det(candidates: &Candidates, design: &[usize], ridge: f64) -> Option<f64> {
+    let r = ridge_diagonal(candidates, ridge);
+    factor(&with_ridge(candidates.information(design), &r)).map(|f| f.1)
+}
+
+// ------------------------------------------------------------------------------------------
+// small symmetric 3×3 helpers
+
+type Sym3 = [f64; 6];
+
+fn sym_to_mat(g: &Sym3) -> Matrix3<f64> {
+    Matrix3::new(g[0], g[1], g[2], g[1], g[3], g[4], g[2], g[4], g[5])
+}
+
+fn det_i_plus(g: &Sym3, s: f64) -> f64 {
+    let (a, b, c, d, e, f) = (1.0 + s * g[0], s * g[1], s * g[2], 1.0 + s * g[3], s * g[4], 1.0 + s * g[5]);
+    a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c)
+}
+
+/// `ln det(I + G)`
+fn gain_of(g: &Sym3) -> f64 {
+    let d = det_i_plus(g, 1.0);
+    if d > 0.0 { d.ln() } else { f64::NEG_INFINITY }
+}
+
+/// `−ln det(I − G)` (∞ when removing makes M singular)
+fn loss_of(g: &Sym3) -> f64 {
+    let d = det_i_plus(g, -1.0);
+    if d > 0.0 { -d.ln() } else { f64::INFINITY }
+}
+
+fn mat3_of(m: MatRef<'_, f64>) -> Matrix3<f64> {
+    Matrix3::from_fn(|r, c| m[(r, c)])
+}
+
+// ------------------------------------------------------------------------------------------
+// factorisation helpers
+
+fn ridge_diagonal(c: &Candidates, ridge: f64) -> Vec<f64> {
+    if ridge <= 0.0 {
+        return Vec::new();
+    }
+    let total = c.total_information();
+    let n = c.len().max(1) as f64;
+    (0..c.parameter_count()).map(|j| ridge * total[(j, j)].max(f64::MIN_POSITIVE) / n).collect()
+}
+
+fn with_ridge(mut m: Mat<f64>, r: &[f64]) -> Mat<f64> {
+    for (j, v) in r.iter().enumerate() {
+        m[(j, j)] += v;
+    }
+    m
+}
+
+/// `(M⁻¹, ln det M)`, or None if M is (numerically) singular.
+fn factor(m: &Mat<f64>) -> Option<(Mat<f64>, f64)> {
+    let llt = m.llt(Side::Lower).ok()?;
+    let l = llt.L();
+    let mut log_det = 0.0;
+    for i in 0..m.nrows() {
+        let p = l[(i, i)] * l[(i, i)];
+        if !(p > PIVOT_FRACTION * m[(i, i)]) || !p.is_finite() {
+            return None;
+        }
+        log_det += p.ln();
+    }
+    let mut inv = llt.inverse();
+    symmetrize(&mut inv);
+    Some((inv, log_det))
+}
+
+fn symmetrize(m: &mut Mat<f64>) {
+    for i in 0..m.nrows() {
+        for j in 0..i {
+            let v = 0.5 * (m[(i, j)] + m[(j, i)]);
+            m[(i, j)] = v;
+            m[(j, i)] = v;
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// the exchange state
+
+/// One rank-3 term `sign · Z C Zᵀ` of an inverse update.
+struct Term {
+    z: Mat<f64>,
+    c: Matrix3<f64>,
+    sign: f64,
+}
+
+#[derive(Clone)]
+struct State<'a> {
+    c: &'a Candidates,
+    ridge: Vec<f64>,
+    design: Vec<usize>,
+    member: Vec<bool>,
+    fixed: Vec<bool>,
+    minv: Mat<f64>,
+    log_det: f64,
+    g: Vec<Sym3>,
+    since_refactor: usize,
+    refactor_every: usize,
+}
+
+enum Step {
+    Swapped,
+    Converged,
+}
+
+impl<'a> State<'a> {
+    /// Builds the state of `design`; None if singular.
+    fn new(c: &'a Candidates, design: Vec<usize>, fixed: &[bool], ridge: Vec<f64>, refactor_every: usize) -> Option<Self> {
+        let mut member = vec![false; c.len()];
+        for &k in &design {
+            member[k] = true;
+        }
+        let mut s = Self {
+            c,
+            ridge,
+            design,
+            member,
+            fixed: fixed.to_vec(),
+            minv: Mat::zeros(0, 0),
+            log_det: 0.0,
+            g: vec![[0.0; 6]; c.len()],
+            since_refactor: 0,
+            refactor_every: refactor_every.max(1),
+        };
+        s.refactor().then_some(s)
+    }
+
+    /// Recomputes M⁻¹, ln det M and every G_k from scratch. False if M is singular.
+    fn refactor(&mut self) -> bool {
+        let m = with_ridge(self.c.information(&self.design), &self.ridge);
+        let Some((minv, log_det)) = factor(&m) else { return false };
+        self.minv = minv;
+        self.log_det = log_det;
+        self.recompute_g();
+        self.since_refactor = 0;
+        true
+    }
+
+    fn recompute_g(&mut self) {
+        let (blocks, minv, l) = (self.c.stacked(), self.minv.as_ref(), self.c.parameter_count());
+        self.g.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, gch)| {
+            let start = ci * CHUNK;
+            let b = blocks.subrows(3 * start, 3 * gch.len());
+            let mut y = Mat::<f64>::zeros(3 * gch.len(), l);
+            matmul(y.as_mut(), Accum::Replace, b, minv, 1.0, Par::Seq);
+            for (i, gk) in gch.iter_mut().enumerate() {
+                let r = 3 * i;
+                let mut s = [0.0; 6];
+                for col in 0..l {
+                    let (y0, y1, y2) = (y[(r, col)], y[(r + 1, col)], y[(r + 2, col)]);
+                    let (b0, b1, b2) = (b[(r, col)], b[(r + 1, col)], b[(r + 2, col)]);
+                    s[0] += y0 * b0;
+                    s[1] += y0 * b1;
+                    s[2] += y0 * b2;
+                    s[3] += y1 * b1;
+                    s[4] += y1 * b2;
+                    s[5] += y2 * b2;
+                }
+                *gk = s;
+            }
+        });
+    }
+
+    /// `M⁻¹ bᵀ` (L × 3) for candidate k.
+    fn z_of(&self, k: usize) -> Mat<f64> {
+        let l = self.c.parameter_count();
+        let mut z = Mat::<f64>::zeros(l, 3);
+        matmul(z.as_mut(), Accum::Replace, self.minv.as_ref(), self.c.block(k).transpose(), 1.0, Par::Seq);
+        z
+    }
+
+    /// `B_k Z` (3 × 3).
+    fn bz(&self, k: usize, z: &Mat<f64>) -> Matrix3<f64> {
+        let mut out = Mat::<f64>::zeros(3, 3);
+        matmul(out.as_mut(), Accum::Replace, self.c.block(k), z.as_ref(), 1.0, Par::Seq);
+        mat3_of(out.as_ref())
+    }
+
+    /// Applies `M⁻¹ += Σ sign Z C Zᵀ` and the matching `G_k` update for all candidates.
+    fn apply(&mut self, terms: &[Term]) {
+        let l = self.c.parameter_count();
+        for t in terms {
+            let mut zc = Mat::<f64>::zeros(l, 3);
+            let c = Mat::from_fn(3, 3, |r, col| t.c[(r, col)]);
+            matmul(zc.as_mut(), Accum::Replace, t.z.as_ref(), c.as_ref(), 1.0, Par::Seq);
+            matmul(self.minv.as_mut(), Accum::Add, zc.as_ref(), t.z.transpose(), t.sign, Par::Seq);
+        }
+        symmetrize(&mut self.minv);
+        let width = 3 * terms.len();
+        let zs = Mat::from_fn(l, width, |r, col| terms[col / 3].z[(r, col % 3)]);
+        let blocks = self.c.stacked();
+        let cs: Vec<(Matrix3<f64>, f64)> = terms.iter().map(|t| (t.c, t.sign)).collect();
+        self.g.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, gch)| {
+            let start = ci * CHUNK;
+            let b = blocks.subrows(3 * start, 3 * gch.len());
+            let mut w = Mat::<f64>::zeros(3 * gch.len(), width);
+            matmul(w.as_mut(), Accum::Replace, b, zs.as_ref(), 1.0, Par::Seq);
+            for (i, gk) in gch.iter_mut().enumerate() {
+                let r = 3 * i;
+                for (t, (c, sign)) in cs.iter().enumerate() {
+                    let p = Matrix3::from_fn(|a, bb| w[(r + a, 3 * t + bb)]);
+                    let d = p * c * p.transpose() * *sign;
+                    gk[0] += d[(0, 0)];
+                    gk[1] += 0.5 * (d[(0, 1)] + d[(1, 0)]);
+                    gk[2] += 0.5 * (d[(0, 2)] + d[(2, 0)]);
+                    gk[3] += d[(1, 1)];
+                    gk[4] += 0.5 * (d[(1, 2)] + d[(2, 1)]);
+                    gk[5] += d[(2, 2)];
+                }
+            }
+        });
+        self.since_refactor += 1;
+    }
+
+    fn maybe_refactor(&mut self) {
+        if self.since_refactor >= self.refactor_every {
+            // A well-conditioned design cannot become singular through exchanges that keep
+            // ln det finite; if it did, keep the incremental state.
+            let backup = (self.minv.clone(), self.log_det, self.g.clone());
+            if !self.refactor() {
+                (self.minv, self.log_det, self.g) = backup;
+            }
+        }
+    }
+
+    /// Non-member with the largest gain (ties: lowest index).
+    fn best_addition(&self) -> Option<(usize, f64)> {
+        let member = &self.member;
+        let parts: Vec<Option<(usize, f64)>> = self
+            .g
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(ci, gch)| {
+                let mut best: Option<(usize, f64)> = None;
+                for (i, g) in gch.iter().enumerate() {
+                    let k = ci * CHUNK + i;
+                    if member[k] {
+                        continue;
+                    }
+                    let v = gain_of(g);
+                    if best.is_none_or(|(_, b)| v > b) {
+                        best = Some((k, v));
+                    }
+                }
+                best
+            })
+            .collect();
+        parts.into_iter().flatten().fold(None, |acc: Option<(usize, f64)>, (k, v)| match acc {
+            Some((_, b)) if b >= v => acc,
+            _ => Some((k, v)),
+        })
+    }
+
+    /// The `count` non-members with the largest gains (descending, ties by index).
+    fn top_additions(&self, count: usize) -> Vec<usize> {
+        let mut v: Vec<(usize, f64)> =
+            (0..self.c.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g[k]))).collect();
+        v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        v.truncate(count);
+        v.into_iter().map(|x| x.0).collect()
+    }
+
+    fn add(&mut self, k: usize) -> bool {
+        let z = self.z_of(k);
+        let g = self.bz(k, &z);
+        let i_plus = Matrix3::identity() + g;
+        let (Some(c), d) = (i_plus.try_inverse(), i_plus.determinant()) else { return false };
+        if !(d > 0.0) {
+            return false;
+        }
+        self.log_det += d.ln();
+        self.apply(&[Term { z, c, sign: -1.0 }]);
+        self.design.push(k);
+        self.member[k] = true;
+        self.maybe_refactor();
+        true
+    }
+
+    /// Removable member with the smallest loss (ties: lowest index); ∞ loss means removing
+    /// any member would make M singular.
+    fn best_removal(&self) -> Option<(usize, f64)> {
+        let mut best: Option<(usize, f64)> = None;
+        let mut members: Vec<usize> = self.design.iter().copied().filter(|k| !self.fixed[*k]).collect();
+        members.sort_unstable();
+        for k in members {
+            let v = loss_of(&self.g[k]);
+            if best.is_none_or(|(_, b)| v < b) {
+                best = Some((k, v));
+            }
+        }
+        best.filter(|b| b.1.is_finite())
+    }
+
+    fn remove(&mut self, k: usize) -> bool {
+        let z = self.z_of(k);
+        let g = self.bz(k, &z);
+        let i_minus = Matrix3::identity() - g;
+        let d = i_minus.determinant();
+        let Some(c) = i_minus.try_inverse() else { return false };
+        if !(d > 0.0) {
+            return false;
+        }
+        self.log_det += d.ln();
+        self.apply(&[Term { z, c, sign: 1.0 }]);
+        self.design.retain(|x| *x != k);
+        self.member[k] = false;
+        self.maybe_refactor();
+        true
+    }
+
+    /// One Wynn–Mitchell step: add the best candidate, remove the member with the smallest
+    /// loss, both applied as a single rank-6 update.
+    fn exchange(&mut self) -> Step {
+        let Some((k_in, _)) = self.best_addition() else { return Step::Converged };
+        let z_in = self.z_of(k_in);
+        let g_in = self.bz(k_in, &z_in);
+        let i_plus = Matrix3::identity() + g_in;
+        let (Some(c_in), det_in) = (i_plus.try_inverse(), i_plus.determinant()) else { return Step::Converged };
+        let gain = det_in.ln();
+        // losses w.r.t. M1 = M + b_inᵀ b_in, for the removable members and k_in
+        let g1_of = |p: Matrix3<f64>, g: Matrix3<f64>| -> Sym3 {
+            let m = g - p * c_in * p.transpose();
+            [m[(0, 0)], m[(0, 1)], m[(0, 2)], m[(1, 1)], m[(1, 2)], m[(2, 2)]]
+        };
+        let loss_in = loss_of(&g1_of(g_in, g_in));
+        let mut best_out: Option<(usize, f64)> = None;
+        let mut members: Vec<usize> = self.design.iter().copied().filter(|k| !self.fixed[*k]).collect();
+        members.sort_unstable();
+        for k in members {
+            let p = self.bz(k, &z_in);
+            let v = loss_of(&g1_of(p, sym_to_mat(&self.g[k])));
+            if best_out.is_none_or(|(_, b)| v < b) {
+                best_out = Some((k, v));
+            }
+        }
+        // stop when removing k_in is at least as good (ties favour stopping)
+        let Some((k_out, loss_out)) = best_out else { return Step::Converged };
+        if !(loss_out < loss_in) || gain - loss_out <= MIN_IMPROVEMENT {
+            return Step::Converged;
+        }
+        // Z_out = M1⁻¹ b_outᵀ = M⁻¹b_outᵀ − Z_in C_in (b_in M⁻¹ b_outᵀ)
+        let z_out_m = self.z_of(k_out);
+        let x = self.bz(k_in, &z_out_m);
+        let cx = c_in * x;
+        let l = self.c.parameter_count();
+        let mut z_out = z_out_m.clone();
+        let cx_f = Mat::from_fn(3, 3, |r, col| cx[(r, col)]);
+        matmul(z_out.as_mut(), Accum::Add, z_in.as_ref(), cx_f.as_ref(), -1.0, Par::Seq);
+        debug_assert_eq!(z_out.nrows(), l);
+        let g_out = self.bz(k_out, &z_out);
+        let i_minus = Matrix3::identity() - g_out;
+        let (Some(c_out), det_out) = (i_minus.try_inverse(), i_minus.determinant()) else { return Step::Converged };
+        if !(det_out > 0.0) {
+            return Step::Converged;
+        }
+        self.log_det += gain + det_out.ln();
+        self.apply(&[Term { z: z_in, c: c_in, sign: -1.0 }, Term { z: z_out, c: c_out, sign: 1.0 }]);
+        self.design.retain(|k| *k != k_out);
+        self.design.push(k_in);
+        self.member[k_out] = false;
+        self.member[k_in] = true;
+        self.maybe_refactor();
+        Step::Swapped
+    }
+
+    /// Exchanges until converged or `cap` steps; returns the number of steps.
+    fn exchange_until_converged(&mut self, cap: usize) -> usize {
+        let mut steps = 0;
+        while steps < cap {
+            match self.exchange() {
+                Step::Swapped => steps += 1,
+                Step::Converged => break,
+            }
+        }
+        steps
+    }
+
+    /// Adds `d` best then removes `d` (up) or the reverse (down). False if a step failed.
+    fn excursion(&mut self, depth: usize, up: bool) -> bool {
+        for phase in 0..2 {
+            for _ in 0..depth {
+                let adding = (phase == 0) == up;
+                let ok = if adding {
+                    self.best_addition().is_some_and(|(k, _)| self.add(k))
+                } else {
+                    self.best_removal().is_some_and(|(k, _)| self.remove(k))
+                };
+                if !ok {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    fn sorted_design(&self) -> Vec<usize> {
+        let mut d = self.design.clone();
+        d.sort_unstable();
+        d
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// drivers
+
+fn splitmix64(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = x;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The seed of restart `r`.
+pub fn restart_seed(seed: u64, restart: usize) -> u64 {
+    splitmix64(seed ^ splitmix64(restart as u64))
+}
+
+/// `fixed` plus `count − fixed.len()` distinct random non-fixed candidates.
+fn random_start(rng: &mut ChaCha8Rng, n_candidates: usize, count: usize, fixed: &[usize]) -> Vec<usize> {
+    let mut is_fixed = vec![false; n_candidates];
+    for &f in fixed {
+        is_fixed[f] = true;
+    }
+    let mut pool: Vec<usize> = (0..n_candidates).filter(|k| !is_fixed[*k]).collect();
+    let need = count - fixed.len();
+    for i in 0..need {
+        let j = rng.random_range(i..pool.len());
+        pool.swap(i, j);
+    }
+    let mut design = fixed.to_vec();
+    design.extend_from_slice(&pool[..need]);
+    design
+}
+
+fn validate(c: &Candidates, o: &DetmaxOptions) -> Result<(), ObservabilityError> {
+    let (n_cand, l) = (c.len(), c.parameter_count());
+    if o.count > n_cand {
+        return Err(ObservabilityError::TooFewCandidates { available: n_cand, requested: o.count });
+    }
+    if o.ridge <= 0.0 && 3 * o.count < l {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "{} poses give {} equations for {l} parameters: choose at least {} poses",
+            o.count,
+            3 * o.count,
+            l.div_ceil(3)
+        )));
+    }
+    if o.count == 0 {
+        return Err(ObservabilityError::InvalidInput("the design size must be at least 1".into()));
+    }
+    if o.restarts == 0 {
+        return Err(ObservabilityError::InvalidInput("at least one restart is needed".into()));
+    }
+    if !(o.ridge >= 0.0 && o.ridge.is_finite()) {
+        return Err(ObservabilityError::InvalidInput(format!("ridge must be finite and ≥ 0, got {}", o.ridge)));
+    }
+    if o.fixed.len() > o.count {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "{} fixed poses do not fit in a design of {}",
+            o.fixed.len(),
+            o.count
+        )));
+    }
+    let mut seen = vec![false; n_cand];
+    for &f in &o.fixed {
+        if f >= n_cand {
+            return Err(ObservabilityError::InvalidInput(format!(
+                "fixed pose index {f} is out of range (there are {n_cand} candidates)"
+            )));
+        }
+        if std::mem::replace(&mut seen[f], true) {
+            return Err(ObservabilityError::InvalidInput(format!("fixed pose index {f} is listed twice")));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a candidate set whose information matrix is singular (no ridge requested), naming
+/// the parameters through the identifiability analysis.
+fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
+    let total = c.total_information();
+    let l = c.parameter_count();
+    let d: Vec<f64> = (0..l).map(|j| total[(j, j)]).collect();
+    let normalized = Mat::from_fn(l, l, |r, col| {
+        let s = (d[r] * d[col]).sqrt();
+        if s > 0.0 { total[(r, col)] / s } else if r == col { 0.0 } else { 0.0 }
+    });
+    if d.iter().all(|x| *x > 0.0) && factor(&normalized).is_some() {
+        return Ok(());
+    }
+    let report = analyze_jacobian(c.stacked(), c.params(), &AnalysisOptions::default())?;
+    if report.is_full_rank() {
+        return Ok(());
+    }
+    Err(match rank_deficient_error(&report) {
+        ObservabilityError::RankDeficient { rank, needed, unidentifiable, message } => ObservabilityError::RankDeficient {
+            rank,
+            needed,
+            unidentifiable,
+            message: format!("the candidate set is rank-deficient: {message}"),
+        },
+        other => other,
+    })
+}
+
+/// Greedy (Dykstra) design: from `fixed` and a tiny ridge, add the best candidate until
+/// `count`; then rebuild with the requested ridge. None if the result is singular.
+fn greedy_state<'a>(c: &'a Candidates, o: &DetmaxOptions, fixed_mask: &[bool], ridge: &[f64]) -> Option<State<'a>> {
+    let greedy_ridge = ridge_diagonal(c, o.ridge.max(GREEDY_RIDGE));
+    let mut s = State::new(c, o.fixed.clone(), fixed_mask, greedy_ridge, o.refactor_every)?;
+    while s.design.len() < o.count {
+        let (k, _) = s.best_addition()?;
+        if !s.add(k) {
+            return None;
+        }
+    }
+    s.ridge = ridge.to_vec();
+    s.refactor().then_some(s)
+}
+
+fn exact_objective_value(c: &Candidates, design: &[usize], objective: Objective) -> f64 {
+    let m = c.information(design);
+    objective_of_information(&m, c.parameter_count(), design.len(), objective)
+}
+
+fn objective_of_information(m: &Mat<f64>, l: usize, poses: usize, objective: Objective) -> f64 {
+    match m.self_adjoint_eigenvalues(Side::Lower) {
+        Ok(ev) => {
+            let s: Vec<f64> = ev.iter().map(|x| x.max(0.0).sqrt()).collect();
+            objective.evaluate(&s, l, poses)
+        }
+        Err(_) => f64::NEG_INFINITY,
+    }
+}
+
+/// Best-improvement swaps with exact evaluation of `objective` (module docs).
+fn refine_exact(s: &mut State<'_>, o: &DetmaxOptions) -> usize {
+    let (c, l, n) = (s.c, s.c.parameter_count(), o.count);
+    let mut current = exact_objective_value(c, &s.design, o.objective);
+    let mut swaps = 0;
+    while swaps < o.max_exchanges {
+        let m = c.information(&s.design);
+        let shortlist = s.top_additions(o.shortlist);
+        let mut members: Vec<usize> = s.design.iter().copied().filter(|k| !s.fixed[*k]).collect();
+        members.sort_unstable();
+        let outer: Vec<(f64, usize, usize)> = members
+            .par_iter()
+            .filter_map(|&out| {
+                let mut m_out = m.clone();
+                let b_out = c.block(out);
+                matmul(m_out.as_mut(), Accum::Add, b_out.transpose(), b_out, -1.0, Par::Seq);
+                let mut best: Option<(f64, usize, usize)> = None;
+                for &inn in &shortlist {
+                    let mut mt = m_out.clone();
+                    let b_in = c.block(inn);
+                    matmul(mt.as_mut(), Accum::Add, b_in.transpose(), b_in, 1.0, Par::Seq);
+                    let v = objective_of_information(&mt, l, n, o.objective);
+                    if best.is_none_or(|b| v > b.0) {
+                        best = Some((v, out, inn));
+                    }
+                }
+                best
+            })
+            .collect();
+        let best = outer.into_iter().fold(None, |acc: Option<(f64, usize, usize)>, x| match acc {
+            Some(a) if a.0 >= x.0 => Some(a),
+            _ => Some(x),
+        });
+        match best {
+            Some((v, out, inn)) if v > current * (1.0 + 1e-12) && v.is_finite() => {
+                if !(s.add(inn) && s.remove(out)) {
+                    break;
+                }
+                current = v;
+                swaps += 1;
+            }
+            _ => break,
+        }
+    }
+    swaps
+}
+
+fn run_restart<'a>(
+    c: &'a Candidates,
+    o: &DetmaxOptions,
+    r: usize,
+    ridge: &[f64],
+) -> Result<(State<'a>, RestartOutcome), ObservabilityError> {
+    let seed = restart_seed(o.seed, r);
+    let mut fixed_mask = vec![false; c.len()];
+    for &f in &o.fixed {
+        fixed_mask[f] = true;
+    }
+    let mut greedy_start = o.init == Initialisation::Greedy;
+    let mut state = if greedy_start {
+        None
+    } else {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        State::new(c, random_start(&mut rng, c.len(), o.count, &o.fixed), &fixed_mask, ridge.to_vec(), o.refactor_every)
+    };
+    if state.is_none() {
+        greedy_start = true;
+        state = greedy_state(c, o, &fixed_mask, ridge);
+    }
+    let mut s = state.ok_or_else(|| {
+        ObservabilityError::InvalidInput(format!(
+            "no non-singular design of {} poses found (greedy start failed); the candidates cannot identify the {} parameters together",
+            o.count,
+            c.parameter_count()
+        ))
+    })?;
+    let mut exchanges = s.exchange_until_converged(o.max_exchanges);
+    let mut excursions_accepted = 0;
+    if let Some(max_depth) = o.excursions {
+        let mut depth = 1;
+        while depth <= max_depth && exchanges < o.max_exchanges {
+            let mut improved = false;
+            for up in [true, false] {
+                let snapshot = s.clone();
+                if s.excursion(depth, up) && s.log_det > snapshot.log_det + MIN_IMPROVEMENT {
+                    exchanges += 2 * depth + s.exchange_until_converged(o.max_exchanges - exchanges);
+                    excursions_accepted += 1;
+                    improved = true;
+                    break;
+                }
+                s = snapshot;
+            }
+            depth = if improved { 1 } else { depth + 1 };
+        }
+    }
+    if o.objective != Objective::O1 {
+        exchanges += refine_exact(&mut s, o);
+    }
+    let design = s.sorted_design();
+    let log_det = factor(&with_ridge(c.information(&design), ridge)).map_or(f64::NEG_INFINITY, |f| f.1);
+    let objective_value = match o.objective {
+        Objective::O1 => o1_from_log_det(log_det, c.parameter_count(), design.len()),
+        other => exact_objective_value(c, &design, other),
+    };
+    Ok((s, RestartOutcome { seed, log_det, objective_value, exchanges, excursions_accepted, greedy_start }))
+}
+
+/// Detmax selection of `options.count` candidates (module docs).
+pub fn detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
+    validate(candidates, options)?;
+    if options.ridge == 0.0 {
+        check_candidate_rank(candidates)?;
+    }
+    let ridge = ridge_diagonal(candidates, options.ridge);
+    let runs: Vec<Result<(Vec<usize>, f64, RestartOutcome), ObservabilityError>> = (0..options.restarts)
+        .into_par_iter()
+        .map(|r| run_restart(candidates, options, r, &ridge).map(|(s, out)| (s.sorted_design(), s.log_det, out)))
+        .collect();
+    let mut best: Option<(usize, Vec<usize>, f64)> = None;
+    let mut restarts = Vec::with_capacity(runs.len());
+    for (r, run) in runs.into_iter().enumerate() {
+        let (design, tracked, outcome) = run?;
+        let better = match &best {
+            None => true,
+            Some((b, _, _)) => {
+                let bo: &RestartOutcome = &restarts[*b];
+                outcome.objective_value.total_cmp(&bo.objective_value) == Ordering::Greater
+            }
+        };
+        if better {
+            best = Some((r, design, tracked));
+        }
+        restarts.push(outcome);
+    }
+    let (best_restart, selected, tracked_log_det) =
+        best.ok_or_else(|| ObservabilityError::InvalidInput("no restart ran".into()))?;
+    let won = &restarts[best_restart];
+    Ok(Selection {
+        selected,
+        log_det: won.log_det,
+        tracked_log_det,
+        objective_value: won.objective_value,
+        best_restart,
+        restarts,
+    })
+}
+
+/// Greedy sequential D-optimal design (Dykstra): from `fixed` (and a tiny ridge while the
+/// design is singular), add the candidate with the largest gain `count` times. No exchanges.
+pub fn greedy(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
+    validate(candidates, options)?;
+    let ridge = ridge_diagonal(candidates, options.ridge);
+    let mut fixed_mask = vec![false; candidates.len()];
+    for &f in &options.fixed {
+        fixed_mask[f] = true;
+    }
+    let s = greedy_state(candidates, options, &fixed_mask, &ridge).ok_or_else(|| {
+        ObservabilityError::InvalidInput("the greedy design is singular".into())
+    })?;
+    let selected = s.sorted_design();
+    let log_det = factor(&with_ridge(candidates.information(&selected), &ridge)).map_or(f64::NEG_INFINITY, |f| f.1);
+    let objective_value = o1_from_log_det(log_det, candidates.parameter_count(), selected.len());
+    Ok(Selection {
+        selected,
+        log_det,
+        tracked_log_det: s.log_det,
+        objective_value,
+        best_restart: 0,
+        restarts: vec![RestartOutcome { seed: 0, log_det, objective_value, exchanges: 0, excursions_accepted: 0, greedy_start: true }],
+    })
+}
+
+// ------------------------------------------------------------------------------------------
+// naive reference
+
+/// `ln det(JᵀJ) = 2 Σ ln σ_i` of the stacked design Jacobian, from its SVD.
+pub fn log_det_by_svd(candidates: &Candidates, design: &[usize]) -> f64 {
+    let j = candidates.design_jacobian(design);
+    match j.singular_values() {
+        Ok(s) if s.len() == candidates.parameter_count() => s.iter().map(|x| 2.0 * x.ln()).sum(),
+        _ => f64::NEG_INFINITY,
+    }
+}
+
+/// The plain exchange of [`detmax`] (O1, random starts, same seeds, same tie-breaking and
+/// stopping rule, no excursions, no fixed poses) with every gain and loss computed from
+/// scratch by an SVD of the trial design. O(N) SVDs per step: a reference, not a tool.
+pub fn naive_detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
+    validate(candidates, options)?;
+    let mut best: Option<(usize, Vec<usize>, f64)> = None;
+    let mut restarts = Vec::new();
+    for r in 0..options.restarts {
+        let seed = restart_seed(options.seed, r);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut design = random_start(&mut rng, candidates.len(), options.count, &options.fixed);
+        let mut current = log_det_by_svd(candidates, &design);
+        if !current.is_finite() {
+            return Err(ObservabilityError::InvalidInput("naive reference: the random start is singular".into()));
+        }
+        let mut exchanges = 0;
+        while exchanges < options.max_exchanges {
+            let mut member = vec![false; candidates.len()];
+            for &k in &design {
+                member[k] = true;
+            }
+            let mut add: Option<(usize, f64)> = None;
+            for k in (0..candidates.len()).filter(|k| !member[*k]) {
+                design.push(k);
+                let v = log_det_by_svd(candidates, &design);
+                design.pop();
+                if add.is_none_or(|(_, b)| v > b) {
+                    add = Some((k, v));
+                }
+            }
+            let Some((k_in, with_in)) = add else { break };
+            design.push(k_in);
+            let loss_in = with_in - current;
+            let mut members: Vec<usize> = design[..design.len() - 1].to_vec();
+            members.sort_unstable();
+            let mut out: Option<(usize, f64)> = None;
+            for k in members {
+                let trial: Vec<usize> = design.iter().copied().filter(|x| *x != k).collect();
+                let loss = with_in - log_det_by_svd(candidates, &trial);
+                if out.is_none_or(|(_, b)| loss < b) {
+                    out = Some((k, loss));
+                }
+            }
+            match out {
+                Some((k_out, loss_out)) if loss_out < loss_in && with_in - loss_out - current > MIN_IMPROVEMENT => {
+                    design.retain(|x| *x != k_out);
+                    current = with_in - loss_out;
+                    exchanges += 1;
+                }
+                _ => {
+                    design.pop();
+                    break;
+                }
+            }
+        }
+        design.sort_unstable();
+        let log_det = log_det_by_svd(candidates, &design);
+        let objective_value = o1_from_log_det(log_det, candidates.parameter_count(), design.len());
+        if best.as_ref().is_none_or(|(b, _, _)| {
+            let bo: &RestartOutcome = &restarts[*b];
+            objective_value > bo.objective_value
+        }) {
+            best = Some((r, design, current));
+        }
+        restarts.push(RestartOutcome { seed, log_det, objective_value, exchanges, excursions_accepted: 0, greedy_start: false });
+    }
+    let (best_restart, selected, tracked_log_det) =
+        best.ok_or_else(|| ObservabilityError::InvalidInput("no restart ran".into()))?;
+    let won = &restarts[best_restart];
+    Ok(Selection { selected, log_det: won.log_det, tracked_log_det, objective_value: won.objective_value, best_restart, restarts })
+}

@@ -1,0 +1,600 @@
+//! Identifiability analysis: numerical rank, identifiable basis, redundant parameters and the
+//! parameter combinations a measurement set cannot see (background.md §5).
+//!
+//! # The Jacobian
+//! [`assemble_jacobian`] stacks, for every measurement, the 3 × L block
+//! `d(FK − target)/dρ` from [`Model::measurement_jacobian_into`] (analytic, gravity torques
+//! held fixed). Columns are in natural units: mm/mm, mm/rad, mm per rad/(N·m). Row order:
+//! measurement k occupies rows `3k..3k+3` (x, y, z).
+//!
+//! # Column scaling ([`ColumnScaling`])
+//! * `None` — natural units. O1 in these units is what the paper reports (background.md §3).
+//! * `UnitNorm` — every column divided by its Euclidean norm over *the given rows*. Rank,
+//!   condition number and singular-value ratios then do not depend on the choice of units.
+//!   This is what [`analyze`] uses. (To compare designs, compute the norms once over the whole
+//!   candidate set and apply them with [`scale_columns`].)
+//! * `APriori` — every column multiplied by [`ParamId::typical_scale`], the a-priori standard
+//!   deviation of the parameter error: a singular value then reads "mm of TCP error per
+//!   one-sigma parameter change".
+//!
+//! # Rank tolerance
+//! The rank is the number of singular values of the unit-column-normalised Jacobian above
+//! `tol · σ₁` with `tol = max(1e-8, max(rows, cols) · ε)` (ε = f64 machine epsilon). The
+//! columns are analytic derivatives, exact to round-off (~1e-15 relative), so exactly
+//! redundant combinations show up near 1e-15 while the weakest physically identifiable
+//! direction of this cell (c₇, the flange compliance) sits several orders of magnitude above
+//! 1e-8. The `max(rows, cols) · ε` term is the usual LAPACK/NumPy floor for very tall
+//! matrices. Normalising the columns first makes the tolerance independent of units (a
+//! compliance column in mm per rad/(N·m) is ~1e3 times longer than an angle column in mm/rad).
+//! Finite-difference Jacobians would need ~1e-6 (background.md §5.1) — pass it through
+//! [`AnalysisOptions`].
+//!
+//! # Which parameters are kept
+//! A column-pivoted Householder QR whose pivot rule is *preference order*: the columns are
+//! visited in the order of the given [`ParamSet`], and column j becomes the next pivot when
+//! the norm of its part orthogonal to the already chosen columns exceeds the rank threshold;
+//! otherwise it is dropped as redundant. The identifiable basis therefore always prefers
+//! earlier parameters (faer's `ColPivQr` pivots on the largest remaining norm, which ignores
+//! the preference, so the rule is implemented here). Every dropped column is then written as
+//! the least-squares combination of the kept columns (faer QR), which names the parameters
+//! that absorb it.
+
+use std::fmt;
+
+use faer::linalg::solvers::SolveLstsq;
+use faer::{Mat, MatRef};
+use vatcal_core::{Measurement, ParamId, ParamSet};
+use vatcal_kinematics::Model;
+
+use crate::error::ObservabilityError;
+
+/// Default relative rank tolerance for analytic Jacobians (see the module docs).
+pub const DEFAULT_RELATIVE_TOLERANCE: f64 = 1e-8;
+
+/// A partner is named in a [`Redundancy`] when its normalised weight is at least this fraction
+/// of the largest normalised weight.
+const SIGNIFICANT_FRACTION: f64 = 0.1;
+/// At most this many partners / entries are named per redundancy or lost direction.
+const MAX_NAMED: usize = 8;
+
+/// How Jacobian columns are scaled before an analysis (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ColumnScaling {
+    /// Natural units (mm per parameter unit); the paper's O1 convention.
+    None,
+    /// Divide every column by its Euclidean norm (zero columns stay zero).
+    #[default]
+    UnitNorm,
+    /// Multiply every column by the parameter's a-priori standard deviation
+    /// ([`ParamId::typical_scale`]).
+    APriori,
+}
+
+/// The factors `s_j` such that the scaled Jacobian is `J · diag(s)`.
+pub fn column_scale_factors(j: MatRef<'_, f64>, params: &[ParamId], scaling: ColumnScaling) -> Vec<f64> {
+    match scaling {
+        ColumnScaling::None => vec![1.0; j.ncols()],
+        ColumnScaling::UnitNorm => (0..j.ncols())
+            .map(|c| {
+                let n = j.col(c).norm_l2();
+                if n > 0.0 { 1.0 / n } else { 1.0 }
+            })
+            .collect(),
+        ColumnScaling::APriori => params.iter().map(|p| p.typical_scale()).collect(),
+    }
+}
+
+/// Multiplies column j of `j` by `factors[j]`.
+///
+/// # Panics
+/// If `factors.len() != j.ncols()` (a programming error).
+#[track_caller]
+pub fn scale_columns(j: &mut Mat<f64>, factors: &[f64]) {
+    assert_eq!(factors.len(), j.ncols(), "scale_columns: one factor per column");
+    for (c, f) in factors.iter().enumerate() {
+        for x in j.col_mut(c).iter_mut() {
+            *x *= f;
+        }
+    }
+}
+
+/// Applies `scaling` to `j` in place and returns the factors used (`J ← J · diag(factors)`).
+pub fn apply_column_scaling(j: &mut Mat<f64>, params: &ParamSet, scaling: ColumnScaling) -> Vec<f64> {
+    let f = column_scale_factors(j.as_ref(), &params.0, scaling);
+    scale_columns(j, &f);
+    f
+}
+
+/// Stacks the 3 × L Jacobian blocks `d(FK − target)/dρ` of all measurements (3 rows per
+/// measurement, natural units). Errors name the measurement index (0-based).
+pub fn assemble_jacobian(
+    model: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+) -> Result<Mat<f64>, ObservabilityError> {
+    let l = params.len();
+    let mut j = Mat::<f64>::zeros(3 * measurements.len(), l);
+    let mut block = vec![0.0; 3 * l];
+    for (k, m) in measurements.iter().enumerate() {
+        measurement_block(model, m, &params.0, &mut block)
+            .map_err(|e| reindex(e, k))?;
+        for c in 0..l {
+            for r in 0..3 {
+                j[(3 * k + r, c)] = block[3 * c + r];
+            }
+        }
+    }
+    Ok(j)
+}
+
+/// One measurement's 3 × L block, column-major into `out`, checked for finiteness.
+pub(crate) fn measurement_block(
+    model: &Model,
+    m: &Measurement,
+    params: &[ParamId],
+    out: &mut [f64],
+) -> Result<(), ObservabilityError> {
+    model
+        .measurement_jacobian_into(m, params, out)
+        .map_err(|source| ObservabilityError::Model { index: 0, source })?;
+    if let Some(c) = out.iter().position(|x| !x.is_finite()) {
+        return Err(ObservabilityError::NonFinite { index: 0, param: params[c / 3] });
+    }
+    Ok(())
+}
+
+/// Replaces the measurement index of an error raised for a single measurement.
+pub(crate) fn reindex(e: ObservabilityError, index: usize) -> ObservabilityError {
+    match e {
+        ObservabilityError::Model { source, .. } => ObservabilityError::Model { index, source },
+        ObservabilityError::NonFinite { param, .. } => ObservabilityError::NonFinite { index, param },
+        other => other,
+    }
+}
+
+/// A parameter whose column is (numerically) a combination of the identifiable ones.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Redundancy {
+    /// the redundant parameter
+    pub param: ParamId,
+    /// the identifiable parameters that absorb it, with weights in natural units:
+    /// `∂/∂param ≈ Σ weight · ∂/∂partner`, so a change δ of `param` is indistinguishable from
+    /// changes `weight · δ` of the partners. Largest normalised contribution first.
+    pub confounded_with: Vec<(ParamId, f64)>,
+    /// the same weights on the unit-normalised columns (unit-free, comparable between
+    /// partners), in the order of `confounded_with`
+    pub normalized_weights: Vec<f64>,
+    /// norm of the part of the unit-normalised column that the partners do not explain
+    /// (≈ 0 for an exact redundancy, 1 for a column that has no effect at all)
+    pub fit_residual: f64,
+}
+
+impl Redundancy {
+    /// A sentence such as "a_1 is absorbed by base_y (-1)".
+    pub fn sentence(&self) -> String {
+        if self.confounded_with.is_empty() {
+            return format!("{} has no effect on these measurements (its Jacobian column is zero)", self.param);
+        }
+        let partners: Vec<String> =
+            self.confounded_with.iter().map(|(p, w)| format!("{p} ({w:.4})")).collect();
+        format!("{} is absorbed by {}", self.param, partners.join(", "))
+    }
+}
+
+/// A parameter combination the measurements cannot see: a right singular vector of the
+/// unit-normalised Jacobian whose singular value is below the rank threshold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LostDirection {
+    /// its singular value (of the unit-normalised Jacobian; 0 if there are fewer rows than
+    /// parameters)
+    pub singular_value: f64,
+    /// the largest entries of the singular vector, largest magnitude first, in unit-normalised
+    /// coordinates (entry × 1/‖column‖ is the change in natural units). Sign chosen so the
+    /// first entry is positive.
+    pub combination: Vec<(ParamId, f64)>,
+}
+
+impl LostDirection {
+    /// A sentence such as "σ = 2.1e-16: +0.707 a_1 − 0.707 base_y".
+    pub fn sentence(&self) -> String {
+        let terms: Vec<String> = self
+            .combination
+            .iter()
+            .enumerate()
+            .map(|(i, (p, w))| {
+                let sign = if *w < 0.0 { "-" } else if i == 0 { "" } else { "+" };
+                format!("{sign}{:.3} {p}", w.abs())
+            })
+            .collect();
+        format!("σ = {:.2e}: {}", self.singular_value, terms.join(" "))
+    }
+}
+
+/// Result of [`analyze`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct IdentifiabilityReport {
+    /// numerical rank of the unit-normalised Jacobian
+    pub rank: usize,
+    /// number of parameters analysed (columns)
+    pub parameter_count: usize,
+    /// all `parameter_count` singular values of the unit-normalised Jacobian, descending
+    /// (zeros appended when there are fewer rows than columns)
+    pub singular_values: Vec<f64>,
+    /// relative rank tolerance used (threshold = tolerance · σ₁)
+    pub tolerance: f64,
+    /// the identifiable basis chosen in preference order (a subset of the input, input order)
+    pub identifiable: Vec<ParamId>,
+    /// the parameters not in the basis and what absorbs them (input order)
+    pub redundant: Vec<Redundancy>,
+    /// the `parameter_count − rank` invisible combinations, smallest singular value last
+    pub lost_directions: Vec<LostDirection>,
+    /// the parameters analysed, in input (preference) order
+    pub params: ParamSet,
+    /// Euclidean norm of every natural-unit column (input order)
+    pub column_norms: Vec<f64>,
+    /// number of measurements (poses)
+    pub measurement_count: usize,
+}
+
+impl IdentifiabilityReport {
+    /// True when every parameter is identifiable.
+    pub fn is_full_rank(&self) -> bool {
+        self.rank == self.parameter_count
+    }
+
+    /// The identifiable basis as a parameter set.
+    pub fn identifiable_set(&self) -> ParamSet {
+        ParamSet(self.identifiable.clone())
+    }
+
+    /// Absolute threshold on the normalised singular values.
+    pub fn threshold(&self) -> f64 {
+        self.tolerance * self.singular_values.first().copied().unwrap_or(0.0)
+    }
+
+    /// Condition number σ₁/σ_rank of the unit-normalised Jacobian restricted to its rank
+    /// (∞ if the rank is 0).
+    pub fn condition_number_of_rank(&self) -> f64 {
+        match self.rank {
+            0 => f64::INFINITY,
+            r => self.singular_values[0] / self.singular_values[r - 1],
+        }
+    }
+
+    /// Parameters to name when the set is rank-deficient: the dropped columns, or (when the
+    /// preference-ordered QR kept everything although the SVD rank is lower, a borderline
+    /// case) the largest entries of the lost directions.
+    pub fn unidentifiable(&self) -> Vec<ParamId> {
+        if !self.redundant.is_empty() {
+            return self.redundant.iter().map(|r| r.param).collect();
+        }
+        let mut v: Vec<ParamId> = Vec::new();
+        for d in &self.lost_directions {
+            if let Some((p, _)) = d.combination.iter().find(|(p, _)| !v.contains(p)) {
+                v.push(*p);
+            }
+        }
+        v
+    }
+}
+
+impl fmt::Display for IdentifiabilityReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "rank {} of {} parameters ({} measurements, relative tolerance {:.1e}, threshold {:.2e})",
+            self.rank,
+            self.parameter_count,
+            self.measurement_count,
+            self.tolerance,
+            self.threshold()
+        )?;
+        if let (Some(first), Some(last)) = (self.singular_values.first(), self.singular_values.last()) {
+            writeln!(
+                f,
+                "singular values of the unit-normalised Jacobian: largest {first:.4e}, smallest kept {:.4e}, smallest {last:.4e}; condition number (kept) {:.4e}",
+                self.singular_values.get(self.rank.max(1) - 1).copied().unwrap_or(0.0),
+                self.condition_number_of_rank()
+            )?;
+        }
+        let names: Vec<String> = self.identifiable.iter().map(|p| p.name()).collect();
+        writeln!(f, "identifiable ({}): {}", self.identifiable.len(), names.join(", "))?;
+        if self.redundant.is_empty() {
+            writeln!(f, "redundant: none")?;
+        } else {
+            writeln!(f, "redundant ({}):", self.redundant.len())?;
+            for r in &self.redundant {
+                writeln!(f, "  {}", r.sentence())?;
+            }
+        }
+        if !self.lost_directions.is_empty() {
+            writeln!(f, "invisible parameter combinations ({}):", self.lost_directions.len())?;
+            for d in &self.lost_directions {
+                writeln!(f, "  {}", d.sentence())?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Options of [`analyze_with`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AnalysisOptions {
+    /// relative rank tolerance on the unit-normalised singular values (floored at
+    /// `max(rows, cols) · ε`)
+    pub relative_tolerance: f64,
+}
+
+impl Default for AnalysisOptions {
+    fn default() -> Self {
+        Self { relative_tolerance: DEFAULT_RELATIVE_TOLERANCE }
+    }
+}
+
+/// Identifiability of `params` from `measurements` with the default tolerance.
+pub fn analyze(
+    model: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+) -> Result<IdentifiabilityReport, ObservabilityError> {
+    analyze_with(model, measurements, params, &AnalysisOptions::default())
+}
+
+/// [`analyze`] with explicit options.
+pub fn analyze_with(
+    model: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+    options: &AnalysisOptions,
+) -> Result<IdentifiabilityReport, ObservabilityError> {
+    if measurements.is_empty() {
+        return Err(ObservabilityError::NoMeasurements);
+    }
+    let j = assemble_jacobian(model, measurements, params)?;
+    analyze_jacobian(j.as_ref(), params, options)
+}
+
+/// The analysis of [`analyze`] on a given natural-unit Jacobian (rows = measurements × 3,
+/// columns = `params`).
+pub fn analyze_jacobian(
+    j: MatRef<'_, f64>,
+    params: &ParamSet,
+    options: &AnalysisOptions,
+) -> Result<IdentifiabilityReport, ObservabilityError> {
+    let l = params.len();
+    if l == 0 {
+        return Err(ObservabilityError::NoParameters);
+    }
+    if j.ncols() != l {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "Jacobian has {} columns for {l} parameters",
+            j.ncols()
+        )));
+    }
+    if j.nrows() == 0 {
+        return Err(ObservabilityError::NoMeasurements);
+    }
+    let column_norms: Vec<f64> = (0..l).map(|c| j.col(c).norm_l2()).collect();
+    let mut jn = j.to_owned();
+    scale_columns(&mut jn, &column_scale_factors(j, &params.0, ColumnScaling::UnitNorm));
+
+    let (singular_values, v) = full_right_svd(jn.as_ref())?;
+    let tolerance = options.relative_tolerance.max(j.nrows().max(l) as f64 * f64::EPSILON);
+    let threshold = tolerance * singular_values[0];
+    let rank = singular_values.iter().filter(|s| **s > threshold).count();
+
+    let kept = preference_ordered_basis(jn.as_ref(), threshold);
+    let dropped: Vec<usize> = (0..l).filter(|c| !kept.contains(c)).collect();
+    let redundant = explain_dropped(jn.as_ref(), &kept, &dropped, params, &column_norms);
+    let lost_directions = (rank..l)
+        .map(|i| lost_direction(singular_values[i], v.col(i), params))
+        .collect();
+
+    Ok(IdentifiabilityReport {
+        rank,
+        parameter_count: l,
+        singular_values,
+        tolerance,
+        identifiable: kept.iter().map(|c| params.0[*c]).collect(),
+        redundant,
+        lost_directions,
+        params: params.clone(),
+        column_norms,
+        measurement_count: j.nrows() / 3,
+    })
+}
+
+/// All `ncols` singular values (descending, zero-padded) and the full `ncols × ncols` V.
+fn full_right_svd(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>), ObservabilityError> {
+    let l = a.ncols();
+    // With fewer rows than columns the thin V would miss null-space vectors: pad with zero rows.
+    let padded;
+    let a = if a.nrows() < l {
+        padded = Mat::from_fn(l, l, |r, c| if r < a.nrows() { a[(r, c)] } else { 0.0 });
+        padded.as_ref()
+    } else {
+        a
+    };
+    let svd = a.thin_svd().map_err(|e| ObservabilityError::Numerical(format!("SVD: {e:?}")))?;
+    let s: Vec<f64> = svd.S().column_vector().iter().copied().collect();
+    Ok((s, svd.V().to_owned()))
+}
+
+/// Column-pivoted Householder QR with the *preference* pivot rule (module docs): returns the
+/// indices of the kept columns, in input order.
+pub fn preference_ordered_basis(a: MatRef<'_, f64>, threshold: f64) -> Vec<usize> {
+    let (m, l) = (a.nrows(), a.ncols());
+    let mut w = a.to_owned();
+    let mut kept = Vec::new();
+    let mut v = vec![0.0; m];
+    for c in 0..l {
+        let k = kept.len();
+        if k == m {
+            break;
+        }
+        let norm = (k..m).map(|r| w[(r, c)] * w[(r, c)]).sum::<f64>().sqrt();
+        if norm <= threshold {
+            continue;
+        }
+        // Householder vector v (rows k..m) mapping w[k.., c] onto alpha·e_k.
+        let x0 = w[(k, c)];
+        let alpha = if x0 >= 0.0 { -norm } else { norm };
+        for r in k..m {
+            v[r] = w[(r, c)];
+        }
+        v[k] -= alpha;
+        let vtv: f64 = (k..m).map(|r| v[r] * v[r]).sum();
+        if vtv > 0.0 {
+            let beta = 2.0 / vtv;
+            for cc in c + 1..l {
+                let dot: f64 = (k..m).map(|r| v[r] * w[(r, cc)]).sum();
+                let f = beta * dot;
+                for r in k..m {
+                    w[(r, cc)] -= f * v[r];
+                }
+            }
+        }
+        kept.push(c);
+    }
+    kept
+}
+
+/// Least-squares combination of the kept columns for every dropped column.
+fn explain_dropped(
+    jn: MatRef<'_, f64>,
+    kept: &[usize],
+    dropped: &[usize],
+    params: &ParamSet,
+    column_norms: &[f64],
+) -> Vec<Redundancy> {
+    if dropped.is_empty() {
+        return Vec::new();
+    }
+    let m = jn.nrows();
+    let mut solution = Mat::from_fn(m, dropped.len(), |r, c| jn[(r, dropped[c])]);
+    if !kept.is_empty() {
+        let basis = Mat::from_fn(m, kept.len(), |r, c| jn[(r, kept[c])]);
+        basis.qr().solve_lstsq_in_place(solution.as_mut());
+    }
+    dropped
+        .iter()
+        .enumerate()
+        .map(|(d, &col)| {
+            let param = params.0[col];
+            if column_norms[col] == 0.0 || kept.is_empty() {
+                return Redundancy { param, confounded_with: Vec::new(), normalized_weights: Vec::new(), fit_residual: 1.0 };
+            }
+            let x: Vec<f64> = (0..kept.len()).map(|i| solution[(i, d)]).collect();
+            let fit_residual = (0..m)
+                .map(|r| {
+                    let fit: f64 = kept.iter().zip(&x).map(|(k, xi)| jn[(r, *k)] * xi).sum();
+                    (fit - jn[(r, col)]).powi(2)
+                })
+                .sum::<f64>()
+                .sqrt();
+            let named = largest_entries(&x);
+            Redundancy {
+                param,
+                confounded_with: named
+                    .iter()
+                    .map(|&i| (params.0[kept[i]], x[i] * column_norms[col] / column_norms[kept[i]]))
+                    .collect(),
+                normalized_weights: named.iter().map(|&i| x[i]).collect(),
+                fit_residual,
+            }
+        })
+        .collect()
+}
+
+/// Indices of the entries with |x| ≥ SIGNIFICANT_FRACTION · max |x|, largest first, at most
+/// MAX_NAMED; ties broken by index.
+fn largest_entries(x: &[f64]) -> Vec<usize> {
+    let max = x.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    if max == 0.0 {
+        return Vec::new();
+    }
+    let mut idx: Vec<usize> = (0..x.len()).filter(|&i| x[i].abs() >= SIGNIFICANT_FRACTION * max).collect();
+    idx.sort_by(|&a, &b| x[b].abs().total_cmp(&x[a].abs()).then(a.cmp(&b)));
+    idx.truncate(MAX_NAMED);
+    idx
+}
+
+fn lost_direction(singular_value: f64, v: faer::ColRef<'_, f64>, params: &ParamSet) -> LostDirection {
+    let x: Vec<f64> = v.iter().copied().collect();
+    let named = largest_entries(&x);
+    let sign = named.first().map_or(1.0, |&i| x[i].signum());
+    LostDirection {
+        singular_value,
+        combination: named.iter().map(|&i| (params.0[i], sign * x[i])).collect(),
+    }
+}
+
+/// Like [`analyze`], but refuses a rank-deficient parameter set with
+/// [`ObservabilityError::RankDeficient`] naming the parameters that cannot be identified.
+pub fn check_identifiable(
+    model: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+) -> Result<IdentifiabilityReport, ObservabilityError> {
+    let report = analyze(model, measurements, params)?;
+    if report.is_full_rank() {
+        return Ok(report);
+    }
+    Err(rank_deficient_error(&report))
+}
+
+/// The [`ObservabilityError::RankDeficient`] describing a rank-deficient report.
+pub fn rank_deficient_error(report: &IdentifiabilityReport) -> ObservabilityError {
+    let unidentifiable = report.unidentifiable();
+    let names: Vec<String> = unidentifiable.iter().map(|p| p.name()).collect();
+    let mut message = format!(
+        "the measurements identify only {} of {} parameters ({} poses); cannot identify: {}",
+        report.rank,
+        report.parameter_count,
+        report.measurement_count,
+        names.join(", ")
+    );
+    if 3 * report.measurement_count < report.parameter_count {
+        message.push_str(&format!(
+            ". {} parameters need at least {} poses (3 equations per pose)",
+            report.parameter_count,
+            report.parameter_count.div_ceil(3)
+        ));
+    }
+    for r in &report.redundant {
+        message.push_str(&format!("; {}", r.sentence()));
+    }
+    if !report.lost_directions.is_empty() {
+        let dirs: Vec<String> = report.lost_directions.iter().map(|d| d.sentence()).collect();
+        message.push_str(&format!(". Invisible combinations: {}", dirs.join(" | ")));
+    }
+    message.push_str(". Fix or drop these parameters, or add poses (all three calibration positions are needed to fix the world frame).");
+    ObservabilityError::RankDeficient {
+        rank: report.rank,
+        needed: report.parameter_count,
+        unidentifiable,
+        message,
+    }
+}
+
+/// The preference order used by [`all_identifiable`]: the paper's 34 parameters first (Eq. 7
+/// order), then every other parameter of the model (MDH rows 1..7, compliances, base, then
+/// the parameters of switched-on effects). TCP and calibration-position coordinates are left
+/// out: they are measured on a CMM and kept fixed, and leaving them free would make the world
+/// frame and the tool frame trade places with them.
+pub fn preference_order(model: &Model) -> ParamSet {
+    let mut v: Vec<ParamId> = ParamSet::paper34().0.into_iter().filter(|p| model.has_param(*p)).collect();
+    for p in model.all_params().0 {
+        if !matches!(p, ParamId::Tcp { .. } | ParamId::Position { .. }) && !v.contains(&p) {
+            v.push(p);
+        }
+    }
+    ParamSet(v)
+}
+
+/// The identifiable basis of all the model's parameters ([`preference_order`]) for these
+/// measurements — what `--params all-identifiable` means. With poses at all three calibration
+/// positions of the canonical cell this is exactly the paper's 34.
+pub fn all_identifiable(model: &Model, measurements: &[Measurement]) -> Result<ParamSet, ObservabilityError> {
+    Ok(analyze(model, measurements, &preference_order(model))?.identifiable_set())
+}

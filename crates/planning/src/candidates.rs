@@ -1,0 +1,433 @@
+//! Candidate measurement poses (paper Section 4.1).
+//!
+//! For every calibration position × calibration TCP, `orientations` random tool orientations are
+//! drawn (seeded ChaCha8, see [`sample_orientation`]); each gives a world pose of the
+//! tool-changer frame that puts the TCP on the calibration position. Each pose is solved at
+//! every guide step (closed form, up to 8 branches, refined on the model), and the solutions
+//! go through the stages
+//!
+//! 1. **IK solutions**: all branches at all guide steps;
+//! 2. **within limits**: every joint inside its limits shrunk by the joint margin;
+//! 3. **clear of singularities**: wrist, elbow and shoulder margins ([`SingularityMargins`]);
+//! 4. **collision-free**: no contact at the measurement pose (the measuring ball may touch the
+//!    probe, nothing else);
+//! 5. **approachable**: the *approach pose* — the same tool orientation with the ball
+//!    `approach_mm` straight above the probe origin, solved from the measurement joints — is
+//!    within the joint limits (less [`MOVE_MARGIN_DEG`]) and collision-free with a probe at *every* placement (the robot waits there
+//!    while the operator re-places the plate), and the straight joint-space descent from it to
+//!    the measurement pose is collision-free at the check resolution.
+//!
+//! Only candidates that pass all stages are returned; the count after each stage is reported.
+//!
+//! # Orientation distribution
+//! The ball must enter the probe from above: the TriCal's three gauges hold the ball from below
+//! and the sides, so the rest of the end-effector has to be above it. Let `u_k = -t_k / |t_k|`
+//! be the direction from ball k to the flange in the tool frame. A sample is
+//! `R = Rot(a, psi) · R_0(a)` where `a` is uniform on the spherical cap of half-angle
+//! `cone_half_angle_deg` around world +z, `psi` uniform in [0, 2 pi), and `R_0(a)` the minimal
+//! rotation taking `u_k` to `a`. This is the uniform (Haar) distribution over all tool
+//! orientations whose ball-to-flange direction lies in the cone: the flange (and with it the
+//! robot) is above the ball, every spin about that direction is tried, and the collision stage
+//! rejects the spins that bring another ball or the plate into the probe or the tank. The
+//! default half-angle, 60°, keeps the flange at least 30° above the horizontal through the ball.
+
+use std::io::IsTerminal;
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use rand::rngs::ChaCha8Rng;
+use rand::{RngExt, SeedableRng};
+use rayon::prelude::*;
+use vatcal_core::{Frame, JointVector, deg_to_rad};
+use vatcal_kinematics::Model;
+
+use crate::collision::{CollisionChecker, ProbeState};
+use crate::error::PlanError;
+use crate::ik::{RefineOptions, ToolPoseIk, max_abs_diff, refine_tool_pose, robot_base_frame, tool_pose_for_tcp, wrap_angle};
+use crate::motion::{JointBounds, MOVE_MARGIN_DEG, Resolution, SingularityMargins};
+use crate::paths::segment_is_free;
+
+/// Options of candidate generation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CandidateOptions {
+    /// random tool orientations per TCP × calibration position (paper: 500)
+    pub orientations: usize,
+    /// guide positions, evenly spaced over the stroke shrunk by `guide_margin_mm` (paper: 10)
+    pub guide_steps: usize,
+    /// distance kept from the guide's stroke ends [mm]
+    pub guide_margin_mm: f64,
+    /// half-angle of the cone around world +z holding the ball-to-flange direction [deg]
+    pub cone_half_angle_deg: f64,
+    /// distance kept from every arm joint limit [deg]
+    pub joint_margin_deg: f64,
+    /// singularity margins
+    pub singularity: SingularityMargins,
+    /// height of the approach pose above the measurement pose [mm]
+    pub approach_mm: f64,
+    /// inflation of the robot bodies in collision checks [mm]
+    pub collision_margin_mm: f64,
+    /// collision-check resolution of the approach descent
+    pub resolution: Resolution,
+    /// IK refinement options
+    pub refine: RefineOptions,
+    /// calibration positions to use (`None`: all of the model's)
+    pub positions: Option<Vec<u32>>,
+    /// TCPs to use (`None`: all of the model's)
+    pub tcps: Option<Vec<u32>>,
+    /// seed of the orientation sampler
+    pub seed: u64,
+    /// show a progress bar (only drawn when stderr is a terminal)
+    pub progress: bool,
+}
+
+impl Default for CandidateOptions {
+    fn default() -> Self {
+        Self {
+            orientations: 500,
+            guide_steps: 10,
+            guide_margin_mm: 5.0,
+            cone_half_angle_deg: 60.0,
+            joint_margin_deg: 5.0,
+            singularity: SingularityMargins::default(),
+            approach_mm: 30.0,
+            collision_margin_mm: 2.0,
+            resolution: Resolution::default(),
+            refine: RefineOptions::default(),
+            positions: None,
+            tcps: None,
+            seed: 1,
+            progress: false,
+        }
+    }
+}
+
+/// One measurable joint configuration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// calibration position id
+    pub position: u32,
+    /// TCP id
+    pub tcp: u32,
+    /// measurement joints (TCP on the calibration position)
+    pub q: JointVector,
+    /// approach joints (ball `approach_mm` above the probe origin, same tool orientation)
+    pub approach: JointVector,
+    /// index of the sampled orientation (per position × TCP)
+    pub orientation: usize,
+    /// index of the guide step
+    pub guide_step: usize,
+}
+
+/// Number of solutions left after each stage.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct StageCounts {
+    /// TCP poses (orientations × TCPs × positions)
+    pub poses: usize,
+    /// closed-form IK solutions over all guide steps (at most 8 × guide steps × poses)
+    pub ik_solutions: usize,
+    /// solutions inside the joint limits shrunk by the margins
+    pub within_limits: usize,
+    /// ... and clear of the singularities
+    pub clear_of_singularities: usize,
+    /// ... and collision-free at the measurement pose
+    pub collision_free: usize,
+    /// ... and with a collision-free approach (the final candidates)
+    pub approachable: usize,
+}
+
+impl StageCounts {
+    fn add(&mut self, o: &StageCounts) {
+        self.poses += o.poses;
+        self.ik_solutions += o.ik_solutions;
+        self.within_limits += o.within_limits;
+        self.clear_of_singularities += o.clear_of_singularities;
+        self.collision_free += o.collision_free;
+        self.approachable += o.approachable;
+    }
+}
+
+/// The candidate set and its stage counts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CandidateSet {
+    /// the candidates, ordered by position, TCP, orientation, guide step, branch
+    pub candidates: Vec<Candidate>,
+    /// counts per stage
+    pub counts: StageCounts,
+    /// the guide positions used [mm]
+    pub guide_positions_mm: Vec<f64>,
+}
+
+/// Evenly spaced guide positions over the stroke shrunk by `margin_mm` (the middle for one step).
+pub fn guide_positions(model: &Model, steps: usize, margin_mm: f64) -> Result<Vec<f64>, PlanError> {
+    if steps == 0 {
+        return Err(PlanError::Option { option: "guide_steps".into(), reason: "must be at least 1".into() });
+    }
+    let (lo, hi) = model.joint_limits()[0];
+    let (a, b) = (lo + margin_mm, hi - margin_mm);
+    if !(a <= b) {
+        return Err(PlanError::Option {
+            option: "guide_margin_mm".into(),
+            reason: format!("{margin_mm} mm leaves nothing of the stroke {lo}..{hi} mm"),
+        });
+    }
+    if steps == 1 {
+        return Ok(vec![0.5 * (a + b)]);
+    }
+    Ok((0..steps).map(|i| a + (b - a) * i as f64 / (steps - 1) as f64).collect())
+}
+
+/// A rotation taking unit vector `from` to unit vector `to` (the minimal one).
+fn align(from: &Vector3<f64>, to: &Vector3<f64>) -> Matrix3<f64> {
+    match Rotation3::rotation_between(from, to) {
+        Some(r) => *r.matrix(),
+        None => {
+            // opposite vectors: half turn about any axis perpendicular to `from`
+            let helper = if from.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+            let axis = Unit::new_normalize(from.cross(&helper));
+            *Rotation3::from_axis_angle(&axis, std::f64::consts::PI).matrix()
+        }
+    }
+}
+
+/// Draws one tool orientation (see the module docs): `R` with `R · u` uniform on the cap of
+/// half-angle `cone_half_angle_rad` around world +z and a uniform spin about it, where `u` is
+/// the ball-to-flange direction in the tool frame.
+pub fn sample_orientation(rng: &mut ChaCha8Rng, ball_to_flange_tool: &Vector3<f64>, cone_half_angle_rad: f64) -> Matrix3<f64> {
+    let u = ball_to_flange_tool.normalize();
+    let cos_min = cone_half_angle_rad.cos();
+    let cos_t = 1.0 - rng.random_range(0.0..1.0) * (1.0 - cos_min);
+    let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+    let phi = rng.random_range(0.0..std::f64::consts::TAU);
+    let a = Vector3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t);
+    let psi = rng.random_range(0.0..std::f64::consts::TAU);
+    let spin = Rotation3::from_axis_angle(&Unit::new_unchecked(a), psi);
+    spin.matrix() * align(&u, &a)
+}
+
+/// Everything needed to evaluate one TCP pose.
+struct Pipeline<'a> {
+    model: &'a Model,
+    ik: ToolPoseIk<'a>,
+    checker: &'a CollisionChecker<'a>,
+    bounds: JointBounds,
+    move_bounds: JointBounds,
+    opts: &'a CandidateOptions,
+    /// (guide position, robot base frame) per guide step
+    bases: Vec<(f64, Frame)>,
+}
+
+/// Outcome of stages 3..5 for one solution.
+enum Screen {
+    Singular,
+    Colliding,
+    NoApproach,
+    Measurable(JointVector),
+}
+
+/// One TCP pose to solve.
+#[derive(Debug, Clone, Copy)]
+struct PoseTask {
+    position: u32,
+    tcp: u32,
+    orientation: usize,
+    target: Frame,
+}
+
+impl Pipeline<'_> {
+    fn run(&self, task: &PoseTask) -> (Vec<Candidate>, StageCounts) {
+        let mut counts = StageCounts { poses: 1, ..StageCounts::default() };
+        let mut out = Vec::new();
+        // refinement moves a calibrated model's joints by well under a degree
+        let slack_rad = deg_to_rad(2.0);
+        for (step, (q1, base)) in self.bases.iter().enumerate() {
+            let mut found: Vec<JointVector> = Vec::with_capacity(8);
+            for seed in self.ik.seeds(*q1, base, &task.target) {
+                counts.ik_solutions += 1;
+                if !self.bounds.contains_with_slack(&seed, 0.0, slack_rad) {
+                    continue;
+                }
+                let Ok(refined) = self.ik.refine(&seed, &task.target) else {
+                    continue;
+                };
+                let mut q = refined.q;
+                for v in q.0.iter_mut().skip(1) {
+                    *v = wrap_angle(*v);
+                }
+                if found.iter().any(|p| max_abs_diff(p, &q) < 1e-9) || !self.bounds.contains(&q) {
+                    continue;
+                }
+                found.push(q);
+                counts.within_limits += 1;
+                match self.screen(task, q) {
+                    Screen::Singular => continue,
+                    Screen::Colliding => counts.clear_of_singularities += 1,
+                    Screen::NoApproach => {
+                        counts.clear_of_singularities += 1;
+                        counts.collision_free += 1;
+                    }
+                    Screen::Measurable(approach) => {
+                        counts.clear_of_singularities += 1;
+                        counts.collision_free += 1;
+                        counts.approachable += 1;
+                        out.push(Candidate {
+                            position: task.position,
+                            tcp: task.tcp,
+                            q,
+                            approach,
+                            orientation: task.orientation,
+                            guide_step: step,
+                        });
+                    }
+                }
+            }
+        }
+        (out, counts)
+    }
+
+    /// Stages 3..5 for a solution inside the limits.
+    fn screen(&self, task: &PoseTask, q: JointVector) -> Screen {
+        let chain = self.model.chain(&q);
+        if !self.opts.singularity.clear(self.model, &chain) {
+            return Screen::Singular;
+        }
+        let measuring = ProbeState::Measuring { position: task.position, tcp: task.tcp };
+        if self.checker.check_chain(&chain, measuring).is_some() {
+            return Screen::Colliding;
+        }
+        self.approach(task, &q).map_or(Screen::NoApproach, Screen::Measurable)
+    }
+
+    fn approach(&self, task: &PoseTask, q: &JointVector) -> Option<JointVector> {
+        let mut target = task.target;
+        target.p.z += self.opts.approach_mm;
+        let refined = refine_tool_pose(self.model, q, &target, &self.opts.refine).ok()?;
+        let mut a = refined.q;
+        for (v, q0) in a.0.iter_mut().zip(&q.0).skip(1) {
+            // stay on the same side of the +-pi cut as the measurement pose
+            *v = q0 + wrap_angle(*v - q0);
+        }
+        if !self.move_bounds.contains(&a) || !self.checker.is_free(&a, ProbeState::Everywhere) {
+            return None;
+        }
+        let measuring = ProbeState::Measuring { position: task.position, tcp: task.tcp };
+        segment_is_free(self.checker, &a, q, measuring, &self.opts.resolution).then_some(a)
+    }
+}
+
+/// Generates the candidate set (see the module docs). Parallel over TCP poses (rayon);
+/// deterministic for a given seed.
+pub fn generate_candidates(
+    model: &Model,
+    checker: &CollisionChecker<'_>,
+    opts: &CandidateOptions,
+) -> Result<CandidateSet, PlanError> {
+    validate(opts)?;
+    let positions = select_ids(&model.position_ids(), opts.positions.as_deref(), "positions")?;
+    let tcps = select_ids(&model.tcp_ids(), opts.tcps.as_deref(), "tcps")?;
+    let guide = guide_positions(model, opts.guide_steps, opts.guide_margin_mm)?;
+    let bases: Vec<(f64, Frame)> = guide.iter().map(|q1| (*q1, robot_base_frame(model, *q1))).collect();
+    let pipeline = Pipeline {
+        model,
+        ik: ToolPoseIk::new(model, opts.refine)?,
+        checker,
+        bounds: JointBounds::new(model, opts.joint_margin_deg, 0.0)?,
+        move_bounds: JointBounds::new(model, MOVE_MARGIN_DEG.min(opts.joint_margin_deg), 0.0)?,
+        opts,
+        bases,
+    };
+    let tasks = sample_tasks(model, &positions, &tcps, opts)?;
+    let bar = progress_bar(tasks.len() as u64, opts.progress);
+    let results: Vec<(Vec<Candidate>, StageCounts)> = tasks
+        .par_iter()
+        .map(|t| {
+            let r = pipeline.run(t);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+    let mut counts = StageCounts::default();
+    let mut candidates = Vec::new();
+    for (c, n) in results {
+        counts.add(&n);
+        candidates.extend(c);
+    }
+    Ok(CandidateSet { candidates, counts, guide_positions_mm: guide })
+}
+
+fn validate(opts: &CandidateOptions) -> Result<(), PlanError> {
+    let bad = |option: &str, reason: String| Err(PlanError::Option { option: option.into(), reason });
+    if opts.orientations == 0 {
+        return bad("orientations", "must be at least 1".into());
+    }
+    if !(opts.cone_half_angle_deg > 0.0 && opts.cone_half_angle_deg <= 180.0) {
+        return bad("cone_half_angle_deg", format!("must be in (0, 180], got {}", opts.cone_half_angle_deg));
+    }
+    for (name, v) in [
+        ("joint_margin_deg", opts.joint_margin_deg),
+        ("approach_mm", opts.approach_mm),
+        ("collision_margin_mm", opts.collision_margin_mm),
+        ("singularity.wrist_deg", opts.singularity.wrist_deg),
+        ("singularity.elbow_deg", opts.singularity.elbow_deg),
+        ("singularity.shoulder_mm", opts.singularity.shoulder_mm),
+        ("guide_margin_mm", opts.guide_margin_mm),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return bad(name, format!("must be a finite value >= 0, got {v}"));
+        }
+    }
+    opts.resolution.validate()
+}
+
+fn select_ids(all: &[u32], wanted: Option<&[u32]>, what: &str) -> Result<Vec<u32>, PlanError> {
+    match wanted {
+        None => Ok(all.to_vec()),
+        Some(w) => {
+            if let Some(bad) = w.iter().find(|id| !all.contains(id)) {
+                return Err(PlanError::Option { option: what.into(), reason: format!("unknown id {bad} (the model has {all:?})") });
+            }
+            if w.is_empty() {
+                return Err(PlanError::Option { option: what.into(), reason: "must not be empty".into() });
+            }
+            Ok(w.to_vec())
+        }
+    }
+}
+
+/// Draws every TCP pose sequentially (so the stream does not depend on the thread count): one
+/// ChaCha8 stream per run, positions outer, TCPs middle, orientations inner.
+fn sample_tasks(model: &Model, positions: &[u32], tcps: &[u32], opts: &CandidateOptions) -> Result<Vec<PoseTask>, PlanError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
+    let cone = deg_to_rad(opts.cone_half_angle_deg);
+    let mut tasks = Vec::with_capacity(positions.len() * tcps.len() * opts.orientations);
+    for &position in positions {
+        let p = model.position(position).ok_or_else(|| PlanError::Option {
+            option: "positions".into(),
+            reason: format!("unknown calibration position {position}"),
+        })?;
+        for &tcp in tcps {
+            let t = model.tcp(tcp).ok_or_else(|| PlanError::Option { option: "tcps".into(), reason: format!("unknown TCP {tcp}") })?;
+            if t.norm() < 1e-9 {
+                return Err(PlanError::Option { option: "tcps".into(), reason: format!("TCP {tcp} is at the flange: no ball-to-flange direction") });
+            }
+            for orientation in 0..opts.orientations {
+                let r = sample_orientation(&mut rng, &(-t), cone);
+                tasks.push(PoseTask { position, tcp, orientation, target: tool_pose_for_tcp(&r, &t, &p) });
+            }
+        }
+    }
+    Ok(tasks)
+}
+
+/// A progress bar that draws only when asked to and when stderr is a terminal.
+pub(crate) fn progress_bar(len: u64, wanted: bool) -> ProgressBar {
+    if !wanted || !std::io::stderr().is_terminal() {
+        return ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
+    }
+    let bar = ProgressBar::new(len);
+    if let Ok(style) = ProgressStyle::with_template("{msg:12} [{bar:40}] {pos}/{len} poses ({eta})") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message("candidates");
+    bar
+}

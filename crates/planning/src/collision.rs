@@ -1,0 +1,418 @@
+//! Collision checking of a joint vector against the cell (parry3d-f64).
+//!
+//! The robot bodies of [`crate::geometry`] are placed with the model's own chain (so a calibrated
+//! model is checked with its calibrated frames), inflated by a safety margin, and tested against:
+//!
+//! * the fixed obstacles: guide box (frame 0), tank cylinder, floor half-space, and the TriCal
+//!   cylinder below the calibration position(s) where the probe plate sits ([`ProbeState`]);
+//! * each other (arm self-collision), for every pair of bodies whose links are not adjacent
+//!   (link numbers differing by at least 2), except the two pairs that touch by construction at
+//!   a joint (upper arm – forearm at the elbow corner, forearm – flange at the wrist centre).
+//!   Bodies fixed to the same link never move relative to each other and are not tested.
+//!
+//! The ball whose centre is being placed on the probe origin touches the probe by design; a
+//! [`ProbeState::Measuring`] state exempts exactly that ball from the TriCal test.
+//!
+//! Each pair is first screened with bounding spheres / boxes; only overlapping candidates reach
+//! parry's `intersection_test`. Shapes are built directly in world coordinates (capsules,
+//! balls) or with a world pose converted from nalgebra through glamx (cylinders, boxes).
+
+use nalgebra::{Matrix3, Vector3};
+use parry3d_f64::math::{Pose, Vector};
+use parry3d_f64::query;
+use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder, HalfSpace, Shape};
+use vatcal_core::{Frame, JointVector};
+use vatcal_kinematics::{Chain, Model};
+
+use crate::error::PlanError;
+use crate::geometry::CellGeometry;
+use crate::ik::{rot_x, rot_y};
+
+/// Names of the robot and end-effector bodies, in body-index order (balls follow as
+/// `ball{tcp}`).
+pub const BODY_NAMES: [&str; 9] =
+    ["base", "shoulder", "upper arm", "elbow", "forearm", "wrist", "flange", "tool changer", "plate"];
+
+/// MDH link each named body moves with (B = 1: the carriage).
+const BODY_LINKS: [u8; 9] = [1, 2, 3, 4, 5, 6, 7, 7, 7];
+
+/// Where the probe plate is while a joint vector is checked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ProbeState {
+    /// No probe on the tank.
+    Absent,
+    /// Probe at calibration position `position`; every ball must stay clear of it.
+    At {
+        /// calibration position id
+        position: u32,
+    },
+    /// Probe at `position` and ball `tcp` sits in it (measurement pose, final approach).
+    Measuring {
+        /// calibration position id
+        position: u32,
+        /// TCP id of the ball on the probe origin
+        tcp: u32,
+    },
+    /// A probe at every calibration position at once (poses where the operator may re-place
+    /// the plate while the robot waits).
+    Everywhere,
+}
+
+/// The two bodies found in contact.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Contact {
+    /// first body (robot / end-effector)
+    pub body: String,
+    /// second body (robot, end-effector or obstacle)
+    pub other: String,
+}
+
+impl std::fmt::Display for Contact {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} hits {}", self.body, self.other)
+    }
+}
+
+/// A concrete parry shape with its world pose and a bounding sphere.
+#[derive(Debug, Clone)]
+enum Placed {
+    Capsule(Capsule),
+    Ball(Ball, Pose),
+    Cylinder(Cylinder, Pose),
+    Cuboid(Cuboid, Pose),
+}
+
+impl Placed {
+    fn parts(&self) -> (&dyn Shape, Pose) {
+        match self {
+            Placed::Capsule(c) => (c, Pose::IDENTITY),
+            Placed::Ball(b, p) => (b, *p),
+            Placed::Cylinder(c, p) => (c, *p),
+            Placed::Cuboid(c, p) => (c, *p),
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Body {
+    shape: Placed,
+    center: Vector3<f64>,
+    radius: f64,
+    /// TCP id for balls
+    tcp: Option<u32>,
+}
+
+/// An axis-aligned bounding box in the world.
+#[derive(Debug, Clone, Copy)]
+struct WorldAabb {
+    min: Vector3<f64>,
+    max: Vector3<f64>,
+}
+
+impl WorldAabb {
+    fn separated_from_sphere(&self, c: &Vector3<f64>, r: f64) -> bool {
+        let mut d2 = 0.0;
+        for k in 0..3 {
+            let v = if c[k] < self.min[k] {
+                self.min[k] - c[k]
+            } else if c[k] > self.max[k] {
+                c[k] - self.max[k]
+            } else {
+                0.0
+            };
+            d2 += v * v;
+        }
+        d2 > r * r
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Obstacle {
+    name: String,
+    shape: ObstacleShape,
+    aabb: WorldAabb,
+    /// calibration position id for TriCal placements
+    probe_position: Option<u32>,
+}
+
+#[derive(Debug, Clone)]
+enum ObstacleShape {
+    Cylinder(Cylinder, Pose),
+    Cuboid(Cuboid, Pose),
+    Floor(HalfSpace, Pose),
+}
+
+impl ObstacleShape {
+    fn parts(&self) -> (&dyn Shape, Pose) {
+        match self {
+            ObstacleShape::Cylinder(c, p) => (c, *p),
+            ObstacleShape::Cuboid(c, p) => (c, *p),
+            ObstacleShape::Floor(h, p) => (h, *p),
+        }
+    }
+}
+
+fn v(p: &Vector3<f64>) -> Vector {
+    Vector::new(p.x, p.y, p.z)
+}
+
+fn pose(frame: &Frame) -> Pose {
+    Pose::from(frame.to_isometry())
+}
+
+/// Rotation whose y axis is `axis_frame`'s z axis (parry cylinders are along y).
+fn y_along_z(r: &Matrix3<f64>) -> Matrix3<f64> {
+    r * rot_x(std::f64::consts::FRAC_PI_2)
+}
+
+/// Collision checker for one model and one cell geometry.
+#[derive(Debug, Clone)]
+pub struct CollisionChecker<'a> {
+    model: &'a Model,
+    geometry: CellGeometry,
+    margin_mm: f64,
+    obstacles: Vec<Obstacle>,
+    self_pairs: Vec<(usize, usize)>,
+    tcps: Vec<(u32, Vector3<f64>)>,
+}
+
+impl<'a> CollisionChecker<'a> {
+    /// Builds the checker. `margin_mm` inflates every robot and end-effector body (a safety
+    /// distance to obstacles and between links).
+    pub fn new(model: &'a Model, geometry: &CellGeometry, margin_mm: f64) -> Result<Self, PlanError> {
+        if !(margin_mm.is_finite() && margin_mm >= 0.0) {
+            return Err(PlanError::Option {
+                option: "collision margin".into(),
+                reason: format!("must be a finite length >= 0, got {margin_mm}"),
+            });
+        }
+        geometry.validate()?;
+        let tcps: Vec<(u32, Vector3<f64>)> =
+            model.tcp_ids().into_iter().filter_map(|id| model.tcp(id).map(|t| (id, t))).collect();
+        let obstacles = build_obstacles(model, geometry);
+        let n_bodies = BODY_NAMES.len() + tcps.len();
+        let link = |i: usize| if i < BODY_LINKS.len() { BODY_LINKS[i] } else { 7 };
+        let mut self_pairs = Vec::new();
+        for i in 0..n_bodies {
+            for j in i + 1..n_bodies {
+                let (li, lj) = (link(i), link(j));
+                let skip = li.abs_diff(lj) < 2 || (li, lj) == (3, 5) || (li, lj) == (5, 7);
+                if !skip {
+                    self_pairs.push((i, j));
+                }
+            }
+        }
+        Ok(Self { model, geometry: geometry.clone(), margin_mm, obstacles, self_pairs, tcps })
+    }
+
+    /// The model whose chain places the bodies.
+    pub fn model(&self) -> &'a Model {
+        self.model
+    }
+
+    /// The safety margin [mm].
+    pub fn margin_mm(&self) -> f64 {
+        self.margin_mm
+    }
+
+    /// Name of body `i`.
+    fn body_name(&self, i: usize) -> String {
+        match BODY_NAMES.get(i) {
+            Some(n) => (*n).to_string(),
+            None => format!("ball{}", self.tcps.get(i - BODY_NAMES.len()).map_or(0, |t| t.0)),
+        }
+    }
+
+    /// Places every body for `chain`.
+    fn bodies(&self, chain: &Chain) -> Vec<Body> {
+        let m = self.margin_mm;
+        let r = &self.geometry.robot;
+        let e = &self.geometry.end_effector;
+        let f = &chain.frames;
+        let row2 = self.model.row(2);
+        let base = f[1].compose(&Frame { r: rot_x(row2.alpha) * rot_y(row2.beta), p: Vector3::new(row2.a, 0.0, 0.0) });
+        let mut out = Vec::with_capacity(BODY_NAMES.len() + self.tcps.len());
+        let capsule = |a: Vector3<f64>, b: Vector3<f64>, radius: f64| Body {
+            shape: Placed::Capsule(Capsule::new(v(&a), v(&b), radius + m)),
+            center: 0.5 * (a + b),
+            radius: 0.5 * (b - a).norm() + radius + m,
+            tcp: None,
+        };
+        let cylinder = |frame: &Frame, from: f64, length: f64, radius: f64| {
+            let center = frame.p + frame.z_axis() * (from + 0.5 * length);
+            let half = 0.5 * length + m;
+            let rr = radius + m;
+            Body {
+                shape: Placed::Cylinder(
+                    Cylinder::new(half, rr),
+                    pose(&Frame { r: y_along_z(&frame.r), p: center }),
+                ),
+                center,
+                radius: half.hypot(rr),
+                tcp: None,
+            }
+        };
+        // base: cylinder on z_B from the mounting face
+        out.push(cylinder(&base, 0.0, r.base_height_mm, r.base_radius_mm));
+        // shoulder: capsule on the J2 axis (z_3) through the shoulder
+        let (o3, z3) = (f[3].p, f[3].z_axis());
+        let sh = r.shoulder_half_length_mm;
+        out.push(capsule(o3 - z3 * sh, o3 + z3 * sh, r.shoulder_radius_mm));
+        // upper arm
+        out.push(capsule(o3, f[4].p, r.upper_arm_radius_mm));
+        // elbow: J3 axis to the elbow corner; forearm: corner to the wrist centre
+        let corner = f[5].p - f[5].z_axis() * self.model.row(5).d;
+        out.push(capsule(f[4].p, corner, r.elbow_radius_mm));
+        out.push(capsule(corner, f[5].p, r.forearm_radius_mm));
+        // wrist: capsule on the J5 axis through the wrist centre
+        let (o6, z6) = (f[6].p, f[6].z_axis());
+        let wh = r.wrist_half_length_mm;
+        out.push(capsule(o6 - z6 * wh, o6 + z6 * wh, r.wrist_radius_mm));
+        // flange: wrist centre to the flange face
+        out.push(capsule(o6, f[7].p, r.flange_radius_mm));
+        // tool changer, plate, balls (tool frame)
+        let tool = &chain.tool;
+        out.push(cylinder(tool, 0.0, e.tool_changer_length_mm, e.tool_changer_radius_mm));
+        let half = Vector3::from(e.plate_half_extents_mm).add_scalar(m);
+        let plate_center = tool.transform_point(&self.geometry.plate_center());
+        out.push(Body {
+            shape: Placed::Cuboid(Cuboid::new(v(&half)), pose(&Frame { r: tool.r, p: plate_center })),
+            center: plate_center,
+            radius: half.norm(),
+            tcp: None,
+        });
+        for (id, t) in &self.tcps {
+            let c = tool.transform_point(t);
+            let rr = e.ball_radius_mm + m;
+            out.push(Body {
+                shape: Placed::Ball(Ball::new(rr), Pose::from_translation(v(&c))),
+                center: c,
+                radius: rr,
+                    tcp: Some(*id),
+            });
+        }
+        out
+    }
+
+    /// The first contact at `q` with the probe in state `probe`, or `None` when collision-free.
+    pub fn check(&self, q: &JointVector, probe: ProbeState) -> Option<Contact> {
+        let chain = self.model.chain(q);
+        self.check_chain(&chain, probe)
+    }
+
+    /// True when `q` is collision-free.
+    pub fn is_free(&self, q: &JointVector, probe: ProbeState) -> bool {
+        self.check(q, probe).is_none()
+    }
+
+    /// [`CollisionChecker::check`] for an already computed chain.
+    pub fn check_chain(&self, chain: &Chain, probe: ProbeState) -> Option<Contact> {
+        let bodies = self.bodies(chain);
+        for obstacle in &self.obstacles {
+            if let Some(pos) = obstacle.probe_position {
+                let present = match probe {
+                    ProbeState::Absent => false,
+                    ProbeState::Everywhere => true,
+                    ProbeState::At { position } | ProbeState::Measuring { position, .. } => position == pos,
+                };
+                if !present {
+                    continue;
+                }
+            }
+            let (shape_o, pose_o) = obstacle.shape.parts();
+            for (i, b) in bodies.iter().enumerate() {
+                if i == 0 && obstacle.name == "guide" {
+                    // the base is bolted to the carriage, which is part of the guide box
+                    continue;
+                }
+                if obstacle.probe_position.is_some()
+                    && let ProbeState::Measuring { tcp, .. } = probe
+                    && b.tcp == Some(tcp)
+                {
+                    continue;
+                }
+                if obstacle.aabb.separated_from_sphere(&b.center, b.radius) {
+                    continue;
+                }
+                let (shape_b, pose_b) = b.shape.parts();
+                if intersects(&pose_b, shape_b, &pose_o, shape_o) {
+                    return Some(Contact { body: self.body_name(i), other: obstacle.name.clone() });
+                }
+            }
+        }
+        for &(i, j) in &self.self_pairs {
+            let (a, b) = (&bodies[i], &bodies[j]);
+            if (a.center - b.center).norm() > a.radius + b.radius {
+                continue;
+            }
+            let (sa, pa) = a.shape.parts();
+            let (sb, pb) = b.shape.parts();
+            if intersects(&pa, sa, &pb, sb) {
+                return Some(Contact { body: self.body_name(i), other: self.body_name(j) });
+            }
+        }
+        None
+    }
+}
+
+/// parry intersection test; an unsupported pair (cannot happen with the `alloc` feature and
+/// these convex shapes) is treated as a collision, the safe side.
+fn intersects(p1: &Pose, s1: &dyn Shape, p2: &Pose, s2: &dyn Shape) -> bool {
+    query::intersection_test(p1, s1, p2, s2).map_or(true, |r| r.intersecting)
+}
+
+fn build_obstacles(model: &Model, g: &CellGeometry) -> Vec<Obstacle> {
+    let mut out = Vec::new();
+    let vertical = |name: String, x: f64, y: f64, c: &vatcal_core::cell::CylinderObstacle, probe: Option<u32>| {
+        let half = 0.5 * (c.z_max_mm - c.z_min_mm);
+        let center = Vector3::new(x, y, 0.5 * (c.z_max_mm + c.z_min_mm));
+        Obstacle {
+            name,
+            shape: ObstacleShape::Cylinder(
+                Cylinder::new(half, c.radius_mm),
+                pose(&Frame { r: y_along_z(&Matrix3::identity()), p: center }),
+            ),
+            aabb: WorldAabb {
+                min: Vector3::new(x - c.radius_mm, y - c.radius_mm, c.z_min_mm),
+                max: Vector3::new(x + c.radius_mm, y + c.radius_mm, c.z_max_mm),
+            },
+            probe_position: probe,
+        }
+    };
+    if let Some(t) = &g.tank {
+        out.push(vertical("tank".into(), 0.0, 0.0, t, None));
+    }
+    if let Some(t) = &g.trical {
+        for id in model.position_ids() {
+            if let Some(p) = model.position(id) {
+                out.push(vertical(format!("TriCal at position {id}"), p.x, p.y, t, Some(id)));
+            }
+        }
+    }
+    if let Some(b) = &g.guide {
+        let base = model.base_frame();
+        let lo = Vector3::new(b.x_min_mm, b.y_min_mm, b.z_min_mm);
+        let hi = Vector3::new(b.x_max_mm, b.y_max_mm, b.z_max_mm);
+        let half = 0.5 * (hi - lo);
+        let center = base.transform_point(&(0.5 * (hi + lo)));
+        let extent = base.r.abs() * half;
+        out.push(Obstacle {
+            name: "guide".into(),
+            shape: ObstacleShape::Cuboid(Cuboid::new(v(&half)), pose(&Frame { r: base.r, p: center })),
+            aabb: WorldAabb { min: center - extent, max: center + extent },
+            probe_position: None,
+        });
+    }
+    if let Some(f) = &g.floor {
+        out.push(Obstacle {
+            name: "floor".into(),
+            shape: ObstacleShape::Floor(HalfSpace::new(Vector::new(0.0, 0.0, 1.0)), Pose::translation(0.0, 0.0, f.z_mm)),
+            aabb: WorldAabb {
+                min: Vector3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
+                max: Vector3::new(f64::INFINITY, f64::INFINITY, f.z_mm),
+            },
+            probe_position: None,
+        });
+    }
+    out
+}

@@ -1,0 +1,63 @@
+//! The planning crate's error type.
+
+use std::path::PathBuf;
+
+/// Errors of measurement planning.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlanError {
+    /// The model's arm does not have the structure the closed-form IK assumes.
+    #[error("the arm of this model is not a Meca500-like arm: {0}")]
+    UnsupportedArm(String),
+    /// The numerical IK refinement did not converge.
+    #[error("IK refinement did not converge (tool error {position_error_mm:.3e} mm, {rotation_error_rad:.3e} rad)")]
+    IkNotConverged {
+        /// final position error [mm]
+        position_error_mm: f64,
+        /// final orientation error [rad]
+        rotation_error_rad: f64,
+    },
+    /// A geometry table of the cell file is invalid.
+    #[error("cell geometry: field `{field}`: {reason}")]
+    Geometry {
+        /// field path, e.g. `obstacles.robot_links.upper_arm_radius_mm`
+        field: String,
+        /// what is wrong
+        reason: String,
+    },
+    /// An option is invalid.
+    #[error("invalid option `{option}`: {reason}")]
+    Option {
+        /// option name
+        option: String,
+        /// what is wrong
+        reason: String,
+    },
+    /// A stage left nothing to work with.
+    #[error("{0}")]
+    Empty(String),
+    /// The model layer failed (unknown TCP or position, ...).
+    #[error(transparent)]
+    Model(#[from] vatcal_kinematics::ModelError),
+    /// Detmax selection failed.
+    #[error("selection failed: {0}")]
+    Selection(String),
+    /// No collision-free path was found between two tour poses.
+    #[error("no collision-free path from tour step {from_step} to {to_step}: {reason}")]
+    NoPath {
+        /// tour index of the start pose
+        from_step: usize,
+        /// tour index of the goal pose
+        to_step: usize,
+        /// why (e.g. start in collision, RRT budget exhausted)
+        reason: String,
+    },
+    /// A file could not be written.
+    #[error("cannot write {path}: {reason}")]
+    Write {
+        /// file path
+        path: PathBuf,
+        /// cause
+        reason: String,
+    },
+}

@@ -1,0 +1,538 @@
+//! Inverse kinematics of the cell: closed form for the nominal Meca500 arm, numerical
+//! refinement on the full [`Model`].
+//!
+//! # Frames
+//! The *robot base frame* `B` is the parent of MDH frame 2: the carriage frame 1 (after the
+//! guide) followed by the fixed part `Rx(alpha_1) Tx(a_1) Ry(beta_1)` of row 2 (the sideways
+//! mounting, `alpha_1 = -90 deg`). It depends on q1 only ([`robot_base_frame`]). In `B` the arm
+//! is the ordinary Meca500: rows 2..7 of the cell.
+//!
+//! # Closed form ([`ArmGeometry::solve`])
+//! Written in the MDH angles `theta_i = q_i + theta_offset_i` of rows 2..7 and the structure
+//! `alpha = (-90, 0, -90, 90, -90) deg` for rows 3..7, `a_2 = a_5 = a_6 = 0`,
+//! `d_3 = d_4 = d_6 = 0` (spherical wrist; the 38 mm elbow offset is `a_4`):
+//!
+//! 1. wrist centre `w = p_7 - d_7 z_7` (origin of frames 5 and 6);
+//! 2. shoulder: `theta_2 = atan2(w_y, w_x)` with the arm-plane abscissa `r = +rho`, or
+//!    `theta_2 + pi` with `r = -rho` (`rho = |(w_x, w_y)|`), height `h = w_z - d_2`;
+//! 3. elbow: `a_4 cos theta_4 - d_5 sin theta_4 = (r^2 + h^2 - a_3^2 - a_4^2 - d_5^2) / (2 a_3)`,
+//!    i.e. `theta_4 = ±acos(K / L) - delta` with `L = |(a_4, d_5)|`, `delta = atan2(d_5, a_4)`;
+//! 4. `theta_3 = atan2(v_h, v_r) - atan2(h, r)` where `v = a_3 e(0) + a_4 e(-theta_4) +
+//!    d_5 e(-theta_4 - 90 deg)` is the wrist centre in the upper-arm frame (`e(phi)` = unit vector
+//!    at angle phi in the arm plane);
+//! 5. wrist: `M = R_4^T R_7 Rx(90 deg) = Ry(theta_5) Rz(theta_6) Ry(theta_7)` (Y-Z-Y Euler
+//!    angles), two branches `theta_6 = ±acos(M_11)`.
+//!
+//! Two shoulder × two elbow × two wrist branches give up to 8 solutions; `q_i = theta_i -
+//! theta_offset_i`, wrapped into (-pi, pi]. The closed form uses the model's own lengths and
+//! theta offsets; the small angular errors of a calibrated model (alpha, beta, compliance,
+//! effects) are removed by [`refine_tool_pose`].
+//!
+//! # Refinement ([`refine_tool_pose`])
+//! Levenberg–Marquardt on the 6-DOF tool-frame error `[p* - p; log(R* R^T)]` with q1 held fixed.
+//! The Jacobian columns are `z_i × (p - o_i)` (position; identical to the
+//! `ParamId::ThetaOffset(i)` columns of `Model::jacobian`) and `z_i` (orientation), with the joint
+//! axes from [`vatcal_kinematics::Chain::frames`]. Gravity torques are held fixed in the
+//! Jacobian, so with compliance the iteration is quasi-Newton (still converging to machine
+//! precision because `c_i d(tau_i)/dq` is tiny).
+
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use vatcal_core::{Frame, JointVector};
+use vatcal_kinematics::Model;
+
+use crate::error::PlanError;
+
+/// Tolerance on the structural angles (alpha) for the closed form to be used as a seed [rad].
+const STRUCTURE_ANGLE_TOL_RAD: f64 = 0.05;
+/// Tolerance on the structural lengths that must be zero [mm].
+const STRUCTURE_LENGTH_TOL_MM: f64 = 5.0;
+
+/// Rotation about x.
+pub(crate) fn rot_x(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+}
+
+/// Rotation about y.
+pub(crate) fn rot_y(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
+}
+
+/// Rotation about z.
+pub(crate) fn rot_z(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+}
+
+/// Wraps an angle into (-pi, pi].
+pub fn wrap_angle(a: f64) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    let mut w = a % two_pi;
+    if w <= -std::f64::consts::PI {
+        w += two_pi;
+    } else if w > std::f64::consts::PI {
+        w -= two_pi;
+    }
+    w
+}
+
+/// Rotation vector (axis × angle) of a rotation matrix, accurate for small angles
+/// (unlike `acos`-based formulas, whose error near 0 is ~1e-8 rad).
+pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
+    let v = 0.5 * Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]);
+    let s = v.norm();
+    let c = 0.5 * (r.trace() - 1.0);
+    let angle = s.atan2(c);
+    if s > 1e-6 {
+        return v * (angle / s);
+    }
+    if c > 0.0 {
+        // tiny angle: sin(angle) = angle to second order
+        return v;
+    }
+    // angle close to pi: axis from the symmetric part (R + I) / 2 = a a^T (approximately)
+    let b = 0.5 * (r + Matrix3::identity());
+    let k = (0..3).max_by(|&i, &j| b[(i, i)].total_cmp(&b[(j, j)])).unwrap_or(0);
+    let mut axis: Vector3<f64> = b.column(k).into_owned();
+    let n = axis.norm();
+    if n > 0.0 {
+        axis /= n;
+    }
+    if axis.dot(&v) < 0.0 {
+        axis = -axis;
+    }
+    axis * angle
+}
+
+/// Angle [rad] of the rotation taking `a` to `b` (both rotation matrices).
+pub fn rotation_angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
+    rotation_vector(&(b * a.transpose())).norm()
+}
+
+/// World pose of the robot base frame `B` (parent of MDH frame 2) at guide position `q1_mm`.
+/// Includes the model's base pose, guide effects and the fixed part of row 2.
+pub fn robot_base_frame(model: &Model, q1_mm: f64) -> Frame {
+    let mut q = JointVector::default();
+    q.0[0] = q1_mm;
+    let chain = model.chain(&q);
+    let row = model.row(2);
+    let fixed = Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) };
+    chain.frames[1].compose(&fixed)
+}
+
+/// The arm lengths and offsets used by the closed form (rows 2..7 of a model).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmGeometry {
+    /// `d_2`: height of the shoulder (J2 axis) above the base frame [mm]
+    pub shoulder_height_mm: f64,
+    /// `a_3`: upper-arm length (J2 to J3 axis) [mm]
+    pub upper_arm_mm: f64,
+    /// `a_4`: elbow offset [mm]
+    pub elbow_offset_mm: f64,
+    /// `d_5`: forearm length to the wrist centre [mm]
+    pub forearm_mm: f64,
+    /// `d_7`: wrist centre to the tool-changer frame [mm]
+    pub flange_mm: f64,
+    /// `theta_offset_2..7` [rad]
+    pub theta_offset_rad: [f64; 6],
+}
+
+/// Up to eight closed-form solutions `[q2..q7]` [rad] for one tool pose.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ArmSolutions {
+    q: [[f64; 6]; 8],
+    len: usize,
+}
+
+impl ArmSolutions {
+    /// The solutions found (0..=8), each `[q2, q3, q4, q5, q6, q7]` in rad, wrapped to (-pi, pi].
+    pub fn as_slice(&self) -> &[[f64; 6]] {
+        &self.q[..self.len]
+    }
+
+    /// Number of solutions.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when there is no solution (pose out of reach).
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    fn push(&mut self, q: [f64; 6]) {
+        let duplicate = self.as_slice().iter().any(|p| p.iter().zip(&q).all(|(a, b)| (a - b).abs() < 1e-12));
+        if !duplicate && self.len < 8 {
+            self.q[self.len] = q;
+            self.len += 1;
+        }
+    }
+}
+
+impl ArmGeometry {
+    /// Reads the arm geometry from rows 2..7 of `model`, checking that the model has the
+    /// Meca500 structure the closed form assumes (within 0.05 rad / 5 mm, so a calibrated model
+    /// is accepted: its small deviations are removed by the refinement).
+    pub fn from_model(model: &Model) -> Result<Self, PlanError> {
+        use std::f64::consts::FRAC_PI_2;
+        let angle = |row: usize, want: f64| {
+            let got = model.row(row).alpha;
+            if (wrap_angle(got - want)).abs() > STRUCTURE_ANGLE_TOL_RAD {
+                return Err(PlanError::UnsupportedArm(format!(
+                    "alpha_{} = {:.3} deg, the closed form needs {:.0} deg",
+                    row - 1,
+                    got.to_degrees(),
+                    want.to_degrees()
+                )));
+            }
+            Ok(())
+        };
+        angle(3, -FRAC_PI_2)?;
+        angle(4, 0.0)?;
+        angle(5, -FRAC_PI_2)?;
+        angle(6, FRAC_PI_2)?;
+        angle(7, -FRAC_PI_2)?;
+        let zero_length = |name: &str, v: f64| {
+            if v.abs() > STRUCTURE_LENGTH_TOL_MM {
+                return Err(PlanError::UnsupportedArm(format!(
+                    "{name} = {v:.3} mm, the closed form needs 0 (spherical wrist, no shoulder offset)"
+                )));
+            }
+            Ok(())
+        };
+        zero_length("a_2", model.row(3).a)?;
+        zero_length("d_3", model.row(3).d)?;
+        zero_length("d_4", model.row(4).d)?;
+        zero_length("a_5", model.row(6).a)?;
+        zero_length("d_6", model.row(6).d)?;
+        zero_length("a_6", model.row(7).a)?;
+        let upper_arm_mm = model.row(4).a;
+        if upper_arm_mm.abs() < 1.0 {
+            return Err(PlanError::UnsupportedArm(format!("a_3 = {upper_arm_mm} mm is not an upper arm")));
+        }
+        let mut theta_offset_rad = [0.0; 6];
+        for (k, t) in theta_offset_rad.iter_mut().enumerate() {
+            *t = model.row(k + 2).theta_offset;
+        }
+        Ok(Self {
+            shoulder_height_mm: model.row(2).d,
+            upper_arm_mm,
+            elbow_offset_mm: model.row(5).a,
+            forearm_mm: model.row(5).d,
+            flange_mm: model.row(7).d,
+            theta_offset_rad,
+        })
+    }
+
+    /// All closed-form solutions for the tool-changer frame (frame 7) pose `target` given in
+    /// the robot base frame `B`. Each is `[q2..q7]` [rad] (model offsets removed, wrapped).
+    pub fn solve(&self, target: &Frame) -> ArmSolutions {
+        let mut out = ArmSolutions::default();
+        let z7 = target.z_axis();
+        let w = target.p - z7 * self.flange_mm;
+        let rho = w.x.hypot(w.y);
+        let h = w.z - self.shoulder_height_mm;
+        let theta2_base = if rho > 1e-12 { w.y.atan2(w.x) } else { 0.0 };
+        let (a3, a4, d5) = (self.upper_arm_mm, self.elbow_offset_mm, self.forearm_mm);
+        let l = a4.hypot(d5);
+        let delta = d5.atan2(a4);
+        for shoulder in [1.0, -1.0] {
+            let r = shoulder * rho;
+            let theta2 = if shoulder > 0.0 { theta2_base } else { theta2_base + std::f64::consts::PI };
+            let k = (r * r + h * h - a3 * a3 - a4 * a4 - d5 * d5) / (2.0 * a3);
+            let ratio = k / l;
+            if !(ratio.abs() <= 1.0 + 1e-12) {
+                continue;
+            }
+            let gamma = ratio.clamp(-1.0, 1.0).acos();
+            for elbow in [gamma, -gamma] {
+                let theta4 = elbow - delta;
+                let (s4, c4) = theta4.sin_cos();
+                // v = a3 e(0) + a4 e(-theta4) + d5 e(-theta4 - 90 deg), e(phi) = (cos phi, sin phi)
+                let v_r = a3 + a4 * c4 - d5 * s4;
+                let v_h = -a4 * s4 - d5 * c4;
+                let theta3 = v_h.atan2(v_r) - h.atan2(r);
+                self.push_wrist(&mut out, target, [theta2, theta3, theta4]);
+                if gamma == 0.0 {
+                    break;
+                }
+            }
+        }
+        out
+    }
+
+    /// Adds the (up to two) wrist solutions for given arm angles theta_2..4.
+    fn push_wrist(&self, out: &mut ArmSolutions, target: &Frame, arm: [f64; 3]) {
+        let [t2, t3, t4] = arm;
+        // R_4 in B: Rz(t2) Rx(-90) Rz(t3) Rz(t4)   (alpha_3 = 0, beta = 0)
+        let r4 = rot_z(t2) * rot_x(-std::f64::consts::FRAC_PI_2) * rot_z(t3 + t4);
+        let m = r4.transpose() * target.r * rot_x(std::f64::consts::FRAC_PI_2);
+        let s6 = m[(0, 1)].hypot(m[(2, 1)]);
+        let c6 = m[(1, 1)];
+        let mut add = |t5: f64, t6: f64, t7: f64| {
+            let theta = [t2, t3, t4, t5, t6, t7];
+            let mut q = [0.0; 6];
+            for k in 0..6 {
+                q[k] = wrap_angle(theta[k] - self.theta_offset_rad[k]);
+            }
+            out.push(q);
+        };
+        if s6 > 1e-12 {
+            let t6 = s6.atan2(c6);
+            let t5 = m[(2, 1)].atan2(-m[(0, 1)]);
+            let t7 = m[(1, 2)].atan2(m[(1, 0)]);
+            add(t5, t6, t7);
+            add(t5 + std::f64::consts::PI, -t6, t7 + std::f64::consts::PI);
+        } else if c6 > 0.0 {
+            // theta6 = 0: M = Ry(t5 + t7); choose t5 = 0
+            add(0.0, 0.0, m[(0, 2)].atan2(m[(0, 0)]));
+        } else {
+            // theta6 = pi: M = Ry(t5 - t7) Rz(pi); choose t5 = 0
+            let mm = m * rot_z(std::f64::consts::PI).transpose();
+            add(0.0, std::f64::consts::PI, -mm[(0, 2)].atan2(mm[(0, 0)]));
+        }
+    }
+}
+
+/// Options of the numerical refinement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RefineOptions {
+    /// maximum number of iterations
+    pub max_iterations: usize,
+    /// stop when the tool position error is below this [mm] ...
+    pub tol_position_mm: f64,
+    /// ... and the tool orientation error below this [rad]
+    pub tol_rotation_rad: f64,
+    /// length that weighs orientation against position in the damped step [mm/rad]
+    pub orientation_scale_mm: f64,
+}
+
+impl Default for RefineOptions {
+    fn default() -> Self {
+        Self { max_iterations: 50, tol_position_mm: 1e-10, tol_rotation_rad: 1e-13, orientation_scale_mm: 100.0 }
+    }
+}
+
+/// Result of a converged refinement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refined {
+    /// joints (q1 as given in the seed)
+    pub q: JointVector,
+    /// iterations used
+    pub iterations: usize,
+    /// final tool position error [mm]
+    pub position_error_mm: f64,
+    /// final tool orientation error [rad]
+    pub rotation_error_rad: f64,
+}
+
+/// 6-DOF error `[p* - p; log(R* R^T)]` of the tool frame at `q`, and the chain.
+fn tool_error(model: &Model, q: &JointVector, target: &Frame) -> (Vector6<f64>, vatcal_kinematics::Chain) {
+    let chain = model.chain(q);
+    let dp = target.p - chain.tool.p;
+    let dr = rotation_vector(&(target.r * chain.tool.r.transpose()));
+    (Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z), chain)
+}
+
+/// The 6×6 joint Jacobian (q2..q7) of the tool frame: `[z_i × (p - o_i); z_i]`.
+fn tool_jacobian(chain: &vatcal_kinematics::Chain) -> Matrix6<f64> {
+    let p = chain.tool.p;
+    let mut j = Matrix6::zeros();
+    for k in 0..6 {
+        let f = &chain.frames[k + 2];
+        let z = f.z_axis();
+        let lin = z.cross(&(p - f.p));
+        for r in 0..3 {
+            j[(r, k)] = lin[r];
+            j[(r + 3, k)] = z[r];
+        }
+    }
+    j
+}
+
+/// Refines `seed` (q1 held fixed) so that the model's tool-changer frame reaches `target`
+/// (world). Levenberg–Marquardt on the weighted 6-DOF error; see the module docs.
+pub fn refine_tool_pose(
+    model: &Model,
+    seed: &JointVector,
+    target: &Frame,
+    opts: &RefineOptions,
+) -> Result<Refined, PlanError> {
+    let scale = opts.orientation_scale_mm;
+    let weights = Vector6::new(1.0, 1.0, 1.0, scale, scale, scale);
+    let cost = |e: &Vector6<f64>| e.component_mul(&weights).norm_squared();
+    let mut q = *seed;
+    let (mut err, mut chain) = tool_error(model, &q, target);
+    let mut lambda = 1e-6;
+    let done = |e: &Vector6<f64>| {
+        e.fixed_rows::<3>(0).norm() <= opts.tol_position_mm && e.fixed_rows::<3>(3).norm() <= opts.tol_rotation_rad
+    };
+    for iteration in 0..=opts.max_iterations {
+        if done(&err) {
+            return Ok(Refined {
+                q,
+                iterations: iteration,
+                position_error_mm: err.fixed_rows::<3>(0).norm(),
+                rotation_error_rad: err.fixed_rows::<3>(3).norm(),
+            });
+        }
+        if iteration == opts.max_iterations {
+            break;
+        }
+        let jw = {
+            let mut j = tool_jacobian(&chain);
+            for r in 0..6 {
+                for c in 0..6 {
+                    j[(r, c)] *= weights[r];
+                }
+            }
+            j
+        };
+        let ew = err.component_mul(&weights);
+        let jtj = jw.transpose() * jw;
+        let jte = jw.transpose() * ew;
+        let c0 = cost(&err);
+        let mut improved = false;
+        for _ in 0..12 {
+            let mut a = jtj;
+            for d in 0..6 {
+                a[(d, d)] += lambda * (1.0 + jtj[(d, d)]);
+            }
+            let Some(step) = a.cholesky().map(|ch| ch.solve(&jte)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let mut trial = q;
+            for k in 0..6 {
+                trial.0[k + 1] += step[k];
+            }
+            let (e, ch) = tool_error(model, &trial, target);
+            if cost(&e) < c0 || done(&e) {
+                q = trial;
+                err = e;
+                chain = ch;
+                lambda = (lambda * 0.1).max(1e-15);
+                improved = true;
+                break;
+            }
+            lambda *= 10.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    Err(PlanError::IkNotConverged {
+        position_error_mm: err.fixed_rows::<3>(0).norm(),
+        rotation_error_rad: err.fixed_rows::<3>(3).norm(),
+    })
+}
+
+/// Closed-form seeds + refinement for the tool-changer frame pose of a model.
+#[derive(Debug, Clone)]
+pub struct ToolPoseIk<'a> {
+    model: &'a Model,
+    arm: ArmGeometry,
+    refine: RefineOptions,
+}
+
+impl<'a> ToolPoseIk<'a> {
+    /// IK for `model` (its arm must have the Meca500 structure, see [`ArmGeometry::from_model`]).
+    pub fn new(model: &'a Model, refine: RefineOptions) -> Result<Self, PlanError> {
+        Ok(Self { model, arm: ArmGeometry::from_model(model)?, refine })
+    }
+
+    /// The closed-form geometry in use.
+    pub fn arm(&self) -> &ArmGeometry {
+        &self.arm
+    }
+
+    /// The model.
+    pub fn model(&self) -> &'a Model {
+        self.model
+    }
+
+    /// Closed-form seeds at guide position `q1_mm` for the world tool pose `target`, given the
+    /// robot base frame `base` at that guide position ([`robot_base_frame`]).
+    pub fn seeds(&self, q1_mm: f64, base: &Frame, target: &Frame) -> Vec<JointVector> {
+        let local = base.inverse().compose(target);
+        self.arm
+            .solve(&local)
+            .as_slice()
+            .iter()
+            .map(|arm| {
+                let mut q = [0.0; 7];
+                q[0] = q1_mm;
+                q[1..].copy_from_slice(arm);
+                JointVector(q)
+            })
+            .collect()
+    }
+
+    /// Refines one seed on the model.
+    pub fn refine(&self, seed: &JointVector, target: &Frame) -> Result<Refined, PlanError> {
+        refine_tool_pose(self.model, seed, target, &self.refine)
+    }
+
+    /// Every solution at guide position `q1_mm` (closed-form seeds refined on the model; seeds
+    /// that do not converge are dropped; duplicates merged), each wrapped to (-pi, pi].
+    pub fn solve_at_guide(&self, q1_mm: f64, target: &Frame) -> Vec<JointVector> {
+        let base = robot_base_frame(self.model, q1_mm);
+        let mut out: Vec<JointVector> = Vec::with_capacity(8);
+        for seed in self.seeds(q1_mm, &base, target) {
+            if let Ok(r) = self.refine(&seed, target) {
+                let mut q = r.q;
+                for v in q.0.iter_mut().skip(1) {
+                    *v = wrap_angle(*v);
+                }
+                if !out.iter().any(|p| max_abs_diff(p, &q) < 1e-9) {
+                    out.push(q);
+                }
+            }
+        }
+        out
+    }
+
+    /// Every solution over several guide positions (up to 8 per position).
+    pub fn solve(&self, guide_positions_mm: &[f64], target: &Frame) -> Vec<JointVector> {
+        guide_positions_mm.iter().flat_map(|q1| self.solve_at_guide(*q1, target)).collect()
+    }
+}
+
+/// Largest absolute componentwise difference of two joint vectors (internal units).
+pub(crate) fn max_abs_diff(a: &JointVector, b: &JointVector) -> f64 {
+    a.0.iter().zip(&b.0).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+}
+
+/// World tool-changer-frame pose that puts TCP offset `tcp_in_tool` at `point_world` with tool
+/// orientation `rotation` (world).
+pub fn tool_pose_for_tcp(rotation: &Matrix3<f64>, tcp_in_tool: &Vector3<f64>, point_world: &Vector3<f64>) -> Frame {
+    Frame { r: *rotation, p: point_world - rotation * tcp_in_tool }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_angle_range() {
+        for a in [-10.0, -std::f64::consts::PI, 0.0, 3.0, std::f64::consts::PI, 7.0] {
+            let w = wrap_angle(a);
+            assert!(w > -std::f64::consts::PI && w <= std::f64::consts::PI, "{a} -> {w}");
+            assert!(((a - w) / std::f64::consts::TAU).fract().abs() < 1e-12 || ((a - w) / std::f64::consts::TAU).fract().abs() > 1.0 - 1e-12);
+        }
+    }
+
+    #[test]
+    fn rotation_vector_small_and_large_angles() {
+        for (axis, angle) in [
+            (Vector3::new(1.0, 2.0, 3.0).normalize(), 1e-9),
+            (Vector3::new(0.0, 0.0, 1.0), 0.7),
+            (Vector3::new(1.0, -1.0, 0.5).normalize(), std::f64::consts::PI - 1e-9),
+        ] {
+            let r = *nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle).matrix();
+            let v = rotation_vector(&r);
+            assert!((v - axis * angle).norm() < 1e-8 * angle.max(1e-6), "{v} vs {}", axis * angle);
+        }
+    }
+}

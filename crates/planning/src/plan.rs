@@ -1,0 +1,370 @@
+//! The whole planning pipeline: candidates → Detmax selection → tour → paths.
+
+use rand::rngs::ChaCha8Rng;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rayon::prelude::*;
+use serde::Serialize;
+use vatcal_core::cell::MotionLimits;
+use vatcal_core::{JointVector, Measurement, ParamSet};
+use vatcal_kinematics::Model;
+use vatcal_observability::detmax::{Candidates, DetmaxOptions, detmax};
+use vatcal_observability::{ColumnScaling, ObservabilityIndices, observability_indices};
+
+use crate::candidates::{CandidateOptions, CandidateSet, StageCounts, generate_candidates};
+use crate::collision::{CollisionChecker, ProbeState};
+use crate::error::PlanError;
+use crate::geometry::CellGeometry;
+use crate::motion::{JointBounds, MOVE_MARGIN_DEG, MotionTimer};
+use crate::paths::{JointPath, PathMethod, PathOptions, plan_path};
+use crate::tour::{TourCosts, TourOptions, solve_open_path};
+
+/// Options of [`plan_campaign`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanOptions {
+    /// candidate generation (its `seed` is replaced by [`PlanOptions::seed`])
+    pub candidates: CandidateOptions,
+    /// number of measurements to select (paper: 40)
+    pub count: usize,
+    /// parameters the selection must identify (default: the paper's 34)
+    pub params: ParamSet,
+    /// Detmax restarts
+    pub detmax_restarts: usize,
+    /// tour heuristic restarts
+    pub tour_restarts: usize,
+    /// path planner options
+    pub paths: PathOptions,
+    /// speeds and fixed times (the cell's `[motion]` table)
+    pub motion: MotionLimits,
+    /// robot configuration at the start of the campaign (`None`: start at the first
+    /// measurement's approach pose)
+    pub start: Option<JointVector>,
+    /// master seed of every random stage (orientations, Detmax, tour restarts, RRT)
+    pub seed: u64,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        Self {
+            candidates: CandidateOptions::default(),
+            count: 40,
+            params: ParamSet::paper34(),
+            detmax_restarts: 8,
+            tour_restarts: 16,
+            paths: PathOptions::default(),
+            motion: MotionLimits::default(),
+            start: None,
+            seed: 1,
+        }
+    }
+}
+
+/// What a tour step asks the campaign to do.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StepKind {
+    /// joint move to `q` (a waypoint of a collision-free path, an approach or a retreat)
+    Move,
+    /// straight joint move from the approach pose down to `q`, auto-centre TCP `tcp` on the
+    /// probe at `position`, record the joints
+    Measure,
+    /// pause: the operator places the probe plate at `position` (the robot stays at `q`)
+    ReplaceProbe,
+}
+
+impl StepKind {
+    /// Name used in `tour.csv`.
+    pub fn name(self) -> &'static str {
+        match self {
+            StepKind::Move => "move",
+            StepKind::Measure => "measure",
+            StepKind::ReplaceProbe => "replace_probe",
+        }
+    }
+}
+
+/// One row of the executable tour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TourStep {
+    /// what to do
+    pub kind: StepKind,
+    /// calibration position where the probe is (or goes, for `ReplaceProbe`)
+    pub position: u32,
+    /// TCP of the current or next measurement
+    pub tcp: u32,
+    /// target joints
+    pub q: JointVector,
+    /// estimated campaign time at the end of this step [s]
+    pub time_s: f64,
+}
+
+/// One leg of the tour: the path from the previous approach pose to the next one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Leg {
+    /// the verified path
+    pub path: JointPath,
+    /// calibration position of the probe during the leg
+    pub position: u32,
+    /// whether the probe plate is re-placed before the leg
+    pub replace_probe: bool,
+}
+
+/// Estimated campaign durations [s].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Timing {
+    /// the optimised order, straight joint moves between approach poses
+    pub ordered_s: f64,
+    /// the optimised order along the planned (collision-free) paths
+    pub planned_paths_s: f64,
+    /// Detmax output order (candidate order: grouped by position, arbitrary inside)
+    pub selection_order_s: f64,
+    /// a seeded random shuffle of the selection
+    pub shuffled_order_s: f64,
+    /// probe re-placements in the optimised order
+    pub replacements: usize,
+    /// probe re-placements in the shuffled order
+    pub shuffled_replacements: usize,
+}
+
+/// Quality of the selection.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SelectionQuality {
+    /// O1..O5 in natural units (mm per mm, rad, rad/(N·m)) — the paper's O1 convention
+    pub raw: ObservabilityIndices,
+    /// O1..O5 of the unit-column-norm Jacobian (column norms of the selection)
+    pub unit_norm: ObservabilityIndices,
+    /// O1 (natural units) of the whole candidate set, for comparison
+    pub candidates_o1: f64,
+    /// Detmax log-determinant of the selection
+    pub log_det: f64,
+}
+
+/// A planned campaign.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// the candidate set with its stage counts
+    pub candidates: CandidateSet,
+    /// Detmax selection: indices into `candidates.candidates`, ascending
+    pub selected: Vec<usize>,
+    /// quality of the selection
+    pub quality: SelectionQuality,
+    /// visiting order: indices into `candidates.candidates`
+    pub order: Vec<usize>,
+    /// one leg per measurement in `order` (the path to its approach pose)
+    pub legs: Vec<Leg>,
+    /// the executable tour
+    pub steps: Vec<TourStep>,
+    /// durations
+    pub timing: Timing,
+}
+
+impl Plan {
+    /// The selected candidates in visiting order, as probe measurements (for simulation or
+    /// identification).
+    pub fn measurements(&self) -> Vec<Measurement> {
+        self.order
+            .iter()
+            .map(|&i| {
+                let c = &self.candidates.candidates[i];
+                Measurement::probe(c.position, c.tcp, c.q)
+            })
+            .collect()
+    }
+
+    /// The stage counts (candidate generation) plus the selected count.
+    pub fn counts(&self) -> (StageCounts, usize) {
+        (self.candidates.counts, self.selected.len())
+    }
+}
+
+/// Plans a measurement campaign: candidate poses (IK, limits, singularities, collisions),
+/// Detmax selection of `count` of them, the time-optimal visiting order, and a verified
+/// collision-free path for every leg.
+pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions) -> Result<Plan, PlanError> {
+    if opts.count == 0 {
+        return Err(PlanError::Option { option: "count".into(), reason: "must be at least 1".into() });
+    }
+    let timer = MotionTimer::from_limits(&opts.motion)?;
+    let checker = CollisionChecker::new(model, geometry, opts.candidates.collision_margin_mm)?;
+    let cand_opts = CandidateOptions { seed: opts.seed, ..opts.candidates.clone() };
+    let candidates = generate_candidates(model, &checker, &cand_opts)?;
+    if candidates.candidates.len() < opts.count {
+        return Err(PlanError::Empty(format!(
+            "only {} measurable candidates for {} requested measurements (stage counts: {:?})",
+            candidates.candidates.len(),
+            opts.count,
+            candidates.counts
+        )));
+    }
+    let (selected, quality) = select(model, &candidates, opts)?;
+    let nodes: Vec<usize> = selected.clone();
+    let order = order_tour(&candidates, &nodes, &timer, opts);
+    let bounds = JointBounds::new(model, MOVE_MARGIN_DEG.min(opts.candidates.joint_margin_deg), 0.0)?;
+    let legs = plan_legs(&checker, &bounds, &timer, &candidates, &order, opts)?;
+    let steps = build_steps(&candidates, &order, &legs, &timer, opts.start.is_some());
+    let timing = timing(&candidates, &selected, &order, &legs, &timer, opts);
+    Ok(Plan { candidates, selected, quality, order, legs, steps, timing })
+}
+
+fn select(model: &Model, set: &CandidateSet, opts: &PlanOptions) -> Result<(Vec<usize>, SelectionQuality), PlanError> {
+    let err = |e: vatcal_observability::ObservabilityError| PlanError::Selection(e.to_string());
+    let measurements: Vec<Measurement> =
+        set.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+    let cands = Candidates::from_measurements(model, &measurements, &opts.params).map_err(err)?;
+    let mut d = DetmaxOptions::new(opts.count);
+    d.restarts = opts.detmax_restarts.max(1);
+    d.seed = opts.seed;
+    let selection = detmax(&cands, &d).map_err(err)?;
+    let jac = cands.design_jacobian(&selection.selected);
+    let raw = observability_indices(jac.as_ref(), &opts.params, ColumnScaling::None).map_err(err)?;
+    let unit_norm = observability_indices(jac.as_ref(), &opts.params, ColumnScaling::UnitNorm).map_err(err)?;
+    let all = observability_indices(cands.stacked(), &opts.params, ColumnScaling::None).map_err(err)?;
+    Ok((selection.selected.clone(), SelectionQuality { raw, unit_norm, candidates_o1: all.o1, log_det: selection.log_det }))
+}
+
+/// Tour costs between the approach poses of `nodes` (candidate indices).
+fn tour_costs(set: &CandidateSet, nodes: &[usize], timer: &MotionTimer, start: Option<&JointVector>) -> TourCosts {
+    let c = |i: usize| &set.candidates[nodes[i]];
+    let cost = |i: usize, j: usize| {
+        let replace = if c(i).position != c(j).position { timer.probe_replacement_s } else { 0.0 };
+        timer.move_time_s(&c(i).approach, &c(j).approach) + replace
+    };
+    match start {
+        Some(s) => {
+            let from_start = |j: usize| timer.move_time_s(s, &c(j).approach);
+            TourCosts::new(nodes.len(), cost, Some(&from_start))
+        }
+        None => TourCosts::new(nodes.len(), cost, None),
+    }
+}
+
+fn order_tour(set: &CandidateSet, nodes: &[usize], timer: &MotionTimer, opts: &PlanOptions) -> Vec<usize> {
+    let costs = tour_costs(set, nodes, timer, opts.start.as_ref());
+    let groups: Vec<u32> = nodes.iter().map(|&i| set.candidates[i].position).collect();
+    let tour = TourOptions { restarts: opts.tour_restarts.max(1), seed: opts.seed };
+    solve_open_path(&costs, &groups, &tour).into_iter().map(|k| nodes[k]).collect()
+}
+
+/// Estimated duration of visiting `order` with straight moves (+ approach/descent, measurement
+/// and re-placement times).
+fn estimated_time(set: &CandidateSet, order: &[usize], timer: &MotionTimer, start: Option<&JointVector>) -> (f64, usize) {
+    let mut t = 0.0;
+    let mut replacements = 0;
+    let mut prev: Option<&crate::candidates::Candidate> = None;
+    for &i in order {
+        let c = &set.candidates[i];
+        match prev {
+            Some(p) => {
+                t += timer.move_time_s(&p.approach, &c.approach);
+                if p.position != c.position {
+                    t += timer.probe_replacement_s;
+                    replacements += 1;
+                }
+            }
+            None => t += start.map_or(0.0, |s| timer.move_time_s(s, &c.approach)),
+        }
+        t += per_measurement_s(c, timer);
+        prev = Some(c);
+    }
+    (t, replacements)
+}
+
+/// Descent, auto-centring and retreat of one measurement [s].
+fn per_measurement_s(c: &crate::candidates::Candidate, timer: &MotionTimer) -> f64 {
+    2.0 * timer.move_time_s(&c.approach, &c.q) + timer.measurement_s
+}
+
+fn leg_seed(seed: u64, leg: usize) -> u64 {
+    seed ^ (leg as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+fn plan_legs(
+    checker: &CollisionChecker<'_>,
+    bounds: &JointBounds,
+    timer: &MotionTimer,
+    set: &CandidateSet,
+    order: &[usize],
+    opts: &PlanOptions,
+) -> Result<Vec<Leg>, PlanError> {
+    let results: Vec<Result<Leg, PlanError>> = (0..order.len())
+        .into_par_iter()
+        .map(|k| {
+            let c = &set.candidates[order[k]];
+            let (from, replace_probe) = match k {
+                0 => match &opts.start {
+                    Some(s) => (*s, false),
+                    None => (c.approach, false),
+                },
+                _ => {
+                    let p = &set.candidates[order[k - 1]];
+                    (p.approach, p.position != c.position)
+                }
+            };
+            let probe = ProbeState::At { position: c.position };
+            if from == c.approach {
+                if let Some(contact) = checker.check(&from, probe) {
+                    return Err(PlanError::NoPath { from_step: k, to_step: k + 1, reason: format!("approach pose in collision ({contact})") });
+                }
+                let path = JointPath { waypoints: vec![from], method: PathMethod::Straight };
+                return Ok(Leg { path, position: c.position, replace_probe });
+            }
+            let path = plan_path(checker, bounds, timer, &from, &c.approach, probe, &opts.paths, leg_seed(opts.seed, k))
+                .map_err(|f| PlanError::NoPath { from_step: k, to_step: k + 1, reason: f.to_string() })?;
+            Ok(Leg { path, position: c.position, replace_probe })
+        })
+        .collect();
+    results.into_iter().collect()
+}
+
+fn build_steps(set: &CandidateSet, order: &[usize], legs: &[Leg], timer: &MotionTimer, has_start: bool) -> Vec<TourStep> {
+    let mut steps = Vec::new();
+    let mut t = 0.0;
+    for (k, (&i, leg)) in order.iter().zip(legs).enumerate() {
+        let c = &set.candidates[i];
+        let from = leg.path.waypoints.first().copied().unwrap_or(c.approach);
+        if k == 0 {
+            // the initial placement of the plate (set-up: no time counted)
+            steps.push(TourStep { kind: StepKind::ReplaceProbe, position: c.position, tcp: c.tcp, q: from, time_s: t });
+        } else if leg.replace_probe {
+            t += timer.probe_replacement_s;
+            steps.push(TourStep { kind: StepKind::ReplaceProbe, position: c.position, tcp: c.tcp, q: from, time_s: t });
+        }
+        let skip = if k == 0 && !has_start { 0 } else { 1 };
+        let mut prev = from;
+        for w in leg.path.waypoints.iter().skip(skip) {
+            t += timer.move_time_s(&prev, w);
+            steps.push(TourStep { kind: StepKind::Move, position: c.position, tcp: c.tcp, q: *w, time_s: t });
+            prev = *w;
+        }
+        t += timer.move_time_s(&c.approach, &c.q) + timer.measurement_s;
+        steps.push(TourStep { kind: StepKind::Measure, position: c.position, tcp: c.tcp, q: c.q, time_s: t });
+        t += timer.move_time_s(&c.q, &c.approach);
+        steps.push(TourStep { kind: StepKind::Move, position: c.position, tcp: c.tcp, q: c.approach, time_s: t });
+    }
+    steps
+}
+
+fn timing(
+    set: &CandidateSet,
+    selected: &[usize],
+    order: &[usize],
+    legs: &[Leg],
+    timer: &MotionTimer,
+    opts: &PlanOptions,
+) -> Timing {
+    let start = opts.start.as_ref();
+    let (ordered_s, replacements) = estimated_time(set, order, timer, start);
+    let (selection_order_s, _) = estimated_time(set, selected, timer, start);
+    let mut shuffled = selected.to_vec();
+    shuffled.shuffle(&mut ChaCha8Rng::seed_from_u64(opts.seed));
+    let (shuffled_order_s, shuffled_replacements) = estimated_time(set, &shuffled, timer, start);
+    let planned_paths_s = legs.iter().map(|l| timer.path_time_s(&l.path.waypoints)).sum::<f64>()
+        + replacements as f64 * timer.probe_replacement_s
+        + order.iter().map(|&i| per_measurement_s(&set.candidates[i], timer)).sum::<f64>();
+    Timing { ordered_s, planned_paths_s, selection_order_s, shuffled_order_s, replacements, shuffled_replacements }
+}
+
+/// Number of legs that needed RRT-Connect.
+pub fn rrt_legs(plan: &Plan) -> usize {
+    plan.legs.iter().filter(|l| l.path.method == PathMethod::RrtConnect).count()
+}

@@ -1,0 +1,187 @@
+//! Configuration of the virtual cell: the paper's error budget (§2.5), probe imperfections,
+//! motion timing and fault injection.
+
+use vatcal_core::cell::MotionLimits;
+
+/// Random errors of the devices. Each figure is the paper's number, interpreted as a **3σ**
+/// bound: Gaussian draws use σ = figure / 3 per axis; the gauge error is a uniform draw within
+/// ± its maximum error.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseBudget {
+    /// robot position repeatability: a fresh random TCP offset after every arm motion [mm]
+    pub robot_repeatability_mm: f64,
+    /// guide repeatability: a fresh random position error after every guide motion [mm]
+    pub guide_repeatability_mm: f64,
+    /// tool-changer repeatability: a random tool offset drawn once per session [mm]
+    pub tool_changer_repeatability_mm: f64,
+    /// gauge maximum error (uniform) [mm]
+    pub gauge_max_error_mm: f64,
+    /// laser-tracker error per axis (3σ) [mm]
+    pub tracker_error_mm: f64,
+}
+
+impl NoiseBudget {
+    /// The paper's budget: robot 5 µm, guide 2.5 µm, tool changer 5 µm, gauge 1.2 µm,
+    /// tracker ≈ 20 µm.
+    pub fn paper() -> Self {
+        Self {
+            robot_repeatability_mm: 0.005,
+            guide_repeatability_mm: 0.0025,
+            tool_changer_repeatability_mm: 0.005,
+            gauge_max_error_mm: 0.0012,
+            tracker_error_mm: 0.020,
+        }
+    }
+
+    /// No noise at all.
+    pub fn none() -> Self {
+        Self {
+            robot_repeatability_mm: 0.0,
+            guide_repeatability_mm: 0.0,
+            tool_changer_repeatability_mm: 0.0,
+            gauge_max_error_mm: 0.0,
+            tracker_error_mm: 0.0,
+        }
+    }
+}
+
+impl Default for NoiseBudget {
+    fn default() -> Self {
+        Self::paper()
+    }
+}
+
+/// Imperfections of the TriCal probe that the campaign does not know about.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProbeImperfections {
+    /// each true gauge axis is tilted from its nominal direction by up to this angle [rad]
+    /// (uniform in a cone): the nominal axes are "slightly non-orthogonal" to the truth
+    pub gauge_axis_tilt_rad: f64,
+    /// the true orientation of each placement differs from the configured one by up to this
+    /// angle about a random axis [rad]
+    pub placement_rotation_rad: f64,
+    /// radius error of each ball (master and calibration balls), uniform within ± [mm]
+    /// (half the paper's 2.5 µm diameter tolerance)
+    pub ball_radius_tolerance_mm: f64,
+}
+
+impl Default for ProbeImperfections {
+    /// 0.3° gauge-axis tilt, 0.1° placement rotation, ±1.25 µm ball radii.
+    fn default() -> Self {
+        Self {
+            gauge_axis_tilt_rad: 0.3f64.to_radians(),
+            placement_rotation_rad: 0.1f64.to_radians(),
+            ball_radius_tolerance_mm: 0.00125,
+        }
+    }
+}
+
+/// How long things take in virtual time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimTiming {
+    /// maximum speed of each arm joint J1..J6 [rad/s]
+    pub joint_speed_rad_per_s: [f64; 6],
+    /// maximum guide speed [mm/s]
+    pub guide_speed_mm_per_s: f64,
+    /// added to every motion (acceleration, settling) [s]
+    pub settle_s: f64,
+    /// one gauge reading [s]
+    pub gauge_read_s: f64,
+    /// one tracker measurement [s]
+    pub tracker_read_s: f64,
+    /// activation + homing of the arm [s]
+    pub homing_s: f64,
+    /// the operator re-placing the probe plate [s]
+    pub operator_s: f64,
+}
+
+impl SimTiming {
+    /// Speeds from the cell file's motion limits (degrees → radians), 0.3 s settling, 0.15 s
+    /// per gauge reading, 1 s per tracker measurement, 8 s homing, the file's probe
+    /// re-placement time.
+    pub fn from_motion_limits(m: &MotionLimits) -> Self {
+        Self {
+            joint_speed_rad_per_s: m.joint_speed_deg_per_s.map(f64::to_radians),
+            guide_speed_mm_per_s: m.guide_speed_mm_per_s,
+            settle_s: 0.3,
+            gauge_read_s: 0.15,
+            tracker_read_s: 1.0,
+            homing_s: 8.0,
+            operator_s: m.probe_replacement_s,
+        }
+    }
+}
+
+impl Default for SimTiming {
+    /// [`SimTiming::from_motion_limits`] of the default limits (Meca500 R3 rated speeds,
+    /// 50 mm/s guide).
+    fn default() -> Self {
+        Self::from_motion_limits(&MotionLimits::default())
+    }
+}
+
+/// Faults injected on purpose (tests of the safety checks).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimFaults {
+    /// the physical result of a relative linear move is scaled by this factor (1 = healthy;
+    /// 2.5 makes auto-centering overshoot and diverge; −1 moves the wrong way)
+    pub linear_move_gain: f64,
+    /// every gauge reading times out
+    pub gauge_timeouts: bool,
+}
+
+impl Default for SimFaults {
+    fn default() -> Self {
+        Self { linear_move_gain: 1.0, gauge_timeouts: false }
+    }
+}
+
+/// Everything the virtual cell needs besides the models and the seed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimConfig {
+    /// random device errors
+    pub noise: NoiseBudget,
+    /// probe imperfections
+    pub probe: ProbeImperfections,
+    /// virtual timing
+    pub timing: SimTiming,
+    /// injected faults
+    pub faults: SimFaults,
+    /// gauge measuring range: readings beyond ± this are errors [mm]
+    pub gauge_range_mm: f64,
+    /// master ball radius (1.5 in) [mm]
+    pub master_ball_radius_mm: f64,
+    /// calibration ball radius (1 in) [mm]
+    pub ball_radius_mm: f64,
+}
+
+impl Default for SimConfig {
+    /// The paper's cell: [`NoiseBudget::paper`], default imperfections and timing, no faults,
+    /// ±6 mm gauges, 1.5 in master ball, 1 in calibration balls.
+    fn default() -> Self {
+        Self {
+            noise: NoiseBudget::paper(),
+            probe: ProbeImperfections::default(),
+            timing: SimTiming::default(),
+            faults: SimFaults::default(),
+            gauge_range_mm: 6.0,
+            master_ball_radius_mm: 19.05,
+            ball_radius_mm: 12.7,
+        }
+    }
+}
+
+impl SimConfig {
+    /// A perfect cell: no noise, no probe imperfections (timing kept).
+    pub fn ideal() -> Self {
+        Self {
+            noise: NoiseBudget::none(),
+            probe: ProbeImperfections {
+                gauge_axis_tilt_rad: 0.0,
+                placement_rotation_rad: 0.0,
+                ball_radius_tolerance_mm: 0.0,
+            },
+            ..Self::default()
+        }
+    }
+}

@@ -1,0 +1,133 @@
+//! The simulated robot controller: it believes the **nominal** geometry.
+//!
+//! A relative linear move asks for a pure translation of the flange (hence of every tool
+//! point) with the orientation unchanged. The controller solves that with its own model — the
+//! nominal one — by Newton iterations on the 6×6 geometric Jacobian of the flange pose (guide
+//! fixed). Physically the arm then moves by whatever the *true* geometry makes of those joints:
+//! the difference is what calibration identifies.
+
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use vatcal_core::JointVector;
+use vatcal_hardware_traits::LinearFrame;
+use vatcal_kinematics::Model;
+
+/// Why the controller refuses a linear move (Meca500 codes: 1012 singularity, 1007 limit).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum LinearMoveError {
+    /// The Jacobian is singular or Newton did not converge.
+    Singular,
+    /// The solution puts cell joint `.0` outside its limits.
+    Limit(usize),
+}
+
+/// Orientation error vector taking `r` to `r_target` (small-angle, exact zero iff equal).
+fn orientation_error(r: &Matrix3<f64>, r_target: &Matrix3<f64>) -> Vector3<f64> {
+    0.5 * (0..3).map(|k| r.column(k).cross(&r_target.column(k))).fold(Vector3::zeros(), |a, b| a + b)
+}
+
+/// World displacement of the flange that the controller aims at, for `displacement_mm` in
+/// `frame` at joints `q` (World = the axes of MDH frame 1, the carriage, on which the arm's
+/// base is bolted).
+pub(crate) fn world_displacement(
+    nominal: &Model,
+    q: &JointVector,
+    displacement_mm: &Vector3<f64>,
+    frame: LinearFrame,
+) -> Vector3<f64> {
+    let chain = nominal.chain(q);
+    match frame {
+        LinearFrame::Tool => chain.frames[7].r * displacement_mm,
+        LinearFrame::World => chain.frames[1].r * displacement_mm,
+    }
+}
+
+/// Joints (guide unchanged) that translate the nominal flange by `delta_world_mm` with the
+/// orientation kept, starting from `q`.
+pub(crate) fn translate_flange(
+    nominal: &Model,
+    q: &JointVector,
+    delta_world_mm: &Vector3<f64>,
+) -> Result<JointVector, LinearMoveError> {
+    let start = nominal.chain(q).frames[7];
+    let p_target = start.p + delta_world_mm;
+    let r_target = start.r;
+    let mut x = *q;
+    for _ in 0..30 {
+        let chain = nominal.chain(&x);
+        let flange = chain.frames[7];
+        let e_p = p_target - flange.p;
+        let e_r = orientation_error(&flange.r, &r_target);
+        if e_p.norm() < 1e-11 && e_r.norm() < 1e-14 {
+            return match nominal.limit_violation(&x) {
+                Some((joint, ..)) => Err(LinearMoveError::Limit(joint)),
+                None => Ok(x),
+            };
+        }
+        let mut jac = Matrix6::zeros();
+        for j in 0..6 {
+            let axis_frame = chain.frames[j + 2];
+            let z = axis_frame.z_axis();
+            let v = z.cross(&(flange.p - axis_frame.p));
+            jac.fixed_view_mut::<3, 1>(0, j).copy_from(&v);
+            jac.fixed_view_mut::<3, 1>(3, j).copy_from(&z);
+        }
+        let mut rhs = Vector6::zeros();
+        rhs.fixed_rows_mut::<3>(0).copy_from(&e_p);
+        rhs.fixed_rows_mut::<3>(3).copy_from(&e_r);
+        let lu = jac.lu();
+        // a near-singular arm (e.g. wrist singularity) is refused like the real controller does
+        if lu.determinant().abs() < 1e-3 {
+            return Err(LinearMoveError::Singular);
+        }
+        let Some(dq) = lu.solve(&rhs) else { return Err(LinearMoveError::Singular) };
+        if dq.amax() > 0.5 || !dq.iter().all(|v| v.is_finite()) {
+            return Err(LinearMoveError::Singular);
+        }
+        for k in 0..6 {
+            x.0[k + 1] += dq[k];
+        }
+    }
+    Err(LinearMoveError::Singular)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vatcal_core::CellFile;
+
+    fn nominal() -> Model {
+        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+            .expect("fixture");
+        Model::from_cell(&cell).expect("model")
+    }
+
+    #[test]
+    fn flange_translates_exactly_on_the_nominal_model() {
+        let m = nominal();
+        let q = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 15.0, 40.0, -25.0]);
+        for frame in [LinearFrame::Tool, LinearFrame::World] {
+            let d = Vector3::new(0.8, -1.5, 2.0);
+            let delta = world_displacement(&m, &q, &d, frame);
+            assert!((delta.norm() - d.norm()).abs() < 1e-12);
+            let q2 = translate_flange(&m, &q, &delta).expect("ik");
+            assert_eq!(q2.0[0], q.0[0], "guide untouched");
+            let (a, b) = (m.chain(&q), m.chain(&q2));
+            assert!((b.frames[7].p - a.frames[7].p - delta).norm() < 1e-9);
+            assert!((b.frames[7].r - a.frames[7].r).norm() < 1e-12);
+            // every TCP moves by the same vector
+            for t in m.tcp_ids() {
+                let dp = m.tcp_position(&q2, t).expect("fk") - m.tcp_position(&q, t).expect("fk");
+                assert!((dp - delta).norm() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn singular_wrist_is_refused() {
+        let m = nominal();
+        // J5 = 0: wrist singularity (J4 and J6 aligned)
+        let q = JointVector::from_mm_deg(150.0, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let r = translate_flange(&m, &q, &Vector3::new(0.5, 0.0, 0.0));
+        assert_eq!(r, Err(LinearMoveError::Singular));
+    }
+}

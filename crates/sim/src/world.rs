@@ -1,0 +1,331 @@
+//! The physical state of the virtual cell, shared by all simulated devices.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use rand::RngExt;
+use vatcal_core::{JointVector, MeasurementContext};
+use vatcal_hardware_traits::{Clock, Error, ErrorKind, ProbePlacement, VirtualClock};
+use vatcal_kinematics::Model;
+
+use crate::config::SimConfig;
+use crate::noise::{self, gauss, gauss3, key, uniform};
+
+/// A straight-line motion in joint space between two instants (virtual time).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Motion<const N: usize> {
+    pub from: [f64; N],
+    pub to: [f64; N],
+    pub start: Duration,
+    pub end: Duration,
+}
+
+impl<const N: usize> Motion<N> {
+    pub fn at_rest(at: [f64; N]) -> Self {
+        Self { from: at, to: at, start: Duration::ZERO, end: Duration::ZERO }
+    }
+
+    /// Position at `now` (the target once the motion is over; exact bits at rest).
+    pub fn position(&self, now: Duration) -> [f64; N] {
+        if now >= self.end || self.end <= self.start {
+            return self.to;
+        }
+        let s = (now - self.start).as_secs_f64() / (self.end - self.start).as_secs_f64();
+        let mut out = self.from;
+        for (o, (a, b)) in out.iter_mut().zip(self.from.iter().zip(self.to.iter())) {
+            *o = a + s * (b - a);
+        }
+        out
+    }
+
+    pub fn moving(&self, now: Duration) -> bool {
+        now < self.end
+    }
+}
+
+/// The arm as the controller and the physics see it.
+#[derive(Debug, Clone)]
+pub(crate) struct ArmState {
+    pub activated: bool,
+    pub homed: bool,
+    pub error: Option<(i32, String)>,
+    pub motion: Motion<6>,
+    /// repeatability: world offset of the tool, re-drawn at every motion [mm]
+    pub offset_mm: Vector3<f64>,
+    /// sign of the last motion of each arm joint (cell joints 2..7)
+    pub dir: [i8; 6],
+}
+
+/// The guide.
+#[derive(Debug, Clone)]
+pub(crate) struct GuideState {
+    pub homed: bool,
+    pub motion: Motion<1>,
+    /// repeatability: physical minus reported position [mm]
+    pub offset_mm: f64,
+}
+
+/// What the campaign does not know about the probe.
+#[derive(Debug, Clone)]
+pub(crate) struct ProbeTruth {
+    /// true world orientation of each placement
+    pub placements: BTreeMap<u32, Matrix3<f64>>,
+    /// true gauge directions in the (nominal) probe frame
+    pub axes: [Vector3<f64>; 3],
+    pub master_radius_mm: f64,
+    pub ball_radius_mm: BTreeMap<u32, f64>,
+    /// plunger position that reads zero, per gauge [mm]
+    pub zero_plunger_mm: [f64; 3],
+}
+
+/// The whole virtual cell.
+#[derive(Debug)]
+pub(crate) struct World {
+    pub seed: u64,
+    pub config: SimConfig,
+    pub nominal: Model,
+    pub truth: Model,
+    pub clock: VirtualClock,
+    pub arm: ArmState,
+    pub guide: GuideState,
+    pub plate: Option<u32>,
+    pub master_ball: bool,
+    /// tool-changer offset of this session, in the tool frame [mm]
+    pub tool_offset_mm: Vector3<f64>,
+    pub probe: ProbeTruth,
+    /// nominal placements given to the campaign's TriCal
+    pub nominal_placements: Vec<ProbePlacement>,
+    /// key of the last event: readings draw their noise from it
+    pub epoch: u64,
+    pub reads_since_epoch: u64,
+    /// world displacements requested by relative linear moves (oracle for tests)
+    pub linear_moves: Vec<Vector3<f64>>,
+}
+
+/// Rotation by an angle drawn uniformly in [0, max] about a random axis.
+fn small_rotation(rng: &mut rand::rngs::ChaCha8Rng, max_rad: f64) -> Matrix3<f64> {
+    let axis = gauss3(rng, 1.0);
+    let angle = uniform(rng, 0.5 * max_rad) + 0.5 * max_rad;
+    match Unit::try_new(axis, 1e-12) {
+        Some(a) => *Rotation3::from_axis_angle(&a, angle).matrix(),
+        None => Matrix3::identity(),
+    }
+}
+
+/// `e` tilted by an angle drawn uniformly in [0, max] toward a random perpendicular.
+fn tilted(rng: &mut rand::rngs::ChaCha8Rng, e: Vector3<f64>, max_rad: f64) -> Vector3<f64> {
+    let angle = if max_rad > 0.0 { rng.random_range(0.0..=max_rad) } else { 0.0 };
+    let perp = gauss3(rng, 1.0);
+    let perp = perp - e * e.dot(&perp);
+    match perp.try_normalize(1e-12) {
+        Some(p) => e * angle.cos() + p * angle.sin(),
+        None => e,
+    }
+}
+
+impl World {
+    pub fn new(nominal: Model, truth: Model, config: SimConfig, seed: u64, clock: VirtualClock) -> Self {
+        let positions: Vec<(u32, Vector3<f64>)> =
+            nominal.position_ids().into_iter().filter_map(|id| nominal.position(id).map(|p| (id, p))).collect();
+        let nominal_placements = ProbePlacement::radial_placements(&positions);
+
+        let mut rng = noise::rng(key(seed, "probe", &[]));
+        let imperfect = &config.probe;
+        let placements = nominal_placements
+            .iter()
+            .map(|p| (p.position, small_rotation(&mut rng, imperfect.placement_rotation_rad) * p.world_from_probe))
+            .collect();
+        let axes = [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| tilted(&mut rng, e, imperfect.gauge_axis_tilt_rad));
+        let master_radius_mm = config.master_ball_radius_mm + uniform(&mut rng, imperfect.ball_radius_tolerance_mm);
+        let ball_radius_mm = truth
+            .tcp_ids()
+            .into_iter()
+            .map(|t| (t, config.ball_radius_mm + uniform(&mut rng, imperfect.ball_radius_tolerance_mm)))
+            .collect();
+        // the probe comes zeroed with its master ball (6.350 mm preset)
+        let zero = master_radius_mm - vatcal_hardware_traits::TRICAL_MASTER_PRESET_MM;
+
+        let mut tool_rng = noise::rng(key(seed, "tool-changer", &[]));
+        let tool_offset_mm = gauss3(&mut tool_rng, config.noise.tool_changer_repeatability_mm / 3.0);
+
+        Self {
+            seed,
+            config,
+            nominal,
+            truth,
+            clock,
+            arm: ArmState {
+                activated: false,
+                homed: false,
+                error: None,
+                motion: Motion::at_rest([0.0; 6]),
+                offset_mm: Vector3::zeros(),
+                dir: [0; 6],
+            },
+            guide: GuideState { homed: false, motion: Motion::at_rest([0.0]), offset_mm: 0.0 },
+            plate: None,
+            master_ball: false,
+            tool_offset_mm,
+            probe: ProbeTruth { placements, axes, master_radius_mm, ball_radius_mm, zero_plunger_mm: [zero; 3] },
+            nominal_placements,
+            epoch: key(seed, "start", &[]),
+            reads_since_epoch: 0,
+            linear_moves: Vec::new(),
+        }
+    }
+
+    pub fn now(&self) -> Duration {
+        self.clock.now()
+    }
+
+    /// A new event happened: readings now draw from `event_key`.
+    pub fn new_epoch(&mut self, event_key: u64) {
+        self.epoch = event_key;
+        self.reads_since_epoch = 0;
+    }
+
+    /// The stream of the next reading of `device`.
+    pub fn reading_rng(&mut self, device: &str, index: u64) -> rand::rngs::ChaCha8Rng {
+        let k = key(self.epoch, device, &[index, self.reads_since_epoch]);
+        self.reads_since_epoch += 1;
+        noise::rng(k)
+    }
+
+    /// Joints the arm reports now [rad].
+    pub fn arm_joints(&self) -> [f64; 6] {
+        self.arm.motion.position(self.now())
+    }
+
+    /// Position the guide reports now [mm].
+    pub fn guide_mm(&self) -> f64 {
+        self.guide.motion.position(self.now())[0]
+    }
+
+    /// Duration of a joint-space move at `speed_fraction`.
+    pub fn arm_duration(&self, from: &[f64; 6], to: &[f64; 6], speed_fraction: f64) -> Duration {
+        let t = &self.config.timing;
+        let s = (0..6)
+            .map(|j| (to[j] - from[j]).abs() / (t.joint_speed_rad_per_s[j] * speed_fraction).max(1e-9))
+            .fold(0.0, f64::max);
+        Duration::from_secs_f64(s + t.settle_s)
+    }
+
+    /// Starts an arm motion to `to`; `event_key` names the command (its noise).
+    pub fn start_arm_motion(&mut self, to: [f64; 6], speed_fraction: f64, event_key: u64) {
+        let now = self.now();
+        let from = self.arm_joints();
+        for j in 0..6 {
+            if to[j] != from[j] {
+                self.arm.dir[j] = if to[j] > from[j] { 1 } else { -1 };
+            }
+        }
+        let end = now + self.arm_duration(&from, &to, speed_fraction);
+        self.arm.motion = Motion { from, to, start: now, end };
+        let mut rng = noise::rng(key(event_key, "arm-offset", &[]));
+        self.arm.offset_mm = gauss3(&mut rng, self.config.noise.robot_repeatability_mm / 3.0);
+        self.new_epoch(event_key);
+    }
+
+    /// Starts a guide motion to `to_mm`.
+    pub fn start_guide_motion(&mut self, to_mm: f64, speed_fraction: f64) {
+        let now = self.now();
+        let from = self.guide_mm();
+        let previous_target = self.guide.motion.to[0];
+        let t = &self.config.timing;
+        let secs = (to_mm - from).abs() / (t.guide_speed_mm_per_s * speed_fraction).max(1e-9) + t.settle_s;
+        self.guide.motion = Motion { from: [from], to: [to_mm], start: now, end: now + Duration::from_secs_f64(secs) };
+        let event = key(self.seed, "guide", &[to_mm.to_bits(), previous_target.to_bits()]);
+        let mut rng = noise::rng(key(event, "guide-offset", &[]));
+        self.guide.offset_mm = gauss(&mut rng, self.config.noise.guide_repeatability_mm / 3.0);
+        self.new_epoch(event);
+    }
+
+    /// Joints where the cell physically is (guide with its repeatability error).
+    pub fn physical_joints(&self) -> JointVector {
+        let arm = self.arm_joints();
+        let mut q = [0.0; 7];
+        q[0] = self.guide_mm() + self.guide.offset_mm;
+        q[1..].copy_from_slice(&arm);
+        JointVector(q)
+    }
+
+    /// Per-sample context the true model sees (backlash direction, time).
+    pub fn context(&self) -> MeasurementContext {
+        MeasurementContext { dir: Some(self.arm.dir), time_s: Some(self.now().as_secs_f64()), temperature_c: None }
+    }
+
+    /// True world position of the centre of ball (TCP) `tcp` [mm].
+    pub fn ball_world(&self, tcp: u32) -> Option<Vector3<f64>> {
+        let t = self.truth.tcp(tcp)?;
+        let chain = self.truth.chain_full(&self.physical_joints(), &self.context(), false, None);
+        Some(chain.tool_point(&(t + self.tool_offset_mm)) + self.arm.offset_mm)
+    }
+
+    /// Ball-centre offset from the true probe origin (world) and the ball's radius, for the
+    /// ball nearest the origin; `None` without a plate.
+    pub fn ball_in_probe(&self) -> Option<(Vector3<f64>, f64)> {
+        let position = self.plate?;
+        if self.master_ball {
+            return Some((Vector3::zeros(), self.probe.master_radius_mm));
+        }
+        let origin = self.truth.position(position)?;
+        self.truth
+            .tcp_ids()
+            .into_iter()
+            .filter_map(|t| {
+                let c = self.ball_world(t)? - origin;
+                Some((c, self.probe.ball_radius_mm.get(&t).copied().unwrap_or(self.config.ball_radius_mm)))
+            })
+            .min_by(|a, b| a.0.norm().total_cmp(&b.0.norm()))
+    }
+
+    /// Plunger position of gauge `i` (tip plane distance from the origin along its axis) [mm];
+    /// `None` when nothing touches it.
+    pub fn plunger_mm(&self, i: usize) -> Option<f64> {
+        let position = self.plate?;
+        let (c_world, radius) = self.ball_in_probe()?;
+        if c_world.norm() > self.config.gauge_range_mm + 2.0 {
+            return None;
+        }
+        let r = self.probe.placements.get(&position)?;
+        let c_probe = r.transpose() * c_world;
+        Some(self.probe.axes[i].dot(&c_probe) + radius)
+    }
+
+    /// One noisy reading of gauge `i`.
+    pub fn read_gauge(&mut self, i: usize) -> Result<f64, Error> {
+        let device = format!("sim gauge {}", i + 1);
+        let plunger = self.plunger_mm(i).ok_or_else(|| {
+            Error::new(ErrorKind::OutOfRange, device.clone(), "nothing touches the plunger (at its stop)")
+        })?;
+        let mut rng = self.reading_rng("gauge", i as u64);
+        let reading = plunger - self.probe.zero_plunger_mm[i] + uniform(&mut rng, self.config.noise.gauge_max_error_mm);
+        if reading.abs() > self.config.gauge_range_mm {
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                device,
+                format!("reading {reading:.4} mm is outside ±{} mm", self.config.gauge_range_mm),
+            ));
+        }
+        Ok(reading)
+    }
+
+    /// Presets gauge `i` so that its current plunger position reads `value_mm`.
+    pub fn preset_gauge(&mut self, i: usize, value_mm: f64) -> Result<(), Error> {
+        let plunger = self.plunger_mm(i).ok_or_else(|| {
+            Error::new(ErrorKind::OutOfRange, format!("sim gauge {}", i + 1), "nothing touches the plunger (at its stop)")
+        })?;
+        self.probe.zero_plunger_mm[i] = plunger - value_mm;
+        Ok(())
+    }
+
+    /// One noisy tracker measurement of ball/SMR `target`.
+    pub fn track(&mut self, target: u32) -> Result<Vector3<f64>, Error> {
+        let p = self.ball_world(target).ok_or_else(|| {
+            Error::new(ErrorKind::OutOfRange, "sim tracker", format!("unknown target {target}"))
+        })?;
+        let mut rng = self.reading_rng("tracker", u64::from(target));
+        Ok(p + gauss3(&mut rng, self.config.noise.tracker_error_mm / 3.0))
+    }
+}
