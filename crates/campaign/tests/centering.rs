@@ -49,6 +49,7 @@ fn converges_within_5_um_in_a_few_iterations_at_every_position() {
         assert_eq!(o.joint_trace.len(), o.iterations + 1);
         // history decreases at each corrective move (until the noise floor)
         assert!(o.composite_history_mm.windows(2).all(|w| w[1] < w[0] + 0.010));
+        eprintln!("pose {k}: initial {initial:.4} mm, history {:?}", o.composite_history_mm);
         iterations.push(o.iterations);
     }
     eprintln!("auto-centering iterations: {iterations:?}");

@@ -22,10 +22,11 @@ pub struct ColumnSpace {
     basis: Mat<f64>,
 }
 
-fn svd_parts(a: MatRef<'_, f64>) -> Result<(Mat<f64>, Vec<f64>, Mat<f64>), DiscoveryError> {
+/// Left singular vectors and singular values (descending) of `a`.
+fn svd_parts(a: MatRef<'_, f64>) -> Result<(Mat<f64>, Vec<f64>), DiscoveryError> {
     let svd = a.thin_svd().map_err(|e| DiscoveryError::Numerical(format!("SVD failed: {e:?}")))?;
     let s: Vec<f64> = svd.S().column_vector().iter().copied().collect();
-    Ok((svd.U().to_owned(), s, svd.V().to_owned()))
+    Ok((svd.U().to_owned(), s))
 }
 
 /// Copy of `a` with every column scaled to unit Euclidean norm (zero columns stay zero), and
@@ -63,7 +64,7 @@ impl ColumnSpace {
             return Ok(Self { basis: Mat::zeros(j.nrows(), 0) });
         }
         let (jn, _) = unit_columns(j);
-        let (u, s, _) = svd_parts(jn.as_ref())?;
+        let (u, s) = svd_parts(jn.as_ref())?;
         let s1 = s.first().copied().unwrap_or(0.0);
         let r = s.iter().filter(|v| **v > relative_tolerance * s1 && **v > 0.0).count();
         Ok(Self { basis: leading_columns(&u, r) })
@@ -130,7 +131,7 @@ impl EffectDirections {
         let (basis, direction_novelty) = if pz.ncols() == 0 {
             (Mat::zeros(z.nrows(), 0), Vec::new())
         } else {
-            let (u, s, _) = svd_parts(pz.as_ref())?;
+            let (u, s) = svd_parts(pz.as_ref())?;
             let keep = s.iter().filter(|v| **v > novelty_floor).count();
             (leading_columns(&u, keep), s)
         };

@@ -2,15 +2,17 @@
 //! variable that could drive a missing effect (each joint, the gravity torques, TCP,
 //! calibration position, time, temperature, approach direction, measurement order).
 //!
-//! For each variable the residual vectors are regressed, component by component, on a few
-//! functions of the variable (angles: `sin q, cos q, sin 2q, cos 2q`; other continuous
-//! variables: a centred quadratic; categories: one indicator per level), with an intercept. The
-//! fraction of the residual sum of squares this explains and its F-test p-value say how strongly
-//! the residuals depend on that variable; binned residual norms show how.
+//! For each variable the residuals are regressed on a few functions of the variable (angles:
+//! `sin q, cos q, sin 2q, cos 2q`; other continuous variables: a centred quadratic; categories:
+//! one indicator per level), with an intercept. Variables tied to a revolute joint j (q_j, τ_j,
+//! dir_j) regress the residual expressed as an angle error of joint j; the others regress the
+//! x, y, z components. The fraction of the residual sum of squares this explains and its F-test
+//! p-value say how strongly the residuals depend on that variable; binned residual norms show
+//! how.
 
 use nalgebra::Vector3;
 use serde::Serialize;
-use vatcal_core::{Measurement, Target, deg_to_rad};
+use vatcal_core::{Measurement, ParamId, Target, deg_to_rad};
 use vatcal_kinematics::Model;
 
 use crate::DiscoveryError;
@@ -215,16 +217,73 @@ fn bins(kind: DriverKind, v: &[f64], norms: &[f64]) -> Vec<Bin> {
     }
 }
 
+/// Per-measurement quantities the drivers need besides the measurement itself.
+#[derive(Debug, Clone, Default)]
+pub struct PoseData {
+    /// gravity torques tau2..tau7 [N·m]
+    pub torques: Vec<[f64; 6]>,
+    /// `∂p/∂θ_j` of joints 2..7 [mm/rad] (the direction an angle error of joint j moves the
+    /// TCP), when known
+    pub joint_directions: Option<Vec<[Vector3<f64>; 6]>>,
+}
+
+impl PoseData {
+    /// Torques and joint directions of every measurement under `model`.
+    pub fn of(model: &Model, measurements: &[Measurement]) -> Result<Self, DiscoveryError> {
+        let joints: Vec<ParamId> = (2..=7).map(ParamId::ThetaOffset).collect();
+        let mut buf = [0.0; 18];
+        let mut dirs = Vec::with_capacity(measurements.len());
+        for (index, m) in measurements.iter().enumerate() {
+            model
+                .jacobian_into(&m.q, &m.context, m.tcp, &joints, &mut buf)
+                .map_err(|e| DiscoveryError::Measurement { index, message: e.to_string() })?;
+            dirs.push(std::array::from_fn(|j| Vector3::new(buf[3 * j], buf[3 * j + 1], buf[3 * j + 2])));
+        }
+        Ok(Self {
+            torques: measurements.iter().map(|m| model.gravity_torques(&m.q)).collect(),
+            joint_directions: Some(dirs),
+        })
+    }
+
+    /// Torques only (no joint directions: every driver uses the world residual components).
+    pub fn torques_only(torques: Vec<[f64; 6]>) -> Self {
+        Self { torques, joint_directions: None }
+    }
+}
+
+/// The joint whose angle error a driver is about (q_j, tau_j, dir_j for j = 2..7).
+fn joint_of(driver: Driver) -> Option<usize> {
+    match driver {
+        Driver::Joint(j) | Driver::Torque(j) | Driver::Direction(j) if j >= 2 => Some(j as usize),
+        _ => None,
+    }
+}
+
+/// Least-squares regression of `response` on `design`: (explained SS, unexplained SS, rank).
+fn regress(design: faer::Mat<f64>, response: &[f64]) -> Result<(f64, f64, usize), DiscoveryError> {
+    let space = ColumnSpace::of(design.as_ref())?;
+    let total: f64 = response.iter().map(|x| x * x).sum();
+    let left: f64 = space.project_out_vec(response).iter().map(|x| x * x).sum();
+    Ok(((total - left).max(0.0), left, space.rank()))
+}
+
 /// Summarises how the residuals depend on `driver`; `None` if the data lacks the variable or it
 /// does not vary.
+///
+/// For drivers tied to a revolute joint j (q_j, tau_j, dir_j) and known joint directions, the
+/// residual is first expressed as an equivalent angle error of joint j (its component along
+/// `∂p/∂θ_j`), which is then regressed on functions of the driver — weighted by the lever arm,
+/// so this is the fraction of the residual an angle error of joint j following the driver
+/// would remove. Otherwise the x, y, z residual components are each regressed on the
+/// functions (with an intercept).
 pub fn summarize_driver(
     driver: Driver,
     measurements: &[Measurement],
     residuals: &[Vector3<f64>],
-    torques: &[[f64; 6]],
+    pose: &PoseData,
 ) -> Result<Option<DriverSummary>, DiscoveryError> {
     let values: Option<Vec<f64>> =
-        measurements.iter().enumerate().map(|(i, m)| driver.value(i, m, &torques[i])).collect();
+        measurements.iter().enumerate().map(|(i, m)| driver.value(i, m, &pose.torques[i])).collect();
     let Some(v) = values else { return Ok(None) };
     let kind = driver.kind();
     let regs = regressors(kind, &v);
@@ -232,35 +291,43 @@ pub fn summarize_driver(
     if regs.is_empty() || n <= regs.len() + 2 {
         return Ok(None);
     }
-    // block-diagonal design: the same regressors (with intercept) for x, y and z
     let b = regs.len() + 1;
-    let design = faer::Mat::from_fn(3 * n, 3 * b, |row, col| {
-        let (k, c) = (row / 3, row % 3);
-        if col / b != c {
-            return 0.0;
+    let basis = |k: usize, j: usize| if j == 0 { 1.0 } else { regs[j - 1][k] };
+    let rss: f64 = residuals.iter().map(|x| x.norm_squared()).sum();
+    let (explained, left, q, rows) = match (joint_of(driver), pose.joint_directions.as_ref()) {
+        (Some(j), Some(dirs)) => {
+            let lever: Vec<f64> = dirs.iter().map(|d| d[j - 2].norm()).collect();
+            let response: Vec<f64> = residuals
+                .iter()
+                .zip(dirs)
+                .zip(&lever)
+                .map(|((r, d), l)| if *l > 0.0 { r.dot(&d[j - 2]) / l } else { 0.0 })
+                .collect();
+            let design = faer::Mat::from_fn(n, b, |k, c| lever[k] * basis(k, c));
+            let (e, l, q) = regress(design, &response)?;
+            (e, l, q, n)
         }
-        match col % b {
-            0 => 1.0,
-            j => regs[j - 1][k],
+        _ => {
+            // block-diagonal design: the same regressors (with intercept) for x, y and z
+            let design = faer::Mat::from_fn(3 * n, 3 * b, |row, col| {
+                if col / b == row % 3 { basis(row / 3, col % b) } else { 0.0 }
+            });
+            let r: Vec<f64> = residuals.iter().flat_map(|x| [x.x, x.y, x.z]).collect();
+            let (e, l, q) = regress(design, &r)?;
+            (e, l, q, 3 * n)
         }
-    });
-    let space = ColumnSpace::of(design.as_ref())?;
-    let r: Vec<f64> = residuals.iter().flat_map(|x| [x.x, x.y, x.z]).collect();
-    let total: f64 = r.iter().map(|x| x * x).sum();
-    let left: f64 = space.project_out_vec(&r).iter().map(|x| x * x).sum();
-    let q = space.rank();
-    let dof2 = (3 * n).saturating_sub(q);
-    let explained = if total > 0.0 { ((total - left) / total).clamp(0.0, 1.0) } else { 0.0 };
+    };
+    let dof2 = rows.saturating_sub(q);
     let ln_p_value = if q == 0 || dof2 == 0 || left <= 0.0 {
         0.0
     } else {
-        f_ln_sf(((total - left) / q as f64) / (left / dof2 as f64), q, dof2)
+        f_ln_sf((explained / q as f64) / (left / dof2 as f64), q, dof2)
     };
     let norms: Vec<f64> = residuals.iter().map(|x| x.norm()).collect();
     Ok(Some(DriverSummary {
         driver,
         label: driver.label(),
-        explained_fraction: explained,
+        explained_fraction: if rss > 0.0 { (explained / rss).clamp(0.0, 1.0) } else { 0.0 },
         chance_fraction: q as f64 / (3 * n) as f64,
         ln_p_value,
         bins: bins(kind, &v, &norms),
@@ -269,10 +336,10 @@ pub fn summarize_driver(
 
 /// Summaries of every available driver, most significant first.
 pub fn locate(model: &Model, measurements: &[Measurement], residuals: &[Vector3<f64>]) -> Result<Vec<DriverSummary>, DiscoveryError> {
-    let torques: Vec<[f64; 6]> = measurements.iter().map(|m| model.gravity_torques(&m.q)).collect();
+    let pose = PoseData::of(model, measurements)?;
     let mut out = Vec::new();
     for d in Driver::all() {
-        if let Some(s) = summarize_driver(d, measurements, residuals, &torques)? {
+        if let Some(s) = summarize_driver(d, measurements, residuals, &pose)? {
             out.push(s);
         }
     }
@@ -303,10 +370,10 @@ mod tests {
             res.push(Vector3::new(0.02 * q[3].sin(), -0.01 * q[3].sin(), 0.0) + noise);
             ms.push(m);
         }
-        let torques = vec![[0.0; 6]; ms.len()];
+        let pose = PoseData::torques_only(vec![[0.0; 6]; ms.len()]);
         let all: Vec<DriverSummary> = Driver::all()
             .into_iter()
-            .filter_map(|d| summarize_driver(d, &ms, &res, &torques).expect("ok"))
+            .filter_map(|d| summarize_driver(d, &ms, &res, &pose).expect("ok"))
             .collect();
         let best = all.iter().min_by(|a, b| a.ln_p_value.total_cmp(&b.ln_p_value)).expect("some");
         assert_eq!(best.driver, Driver::Joint(4), "{}", best.sentence());

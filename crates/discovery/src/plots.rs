@@ -7,17 +7,18 @@ use vatcal_report::{PlotError, PlotSpec, Series, save_svg, scatter_svg};
 
 use crate::workflow::{AddedEffect, Discovery};
 
-/// The plot of one added effect: residual norm [µm] against its driving variable.
+/// The plot of one added effect: the residual against its driving variable, before and after
+/// (see [`crate::workflow::DriverPlot`] for what the y axis shows).
 pub fn effect_plot_svg(step: usize, added: &AddedEffect) -> Result<String, PlotError> {
     let spec = PlotSpec::new(
         format!("step {step}: {}", added.label),
         added.plot.x_label.clone(),
-        "residual norm [um]".to_string(),
+        added.plot.y_label.clone(),
     );
     scatter_svg(
         &spec,
         &added.plot.x,
-        &[Series::new("before", &added.plot.before_um), Series::new("after", &added.plot.after_um)],
+        &[Series::new("before", &added.plot.before), Series::new("after", &added.plot.after)],
     )
 }
 

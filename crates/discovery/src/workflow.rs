@@ -32,7 +32,7 @@ use crate::distributions::chi2_ln_sf;
 use crate::fit::{Fit, fit, residuals};
 use crate::folds::{split, stratified_folds};
 use crate::linear::{ColumnSpace, EffectDirections, ScoreTest, score_test, unit_columns};
-use crate::location::{DriverSummary, locate};
+use crate::location::{DriverSummary, PoseData, locate};
 
 /// Settings of [`discover`].
 #[derive(Debug, Clone)]
@@ -81,7 +81,7 @@ fn mse_mm2(s: &ErrorStats) -> f64 {
 }
 
 /// How far the model is from the data it did not see.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Gap {
     /// errors of K-fold cross-validation (each measurement predicted by a fit without it)
     pub heldout: ErrorStats,
@@ -215,17 +215,21 @@ pub struct Round {
     pub decision: String,
 }
 
-/// Data for a plot of the residual against the effect's driving variable.
+/// Data for a plot of the residual against the effect's driving variable: for effects of a
+/// revolute joint j the residual expressed as an angle error of joint j (its component along
+/// `∂p/∂θ_j` divided by the lever arm) [µrad], otherwise the residual norm [µm].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DriverPlot {
-    /// axis label with unit
+    /// x-axis label with unit
     pub x_label: String,
+    /// y-axis label with unit
+    pub y_label: String,
     /// driver value per measurement
     pub x: Vec<f64>,
-    /// residual norm per measurement before adding the effect [µm]
-    pub before_um: Vec<f64>,
-    /// residual norm per measurement after adding the effect [µm]
-    pub after_um: Vec<f64>,
+    /// residual per measurement before adding the effect
+    pub before: Vec<f64>,
+    /// residual per measurement after adding the effect
+    pub after: Vec<f64>,
 }
 
 /// An effect the loop added.
@@ -525,7 +529,7 @@ fn refit_candidate(
     let evidence = RefitEvidence {
         fitted_params: added.iter().map(|p| p.name()).collect(),
         comparison,
-        cv_before: *cv0,
+        cv_before: cv0.clone(),
         cv_after,
         values,
         std_errors,
@@ -541,16 +545,20 @@ fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, min_cv_gain: f64)
     if !fit1.converged {
         return Some("refit did not converge".into());
     }
-    if !(c.f_ln_p_value < ln_threshold) {
+    let significant = c.f_ln_p_value < ln_threshold;
+    let bic_drops = c.delta_bic < 0.0;
+    let aicc_drops = c.delta_aicc < 0.0;
+    let cv_improves = mse_mm2(&e.cv_after) < mse_mm2(&e.cv_before) * (1.0 - min_cv_gain);
+    if !significant {
         return Some(format!("F-test not significant (log10 p = {:.1})", c.f_ln_p_value / std::f64::consts::LN_10));
     }
-    if !(c.delta_bic < 0.0) {
+    if !bic_drops {
         return Some(format!("BIC does not drop ({:+.1})", c.delta_bic));
     }
-    if !(c.delta_aicc < 0.0) {
+    if !aicc_drops {
         return Some(format!("AICc does not drop ({:+.1})", c.delta_aicc));
     }
-    if !(mse_mm2(&e.cv_after) < mse_mm2(&e.cv_before) * (1.0 - min_cv_gain)) {
+    if !cv_improves {
         return Some(format!(
             "cross-validated error does not improve (RMS {:.4} -> {:.4} mm)",
             e.cv_before.rms, e.cv_after.rms
@@ -559,18 +567,36 @@ fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, min_cv_gain: f64)
     e.implausible.as_ref().map(|why| format!("implausible: {why}"))
 }
 
-fn driver_plot(spec: &EffectSpec, model: &Model, ms: &[Measurement], before: &[Vector3<f64>], after: &[Vector3<f64>]) -> DriverPlot {
+fn driver_plot(
+    spec: &EffectSpec,
+    model: &Model,
+    ms: &[Measurement],
+    before: &[Vector3<f64>],
+    after: &[Vector3<f64>],
+) -> Result<DriverPlot, DiscoveryError> {
     let driver = driver_of(spec);
-    let mut plot = DriverPlot { x_label: driver.label(), x: Vec::new(), before_um: Vec::new(), after_um: Vec::new() };
+    let pose = PoseData::of(model, ms)?;
+    let joint = spec.joint().filter(|j| *j >= 2).map(usize::from);
+    let y_label = match joint {
+        Some(j) => format!("residual as joint-{j} angle error [urad]"),
+        None => "residual norm [um]".to_string(),
+    };
+    let mut plot = DriverPlot { x_label: driver.label(), y_label, x: Vec::new(), before: Vec::new(), after: Vec::new() };
     for (i, m) in ms.iter().enumerate() {
-        let torques = model.gravity_torques(&m.q);
-        if let Some(x) = driver.value(i, m, &torques) {
-            plot.x.push(x);
-            plot.before_um.push(1e3 * before[i].norm());
-            plot.after_um.push(1e3 * after[i].norm());
-        }
+        let Some(x) = driver.value(i, m, &pose.torques[i]) else { continue };
+        let y = |r: &Vector3<f64>| match (joint, pose.joint_directions.as_ref()) {
+            (Some(j), Some(dirs)) => {
+                let d = dirs[i][j - 2];
+                let l2 = d.norm_squared();
+                if l2 > 0.0 { 1e6 * r.dot(&d) / l2 } else { 0.0 }
+            }
+            _ => 1e3 * r.norm(),
+        };
+        plot.x.push(x);
+        plot.before.push(y(&before[i]));
+        plot.after.push(y(&after[i]));
     }
-    plot
+    Ok(plot)
 }
 
 /// Runs the discovery loop from `start` with the fitted parameter set `params` on
@@ -595,7 +621,7 @@ pub fn discover(
     let mut current = fit(start, measurements, params, &options.identify)?;
     let mut held0 = ctx.cross_validate(&current.model, &current.params)?;
     let initial_gap = ctx.gap(&current.model, &held0)?;
-    let mut gap = initial_gap;
+    let mut gap = initial_gap.clone();
     let mut rounds = Vec::new();
     let mut added_effects = Vec::new();
     for index in 1..=options.max_rounds.max(1) {
@@ -615,7 +641,8 @@ pub fn discover(
         let mut refits = 0;
         for c in candidates.iter_mut() {
             let Some(score) = c.score else { continue };
-            if !(score.ln_p_value < ln_threshold) {
+            let screened = score.ln_p_value < ln_threshold;
+            if !screened {
                 continue;
             }
             if refits >= options.max_refits {
@@ -666,9 +693,9 @@ pub fn discover(
                 confounding: evidence.confounding.clone(),
                 gap_before_mm: gap.headline_mm(),
                 gap_after_mm: gap_after.headline_mm(),
-                gap_before: gap,
-                gap_after,
-                plot: driver_plot(&c.spec, &fit1.model, measurements, &current.residuals, &fit1.residuals),
+                gap_before: gap.clone(),
+                gap_after: gap_after.clone(),
+                plot: driver_plot(&c.spec, &fit1.model, measurements, &current.residuals, &fit1.residuals)?,
             };
             decision = added.summary_line();
             added_effects.push(added);
@@ -714,8 +741,8 @@ pub fn discover(
         rounds,
         initial_gap_mm: initial_gap.headline_mm(),
         initial_gap,
-        final_gap: gap,
         final_gap_mm: gap.headline_mm(),
+        final_gap: gap,
         notes,
     })
 }

@@ -21,7 +21,7 @@ fn run(s: &Scenario, params: &ParamSet) -> Discovery {
         .expect("discovery runs");
     for round in &d.rounds {
         eprintln!("round {}: {}", round.index, round.decision);
-        if let Some(top) = round.location.first() {
+        for top in round.location.iter().take(3) {
             eprintln!("   where: {}", top.sentence());
         }
     }

@@ -437,7 +437,7 @@ impl<T: Transport> Meca500<T> {
                 }
             }
             code::CHECKPOINT | code::CHECKPOINT_DISCARDED => {
-                if let Some(id) = reply.payload.trim().parse::<u32>().ok() {
+                if let Ok(id) = reply.payload.trim().parse::<u32>() {
                     let list = if reply.code == code::CHECKPOINT { &mut self.reached } else { &mut self.discarded };
                     list.push_back(id);
                     if list.len() > CHECKPOINT_MEMORY {

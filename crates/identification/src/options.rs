@@ -101,14 +101,16 @@ pub struct IdentifyOptions {
     pub method: Method,
     /// iteration cap (Jacobian evaluations)
     pub max_iterations: usize,
-    /// stop when the largest parameter change of a step, in units of the parameter's typical
-    /// a-priori standard deviation, is below this (default 1e-10: 1e-11 mm for a length)
+    /// stop when the largest parameter change of the Gauss–Newton step of the current
+    /// linearisation, in units of the parameter's typical a-priori standard deviation
+    /// ([`vatcal_core::ParamId::typical_scale`]), is below this (default 1e-10: 1e-11 mm for a
+    /// length, 1e-13 rad for an angle)
     pub step_tolerance: f64,
     /// stop when every column of the weighted Jacobian is orthogonal to the residual up to this
     /// cosine: `max_j |J_jᵀ r| / (‖J_j‖ ‖r‖)` (default 1e-10)
     pub gradient_tolerance: f64,
-    /// stop when both the actual and the predicted relative cost reduction of an accepted step
-    /// are below this (default 1e-12)
+    /// stop when even the undamped linearised model cannot reduce the cost by more than this
+    /// fraction: `‖Q₁ᵀ r‖² ≤ cost_tolerance · ‖r‖²` (default 1e-16)
     pub cost_tolerance: f64,
     /// weights of probe and tracker measurements
     pub weights: KindWeights,
@@ -134,7 +136,7 @@ pub struct IdentifyOptions {
     /// the cap is a failure reported with its log)
     pub accept_iteration_cap: bool,
     /// Gauss–Newton and the paper-literal method: the fit has diverged when the mean residual
-    /// exceeds this factor times the starting mean residual (default 1e3)
+    /// exceeds this factor times the starting mean residual (default 100)
     pub divergence_factor: f64,
 }
 
@@ -145,7 +147,7 @@ impl Default for IdentifyOptions {
             max_iterations: 50,
             step_tolerance: 1e-10,
             gradient_tolerance: 1e-10,
-            cost_tolerance: 1e-12,
+            cost_tolerance: 1e-16,
             weights: KindWeights::default(),
             priors: None,
             measurement_sigma_mm: 0.003,
@@ -154,7 +156,7 @@ impl Default for IdentifyOptions {
             correlation_threshold: 0.9,
             check_identifiability: true,
             accept_iteration_cap: false,
-            divergence_factor: 1e3,
+            divergence_factor: 100.0,
         }
     }
 }

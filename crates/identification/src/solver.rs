@@ -109,18 +109,25 @@ impl<'p, 'a> Iteration<'p, 'a> {
         }
     }
 
-    /// J and r at the current estimate.
+    /// Residuals and cost at the current estimate (the same code path as every trial point, so
+    /// that cost comparisons are not disturbed by round-off differences between paths).
+    fn evaluate_residuals(&mut self) -> Result<(), IdentifyError> {
+        self.problem.residuals(&self.current, &self.values, &mut self.r, &mut self.vecs)?;
+        self.cost = sum_sq(&self.r);
+        Ok(())
+    }
+
+    /// J at the current estimate (its residual by-product is discarded, see
+    /// [`Self::evaluate_residuals`]).
     fn evaluate_jacobian(&mut self) -> Result<(), IdentifyError> {
         self.problem.jacobian(
             &self.current,
             &self.values,
             self.jac.as_mut(),
-            &mut self.r,
-            &mut self.vecs,
+            &mut self.r_trial,
+            &mut self.vecs_trial,
             &mut self.block,
-        )?;
-        self.cost = sum_sq(&self.r);
-        Ok(())
+        )
     }
 
     fn update_scale(&mut self) {
@@ -173,43 +180,52 @@ impl<'p, 'a> Iteration<'p, 'a> {
         (worst, max_diag)
     }
 
-    /// δ for damping λ (0 = Gauss–Newton) into `self.delta`; returns the predicted cost
-    /// reduction `‖Qᵀr‖² − ‖R δ − Qᵀr‖²`.
-    fn step(&mut self, lambda: f64) -> f64 {
+    /// Gauss–Newton step `R δ = Qᵀr` into `self.delta`. Returns `(‖Qᵀr‖², step_norm)`:
+    /// the largest cost reduction the linearised model allows, and the step measure.
+    fn gauss_newton_step(&mut self) -> (f64, f64) {
         let l = self.problem.cols();
-        if lambda == 0.0 {
-            for i in 0..l {
-                self.aug.rhs[(i, 0)] = self.qr.rhs[(i, 0)];
-            }
-            // reuse the main factor: R δ = Qᵀr
-            faer::linalg::triangular_solve::solve_upper_triangular_in_place(
-                self.qr.r_view(),
-                self.aug.rhs.as_mut().get_mut(..l, ..),
-                faer::Par::Seq,
-            );
-        } else {
-            let sqrt_lambda = lambda.sqrt();
-            for j in 0..l {
-                for i in 0..2 * l {
-                    self.aug.a[(i, j)] = if i <= j {
-                        self.qr.a[(i, j)]
-                    } else if i == l + j {
-                        sqrt_lambda
-                    } else {
-                        0.0
-                    };
-                }
-            }
-            for i in 0..2 * l {
-                self.aug.rhs[(i, 0)] = if i < l { self.qr.rhs[(i, 0)] } else { 0.0 };
-            }
-            self.aug.factor_and_apply();
-            self.aug.solve_in_place();
+        for i in 0..l {
+            self.aug.rhs[(i, 0)] = self.qr.rhs[(i, 0)];
         }
+        faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+            self.qr.r_view(),
+            self.aug.rhs.as_mut().get_mut(..l, ..),
+            faer::Par::Seq,
+        );
+        let mut step_norm = 0.0f64;
+        for j in 0..l {
+            self.delta[j] = self.aug.rhs[(j, 0)];
+            step_norm = step_norm.max((self.scale[j] * self.delta[j] / self.typical[j]).abs());
+        }
+        let qtr_sq = (0..l).map(|i| self.qr.rhs[(i, 0)].powi(2)).sum::<f64>();
+        (qtr_sq, if step_norm.is_nan() { f64::INFINITY } else { step_norm })
+    }
+
+    /// Damped step for λ > 0 into `self.delta`: least squares of `[R; √λ I] δ ≈ [Qᵀr; 0]`
+    /// (QR of the 2L × L augmented factor). Returns the predicted cost reduction of the
+    /// undamped linear model, `‖Qᵀr‖² − ‖R δ − Qᵀr‖²`.
+    fn damped_step(&mut self, lambda: f64) -> f64 {
+        let l = self.problem.cols();
+        let sqrt_lambda = lambda.sqrt();
+        for j in 0..l {
+            for i in 0..2 * l {
+                self.aug.a[(i, j)] = if i <= j {
+                    self.qr.a[(i, j)]
+                } else if i == l + j {
+                    sqrt_lambda
+                } else {
+                    0.0
+                };
+            }
+        }
+        for i in 0..2 * l {
+            self.aug.rhs[(i, 0)] = if i < l { self.qr.rhs[(i, 0)] } else { 0.0 };
+        }
+        self.aug.factor_and_apply();
+        self.aug.solve_in_place();
         for j in 0..l {
             self.delta[j] = self.aug.rhs[(j, 0)];
         }
-        // predicted reduction with the undamped model
         let (mut qtr_sq, mut misfit_sq) = (0.0, 0.0);
         for i in 0..l {
             let mut rd = 0.0;
@@ -257,16 +273,22 @@ impl<'p, 'a> Iteration<'p, 'a> {
 }
 
 /// Runs Levenberg–Marquardt or Gauss–Newton (per `options.method`) from `start`.
+///
+/// Convergence is judged at the top of every iteration on the undamped (Gauss–Newton) step of
+/// the current linearisation, so a step that is small only because λ is large never counts:
+/// the scaled gradient, the Gauss–Newton step size and the largest relative cost reduction the
+/// linear model allows (`‖Qᵀr‖² / ‖r‖²`).
 pub(crate) fn least_squares(problem: &Problem<'_>, start: &Model, options: &IdentifyOptions) -> Result<Outcome, IdentifyError> {
     let gauss_newton = options.method == Method::GaussNewton;
     let mut it = Iteration::new(problem, start, options);
-    it.evaluate_jacobian()?;
+    it.evaluate_residuals()?;
     let start_entry = log_entry(0, &it.vecs, it.cost, 0.0, 0.0);
     let start_mean = start_entry.mean_mm;
     it.log.push(start_entry);
     if !it.cost.is_finite() {
         return Ok(it.finish(Termination::NonFinite));
     }
+    it.evaluate_jacobian()?;
     let mut lambda = 0.0;
     let mut nu = 2.0;
     for iteration in 1..=options.max_iterations {
@@ -276,46 +298,45 @@ pub(crate) fn least_squares(problem: &Problem<'_>, start: &Model, options: &Iden
         if it.cost == 0.0 || gradient <= options.gradient_tolerance {
             return Ok(it.finish(Termination::GradientTolerance));
         }
+        let (gn_reduction, gn_step) = it.gauss_newton_step();
+        if gn_step <= options.step_tolerance {
+            return Ok(it.finish(Termination::StepTolerance));
+        }
+        if gn_reduction <= options.cost_tolerance * it.cost {
+            return Ok(it.finish(Termination::CostTolerance));
+        }
         if iteration == 1 && !gauss_newton {
             lambda = options.initial_lambda * max_diag;
         }
         // inner loop: find an acceptable step
         loop {
             let used_lambda = if gauss_newton { 0.0 } else { lambda };
-            let predicted = it.step(used_lambda);
-            let Some((trial_cost, step_norm)) = it.evaluate_trial()? else {
-                if gauss_newton {
-                    return Ok(it.finish(Termination::NonFinite));
-                }
-                lambda *= nu;
-                nu *= 2.0;
-                if lambda > STALL_LAMBDA * max_diag {
-                    return Ok(it.finish(Termination::Stalled));
-                }
-                continue;
-            };
-            let small_step = step_norm <= options.step_tolerance;
+            let predicted = if gauss_newton { gn_reduction } else { it.damped_step(lambda) };
+            let trial = it.evaluate_trial()?;
             let old_cost = it.cost;
-            let actual = old_cost - trial_cost;
-            if gauss_newton {
-                if !trial_cost.is_finite() {
-                    return Ok(it.finish(Termination::NonFinite));
+            let decreased = trial.is_some_and(|(c, _)| c.is_finite() && c < old_cost);
+            match trial {
+                Some((trial_cost, _)) if gauss_newton && trial_cost.is_finite() => {}
+                _ if gauss_newton => return Ok(it.finish(Termination::NonFinite)),
+                Some((trial_cost, _)) if decreased => {
+                    let ratio = if predicted > 0.0 { (old_cost - trial_cost) / predicted } else { 1.0 };
+                    lambda *= (1.0 - (2.0 * ratio - 1.0).powi(3)).max(1.0 / 3.0);
+                    nu = 2.0;
                 }
-            } else if trial_cost.is_finite() && actual > 0.0 {
-                let ratio = if predicted > 0.0 { actual / predicted } else { 1.0 };
-                lambda *= (1.0 - (2.0 * ratio - 1.0).powi(3)).max(1.0 / 3.0);
-                nu = 2.0;
-            } else if small_step {
-                // no decrease, and the step is negligible: we are at the minimum (round-off)
-                return Ok(it.finish(Termination::StepTolerance));
-            } else {
-                lambda *= nu;
-                nu *= 2.0;
-                if lambda > STALL_LAMBDA * max_diag {
-                    return Ok(it.finish(Termination::Stalled));
+                Some((_, step_norm)) if step_norm <= options.step_tolerance => {
+                    // no decrease and a negligible step: at the minimum to round-off
+                    return Ok(it.finish(Termination::StepTolerance));
                 }
-                continue;
+                _ => {
+                    lambda *= nu;
+                    nu *= 2.0;
+                    if lambda > STALL_LAMBDA * max_diag {
+                        return Ok(it.finish(Termination::Stalled));
+                    }
+                    continue;
+                }
             }
+            let step_norm = trial.map_or(0.0, |t| t.1);
             it.accept();
             let entry = log_entry(iteration, &it.vecs, it.cost, used_lambda, step_norm);
             let mean = entry.mean_mm;
@@ -323,19 +344,9 @@ pub(crate) fn least_squares(problem: &Problem<'_>, start: &Model, options: &Iden
             if gauss_newton && !(mean <= options.divergence_factor * start_mean) {
                 return Ok(it.finish(Termination::Diverged));
             }
-            if small_step {
-                return Ok(it.finish(Termination::StepTolerance));
-            }
-            let tol = options.cost_tolerance * old_cost;
-            if actual.abs() <= tol && predicted.abs() <= tol {
-                return Ok(it.finish(Termination::CostTolerance));
-            }
             break;
         }
         it.evaluate_jacobian()?;
-        if !it.cost.is_finite() {
-            return Ok(it.finish(Termination::NonFinite));
-        }
     }
     Ok(it.finish(Termination::MaxIterations))
 }

@@ -73,6 +73,15 @@ fn realistic_noise_reaches_the_noise_floor_on_validation_poses() {
     let fit = identify(&c.nominal, &c.probe, &ParamSet::paper34(), &IdentifyOptions::default()).expect("fit");
     let cmp = compare_models(&c.nominal, &fit.model, &c.validation).expect("compare");
     let calibrated = cmp.candidate.stats.mean;
+    eprintln!(
+        "validation: nominal {} | calibrated {} | sigma_hat {:.5} mm, cond {:.1}, {} iterations, {:?}",
+        cmp.baseline.stats.one_line(),
+        cmp.candidate.stats.one_line(),
+        fit.sigma_hat_mm,
+        fit.condition_number,
+        fit.iterations.len() - 1,
+        fit.termination
+    );
     assert!(calibrated < 0.025, "calibrated mean validation error {calibrated} mm (nominal {nominal_error} mm)");
     assert!(cmp.mean_improvement_factor > 30.0, "improvement x{}", cmp.mean_improvement_factor);
     // σ̂ estimates the per-coordinate noise (2 µm), the residual is at the noise level
@@ -112,17 +121,30 @@ fn lm_converges_from_a_badly_wrong_start_where_gn_alone_is_not_needed() {
 
 #[test]
 fn gauss_newton_and_levenberg_marquardt_agree() {
-    let c = campaign(4, 40, 0.003);
     let params = ParamSet::paper34();
-    let lm = identify(&c.nominal, &c.probe, &params, &IdentifyOptions::default()).expect("lm");
-    let gn = identify(&c.nominal, &c.probe, &params, &IdentifyOptions::with_method(Method::GaussNewton)).expect("gn");
-    assert_eq!(gn.method, Method::GaussNewton);
+    let gn_options = IdentifyOptions::with_method(Method::GaussNewton);
+    // noiseless: both reach the zero-residual solution
+    let exact = campaign(4, 40, 0.0);
+    let lm = identify(&exact.nominal, &exact.probe, &params, &IdentifyOptions::default()).expect("lm");
+    let gn = identify(&exact.nominal, &exact.probe, &params, &gn_options).expect("gn");
     assert!(gn.iterations.iter().all(|it| it.lambda == 0.0));
+    let gap = max_prediction_gap(&lm.model, &gn.model, &exact.validation);
+    assert!(gap < 1e-8, "noiseless: LM and GN predictions differ by {gap:e} mm");
+
+    // noisy: the gravity torques are recomputed from the estimate but held fixed in the
+    // Jacobian (as in the paper), so Gauss–Newton stops at the fixed point J_τᵀ r = 0, which
+    // differs from the true least-squares minimum by a term of order c·∂τ/∂ρ × noise;
+    // Levenberg–Marquardt, which checks the actual cost, continues to the minimum
+    let c = campaign(4, 40, 0.003);
+    let lm = identify(&c.nominal, &c.probe, &params, &IdentifyOptions::default()).expect("lm");
+    let gn = identify(&c.nominal, &c.probe, &params, &gn_options).expect("gn");
+    assert_eq!(gn.method, Method::GaussNewton);
     let gap = max_prediction_gap(&lm.model, &gn.model, &c.validation);
-    assert!(gap < 1e-7, "LM and GN predictions differ by {gap:e} mm");
-    assert!((lm.rss - gn.rss).abs() <= 1e-9 * lm.rss.max(1e-12), "rss {} vs {}", lm.rss, gn.rss);
+    assert!(gap < 1e-5, "noisy: LM and GN predictions differ by {gap:e} mm (noise 3e-3 mm)");
+    assert!(lm.rss <= gn.rss * (1.0 + 1e-12), "LM cost {} must not exceed GN's {}", lm.rss, gn.rss);
+    assert!((lm.rss - gn.rss).abs() <= 1e-6 * lm.rss, "rss {} vs {}", lm.rss, gn.rss);
     for k in 0..params.len() {
-        assert!((lm.sigma[k] - gn.sigma[k]).abs() <= 1e-5 * lm.sigma[k].max(1e-300), "{}", params.0[k]);
+        assert!((lm.sigma[k] - gn.sigma[k]).abs() <= 1e-3 * lm.sigma[k], "{}", params.0[k]);
     }
 }
 
@@ -157,23 +179,38 @@ fn the_literal_paper_method_diverges_and_is_reported_as_such() {
 
 #[test]
 fn one_calibration_position_is_refused_with_names() {
-    let c = campaign(6, 45, 0.0);
-    let one: Vec<Measurement> = c.probe.iter().filter(|m| m.position() == Some(1)).copied().collect();
+    // poses whose nominal TCP sits exactly on position 1 (as planned from the nominal model):
+    // rotating the whole cell about that point changes nothing, 3 directions are invisible
+    let nominal = nominal();
+    let one: Vec<Measurement> =
+        probe_start_poses(&nominal, 45, 60).into_iter().filter(|m| m.position() == Some(1)).collect();
     assert!(one.len() >= 12);
-    let err = identify(&c.nominal, &one, &ParamSet::paper34(), &IdentifyOptions::default()).expect_err("rank deficient");
-    match &err {
-        IdentifyError::Unidentifiable { rank, needed, unidentifiable, .. } => {
-            assert_eq!(*needed, 34);
-            assert!(*rank < 34);
-            assert_eq!(unidentifiable.len(), 34 - rank, "{unidentifiable:?}");
-        }
-        other => panic!("expected Unidentifiable, got {other}"),
-    }
+    let err = identify(&nominal, &one, &ParamSet::paper34(), &IdentifyOptions::default()).expect_err("rank deficient");
+    let IdentifyError::Unidentifiable { rank, needed, unidentifiable, .. } = &err else {
+        panic!("expected Unidentifiable, got {err}");
+    };
+    assert_eq!(*needed, 34);
+    assert!(*rank <= 31, "rank {rank}");
+    assert_eq!(unidentifiable.len(), 34 - rank, "{unidentifiable:?}");
     let text = err.to_string();
     assert!(text.contains("cannot identify"), "{text}");
-    if let IdentifyError::Unidentifiable { unidentifiable, .. } = &err {
-        for p in unidentifiable {
-            assert!(text.contains(&p.name()), "{text} should name {p}");
+    for p in unidentifiable {
+        assert!(text.contains(&p.name()), "{text} should name {p}");
+    }
+}
+
+#[test]
+fn one_calibration_position_of_a_wrong_model_is_refused_or_flagged_ill_conditioned() {
+    // with real data the nominal model misses the position by ~1 mm, which makes the rotation
+    // about the point weakly visible at the start; the fit must then at least show the problem
+    let c = campaign(6, 45, 0.002);
+    let one: Vec<Measurement> = c.probe.iter().filter(|m| m.position() == Some(1)).copied().collect();
+    match identify(&c.nominal, &one, &ParamSet::paper34(), &IdentifyOptions::default()) {
+        Err(IdentifyError::Unidentifiable { .. } | IdentifyError::NotConverged(_) | IdentifyError::Numerical(_)) => {}
+        Err(other) => panic!("unexpected error {other}"),
+        Ok(fit) => {
+            assert!(fit.condition_number > 1e4, "condition number {}", fit.condition_number);
+            assert!(!fit.strong_correlations.is_empty());
         }
     }
 }
@@ -197,7 +234,9 @@ fn priors_pin_parameters_and_regularise_rank_deficient_data() {
     let start = c.nominal.param(ParamId::D(4)).expect("d4");
     assert!((pinned.values[d4] - start).abs() < 1e-8, "pinned d_4 moved {}", pinned.values[d4] - start);
     assert!((free.values[d4] - start).abs() > 1e-3, "free d_4 moved only {}", free.values[d4] - start);
-    assert!(pinned.sigma[d4] < 1e-8, "posterior sigma of a pinned parameter {}", pinned.sigma[d4]);
+    // posterior σ ≤ prior σ · σ̂/σ_meas (the covariance is scaled by the estimated noise)
+    let bound = 1e-9 * pinned.sigma_hat_mm / IdentifyOptions::default().measurement_sigma_mm;
+    assert!(pinned.sigma[d4] <= 1.01 * bound, "posterior sigma of a pinned parameter {} > {bound}", pinned.sigma[d4]);
     // the pinned fit is worse than the free one (d_4 of the truth differs from nominal)
     assert!(pinned.rss > free.rss);
 
@@ -238,16 +277,21 @@ fn weights_balance_probe_and_tracker_measurements() {
         )
         .expect("mixed fit")
     };
-    let light = fit_with(1e-8);
+    let light = fit_with(1e-12);
     let heavy = fit_with(1e4);
     assert_eq!((light.n_probe, light.n_tracker), (c.probe.len(), 30));
     let probe_err = |m: &Model| validate(m, &c.probe).expect("p").stats.mean;
     let tracker_err = |m: &Model| validate(m, &tracker).expect("t").stats.mean;
-    // a light tracker weight leaves the (noiseless) probe data fitted exactly
-    assert!(probe_err(&light.model) < 1e-5, "{}", probe_err(&light.model));
-    // a heavy one follows the tracker (its bias is absorbed by the base pose)
-    assert!(tracker_err(&heavy.model) < 1e-5, "{}", tracker_err(&heavy.model));
-    assert!(tracker_err(&light.model) > 0.1);
+    let (light_probe, light_tracker) = (probe_err(&light.model), tracker_err(&light.model));
+    let (heavy_probe, heavy_tracker) = (probe_err(&heavy.model), tracker_err(&heavy.model));
+    eprintln!("light: probe {light_probe:e} tracker {light_tracker:e}; heavy: probe {heavy_probe:e} tracker {heavy_tracker:e}");
+    // a negligible tracker weight leaves the (noiseless) probe data fitted exactly and the
+    // tracker bias untouched; a heavy one makes the fit follow the biased tracker data and
+    // pushes the conflict into the probe residuals
+    assert!(light_probe < 1e-6, "{light_probe}");
+    assert!(light_tracker > 0.15, "{light_tracker}");
+    assert!(heavy_tracker < 0.01 * light_tracker, "{heavy_tracker}");
+    assert!(heavy_probe > 100.0 * light_probe.max(1e-9), "{heavy_probe}");
     // scaling both weights by the same factor changes nothing
     let scaled = identify(
         &c.nominal,

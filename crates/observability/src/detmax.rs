@@ -502,6 +502,11 @@ impl<'a> State<'a> {
     }
 
     fn recompute_g(&mut self) {
+        let t0 = std::time::Instant::now();
+        self.recompute_g_inner();
+        eprintln!("PROFILE recompute_g {:?}", t0.elapsed());
+    }
+    fn recompute_g_inner(&mut self) {
         let (blocks, minv, l) = (self.c.stacked(), self.minv.as_ref(), self.c.parameter_count());
         self.g.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, gch)| {
             let start = ci * CHUNK;
@@ -543,6 +548,11 @@ impl<'a> State<'a> {
 
     /// Applies `M⁻¹ += Σ sign Z C Zᵀ` and the matching `G_k` update for all candidates.
     fn apply(&mut self, terms: &[Term]) {
+        let t0 = std::time::Instant::now();
+        self.apply_inner(terms);
+        eprintln!("PROFILE apply {:?}", t0.elapsed());
+    }
+    fn apply_inner(&mut self, terms: &[Term]) {
         let l = self.c.parameter_count();
         for t in terms {
             let mut zc = Mat::<f64>::zeros(l, 3);
@@ -559,7 +569,9 @@ impl<'a> State<'a> {
             let start = ci * CHUNK;
             let b = blocks.subrows(3 * start, 3 * gch.len());
             let mut w = Mat::<f64>::zeros(3 * gch.len(), width);
+            let t0 = std::time::Instant::now();
             matmul(w.as_mut(), Accum::Replace, b, zs.as_ref(), 1.0, Par::Seq);
+            if ci == 0 { eprintln!("PROFILE chunk matmul {:?}", t0.elapsed()); }
             for (i, gk) in gch.iter_mut().enumerate() {
                 let r = 3 * i;
                 for (t, (c, sign)) in cs.iter().enumerate() {
@@ -676,7 +688,9 @@ impl<'a> State<'a> {
     /// One Wynn–Mitchell step: add the best candidate, remove the member with the smallest
     /// loss, both applied as a single rank-6 update.
     fn exchange(&mut self) -> Step {
+        let t0 = std::time::Instant::now();
         let Some((k_in, _)) = self.best_addition() else { return Step::Converged };
+        eprintln!("PROFILE best_addition {:?}", t0.elapsed());
         let z_in = self.z_of(k_in);
         let g_in = self.bz(k_in, &z_in);
         let i_plus = Matrix3::identity() + g_in;
@@ -975,7 +989,10 @@ fn run_restart<'a>(
             c.parameter_count()
         ))
     })?;
+    eprintln!("PROFILE start ready");
+    let t0 = std::time::Instant::now();
     let mut exchanges = s.exchange_until_converged(o.max_exchanges);
+    eprintln!("PROFILE exchanges {:?}", t0.elapsed());
     let mut excursions_accepted = 0;
     if let Some(max_depth) = o.excursions {
         let mut depth = 1;
@@ -1009,9 +1026,11 @@ fn run_restart<'a>(
 /// Detmax selection of `options.count` candidates (module docs).
 pub fn detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
     validate(candidates, options)?;
+    let t0 = std::time::Instant::now();
     if options.ridge == 0.0 {
         check_candidate_rank(candidates)?;
     }
+    eprintln!("PROFILE rank check {:?}", t0.elapsed());
     let ridge = ridge_diagonal(candidates, options.ridge);
     let runs: Vec<Result<(Vec<usize>, f64, RestartOutcome), ObservabilityError>> = (0..options.restarts)
         .into_par_iter()

@@ -9,7 +9,9 @@
 //!    (`sqrt(Σ (Δq_j / v_j)²)` with the effective joint speeds), so the guide and the wrist are
 //!    weighed by how long they take to move.
 //! 3. The path found is **shortcut**: random pairs of points along it are joined by a straight
-//!    segment whenever that segment is free, which removes the RRT's detours.
+//!    segment whenever that segment is free and faster, which removes the RRT's detours; a
+//!    final greedy pass jumps from each kept waypoint to the farthest one a free segment
+//!    reaches.
 //! 4. Every segment of the final path is verified again at the resolution before the path is
 //!    returned; a path that fails (cannot happen unless the checker is non-deterministic) is an
 //!    error, never returned.
@@ -146,6 +148,7 @@ pub fn plan_path(
         |p: &[JointVector]| p.windows(2).all(|w| segment_is_free(checker, &w[0], &w[1], probe, &opts.resolution));
     let mut waypoints = planner.shortcut(raw.clone(), &mut rng);
     waypoints.dedup_by(|a, b| a == b);
+    let waypoints = planner.skip_ahead(waypoints);
     if verified(&waypoints) {
         return Ok(JointPath { waypoints, method: PathMethod::RrtConnect });
     }
@@ -260,6 +263,28 @@ impl Rrt<'_, '_> {
             a_is_start = !a_is_start;
         }
         Err(PathFailure::Exhausted { iterations: self.opts.max_iterations })
+    }
+
+    /// Greedy pass: from each kept waypoint jump to the farthest later waypoint that a free
+    /// straight segment reaches.
+    fn skip_ahead(&self, path: Vec<JointVector>) -> Vec<JointVector> {
+        if path.len() < 3 {
+            return path;
+        }
+        let mut out = vec![path[0]];
+        let mut i = 0;
+        while i + 1 < path.len() {
+            let mut next = i + 1;
+            for j in (i + 2..path.len()).rev() {
+                if segment_is_free(self.checker, &path[i], &path[j], self.probe, &self.opts.resolution) {
+                    next = j;
+                    break;
+                }
+            }
+            out.push(path[next]);
+            i = next;
+        }
+        out
     }
 
     /// Random shortcutting: join two random points of the path (on its segments) when the

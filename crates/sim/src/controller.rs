@@ -41,6 +41,32 @@ pub(crate) fn world_displacement(
     }
 }
 
+/// Geometric Jacobian (6×6) of the flange (MDH frame 7) with respect to the six arm joints:
+/// rows 0..3 the linear velocity [mm/rad], rows 3..6 the angular velocity [rad/rad]. Near a
+/// singularity a small translation needs large joint motions (the simulated controller refuses
+/// linear moves there, like the real one); see [`translation_joint_gain`].
+pub fn flange_jacobian(model: &Model, q: &JointVector) -> Matrix6<f64> {
+    let chain = model.chain(q);
+    let flange = chain.frames[7];
+    let mut jac = Matrix6::zeros();
+    for j in 0..6 {
+        let axis_frame = chain.frames[j + 2];
+        let z = axis_frame.z_axis();
+        let v = z.cross(&(flange.p - axis_frame.p));
+        jac.fixed_view_mut::<3, 1>(0, j).copy_from(&v);
+        jac.fixed_view_mut::<3, 1>(3, j).copy_from(&z);
+    }
+    jac
+}
+
+/// Largest joint motion per millimetre of pure flange translation at `q` [rad/mm] (orientation
+/// held): about 0.01 in the middle of the workspace, growing without bound toward a
+/// singularity; `None` at an exact singularity.
+pub fn translation_joint_gain(model: &Model, q: &JointVector) -> Option<f64> {
+    let inv = flange_jacobian(model, q).try_inverse()?;
+    Some(inv.columns(0, 3).amax())
+}
+
 /// Joints (guide unchanged) that translate the nominal flange by `delta_world_mm` with the
 /// orientation kept, starting from `q`.
 pub(crate) fn translate_flange(
@@ -53,24 +79,16 @@ pub(crate) fn translate_flange(
     let r_target = start.r;
     let mut x = *q;
     for _ in 0..30 {
-        let chain = nominal.chain(&x);
-        let flange = chain.frames[7];
+        let flange = nominal.chain(&x).frames[7];
         let e_p = p_target - flange.p;
         let e_r = orientation_error(&flange.r, &r_target);
-        if e_p.norm() < 1e-11 && e_r.norm() < 1e-14 {
+        if e_p.norm() < 1e-9 && e_r.norm() < 1e-12 {
             return match nominal.limit_violation(&x) {
                 Some((joint, ..)) => Err(LinearMoveError::Limit(joint)),
                 None => Ok(x),
             };
         }
-        let mut jac = Matrix6::zeros();
-        for j in 0..6 {
-            let axis_frame = chain.frames[j + 2];
-            let z = axis_frame.z_axis();
-            let v = z.cross(&(flange.p - axis_frame.p));
-            jac.fixed_view_mut::<3, 1>(0, j).copy_from(&v);
-            jac.fixed_view_mut::<3, 1>(3, j).copy_from(&z);
-        }
+        let jac = flange_jacobian(nominal, &x);
         let mut rhs = Vector6::zeros();
         rhs.fixed_rows_mut::<3>(0).copy_from(&e_p);
         rhs.fixed_rows_mut::<3>(3).copy_from(&e_r);
@@ -120,6 +138,16 @@ mod tests {
                 assert!((dp - delta).norm() < 1e-9);
             }
         }
+    }
+
+    #[test]
+    fn translation_gain_grows_toward_singularities() {
+        let m = nominal();
+        let good = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 15.0, 40.0, -25.0]);
+        let g = translation_joint_gain(&m, &good).expect("regular");
+        assert!(g > 0.001 && g < 0.05, "{g}");
+        let near = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 15.0, 0.5, -25.0]);
+        assert!(translation_joint_gain(&m, &near).expect("near") > 10.0 * g);
     }
 
     #[test]

@@ -10,11 +10,12 @@ pub mod truth;
 // --- simulated devices (virtual cell) ---
 mod cell;
 mod config;
-mod controller;
+pub(crate) mod controller;
 mod devices;
 mod noise;
 mod world;
 
 pub use cell::VirtualCell;
+pub use controller::{flange_jacobian, translation_joint_gain};
 pub use config::{NoiseBudget, ProbeImperfections, SimConfig, SimFaults, SimTiming};
 pub use devices::{SIM_IO_TIMEOUT, SimArm, SimGauge, SimGuide, SimOperator, SimTracker};

@@ -6,7 +6,7 @@ use vatcal_core::{CellFile, JointVector, Measurement};
 use vatcal_hardware_traits::{TriCal, VirtualClock};
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::probe_start_poses;
-use vatcal_sim::{SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell};
+use vatcal_sim::{translation_joint_gain, SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell};
 
 pub fn nominal() -> Model {
     let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml")).expect("fixture");
@@ -57,9 +57,21 @@ pub fn clear_pose() -> JointVector {
     JointVector::from_mm_deg(150.0, [0.0, -30.0, 30.0, 0.0, 0.0, 0.0])
 }
 
-/// `n` nominal measurement poses, grouped by calibration position (1, 2, 3).
+/// True when every arm joint is 0.15 rad inside its limits and the arm is away from
+/// singularities (at most 0.03 rad of joint motion per mm of translation): a pose a planner
+/// would accept for centering.
+pub fn well_conditioned(model: &Model, q: &JointVector) -> bool {
+    let limits = model.joint_limits();
+    let inside = (1..7).all(|k| q.0[k] > limits[k].0 + 0.15 && q.0[k] < limits[k].1 - 0.15);
+    inside && translation_joint_gain(model, q).is_some_and(|g| g < 0.03)
+}
+
+/// `n` well-conditioned nominal measurement poses, grouped by calibration position (1, 2, 3).
 pub fn poses(n: usize, seed: u64) -> Vec<Measurement> {
-    let mut p = probe_start_poses(&nominal(), n, seed);
+    let model = nominal();
+    let mut p: Vec<Measurement> =
+        probe_start_poses(&model, 6 * n, seed).into_iter().filter(|m| well_conditioned(&model, &m.q)).take(n).collect();
+    assert_eq!(p.len(), n, "not enough well-conditioned poses");
     p.sort_by_key(|m| m.position());
     p
 }
@@ -71,6 +83,17 @@ pub fn plan(n: usize, seed: u64) -> CampaignPlan {
 
 pub fn quiet_config() -> CampaignConfig {
     CampaignConfig { show_progress: false, ..CampaignConfig::default() }
+}
+
+/// The same measurements up to the CSV's mm/deg round trip (1e-12 relative).
+pub fn assert_close_measurements(a: &[Measurement], b: &[Measurement]) {
+    assert_eq!(a.len(), b.len(), "measurement counts differ");
+    for (x, y) in a.iter().zip(b) {
+        assert_eq!((x.tcp, x.target, x.context.dir, x.context.time_s), (y.tcp, y.target, y.context.dir, y.context.time_s));
+        for j in 0..7 {
+            assert!((x.q.0[j] - y.q.0[j]).abs() <= 1e-12 * x.q.0[j].abs().max(1.0));
+        }
+    }
 }
 
 /// Equal measurement sets: same TCPs, targets, joints bit for bit, same `dir` (times may differ

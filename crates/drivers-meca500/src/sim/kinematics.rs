@@ -153,8 +153,11 @@ mod tests {
             q in proptest::array::uniform6(-40.0f64..40.0),
             dq in proptest::array::uniform6(-3.0f64..3.0),
         ) {
-            // keep away from the wrist singularity (q5 = 0)
+            // keep away from the shoulder (wrist centre on the J1 axis), elbow (arm stretched)
+            // and wrist (q5 = 0) singularities
             let mut q = q;
+            q[1] = q[1].abs();
+            q[2] = q[2] / 40.0 * 30.0 - 10.0;
             q[4] = 30.0 + q[4].abs();
             let target = forward(&q);
             let mut seed = q;

@@ -860,15 +860,13 @@ mod tests {
     fn execution_errors_and_injected_faults_enter_error_mode() {
         let mut r = ready();
         // a relative joint move past the limit fails when it executes
-        send(&mut r, "MoveJointsRel(0,100,0,0,0,0)", ms(0));
-        let out = send(&mut r, "", ms(1));
+        let out = send(&mut r, "MoveJointsRel(0,100,0,0,0,0)", ms(0));
         assert!(out.iter().any(|m| m.starts_with("[1007]")), "{out:?}");
         assert!(r.status_word(ms(1)).error);
         send(&mut r, "ResetError", ms(2));
         send(&mut r, "ResumeMotion", ms(2));
         r.fail_next_move(code::SINGULARITY);
-        send(&mut r, "MoveJoints(1,0,0,0,0,0)", ms(3));
-        assert!(send(&mut r, "", ms(4)).iter().any(|m| m.starts_with("[1012]")));
+        assert!(send(&mut r, "MoveJoints(1,0,0,0,0,0)", ms(3)).iter().any(|m| m.starts_with("[1012]")));
         send(&mut r, "ResetError", ms(5));
         send(&mut r, "ResumeMotion", ms(5));
         assert_eq!(r.inject_error(code::MOTION_ERROR, "Collision.", ms(6)).to_text(), "[3005][Collision.]");
@@ -901,7 +899,10 @@ mod tests {
         send(&mut r, "Home", ms(0));
         send(&mut r, "MoveJoints(100,0,0,0,0,0)", ms(0));
         send(&mut r, "SetCheckpoint(5)", ms(0));
-        assert_eq!(send(&mut r, "ClearMotion", ms(10)), ["[2044][The motion was cleared.]", "[3040][5]"]);
+        assert_eq!(
+            send(&mut r, "ClearMotion", ms(10)),
+            ["[2044][The motion was cleared.]", "[3040][5]", "[3012][End of block.]"]
+        );
     }
 
     #[test]

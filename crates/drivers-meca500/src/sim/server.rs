@@ -170,6 +170,18 @@ struct Client {
     deframer: Deframer,
 }
 
+impl Client {
+    /// True when the peer has closed the connection (pending input counts as open).
+    fn is_closed(&mut self) -> bool {
+        let mut probe = [0u8; 1];
+        match self.stream.peek(&mut probe) {
+            Ok(0) => true,
+            Ok(_) => false,
+            Err(e) => !matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted),
+        }
+    }
+}
+
 #[derive(Debug)]
 struct Server {
     control: TcpListener,
@@ -194,6 +206,13 @@ impl Server {
                 continue;
             }
             let input = self.read_control();
+            if self.shared.flags.stalled.load(Ordering::SeqCst) {
+                // stalled while reading: keep the bytes for later, answer nothing
+                if let Some(client) = &mut self.client {
+                    client.deframer.push(&input);
+                }
+                continue;
+            }
             let out = self.step(&input);
             self.deliver(out);
             if self.client.is_none() {
@@ -208,7 +227,7 @@ impl Server {
             let _ = stream.set_nodelay(true);
             let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
             let _ = stream.set_read_timeout(Some(TICK));
-            if self.client.is_some() {
+            if self.client.as_mut().is_some_and(|c| !c.is_closed()) {
                 let refusal = Reply::new(code::ANOTHER_USER, "Another user is already connected, closing connection.");
                 let mut s = stream;
                 let _ = s.write_all(&refusal.encode());
@@ -289,16 +308,6 @@ impl Server {
             self.next_cycle = now + robot.monitoring_interval();
             out.extend(robot.monitoring_cycle(now).into_iter().map(|r| (Route::Monitoring, r)));
         }
-        if robot.ctrl_port_monitoring() {
-            for (route, _) in &mut out {
-                if *route == Route::Monitoring {
-                    *route = Route::Control;
-                }
-            }
-            // a mirrored stream reaches monitoring clients too
-            let mirrored: Vec<(Route, Reply)> = Vec::new();
-            out.extend(mirrored);
-        }
         out
     }
 
@@ -308,28 +317,24 @@ impl Server {
         let mut monitoring = Vec::new();
         for (route, reply) in &out {
             let bytes = reply.encode();
-            let is_monitoring = *route == Route::Monitoring || (mirrored && is_monitoring_code(reply.code));
-            if *route == Route::Control || mirrored {
-                control.extend_from_slice(&bytes);
-            }
-            if is_monitoring {
-                monitoring.extend_from_slice(&bytes);
-            }
-        }
-        if !control.is_empty() {
-            if let Some(client) = &mut self.client {
-                if client.stream.write_all(&control).is_err() {
-                    self.client = None;
+            match route {
+                Route::Control => control.extend_from_slice(&bytes),
+                Route::Monitoring => {
+                    monitoring.extend_from_slice(&bytes);
+                    if mirrored {
+                        control.extend_from_slice(&bytes);
+                    }
                 }
             }
+        }
+        if let Some(client) = &mut self.client
+            && !control.is_empty()
+            && client.stream.write_all(&control).is_err()
+        {
+            self.client = None;
         }
         if !monitoring.is_empty() {
             self.monitors.retain_mut(|m| m.write_all(&monitoring).is_ok());
         }
     }
-}
-
-/// Codes of the monitoring stream (status pushes and periodic data).
-fn is_monitoring_code(c: u16) -> bool {
-    matches!(c, code::STATUS | code::JOINTS | code::POSE | 2200..=2299)
 }

@@ -1,0 +1,1 @@
+//! Sylvac gauge driver (work in progress).

@@ -1,0 +1,1 @@
+//! Zaber X-LRQ300AP driver (work in progress).
