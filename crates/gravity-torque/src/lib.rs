@@ -112,3 +112,44 @@ pub fn gravity_torques(
     }
     tau
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn single_body(mass_kg: f64, com_mm: [f64; 3], frame: usize) -> MassModel {
+        let mut links = [Body::default(); 6];
+        links[frame - 2] = Body { mass_kg, com_mm: Vector3::from(com_mm) };
+        MassModel { links }
+    }
+
+    #[test]
+    fn horizontal_link_gets_plus_m_g_l_over_two_about_plus_y() {
+        // background.md §2.2 sign test: every frame = world except frame 3, whose z axis is world
+        // +y (Rx(-90)); a 2 kg body with COM at x = 100 mm in frame 3 is a horizontal link along
+        // +x; gravity (0,0,-9.81) pulls it down: tau_3 = +m g L/2 about +z_3 = +y_world.
+        let rx_m90 = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0);
+        let mut links = [Frame::identity(); 7];
+        links[2] = Frame { r: rx_m90, p: Vector3::zeros() };
+        links[3] = Frame { r: rx_m90.transpose(), p: Vector3::zeros() };
+        let masses = single_body(2.0, [100.0, 0.0, 0.0], 3);
+        let tau = gravity_torques(&links, &Matrix3::identity(), &masses, &Vector3::new(0.0, 0.0, -9.81));
+        assert!((tau[1] - 2.0 * 9.81 * 0.1).abs() < 1e-12, "{tau:?}");
+        // joint 2 (axis = world z, vertical) feels nothing from gravity
+        assert!(tau[0].abs() < 1e-12);
+        // distal joints carry nothing
+        assert!(tau[2..].iter().all(|t| t.abs() < 1e-12));
+    }
+
+    #[test]
+    fn tool_is_lumped_into_link_seven() {
+        let inertials = Inertials {
+            links: vec![vatcal_core::cell::LinkInertial { frame: 7, urdf_link: None, mass_kg: 1.0, com_mm: [0.0, 0.0, 0.0] }],
+            tool: vatcal_core::cell::ToolInertial { frame: 7, mass_kg: 1.0, com_mm: [0.0, 0.0, 100.0] },
+        };
+        let m = MassModel::from_inertials(&inertials);
+        assert_eq!(m.links[5].mass_kg, 2.0);
+        assert!((m.links[5].com_mm.z - 50.0).abs() < 1e-12);
+        assert_eq!(m.total_mass_kg(), 2.0);
+    }
+}
