@@ -8,8 +8,8 @@
 //! only set the contraction rate (background §7.4).
 //!
 //! Safety: each step is capped in length, the loop stops with a typed error if the error grows
-//! (beyond a noise allowance), if a reading leaves the gauge range (or comes within a margin of
-//! it), or after an iteration cap.
+//! (beyond the first reading, or on two consecutive moves, with a noise allowance), if a
+//! reading leaves the gauge range (or comes within a margin of it), or after an iteration cap.
 
 use nalgebra::Vector3;
 use vatcal_hardware_traits::{
@@ -26,8 +26,9 @@ pub struct CenteringConfig {
     pub max_iterations: usize,
     /// a corrective move longer than this is shortened to it (same direction) [mm]
     pub max_step_mm: f64,
-    /// abort when the composite error exceeds the previous one by more than this [mm] (noise
-    /// allowance: robot repeatability + gauge error)
+    /// noise allowance of the divergence test [mm] (robot repeatability + gauge error): abort
+    /// when the composite error exceeds the first reading by more than this, or grows by more
+    /// than this on two consecutive moves
     pub growth_allowance_mm: f64,
     /// abort when any gauge reading comes within this margin of the probe's range [mm]
     pub range_margin_mm: f64,
@@ -73,9 +74,11 @@ pub enum CenteringError {
         /// the readings or the probe's own message
         detail: String,
     },
-    /// The composite error grew: the loop diverges (wrong placement orientation, wrong frame,
-    /// a fault in the arm).
-    #[error("the composite error grew from {previous_mm:.4} mm to {current_mm:.4} mm after corrective move {iteration}; stopped")]
+    /// The composite error grew beyond the first reading, or on two consecutive moves: the
+    /// loop diverges (wrong placement orientation, wrong frame, a fault in the arm).
+    #[error(
+        "the composite error grew from {previous_mm:.4} mm to {current_mm:.4} mm after corrective move {iteration}: the loop diverges, stopped"
+    )]
     ErrorGrew {
         /// before the move [mm]
         previous_mm: f64,
@@ -138,10 +141,12 @@ pub fn auto_center(
     loop {
         let reading = read_safely(probe, range_mm, config.range_margin_mm)?;
         let composite = reading.composite_mm();
-        if let Some(&previous) = history.last()
-            && composite > previous + config.growth_allowance_mm
-        {
-            return Err(CenteringError::ErrorGrew { previous_mm: previous, current_mm: composite, iteration: steps.len() });
+        if let Some(previous) = diverging(&history, composite, config.growth_allowance_mm) {
+            return Err(CenteringError::ErrorGrew {
+                previous_mm: previous,
+                current_mm: composite,
+                iteration: steps.len(),
+            });
         }
         history.push(composite);
         let offset_world = placement.to_world(&reading.offset_mm);
@@ -174,19 +179,66 @@ pub fn auto_center(
     }
 }
 
+/// The loop diverges when the new error is worse than the first one, or when it grew on two
+/// consecutive moves (each time by more than `allowance`). A single growth below the start is
+/// tolerated: joint backlash makes a tiny correction that reverses a joint jump once, and the
+/// next correction recovers. Returns the error the growth is measured from.
+fn diverging(history: &[f64], current: f64, allowance: f64) -> Option<f64> {
+    let first = *history.first()?;
+    if current > first + allowance {
+        return Some(first);
+    }
+    match history {
+        [.., before, previous] if current > previous + allowance && *previous > before + allowance => {
+            Some(*previous)
+        }
+        _ => None,
+    }
+}
+
 /// Reads the probe; out-of-range readings (from the probe or within the margin) become
 /// [`CenteringError::OutOfRange`].
-fn read_safely(probe: &mut dyn Probe3d, range_mm: f64, margin_mm: f64) -> Result<ProbeReading, CenteringError> {
+fn read_safely(
+    probe: &mut dyn Probe3d,
+    range_mm: f64,
+    margin_mm: f64,
+) -> Result<ProbeReading, CenteringError> {
     let reading = match probe.read() {
         Ok(r) => r,
         Err(e) if e.kind() == ErrorKind::OutOfRange => {
-            return Err(CenteringError::OutOfRange { readings_mm: Vec::new(), range_mm, margin_mm, detail: e.to_string() });
+            return Err(CenteringError::OutOfRange {
+                readings_mm: Vec::new(),
+                range_mm,
+                margin_mm,
+                detail: e.to_string(),
+            });
         }
         Err(e) => return Err(e.into()),
     };
     if reading.gauges_mm.iter().any(|g| g.abs() > range_mm - margin_mm) {
         let detail = format!("readings {:?} mm", reading.gauges_mm);
-        return Err(CenteringError::OutOfRange { readings_mm: reading.gauges_mm.to_vec(), range_mm, margin_mm, detail });
+        return Err(CenteringError::OutOfRange {
+            readings_mm: reading.gauges_mm.to_vec(),
+            range_mm,
+            margin_mm,
+            detail,
+        });
     }
     Ok(reading)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::diverging;
+
+    #[test]
+    fn divergence_rule() {
+        let a = 0.01;
+        assert_eq!(diverging(&[], 5.0, a), None, "first reading");
+        assert_eq!(diverging(&[1.0], 1.5, a), Some(1.0), "worse than the start");
+        assert_eq!(diverging(&[1.0, 0.02], 0.2, a), None, "one jump below the start is tolerated");
+        assert_eq!(diverging(&[1.0, 0.02, 0.2], 0.5, a), Some(0.2), "two growths in a row");
+        assert_eq!(diverging(&[1.0, 0.02, 0.2], 0.01, a), None, "recovered");
+        assert_eq!(diverging(&[1.0, 0.004], 0.012, a), None, "noise within the allowance");
+    }
 }

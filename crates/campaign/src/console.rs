@@ -1,6 +1,6 @@
 //! An [`Operator`] for a terminal: prints each instruction and waits for Enter.
 
-use std::io::{BufRead, BufReader, Stdin, Stderr, Write};
+use std::io::{BufRead, BufReader, Stderr, Stdin, Write};
 
 use vatcal_hardware_traits::{Error, ErrorKind, Operator, OperatorInstruction, Result};
 
@@ -29,12 +29,17 @@ impl<R: BufRead + Send, W: Write + Send> ConsoleOperator<R, W> {
 impl<R: BufRead + Send, W: Write + Send> Operator for ConsoleOperator<R, W> {
     fn perform(&mut self, instruction: &OperatorInstruction) -> Result<()> {
         let io = |e| Error::from_io("console operator", e);
-        writeln!(self.output, "\n>>> {instruction}.\n    Press Enter when done, or type `abort`: ").map_err(io)?;
+        writeln!(self.output, "\n>>> {instruction}.\n    Press Enter when done, or type `abort`: ")
+            .map_err(io)?;
         self.output.flush().map_err(io)?;
         let mut line = String::new();
         let n = self.input.read_line(&mut line).map_err(io)?;
         if n == 0 || line.trim().eq_ignore_ascii_case("abort") {
-            return Err(Error::new(ErrorKind::Cancelled, "console operator", format!("operator cancelled: {instruction}")));
+            return Err(Error::new(
+                ErrorKind::Cancelled,
+                "console operator",
+                format!("operator cancelled: {instruction}"),
+            ));
         }
         Ok(())
     }

@@ -43,7 +43,12 @@ pub struct JournalHeader {
 
 impl JournalHeader {
     /// A header for a plan with `plan_steps` steps and fingerprint `plan_fingerprint`.
-    pub fn new(plan_fingerprint: u64, plan_steps: usize, start_clock_s: f64, note: impl Into<String>) -> Self {
+    pub fn new(
+        plan_fingerprint: u64,
+        plan_steps: usize,
+        start_clock_s: f64,
+        note: impl Into<String>,
+    ) -> Self {
         Self {
             format: JOURNAL_FORMAT.into(),
             version: JOURNAL_VERSION,
@@ -131,7 +136,8 @@ pub struct StepRecord {
 impl StepRecord {
     /// The measurement this record holds, if any (probe or tracker), with `dir` and `time_s`.
     pub fn measurement(&self) -> Option<Measurement> {
-        let context = MeasurementContext { dir: Some(self.state.dir), time_s: Some(self.time_s), temperature_c: None };
+        let context =
+            MeasurementContext { dir: Some(self.state.dir), time_s: Some(self.time_s), temperature_c: None };
         let (tcp, target) = match &self.outcome {
             StepOutcome::Measured { position, tcp, .. } => (*tcp, Target::Probe { position: *position }),
             StepOutcome::Tracked { tcp, xyz_mm } => (*tcp, Target::Tracker { xyz_mm: (*xyz_mm).into() }),
@@ -160,7 +166,9 @@ pub enum JournalError {
         source: std::io::Error,
     },
     /// A record before the last one is damaged, or the records are out of order.
-    #[error("journal {path}:{line}: corrupt record: {reason} (only a torn last record is dropped automatically)")]
+    #[error(
+        "journal {path}:{line}: corrupt record: {reason} (only a torn last record is dropped automatically)"
+    )]
     Corrupt {
         /// journal file
         path: PathBuf,
@@ -289,7 +297,10 @@ impl Journal {
         let header = match lines.next() {
             Some(Line::Header(h)) => h,
             Some(Line::Step(_)) => {
-                return Err(JournalError::BadHeader { path: path.into(), reason: "line 1 is not a header record".into() });
+                return Err(JournalError::BadHeader {
+                    path: path.into(),
+                    reason: "line 1 is not a header record".into(),
+                });
             }
             None => return Err(JournalError::NoHeader { path: path.into() }),
         };
@@ -306,7 +317,11 @@ impl Journal {
         for (k, line) in lines.enumerate() {
             let line_no = k + 2;
             let Line::Step(r) = line else {
-                return Err(JournalError::Corrupt { path: path.into(), line: line_no, reason: "a second header".into() });
+                return Err(JournalError::Corrupt {
+                    path: path.into(),
+                    line: line_no,
+                    reason: "a second header".into(),
+                });
             };
             if let Some(prev) = records.last()
                 && r.step <= prev.step
@@ -337,7 +352,10 @@ impl Journal {
     /// Opens `path` if it holds a journal, otherwise creates it with `header` (a missing file,
     /// an empty one, or one whose only content is a torn header). Returns the journal and
     /// whether it was resumed.
-    pub fn open_or_create(path: impl AsRef<Path>, header: JournalHeader) -> Result<(Self, bool), JournalError> {
+    pub fn open_or_create(
+        path: impl AsRef<Path>,
+        header: JournalHeader,
+    ) -> Result<(Self, bool), JournalError> {
         let path = path.as_ref();
         if !path.exists() {
             return Ok((Self::create(path, header)?, false));
@@ -434,6 +452,9 @@ mod tests {
     }
 
     proptest! {
+        // every case creates and fsyncs a file: few cases keep the suite fast
+        #![proptest_config(ProptestConfig::with_cases(24))]
+
         /// Records come back bit for bit (floats included).
         #[test]
         fn records_round_trip_exactly(xs in proptest::collection::vec(-1e6..1e6f64, 1..20)) {

@@ -1,8 +1,10 @@
 //! What a campaign does: an ordered list of [`CampaignStep`]s.
 //!
-//! Until the planning crate's tour file exists, plans are built from a list of measurement
-//! poses in tour order ([`CampaignPlan::from_poses`], e.g. the rows of a candidate or selection
-//! CSV read with `vatcal_io::read_candidates`), or written by hand.
+//! Plans come from the tour file of `vatcal plan` ([`CampaignPlan::read_tour`]), from a list of
+//! measurement poses in tour order ([`CampaignPlan::from_poses`], e.g. the rows of a candidate
+//! or selection CSV read with `vatcal_io::read_candidates`), or are written by hand.
+
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use vatcal_core::{JointVector, Measurement, Target};
@@ -83,7 +85,9 @@ pub enum PlanError {
         id: u32,
     },
     /// A measurement at a position where the plate is not.
-    #[error("step {step}: measures at position {position} but the plate is at {placed:?} (add a place_probe step)")]
+    #[error(
+        "step {step}: measures at position {position} but the plate is at {placed:?} (add a place_probe step)"
+    )]
     PlateNotThere {
         /// step index
         step: usize,
@@ -91,6 +95,31 @@ pub enum PlanError {
         position: u32,
         /// where the plate is at that point of the plan
         placed: Option<u32>,
+    },
+}
+
+/// A bad row of a tour file.
+#[derive(Debug, thiserror::Error)]
+pub enum TourFileError {
+    /// The file cannot be read or is not CSV.
+    #[error("{path}: {reason}")]
+    File {
+        /// tour file
+        path: PathBuf,
+        /// what is wrong
+        reason: String,
+    },
+    /// A field is missing or invalid.
+    #[error("{path}:{line}: column `{column}`: {reason}")]
+    Row {
+        /// tour file
+        path: PathBuf,
+        /// 1-based line
+        line: u64,
+        /// column name
+        column: String,
+        /// what is wrong
+        reason: String,
     },
 }
 
@@ -140,6 +169,74 @@ impl CampaignPlan {
         Self { steps }
     }
 
+    /// Reads the tour file written by `vatcal plan` (`step,kind,position,tcp,q1..q7[,time_s]`,
+    /// q1 in mm, q2..q7 in degrees, columns by name): consecutive `move` rows become one
+    /// [`CampaignStep::Move`] through their waypoints; a `measure` row adds its joints as the
+    /// last waypoint (the straight move from the approach pose down to the measurement pose)
+    /// and then a [`CampaignStep::Measure`]; a `replace_probe` row becomes a
+    /// [`CampaignStep::PlaceProbe`]. Validate the result with [`CampaignPlan::validate`].
+    pub fn read_tour(path: impl AsRef<Path>) -> Result<Self, TourFileError> {
+        let path = path.as_ref();
+        let file_err = |reason: String| TourFileError::File { path: path.into(), reason };
+        let mut rdr = csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .from_path(path)
+            .map_err(|e| file_err(e.to_string()))?;
+        let headers = rdr.headers().map_err(|e| file_err(e.to_string()))?.clone();
+        let column = |name: &str| headers.iter().position(|h| h == name);
+        let required = ["kind", "position", "tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"];
+        let mut index = [0usize; 10];
+        for (k, name) in required.iter().enumerate() {
+            index[k] = column(name).ok_or_else(|| file_err(format!("missing column `{name}`")))?;
+        }
+        let mut steps = Vec::new();
+        let mut pending: Vec<JointVector> = Vec::new();
+        for rec in rdr.records() {
+            let rec = rec.map_err(|e| file_err(e.to_string()))?;
+            let line = rec.position().map_or(0, |p| p.line());
+            let row_err = |k: usize, reason: String| TourFileError::Row {
+                path: path.into(),
+                line,
+                column: required[k].into(),
+                reason,
+            };
+            let field = |k: usize| rec.get(index[k]).unwrap_or("");
+            let id = |k: usize| field(k).parse::<u32>().map_err(|_| row_err(k, format!("`{}` is not an id", field(k))));
+            let mut values = [0.0; 7];
+            for (j, v) in values.iter_mut().enumerate() {
+                let text = field(3 + j);
+                *v = text
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| row_err(3 + j, format!("`{text}` is not a finite number")))?;
+            }
+            let q = JointVector::from_mm_deg(values[0], [values[1], values[2], values[3], values[4], values[5], values[6]]);
+            match field(0) {
+                "move" => pending.push(q),
+                "measure" => {
+                    pending.push(q);
+                    steps.push(CampaignStep::Move { path: std::mem::take(&mut pending) });
+                    steps.push(CampaignStep::Measure { position: id(1)?, tcp: id(2)? });
+                }
+                "replace_probe" => {
+                    if !pending.is_empty() {
+                        steps.push(CampaignStep::Move { path: std::mem::take(&mut pending) });
+                    }
+                    steps.push(CampaignStep::PlaceProbe { position: id(1)? });
+                }
+                other => {
+                    return Err(row_err(0, format!("unknown kind `{other}` (move, measure or replace_probe)")));
+                }
+            }
+        }
+        if !pending.is_empty() {
+            steps.push(CampaignStep::Move { path: pending });
+        }
+        Ok(Self { steps })
+    }
+
     /// Number of steps that record a measurement.
     pub fn measurement_count(&self) -> usize {
         self.steps
@@ -177,15 +274,18 @@ impl CampaignPlan {
                     return Err(PlanError::PlateNotThere { step, position: *position, placed });
                 }
                 CampaignStep::ZeroProbe { .. } => {}
-                CampaignStep::Measure { tcp, .. } | CampaignStep::Track { tcp } => known(step, "tcp", *tcp, &tcps)?,
+                CampaignStep::Measure { tcp, .. } | CampaignStep::Track { tcp } => {
+                    known(step, "tcp", *tcp, &tcps)?
+                }
                 CampaignStep::Move { path } => {
                     if path.is_empty() {
                         return Err(PlanError::EmptyMove { step });
                     }
                     for (waypoint, q) in path.iter().enumerate() {
-                        let bad = model.limit_violation(q).map(|(joint, value, ..)| (joint, value)).or_else(|| {
-                            q.0.iter().position(|v| !v.is_finite()).map(|k| (k + 1, q.0[k]))
-                        });
+                        let bad = model
+                            .limit_violation(q)
+                            .map(|(joint, value, ..)| (joint, value))
+                            .or_else(|| q.0.iter().position(|v| !v.is_finite()).map(|k| (k + 1, q.0[k])));
                         if let Some((joint, value)) = bad {
                             return Err(PlanError::Limits { step, waypoint, joint, value });
                         }
@@ -194,5 +294,62 @@ impl CampaignPlan {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tour_rows_become_steps() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let path = dir.path().join("tour.csv");
+        std::fs::write(
+            &path,
+            "step,kind,position,tcp,q1,q2,q3,q4,q5,q6,q7,time_s\n\
+             0,replace_probe,1,2,100,0,0,0,0,0,0,60.000\n\
+             1,move,1,2,110,10,0,0,0,30,0,61.0\n\
+             2,move,1,2,120,20,0,0,0,30,0,62.0\n\
+             3,measure,1,2,120,20,5,0,0,30,0,82.0\n\
+             4,replace_probe,2,1,120,20,5,0,0,30,0,142.0\n\
+             5,measure,2,1,120,20,5,0,0,35,0,162.0\n",
+        )
+        .expect("write");
+        let plan = CampaignPlan::read_tour(&path).expect("tour");
+        let q = |g: f64, a: [f64; 6]| JointVector::from_mm_deg(g, a);
+        assert_eq!(
+            plan.steps,
+            vec![
+                CampaignStep::PlaceProbe { position: 1 },
+                CampaignStep::Move {
+                    path: vec![
+                        q(110.0, [10.0, 0.0, 0.0, 0.0, 30.0, 0.0]),
+                        q(120.0, [20.0, 0.0, 0.0, 0.0, 30.0, 0.0]),
+                        q(120.0, [20.0, 5.0, 0.0, 0.0, 30.0, 0.0]),
+                    ]
+                },
+                CampaignStep::Measure { position: 1, tcp: 2 },
+                CampaignStep::PlaceProbe { position: 2 },
+                CampaignStep::Move { path: vec![q(120.0, [20.0, 5.0, 0.0, 0.0, 35.0, 0.0])] },
+                CampaignStep::Measure { position: 2, tcp: 1 },
+            ]
+        );
+        assert_eq!(plan.measurement_count(), 2);
+    }
+
+    #[test]
+    fn bad_tour_rows_name_line_and_column() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let path = dir.path().join("tour.csv");
+        std::fs::write(&path, "kind,position,tcp,q1,q2,q3,q4,q5,q6,q7\nmove,1,1,0,0,0,abc,0,0,0\n").expect("write");
+        let e = CampaignPlan::read_tour(&path).expect_err("bad").to_string();
+        assert!(e.contains(":2: column `q4`") && e.contains("abc"), "{e}");
+        std::fs::write(&path, "kind,position,tcp,q1,q2,q3,q4,q5,q6,q7\njump,1,1,0,0,0,0,0,0,0\n").expect("write");
+        let e = CampaignPlan::read_tour(&path).expect_err("bad").to_string();
+        assert!(e.contains("unknown kind `jump`"), "{e}");
+        std::fs::write(&path, "kind,position,q1\n").expect("write");
+        let e = CampaignPlan::read_tour(&path).expect_err("bad").to_string();
+        assert!(e.contains("missing column `tcp`"), "{e}");
     }
 }

@@ -7,7 +7,8 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use vatcal_core::{JointVector, Measurement};
 use vatcal_hardware_traits::{
-    ArmJoints, Clock, LinearAxis, MotionOptions, Operator, OperatorInstruction, PositionTracker, Probe3d, RobotArm,
+    ArmJoints, Clock, LinearAxis, MotionOptions, Operator, OperatorInstruction, PositionTracker, Probe3d,
+    RobotArm,
 };
 use vatcal_kinematics::Model;
 
@@ -100,7 +101,9 @@ pub enum CampaignError {
     #[error(transparent)]
     Journal(#[from] JournalError),
     /// The journal was started with another plan.
-    #[error("journal {path} belongs to another plan (fingerprint {journal:016x}, this plan {plan:016x}): resume with the original plan or start a new journal")]
+    #[error(
+        "journal {path} belongs to another plan (fingerprint {journal:016x}, this plan {plan:016x}): resume with the original plan or start a new journal"
+    )]
     PlanMismatch {
         /// journal file
         path: PathBuf,
@@ -180,19 +183,28 @@ pub struct Campaign<'a> {
     devices: CellDevices<'a>,
     controller: &'a Model,
     config: CampaignConfig,
-    observer: Option<Box<dyn FnMut(&StepRecord) + 'a>>,
+    observer: Option<Observer<'a>>,
 }
+
+/// Callback run after every journaled step.
+type Observer<'a> = Box<dyn FnMut(&StepRecord) + 'a>;
 
 impl std::fmt::Debug for Campaign<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Campaign").field("devices", &self.devices).field("config", &self.config).finish_non_exhaustive()
+        f.debug_struct("Campaign")
+            .field("devices", &self.devices)
+            .field("config", &self.config)
+            .finish_non_exhaustive()
     }
 }
 
 /// What the campaign knows about the cell while it runs (the journal's [`CellState`]).
 type State = CellState;
 
-fn device_err(step: StepLabel, action: impl Into<String>) -> impl FnOnce(vatcal_hardware_traits::Error) -> CampaignError {
+fn device_err(
+    step: StepLabel,
+    action: impl Into<String>,
+) -> impl FnOnce(vatcal_hardware_traits::Error) -> CampaignError {
     move |source| CampaignError::Device { step, action: action.into(), source }
 }
 
@@ -214,13 +226,23 @@ impl<'a> Campaign<'a> {
     /// same plan is resumed: the cell is put back into the last recorded state (after the
     /// operator confirmed) and execution continues with the next step, so no measurement is
     /// lost or repeated.
-    pub fn run(&mut self, plan: &CampaignPlan, journal_path: impl AsRef<Path>) -> Result<CampaignReport, CampaignError> {
+    pub fn run(
+        &mut self,
+        plan: &CampaignPlan,
+        journal_path: impl AsRef<Path>,
+    ) -> Result<CampaignReport, CampaignError> {
         plan.validate(self.controller)?;
         let journal_path = journal_path.as_ref();
         let fingerprint = plan.fingerprint();
-        let header = JournalHeader::new(fingerprint, plan.steps.len(), self.devices.clock.now_s(), self.config.note.clone());
+        let header = JournalHeader::new(
+            fingerprint,
+            plan.steps.len(),
+            self.devices.clock.now_s(),
+            self.config.note.clone(),
+        );
         let (mut journal, _) = Journal::open_or_create(journal_path, header)?;
-        if journal.header().plan_fingerprint != fingerprint || journal.header().plan_steps != plan.steps.len() {
+        if journal.header().plan_fingerprint != fingerprint || journal.header().plan_steps != plan.steps.len()
+        {
             return Err(CampaignError::PlanMismatch {
                 path: journal_path.into(),
                 journal: journal.header().plan_fingerprint,
@@ -277,11 +299,15 @@ impl<'a> Campaign<'a> {
     }
 
     fn progress_bar(&self, steps: usize, done: usize) -> ProgressBar {
-        let target = if self.config.show_progress { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() };
+        let target = if self.config.show_progress {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        };
         let bar = ProgressBar::with_draw_target(Some(steps as u64), target);
-        if let Ok(style) =
-            ProgressStyle::with_template("[{elapsed_precise}] {wide_bar} {pos}/{len} steps, ETA {eta} — {msg}")
-        {
+        if let Ok(style) = ProgressStyle::with_template(
+            "[{elapsed_precise}] {wide_bar} {pos}/{len} steps, ETA {eta} — {msg}",
+        ) {
             bar.set_style(style);
         }
         bar.set_position(done as u64);
@@ -302,7 +328,8 @@ impl<'a> Campaign<'a> {
 
     fn read_joints(&mut self, step: StepLabel) -> Result<JointVector, CampaignError> {
         let arm = self.devices.arm.joints().map_err(device_err(step, "reading the arm joints"))?;
-        let guide = self.devices.guide.position_mm().map_err(device_err(step, "reading the guide position"))?;
+        let guide =
+            self.devices.guide.position_mm().map_err(device_err(step, "reading the guide position"))?;
         Ok(arm.with_guide(guide))
     }
 
@@ -319,12 +346,19 @@ impl<'a> Campaign<'a> {
 
     /// Commands guide and arm to `target` together, waits for both, and updates the state
     /// (`*_from` = the joints before this command, `dir` from the joints that changed).
-    fn move_to(&mut self, step: StepLabel, target: &JointVector, state: &mut State) -> Result<(), CampaignError> {
+    fn move_to(
+        &mut self,
+        step: StepLabel,
+        target: &JointVector,
+        state: &mut State,
+    ) -> Result<(), CampaignError> {
         let options = self.config.motion;
         let before = self.read_joints(step)?;
         let d = &mut self.devices;
         let what = |s: &str| format!("{s} to q = {:?} (mm/deg)", target.to_mm_deg());
-        d.guide.move_absolute_mm(target.guide_mm(), &options).map_err(device_err(step, what("moving the guide")))?;
+        d.guide
+            .move_absolute_mm(target.guide_mm(), &options)
+            .map_err(device_err(step, what("moving the guide")))?;
         d.arm
             .move_joints(&ArmJoints::from_joint_vector(target), &options)
             .map_err(device_err(step, what("moving the arm")))?;
@@ -391,7 +425,12 @@ impl<'a> Campaign<'a> {
         Ok(())
     }
 
-    fn execute(&mut self, step: usize, s: &CampaignStep, state: &mut State) -> Result<StepOutcome, CampaignError> {
+    fn execute(
+        &mut self,
+        step: usize,
+        s: &CampaignStep,
+        state: &mut State,
+    ) -> Result<StepOutcome, CampaignError> {
         let label = StepLabel::Step(step);
         match s {
             CampaignStep::PlaceProbe { position } => {
@@ -422,16 +461,30 @@ impl<'a> Campaign<'a> {
             CampaignStep::Measure { position, tcp } => self.measure(step, *position, *tcp, state),
             CampaignStep::Track { tcp } => {
                 let tracker = self.devices.tracker.as_mut().ok_or(CampaignError::NoTracker { step })?;
-                let p = tracker.measure_mm(*tcp).map_err(device_err(label, format!("tracking target {tcp}")))?;
+                let p =
+                    tracker.measure_mm(*tcp).map_err(device_err(label, format!("tracking target {tcp}")))?;
                 Ok(StepOutcome::Tracked { tcp: *tcp, xyz_mm: [p.x, p.y, p.z] })
             }
         }
     }
 
-    fn measure(&mut self, step: usize, position: u32, tcp: u32, state: &mut State) -> Result<StepOutcome, CampaignError> {
+    fn measure(
+        &mut self,
+        step: usize,
+        position: u32,
+        tcp: u32,
+        state: &mut State,
+    ) -> Result<StepOutcome, CampaignError> {
         let label = StepLabel::Step(step);
         let d = &mut self.devices;
-        let result = auto_center(&mut *d.arm, &mut *d.guide, &mut *d.probe, self.controller, position, &self.config.centering);
+        let result = auto_center(
+            &mut *d.arm,
+            &mut *d.guide,
+            &mut *d.probe,
+            self.controller,
+            position,
+            &self.config.centering,
+        );
         match result {
             Ok(o) => {
                 for pair in o.joint_trace.windows(2) {
@@ -471,10 +524,9 @@ impl<'a> Campaign<'a> {
 
 /// Signs of the arm joints that changed between `before` and `after`.
 fn update_dir(dir: &mut [i8; 6], before: &JointVector, after: &JointVector) {
-    for j in 0..6 {
-        let (a, b) = (before.0[j + 1], after.0[j + 1]);
+    for (d, (a, b)) in dir.iter_mut().zip(before.0[1..].iter().zip(&after.0[1..])) {
         if b != a {
-            dir[j] = if b > a { 1 } else { -1 };
+            *d = if b > a { 1 } else { -1 };
         }
     }
 }

@@ -5,13 +5,15 @@ mod common;
 
 use std::time::Duration;
 
-use common::{SimDevices, assert_close_measurements, assert_same_measurements, nominal, paper_cell, plan, quiet_config};
+use common::{
+    SimDevices, assert_close_measurements, assert_same_measurements, nominal, paper_cell, plan, quiet_config,
+};
+use nalgebra::Vector3;
 use vatcal_campaign::{
-    Campaign, CampaignConfig, CampaignError, CampaignPlan, CampaignStep, CellDevices, Journal, StepOutcome, WarmUp,
-    export_measurements,
+    Campaign, CampaignConfig, CampaignError, CampaignPlan, CampaignStep, CellDevices, Journal, StepOutcome,
+    WarmUp, export_measurements,
 };
 use vatcal_core::{JointVector, Measurement};
-use nalgebra::Vector3;
 use vatcal_hardware_traits::{
     ArmJoints, ArmStatus, Clock, Error, ErrorKind, LinearFrame, MotionOptions, Operator, OperatorInstruction,
     Result as HwResult, RobotArm,
@@ -20,7 +22,12 @@ use vatcal_sim::VirtualCell;
 
 const SEED: u64 = 2024;
 
-fn run(cell: &VirtualCell, plan: &CampaignPlan, journal: &std::path::Path, config: CampaignConfig) -> Result<vatcal_campaign::CampaignReport, CampaignError> {
+fn run(
+    cell: &VirtualCell,
+    plan: &CampaignPlan,
+    journal: &std::path::Path,
+    config: CampaignConfig,
+) -> Result<vatcal_campaign::CampaignReport, CampaignError> {
     let model = nominal();
     let mut d = SimDevices::of(cell);
     Campaign::new(d.devices(), &model, config).run(plan, journal)
@@ -88,7 +95,8 @@ impl<O: Operator> Operator for AbortAt<O> {
 fn an_interrupted_campaign_resumes_to_the_same_measurements() {
     let dir = tempfile::tempdir().expect("tmp");
     let plan = plan(9, 2);
-    let reference = run(&paper_cell(SEED), &plan, &dir.path().join("ref.journal"), quiet_config()).expect("reference");
+    let reference =
+        run(&paper_cell(SEED), &plan, &dir.path().join("ref.journal"), quiet_config()).expect("reference");
 
     let journal = dir.path().join("interrupted.journal");
     {
@@ -99,7 +107,10 @@ fn an_interrupted_campaign_resumes_to_the_same_measurements() {
         let mut operator = AbortAt { inner: cell.operator(), remaining: 2 };
         let devices = CellDevices { operator: &mut operator, ..d.devices() };
         let e = Campaign::new(devices, &model, quiet_config()).run(&plan, &journal).expect_err("aborted");
-        assert!(matches!(e, CampaignError::Device { ref source, .. } if source.kind() == ErrorKind::Cancelled), "{e}");
+        assert!(
+            matches!(e, CampaignError::Device { ref source, .. } if source.kind() == ErrorKind::Cancelled),
+            "{e}"
+        );
     }
     let done = Journal::open(&journal).expect("journal").records().len();
     assert!(done > 3 && done < plan.steps.len(), "{done} steps done");
@@ -117,7 +128,8 @@ fn an_interrupted_campaign_resumes_to_the_same_measurements() {
     let times: Vec<f64> = resumed.measurements.iter().map(|m| m.context.time_s.expect("t")).collect();
     assert!(times.windows(2).all(|w| w[1] > w[0]), "time never goes back: {times:?}");
     // the journal now holds every step exactly once
-    let steps: Vec<usize> = Journal::open(&journal).expect("journal").records().iter().map(|r| r.step).collect();
+    let steps: Vec<usize> =
+        Journal::open(&journal).expect("journal").records().iter().map(|r| r.step).collect();
     assert_eq!(steps, (0..plan.steps.len()).collect::<Vec<_>>());
 
     // resuming a finished journal does nothing and returns the same set
@@ -144,7 +156,12 @@ impl<A: RobotArm> RobotArm for DropsAt<A> {
     fn move_joints(&mut self, target: &ArmJoints, options: &MotionOptions) -> HwResult<()> {
         self.inner.move_joints(target, options)
     }
-    fn move_linear_relative(&mut self, d: &Vector3<f64>, frame: LinearFrame, options: &MotionOptions) -> HwResult<()> {
+    fn move_linear_relative(
+        &mut self,
+        d: &Vector3<f64>,
+        frame: LinearFrame,
+        options: &MotionOptions,
+    ) -> HwResult<()> {
         if self.remaining == 0 {
             return Err(Error::new(ErrorKind::Disconnected, "test arm", "connection reset"));
         }
@@ -166,7 +183,8 @@ impl<A: RobotArm> RobotArm for DropsAt<A> {
 fn a_connection_lost_during_centering_resumes_to_the_same_measurements() {
     let dir = tempfile::tempdir().expect("tmp");
     let plan = plan(6, 6);
-    let reference = run(&paper_cell(SEED), &plan, &dir.path().join("ref.journal"), quiet_config()).expect("reference");
+    let reference =
+        run(&paper_cell(SEED), &plan, &dir.path().join("ref.journal"), quiet_config()).expect("reference");
     for drop_at in [0, 4, 9] {
         let journal = dir.path().join(format!("drop{drop_at}.journal"));
         {
@@ -203,10 +221,15 @@ fn invalid_plans_are_refused_before_anything_moves() {
     let bad = CampaignPlan { steps: vec![CampaignStep::Measure { position: 1, tcp: 1 }] };
     let e = run(&cell, &bad, &dir.path().join("a"), quiet_config()).expect_err("no plate");
     assert!(e.to_string().contains("add a place_probe step"), "{e}");
-    let beyond = CampaignPlan { steps: vec![CampaignStep::Move { path: vec![JointVector::from_mm_deg(350.0, [0.0; 6])] }] };
+    let beyond = CampaignPlan {
+        steps: vec![CampaignStep::Move { path: vec![JointVector::from_mm_deg(350.0, [0.0; 6])] }],
+    };
     let e = run(&cell, &beyond, &dir.path().join("b"), quiet_config()).expect_err("limits");
     assert!(e.to_string().contains("q1 = 350"), "{e}");
-    assert!(!dir.path().join("a").exists() && !dir.path().join("b").exists(), "no journal for a refused plan");
+    assert!(
+        !dir.path().join("a").exists() && !dir.path().join("b").exists(),
+        "no journal for a refused plan"
+    );
     assert_eq!(cell.clock().now(), Duration::ZERO, "nothing moved");
 }
 
@@ -215,22 +238,24 @@ fn unsafe_measurements_can_be_skipped_and_the_campaign_goes_on() {
     let dir = tempfile::tempdir().expect("tmp");
     let mut plan = plan(6, 5);
     // push the approach pose of the first measurement 30° off on joint 2: the ball misses the probe
-    let first_move = plan
-        .steps
-        .iter()
-        .position(|s| matches!(s, CampaignStep::Measure { .. }))
-        .expect("measure")
-        - 1;
+    let first_move =
+        plan.steps.iter().position(|s| matches!(s, CampaignStep::Measure { .. })).expect("measure") - 1;
     if let CampaignStep::Move { path } = &mut plan.steps[first_move] {
         path[0].0[1] += 0.5;
     }
-    let strict = run(&paper_cell(SEED), &plan, &dir.path().join("strict"), quiet_config()).expect_err("stops");
+    let strict =
+        run(&paper_cell(SEED), &plan, &dir.path().join("strict"), quiet_config()).expect_err("stops");
     assert!(matches!(strict, CampaignError::Centering { .. }), "{strict}");
     let lenient = CampaignConfig { skip_failed_measurements: true, ..quiet_config() };
     let report = run(&paper_cell(SEED), &plan, &dir.path().join("lenient"), lenient).expect("goes on");
     assert_eq!(report.skipped, 1);
     assert_eq!(report.measurements.len(), plan.measurement_count() - 1);
-    assert!(report.records.iter().any(|r| matches!(&r.outcome, StepOutcome::Skipped { reason } if reason.contains("probe"))));
+    assert!(
+        report
+            .records
+            .iter()
+            .any(|r| matches!(&r.outcome, StepOutcome::Skipped { reason } if reason.contains("probe")))
+    );
 }
 
 #[test]
@@ -238,7 +263,8 @@ fn warm_up_and_tracker_steps() {
     let dir = tempfile::tempdir().expect("tmp");
     let cell = paper_cell(SEED);
     let q = JointVector::from_mm_deg(100.0, [10.0, 20.0, -20.0, 5.0, 30.0, 0.0]);
-    let plan = CampaignPlan { steps: vec![CampaignStep::Move { path: vec![q] }, CampaignStep::Track { tcp: 2 }] };
+    let plan =
+        CampaignPlan { steps: vec![CampaignStep::Move { path: vec![q] }, CampaignStep::Track { tcp: 2 }] };
     let config = CampaignConfig {
         warm_up: Some(WarmUp { path: vec![q, common::clear_pose()], duration: Duration::from_secs(600) }),
         ..quiet_config()
@@ -253,6 +279,59 @@ fn warm_up_and_tracker_steps() {
     let model = nominal();
     let mut d = SimDevices::of(&paper_cell(SEED));
     let devices = CellDevices { tracker: None, ..d.devices() };
-    let e = Campaign::new(devices, &model, quiet_config()).run(&plan, dir.path().join("k")).expect_err("no tracker");
+    let e = Campaign::new(devices, &model, quiet_config())
+        .run(&plan, dir.path().join("k"))
+        .expect_err("no tracker");
     assert!(matches!(e, CampaignError::NoTracker { step: 1 }), "{e}");
+}
+
+/// With joint backlash in the truth, the physical pose depends on the side each joint last
+/// moved from. A crash right after a move in which joint 7 did not move: the recovery must
+/// re-approach from the recorded side, or the resumed measurement differs.
+#[test]
+fn recovery_restores_the_backlash_side_of_joints_that_did_not_move() {
+    use vatcal_core::EffectSpec;
+    use vatcal_core::params::{EffectParam, ParamId};
+    let model = nominal();
+    let mut truth =
+        vatcal_sim::truth::perturbed_truth(&model, SEED, &vatcal_sim::truth::ErrorBudget::realistic());
+    truth.enable_effect(EffectSpec::JointBacklash { joint: 7 }).expect("effect");
+    truth.set_param(ParamId::Effect(EffectParam::Backlash { joint: 7 }), 0.002).expect("value");
+    let cell = || VirtualCell::new(model.clone(), truth.clone(), vatcal_sim::SimConfig::default(), SEED);
+
+    // a probe pose with J6 (q7) > 0.2 rad
+    let pose = common::poses(30, 7).into_iter().find(|m| m.q.0[6] > 0.2).expect("pose with q7 > 0.2");
+    let position = pose.position().expect("probe");
+    let mut from_above = pose.q; // q7 higher: the final approach of q7 is downward
+    from_above.0[6] += 0.3;
+    let mut same_q7 = pose.q; // other joints elsewhere, q7 already at its final value
+    same_q7.0[2] -= 0.2;
+    same_q7.0[3] += 0.2;
+    let plan = CampaignPlan {
+        steps: vec![
+            CampaignStep::Move { path: vec![common::clear_pose()] },
+            CampaignStep::PlaceProbe { position },
+            CampaignStep::Move { path: vec![from_above, same_q7, pose.q] },
+            CampaignStep::Measure { position, tcp: pose.tcp },
+        ],
+    };
+    let dir = tempfile::tempdir().expect("tmp");
+    let reference = run(&cell(), &plan, &dir.path().join("ref"), quiet_config()).expect("reference");
+    let after_move = &reference.records[2].state;
+    assert_eq!(after_move.dir[5], -1, "q7 approached downward");
+    assert_eq!(after_move.arm_from[5], after_move.joints.0[6], "q7 did not move in the last motion");
+
+    let journal = dir.path().join("crash");
+    {
+        let c = cell();
+        let mut d = SimDevices::of(&c);
+        let mut arm = DropsAt { inner: c.arm(), remaining: 1 };
+        let devices = CellDevices { arm: &mut arm, ..d.devices() };
+        Campaign::new(devices, &model, quiet_config())
+            .run(&plan, &journal)
+            .expect_err("crash in the measurement");
+    }
+    let resumed = run(&cell(), &plan, &journal, quiet_config()).expect("resumed");
+    assert_eq!(resumed.resumed_at_step, Some(3));
+    assert_same_measurements(&resumed.measurements, &reference.measurements);
 }

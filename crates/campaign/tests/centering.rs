@@ -9,7 +9,9 @@ use common::{SimDevices, nominal, paper_cell, poses};
 use nalgebra::Vector3;
 use vatcal_campaign::{CenteringConfig, CenteringError, auto_center};
 use vatcal_core::JointVector;
-use vatcal_hardware_traits::{ArmJoints, LinearAxis, MotionOptions, Operator, OperatorInstruction, Probe3d, RobotArm};
+use vatcal_hardware_traits::{
+    ArmJoints, LinearAxis, MotionOptions, Operator, OperatorInstruction, Probe3d, RobotArm,
+};
 use vatcal_sim::truth::reach;
 use vatcal_sim::{SimFaults, VirtualCell};
 
@@ -23,7 +25,11 @@ fn at_pose(cell: &VirtualCell, d: &mut SimDevices, position: u32, q: &JointVecto
     assert_eq!(cell.plate_position(), Some(position));
 }
 
-fn center(d: &mut SimDevices, position: u32, config: &CenteringConfig) -> Result<vatcal_campaign::CenteringOutcome, CenteringError> {
+fn center(
+    d: &mut SimDevices,
+    position: u32,
+    config: &CenteringConfig,
+) -> Result<vatcal_campaign::CenteringOutcome, CenteringError> {
     auto_center(&mut d.arm, &mut d.guide, &mut d.probe, &nominal(), position, config)
 }
 
@@ -63,7 +69,8 @@ fn a_diverging_arm_is_stopped_when_the_error_grows() {
         let mut d = SimDevices::of(&cell);
         at_pose(&cell, &mut d, pose.position().expect("p"), &pose.q);
         cell.set_faults(SimFaults { linear_move_gain: gain, ..SimFaults::default() });
-        let e = center(&mut d, pose.position().expect("p"), &CenteringConfig::default()).expect_err("diverges");
+        let e =
+            center(&mut d, pose.position().expect("p"), &CenteringConfig::default()).expect_err("diverges");
         match e {
             CenteringError::ErrorGrew { previous_mm, current_mm, iteration } => {
                 assert!(current_mm > previous_mm);
@@ -84,20 +91,25 @@ fn readings_near_or_beyond_the_range_are_refused_before_moving() {
     let truth = cell.truth();
     // put the ball 5.9 mm along gauge 2: inside ±6 mm but within the 0.25 mm margin
     let along = d.probe.placement(position).expect("placement").to_world(&Vector3::new(0.0, 5.9, 0.0));
-    let q = reach(&truth, &pose.q, pose.tcp, &(truth.position(position).expect("p") + along), 1e-10).expect("reach");
+    let q = reach(&truth, &pose.q, pose.tcp, &(truth.position(position).expect("p") + along), 1e-10)
+        .expect("reach");
     at_pose(&cell, &mut d, position, &q);
     let e = center(&mut d, position, &CenteringConfig::default()).expect_err("margin");
     assert!(matches!(e, CenteringError::OutOfRange { ref readings_mm, .. } if readings_mm.len() == 3), "{e}");
     assert!(cell.linear_moves().is_empty(), "nothing moved");
     // beyond the range: the probe refuses, same typed error
     let along = d.probe.placement(position).expect("placement").to_world(&Vector3::new(0.0, 0.0, 7.0));
-    let q = reach(&truth, &pose.q, pose.tcp, &(truth.position(position).expect("p") + along), 1e-10).expect("reach");
+    let q = reach(&truth, &pose.q, pose.tcp, &(truth.position(position).expect("p") + along), 1e-10)
+        .expect("reach");
     d.arm.move_joints_and_wait(&ArmJoints::from_joint_vector(&q), &MotionOptions::default()).expect("arm");
     let e = center(&mut d, position, &CenteringConfig::default()).expect_err("range");
     assert!(matches!(e, CenteringError::OutOfRange { ref readings_mm, .. } if readings_mm.is_empty()), "{e}");
     assert!(e.to_string().contains("outside"), "{e}");
     // a position the probe has no placement for
-    assert!(matches!(center(&mut d, 9, &CenteringConfig::default()), Err(CenteringError::NoPlacement { position: 9 })));
+    assert!(matches!(
+        center(&mut d, 9, &CenteringConfig::default()),
+        Err(CenteringError::NoPlacement { position: 9 })
+    ));
 }
 
 #[test]
@@ -109,7 +121,10 @@ fn iteration_cap_and_step_cap() {
     at_pose(&cell, &mut d, position, &pose.q);
     let capped = CenteringConfig { max_iterations: 1, ..CenteringConfig::default() };
     let e = center(&mut d, position, &capped).expect_err("cap");
-    assert!(matches!(e, CenteringError::IterationCap { iterations: 1, composite_mm } if composite_mm > 0.005), "{e}");
+    assert!(
+        matches!(e, CenteringError::IterationCap { iterations: 1, composite_mm } if composite_mm > 0.005),
+        "{e}"
+    );
 
     // small steps: every commanded correction is at most 0.2 mm, and it still converges
     let cell = paper_cell(9);

@@ -95,6 +95,11 @@ impl Gap {
     pub fn headline_mm(&self) -> f64 {
         self.validation.as_ref().map_or(self.heldout.mean, |v| v.mean)
     }
+
+    /// What [`Gap::headline_mm`] measures, for people.
+    pub fn headline_name(&self) -> &'static str {
+        if self.validation.is_some() { "mean validation error" } else { "mean cross-validated error" }
+    }
 }
 
 /// Summary of one fit.
@@ -415,6 +420,26 @@ fn identifiable_subset(
     Ok(kept)
 }
 
+/// The catalog's candidates plus the lower orders of the guide-angular polynomial (order 1 =
+/// a linear pitch/yaw/roll, 3 parameters, is tested on its own so that a linear error does not
+/// have to pay for the 3 quadratic parameters too; the order-2 candidate is then the test of
+/// the quadratic terms).
+pub fn candidates(model: &Model, measurements: &[Measurement]) -> Vec<EffectSpec> {
+    let mut v = candidate_effects(model, measurements);
+    let mut lower = Vec::new();
+    for spec in &v {
+        if let EffectSpec::GuideAngular { order } = *spec {
+            lower.extend((1..order).map(|o| EffectSpec::GuideAngular { order: o }));
+        }
+    }
+    for spec in lower {
+        if !v.contains(&spec) {
+            v.push(spec);
+        }
+    }
+    v
+}
+
 /// Scores every candidate effect against the current fit.
 fn score_candidates(
     current: &Fit,
@@ -424,11 +449,15 @@ fn score_candidates(
 ) -> Result<Vec<Candidate>, DiscoveryError> {
     let data = DataAvailability::of(ctx.measurements);
     let mut out: Vec<Candidate> = Vec::new();
-    for spec in candidate_effects(&current.model, ctx.measurements) {
+    for spec in candidates(&current.model, ctx.measurements) {
         let new_params: Vec<ParamId> =
             spec.params().into_iter().filter(|p| current.params.index_of(*p).is_none()).collect();
         let status = if let Some(why) = missing_data(&spec, &data) {
-            let note = format!("{} not tested: {why}", spec.label());
+            let what = match spec.joint() {
+                Some(_) => format!("{} (every joint)", spec.kind()),
+                None => spec.label(),
+            };
+            let note = format!("{what} not tested: {why}");
             if !notes.contains(&note) {
                 notes.push(note);
             }

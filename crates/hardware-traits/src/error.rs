@@ -93,7 +93,11 @@ impl Error {
 
     /// A [`ErrorKind::Timeout`] error: `what` did not finish within `timeout`.
     pub fn timeout(device: impl Into<String>, what: &str, timeout: Duration) -> Self {
-        Self::new(ErrorKind::Timeout, device, format!("{what} did not finish within {:.3} s", timeout.as_secs_f64()))
+        Self::new(
+            ErrorKind::Timeout,
+            device,
+            format!("{what} did not finish within {:.3} s", timeout.as_secs_f64()),
+        )
     }
 
     /// Wraps an OS I/O error, mapping its kind: timeouts → [`ErrorKind::Timeout`], closed or

@@ -37,7 +37,8 @@ impl ProbePlacement {
         let down = -(1.0f64 / 3.0).sqrt();
         let axis = |angle: f64| Vector3::new(horizontal * angle.cos(), horizontal * angle.sin(), down);
         let third = 2.0 * std::f64::consts::FRAC_PI_3;
-        let r = Matrix3::from_columns(&[axis(azimuth_rad), axis(azimuth_rad - third), axis(azimuth_rad + third)]);
+        let r =
+            Matrix3::from_columns(&[axis(azimuth_rad), axis(azimuth_rad - third), axis(azimuth_rad + third)]);
         Self { position, world_from_probe: r }
     }
 
@@ -167,11 +168,16 @@ impl<G: Gauge> TriCal<G> {
     pub fn new(gauges: [G; 3], config: TriCalConfig) -> Result<Self> {
         let a = Matrix3::from_rows(&config.gauge_axes.map(|u| u.normalize().transpose()));
         if !config.range_mm.is_finite() || config.range_mm <= 0.0 {
-            return Err(Error::new(ErrorKind::Other, "trical", format!("range must be > 0 mm, got {}", config.range_mm)));
+            return Err(Error::new(
+                ErrorKind::Other,
+                "trical",
+                format!("range must be > 0 mm, got {}", config.range_mm),
+            ));
         }
-        let axes_inverse = (a.determinant().abs() > 1e-3).then(|| a.try_inverse()).flatten().ok_or_else(|| {
-            Error::new(ErrorKind::Other, "trical", "the nominal gauge axes are (nearly) coplanar")
-        })?;
+        let axes_inverse =
+            (a.determinant().abs() > 1e-3).then(|| a.try_inverse()).flatten().ok_or_else(|| {
+                Error::new(ErrorKind::Other, "trical", "the nominal gauge axes are (nearly) coplanar")
+            })?;
         Ok(Self { gauges, config, axes_inverse })
     }
 
@@ -267,7 +273,10 @@ mod tests {
             let g1 = r.column(0);
             assert_relative_eq!(g1.y.atan2(g1.x), az, epsilon = 1e-12);
         }
-        let ps = ProbePlacement::radial_placements(&[(1, Vector3::new(-87.0, 0.0, 47.0)), (2, Vector3::new(44.0, -75.6, 47.0))]);
+        let ps = ProbePlacement::radial_placements(&[
+            (1, Vector3::new(-87.0, 0.0, 47.0)),
+            (2, Vector3::new(44.0, -75.6, 47.0)),
+        ]);
         assert_eq!(ps.len(), 2);
         // 120° apart about z
         let rel = ps[1].world_from_probe * ps[0].world_from_probe.transpose();

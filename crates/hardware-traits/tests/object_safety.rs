@@ -119,7 +119,8 @@ fn trait_objects_and_forwarding_impls() {
     let mut arm = CountingArm::default();
     let mut axis = Axis::default();
     let gauges: [Box<dyn Gauge>; 3] = [Box::new(Fixed(0.003)), Box::new(Fixed(0.0)), Box::new(Fixed(-0.004))];
-    let mut probe = TriCal::new(gauges, TriCalConfig::new(vec![ProbePlacement::trihedral(1, 0.0)])).expect("probe");
+    let mut probe =
+        TriCal::new(gauges, TriCalConfig::new(vec![ProbePlacement::trihedral(1, 0.0)])).expect("probe");
     {
         // &mut T is itself an implementation
         let mut by_ref = &mut arm;
@@ -136,7 +137,10 @@ fn trait_objects_and_forwarding_impls() {
     assert_eq!(e.kind(), ErrorKind::DeviceFault { code: 1012 });
 
     let mut boxed_axis: Box<dyn LinearAxis> = Box::new(axis);
-    assert_eq!(boxed_axis.move_absolute_mm(400.0, &MotionOptions::default()).expect_err("range").kind(), ErrorKind::OutOfRange);
+    assert_eq!(
+        boxed_axis.move_absolute_mm(400.0, &MotionOptions::default()).expect_err("range").kind(),
+        ErrorKind::OutOfRange
+    );
 
     let mut tracker: Box<dyn PositionTracker> = Box::new(Tracker);
     assert_eq!(tracker.measure_mm(3).expect("measure").x, 3.0);

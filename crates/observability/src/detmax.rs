@@ -31,9 +31,12 @@
 //!
 //! # Algorithm
 //! 1. Start: `fixed` poses plus a random subset (ChaCha8, seed per restart). If that design is
-//!    singular (a Cholesky pivot loses all but 1e-13 of its column's information), start
-//!    greedily instead: from the fixed poses plus a tiny ridge, add the best candidate `n`
-//!    times (Dykstra), then drop the ridge. [`Initialisation::Greedy`] always starts greedily.
+//!    singular (a Cholesky pivot loses all but 1e-13 of its column's information), check that
+//!    the candidate set as a whole has full rank (otherwise fail with
+//!    [`ObservabilityError::RankDeficient`] naming the parameters; a non-singular start already
+//!    proves full rank, so the common case skips this O(N L²) check), then start greedily:
+//!    from the fixed poses plus a tiny ridge, add the best candidate until `n` (Dykstra), then
+//!    drop the ridge. [`Initialisation::Greedy`] always starts greedily.
 //! 2. Exchange until the member removed is the one just added (ties are resolved in favour of
 //!    stopping, then the lowest candidate index), or the gain of a step is below 1e-12, or
 //!    `max_exchanges` steps.
@@ -86,10 +89,13 @@ const GREEDY_RIDGE: f64 = 1e-6;
 /// Minimum improvement of ln det for an exchange or excursion to count.
 const MIN_IMPROVEMENT: f64 = 1e-12;
 
-/// The candidate poses as stacked 3 × L Jacobian blocks (candidate k = rows `3k..3k+3`).
+/// The candidate poses as stacked 3 × L Jacobian blocks (candidate k = rows `3k..3k+3`),
+/// stored row-major so that each candidate's block is contiguous.
 #[derive(Debug, Clone)]
 pub struct Candidates {
-    blocks: Mat<f64>,
+    /// row-major 3N × L
+    rows: Vec<f64>,
+    l: usize,
     params: ParamSet,
 }
 
@@ -112,7 +118,12 @@ impl Candidates {
                 return Err(ObservabilityError::NonFinite { index: r / 3, param: params.0[c] });
             }
         }
-        Ok(Self { blocks, params })
+        let l = blocks.ncols();
+        let mut rows = Vec::with_capacity(blocks.nrows() * l);
+        for r in 0..blocks.nrows() {
+            rows.extend((0..l).map(|c| blocks[(r, c)]));
+        }
+        Ok(Self { rows, l, params })
     }
 
     /// The Jacobian blocks of probe/tracker measurements ([`assemble_jacobian`]).
@@ -126,7 +137,7 @@ impl Candidates {
 
     /// Number of candidates N.
     pub fn len(&self) -> usize {
-        self.blocks.nrows() / 3
+        self.rows.len() / (3 * self.l)
     }
 
     /// True when there are no candidates.
@@ -136,7 +147,7 @@ impl Candidates {
 
     /// Number of parameters L.
     pub fn parameter_count(&self) -> usize {
-        self.blocks.ncols()
+        self.l
     }
 
     /// The parameters (columns).
@@ -150,37 +161,52 @@ impl Candidates {
     /// If `k >= len()`.
     #[track_caller]
     pub fn block(&self, k: usize) -> MatRef<'_, f64> {
-        self.blocks.as_ref().subrows(3 * k, 3)
+        self.stacked().subrows(3 * k, 3)
     }
 
-    /// All blocks stacked (3N × L).
+    /// Row `a` (0..3) of candidate `k`'s block.
+    fn row(&self, k: usize, a: usize) -> &[f64] {
+        let start = (3 * k + a) * self.l;
+        &self.rows[start..start + self.l]
+    }
+
+    /// All blocks stacked (3N × L, a row-major view).
     pub fn stacked(&self) -> MatRef<'_, f64> {
-        self.blocks.as_ref()
+        MatRef::from_row_major_slice(&self.rows, self.rows.len() / self.l, self.l)
     }
 
     /// The stacked Jacobian (3n × L) of a design.
     pub fn design_jacobian(&self, design: &[usize]) -> Mat<f64> {
-        Mat::from_fn(3 * design.len(), self.parameter_count(), |r, c| self.blocks[(3 * design[r / 3] + r % 3, c)])
+        Mat::from_fn(3 * design.len(), self.l, |r, c| self.row(design[r / 3], r % 3)[c])
     }
 
     /// The candidates `indices` (in that order).
     pub fn subset(&self, indices: &[usize]) -> Self {
-        Self { blocks: self.design_jacobian(indices), params: self.params.clone() }
+        let mut rows = Vec::with_capacity(indices.len() * 3 * self.l);
+        for &k in indices {
+            for a in 0..3 {
+                rows.extend_from_slice(self.row(k, a));
+            }
+        }
+        Self { rows, l: self.l, params: self.params.clone() }
     }
 
     /// The same candidates with column j multiplied by `factors[j]` (e.g. unit-norm factors
     /// computed over the whole candidate set, for O2..O5).
+    ///
+    /// # Panics
+    /// If `factors.len()` is not the number of parameters.
+    #[track_caller]
     pub fn scaled(&self, factors: &[f64]) -> Self {
-        let mut blocks = self.blocks.clone();
-        crate::identifiability::scale_columns(&mut blocks, factors);
-        Self { blocks, params: self.params.clone() }
+        assert_eq!(factors.len(), self.l, "one factor per parameter");
+        let rows = self.rows.chunks(self.l).flat_map(|r| r.iter().zip(factors).map(|(x, f)| x * f)).collect();
+        Self { rows, l: self.l, params: self.params.clone() }
     }
 
     /// Information matrix `Σ_{k∈design} B_kᵀ B_k`.
     pub fn information(&self, design: &[usize]) -> Mat<f64> {
         let j = self.design_jacobian(design);
-        let l = self.parameter_count();
-        let mut m = Mat::<f64>::zeros(l, l);
+        let mut m = Mat::<f64>::zeros(self.l, self.l);
         matmul(m.as_mut(), Accum::Replace, j.transpose(), j.as_ref(), 1.0, Par::Seq);
         m
     }
@@ -194,7 +220,7 @@ impl Candidates {
             .map(|ci| {
                 let start = ci * CHUNK;
                 let len = CHUNK.min(n - start);
-                let b = self.blocks.as_ref().subrows(3 * start, 3 * len);
+                let b = self.stacked().subrows(3 * start, 3 * len);
                 let mut m = Mat::<f64>::zeros(l, l);
                 matmul(m.as_mut(), Accum::Replace, b.transpose(), b, 1.0, Par::Seq);
                 m
@@ -368,8 +394,8 @@ pub fn log_det(candidates: &Candidates, design: &[usize], ridge: f64) -> Option<
 
 type Sym3 = [f64; 6];
 
-fn sym_to_mat(g: &Sym3) -> Matrix3<f64> {
-    Matrix3::new(g[0], g[1], g[2], g[1], g[3], g[4], g[2], g[4], g[5])
+fn sym_of(m: &Matrix3<f64>) -> Sym3 {
+    [m[(0, 0)], 0.5 * (m[(0, 1)] + m[(1, 0)]), 0.5 * (m[(0, 2)] + m[(2, 0)]), m[(1, 1)], 0.5 * (m[(1, 2)] + m[(2, 1)]), m[(2, 2)]]
 }
 
 fn det_i_plus(g: &Sym3, s: f64) -> f64 {
@@ -389,20 +415,28 @@ fn loss_of(g: &Sym3) -> f64 {
     if d > 0.0 { -d.ln() } else { f64::INFINITY }
 }
 
-fn mat3_of(m: MatRef<'_, f64>) -> Matrix3<f64> {
-    Matrix3::from_fn(|r, c| m[(r, c)])
-}
 
 // ------------------------------------------------------------------------------------------
 // factorisation helpers
 
+/// Euclidean norm of every column over all candidates.
+fn column_norms(c: &Candidates) -> Vec<f64> {
+    let mut sq = vec![0.0; c.l];
+    for row in c.rows.chunks(c.l) {
+        for (s, x) in sq.iter_mut().zip(row) {
+            *s += x * x;
+        }
+    }
+    sq.into_iter().map(f64::sqrt).collect()
+}
+
+/// Natural-unit ridge `R_j = ridge · ‖column j‖² / N` (empty when `ridge == 0`).
 fn ridge_diagonal(c: &Candidates, ridge: f64) -> Vec<f64> {
     if ridge <= 0.0 {
         return Vec::new();
     }
-    let total = c.total_information();
     let n = c.len().max(1) as f64;
-    (0..c.parameter_count()).map(|j| ridge * total[(j, j)].max(f64::MIN_POSITIVE) / n).collect()
+    column_norms(c).into_iter().map(|x| ridge * x * x / n).collect()
 }
 
 fn with_ridge(mut m: Mat<f64>, r: &[f64]) -> Mat<f64> {
@@ -440,6 +474,48 @@ fn symmetrize(m: &mut Mat<f64>) {
 }
 
 // ------------------------------------------------------------------------------------------
+// the working copy of the candidates
+
+/// The candidates as the exchange sees them: every column divided by its norm over the whole
+/// set (D-optimality is invariant to column scaling, and unit columns keep every inner
+/// product well conditioned), in f64 and — for the bulk passes over all N candidates, which
+/// are memory-bound — in f32. Everything that enters `ln det` (the gain of the candidate
+/// added, the losses of the members, `M⁻¹`) is computed in f64; the f32 copy only ranks the
+/// non-members, and its rounding (~1e-7 relative in `G_k`) is reset at every refactor.
+struct Work {
+    c: Candidates,
+    rows32: Vec<f32>,
+    /// `2 Σ ln(1/‖col_j‖)`: ln det of the normalised M = natural ln det + this
+    log_scale: f64,
+    /// ridge on the normalised columns (`ridge / N`, 0 for an all-zero column)
+    ridge: Vec<f64>,
+}
+
+impl Work {
+    fn new(original: &Candidates, ridge: f64) -> Self {
+        let norms = column_norms(original);
+        let factors: Vec<f64> = norms.iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
+        let c = original.scaled(&factors);
+        let rows32 = c.rows.iter().map(|x| *x as f32).collect();
+        let log_scale = 2.0 * factors.iter().map(|f| f.ln()).sum::<f64>();
+        let n = original.len().max(1) as f64;
+        let ridge = if ridge > 0.0 {
+            norms.iter().map(|x| if *x > 0.0 { ridge / n } else { 0.0 }).collect()
+        } else {
+            Vec::new()
+        };
+        Self { c, rows32, log_scale, ridge }
+    }
+
+    /// Rows `3·start .. 3·(start+len)` of the f32 copy, as an L × 3len column-major view
+    /// (the transpose of the row-major block).
+    fn chunk32_t(&self, start: usize, len: usize) -> MatRef<'_, f32> {
+        let l = self.c.l;
+        MatRef::from_column_major_slice(&self.rows32[3 * start * l..3 * (start + len) * l], l, 3 * len)
+    }
+}
+
+// ------------------------------------------------------------------------------------------
 // the exchange state
 
 /// One rank-3 term `sign · Z C Zᵀ` of an inverse update.
@@ -451,7 +527,7 @@ struct Term {
 
 #[derive(Clone)]
 struct State<'a> {
-    c: &'a Candidates,
+    w: &'a Work,
     ridge: Vec<f64>,
     design: Vec<usize>,
     member: Vec<bool>,
@@ -459,6 +535,8 @@ struct State<'a> {
     minv: Mat<f64>,
     log_det: f64,
     g: Vec<Sym3>,
+    /// best non-member `(k, det(I + G_k))`, refreshed by every pass over `g`
+    best: Option<(usize, f64)>,
     since_refactor: usize,
     refactor_every: usize,
 }
@@ -468,22 +546,47 @@ enum Step {
     Converged,
 }
 
+/// Keeps the larger `det(I + G)`; ties keep the lower index.
+fn better(a: Option<(usize, f64)>, b: Option<(usize, f64)>) -> Option<(usize, f64)> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(if y.1 > x.1 || (y.1 == x.1 && y.0 < x.0) { y } else { x }),
+        (x, None) => x,
+        (None, y) => y,
+    }
+}
+
+fn dot32(a: &[f32], b: &[f32]) -> f64 {
+    // eight partial sums, so the compiler can vectorise; f64 accumulation
+    let mut acc = [0.0f64; 8];
+    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for i in 0..8 {
+            acc[i] += f64::from(x[i]) * f64::from(y[i]);
+        }
+    }
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| f64::from(*x) * f64::from(*y)).sum();
+    acc.iter().sum::<f64>() + tail
+}
+
 impl<'a> State<'a> {
-    /// Builds the state of `design`; None if singular.
-    fn new(c: &'a Candidates, design: Vec<usize>, fixed: &[bool], ridge: Vec<f64>, refactor_every: usize) -> Option<Self> {
-        let mut member = vec![false; c.len()];
+    /// Builds the state of `design` with the ridge `ridge` (normalised units); None if
+    /// singular.
+    fn new(w: &'a Work, design: Vec<usize>, fixed: &[bool], ridge: Vec<f64>, refactor_every: usize) -> Option<Self> {
+        let mut member = vec![false; w.c.len()];
         for &k in &design {
             member[k] = true;
         }
         let mut s = Self {
-            c,
+            w,
             ridge,
             design,
             member,
             fixed: fixed.to_vec(),
             minv: Mat::zeros(0, 0),
             log_det: 0.0,
-            g: vec![[0.0; 6]; c.len()],
+            g: vec![[0.0; 6]; w.c.len()],
+            best: None,
             since_refactor: 0,
             refactor_every: refactor_every.max(1),
         };
@@ -492,7 +595,7 @@ impl<'a> State<'a> {
 
     /// Recomputes M⁻¹, ln det M and every G_k from scratch. False if M is singular.
     fn refactor(&mut self) -> bool {
-        let m = with_ridge(self.c.information(&self.design), &self.ridge);
+        let m = with_ridge(self.w.c.information(&self.design), &self.ridge);
         let Some((minv, log_det)) = factor(&m) else { return false };
         self.minv = minv;
         self.log_det = log_det;
@@ -501,91 +604,121 @@ impl<'a> State<'a> {
         true
     }
 
+    /// `G_k = B_k M⁻¹ B_kᵀ` for all k: per chunk `Yᵀ = M⁻¹ B_chᵀ` (faer matmul, f32), then
+    /// six dot products of contiguous rows per candidate (f64 accumulation).
     fn recompute_g(&mut self) {
-        let t0 = std::time::Instant::now();
-        self.recompute_g_inner();
-        eprintln!("PROFILE recompute_g {:?}", t0.elapsed());
-    }
-    fn recompute_g_inner(&mut self) {
-        let (blocks, minv, l) = (self.c.stacked(), self.minv.as_ref(), self.c.parameter_count());
-        self.g.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, gch)| {
-            let start = ci * CHUNK;
-            let b = blocks.subrows(3 * start, 3 * gch.len());
-            let mut y = Mat::<f64>::zeros(3 * gch.len(), l);
-            matmul(y.as_mut(), Accum::Replace, b, minv, 1.0, Par::Seq);
-            for (i, gk) in gch.iter_mut().enumerate() {
-                let r = 3 * i;
-                let mut s = [0.0; 6];
-                for col in 0..l {
-                    let (y0, y1, y2) = (y[(r, col)], y[(r + 1, col)], y[(r + 2, col)]);
-                    let (b0, b1, b2) = (b[(r, col)], b[(r + 1, col)], b[(r + 2, col)]);
-                    s[0] += y0 * b0;
-                    s[1] += y0 * b1;
-                    s[2] += y0 * b2;
-                    s[3] += y1 * b1;
-                    s[4] += y1 * b2;
-                    s[5] += y2 * b2;
+        let (w, member) = (self.w, &self.member);
+        let l = w.c.l;
+        let minv32 = Mat::from_fn(l, l, |r, c| self.minv[(r, c)] as f32);
+        let parts: Vec<Option<(usize, f64)>> = self
+            .g
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(ci, gch)| {
+                let start = ci * CHUNK;
+                let bt = w.chunk32_t(start, gch.len());
+                let mut yt = Mat::<f32>::zeros(l, 3 * gch.len());
+                matmul(yt.as_mut(), Accum::Replace, minv32.as_ref(), bt, 1.0, Par::Seq);
+                let mut best = None;
+                for (i, gk) in gch.iter_mut().enumerate() {
+                    let y = [yt.col_as_slice(3 * i), yt.col_as_slice(3 * i + 1), yt.col_as_slice(3 * i + 2)];
+                    let r = [bt.col(3 * i), bt.col(3 * i + 1), bt.col(3 * i + 2)];
+                    let r = r.map(|c| c.try_as_col_major().map_or(&[][..], |c| c.as_slice()));
+                    *gk = [
+                        dot32(y[0], r[0]),
+                        0.5 * (dot32(y[0], r[1]) + dot32(y[1], r[0])),
+                        0.5 * (dot32(y[0], r[2]) + dot32(y[2], r[0])),
+                        dot32(y[1], r[1]),
+                        0.5 * (dot32(y[1], r[2]) + dot32(y[2], r[1])),
+                        dot32(y[2], r[2]),
+                    ];
+                    let k = start + i;
+                    if !member[k] {
+                        best = better(best, Some((k, det_i_plus(gk, 1.0))));
+                    }
                 }
-                *gk = s;
-            }
-        });
+                best
+            })
+            .collect();
+        self.best = parts.into_iter().fold(None, better);
     }
 
-    /// `M⁻¹ bᵀ` (L × 3) for candidate k.
+    /// `M⁻¹ bᵀ` (L × 3) for candidate k (f64).
     fn z_of(&self, k: usize) -> Mat<f64> {
-        let l = self.c.parameter_count();
-        let mut z = Mat::<f64>::zeros(l, 3);
-        matmul(z.as_mut(), Accum::Replace, self.minv.as_ref(), self.c.block(k).transpose(), 1.0, Par::Seq);
+        let mut z = Mat::<f64>::zeros(self.w.c.l, 3);
+        matmul(z.as_mut(), Accum::Replace, self.minv.as_ref(), self.w.c.block(k).transpose(), 1.0, Par::Seq);
         z
     }
 
-    /// `B_k Z` (3 × 3).
+    /// `B_k Z` (3 × 3, f64).
     fn bz(&self, k: usize, z: &Mat<f64>) -> Matrix3<f64> {
-        let mut out = Mat::<f64>::zeros(3, 3);
-        matmul(out.as_mut(), Accum::Replace, self.c.block(k), z.as_ref(), 1.0, Par::Seq);
-        mat3_of(out.as_ref())
+        Matrix3::from_fn(|a, b| self.w.c.row(k, a).iter().zip(z.col_as_slice(b)).map(|(x, y)| x * y).sum())
     }
 
-    /// Applies `M⁻¹ += Σ sign Z C Zᵀ` and the matching `G_k` update for all candidates.
-    fn apply(&mut self, terms: &[Term]) {
-        let t0 = std::time::Instant::now();
-        self.apply_inner(terms);
-        eprintln!("PROFILE apply {:?}", t0.elapsed());
+    /// Exact `G_k = B_k M⁻¹ B_kᵀ` (f64), for the members whose losses decide removals.
+    fn exact_g(&self, k: usize) -> Matrix3<f64> {
+        self.bz(k, &self.z_of(k))
     }
-    fn apply_inner(&mut self, terms: &[Term]) {
-        let l = self.c.parameter_count();
-        for t in terms {
+
+    /// Applies `M⁻¹ += Σ sign Z C Zᵀ` and the matching `G_k` update for all candidates, and
+    /// refreshes the best non-member. One pass over the candidates: per chunk a single f32
+    /// faer matmul `[P₁ P₂ R₁ R₂]ᵀ = [Z₁ Z₂ Z₁C₁ Z₂C₂]ᵀ B_chᵀ` (P_t = B_k Z_t,
+    /// R_t = B_k Z_t C_t), then `G_k += Σ sign R_t P_tᵀ` — 18 multiply-adds per term and
+    /// candidate, in f64. Member flags must already describe the new design.
+    fn apply(&mut self, terms: &[Term]) {
+        let l = self.w.c.l;
+        let nt = terms.len();
+        // Zᵀ rows: Z_1..Z_nt, then (Z_t · sign C_t)ᵀ
+        let mut zzt = Mat::<f32>::zeros(6 * nt, l);
+        for (t, term) in terms.iter().enumerate() {
+            let c = Mat::from_fn(3, 3, |r, col| term.sign * term.c[(r, col)]);
             let mut zc = Mat::<f64>::zeros(l, 3);
-            let c = Mat::from_fn(3, 3, |r, col| t.c[(r, col)]);
-            matmul(zc.as_mut(), Accum::Replace, t.z.as_ref(), c.as_ref(), 1.0, Par::Seq);
-            matmul(self.minv.as_mut(), Accum::Add, zc.as_ref(), t.z.transpose(), t.sign, Par::Seq);
-        }
-        symmetrize(&mut self.minv);
-        let width = 3 * terms.len();
-        let zs = Mat::from_fn(l, width, |r, col| terms[col / 3].z[(r, col % 3)]);
-        let blocks = self.c.stacked();
-        let cs: Vec<(Matrix3<f64>, f64)> = terms.iter().map(|t| (t.c, t.sign)).collect();
-        self.g.par_chunks_mut(CHUNK).enumerate().for_each(|(ci, gch)| {
-            let start = ci * CHUNK;
-            let b = blocks.subrows(3 * start, 3 * gch.len());
-            let mut w = Mat::<f64>::zeros(3 * gch.len(), width);
-            let t0 = std::time::Instant::now();
-            matmul(w.as_mut(), Accum::Replace, b, zs.as_ref(), 1.0, Par::Seq);
-            if ci == 0 { eprintln!("PROFILE chunk matmul {:?}", t0.elapsed()); }
-            for (i, gk) in gch.iter_mut().enumerate() {
-                let r = 3 * i;
-                for (t, (c, sign)) in cs.iter().enumerate() {
-                    let p = Matrix3::from_fn(|a, bb| w[(r + a, 3 * t + bb)]);
-                    let d = p * c * p.transpose() * *sign;
-                    gk[0] += d[(0, 0)];
-                    gk[1] += 0.5 * (d[(0, 1)] + d[(1, 0)]);
-                    gk[2] += 0.5 * (d[(0, 2)] + d[(2, 0)]);
-                    gk[3] += d[(1, 1)];
-                    gk[4] += 0.5 * (d[(1, 2)] + d[(2, 1)]);
-                    gk[5] += d[(2, 2)];
+            matmul(zc.as_mut(), Accum::Replace, term.z.as_ref(), c.as_ref(), 1.0, Par::Seq);
+            for j in 0..l {
+                for a in 0..3 {
+                    zzt[(3 * t + a, j)] = term.z[(j, a)] as f32;
+                    zzt[(3 * (nt + t) + a, j)] = zc[(j, a)] as f32;
                 }
             }
-        });
+            matmul(self.minv.as_mut(), Accum::Add, zc.as_ref(), term.z.transpose(), 1.0, Par::Seq);
+        }
+        symmetrize(&mut self.minv);
+        let (w, member) = (self.w, &self.member);
+        let parts: Vec<Option<(usize, f64)>> = self
+            .g
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .map(|(ci, gch)| {
+                let start = ci * CHUNK;
+                let mut wt = Mat::<f32>::zeros(6 * nt, 3 * gch.len());
+                matmul(wt.as_mut(), Accum::Replace, zzt.as_ref(), w.chunk32_t(start, gch.len()), 1.0, Par::Seq);
+                let mut best = None;
+                for (i, gk) in gch.iter_mut().enumerate() {
+                    let v = [wt.col_as_slice(3 * i), wt.col_as_slice(3 * i + 1), wt.col_as_slice(3 * i + 2)];
+                    for t in 0..nt {
+                        let (p, r) = (3 * t, 3 * (nt + t));
+                        // (R Pᵀ)[a][b] = Σ_j R[a][j] P[b][j], with P[a][j] = v[a][p + j]
+                        let rp = |a: usize, b: usize| {
+                            f64::from(v[a][r]) * f64::from(v[b][p])
+                                + f64::from(v[a][r + 1]) * f64::from(v[b][p + 1])
+                                + f64::from(v[a][r + 2]) * f64::from(v[b][p + 2])
+                        };
+                        gk[0] += rp(0, 0);
+                        gk[1] += 0.5 * (rp(0, 1) + rp(1, 0));
+                        gk[2] += 0.5 * (rp(0, 2) + rp(2, 0));
+                        gk[3] += rp(1, 1);
+                        gk[4] += 0.5 * (rp(1, 2) + rp(2, 1));
+                        gk[5] += rp(2, 2);
+                    }
+                    let k = start + i;
+                    if !member[k] {
+                        best = better(best, Some((k, det_i_plus(gk, 1.0))));
+                    }
+                }
+                best
+            })
+            .collect();
+        self.best = parts.into_iter().fold(None, better);
         self.since_refactor += 1;
     }
 
@@ -593,45 +726,22 @@ impl<'a> State<'a> {
         if self.since_refactor >= self.refactor_every {
             // A well-conditioned design cannot become singular through exchanges that keep
             // ln det finite; if it did, keep the incremental state.
-            let backup = (self.minv.clone(), self.log_det, self.g.clone());
+            let backup = (self.minv.clone(), self.log_det, self.g.clone(), self.best);
             if !self.refactor() {
-                (self.minv, self.log_det, self.g) = backup;
+                (self.minv, self.log_det, self.g, self.best) = backup;
             }
         }
     }
 
-    /// Non-member with the largest gain (ties: lowest index).
+    /// Non-member with the largest gain `ln det(I + G_k)` (ties: lowest index).
     fn best_addition(&self) -> Option<(usize, f64)> {
-        let member = &self.member;
-        let parts: Vec<Option<(usize, f64)>> = self
-            .g
-            .par_chunks(CHUNK)
-            .enumerate()
-            .map(|(ci, gch)| {
-                let mut best: Option<(usize, f64)> = None;
-                for (i, g) in gch.iter().enumerate() {
-                    let k = ci * CHUNK + i;
-                    if member[k] {
-                        continue;
-                    }
-                    let v = gain_of(g);
-                    if best.is_none_or(|(_, b)| v > b) {
-                        best = Some((k, v));
-                    }
-                }
-                best
-            })
-            .collect();
-        parts.into_iter().flatten().fold(None, |acc: Option<(usize, f64)>, (k, v)| match acc {
-            Some((_, b)) if b >= v => acc,
-            _ => Some((k, v)),
-        })
+        self.best.filter(|b| b.1 > 0.0).map(|(k, d)| (k, d.ln()))
     }
 
     /// The `count` non-members with the largest gains (descending, ties by index).
     fn top_additions(&self, count: usize) -> Vec<usize> {
         let mut v: Vec<(usize, f64)> =
-            (0..self.c.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g[k]))).collect();
+            (0..self.w.c.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g[k]))).collect();
         v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         v.truncate(count);
         v.into_iter().map(|x| x.0).collect()
@@ -646,21 +756,26 @@ impl<'a> State<'a> {
             return false;
         }
         self.log_det += d.ln();
-        self.apply(&[Term { z, c, sign: -1.0 }]);
         self.design.push(k);
         self.member[k] = true;
+        self.apply(&[Term { z, c, sign: -1.0 }]);
         self.maybe_refactor();
         true
     }
 
-    /// Removable member with the smallest loss (ties: lowest index); ∞ loss means removing
-    /// any member would make M singular.
-    fn best_removal(&self) -> Option<(usize, f64)> {
-        let mut best: Option<(usize, f64)> = None;
+    /// Removable members in ascending order.
+    fn removable(&self) -> Vec<usize> {
         let mut members: Vec<usize> = self.design.iter().copied().filter(|k| !self.fixed[*k]).collect();
         members.sort_unstable();
-        for k in members {
-            let v = loss_of(&self.g[k]);
+        members
+    }
+
+    /// Removable member with the smallest loss (ties: lowest index); None when removing any
+    /// member would make M singular.
+    fn best_removal(&self) -> Option<(usize, f64)> {
+        let mut best: Option<(usize, f64)> = None;
+        for k in self.removable() {
+            let v = loss_of(&sym_of(&self.exact_g(k)));
             if best.is_none_or(|(_, b)| v < b) {
                 best = Some((k, v));
             }
@@ -678,9 +793,9 @@ impl<'a> State<'a> {
             return false;
         }
         self.log_det += d.ln();
-        self.apply(&[Term { z, c, sign: 1.0 }]);
         self.design.retain(|x| *x != k);
         self.member[k] = false;
+        self.apply(&[Term { z, c, sign: 1.0 }]);
         self.maybe_refactor();
         true
     }
@@ -688,26 +803,21 @@ impl<'a> State<'a> {
     /// One Wynn–Mitchell step: add the best candidate, remove the member with the smallest
     /// loss, both applied as a single rank-6 update.
     fn exchange(&mut self) -> Step {
-        let t0 = std::time::Instant::now();
         let Some((k_in, _)) = self.best_addition() else { return Step::Converged };
-        eprintln!("PROFILE best_addition {:?}", t0.elapsed());
         let z_in = self.z_of(k_in);
         let g_in = self.bz(k_in, &z_in);
         let i_plus = Matrix3::identity() + g_in;
         let (Some(c_in), det_in) = (i_plus.try_inverse(), i_plus.determinant()) else { return Step::Converged };
+        if !(det_in > 0.0) {
+            return Step::Converged;
+        }
         let gain = det_in.ln();
-        // losses w.r.t. M1 = M + b_inᵀ b_in, for the removable members and k_in
-        let g1_of = |p: Matrix3<f64>, g: Matrix3<f64>| -> Sym3 {
-            let m = g - p * c_in * p.transpose();
-            [m[(0, 0)], m[(0, 1)], m[(0, 2)], m[(1, 1)], m[(1, 2)], m[(2, 2)]]
-        };
+        // losses w.r.t. M1 = M + b_inᵀ b_in: G1_k = G_k − P_k C_in P_kᵀ, P_k = B_k Z_in
+        let g1_of = |p: Matrix3<f64>, g: Matrix3<f64>| sym_of(&(g - p * c_in * p.transpose()));
         let loss_in = loss_of(&g1_of(g_in, g_in));
         let mut best_out: Option<(usize, f64)> = None;
-        let mut members: Vec<usize> = self.design.iter().copied().filter(|k| !self.fixed[*k]).collect();
-        members.sort_unstable();
-        for k in members {
-            let p = self.bz(k, &z_in);
-            let v = loss_of(&g1_of(p, sym_to_mat(&self.g[k])));
+        for k in self.removable() {
+            let v = loss_of(&g1_of(self.bz(k, &z_in), self.exact_g(k)));
             if best_out.is_none_or(|(_, b)| v < b) {
                 best_out = Some((k, v));
             }
@@ -719,13 +829,10 @@ impl<'a> State<'a> {
         }
         // Z_out = M1⁻¹ b_outᵀ = M⁻¹b_outᵀ − Z_in C_in (b_in M⁻¹ b_outᵀ)
         let z_out_m = self.z_of(k_out);
-        let x = self.bz(k_in, &z_out_m);
-        let cx = c_in * x;
-        let l = self.c.parameter_count();
-        let mut z_out = z_out_m.clone();
+        let cx = c_in * self.bz(k_in, &z_out_m);
+        let mut z_out = z_out_m;
         let cx_f = Mat::from_fn(3, 3, |r, col| cx[(r, col)]);
         matmul(z_out.as_mut(), Accum::Add, z_in.as_ref(), cx_f.as_ref(), -1.0, Par::Seq);
-        debug_assert_eq!(z_out.nrows(), l);
         let g_out = self.bz(k_out, &z_out);
         let i_minus = Matrix3::identity() - g_out;
         let (Some(c_out), det_out) = (i_minus.try_inverse(), i_minus.determinant()) else { return Step::Converged };
@@ -733,11 +840,11 @@ impl<'a> State<'a> {
             return Step::Converged;
         }
         self.log_det += gain + det_out.ln();
-        self.apply(&[Term { z: z_in, c: c_in, sign: -1.0 }, Term { z: z_out, c: c_out, sign: 1.0 }]);
         self.design.retain(|k| *k != k_out);
         self.design.push(k_in);
         self.member[k_out] = false;
         self.member[k_in] = true;
+        self.apply(&[Term { z: z_in, c: c_in, sign: -1.0 }, Term { z: z_out, c: c_out, sign: 1.0 }]);
         self.maybe_refactor();
         Step::Swapped
     }
@@ -855,15 +962,15 @@ fn validate(c: &Candidates, o: &DetmaxOptions) -> Result<(), ObservabilityError>
     Ok(())
 }
 
-/// Refuses a candidate set whose information matrix is singular (no ridge requested), naming
-/// the parameters through the identifiability analysis.
+/// Refuses a candidate set whose information matrix is singular, naming the parameters
+/// through the identifiability analysis.
 fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
     let total = c.total_information();
     let l = c.parameter_count();
     let d: Vec<f64> = (0..l).map(|j| total[(j, j)]).collect();
     let normalized = Mat::from_fn(l, l, |r, col| {
         let s = (d[r] * d[col]).sqrt();
-        if s > 0.0 { total[(r, col)] / s } else if r == col { 0.0 } else { 0.0 }
+        if s > 0.0 { total[(r, col)] / s } else { 0.0 }
     });
     if d.iter().all(|x| *x > 0.0) && factor(&normalized).is_some() {
         return Ok(());
@@ -885,16 +992,19 @@ fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
 
 /// Greedy (Dykstra) design: from `fixed` and a tiny ridge, add the best candidate until
 /// `count`; then rebuild with the requested ridge. None if the result is singular.
-fn greedy_state<'a>(c: &'a Candidates, o: &DetmaxOptions, fixed_mask: &[bool], ridge: &[f64]) -> Option<State<'a>> {
-    let greedy_ridge = ridge_diagonal(c, o.ridge.max(GREEDY_RIDGE));
-    let mut s = State::new(c, o.fixed.clone(), fixed_mask, greedy_ridge, o.refactor_every)?;
+fn greedy_state<'a>(w: &'a Work, o: &DetmaxOptions, fixed_mask: &[bool]) -> Option<State<'a>> {
+    let n = w.c.len().max(1) as f64;
+    let greedy_ridge: Vec<f64> = (0..w.c.l)
+        .map(|j| w.ridge.get(j).copied().unwrap_or(0.0).max(GREEDY_RIDGE / n))
+        .collect();
+    let mut s = State::new(w, o.fixed.clone(), fixed_mask, greedy_ridge, o.refactor_every)?;
     while s.design.len() < o.count {
         let (k, _) = s.best_addition()?;
         if !s.add(k) {
             return None;
         }
     }
-    s.ridge = ridge.to_vec();
+    s.ridge = w.ridge.clone();
     s.refactor().then_some(s)
 }
 
@@ -913,17 +1023,17 @@ fn objective_of_information(m: &Mat<f64>, l: usize, poses: usize, objective: Obj
     }
 }
 
-/// Best-improvement swaps with exact evaluation of `objective` (module docs).
-fn refine_exact(s: &mut State<'_>, o: &DetmaxOptions) -> usize {
-    let (c, l, n) = (s.c, s.c.parameter_count(), o.count);
+/// Best-improvement swaps with exact evaluation of `objective` on the caller's candidates
+/// `c` (module docs).
+fn refine_exact(s: &mut State<'_>, c: &Candidates, o: &DetmaxOptions) -> usize {
+    let (l, n) = (c.parameter_count(), o.count);
     let mut current = exact_objective_value(c, &s.design, o.objective);
     let mut swaps = 0;
     while swaps < o.max_exchanges {
         let m = c.information(&s.design);
         let shortlist = s.top_additions(o.shortlist);
-        let mut members: Vec<usize> = s.design.iter().copied().filter(|k| !s.fixed[*k]).collect();
-        members.sort_unstable();
-        let outer: Vec<(f64, usize, usize)> = members
+        let outer: Vec<(f64, usize, usize)> = s
+            .removable()
             .par_iter()
             .filter_map(|&out| {
                 let mut m_out = m.clone();
@@ -960,11 +1070,16 @@ fn refine_exact(s: &mut State<'_>, o: &DetmaxOptions) -> usize {
     swaps
 }
 
+/// ln det(M + R) in natural units of a design, from scratch.
+fn natural_log_det(w: &Work, design: &[usize]) -> f64 {
+    factor(&with_ridge(w.c.information(design), &w.ridge)).map_or(f64::NEG_INFINITY, |f| f.1 - w.log_scale)
+}
+
 fn run_restart<'a>(
-    c: &'a Candidates,
+    c: &Candidates,
+    w: &'a Work,
     o: &DetmaxOptions,
     r: usize,
-    ridge: &[f64],
 ) -> Result<(State<'a>, RestartOutcome), ObservabilityError> {
     let seed = restart_seed(o.seed, r);
     let mut fixed_mask = vec![false; c.len()];
@@ -976,11 +1091,17 @@ fn run_restart<'a>(
         None
     } else {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        State::new(c, random_start(&mut rng, c.len(), o.count, &o.fixed), &fixed_mask, ridge.to_vec(), o.refactor_every)
+        let start = random_start(&mut rng, c.len(), o.count, &o.fixed);
+        State::new(w, start, &fixed_mask, w.ridge.clone(), o.refactor_every)
     };
     if state.is_none() {
+        // A singular start: first make sure the candidate set itself is not rank-deficient
+        // (a clear error naming the parameters), then start greedily.
+        if o.ridge == 0.0 {
+            check_candidate_rank(c)?;
+        }
         greedy_start = true;
-        state = greedy_state(c, o, &fixed_mask, ridge);
+        state = greedy_state(w, o, &fixed_mask);
     }
     let mut s = state.ok_or_else(|| {
         ObservabilityError::InvalidInput(format!(
@@ -989,10 +1110,7 @@ fn run_restart<'a>(
             c.parameter_count()
         ))
     })?;
-    eprintln!("PROFILE start ready");
-    let t0 = std::time::Instant::now();
     let mut exchanges = s.exchange_until_converged(o.max_exchanges);
-    eprintln!("PROFILE exchanges {:?}", t0.elapsed());
     let mut excursions_accepted = 0;
     if let Some(max_depth) = o.excursions {
         let mut depth = 1;
@@ -1012,10 +1130,10 @@ fn run_restart<'a>(
         }
     }
     if o.objective != Objective::O1 {
-        exchanges += refine_exact(&mut s, o);
+        exchanges += refine_exact(&mut s, c, o);
     }
     let design = s.sorted_design();
-    let log_det = factor(&with_ridge(c.information(&design), ridge)).map_or(f64::NEG_INFINITY, |f| f.1);
+    let log_det = natural_log_det(w, &design);
     let objective_value = match o.objective {
         Objective::O1 => o1_from_log_det(log_det, c.parameter_count(), design.len()),
         other => exact_objective_value(c, &design, other),
@@ -1026,27 +1144,21 @@ fn run_restart<'a>(
 /// Detmax selection of `options.count` candidates (module docs).
 pub fn detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
     validate(candidates, options)?;
-    let t0 = std::time::Instant::now();
-    if options.ridge == 0.0 {
-        check_candidate_rank(candidates)?;
-    }
-    eprintln!("PROFILE rank check {:?}", t0.elapsed());
-    let ridge = ridge_diagonal(candidates, options.ridge);
+    let work = Work::new(candidates, options.ridge);
     let runs: Vec<Result<(Vec<usize>, f64, RestartOutcome), ObservabilityError>> = (0..options.restarts)
         .into_par_iter()
-        .map(|r| run_restart(candidates, options, r, &ridge).map(|(s, out)| (s.sorted_design(), s.log_det, out)))
+        .map(|r| {
+            run_restart(candidates, &work, options, r)
+                .map(|(s, out)| (s.sorted_design(), s.log_det - work.log_scale, out))
+        })
         .collect();
     let mut best: Option<(usize, Vec<usize>, f64)> = None;
-    let mut restarts = Vec::with_capacity(runs.len());
+    let mut restarts: Vec<RestartOutcome> = Vec::with_capacity(runs.len());
     for (r, run) in runs.into_iter().enumerate() {
         let (design, tracked, outcome) = run?;
-        let better = match &best {
-            None => true,
-            Some((b, _, _)) => {
-                let bo: &RestartOutcome = &restarts[*b];
-                outcome.objective_value.total_cmp(&bo.objective_value) == Ordering::Greater
-            }
-        };
+        let better = best.as_ref().is_none_or(|(b, _, _)| {
+            outcome.objective_value.total_cmp(&restarts[*b].objective_value) == Ordering::Greater
+        });
         if better {
             best = Some((r, design, tracked));
         }
@@ -1069,24 +1181,30 @@ pub fn detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Select
 /// design is singular), add the candidate with the largest gain `count` times. No exchanges.
 pub fn greedy(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
     validate(candidates, options)?;
-    let ridge = ridge_diagonal(candidates, options.ridge);
+    let work = Work::new(candidates, options.ridge);
     let mut fixed_mask = vec![false; candidates.len()];
     for &f in &options.fixed {
         fixed_mask[f] = true;
     }
-    let s = greedy_state(candidates, options, &fixed_mask, &ridge).ok_or_else(|| {
-        ObservabilityError::InvalidInput("the greedy design is singular".into())
-    })?;
+    let s = greedy_state(&work, options, &fixed_mask)
+        .ok_or_else(|| ObservabilityError::InvalidInput("the greedy design is singular".into()))?;
     let selected = s.sorted_design();
-    let log_det = factor(&with_ridge(candidates.information(&selected), &ridge)).map_or(f64::NEG_INFINITY, |f| f.1);
+    let log_det = natural_log_det(&work, &selected);
     let objective_value = o1_from_log_det(log_det, candidates.parameter_count(), selected.len());
     Ok(Selection {
         selected,
         log_det,
-        tracked_log_det: s.log_det,
+        tracked_log_det: s.log_det - work.log_scale,
         objective_value,
         best_restart: 0,
-        restarts: vec![RestartOutcome { seed: 0, log_det, objective_value, exchanges: 0, excursions_accepted: 0, greedy_start: true }],
+        restarts: vec![RestartOutcome {
+            seed: 0,
+            log_det,
+            objective_value,
+            exchanges: 0,
+            excursions_accepted: 0,
+            greedy_start: true,
+        }],
     })
 }
 

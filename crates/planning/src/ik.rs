@@ -42,6 +42,12 @@ use vatcal_kinematics::Model;
 
 use crate::error::PlanError;
 
+/// Elbow angle from the stretched / folded arm at which seeds are placed for a wrist centre
+/// just beyond the nominal reach [rad].
+pub const ELBOW_SEED_RAD: f64 = 0.05;
+/// Relative reach slack of the seeds used for refinement (see
+/// [`ArmGeometry::solve_with_reach_slack`]).
+const SEED_REACH_SLACK: f64 = 0.02;
 /// Tolerance on the structural angles (alpha) for the closed form to be used as a seed [rad].
 const STRUCTURE_ANGLE_TOL_RAD: f64 = 0.05;
 /// Tolerance on the structural lengths that must be zero [mm].
@@ -228,6 +234,14 @@ impl ArmGeometry {
     /// All closed-form solutions for the tool-changer frame (frame 7) pose `target` given in
     /// the robot base frame `B`. Each is `[q2..q7]` [rad] (model offsets removed, wrapped).
     pub fn solve(&self, target: &Frame) -> ArmSolutions {
+        self.solve_with_reach_slack(target, 0.0)
+    }
+
+    /// Like [`ArmGeometry::solve`], but a wrist centre up to `slack` (relative, in the elbow
+    /// equation `|K / L| <= 1 + slack`) beyond the reach of this nominal-structure arm still
+    /// gives seeds: both elbow branches at ±[`ELBOW_SEED_RAD`] from the stretched/folded arm.
+    /// A calibrated arm may reach what its nominal structure cannot; the refinement decides.
+    pub fn solve_with_reach_slack(&self, target: &Frame, slack: f64) -> ArmSolutions {
         let mut out = ArmSolutions::default();
         let z7 = target.z_axis();
         let w = target.p - z7 * self.flange_mm;
@@ -242,10 +256,15 @@ impl ArmGeometry {
             let theta2 = if shoulder > 0.0 { theta2_base } else { theta2_base + std::f64::consts::PI };
             let k = (r * r + h * h - a3 * a3 - a4 * a4 - d5 * d5) / (2.0 * a3);
             let ratio = k / l;
-            if !(ratio.abs() <= 1.0 + 1e-12) {
+            if !(ratio.abs() <= 1.0 + 1e-12 + slack) {
                 continue;
             }
-            let gamma = ratio.clamp(-1.0, 1.0).acos();
+            let gamma = if ratio.abs() <= 1.0 + 1e-12 {
+                ratio.clamp(-1.0, 1.0).acos()
+            } else {
+                let edge = if ratio > 0.0 { 0.0 } else { std::f64::consts::PI };
+                (edge - ELBOW_SEED_RAD).abs()
+            };
             for elbow in [gamma, -gamma] {
                 let theta4 = elbow - delta;
                 let (s4, c4) = theta4.sin_cos();
@@ -457,7 +476,7 @@ impl<'a> ToolPoseIk<'a> {
     pub fn seeds(&self, q1_mm: f64, base: &Frame, target: &Frame) -> Vec<JointVector> {
         let local = base.inverse().compose(target);
         self.arm
-            .solve(&local)
+            .solve_with_reach_slack(&local, SEED_REACH_SLACK)
             .as_slice()
             .iter()
             .map(|arm| {

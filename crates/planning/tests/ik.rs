@@ -30,7 +30,7 @@ fn joints() -> impl Strategy<Value = JointVector> {
 
 /// Keeps away from the three singularities, where the branches merge.
 fn regular(model: &Model, q: &JointVector) -> bool {
-    let margins = SingularityMargins { wrist_deg: 1.0, elbow_deg: 1.0, shoulder_mm: 2.0 };
+    let margins = SingularityMargins { wrist_deg: 2.0, elbow_deg: 2.0, shoulder_mm: 5.0 };
     margins.clear(model, &model.chain(q))
 }
 

@@ -118,6 +118,16 @@ pub enum HistogramScale {
     Percent,
 }
 
+/// How several histogram series are arranged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum HistogramLayout {
+    /// one panel per series, each with its own bins, stacked vertically
+    #[default]
+    Panels,
+    /// all series in one chart on shared bins, semi-transparent bars
+    Overlay,
+}
+
 /// Options of [`histogram_svg`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HistogramOptions {
@@ -127,11 +137,13 @@ pub struct HistogramOptions {
     pub scale: HistogramScale,
     /// start the bins at 0 when every value is ≥ 0 (natural for error magnitudes)
     pub from_zero: bool,
+    /// panels or overlay
+    pub layout: HistogramLayout,
 }
 
 impl Default for HistogramOptions {
     fn default() -> Self {
-        Self { bins: 40, scale: HistogramScale::Percent, from_zero: true }
+        Self { bins: 40, scale: HistogramScale::Percent, from_zero: true, layout: HistogramLayout::Panels }
     }
 }
 
@@ -233,11 +245,14 @@ fn render(spec: &PlotSpec, draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>
     Ok(buf)
 }
 
-/// Histogram of one or more series on shared bins, bars drawn semi-transparent on top of each
-/// other (e.g. "nominal" and "calibrated" position errors, like the paper's Fig. 8).
+/// Histogram of one or more series (e.g. "nominal" and "calibrated" position errors, like the
+/// paper's Fig. 8). Returns the SVG document.
 ///
-/// The bins span the range of all series (from 0 if `options.from_zero` and no value is
-/// negative). Returns the SVG document.
+/// With [`HistogramLayout::Overlay`] all series share one set of bins, bars drawn
+/// semi-transparent on top of each other. With [`HistogramLayout::Panels`] (the default) each
+/// series gets its own panel and bins, stacked vertically — readable even when the errors
+/// differ by orders of magnitude, as before and after a calibration do. The bins span the range
+/// of the data (from 0 if `options.from_zero` and no value is negative).
 ///
 /// # Errors
 /// Empty or non-finite data, `bins == 0`, an unusable plot size, or a drawing failure.
@@ -246,6 +261,28 @@ pub fn histogram_svg(spec: &PlotSpec, series: &[Series<'_>], options: &Histogram
     if options.bins == 0 || options.bins > 10_000 {
         return Err(PlotError::Option(format!("bins must be 1..=10000, got {}", options.bins)));
     }
+    render(spec, |root| match options.layout {
+        HistogramLayout::Overlay => draw_histogram(root, &spec.title, spec, series, 0, options),
+        HistogramLayout::Panels => {
+            let panels = root.split_evenly((series.len(), 1));
+            for (k, (area, s)) in panels.iter().zip(series).enumerate() {
+                let caption = if series.len() == 1 { spec.title.clone() } else { format!("{}: {}", spec.title, s.label) };
+                draw_histogram(area, &caption, spec, std::slice::from_ref(s), k, options)?;
+            }
+            Ok(())
+        }
+    })
+}
+
+/// One histogram chart of `series` on shared bins; colours start at `first_color`.
+fn draw_histogram(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    caption: &str,
+    spec: &PlotSpec,
+    series: &[Series<'_>],
+    first_color: usize,
+    options: &HistogramOptions,
+) -> Result<(), PlotError> {
     let all = || series.iter().flat_map(|s| s.values.iter().copied());
     let (mut lo, mut hi) = padded_range(all(), 0.0);
     if options.from_zero && lo >= 0.0 {
@@ -269,34 +306,32 @@ pub fn histogram_svg(spec: &PlotSpec, series: &[Series<'_>], options: &Histogram
         })
         .collect();
     let top = heights.iter().flatten().copied().fold(0.0, f64::max).max(1e-12) * 1.08;
-    render(spec, |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(&spec.title, ("sans-serif", 22))
-            .margin(12)
-            .x_label_area_size(48)
-            .y_label_area_size(64)
-            .build_cartesian_2d(lo..hi, 0.0..top)
-            .map_err(draw_err)?;
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(64)
+        .build_cartesian_2d(lo..hi, 0.0..top)
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc(spec.x_label.as_str())
+        .y_desc(spec.y_label.as_str())
+        .draw()
+        .map_err(draw_err)?;
+    for (k, (s, h)) in series.iter().zip(&heights).enumerate() {
+        let color = series_color(first_color + k);
+        let bars = h.iter().enumerate().filter(|(_, v)| **v > 0.0).map(move |(b, v)| {
+            let x0 = lo + b as f64 * width;
+            Rectangle::new([(x0, 0.0), (x0 + width, *v)], color.mix(0.45).filled())
+        });
         chart
-            .configure_mesh()
-            .x_desc(spec.x_label.as_str())
-            .y_desc(spec.y_label.as_str())
-            .draw()
-            .map_err(draw_err)?;
-        for (k, (s, h)) in series.iter().zip(&heights).enumerate() {
-            let color = series_color(k);
-            let bars = h.iter().enumerate().filter(|(_, v)| **v > 0.0).map(move |(b, v)| {
-                let x0 = lo + b as f64 * width;
-                Rectangle::new([(x0, 0.0), (x0 + width, *v)], color.mix(0.45).filled())
-            });
-            chart
-                .draw_series(bars)
-                .map_err(draw_err)?
-                .label(legend_label(s))
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], color.mix(0.45).filled()));
-        }
-        draw_legend(&mut chart)
-    })
+            .draw_series(bars)
+            .map_err(draw_err)?
+            .label(legend_label(s))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], color.mix(0.45).filled()));
+    }
+    draw_legend(&mut chart)
 }
 
 fn legend_label(s: &Series<'_>) -> String {

@@ -2,7 +2,7 @@
 
 use proptest::prelude::*;
 use vatcal_report::{
-    HistogramOptions, HistogramScale, PlotError, PlotSpec, Series, bin_counts, histogram_svg, line_plot_svg,
+    HistogramLayout, HistogramOptions, HistogramScale, PlotError, PlotSpec, Series, bin_counts, histogram_svg, line_plot_svg,
     save_svg, scatter_svg,
 };
 
@@ -23,16 +23,30 @@ fn histogram_of_two_series_has_both_legends_and_bars() {
     assert!(svg.starts_with("<svg"), "{}", &svg[..40]);
     assert!(svg.contains("nominal (n = 200)"));
     assert!(svg.contains("calibrated (n = 150)"));
-    assert!(svg.contains("Position error"));
-    assert!(svg.contains("error [mm]"));
-    // every non-empty bin is a rectangle; the two series together fill at least 10 bins
-    assert!(svg.matches("<rect").count() > 10);
+    // default layout: one panel per series, each with its own bins and caption
+    assert!(svg.contains("Position error: nominal"), "panel caption");
+    assert!(svg.contains("Position error: calibrated"), "panel caption");
+    assert_eq!(svg.matches("error [mm]").count(), 2, "one x label per panel");
+    // every non-empty bin is a rectangle; with its own bins (from 0) each series fills about
+    // half of its 40 bins: 20 + 24 bars
+    assert!(svg.matches("<rect").count() > 44);
+
+    let overlay = histogram_svg(
+        &spec(),
+        &[Series::new("nominal", &before), Series::new("calibrated", &after)],
+        &HistogramOptions { layout: HistogramLayout::Overlay, ..Default::default() },
+    )
+    .expect("overlay");
+    assert!(overlay.contains("nominal (n = 200)") && overlay.contains("calibrated (n = 150)"));
+    assert_eq!(overlay.matches("error [mm]").count(), 1);
+    // shared bins: all "after" values fall into the first bin
+    assert!(overlay.matches("<rect").count() < svg.matches("<rect").count());
 }
 
 #[test]
 fn histogram_percentages_and_counts_differ_only_in_scale() {
     let v = [0.1, 0.2, 0.2, 0.3];
-    let opts = HistogramOptions { bins: 3, scale: HistogramScale::Count, from_zero: false };
+    let opts = HistogramOptions { bins: 3, scale: HistogramScale::Count, from_zero: false, ..Default::default() };
     let counts = histogram_svg(&spec(), &[Series::new("a", &v)], &opts).expect("counts");
     let pct = histogram_svg(&spec(), &[Series::new("a", &v)], &HistogramOptions { scale: HistogramScale::Percent, ..opts })
         .expect("pct");

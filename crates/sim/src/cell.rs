@@ -39,7 +39,13 @@ impl VirtualCell {
     }
 
     /// Like [`VirtualCell::new`] on a given clock (e.g. one that resumes at a later time).
-    pub fn with_clock(nominal: Model, truth: Model, config: SimConfig, seed: u64, clock: VirtualClock) -> Self {
+    pub fn with_clock(
+        nominal: Model,
+        truth: Model,
+        config: SimConfig,
+        seed: u64,
+        clock: VirtualClock,
+    ) -> Self {
         let world = World::new(nominal, truth, config, seed, clock.clone());
         Self { shared: Shared { world: Arc::new(Mutex::new(world)), clock } }
     }
@@ -48,7 +54,10 @@ impl VirtualCell {
     /// default [`SimConfig`] with the timing of the nominal cell file's motion limits.
     pub fn paper(nominal: Model, seed: u64) -> Self {
         let truth = perturbed_truth(&nominal, seed, &ErrorBudget::realistic());
-        let config = SimConfig { timing: SimTiming::from_motion_limits(&nominal.to_cell().motion_limits()), ..SimConfig::default() };
+        let config = SimConfig {
+            timing: SimTiming::from_motion_limits(&nominal.to_cell().motion_limits()),
+            ..SimConfig::default()
+        };
         Self::new(nominal, truth, config, seed)
     }
 

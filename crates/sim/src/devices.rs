@@ -71,7 +71,11 @@ impl SimArm {
             return Err(Error::new(ErrorKind::NotHomed, ARM, "activate and home the arm first"));
         }
         if let Some((code, msg)) = &w.arm.error {
-            return Err(Error::new(ErrorKind::DeviceFault { code: 1011 }, ARM, format!("in error ({code}: {msg})")));
+            return Err(Error::new(
+                ErrorKind::DeviceFault { code: 1011 },
+                ARM,
+                format!("in error ({code}: {msg})"),
+            ));
         }
         if w.arm.motion.moving(w.now()) {
             return Err(Error::new(ErrorKind::Busy, ARM, "still moving"));
@@ -173,7 +177,11 @@ impl RobotArm for SimArm {
                 return Err(Self::fault(&mut w, 1012, "linear move would cross a singularity".into()));
             }
             Err(LinearMoveError::Limit(joint)) => {
-                return Err(Self::fault(&mut w, 1007, format!("linear move would put joint {joint} over its limit")));
+                return Err(Self::fault(
+                    &mut w,
+                    1007,
+                    format!("linear move would put joint {joint} over its limit"),
+                ));
             }
         };
         let mut parts = bits(&w.arm.motion.to);

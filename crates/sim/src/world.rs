@@ -126,18 +126,25 @@ fn tilted(rng: &mut rand::rngs::ChaCha8Rng, e: Vector3<f64>, max_rad: f64) -> Ve
 
 impl World {
     pub fn new(nominal: Model, truth: Model, config: SimConfig, seed: u64, clock: VirtualClock) -> Self {
-        let positions: Vec<(u32, Vector3<f64>)> =
-            nominal.position_ids().into_iter().filter_map(|id| nominal.position(id).map(|p| (id, p))).collect();
+        let positions: Vec<(u32, Vector3<f64>)> = nominal
+            .position_ids()
+            .into_iter()
+            .filter_map(|id| nominal.position(id).map(|p| (id, p)))
+            .collect();
         let nominal_placements = ProbePlacement::radial_placements(&positions);
 
         let mut rng = noise::rng(key(seed, "probe", &[]));
         let imperfect = &config.probe;
         let placements = nominal_placements
             .iter()
-            .map(|p| (p.position, small_rotation(&mut rng, imperfect.placement_rotation_rad) * p.world_from_probe))
+            .map(|p| {
+                (p.position, small_rotation(&mut rng, imperfect.placement_rotation_rad) * p.world_from_probe)
+            })
             .collect();
-        let axes = [Vector3::x(), Vector3::y(), Vector3::z()].map(|e| tilted(&mut rng, e, imperfect.gauge_axis_tilt_rad));
-        let master_radius_mm = config.master_ball_radius_mm + uniform(&mut rng, imperfect.ball_radius_tolerance_mm);
+        let axes = [Vector3::x(), Vector3::y(), Vector3::z()]
+            .map(|e| tilted(&mut rng, e, imperfect.gauge_axis_tilt_rad));
+        let master_radius_mm =
+            config.master_ball_radius_mm + uniform(&mut rng, imperfect.ball_radius_tolerance_mm);
         let ball_radius_mm = truth
             .tcp_ids()
             .into_iter()
@@ -167,7 +174,13 @@ impl World {
             plate: None,
             master_ball: false,
             tool_offset_mm,
-            probe: ProbeTruth { placements, axes, master_radius_mm, ball_radius_mm, zero_plunger_mm: [zero; 3] },
+            probe: ProbeTruth {
+                placements,
+                axes,
+                master_radius_mm,
+                ball_radius_mm,
+                zero_plunger_mm: [zero; 3],
+            },
             nominal_placements,
             epoch: key(seed, "start", &[]),
             reads_since_epoch: 0,
@@ -234,7 +247,8 @@ impl World {
         let previous_target = self.guide.motion.to[0];
         let t = &self.config.timing;
         let secs = (to_mm - from).abs() / (t.guide_speed_mm_per_s * speed_fraction).max(1e-9) + t.settle_s;
-        self.guide.motion = Motion { from: [from], to: [to_mm], start: now, end: now + Duration::from_secs_f64(secs) };
+        self.guide.motion =
+            Motion { from: [from], to: [to_mm], start: now, end: now + Duration::from_secs_f64(secs) };
         let event = key(self.seed, "guide", &[to_mm.to_bits(), previous_target.to_bits()]);
         let mut rng = noise::rng(key(event, "guide-offset", &[]));
         self.guide.offset_mm = gauss(&mut rng, self.config.noise.guide_repeatability_mm / 3.0);
@@ -252,7 +266,11 @@ impl World {
 
     /// Per-sample context the true model sees (backlash direction, time).
     pub fn context(&self) -> MeasurementContext {
-        MeasurementContext { dir: Some(self.arm.dir), time_s: Some(self.now().as_secs_f64()), temperature_c: None }
+        MeasurementContext {
+            dir: Some(self.arm.dir),
+            time_s: Some(self.now().as_secs_f64()),
+            temperature_c: None,
+        }
     }
 
     /// True world position of the centre of ball (TCP) `tcp` [mm].
@@ -300,7 +318,8 @@ impl World {
             Error::new(ErrorKind::OutOfRange, device.clone(), "nothing touches the plunger (at its stop)")
         })?;
         let mut rng = self.reading_rng("gauge", i as u64);
-        let reading = plunger - self.probe.zero_plunger_mm[i] + uniform(&mut rng, self.config.noise.gauge_max_error_mm);
+        let reading =
+            plunger - self.probe.zero_plunger_mm[i] + uniform(&mut rng, self.config.noise.gauge_max_error_mm);
         if reading.abs() > self.config.gauge_range_mm {
             return Err(Error::new(
                 ErrorKind::OutOfRange,
@@ -314,7 +333,11 @@ impl World {
     /// Presets gauge `i` so that its current plunger position reads `value_mm`.
     pub fn preset_gauge(&mut self, i: usize, value_mm: f64) -> Result<(), Error> {
         let plunger = self.plunger_mm(i).ok_or_else(|| {
-            Error::new(ErrorKind::OutOfRange, format!("sim gauge {}", i + 1), "nothing touches the plunger (at its stop)")
+            Error::new(
+                ErrorKind::OutOfRange,
+                format!("sim gauge {}", i + 1),
+                "nothing touches the plunger (at its stop)",
+            )
         })?;
         self.probe.zero_plunger_mm[i] = plunger - value_mm;
         Ok(())

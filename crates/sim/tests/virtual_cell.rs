@@ -7,15 +7,16 @@ use std::time::Duration;
 use nalgebra::Vector3;
 use vatcal_core::{CellFile, JointVector};
 use vatcal_hardware_traits::{
-    ArmJoints, Clock, ErrorKind, Gauge, LinearAxis, LinearFrame, MotionOptions, Operator, OperatorInstruction,
-    PositionTracker, Probe3d, RobotArm,
+    ArmJoints, Clock, ErrorKind, Gauge, LinearAxis, LinearFrame, MotionOptions, Operator,
+    OperatorInstruction, PositionTracker, Probe3d, RobotArm,
 };
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::{ErrorBudget, perturbed_truth, probe_start_poses, reach};
 use vatcal_sim::{SimConfig, SimFaults, VirtualCell};
 
 fn nominal() -> Model {
-    let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml")).expect("fixture");
+    let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+        .expect("fixture");
     Model::from_cell(&cell).expect("model")
 }
 
@@ -111,7 +112,8 @@ fn gauge_noise_stays_within_its_maximum_error() {
     let mut g = cell.gauges();
     let first = g[0].read_mm().expect("read");
     let reads: Vec<f64> = (0..200).map(|_| g[0].read_mm().expect("read")).collect();
-    let spread = reads.iter().fold(f64::MIN, |a, b| a.max(*b)) - reads.iter().fold(f64::MAX, |a, b| a.min(*b));
+    let spread =
+        reads.iter().fold(f64::MIN, |a, b| a.max(*b)) - reads.iter().fold(f64::MAX, |a, b| a.min(*b));
     assert!(spread > 0.001 && spread <= 0.0024 + 1e-12, "spread {spread}");
     assert!(reads.iter().all(|r| (r - first).abs() <= 0.0024 + 1e-12));
 }
@@ -143,9 +145,13 @@ fn limits_errors_reset_and_not_homed() {
     let mut arm = cell.arm();
     let e = arm.move_joints(&ArmJoints([0.0; 6]), &opts()).expect_err("not homed");
     assert_eq!(e.kind(), ErrorKind::NotHomed);
-    assert_eq!(cell.guide().move_absolute_mm(10.0, &opts()).expect_err("not homed").kind(), ErrorKind::NotHomed);
+    assert_eq!(
+        cell.guide().move_absolute_mm(10.0, &opts()).expect_err("not homed").kind(),
+        ErrorKind::NotHomed
+    );
     arm.activate_and_home(Duration::from_secs(60)).expect("home");
-    let e = arm.move_joints(&ArmJoints::from_deg([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), &opts()).expect_err("limit");
+    let e =
+        arm.move_joints(&ArmJoints::from_deg([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), &opts()).expect_err("limit");
     assert_eq!(e.kind(), ErrorKind::DeviceFault { code: 1007 });
     assert!(e.to_string().contains("J2"), "{e}");
     let e = arm.move_joints(&ArmJoints([0.1; 6]), &opts()).expect_err("in error");
@@ -211,7 +217,8 @@ fn tracker_noise_matches_the_budget() {
     let truth_p = cell.true_ball_position_mm(tcp).expect("ball");
     let mut tracker = cell.tracker();
     let n = 600;
-    let errs: Vec<Vector3<f64>> = (0..n).map(|_| tracker.measure_mm(tcp).expect("measure") - truth_p).collect();
+    let errs: Vec<Vector3<f64>> =
+        (0..n).map(|_| tracker.measure_mm(tcp).expect("measure") - truth_p).collect();
     let sd = (errs.iter().map(|e| e.norm_squared()).sum::<f64>() / (3 * n) as f64).sqrt();
     assert!((sd - 0.020 / 3.0).abs() < 0.0008, "per-axis sigma {sd}");
 }

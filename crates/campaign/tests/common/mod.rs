@@ -6,10 +6,11 @@ use vatcal_core::{CellFile, JointVector, Measurement};
 use vatcal_hardware_traits::{TriCal, VirtualClock};
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::probe_start_poses;
-use vatcal_sim::{translation_joint_gain, SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell};
+use vatcal_sim::{SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell, translation_joint_gain};
 
 pub fn nominal() -> Model {
-    let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml")).expect("fixture");
+    let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+        .expect("fixture");
     Model::from_cell(&cell).expect("model")
 }
 
@@ -69,8 +70,11 @@ pub fn well_conditioned(model: &Model, q: &JointVector) -> bool {
 /// `n` well-conditioned nominal measurement poses, grouped by calibration position (1, 2, 3).
 pub fn poses(n: usize, seed: u64) -> Vec<Measurement> {
     let model = nominal();
-    let mut p: Vec<Measurement> =
-        probe_start_poses(&model, 6 * n, seed).into_iter().filter(|m| well_conditioned(&model, &m.q)).take(n).collect();
+    let mut p: Vec<Measurement> = probe_start_poses(&model, 6 * n, seed)
+        .into_iter()
+        .filter(|m| well_conditioned(&model, &m.q))
+        .take(n)
+        .collect();
     assert_eq!(p.len(), n, "not enough well-conditioned poses");
     p.sort_by_key(|m| m.position());
     p
@@ -78,7 +82,10 @@ pub fn poses(n: usize, seed: u64) -> Vec<Measurement> {
 
 /// A plan over `n` poses with a clear pose before each plate placement.
 pub fn plan(n: usize, seed: u64) -> CampaignPlan {
-    CampaignPlan::from_poses(&poses(n, seed), &PlanOptions { clear_pose: Some(clear_pose()), zero_probe: false })
+    CampaignPlan::from_poses(
+        &poses(n, seed),
+        &PlanOptions { clear_pose: Some(clear_pose()), zero_probe: false },
+    )
 }
 
 pub fn quiet_config() -> CampaignConfig {
@@ -89,7 +96,10 @@ pub fn quiet_config() -> CampaignConfig {
 pub fn assert_close_measurements(a: &[Measurement], b: &[Measurement]) {
     assert_eq!(a.len(), b.len(), "measurement counts differ");
     for (x, y) in a.iter().zip(b) {
-        assert_eq!((x.tcp, x.target, x.context.dir, x.context.time_s), (y.tcp, y.target, y.context.dir, y.context.time_s));
+        assert_eq!(
+            (x.tcp, x.target, x.context.dir, x.context.time_s),
+            (y.tcp, y.target, y.context.dir, y.context.time_s)
+        );
         for j in 0..7 {
             assert!((x.q.0[j] - y.q.0[j]).abs() <= 1e-12 * x.q.0[j].abs().max(1.0));
         }
@@ -105,7 +115,14 @@ pub fn assert_same_measurements(a: &[Measurement], b: &[Measurement]) {
         assert_eq!(x.target, y.target, "measurement {k}: target");
         assert_eq!(x.context.dir, y.context.dir, "measurement {k}: dir");
         for j in 0..7 {
-            assert_eq!(x.q.0[j].to_bits(), y.q.0[j].to_bits(), "measurement {k}: q{} {} vs {}", j + 1, x.q.0[j], y.q.0[j]);
+            assert_eq!(
+                x.q.0[j].to_bits(),
+                y.q.0[j].to_bits(),
+                "measurement {k}: q{} {} vs {}",
+                j + 1,
+                x.q.0[j],
+                y.q.0[j]
+            );
         }
     }
 }

@@ -95,9 +95,10 @@ fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
     let names: Vec<&str> = d.added_effects.iter().map(|a| a.label.as_str()).collect();
     writeln!(
         out,
-        "result: {} effect(s) added{}; gap {:.4} -> {:.4} mm",
+        "result: {} effect(s) added{}; gap ({}) {:.4} -> {:.4} mm",
         names.len(),
         if names.is_empty() { String::new() } else { format!(" ({})", names.join(", ")) },
+        d.final_gap.headline_name(),
         d.initial_gap_mm,
         d.final_gap_mm
     )
