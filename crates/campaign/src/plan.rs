@@ -202,7 +202,9 @@ impl CampaignPlan {
                 reason,
             };
             let field = |k: usize| rec.get(index[k]).unwrap_or("");
-            let id = |k: usize| field(k).parse::<u32>().map_err(|_| row_err(k, format!("`{}` is not an id", field(k))));
+            let id = |k: usize| {
+                field(k).parse::<u32>().map_err(|_| row_err(k, format!("`{}` is not an id", field(k))))
+            };
             let mut values = [0.0; 7];
             for (j, v) in values.iter_mut().enumerate() {
                 let text = field(3 + j);
@@ -212,7 +214,10 @@ impl CampaignPlan {
                     .filter(|x| x.is_finite())
                     .ok_or_else(|| row_err(3 + j, format!("`{text}` is not a finite number")))?;
             }
-            let q = JointVector::from_mm_deg(values[0], [values[1], values[2], values[3], values[4], values[5], values[6]]);
+            let q = JointVector::from_mm_deg(
+                values[0],
+                [values[1], values[2], values[3], values[4], values[5], values[6]],
+            );
             match field(0) {
                 "move" => pending.push(q),
                 "measure" => {
@@ -227,7 +232,10 @@ impl CampaignPlan {
                     steps.push(CampaignStep::PlaceProbe { position: id(1)? });
                 }
                 other => {
-                    return Err(row_err(0, format!("unknown kind `{other}` (move, measure or replace_probe)")));
+                    return Err(row_err(
+                        0,
+                        format!("unknown kind `{other}` (move, measure or replace_probe)"),
+                    ));
                 }
             }
         }
@@ -342,10 +350,12 @@ mod tests {
     fn bad_tour_rows_name_line_and_column() {
         let dir = tempfile::tempdir().expect("tmp");
         let path = dir.path().join("tour.csv");
-        std::fs::write(&path, "kind,position,tcp,q1,q2,q3,q4,q5,q6,q7\nmove,1,1,0,0,0,abc,0,0,0\n").expect("write");
+        std::fs::write(&path, "kind,position,tcp,q1,q2,q3,q4,q5,q6,q7\nmove,1,1,0,0,0,abc,0,0,0\n")
+            .expect("write");
         let e = CampaignPlan::read_tour(&path).expect_err("bad").to_string();
         assert!(e.contains(":2: column `q4`") && e.contains("abc"), "{e}");
-        std::fs::write(&path, "kind,position,tcp,q1,q2,q3,q4,q5,q6,q7\njump,1,1,0,0,0,0,0,0,0\n").expect("write");
+        std::fs::write(&path, "kind,position,tcp,q1,q2,q3,q4,q5,q6,q7\njump,1,1,0,0,0,0,0,0,0\n")
+            .expect("write");
         let e = CampaignPlan::read_tour(&path).expect_err("bad").to_string();
         assert!(e.contains("unknown kind `jump`"), "{e}");
         std::fs::write(&path, "kind,position,q1\n").expect("write");

@@ -71,11 +71,14 @@ pub struct CampaignConfig {
     pub recovery_approach_rad: f64,
     /// free text stored in the journal header
     pub note: String,
+    /// keep this measurements CSV up to date after every measurement (`position,tcp,q1..q7,
+    /// time_s,dir2..dir7`, mm/deg; replaced atomically)
+    pub measurements_csv: Option<PathBuf>,
 }
 
 impl Default for CampaignConfig {
     /// Default centering, 25 % speed with 120 s timeouts, no warm-up, stop on failures,
-    /// progress bar on, 0.01 rad recovery approach.
+    /// progress bar on, 0.01 rad recovery approach, no CSV.
     fn default() -> Self {
         Self {
             centering: CenteringConfig::default(),
@@ -86,6 +89,7 @@ impl Default for CampaignConfig {
             show_progress: true,
             recovery_approach_rad: 0.01,
             note: String::new(),
+            measurements_csv: None,
         }
     }
 }
@@ -133,6 +137,12 @@ pub enum CampaignError {
         tcp: u32,
         /// why
         source: CenteringError,
+    },
+    /// The probe has no orientation configured for a calibration position of the plan.
+    #[error("the plan measures at calibration position {position} but the probe has no placement for it")]
+    NoProbePlacement {
+        /// calibration position
+        position: u32,
     },
     /// A `track` step without a tracker.
     #[error("step {step}: the plan measures with a tracker but none is connected")]
@@ -231,60 +241,30 @@ impl<'a> Campaign<'a> {
         plan: &CampaignPlan,
         journal_path: impl AsRef<Path>,
     ) -> Result<CampaignReport, CampaignError> {
-        plan.validate(self.controller)?;
-        let journal_path = journal_path.as_ref();
-        let fingerprint = plan.fingerprint();
-        let header = JournalHeader::new(
-            fingerprint,
-            plan.steps.len(),
-            self.devices.clock.now_s(),
-            self.config.note.clone(),
-        );
-        let (mut journal, _) = Journal::open_or_create(journal_path, header)?;
-        if journal.header().plan_fingerprint != fingerprint || journal.header().plan_steps != plan.steps.len()
-        {
-            return Err(CampaignError::PlanMismatch {
-                path: journal_path.into(),
-                journal: journal.header().plan_fingerprint,
-                plan: fingerprint,
-            });
-        }
+        self.check_plan(plan)?;
+        let mut journal = self.open_journal(plan, journal_path.as_ref())?;
         self.prepare_devices()?;
-        let mut state = self.initial_state()?;
-        let mut time_offset_s = 0.0;
-        let resumed_at_step = match journal.records().last().cloned() {
-            Some(last) => {
-                self.recover(&last.state)?;
-                state = last.state;
-                // a clock that restarted (virtual, or monotonic after a reboot) must not make
-                // time go backwards in the journal
-                time_offset_s = (last.time_s - self.elapsed_s(journal.header())).max(0.0);
-                Some(journal.next_step())
-            }
-            None => {
-                if let Some(w) = self.config.warm_up.clone() {
-                    self.warm_up(&w, &mut state)?;
-                }
-                None
-            }
-        };
+        let (mut state, time_offset_s, resumed_at_step) = self.restore(&journal, plan)?;
         let progress = self.progress_bar(plan.steps.len(), journal.next_step());
-        let mut skipped = 0;
         for step in journal.next_step()..plan.steps.len() {
             progress.set_message(describe(&plan.steps[step]));
             let outcome = self.execute(step, &plan.steps[step], &mut state)?;
-            if matches!(outcome, StepOutcome::Skipped { .. }) {
-                skipped += 1;
-            }
             let time_s = self.elapsed_s(journal.header()) + time_offset_s;
             let record = StepRecord { step, time_s, state: state.clone(), outcome };
             journal.append(record.clone())?;
+            if record.measurement().is_some()
+                && let Some(csv) = &self.config.measurements_csv
+            {
+                write_csv_atomically(csv, &journal.measurements())?;
+            }
             if let Some(f) = self.observer.as_mut() {
                 f(&record);
             }
             progress.inc(1);
         }
         progress.finish_with_message("campaign complete");
+        let skipped =
+            journal.records().iter().filter(|r| matches!(r.outcome, StepOutcome::Skipped { .. })).count();
         Ok(CampaignReport {
             measurements: journal.measurements(),
             records: journal.records().to_vec(),
@@ -292,6 +272,60 @@ impl<'a> Campaign<'a> {
             torn_bytes_dropped: journal.torn_bytes_dropped(),
             skipped,
         })
+    }
+
+    /// The plan is valid for the controller model and the probe knows every position.
+    fn check_plan(&self, plan: &CampaignPlan) -> Result<(), CampaignError> {
+        plan.validate(self.controller)?;
+        for s in &plan.steps {
+            if let CampaignStep::Measure { position, .. } = s
+                && self.devices.probe.placement(*position).is_none()
+            {
+                return Err(CampaignError::NoProbePlacement { position: *position });
+            }
+        }
+        Ok(())
+    }
+
+    /// Opens (or creates) the journal and checks that it belongs to `plan`.
+    fn open_journal(&self, plan: &CampaignPlan, path: &Path) -> Result<Journal, CampaignError> {
+        let fingerprint = plan.fingerprint();
+        let start = self.devices.clock.now_s();
+        let header = JournalHeader::new(fingerprint, plan.steps.len(), start, self.config.note.clone());
+        let (journal, _) = Journal::open_or_create(path, header)?;
+        let h = journal.header();
+        if h.plan_fingerprint != fingerprint || h.plan_steps != plan.steps.len() {
+            return Err(CampaignError::PlanMismatch {
+                path: path.into(),
+                journal: h.plan_fingerprint,
+                plan: fingerprint,
+            });
+        }
+        Ok(journal)
+    }
+
+    /// The state to continue from: after a crash, the recorded state (the cell is put back
+    /// into it) and the time offset that keeps time increasing; on a fresh start, the current
+    /// state after the optional warm-up.
+    fn restore(
+        &mut self,
+        journal: &Journal,
+        plan: &CampaignPlan,
+    ) -> Result<(State, f64, Option<usize>), CampaignError> {
+        let Some(last) = journal.records().last() else {
+            let mut state = self.initial_state()?;
+            if let Some(w) = self.config.warm_up.clone() {
+                self.warm_up(&w, &mut state)?;
+            }
+            return Ok((state, 0.0, None));
+        };
+        if journal.next_step() < plan.steps.len() {
+            self.recover(&last.state)?;
+        }
+        // a clock that restarted (virtual, or monotonic after a reboot) must not make time go
+        // backwards in the journal
+        let time_offset_s = (last.time_s - self.elapsed_s(journal.header())).max(0.0);
+        Ok((last.state.clone(), time_offset_s, Some(journal.next_step())))
     }
 
     fn elapsed_s(&self, header: &JournalHeader) -> f64 {
@@ -539,6 +573,17 @@ fn describe(step: &CampaignStep) -> String {
         CampaignStep::Measure { position, tcp } => format!("centring TCP {tcp} at position {position}"),
         CampaignStep::Track { tcp } => format!("tracking target {tcp}"),
     }
+}
+
+/// Writes `measurements` to `path` through a temporary file and a rename, so a crash never
+/// leaves a half-written CSV.
+fn write_csv_atomically(path: &Path, measurements: &[Measurement]) -> Result<(), CampaignError> {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    vatcal_io::write_measurements(&tmp, measurements)?;
+    std::fs::rename(&tmp, path)
+        .map_err(|source| vatcal_io::IoError::File { path: path.to_path_buf(), source }.into())
 }
 
 /// Writes the measurements of a (possibly unfinished) journal as a measurements CSV

@@ -39,7 +39,9 @@ fn a_complete_campaign_records_centred_joints_with_time_and_direction() {
     let journal = dir.path().join("campaign.journal");
     let plan = plan(9, 1);
     let cell = paper_cell(SEED);
-    let report = run(&cell, &plan, &journal, quiet_config()).expect("campaign");
+    let live_csv = dir.path().join("live.csv");
+    let config = CampaignConfig { measurements_csv: Some(live_csv.clone()), ..quiet_config() };
+    let report = run(&cell, &plan, &journal, config).expect("campaign");
     assert_eq!(report.measurements.len(), plan.measurement_count());
     assert_eq!(report.resumed_at_step, None);
     assert_eq!(report.records.len(), plan.steps.len());
@@ -70,6 +72,11 @@ fn a_complete_campaign_records_centred_joints_with_time_and_direction() {
     assert_eq!(header, "position,tcp,q1,q2,q3,q4,q5,q6,q7,time_s,dir2,dir3,dir4,dir5,dir6,dir7");
     let back = vatcal_io::read_probe_measurements(&csv, &nominal).expect("read csv");
     assert_close_measurements(&back, &report.measurements);
+    assert_eq!(
+        std::fs::read(&live_csv).expect("live csv"),
+        std::fs::read(&csv).expect("csv"),
+        "kept up to date"
+    );
     // virtual time: 3 plate placements (60 s each) plus motions
     let elapsed = cell.clock().now_s();
     assert!(elapsed > 180.0 && elapsed < 3600.0, "{elapsed} s");
@@ -226,8 +233,19 @@ fn invalid_plans_are_refused_before_anything_moves() {
     };
     let e = run(&cell, &beyond, &dir.path().join("b"), quiet_config()).expect_err("limits");
     assert!(e.to_string().contains("q1 = 350"), "{e}");
+    // a probe without a placement for position 1
+    let model = nominal();
+    let mut d = SimDevices::of(&cell);
+    let mut config = cell.probe_config();
+    config.placements.retain(|p| p.position != 1);
+    let mut probe = vatcal_hardware_traits::TriCal::new(cell.gauges(), config).expect("probe");
+    let devices = CellDevices { probe: &mut probe, ..d.devices() };
+    let e = Campaign::new(devices, &model, quiet_config())
+        .run(&plan(3, 1), dir.path().join("c"))
+        .expect_err("placement");
+    assert!(matches!(e, CampaignError::NoProbePlacement { position: 1 }), "{e}");
     assert!(
-        !dir.path().join("a").exists() && !dir.path().join("b").exists(),
+        !dir.path().join("a").exists() && !dir.path().join("b").exists() && !dir.path().join("c").exists(),
         "no journal for a refused plan"
     );
     assert_eq!(cell.clock().now(), Duration::ZERO, "nothing moved");

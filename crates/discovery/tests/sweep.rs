@@ -74,7 +74,7 @@ fn cases() -> Vec<Case> {
         }
     }
     for axis in Axis::ALL {
-        for u in [15.0, 40.0] {
+        for u in [20.0, 40.0] {
             v.push(Case {
                 name: format!("guide-angular {} {u} urad/100mm", axis.letter()),
                 hidden: vec![guide(axis, u)],

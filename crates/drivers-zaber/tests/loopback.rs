@@ -84,7 +84,7 @@ fn fixed_microstep_size_and_plain_protocol_options() {
     };
     let mut guide = connect(&s, cfg);
     ok(guide.move_absolute_and_wait(100.0, &fast()));
-    assert_eq!(s.state().pos_microsteps, (100.0 / microstep_mm as f64).round());
+    assert_eq!(s.state().pos_microsteps, (100.0 / microstep_mm).round());
     assert!((ok(guide.position_mm()) - 100.0).abs() < microstep_mm);
 }
 

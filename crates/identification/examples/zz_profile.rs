@@ -17,9 +17,21 @@ fn main() {
     data.truncate(40);
     let p = ParamSet::paper34();
     let fit = identify(&nominal, &data, &p, &IdentifyOptions::default()).unwrap();
+    if std::env::var("PROFILE").is_ok() {
+        t("profile loop", 2000, || { identify(&nominal, &data, &p, &IdentifyOptions::default()).unwrap(); });
+        return;
+    }
     println!("iterations {}", fit.iterations.len());
     let gn = identify(&nominal, &data, &p, &IdentifyOptions::with_method(Method::GaussNewton)).unwrap();
     println!("gn iterations {} {:?}", gn.iterations.len(), gn.termination);
+    for lam in [1e-3, 1e-4, 1e-6, 1e-8] {
+        for st in [1e-10, 1e-8] {
+            let o = IdentifyOptions { initial_lambda: lam, step_tolerance: st, check_identifiability: false, ..Default::default() };
+            let f = identify(&nominal, &data, &p, &o).unwrap();
+            let name = format!("lm lam {lam:e} st {st:e} its {} {:?}", f.iterations.len(), f.termination);
+            t(&name, 300, || { identify(&nominal, &data, &p, &o).unwrap(); });
+        }
+    }
     t("identify lm", 300, || { identify(&nominal, &data, &p, &IdentifyOptions::default()).unwrap(); });
     t("identify lm nocheck", 300, || { identify(&nominal, &data, &p, &IdentifyOptions { check_identifiability: false, ..Default::default() }).unwrap(); });
     t("check_identifiable", 300, || { vatcal_observability::check_identifiable(&nominal, &data, &p).unwrap(); });

@@ -105,7 +105,11 @@ pub fn identify(
             last_values: outcome.values,
         })));
     }
-    let s = statistics::statistics(&problem, &outcome.model, &outcome.values, options.correlation_threshold)?;
+    let lin = match outcome.linearisation {
+        Some(lin) => lin,
+        None => statistics::Linearisation::evaluate(&problem, &outcome.model, &outcome.values)?,
+    };
+    let s = statistics::statistics(&problem, lin, options.correlation_threshold)?;
     let n_probe = measurements.iter().filter(|m| matches!(m.target, Target::Probe { .. })).count();
     Ok(Identification {
         method: options.method,

@@ -62,7 +62,7 @@ pub(crate) fn paper_literal(problem: &Problem<'_>, start: &Model, options: &Iden
     problem.residuals(&model, &values, &mut r, &mut vecs)?;
     let mut log = vec![log_entry(0, &vecs, sum_sq(&r), 0.0, 0.0)];
     let start_mean = log[0].mean_mm;
-    let finish = |model, values, log, termination| Ok(Outcome { model, values, log, termination });
+    let finish = |model, values, log, termination| Ok(Outcome { model, values, log, termination, linearisation: None });
     for iteration in 1..=options.max_iterations {
         delta.fill(0.0);
         for (k, meas) in problem.measurements.iter().enumerate() {

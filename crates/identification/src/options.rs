@@ -126,7 +126,7 @@ pub struct IdentifyOptions {
     pub measurement_sigma_mm: f64,
     /// scaling of the unknowns for the damped step
     pub scaling: Scaling,
-    /// initial damping λ₀ = `initial_lambda · max diag(J_sᵀ J_s)` (default 1e-3)
+    /// initial damping λ₀ = `initial_lambda · max diag(J_sᵀ J_s)` (default 1e-6: the nominal model is a good start; the gain-ratio control raises λ within a few trial steps when it is not)
     pub initial_lambda: f64,
     /// |correlation| above which a parameter pair is reported as strongly correlated (0.9)
     pub correlation_threshold: f64,
@@ -152,7 +152,7 @@ impl Default for IdentifyOptions {
             priors: None,
             measurement_sigma_mm: 0.003,
             scaling: Scaling::ColumnNorms,
-            initial_lambda: 1e-3,
+            initial_lambda: 1e-6,
             correlation_threshold: 0.9,
             check_identifiability: true,
             accept_iteration_cap: false,

@@ -14,6 +14,7 @@ use vatcal_kinematics::Model;
 
 use crate::dense::DenseQr;
 use crate::problem::Problem;
+use crate::statistics::Linearisation;
 use crate::{IdentifyError, IdentifyOptions, IterationLog, Method, Scaling, Termination};
 
 /// Where an iteration ended.
@@ -23,6 +24,8 @@ pub(crate) struct Outcome {
     pub values: Vec<f64>,
     pub log: Vec<IterationLog>,
     pub termination: Termination,
+    /// the linearisation at `values`, when the iteration has it (saves a re-evaluation)
+    pub linearisation: Option<Linearisation>,
 }
 
 /// λ beyond `STALL_LAMBDA · max diag(J_sᵀJ_s)` without an acceptable step means "stalled".
@@ -80,6 +83,8 @@ struct Iteration<'p, 'a> {
     delta: Vec<f64>,
     cost: f64,
     log: Vec<IterationLog>,
+    /// whether `jac` is the Jacobian at `current`
+    jac_current: bool,
 }
 
 impl<'p, 'a> Iteration<'p, 'a> {
@@ -106,6 +111,7 @@ impl<'p, 'a> Iteration<'p, 'a> {
             delta: vec![0.0; l],
             cost: 0.0,
             log: Vec::new(),
+            jac_current: false,
         }
     }
 
@@ -127,7 +133,9 @@ impl<'p, 'a> Iteration<'p, 'a> {
             &mut self.r_trial,
             &mut self.vecs_trial,
             &mut self.block,
-        )
+        )?;
+        self.jac_current = true;
+        Ok(())
     }
 
     fn update_scale(&mut self) {
@@ -265,10 +273,13 @@ impl<'p, 'a> Iteration<'p, 'a> {
         std::mem::swap(&mut self.r, &mut self.r_trial);
         std::mem::swap(&mut self.vecs, &mut self.vecs_trial);
         self.cost = sum_sq(&self.r);
+        self.jac_current = false;
     }
 
     fn finish(self, termination: Termination) -> Outcome {
-        Outcome { model: self.current, values: self.values, log: self.log, termination }
+        let linearisation =
+            self.jac_current.then(|| Linearisation { jac: self.jac, r: self.r, residuals: self.vecs });
+        Outcome { model: self.current, values: self.values, log: self.log, termination, linearisation }
     }
 }
 

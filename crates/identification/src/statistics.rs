@@ -4,12 +4,12 @@
 //! of its column norms:
 //!
 //! * `σ̂² = RSS / (3n − L)`, RSS the weighted residual sum of squares of the measurements;
-//! * `A = J_w N⁻¹` (unit columns) is factored `A = Q R` (faer QR) and `R = U Σ Vᵀ` (SVD of
-//!   the small L × L factor), so `Cov(ρ̂) = σ̂² N⁻¹ V Σ⁻² Vᵀ N⁻¹` — the normal matrix `JᵀJ` is
-//!   never formed. With priors, the prior rows are appended to `A` before the QR (posterior
-//!   covariance);
-//! * the condition number is `σ_max / σ_min` of `A` (measurement rows only), independent of
-//!   the parameter units;
+//! * `A = J_w N⁻¹` (unit columns) is factored `A = Q R` (faer QR), so
+//!   `Cov(ρ̂) = σ̂² N⁻¹ R⁻¹ R⁻ᵀ N⁻¹` with `R⁻¹` from a triangular solve — the normal matrix
+//!   `JᵀJ` is never formed. With priors, the prior rows are appended to `A` before the QR
+//!   (posterior covariance);
+//! * the singular values of `A` (measurement rows only) are those of the small L × L factor
+//!   `R`; the condition number is `σ_max / σ_min`, independent of the parameter units;
 //! * correlations `Cov_ij / √(Cov_ii Cov_jj)`.
 
 use faer::Mat;
@@ -54,20 +54,36 @@ fn numerical(e: impl std::fmt::Debug) -> IdentifyError {
     IdentifyError::Numerical(format!("SVD failed: {e:?}"))
 }
 
-/// Computes the statistics of the fit `values` (model `model`) of `problem`.
+/// The weighted Jacobian (all rows, natural units), the weighted residual vector and the
+/// unweighted residual vectors of one point.
+#[derive(Debug)]
+pub(crate) struct Linearisation {
+    pub jac: Mat<f64>,
+    pub r: Vec<f64>,
+    pub residuals: Vec<Vector3<f64>>,
+}
+
+impl Linearisation {
+    /// Evaluates the linearisation of `problem` at `model` (parameter values `values`).
+    pub fn evaluate(problem: &Problem<'_>, model: &Model, values: &[f64]) -> Result<Self, IdentifyError> {
+        let (rows, l) = (problem.rows(), problem.cols());
+        let mut jac = Mat::<f64>::zeros(rows, l);
+        let mut r = vec![0.0; rows];
+        let mut residuals = vec![Vector3::zeros(); problem.measurements.len()];
+        let mut block = vec![0.0; 3 * l];
+        problem.jacobian(model, values, jac.as_mut(), &mut r, &mut residuals, &mut block)?;
+        Ok(Self { jac, r, residuals })
+    }
+}
+
+/// Computes the statistics of a fit of `problem` from its linearisation at the solution.
 pub(crate) fn statistics(
     problem: &Problem<'_>,
-    model: &Model,
-    values: &[f64],
+    lin: Linearisation,
     correlation_threshold: f64,
 ) -> Result<Statistics, IdentifyError> {
     let (rows, m_rows, l) = (problem.rows(), problem.measurement_rows(), problem.cols());
-    let mut jac = Mat::<f64>::zeros(rows, l);
-    let mut r = vec![0.0; rows];
-    let mut residuals = vec![Vector3::zeros(); problem.measurements.len()];
-    let mut block = vec![0.0; 3 * l];
-    problem.jacobian(model, values, jac.as_mut(), &mut r, &mut residuals, &mut block)?;
-
+    let Linearisation { jac, r, residuals } = lin;
     let inv_norm: Vec<f64> = (0..l)
         .map(|j| {
             let n = jac.as_ref().get(..m_rows, j).norm_l2();
@@ -75,27 +91,34 @@ pub(crate) fn statistics(
         })
         .collect();
     let r_meas = unit_column_r(&jac, m_rows, &inv_norm);
-    let singular_values = r_meas.singular_values().map_err(numerical)?;
+    let mut singular_values = r_meas.singular_values().map_err(numerical)?;
+    singular_values.sort_by(|a, b| b.total_cmp(a));
     let s_max = singular_values.first().copied().unwrap_or(0.0);
     let s_min = singular_values.last().copied().unwrap_or(0.0);
     let condition_number = if s_min > 0.0 { s_max / s_min } else { f64::INFINITY };
 
-    let r_post = if problem.priors.is_empty() { r_meas } else { unit_column_r(&jac, rows, &inv_norm) };
-    let svd = r_post.thin_svd().map_err(numerical)?;
-    let (v, s) = (svd.V(), svd.S().column_vector());
-    let s_last = s[l - 1];
-    if !(s_last > f64::EPSILON * s[0] * l as f64) || !s_last.is_finite() {
-        return Err(IdentifyError::Numerical(format!(
-            "the information matrix is singular at the solution (singular values {:.3e} .. {:.3e} of the column-normalised Jacobian)",
-            s[0], s_last
-        )));
+    let r_post = if problem.priors.is_empty() {
+        if !(s_min > f64::EPSILON * s_max * l as f64) {
+            return Err(IdentifyError::Numerical(format!(
+                "the information matrix is singular at the solution (singular values {s_max:.3e} .. {s_min:.3e} of the column-normalised Jacobian)"
+            )));
+        }
+        r_meas
+    } else {
+        unit_column_r(&jac, rows, &inv_norm)
+    };
+    // R⁻¹ by a triangular solve against the identity
+    let mut r_inv = Mat::<f64>::identity(l, l);
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(r_post.as_ref(), r_inv.as_mut(), faer::Par::Seq);
+    if r_inv.col_iter().any(|c| c.iter().any(|x| !x.is_finite())) {
+        return Err(IdentifyError::Numerical("the information matrix is singular at the solution".into()));
     }
 
     let rss = r[..m_rows].iter().map(|x| x * x).sum::<f64>();
     let dof = m_rows - l;
     let sigma2 = rss / dof as f64;
-    // W = N⁻¹ V Σ⁻¹, Cov = σ̂² W Wᵀ
-    let w = DMatrix::from_fn(l, l, |i, k| inv_norm[i] * v[(i, k)] / s[k]);
+    // W = N⁻¹ R⁻¹, Cov = σ̂² W Wᵀ
+    let w = DMatrix::from_fn(l, l, |i, k| inv_norm[i] * r_inv[(i, k)]);
     let covariance = (&w * w.transpose()) * sigma2;
     let sigma: Vec<f64> = (0..l).map(|i| covariance[(i, i)].max(0.0).sqrt()).collect();
     let correlation = DMatrix::from_fn(l, l, |i, k| {

@@ -482,6 +482,11 @@ fn symmetrize(m: &mut Mat<f64>) {
 /// are memory-bound — in f32. Everything that enters `ln det` (the gain of the candidate
 /// added, the losses of the members, `M⁻¹`) is computed in f64; the f32 copy only ranks the
 /// non-members, and its rounding (~1e-7 relative in `G_k`) is reset at every refactor.
+///
+/// The f32 copy is stored per chunk of [`CHUNK`] candidates in *planar* row order (all x rows
+/// of the chunk, then all y rows, then all z rows), so that every product with it yields, for
+/// each (row, column), a contiguous vector over the chunk's candidates and the 3 × 3 updates
+/// vectorise across candidates.
 struct Work {
     c: Candidates,
     rows32: Vec<f32>,
@@ -491,28 +496,68 @@ struct Work {
     ridge: Vec<f64>,
 }
 
+/// `(start, len)` of chunk `ci` of `n` candidates.
+fn chunk_range(ci: usize, n: usize) -> (usize, usize) {
+    let start = ci * CHUNK;
+    (start, CHUNK.min(n - start))
+}
+
 impl Work {
     fn new(original: &Candidates, ridge: f64) -> Self {
         let norms = column_norms(original);
         let factors: Vec<f64> = norms.iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
         let c = original.scaled(&factors);
-        let rows32 = c.rows.iter().map(|x| *x as f32).collect();
+        let (n, l) = (c.len(), c.l);
+        let mut rows32 = Vec::with_capacity(c.rows.len());
+        for ci in 0..n.div_ceil(CHUNK) {
+            let (start, len) = chunk_range(ci, n);
+            for a in 0..3 {
+                for i in 0..len {
+                    rows32.extend(c.row(start + i, a).iter().map(|x| *x as f32));
+                }
+            }
+        }
+        debug_assert_eq!(rows32.len(), 3 * n * l);
         let log_scale = 2.0 * factors.iter().map(|f| f.ln()).sum::<f64>();
-        let n = original.len().max(1) as f64;
+        let nf = n.max(1) as f64;
         let ridge = if ridge > 0.0 {
-            norms.iter().map(|x| if *x > 0.0 { ridge / n } else { 0.0 }).collect()
+            norms.iter().map(|x| if *x > 0.0 { ridge / nf } else { 0.0 }).collect()
         } else {
             Vec::new()
         };
         Self { c, rows32, log_scale, ridge }
     }
 
-    /// Rows `3·start .. 3·(start+len)` of the f32 copy, as an L × 3len column-major view
-    /// (the transpose of the row-major block).
-    fn chunk32_t(&self, start: usize, len: usize) -> MatRef<'_, f32> {
+    /// Chunk `ci` of the f32 copy: 3len × L, row-major, planar rows (row `a·len + i` is row
+    /// `a` of candidate `start + i`).
+    fn chunk32(&self, ci: usize) -> MatRef<'_, f32> {
         let l = self.c.l;
-        MatRef::from_column_major_slice(&self.rows32[3 * start * l..3 * (start + len) * l], l, 3 * len)
+        let (start, len) = chunk_range(ci, self.c.len());
+        MatRef::from_row_major_slice(&self.rows32[3 * start * l..3 * (start + len) * l], 3 * len, l)
     }
+}
+
+/// The six entries of a symmetric 3 × 3 matrix: (row, column) of g₀..g₅.
+const SYM: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
+/// `det(I + G)` for every candidate of a chunk from the six planes of G.
+fn det_planes(g: &[f64], len: usize, out: &mut Vec<f64>) {
+    let p = |e: usize| &g[e * len..(e + 1) * len];
+    let (g0, g1, g2, g3, g4, g5) = (p(0), p(1), p(2), p(3), p(4), p(5));
+    out.clear();
+    out.extend((0..len).map(|i| det_i_plus(&[g0[i], g1[i], g2[i], g3[i], g4[i], g5[i]], 1.0)));
+}
+
+/// Best non-member of chunk `(start, len)` by `det(I + G)` (ties: lowest index).
+fn chunk_best(g: &[f64], start: usize, len: usize, member: &[bool], dets: &mut Vec<f64>) -> Option<(usize, f64)> {
+    det_planes(g, len, dets);
+    let mut best = None;
+    for (i, d) in dets.iter().enumerate() {
+        if !member[start + i] {
+            best = better(best, Some((start + i, *d)));
+        }
+    }
+    best
 }
 
 // ------------------------------------------------------------------------------------------
@@ -534,7 +579,8 @@ struct State<'a> {
     fixed: Vec<bool>,
     minv: Mat<f64>,
     log_det: f64,
-    g: Vec<Sym3>,
+    /// `G_k` of all candidates, per chunk six planes (g₀..g₅ of [`SYM`]) over its candidates
+    g: Vec<f64>,
     /// best non-member `(k, det(I + G_k))`, refreshed by every pass over `g`
     best: Option<(usize, f64)>,
     since_refactor: usize,
@@ -555,20 +601,6 @@ fn better(a: Option<(usize, f64)>, b: Option<(usize, f64)>) -> Option<(usize, f6
     }
 }
 
-fn dot32(a: &[f32], b: &[f32]) -> f64 {
-    // eight partial sums, so the compiler can vectorise; f64 accumulation
-    let mut acc = [0.0f64; 8];
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for i in 0..8 {
-            acc[i] += f64::from(x[i]) * f64::from(y[i]);
-        }
-    }
-    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| f64::from(*x) * f64::from(*y)).sum();
-    acc.iter().sum::<f64>() + tail
-}
-
 impl<'a> State<'a> {
     /// Builds the state of `design` with the ridge `ridge` (normalised units); None if
     /// singular.
@@ -585,7 +617,7 @@ impl<'a> State<'a> {
             fixed: fixed.to_vec(),
             minv: Mat::zeros(0, 0),
             log_det: 0.0,
-            g: vec![[0.0; 6]; w.c.len()],
+            g: vec![0.0; 6 * w.c.len()],
             best: None,
             since_refactor: 0,
             refactor_every: refactor_every.max(1),
@@ -599,48 +631,54 @@ impl<'a> State<'a> {
         let Some((minv, log_det)) = factor(&m) else { return false };
         self.minv = minv;
         self.log_det = log_det;
-        self.recompute_g();
         self.since_refactor = 0;
-        true
+        self.recompute_g()
     }
 
-    /// `G_k = B_k M⁻¹ B_kᵀ` for all k: per chunk `Yᵀ = M⁻¹ B_chᵀ` (faer matmul, f32), then
-    /// six dot products of contiguous rows per candidate (f64 accumulation).
-    fn recompute_g(&mut self) {
+    /// `G_k = B_k M⁻¹ B_kᵀ` for all k: with `M⁻¹ = U Uᵀ` (Cholesky), per chunk `V = B_ch U`
+    /// (faer matmul, f32) and `G_k[a][b] = Σ_j V[a][j] V[b][j]`, vectorised across the chunk's
+    /// candidates. False if `M⁻¹` is not positive definite.
+    fn recompute_g(&mut self) -> bool {
         let (w, member) = (self.w, &self.member);
-        let l = w.c.l;
-        let minv32 = Mat::from_fn(l, l, |r, c| self.minv[(r, c)] as f32);
+        let (n, l) = (w.c.len(), w.c.l);
+        let Ok(llt) = self.minv.llt(Side::Lower) else { return false };
+        let u = llt.L();
+        let u32 = Mat::from_fn(l, l, |r, c| u[(r, c)] as f32);
         let parts: Vec<Option<(usize, f64)>> = self
             .g
-            .par_chunks_mut(CHUNK)
+            .par_chunks_mut(6 * CHUNK)
             .enumerate()
             .map(|(ci, gch)| {
-                let start = ci * CHUNK;
-                let bt = w.chunk32_t(start, gch.len());
-                let mut yt = Mat::<f32>::zeros(l, 3 * gch.len());
-                matmul(yt.as_mut(), Accum::Replace, minv32.as_ref(), bt, 1.0, Par::Seq);
-                let mut best = None;
-                for (i, gk) in gch.iter_mut().enumerate() {
-                    let y = [yt.col_as_slice(3 * i), yt.col_as_slice(3 * i + 1), yt.col_as_slice(3 * i + 2)];
-                    let r = [bt.col(3 * i), bt.col(3 * i + 1), bt.col(3 * i + 2)];
-                    let r = r.map(|c| c.try_as_col_major().map_or(&[][..], |c| c.as_slice()));
-                    *gk = [
-                        dot32(y[0], r[0]),
-                        0.5 * (dot32(y[0], r[1]) + dot32(y[1], r[0])),
-                        0.5 * (dot32(y[0], r[2]) + dot32(y[2], r[0])),
-                        dot32(y[1], r[1]),
-                        0.5 * (dot32(y[1], r[2]) + dot32(y[2], r[1])),
-                        dot32(y[2], r[2]),
-                    ];
-                    let k = start + i;
-                    if !member[k] {
-                        best = better(best, Some((k, det_i_plus(gk, 1.0))));
+                let (start, len) = chunk_range(ci, n);
+                let mut v = Mat::<f32>::zeros(3 * len, l);
+                matmul(v.as_mut(), Accum::Replace, w.chunk32(ci), u32.as_ref(), 1.0, Par::Seq);
+                let mut acc = vec![0.0f32; len];
+                for (e, (a, b)) in SYM.iter().enumerate() {
+                    acc.fill(0.0);
+                    for j in 0..l {
+                        let col = v.col_as_slice(j);
+                        let (va, vb) = (&col[a * len..(a + 1) * len], &col[b * len..(b + 1) * len]);
+                        for ((s, x), y) in acc.iter_mut().zip(va).zip(vb) {
+                            *s += x * y;
+                        }
+                    }
+                    for (gi, s) in gch[e * len..(e + 1) * len].iter_mut().zip(&acc) {
+                        *gi = f64::from(*s);
                     }
                 }
-                best
+                chunk_best(gch, start, len, member, &mut Vec::with_capacity(len))
             })
             .collect();
         self.best = parts.into_iter().fold(None, better);
+        true
+    }
+
+    /// `G_k` of candidate `k` as stored (f32-accurate).
+    fn g_of(&self, k: usize) -> Sym3 {
+        let ci = k / CHUNK;
+        let (start, len) = chunk_range(ci, self.w.c.len());
+        let base = 6 * start + (k - start);
+        std::array::from_fn(|e| self.g[base + e * len])
     }
 
     /// `M⁻¹ bᵀ` (L × 3) for candidate k (f64).
@@ -662,22 +700,23 @@ impl<'a> State<'a> {
 
     /// Applies `M⁻¹ += Σ sign Z C Zᵀ` and the matching `G_k` update for all candidates, and
     /// refreshes the best non-member. One pass over the candidates: per chunk a single f32
-    /// faer matmul `[P₁ P₂ R₁ R₂]ᵀ = [Z₁ Z₂ Z₁C₁ Z₂C₂]ᵀ B_chᵀ` (P_t = B_k Z_t,
-    /// R_t = B_k Z_t C_t), then `G_k += Σ sign R_t P_tᵀ` — 18 multiply-adds per term and
-    /// candidate, in f64. Member flags must already describe the new design.
+    /// faer matmul `[P₁ P₂ R₁ R₂] = B_ch [Z₁ Z₂ Z₁C₁ Z₂C₂]` (P_t = B_k Z_t, R_t = B_k Z_t C_t
+    /// with the sign folded into C_t), then `G_k += Σ_t sym(R_t P_tᵀ)`, vectorised across the
+    /// chunk's candidates (27 multiply-adds per term and candidate). Member flags must already
+    /// describe the new design.
     fn apply(&mut self, terms: &[Term]) {
-        let l = self.w.c.l;
+        let (n, l) = (self.w.c.len(), self.w.c.l);
         let nt = terms.len();
-        // Zᵀ rows: Z_1..Z_nt, then (Z_t · sign C_t)ᵀ
-        let mut zzt = Mat::<f32>::zeros(6 * nt, l);
+        // columns: Z_1..Z_nt, then Z_t · sign C_t
+        let mut zz = Mat::<f32>::zeros(l, 6 * nt);
         for (t, term) in terms.iter().enumerate() {
             let c = Mat::from_fn(3, 3, |r, col| term.sign * term.c[(r, col)]);
             let mut zc = Mat::<f64>::zeros(l, 3);
             matmul(zc.as_mut(), Accum::Replace, term.z.as_ref(), c.as_ref(), 1.0, Par::Seq);
             for j in 0..l {
                 for a in 0..3 {
-                    zzt[(3 * t + a, j)] = term.z[(j, a)] as f32;
-                    zzt[(3 * (nt + t) + a, j)] = zc[(j, a)] as f32;
+                    zz[(j, 3 * t + a)] = term.z[(j, a)] as f32;
+                    zz[(j, 3 * (nt + t) + a)] = zc[(j, a)] as f32;
                 }
             }
             matmul(self.minv.as_mut(), Accum::Add, zc.as_ref(), term.z.transpose(), 1.0, Par::Seq);
@@ -686,36 +725,38 @@ impl<'a> State<'a> {
         let (w, member) = (self.w, &self.member);
         let parts: Vec<Option<(usize, f64)>> = self
             .g
-            .par_chunks_mut(CHUNK)
+            .par_chunks_mut(6 * CHUNK)
             .enumerate()
             .map(|(ci, gch)| {
-                let start = ci * CHUNK;
-                let mut wt = Mat::<f32>::zeros(6 * nt, 3 * gch.len());
-                matmul(wt.as_mut(), Accum::Replace, zzt.as_ref(), w.chunk32_t(start, gch.len()), 1.0, Par::Seq);
-                let mut best = None;
-                for (i, gk) in gch.iter_mut().enumerate() {
-                    let v = [wt.col_as_slice(3 * i), wt.col_as_slice(3 * i + 1), wt.col_as_slice(3 * i + 2)];
+                let (start, len) = chunk_range(ci, n);
+                let mut pr = Mat::<f32>::zeros(3 * len, 6 * nt);
+                matmul(pr.as_mut(), Accum::Replace, w.chunk32(ci), zz.as_ref(), 1.0, Par::Seq);
+                // plane(col, a): column `col` of P/R for row `a`, over the chunk's candidates
+                let plane = |col: usize, a: usize| &pr.col_as_slice(col)[a * len..(a + 1) * len];
+                let mut acc = vec![0.0f32; len];
+                for (e, (a, b)) in SYM.iter().enumerate() {
+                    acc.fill(0.0);
                     for t in 0..nt {
-                        let (p, r) = (3 * t, 3 * (nt + t));
-                        // (R Pᵀ)[a][b] = Σ_j R[a][j] P[b][j], with P[a][j] = v[a][p + j]
-                        let rp = |a: usize, b: usize| {
-                            f64::from(v[a][r]) * f64::from(v[b][p])
-                                + f64::from(v[a][r + 1]) * f64::from(v[b][p + 1])
-                                + f64::from(v[a][r + 2]) * f64::from(v[b][p + 2])
-                        };
-                        gk[0] += rp(0, 0);
-                        gk[1] += 0.5 * (rp(0, 1) + rp(1, 0));
-                        gk[2] += 0.5 * (rp(0, 2) + rp(2, 0));
-                        gk[3] += rp(1, 1);
-                        gk[4] += 0.5 * (rp(1, 2) + rp(2, 1));
-                        gk[5] += rp(2, 2);
+                        for j in 0..3 {
+                            let (p, r) = (3 * t + j, 3 * (nt + t) + j);
+                            let (ra, pb) = (plane(r, *a), plane(p, *b));
+                            if a == b {
+                                for ((s, x), y) in acc.iter_mut().zip(ra).zip(pb) {
+                                    *s += x * y;
+                                }
+                            } else {
+                                let (rb, pa) = (plane(r, *b), plane(p, *a));
+                                for ((((s, x), y), u), v) in acc.iter_mut().zip(ra).zip(pb).zip(rb).zip(pa) {
+                                    *s += 0.5 * (x * y + u * v);
+                                }
+                            }
+                        }
                     }
-                    let k = start + i;
-                    if !member[k] {
-                        best = better(best, Some((k, det_i_plus(gk, 1.0))));
+                    for (gi, s) in gch[e * len..(e + 1) * len].iter_mut().zip(&acc) {
+                        *gi += f64::from(*s);
                     }
                 }
-                best
+                chunk_best(gch, start, len, member, &mut Vec::with_capacity(len))
             })
             .collect();
         self.best = parts.into_iter().fold(None, better);
@@ -741,7 +782,7 @@ impl<'a> State<'a> {
     /// The `count` non-members with the largest gains (descending, ties by index).
     fn top_additions(&self, count: usize) -> Vec<usize> {
         let mut v: Vec<(usize, f64)> =
-            (0..self.w.c.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g[k]))).collect();
+            (0..self.w.c.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g_of(k)))).collect();
         v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         v.truncate(count);
         v.into_iter().map(|x| x.0).collect()
@@ -1290,4 +1331,99 @@ pub fn naive_detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<
         best.ok_or_else(|| ObservabilityError::InvalidInput("no restart ran".into()))?;
     let won = &restarts[best_restart];
     Ok(Selection { selected, log_det: won.log_det, tracked_log_det, objective_value: won.objective_value, best_restart, restarts })
+}
+
+// ------------------------------------------------------------------------------------------
+// reporting helpers
+
+/// The indices of a selection, in the two conventions of background.md §3.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SelectionIndices {
+    /// natural units (mm per parameter unit): the O1 to compare with the paper
+    pub raw: ObservabilityIndices,
+    /// columns divided by their norms over the **whole candidate set** (so designs stay
+    /// comparable): the O2..O5, condition number and σ_min to read
+    pub normalized: ObservabilityIndices,
+}
+
+/// O1..O5, rank, condition number and σ_min of `selected` (raw and candidate-normalised).
+pub fn selection_indices(candidates: &Candidates, selected: &[usize]) -> Result<SelectionIndices, ObservabilityError> {
+    let j = candidates.design_jacobian(selected);
+    let raw = crate::indices::observability_indices(j.as_ref(), candidates.params(), ColumnScaling::None)?;
+    let factors: Vec<f64> = column_norms(candidates).iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
+    let mut jn = j;
+    crate::identifiability::scale_columns(&mut jn, &factors);
+    let mut normalized = crate::indices::observability_indices(jn.as_ref(), candidates.params(), ColumnScaling::None)?;
+    normalized.scaling = ColumnScaling::UnitNorm;
+    Ok(SelectionIndices { raw, normalized })
+}
+
+/// One row of [`position_ablation`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct AblationRow {
+    /// the calibration positions the candidates were restricted to
+    pub positions: Vec<u32>,
+    /// number of candidates at those positions
+    pub candidate_count: usize,
+    /// the selection (indices into the **full** candidate list, ascending), None when there
+    /// were fewer candidates than poses requested
+    pub selected: Option<Vec<usize>>,
+    /// its indices (None when no selection)
+    pub indices: Option<SelectionIndices>,
+}
+
+/// The paper's ablation: the best Detmax selection of `options.count` poses when the
+/// candidates are restricted to every subset of `subset_size` calibration positions.
+/// `positions[k]` is candidate k's calibration position (None for tracker rows, which are
+/// never used here). With fewer than three positions the world frame is not identifiable, so
+/// the restricted selections use a ridge (`max(options.ridge, 1e-6)`); their indices are
+/// computed without it, and their rank shows what is lost.
+pub fn position_ablation(
+    candidates: &Candidates,
+    positions: &[Option<u32>],
+    subset_size: usize,
+    options: &DetmaxOptions,
+) -> Result<Vec<AblationRow>, ObservabilityError> {
+    if positions.len() != candidates.len() {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "{} position labels for {} candidates",
+            positions.len(),
+            candidates.len()
+        )));
+    }
+    let mut ids: Vec<u32> = positions.iter().flatten().copied().collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let mut rows = Vec::new();
+    for subset in subsets(&ids, subset_size) {
+        let members: Vec<usize> = (0..candidates.len())
+            .filter(|k| positions[*k].is_some_and(|p| subset.contains(&p)))
+            .collect();
+        let mut row = AblationRow { positions: subset, candidate_count: members.len(), selected: None, indices: None };
+        if members.len() >= options.count {
+            let restricted = candidates.subset(&members);
+            let o = DetmaxOptions { ridge: options.ridge.max(1e-6), fixed: Vec::new(), ..options.clone() };
+            let s = detmax(&restricted, &o)?;
+            let selected: Vec<usize> = s.selected.iter().map(|i| members[*i]).collect();
+            row.indices = Some(selection_indices(candidates, &selected)?);
+            row.selected = Some(selected);
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// All `k`-element subsets of `ids`, in lexicographic order.
+fn subsets(ids: &[u32], k: usize) -> Vec<Vec<u32>> {
+    if k == 0 {
+        return vec![Vec::new()];
+    }
+    let mut out = Vec::new();
+    for (i, id) in ids.iter().enumerate() {
+        for mut rest in subsets(&ids[i + 1..], k - 1) {
+            rest.insert(0, *id);
+            out.push(rest);
+        }
+    }
+    out
 }

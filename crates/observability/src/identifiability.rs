@@ -598,3 +598,22 @@ pub fn preference_order(model: &Model) -> ParamSet {
 pub fn all_identifiable(model: &Model, measurements: &[Measurement]) -> Result<ParamSet, ObservabilityError> {
     Ok(analyze(model, measurements, &preference_order(model))?.identifiable_set())
 }
+
+/// Resolves a `--params` specification: `paper34`, `geometric`, a comma-separated list of
+/// names, or `all-identifiable` (the [`all_identifiable`] basis for these measurements).
+pub fn param_set_from_spec(
+    spec: &str,
+    model: &Model,
+    measurements: &[Measurement],
+) -> Result<ParamSet, ObservabilityError> {
+    if spec.trim() == "all-identifiable" {
+        return all_identifiable(model, measurements);
+    }
+    let set = ParamSet::parse(spec).map_err(|e| ObservabilityError::InvalidInput(format!("parameter set `{spec}`: {e}")))?;
+    if let Some(p) = set.iter().find(|p| !model.has_param(**p)) {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "parameter set `{spec}`: `{p}` is not part of this model (switch its effect on in the cell file first)"
+        )));
+    }
+    Ok(set)
+}

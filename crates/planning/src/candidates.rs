@@ -164,7 +164,7 @@ pub fn guide_positions(model: &Model, steps: usize, margin_mm: f64) -> Result<Ve
     }
     let (lo, hi) = model.joint_limits()[0];
     let (a, b) = (lo + margin_mm, hi - margin_mm);
-    if !(a <= b) {
+    if a > b || a.is_nan() || b.is_nan() {
         return Err(PlanError::Option {
             option: "guide_margin_mm".into(),
             reason: format!("{margin_mm} mm leaves nothing of the stroke {lo}..{hi} mm"),

@@ -256,7 +256,7 @@ impl ArmGeometry {
             let theta2 = if shoulder > 0.0 { theta2_base } else { theta2_base + std::f64::consts::PI };
             let k = (r * r + h * h - a3 * a3 - a4 * a4 - d5 * d5) / (2.0 * a3);
             let ratio = k / l;
-            if !(ratio.abs() <= 1.0 + 1e-12 + slack) {
+            if ratio.is_nan() || ratio.abs() > 1.0 + 1e-12 + slack {
                 continue;
             }
             let gamma = if ratio.abs() <= 1.0 + 1e-12 {

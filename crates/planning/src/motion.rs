@@ -127,7 +127,7 @@ impl JointBounds {
         for (k, b) in bounds.iter_mut().enumerate() {
             let m = if k == 0 { guide_margin_mm } else { deg_to_rad(joint_margin_deg) };
             *b = (b.0 + m, b.1 - m);
-            if !(b.0 <= b.1) {
+            if b.0 > b.1 || b.0.is_nan() || b.1.is_nan() {
                 return Err(PlanError::Option {
                     option: if k == 0 { "guide margin".into() } else { "joint margin".into() },
                     reason: format!("the margin leaves nothing of the range of joint {}", k + 1),

@@ -114,49 +114,58 @@ pub fn segment_is_free(
     segment_contact(checker, a, b, probe, resolution).is_none()
 }
 
-/// Plans a collision-free path from `start` to `goal` with the probe in state `probe`.
-pub fn plan_path(
-    checker: &CollisionChecker<'_>,
-    bounds: &JointBounds,
-    timer: &MotionTimer,
-    start: &JointVector,
-    goal: &JointVector,
-    probe: ProbeState,
-    opts: &PathOptions,
-    seed: u64,
-) -> Result<JointPath, PathFailure> {
-    if let Some(c) = checker.check(start, probe) {
-        return Err(PathFailure::StartInCollision(c));
+/// A path planner: the collision checker, the joint bounds RRT samples in, the motion-time
+/// model used as metric, and the options.
+#[derive(Debug, Clone, Copy)]
+pub struct PathPlanner<'c, 'm> {
+    /// collision checker
+    pub checker: &'c CollisionChecker<'m>,
+    /// joint bounds of the RRT samples
+    pub bounds: &'c JointBounds,
+    /// motion-time model (metric of the RRT)
+    pub timer: &'c MotionTimer,
+    /// options
+    pub opts: &'c PathOptions,
+}
+
+impl PathPlanner<'_, '_> {
+    /// Plans a collision-free path from `start` to `goal` with the probe in state `probe`
+    /// (see the module docs); `seed` seeds the RRT.
+    pub fn plan(&self, start: &JointVector, goal: &JointVector, probe: ProbeState, seed: u64) -> Result<JointPath, PathFailure> {
+        let (checker, bounds, opts) = (self.checker, self.bounds, self.opts);
+        if let Some(c) = checker.check(start, probe) {
+            return Err(PathFailure::StartInCollision(c));
+        }
+        if let Some(c) = checker.check(goal, probe) {
+            return Err(PathFailure::GoalInCollision(c));
+        }
+        if segment_is_free(checker, start, goal, probe, &opts.resolution) {
+            return Ok(JointPath { waypoints: vec![*start, *goal], method: PathMethod::Straight });
+        }
+        let slack = 1e-9;
+        if !bounds.contains_with_slack(start, slack, slack) {
+            return Err(PathFailure::OutOfBounds("start"));
+        }
+        if !bounds.contains_with_slack(goal, slack, slack) {
+            return Err(PathFailure::OutOfBounds("goal"));
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let planner = Rrt { checker, bounds, timer: self.timer, probe, opts };
+        let raw = planner.connect(start, goal, &mut rng)?;
+        let verified =
+            |p: &[JointVector]| p.windows(2).all(|w| segment_is_free(checker, &w[0], &w[1], probe, &opts.resolution));
+        let mut waypoints = planner.shortcut(raw.clone(), &mut rng);
+        waypoints.dedup_by(|a, b| a == b);
+        let waypoints = planner.skip_ahead(waypoints);
+        if verified(&waypoints) {
+            return Ok(JointPath { waypoints, method: PathMethod::RrtConnect });
+        }
+        // a shortcut endpoint fell between two checked samples of a tree edge: keep the raw path
+        if verified(&raw) {
+            return Ok(JointPath { waypoints: raw, method: PathMethod::RrtConnect });
+        }
+        Err(PathFailure::Exhausted { iterations: opts.max_iterations })
     }
-    if let Some(c) = checker.check(goal, probe) {
-        return Err(PathFailure::GoalInCollision(c));
-    }
-    if segment_is_free(checker, start, goal, probe, &opts.resolution) {
-        return Ok(JointPath { waypoints: vec![*start, *goal], method: PathMethod::Straight });
-    }
-    let slack = 1e-9;
-    if !bounds.contains_with_slack(start, slack, slack) {
-        return Err(PathFailure::OutOfBounds("start"));
-    }
-    if !bounds.contains_with_slack(goal, slack, slack) {
-        return Err(PathFailure::OutOfBounds("goal"));
-    }
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let planner = Rrt { checker, bounds, timer, probe, opts };
-    let raw = planner.connect(start, goal, &mut rng)?;
-    let verified =
-        |p: &[JointVector]| p.windows(2).all(|w| segment_is_free(checker, &w[0], &w[1], probe, &opts.resolution));
-    let mut waypoints = planner.shortcut(raw.clone(), &mut rng);
-    waypoints.dedup_by(|a, b| a == b);
-    let waypoints = planner.skip_ahead(waypoints);
-    if verified(&waypoints) {
-        return Ok(JointPath { waypoints, method: PathMethod::RrtConnect });
-    }
-    // a shortcut endpoint fell between two checked samples of a tree edge: keep the raw path
-    if verified(&raw) {
-        return Ok(JointPath { waypoints: raw, method: PathMethod::RrtConnect });
-    }
-    Err(PathFailure::Exhausted { iterations: opts.max_iterations })
 }
 
 #[derive(Debug, Clone, Copy)]

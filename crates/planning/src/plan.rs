@@ -16,7 +16,7 @@ use crate::collision::{CollisionChecker, ProbeState};
 use crate::error::PlanError;
 use crate::geometry::CellGeometry;
 use crate::motion::{JointBounds, MOVE_MARGIN_DEG, MotionTimer};
-use crate::paths::{JointPath, PathMethod, PathOptions, plan_path};
+use crate::paths::{JointPath, PathMethod, PathOptions, PathPlanner};
 use crate::tour::{TourCosts, TourOptions, solve_open_path};
 
 /// Options of [`plan_campaign`].
@@ -286,6 +286,7 @@ fn plan_legs(
     order: &[usize],
     opts: &PlanOptions,
 ) -> Result<Vec<Leg>, PlanError> {
+    let planner = PathPlanner { checker, bounds, timer, opts: &opts.paths };
     let results: Vec<Result<Leg, PlanError>> = (0..order.len())
         .into_par_iter()
         .map(|k| {
@@ -308,7 +309,8 @@ fn plan_legs(
                 let path = JointPath { waypoints: vec![from], method: PathMethod::Straight };
                 return Ok(Leg { path, position: c.position, replace_probe });
             }
-            let path = plan_path(checker, bounds, timer, &from, &c.approach, probe, &opts.paths, leg_seed(opts.seed, k))
+            let path = planner
+                .plan(&from, &c.approach, probe, leg_seed(opts.seed, k))
                 .map_err(|f| PlanError::NoPath { from_step: k, to_step: k + 1, reason: f.to_string() })?;
             Ok(Leg { path, position: c.position, replace_probe })
         })

@@ -32,8 +32,7 @@ fn verify_every_candidate(model: &Model, set: &CandidateSet, opts: &CandidateOpt
         let tcp = model.tcp_position(&c.q, c.tcp).expect("fk");
         let err = (tcp - model.position(c.position).expect("position")).norm();
         assert!(err < 1e-6, "candidate {c:?}: TCP {err} mm from the calibration position");
-        for k in 1..7 {
-            let (lo, hi) = limits[k];
+        for (k, (lo, hi)) in limits.iter().enumerate().skip(1) {
             assert!(c.q.0[k] >= lo + margin - 1e-12 && c.q.0[k] <= hi - margin + 1e-12, "joint {} of {c:?}", k + 1);
         }
         assert!((limits[0].0..=limits[0].1).contains(&c.q.0[0]));

@@ -8,7 +8,7 @@ use vatcal_planning::candidates::{Candidate, CandidateOptions, generate_candidat
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::motion::{JointBounds, MOVE_MARGIN_DEG, MotionTimer, Resolution, interpolate};
-use vatcal_planning::paths::{PathFailure, PathMethod, PathOptions, plan_path, segment_is_free};
+use vatcal_planning::paths::{PathFailure, PathMethod, PathOptions, PathPlanner, segment_is_free};
 
 /// Independent check at twice the planner's resolution.
 fn verify(checker: &CollisionChecker<'_>, path: &[JointVector], probe: ProbeState) {
@@ -37,6 +37,7 @@ fn rrt_connect_finds_verified_paths_where_straight_moves_collide() {
     let probe = ProbeState::At { position: 2 };
     let poses = approach_poses(&model, &checker);
     let opts = PathOptions::default();
+    let planner = PathPlanner { checker: &checker, bounds: &bounds, timer: &timer, opts: &opts };
     // pairs whose straight joint move collides
     let mut hard = Vec::new();
     'outer: for (i, a) in poses.iter().enumerate() {
@@ -51,13 +52,13 @@ fn rrt_connect_finds_verified_paths_where_straight_moves_collide() {
     }
     assert!(!hard.is_empty(), "no colliding straight move among {} poses", poses.len());
     for (k, (a, b)) in hard.iter().enumerate() {
-        let path = plan_path(&checker, &bounds, &timer, a, b, probe, &opts, k as u64).expect("path");
+        let path = planner.plan(a, b, probe, k as u64).expect("path");
         assert_eq!(path.method, PathMethod::RrtConnect);
         assert_eq!(path.waypoints.first(), Some(a));
         assert_eq!(path.waypoints.last(), Some(b));
         verify(&checker, &path.waypoints, probe);
         // deterministic for a seed
-        let again = plan_path(&checker, &bounds, &timer, a, b, probe, &opts, k as u64).expect("path");
+        let again = planner.plan(a, b, probe, k as u64).expect("path");
         assert_eq!(path, again);
     }
 }
@@ -71,19 +72,21 @@ fn free_straight_moves_stay_straight_and_bad_ends_are_reported() {
     let timer = MotionTimer::from_limits(&MotionLimits::default()).expect("timer");
     let probe = ProbeState::At { position: 2 };
     let poses = approach_poses(&model, &checker);
+    let opts = PathOptions::default();
+    let planner = PathPlanner { checker: &checker, bounds: &bounds, timer: &timer, opts: &opts };
     let a = poses[0].approach;
     let mut b = a;
     b.0[6] += 0.2; // turn the last joint a little
-    let path = plan_path(&checker, &bounds, &timer, &a, &b, probe, &PathOptions::default(), 0).expect("path");
+    let path = planner.plan(&a, &b, probe, 0).expect("path");
     assert_eq!(path.method, PathMethod::Straight);
     assert_eq!(path.waypoints, vec![a, b]);
     // the measurement pose itself is in contact with the probe when the ball is not allowed in
     let measuring = poses[0].q;
-    match plan_path(&checker, &bounds, &timer, &a, &measuring, probe, &PathOptions::default(), 0) {
+    match planner.plan(&a, &measuring, probe, 0) {
         Err(PathFailure::GoalInCollision(c)) => assert!(c.to_string().contains("TriCal"), "{c}"),
         other => panic!("expected a goal collision, got {other:?}"),
     }
-    match plan_path(&checker, &bounds, &timer, &measuring, &a, probe, &PathOptions::default(), 0) {
+    match planner.plan(&measuring, &a, probe, 0) {
         Err(PathFailure::StartInCollision(_)) => {}
         other => panic!("expected a start collision, got {other:?}"),
     }

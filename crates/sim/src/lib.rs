@@ -4,13 +4,21 @@
 //! errors + any catalog effects) and synthesises measurements from it: probe measurements
 //! (the true TCP put on a calibration position, with the paper's noise budget) and tracker
 //! measurements at random poses. Every random process takes a seed (ChaCha8).
+//!
+//! [`VirtualCell`] simulates the devices of the cell on that truth, implementing the traits of
+//! `vatcal-hardware-traits`: a robot arm whose controller believes the nominal model
+//! ([`SimArm`]: relative linear moves are solved on the nominal geometry, the physics is the
+//! truth), the guide ([`SimGuide`]), the three TriCal gauges with slightly tilted true axes
+//! ([`SimGauge`]), a laser tracker ([`SimTracker`]) and an operator ([`SimOperator`]), with the
+//! paper's error budget ([`NoiseBudget`]), virtual time, and noise derived from
+//! `(seed, command, state)` so that a resumed campaign sees exactly the same noise.
 
 pub mod truth;
 
 // --- simulated devices (virtual cell) ---
 mod cell;
 mod config;
-pub(crate) mod controller;
+mod controller;
 mod devices;
 mod noise;
 mod world;
