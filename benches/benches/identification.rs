@@ -19,7 +19,9 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use vatcal_core::{CellFile, Measurement, ParamSet};
 use vatcal_identification::{IdentifyOptions, Method, identify};
 use vatcal_kinematics::Model;
-use vatcal_sim::truth::{ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements};
+use vatcal_sim::truth::{
+    ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
+};
 
 fn canonical() -> Model {
     let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-zaber.toml"))
@@ -66,7 +68,9 @@ fn bench_identification(c: &mut Criterion) {
     group.bench_function("jacobian/paper34/40", |b| {
         b.iter(|| {
             for m in &data {
-                black_box(nominal.measurement_jacobian_into(black_box(m), &params.0, &mut block).expect("block"));
+                black_box(
+                    nominal.measurement_jacobian_into(black_box(m), &params.0, &mut block).expect("block"),
+                );
             }
         })
     });

@@ -15,7 +15,8 @@ use vatcal_planning::ik::{ArmGeometry, RefineOptions, ToolPoseIk, robot_base_fra
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 
 fn cell() -> CellFile {
-    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-zaber.toml")).expect("canonical cell fixture")
+    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-zaber.toml"))
+        .expect("canonical cell fixture")
 }
 
 fn bench_ik(c: &mut Criterion) {

@@ -12,7 +12,8 @@ fn main() {
     let poses = vatcal_sim::truth::probe_start_poses(&model, n, 2);
     let c = Candidates::from_measurements(&model, &poses, &ParamSet::paper34()).unwrap();
     eprintln!("generation {:?}", t.elapsed());
-    for _ in 0..12 {
+    let iters: usize = std::env::args().nth(2).and_then(|s| s.parse().ok()).unwrap_or(12);
+    for _ in 0..iters {
         let t = Instant::now();
         let s = detmax(&c, &DetmaxOptions { restarts: 1, seed: 7, ..DetmaxOptions::new(40) }).unwrap();
         eprintln!("detmax {:?} exchanges {} o1 {:.3}", t.elapsed(), s.restarts[0].exchanges, s.o1(34));

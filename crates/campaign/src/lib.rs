@@ -14,6 +14,10 @@
 //!   stopped (nothing lost, nothing repeated), asks the [`Operator`](vatcal_hardware_traits::Operator)
 //!   to re-place the plate, shows a progress bar with ETA, returns the measurements
 //!   (`position,tcp,q1..q7,time_s,dir2..dir7` once written with `vatcal_io::write_measurements`).
+//! * [`validation`] — the laser-tracker validation campaign of the paper's §5: random poses
+//!   over the workspace and a six-dimensional printing path commanded by each model under test,
+//!   planned as campaign steps, run by the same [`Campaign`] runner, evaluated (errors,
+//!   statistics, lever effect) and plotted.
 //!
 //! Units: mm and rad in every API; the journal stores internal units bit-exactly; files written
 //! for users (the measurements CSV) use mm and degrees.
@@ -24,6 +28,7 @@ mod console;
 mod journal;
 mod plan;
 mod runner;
+pub mod validation;
 
 pub use centering::{CenteringConfig, CenteringError, CenteringOutcome, auto_center};
 pub use checksum::fnv1a64;

@@ -61,7 +61,8 @@ fn identify_then_validate_reaches_the_noise_floor() {
     assert!(out.status.success(), "identify failed:\n{stdout}\n{}", text(&out.stderr));
     assert!(stdout.contains("mean [mm]") && stdout.contains("converged"), "{stdout}");
     assert!(stdout.lines().filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit())).count() >= 3);
-    let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     assert_eq!(r["parameters"].as_array().map(Vec::len), Some(34));
     assert_eq!(r["converged"], serde_json::Value::Bool(true));
 
@@ -81,10 +82,14 @@ fn identify_then_validate_reaches_the_noise_floor() {
     ]);
     let stdout = text(&out.stdout);
     assert!(out.status.success(), "validate failed:\n{stdout}\n{}", text(&out.stderr));
-    assert!(stdout.contains("95%") && stdout.contains("baseline") && stdout.contains("RMS x / y / z"), "{stdout}");
+    assert!(
+        stdout.contains("95%") && stdout.contains("baseline") && stdout.contains("RMS x / y / z"),
+        "{stdout}"
+    );
     let svg = std::fs::read_to_string(&plot).expect("svg");
     assert!(svg.contains("<svg") && svg.contains("baseline (meca500-zaber.toml)"));
-    let vr: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&vreport).expect("v")).expect("json");
+    let vr: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&vreport).expect("v")).expect("json");
     let calibrated = vr["model"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean");
     let before = vr["baseline"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean");
     eprintln!("validation mean error: nominal {before} mm, calibrated {calibrated} mm");
@@ -96,11 +101,8 @@ fn identify_then_validate_reaches_the_noise_floor() {
 fn bad_input_gets_a_clear_error_and_a_non_zero_exit() {
     let dir = tempfile::tempdir().expect("tmp");
     let bad = dir.path().join("bad.csv");
-    std::fs::write(
-        &bad,
-        "position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,0,0,0,0,0\n2,1,100,abc,0,0,0,0,0\n",
-    )
-    .expect("write");
+    std::fs::write(&bad, "position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,0,0,0,0,0\n2,1,100,abc,0,0,0,0,0\n")
+        .expect("write");
     let cal = dir.path().join("cal.toml");
     let out = vatcal(&["identify", "--model", s(&fixture()), "--measurements", s(&bad), "--out", s(&cal)]);
     let stderr = text(&out.stderr);
@@ -114,7 +116,15 @@ fn bad_input_gets_a_clear_error_and_a_non_zero_exit() {
     let m = dir.path().join("m.csv");
     write(&m, &exact);
     let out = vatcal(&[
-        "identify", "--model", s(&fixture()), "--measurements", s(&m), "--out", s(&cal), "--params", "d_4,zz_9",
+        "identify",
+        "--model",
+        s(&fixture()),
+        "--measurements",
+        s(&m),
+        "--out",
+        s(&cal),
+        "--params",
+        "d_4,zz_9",
     ]);
     assert!(!out.status.success());
     assert!(text(&out.stderr).contains("zz_9"), "{}", text(&out.stderr));
@@ -133,8 +143,17 @@ fn bad_input_gets_a_clear_error_and_a_non_zero_exit() {
     let probe = synthetic_probe_measurements(&truth, &exact, ProbeNoise::default(), 33);
     write(&m, &probe);
     let out = vatcal(&[
-        "identify", "--model", s(&fixture()), "--measurements", s(&m), "--out", s(&cal), "--method", "paper",
-        "--max-iterations", "8",
+        "identify",
+        "--model",
+        s(&fixture()),
+        "--measurements",
+        s(&m),
+        "--out",
+        s(&cal),
+        "--method",
+        "paper",
+        "--max-iterations",
+        "8",
     ]);
     let stderr = text(&out.stderr);
     assert!(!out.status.success());

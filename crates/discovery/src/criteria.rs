@@ -1,9 +1,10 @@
 //! Comparison of nested least-squares fits: F-test and information criteria
 //! (background.md §8.2, Gaussian least squares, constants dropped).
 
+use nalgebra::Vector3;
 use serde::Serialize;
 
-use crate::distributions::f_ln_sf;
+use crate::distributions::{f_ln_sf, normal_ln_sf};
 
 /// Akaike's criterion corrected for small samples, `N ln(RSS/N) + 2p + 2p(p+1)/(N − p − 1)`.
 /// Infinite when `N ≤ p + 1`.
@@ -79,6 +80,42 @@ impl NestedComparison {
     }
 }
 
+/// Paired comparison of held-out prediction errors of the same measurements under two models:
+/// `d_k = ‖e_before,k‖² − ‖e_after,k‖²`, `z = mean(d) / (sd(d)/√n)`, one-sided (the second
+/// model predicts better).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PairedImprovement {
+    /// mean reduction of the squared held-out error per measurement [mm²]
+    pub mean_reduction_mm2: f64,
+    /// the z statistic
+    pub z: f64,
+    /// `ln P(Z > z)` under "no improvement"
+    pub ln_p_value: f64,
+}
+
+impl PairedImprovement {
+    /// Compares held-out errors `before` and `after` (same measurements, same order).
+    ///
+    /// # Panics
+    /// If the lengths differ (a programming error).
+    pub fn new(before: &[Vector3<f64>], after: &[Vector3<f64>]) -> Self {
+        assert_eq!(before.len(), after.len(), "paired errors must have the same length");
+        let d: Vec<f64> = before.iter().zip(after).map(|(b, a)| b.norm_squared() - a.norm_squared()).collect();
+        let n = d.len() as f64;
+        let mean = d.iter().sum::<f64>() / n.max(1.0);
+        let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+        let se = (var / n.max(1.0)).sqrt();
+        let z = if se > 0.0 {
+            mean / se
+        } else if mean > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        Self { mean_reduction_mm2: mean, z, ln_p_value: normal_ln_sf(z) }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -91,6 +128,20 @@ mod tests {
         assert_relative_eq!(bic(rss, n, p), base + 30.0 * 120f64.ln(), epsilon = 1e-12);
         assert_relative_eq!(aicc(rss, n, p), base + 60.0 + 2.0 * 30.0 * 31.0 / 89.0, epsilon = 1e-12);
         assert!(aicc(rss, 31, 30).is_infinite());
+    }
+
+    #[test]
+    fn paired_improvement_sees_a_consistent_drop_and_not_noise() {
+        let before: Vec<Vector3<f64>> =
+            (0..100).map(|k| Vector3::new(0.01 + 0.001 * ((k * 7) % 5) as f64, 0.0, 0.0)).collect();
+        let better: Vec<Vector3<f64>> = before.iter().map(|e| e * 0.5).collect();
+        let p = PairedImprovement::new(&before, &better);
+        assert!(p.z > 10.0 && p.ln_p_value < -20.0 && p.mean_reduction_mm2 > 0.0);
+        // swapping the roles of alternate measurements: no systematic improvement
+        let mixed: Vec<Vector3<f64>> =
+            before.iter().enumerate().map(|(k, e)| if k % 2 == 0 { e * 0.5 } else { e * 1.3 }).collect();
+        let q = PairedImprovement::new(&before, &mixed);
+        assert!(q.z.abs() < 2.0, "{}", q.z);
     }
 
     #[test]

@@ -104,6 +104,15 @@ pub fn chi2_sf(x: f64, k: usize) -> f64 {
     chi2_ln_sf(x, k).exp()
 }
 
+/// `ln P(Z > z)` for a standard normal Z (via `P(Z > z) = ½ P(χ²₁ > z²)` for z ≥ 0).
+pub fn normal_ln_sf(z: f64) -> f64 {
+    if z.is_nan() {
+        return f64::NAN;
+    }
+    let half_tail = (0.5f64).ln() + chi2_ln_sf(z * z, 1);
+    if z >= 0.0 { half_tail } else { (-half_tail.exp()).ln_1p() }
+}
+
 /// Continued fraction of the incomplete beta function (Numerical Recipes `betacf`).
 fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
     let qab = a + b;
@@ -213,6 +222,18 @@ mod tests {
         assert_relative_eq!(chi2_sf(18.307_038_053_275_146, 10), 0.05, max_relative = 1e-9);
         assert_relative_eq!(chi2_sf(124.342_113_404_880_3, 100), 0.05, max_relative = 1e-8);
         assert_eq!(chi2_sf(0.0, 3), 1.0);
+    }
+
+    #[test]
+    fn normal_tail_matches_tables() {
+        assert_relative_eq!(normal_ln_sf(0.0).exp(), 0.5, max_relative = 1e-12);
+        assert_relative_eq!(normal_ln_sf(1.644_853_626_951_472_2).exp(), 0.05, max_relative = 1e-9);
+        assert_relative_eq!(normal_ln_sf(2.326_347_874_040_840_8).exp(), 0.01, max_relative = 1e-9);
+        assert_relative_eq!(normal_ln_sf(-1.644_853_626_951_472_2).exp(), 0.95, max_relative = 1e-9);
+        // far tail: ln P ≈ −z²/2 − ln(z √(2π))
+        let z = 30.0f64;
+        let approx = -0.5 * z * z - (z * (2.0 * std::f64::consts::PI).sqrt()).ln();
+        assert!((normal_ln_sf(z) - approx).abs() < 2e-3);
     }
 
     #[test]

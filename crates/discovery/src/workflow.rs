@@ -6,8 +6,9 @@
 //! 3. every catalog effect not yet in the model is scored: novelty `‖P⊥Z‖/‖Z‖` (≈ 0: not
 //!    discoverable with this data) and the score test with σ̂ from the current fit; the
 //!    candidates that pass a Bonferroni threshold `α/m` are refitted and must also pass the
-//!    F-test (same threshold), lower BIC and AICc, a lower stratified K-fold cross-validated
-//!    prediction error, and a plausibility check of the identified values;
+//!    F-test (same threshold), lower BIC and AICc, a significantly lower stratified K-fold
+//!    cross-validated prediction error (paired one-sided z-test), and a plausibility check of
+//!    the identified values;
 //! 4. the passing candidate with the lowest BIC is added (`enable_effect` + its identifiable
 //!    parameters join the fitted set), and the gap — held-out and validation error — before
 //!    and after is recorded;
@@ -27,7 +28,7 @@ use vatcal_observability::assemble_jacobian;
 
 use crate::DiscoveryError;
 use crate::catalog::{driver_of, meaning, plausibility};
-use crate::criteria::NestedComparison;
+use crate::criteria::{NestedComparison, PairedImprovement};
 use crate::distributions::chi2_ln_sf;
 use crate::fit::{Fit, fit, residuals};
 use crate::folds::{split, stratified_folds};
@@ -51,8 +52,9 @@ pub struct DiscoverOptions {
     pub max_refits: usize,
     /// upper bound on the number of effects added
     pub max_rounds: usize,
-    /// relative reduction of the cross-validated mean squared error an effect must achieve
-    pub min_cv_gain: f64,
+    /// one-sided level of the paired test that the cross-validated (held-out) errors improve
+    /// with the effect; confirmation of a screened candidate, so not divided by m
+    pub cv_alpha: f64,
     /// known noise σ per axis [mm]; when `None` the score test uses σ̂ of the current fit
     pub known_sigma_mm: Option<f64>,
     /// options of every fit
@@ -68,7 +70,7 @@ impl Default for DiscoverOptions {
             seed: 1,
             max_refits: 4,
             max_rounds: 8,
-            min_cv_gain: 0.0,
+            cv_alpha: 0.05,
             known_sigma_mm: None,
             identify: IdentifyOptions::default(),
         }
@@ -171,6 +173,8 @@ pub struct RefitEvidence {
     pub cv_before: ErrorStats,
     /// cross-validated prediction errors with the effect
     pub cv_after: ErrorStats,
+    /// paired test of the held-out errors (without − with the effect)
+    pub cv_improvement: PairedImprovement,
     /// identified values in file units (angles in degrees), keyed by parameter name with unit
     pub values: BTreeMap<String, f64>,
     /// their standard deviations in the same units
@@ -509,7 +513,7 @@ fn refit_candidate(
     current: &Fit,
     j0: &faer::Mat<f64>,
     rank0: usize,
-    cv0: &ErrorStats,
+    held0: &[Vector3<f64>],
     candidate: &Candidate,
     ctx: &Context<'_>,
 ) -> Result<(RefitEvidence, Fit, Vec<Vector3<f64>>), String> {
@@ -531,6 +535,7 @@ fn refit_candidate(
     let comparison = NestedComparison::new(current.n(), rank0, current.rss_mm2, rank0 + added.len(), fit1.rss_mm2);
     let held1 = ctx.cross_validate(&fit1.model, &params1).map_err(|e| format!("cross-validation failed: {e}"))?;
     let cv_after = ErrorStats::from_errors(&held1);
+    let cv_improvement = PairedImprovement::new(held0, &held1);
     let before = |p: ParamId| current.model.param(p).unwrap_or(0.0);
     let changes: Vec<(ParamId, f64)> =
         added.iter().map(|p| (*p, fit1.value(*p).unwrap_or(0.0) - before(*p))).collect();
@@ -558,8 +563,9 @@ fn refit_candidate(
     let evidence = RefitEvidence {
         fitted_params: added.iter().map(|p| p.name()).collect(),
         comparison,
-        cv_before: cv0.clone(),
+        cv_before: ErrorStats::from_errors(held0),
         cv_after,
+        cv_improvement,
         values,
         std_errors,
         confounding,
@@ -569,7 +575,7 @@ fn refit_candidate(
 }
 
 /// Why refit evidence does not support adding the effect (`None` = it does).
-fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, min_cv_gain: f64) -> Option<String> {
+fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, cv_alpha: f64) -> Option<String> {
     let c = &e.comparison;
     if !fit1.converged {
         return Some("refit did not converge".into());
@@ -577,7 +583,7 @@ fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, min_cv_gain: f64)
     let significant = c.f_ln_p_value < ln_threshold;
     let bic_drops = c.delta_bic < 0.0;
     let aicc_drops = c.delta_aicc < 0.0;
-    let cv_improves = mse_mm2(&e.cv_after) < mse_mm2(&e.cv_before) * (1.0 - min_cv_gain);
+    let cv_improves = mse_mm2(&e.cv_after) < mse_mm2(&e.cv_before) && e.cv_improvement.ln_p_value < cv_alpha.ln();
     if !significant {
         return Some(format!("F-test not significant (log10 p = {:.1})", c.f_ln_p_value / std::f64::consts::LN_10));
     }
@@ -589,8 +595,8 @@ fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, min_cv_gain: f64)
     }
     if !cv_improves {
         return Some(format!(
-            "cross-validated error does not improve (RMS {:.4} -> {:.4} mm)",
-            e.cv_before.rms, e.cv_after.rms
+            "cross-validated error does not improve significantly (RMS {:.4} -> {:.4} mm, paired z = {:.2})",
+            e.cv_before.rms, e.cv_after.rms, e.cv_improvement.z
         ));
     }
     e.implausible.as_ref().map(|why| format!("implausible: {why}"))
@@ -666,7 +672,6 @@ pub fn discover(
             let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
             key(a).total_cmp(&key(b))
         });
-        let cv0 = ErrorStats::from_errors(&held0);
         let mut refits = 0;
         for c in candidates.iter_mut() {
             let Some(score) = c.score else { continue };
@@ -679,9 +684,9 @@ pub fn discover(
                 continue;
             }
             refits += 1;
-            match refit_candidate(&current, &j0, rank0, &cv0, c, &ctx) {
+            match refit_candidate(&current, &j0, rank0, &held0, c, &ctx) {
                 Ok((evidence, fit1, held1)) => {
-                    c.status = match rejection(&evidence, &fit1, ln_threshold, options.min_cv_gain) {
+                    c.status = match rejection(&evidence, &fit1, ln_threshold, options.cv_alpha) {
                         Some(why) => CandidateStatus::Rejected(why),
                         None => CandidateStatus::PassedNotBest,
                     };

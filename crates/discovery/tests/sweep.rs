@@ -59,7 +59,7 @@ fn cases() -> Vec<Case> {
     let p34 = ParamSet::paper34;
     let mut v = Vec::new();
     let name = |s: &str, j: Option<u8>| (s.to_string(), j);
-    for seed in 0..4u64 {
+    for seed in 0..12u64 {
         v.push(Case { name: format!("null {seed}"), hidden: vec![], compliance: None, params: p34(), expect: vec![] });
     }
     for (k, joint) in (2..=7u8).enumerate() {

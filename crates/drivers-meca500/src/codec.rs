@@ -17,7 +17,7 @@ pub const MAX_FRAME_LEN: usize = 4096;
 /// Number of decimals used when writing a floating-point argument (the manual allows up to 9).
 pub const ARG_DECIMALS: usize = 9;
 
-/// Six numbers: joint angles [deg] or a pose `x, y, z [mm], α, β, γ [deg]`.
+/// Six numbers: joint angles \[deg\] or a pose `x, y, z \[mm\], α, β, γ \[deg\]`.
 pub type Six = [f64; 6];
 
 /// Which optional real-time monitoring codes `SetRealTimeMonitoring` enables.
@@ -95,9 +95,9 @@ pub enum Command {
     SetBlending(f64),
     /// `SetJointVelLimit(p)`, % (queued).
     SetJointVelLimit(f64),
-    /// `MoveJoints(θ1..θ6)` [deg] (queued).
+    /// `MoveJoints(θ1..θ6)` \[deg\] (queued).
     MoveJoints(Six),
-    /// `MoveJointsRel(Δθ1..Δθ6)` [deg] (queued).
+    /// `MoveJointsRel(Δθ1..Δθ6)` \[deg\] (queued).
     MoveJointsRel(Six),
     /// `MovePose(x,y,z,α,β,γ)` (queued).
     MovePose(Six),
@@ -445,7 +445,10 @@ fn build_command(name: &'static str, shape: Shape, args: &[&str]) -> Result<Comm
         if args.len() == n {
             Ok(())
         } else {
-            Err(CommandError::Arguments { name, reason: format!("expected {n} argument(s), got {}", args.len()) })
+            Err(CommandError::Arguments {
+                name,
+                reason: format!("expected {n} argument(s), got {}", args.len()),
+            })
         }
     };
     match shape {
@@ -470,7 +473,10 @@ fn build_command(name: &'static str, shape: Shape, args: &[&str]) -> Result<Comm
             arity(1)?;
             let v = parse_float(name, args[0])?;
             if v < 0.0 || v.fract() != 0.0 || v > u64::MAX as f64 {
-                return Err(CommandError::Arguments { name, reason: format!("'{}' is not a whole number", args[0]) });
+                return Err(CommandError::Arguments {
+                    name,
+                    reason: format!("'{}' is not a whole number", args[0]),
+                });
             }
             uint_command(name, v as u64)
         }
@@ -480,7 +486,12 @@ fn build_command(name: &'static str, shape: Shape, args: &[&str]) -> Result<Comm
             let b = match v {
                 0.0 => false,
                 1.0 => true,
-                _ => return Err(CommandError::Arguments { name, reason: format!("'{}' is not 0 or 1", args[0]) }),
+                _ => {
+                    return Err(CommandError::Arguments {
+                        name,
+                        reason: format!("'{}' is not 0 or 1", args[0]),
+                    });
+                }
             };
             bool_command(name, b)
         }
@@ -788,7 +799,10 @@ impl Reply {
         let code = code_text.trim().parse::<u16>().map_err(|_| ReplyError::BadCode(text.to_owned()))?;
         let after = &rest[close + 1..];
         let open = after.find('[').ok_or_else(|| ReplyError::MissingPayload(text.to_owned()))?;
-        let last = after.rfind(']').filter(|&l| l > open).ok_or_else(|| ReplyError::MissingPayload(text.to_owned()))?;
+        let last = after
+            .rfind(']')
+            .filter(|&l| l > open)
+            .ok_or_else(|| ReplyError::MissingPayload(text.to_owned()))?;
         Ok(Self { code, payload: after[open + 1..last].to_owned() })
     }
 
@@ -919,7 +933,11 @@ impl StatusWord {
     /// Parses the payload of a `[2007]` reply (at least seven 0/1 integers; extra fields of
     /// other firmware versions are ignored).
     pub fn from_reply(reply: &Reply) -> Result<Self, ReplyError> {
-        let bad = |reason: String| ReplyError::BadPayload { code: reply.code, payload: reply.payload.clone(), reason };
+        let bad = |reason: String| ReplyError::BadPayload {
+            code: reply.code,
+            payload: reply.payload.clone(),
+            reason,
+        };
         if reply.code != code::STATUS {
             return Err(bad(format!("expected code {}, got {}", code::STATUS, reply.code)));
         }
@@ -1140,8 +1158,14 @@ mod tests {
     #[test]
     fn encodes_the_lines_mecademicpy_writes() {
         // protocols.md §1.2: mecademicpy writes exactly these
-        assert_eq!(Command::MoveJoints([10.0, -20.0, 30.0, 0.0, 45.0, 0.0]).to_text(), "MoveJoints(10,-20,30,0,45,0)");
-        assert_eq!(Command::MoveLinRelTrf([0.01, 0.0, 0.0, 0.0, 0.0, 0.0]).to_text(), "MoveLinRelTrf(0.01,0,0,0,0,0)");
+        assert_eq!(
+            Command::MoveJoints([10.0, -20.0, 30.0, 0.0, 45.0, 0.0]).to_text(),
+            "MoveJoints(10,-20,30,0,45,0)"
+        );
+        assert_eq!(
+            Command::MoveLinRelTrf([0.01, 0.0, 0.0, 0.0, 0.0, 0.0]).to_text(),
+            "MoveLinRelTrf(0.01,0,0,0,0,0)"
+        );
         assert_eq!(Command::GetStatusRobot.encode(), b"GetStatusRobot\0");
         assert_eq!(Command::SetRtc(1795314763).to_text(), "SetRtc(1795314763)");
         assert_eq!(Command::SetCtrlPortMonitoring(true).to_text(), "SetCtrlPortMonitoring(1)");
@@ -1175,7 +1199,10 @@ mod tests {
 
     #[test]
     fn parsing_is_case_insensitive_and_tolerates_spaces() {
-        assert_eq!(parse("movejoints( 1, 2 ,3,4,5, 6 )"), Command::MoveJoints([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+        assert_eq!(
+            parse("movejoints( 1, 2 ,3,4,5, 6 )"),
+            Command::MoveJoints([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+        );
         assert_eq!(parse("  GETSTATUSROBOT "), Command::GetStatusRobot);
         assert_eq!(parse("GetJoints()"), Command::GetJoints);
         assert_eq!(parse("SetRealTimeMonitoring(all)"), Command::SetRealTimeMonitoring(RealTimeCodes::All));
@@ -1235,13 +1262,15 @@ mod tests {
 
     #[test]
     fn banner_variants() {
-        let b = Banner::from_reply(&Reply::new(3000, "Connected to Meca500 R3 v9.3.0")).unwrap_or_else(|e| panic!("{e}"));
+        let b = Banner::from_reply(&Reply::new(3000, "Connected to Meca500 R3 v9.3.0"))
+            .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((b.model.as_str(), b.revision, b.version), ("Meca500", Some(3), (9, 3, 0)));
         assert_eq!(b.to_text(), "Connected to Meca500 R3 v9.3.0");
         let b = Banner::from_reply(&Reply::new(3000, "Connected to meca500 R4-virtual v10.1.2.1234"))
             .unwrap_or_else(|e| panic!("{e}"));
         assert!(b.virtual_robot && b.revision == Some(4) && b.version == (10, 1, 2));
-        let b = Banner::from_reply(&Reply::new(3000, "Connected to Meca500_8.3.5")).unwrap_or_else(|e| panic!("{e}"));
+        let b = Banner::from_reply(&Reply::new(3000, "Connected to Meca500_8.3.5"))
+            .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!((b.revision, b.version), (None, (8, 3, 5)));
         assert!(matches!(
             Banner::from_reply(&Reply::new(3001, "Another user is already connected, closing connection.")),
@@ -1313,9 +1342,10 @@ mod tests {
         let nums = |c: &Command| -> Vec<f64> {
             match c {
                 Command::SetJointVel(v) | Command::SetCartLinVel(v) | Command::Delay(v) => vec![*v],
-                Command::MoveJoints(s) | Command::MoveLinRelTrf(s) | Command::MoveLinRelWrf(s) | Command::SetTrf(s) => {
-                    s.to_vec()
-                }
+                Command::MoveJoints(s)
+                | Command::MoveLinRelTrf(s)
+                | Command::MoveLinRelWrf(s)
+                | Command::SetTrf(s) => s.to_vec(),
                 _ => Vec::new(),
             }
         };
@@ -1347,6 +1377,19 @@ mod tests {
             let back = Reply::parse(&bytes[..bytes.len() - 1]);
             // surrounding whitespace is trimmed by the parser, not part of the payload
             prop_assert_eq!(back, Ok(r));
+        }
+
+        #[test]
+        fn parsers_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..80), text in "[ -~]{0,80}") {
+            let _ = Reply::parse(&bytes);
+            let _ = parse_command(&String::from_utf8_lossy(&bytes));
+            let _ = parse_command(&text);
+            if let Ok(r) = Reply::parse(text.as_bytes()) {
+                let _ = r.values();
+                let _ = r.last_six();
+                let _ = StatusWord::from_reply(&r);
+                let _ = Banner::from_reply(&Reply::new(3000, r.payload.clone()));
+            }
         }
 
         #[test]

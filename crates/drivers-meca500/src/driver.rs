@@ -5,7 +5,9 @@ use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
-use vatcal_hardware_traits::{ArmJoints, ArmStatus, LinearFrame, MotionOptions, Result as HwResult, RobotArm};
+use vatcal_hardware_traits::{
+    ArmJoints, ArmStatus, LinearFrame, MotionOptions, Result as HwResult, RobotArm,
+};
 
 use crate::codec::{Banner, Command, Deframer, Reply, Six, StatusWord, code};
 use crate::error::Meca500Error;
@@ -130,9 +132,9 @@ impl Meca500<TcpStream> {
                 Err(e) => last = Some(e),
             }
         }
-        Err(Meca500Error::Io(
-            last.unwrap_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")),
-        ))
+        Err(Meca500Error::Io(last.unwrap_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")
+        })))
     }
 }
 
@@ -231,7 +233,7 @@ impl<T: Transport> Meca500<T> {
         Ok(self.request(&command, &[answer])?.last_six()?)
     }
 
-    /// Current target pose `x, y, z [mm], α, β, γ [deg]` of the TRF in the WRF
+    /// Current target pose `x, y, z \[mm\], α, β, γ \[deg\]` of the TRF in the WRF
     /// (`GetRtTargetCartPos`).
     pub fn pose_mm_deg(&mut self) -> Result<Six, Meca500Error> {
         Ok(self.request(&Command::GetRtTargetCartPos, &[code::RT_TARGET_CART])?.last_six()?)
@@ -245,7 +247,12 @@ impl<T: Transport> Meca500<T> {
             return Err(self.error_mode_error());
         }
         if !status.activated {
-            self.request_with(&Command::ActivateRobot, &[code::ACTIVATED, code::ALREADY_ACTIVATED], OnError::Fail, &wait)?;
+            self.request_with(
+                &Command::ActivateRobot,
+                &[code::ACTIVATED, code::ALREADY_ACTIVATED],
+                OnError::Fail,
+                &wait,
+            )?;
         }
         if !status.homed {
             self.request_with(&Command::Home, &[code::HOMED, code::ALREADY_HOMED], OnError::Fail, &wait)?;
@@ -299,7 +306,12 @@ impl<T: Transport> Meca500<T> {
     pub fn clear_motion(&mut self) -> Result<(), Meca500Error> {
         let wait = Wait::new(self.config.io_timeout);
         self.request_with(&Command::ClearMotion, &[code::CLEARED], OnError::Record, &wait)?;
-        self.request_with(&Command::ResumeMotion, &[code::RESUMED, code::IN_ERROR, code::NOT_ACTIVATED], OnError::Record, &wait)?;
+        self.request_with(
+            &Command::ResumeMotion,
+            &[code::RESUMED, code::IN_ERROR, code::NOT_ACTIVATED],
+            OnError::Record,
+            &wait,
+        )?;
         Ok(())
     }
 
@@ -307,7 +319,8 @@ impl<T: Transport> Meca500<T> {
     /// `ResumeMotion` if the motors are still activated.
     pub fn reset_and_resume(&mut self) -> Result<(), Meca500Error> {
         let wait = Wait::new(self.config.io_timeout);
-        let answers = [code::ERROR_RESET, code::NO_ERROR_TO_RESET, code::MASTERING_LOST, code::NOT_RESETTABLE];
+        let answers =
+            [code::ERROR_RESET, code::NO_ERROR_TO_RESET, code::MASTERING_LOST, code::NOT_RESETTABLE];
         let reply = self.request_with(&Command::ResetError, &answers, OnError::Record, &wait)?;
         if matches!(reply.code, code::MASTERING_LOST | code::NOT_RESETTABLE) {
             return Err(Meca500Error::Robot { code: reply.code, text: reply.payload });
@@ -395,7 +408,8 @@ impl<T: Transport> Meca500<T> {
             Some((code, text)) => Meca500Error::Robot { code: *code, text: text.clone() },
             None => Meca500Error::Robot {
                 code: code::IN_ERROR,
-                text: "the robot is in error mode (cause not seen by this connection); reset it first".to_owned(),
+                text: "the robot is in error mode (cause not seen by this connection); reset it first"
+                    .to_owned(),
             },
         }
     }
@@ -438,7 +452,8 @@ impl<T: Transport> Meca500<T> {
             }
             code::CHECKPOINT | code::CHECKPOINT_DISCARDED => {
                 if let Ok(id) = reply.payload.trim().parse::<u32>() {
-                    let list = if reply.code == code::CHECKPOINT { &mut self.reached } else { &mut self.discarded };
+                    let list =
+                        if reply.code == code::CHECKPOINT { &mut self.reached } else { &mut self.discarded };
                     list.push_back(id);
                     if list.len() > CHECKPOINT_MEMORY {
                         list.pop_front();
@@ -486,7 +501,10 @@ impl<T: Transport> RobotArm for Meca500<T> {
         let r = self.status_word();
         let word = self.hw(r)?;
         let error = word.error.then(|| {
-            self.last_error.clone().map(|(c, t)| (i32::from(c), t)).unwrap_or_else(|| (0, "in error mode".to_owned()))
+            self.last_error
+                .clone()
+                .map(|(c, t)| (i32::from(c), t))
+                .unwrap_or_else(|| (0, "in error mode".to_owned()))
         });
         Ok(ArmStatus { activated: word.activated, homed: word.homed, moving: !word.end_of_block, error })
     }

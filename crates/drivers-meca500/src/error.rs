@@ -61,7 +61,9 @@ impl Meca500Error {
             Meca500Error::Timeout { .. } => ErrorKind::Timeout,
             Meca500Error::Robot { code, .. } => robot_code_kind(*code),
             Meca500Error::Banner(BannerError::Refused(r)) => robot_code_kind(r.code),
-            Meca500Error::Banner(_) | Meca500Error::Malformed(_) | Meca500Error::Frame(_) => ErrorKind::Protocol,
+            Meca500Error::Banner(_) | Meca500Error::Malformed(_) | Meca500Error::Frame(_) => {
+                ErrorKind::Protocol
+            }
             Meca500Error::CheckpointDiscarded(_) => ErrorKind::Cancelled,
             Meca500Error::InvalidArgument(_) => ErrorKind::OutOfRange,
         }

@@ -85,8 +85,12 @@ fn joint_moves_read_back_in_radians() {
 
 #[test]
 fn motion_is_reported_while_it_runs_and_waits_are_bounded() {
-    let sim = Meca500Sim::start(SimConfig { activation_time: Duration::ZERO, homing_time: Duration::ZERO, ..SimConfig::default() })
-        .unwrap_or_else(|e| panic!("{e}"));
+    let sim = Meca500Sim::start(SimConfig {
+        activation_time: Duration::ZERO,
+        homing_time: Duration::ZERO,
+        ..SimConfig::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
     let mut robot = ready(&sim);
     // J1 at 5 % of 150 deg/s: 30 deg take 4 s
     let slow = MotionOptions { speed_fraction: 0.05, timeout: TIMEOUT };
@@ -151,7 +155,9 @@ fn execution_errors_fail_the_wait() {
     assert!(sim.state().joints_deg[4].abs() < 1e-12);
     // (the robot may refuse at once, or while the driver waits)
     let up = Vector3::new(0.0, 0.0, 1.0);
-    let result = robot.move_linear_relative(&up, LinearFrame::World, &full_speed()).and_then(|()| robot.wait_idle(TIMEOUT));
+    let result = robot
+        .move_linear_relative(&up, LinearFrame::World, &full_speed())
+        .and_then(|()| robot.wait_idle(TIMEOUT));
     assert_eq!(err_kind(result), ErrorKind::DeviceFault { code: 1012 });
     ok(robot.reset_error());
     // an asynchronous motion error while waiting
@@ -228,7 +234,12 @@ fn second_client_is_refused_busy() {
 }
 
 /// Reads frames until `pred` matches one (bounded by `timeout`).
-fn read_until(stream: &mut TcpStream, d: &mut Deframer, timeout: Duration, pred: impl Fn(&Reply) -> bool) -> Vec<Reply> {
+fn read_until(
+    stream: &mut TcpStream,
+    d: &mut Deframer,
+    timeout: Duration,
+    pred: impl Fn(&Reply) -> bool,
+) -> Vec<Reply> {
     let deadline = Instant::now() + timeout;
     let mut seen = Vec::new();
     let mut buf = [0u8; 4096];

@@ -55,7 +55,8 @@ pub fn presentation_format_exponent(descriptor: &[u8]) -> i8 {
 /// Decodes a Measurement notification: `Some(value in SI units — metres, or radians for
 /// angular instruments)`, `None` for the "no value" sentinel.
 pub fn decode_measurement(payload: &[u8], exponent: i8) -> Result<Option<f64>, BleDecodeError> {
-    let bytes: [u8; 4] = payload.try_into().map_err(|_| BleDecodeError::Length { expected: 4, got: payload.len() })?;
+    let bytes: [u8; 4] =
+        payload.try_into().map_err(|_| BleDecodeError::Length { expected: 4, got: payload.len() })?;
     let raw = i32::from_le_bytes(bytes);
     if raw == NO_VALUE {
         return Ok(None);
@@ -105,7 +106,7 @@ pub enum Mode {
 pub struct Parameters {
     /// display unit
     pub unit: BleUnit,
-    /// display resolution [m], `None` if unspecified
+    /// display resolution \[m\], `None` if unspecified
     pub resolution_m: Option<f64>,
     /// measuring mode
     pub mode: Mode,
@@ -113,7 +114,8 @@ pub struct Parameters {
 
 /// Decodes a Parameters notification (uint16 little-endian).
 pub fn decode_parameters(payload: &[u8]) -> Result<Parameters, BleDecodeError> {
-    let bytes: [u8; 2] = payload.try_into().map_err(|_| BleDecodeError::Length { expected: 2, got: payload.len() })?;
+    let bytes: [u8; 2] =
+        payload.try_into().map_err(|_| BleDecodeError::Length { expected: 2, got: payload.len() })?;
     let bits = u16::from_le_bytes(bytes);
     let unit = match ((bits >> 12) & 0xf) as u8 {
         0 => BleUnit::Unknown,
@@ -220,7 +222,10 @@ mod tests {
     fn reassembles_chunked_responses() {
         let mut r = ResponseReassembler::new();
         assert_eq!(r.push(b"MM STO0 KEY1 BAT1 EC"), Ok(vec![]));
-        assert_eq!(r.push(b"O0\r+001.2345\r"), Ok(vec!["MM STO0 KEY1 BAT1 ECO0".to_owned(), "+001.2345".to_owned()]));
+        assert_eq!(
+            r.push(b"O0\r+001.2345\r"),
+            Ok(vec!["MM STO0 KEY1 BAT1 ECO0".to_owned(), "+001.2345".to_owned()])
+        );
         assert!(r.push(&[b'x'; 300]).is_err());
     }
 

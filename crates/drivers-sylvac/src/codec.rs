@@ -10,7 +10,7 @@ pub const CR: u8 = b'\r';
 /// Longest answer line accepted.
 pub const MAX_LINE_LEN: usize = 256;
 
-/// Largest preset magnitude the gauge accepts [mm].
+/// Largest preset magnitude the gauge accepts \[mm\].
 pub const MAX_PRESET_MM: f64 = 199.999;
 
 /// Millimetres per inch.
@@ -123,7 +123,7 @@ impl Command {
     }
 
     /// True for commands the gauge answers with a line (queries); setters may be silent
-    /// ([UNC], see `docs/drivers.md`).
+    /// (\[UNC\], see `docs/drivers.md`).
     pub fn is_query(&self) -> bool {
         matches!(
             self,
@@ -300,11 +300,12 @@ pub fn parse_value(text: &str) -> Result<f64, ValueError> {
 /// digits, `decimals` decimals (`+001.2345`).
 pub fn format_value(v: f64, int_digits: usize, decimals: usize) -> String {
     let width = int_digits + 1 + decimals;
-    let sign = if v < 0.0 && format!("{:.*}", decimals, v.abs()).bytes().any(|b| b.is_ascii_digit() && b != b'0') {
-        '-'
-    } else {
-        '+'
-    };
+    let sign =
+        if v < 0.0 && format!("{:.*}", decimals, v.abs()).bytes().any(|b| b.is_ascii_digit() && b != b'0') {
+            '-'
+        } else {
+            '+'
+        };
     format!("{sign}{:0width$.decimals$}", v.abs())
 }
 
@@ -451,6 +452,13 @@ mod tests {
                 (Command::Preset(a), Some(Command::Preset(b))) => prop_assert!((a - b).abs() < 5e-5),
                 _ => prop_assert_eq!(back, Some(cmd)),
             }
+        }
+
+        #[test]
+        fn parsers_never_panic(text in "\\PC{0,40}") {
+            let _ = Command::parse(&text);
+            let _ = Answer::parse(&text);
+            let _ = parse_value(&text);
         }
 
         #[test]

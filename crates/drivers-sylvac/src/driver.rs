@@ -22,12 +22,12 @@ pub struct SylvacConfig {
     /// inch readings are converted
     pub force_mm: bool,
     /// how long to listen for an answer after a setter (`MM`, `PRE …`); a setter may be
-    /// silent ([UNC]), an `ERRn` in this window fails it
+    /// silent (\[UNC\]), an `ERRn` in this window fails it
     pub setter_ack_window: Duration,
     /// after a preset, read the gauge and fail if it differs from the preset by more than this
-    /// [mm] (`None`: no check)
+    /// \[mm\] (`None`: no check)
     pub preset_tolerance_mm: Option<f64>,
-    /// send `PRE ON` after `PRE ±value` ([UNC] whether the gauge needs it)
+    /// send `PRE ON` after `PRE ±value` (\[UNC\] whether the gauge needs it)
     pub preset_mode_on: bool,
 }
 
@@ -86,9 +86,9 @@ impl SylvacGauge<TcpStream> {
                 Err(e) => last = Some(e),
             }
         }
-        Err(SylvacError::Io(
-            last.unwrap_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")),
-        ))
+        Err(SylvacError::Io(last.unwrap_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")
+        })))
     }
 }
 
@@ -105,7 +105,8 @@ impl<T: Transport> SylvacGauge<T> {
     /// Wraps a connected transport: reads `ID?`, switches continuous output off (`OUT0`),
     /// forces mm (`MM`, if configured) and reads `UNI?`.
     pub fn new(transport: T, config: SylvacConfig) -> Result<Self, SylvacError> {
-        let mut gauge = Self { transport, deframer: LineDeframer::new(), config, unit: Unit::Mm, id: String::new() };
+        let mut gauge =
+            Self { transport, deframer: LineDeframer::new(), config, unit: Unit::Mm, id: String::new() };
         gauge.id = match gauge.query(&Command::Id)? {
             Answer::Text(t) => t,
             Answer::Value(v) => v.to_string(),
@@ -154,7 +155,9 @@ impl<T: Transport> SylvacGauge<T> {
             let answer = Answer::parse(&self.read_line(&wait, command)?);
             match (&answer, command) {
                 (Answer::Text(_), Command::Read) => {}
-                (Answer::Error(e), _) => return Err(SylvacError::Gauge { command: command.to_text(), error: *e }),
+                (Answer::Error(e), _) => {
+                    return Err(SylvacError::Gauge { command: command.to_text(), error: *e });
+                }
                 _ => return Ok(answer),
             }
         }
@@ -225,7 +228,10 @@ impl<T: Transport> SylvacGauge<T> {
                 return Ok(line);
             }
             let Some(remaining) = wait.remaining() else {
-                return Err(SylvacError::Timeout { waiting_for: format!("answer to '{command}'"), after: wait.timeout });
+                return Err(SylvacError::Timeout {
+                    waiting_for: format!("answer to '{command}'"),
+                    after: wait.timeout,
+                });
             };
             match self.transport.recv(&mut buf, remaining) {
                 Ok(0) => return Err(SylvacError::Disconnected),

@@ -47,15 +47,15 @@ pub enum SylvacError {
     /// A preset beyond ±199.999 mm or not finite.
     #[error("preset {value_mm} mm is outside ±{MAX_PRESET_MM} mm")]
     PresetOutOfRange {
-        /// requested preset [mm]
+        /// requested preset \[mm\]
         value_mm: f64,
     },
     /// After a preset, the gauge does not read the preset value.
     #[error("preset {wanted_mm} mm not applied: the gauge reads {read_mm} mm")]
     PresetNotApplied {
-        /// requested preset [mm]
+        /// requested preset \[mm\]
         wanted_mm: f64,
-        /// reading right after [mm]
+        /// reading right after \[mm\]
         read_mm: f64,
     },
 }
@@ -97,6 +97,9 @@ mod tests {
         assert_eq!(g(GaugeError::RangeExceeded), ErrorKind::OutOfRange);
         assert_eq!(g(GaugeError::Sensor), ErrorKind::DeviceFault { code: 0 });
         assert_eq!(g(GaugeError::UnknownCommand), ErrorKind::Protocol);
-        assert_eq!(SylvacError::PresetOutOfRange { value_mm: 300.0 }.into_hw("gauge 1").kind(), ErrorKind::OutOfRange);
+        assert_eq!(
+            SylvacError::PresetOutOfRange { value_mm: 300.0 }.into_hw("gauge 1").kind(),
+            ErrorKind::OutOfRange
+        );
     }
 }

@@ -152,7 +152,8 @@ fn noisy_readings_average_to_the_plunger() {
 #[test]
 fn stalled_gauge_times_out_and_dropped_connection_is_disconnected() {
     let s = sim(SimConfig::default());
-    let mut g = connect(&s, SylvacConfig { io_timeout: Duration::from_millis(150), ..SylvacConfig::default() });
+    let mut g =
+        connect(&s, SylvacConfig { io_timeout: Duration::from_millis(150), ..SylvacConfig::default() });
     s.set_stalled(true);
     let t0 = Instant::now();
     assert_eq!(err_kind(g.read_mm()), ErrorKind::Timeout);

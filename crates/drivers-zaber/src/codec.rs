@@ -46,9 +46,11 @@ pub fn checksum(body: &str) -> u8 {
 fn split_checksum(text: &str) -> Result<(&str, bool), ParseError> {
     let bytes = text.as_bytes();
     let n = bytes.len();
-    if n >= 3 && bytes[n - 3] == b':' && bytes[n - 2].is_ascii_hexdigit() && bytes[n - 1].is_ascii_hexdigit() {
+    if n >= 3 && bytes[n - 3] == b':' && bytes[n - 2].is_ascii_hexdigit() && bytes[n - 1].is_ascii_hexdigit()
+    {
         let body = &text[..n - 3];
-        let given = u8::from_str_radix(&text[n - 2..], 16).map_err(|_| ParseError::Malformed(text.to_owned()))?;
+        let given =
+            u8::from_str_radix(&text[n - 2..], 16).map_err(|_| ParseError::Malformed(text.to_owned()))?;
         let expected = checksum(body);
         if given != expected {
             return Err(ParseError::Checksum { line: text.to_owned(), expected, given });
@@ -174,8 +176,8 @@ fn is_printable(s: &str) -> bool {
 
 /// Every flag of §2.5, most important first (faults, then warnings, then notices).
 pub const FLAG_PRIORITY: [&str; 34] = [
-    "FF", "FN", "FZ", "FH", "FV", "FO", "FD", "FC", "FM", "FQ", "FI", "FA", "FR", "FS", "FB", "FP", "FE", "FT", "WL",
-    "WV", "WT", "WS", "WM", "WP", "WR", "WH", "NC", "NI", "ND", "NR", "NT", "NU", "NJ", "NB",
+    "FF", "FN", "FZ", "FH", "FV", "FO", "FD", "FC", "FM", "FQ", "FI", "FA", "FR", "FS", "FB", "FP", "FE",
+    "FT", "WL", "WV", "WT", "WS", "WM", "WP", "WR", "WH", "NC", "NI", "ND", "NR", "NT", "NU", "NJ", "NB",
 ];
 
 /// A two-letter warning flag (`FS`, `WR`, `NI`, …).
@@ -423,7 +425,8 @@ impl Message {
                 with_checksum('#', body, checksum_on)
             }
             Message::Alert(a) => {
-                let mut body = format!("{:02} {} {} {}", a.address, a.axis, a.status.as_str(), warning_text(a.warning));
+                let mut body =
+                    format!("{:02} {} {} {}", a.address, a.axis, a.status.as_str(), warning_text(a.warning));
                 if !a.data.is_empty() {
                     body.push(' ');
                     body.push_str(&a.data);
@@ -473,7 +476,15 @@ impl Message {
                 };
                 let status = Status::parse(rest[1]).ok_or_else(malformed)?;
                 let warning = parse_warning_field(rest[2]).ok_or_else(malformed)?;
-                Ok(Message::Reply(Reply { address, axis, id, accepted, status, warning, data: rest[3..].join(" ") }))
+                Ok(Message::Reply(Reply {
+                    address,
+                    axis,
+                    id,
+                    accepted,
+                    status,
+                    warning,
+                    data: rest[3..].join(" "),
+                }))
             }
             '#' => {
                 let (id, rest) = match tokens.get(2) {
@@ -570,7 +581,9 @@ mod tests {
     #[test]
     fn parses_the_replies_quoted_in_the_reference() {
         let Message::Reply(r) = msg("@01 1 OK IDLE -- 0") else { panic!() };
-        assert!(r.accepted && r.status == Status::Idle && r.warning.is_none() && r.id.is_none() && r.data == "0");
+        assert!(
+            r.accepted && r.status == Status::Idle && r.warning.is_none() && r.id.is_none() && r.data == "0"
+        );
         let Message::Reply(r) = msg("@01 1 06 OK BUSY -- 0") else { panic!() };
         assert_eq!((r.id, r.status), (Some(6), Status::Busy));
         let Message::Reply(r) = msg("@01 1 09 OK IDLE -- 100000") else { panic!() };
@@ -580,13 +593,16 @@ mod tests {
         let Message::Reply(r) = msg("@01 0 OK IDLE WR 01 WR") else { panic!() };
         assert_eq!(r.warning, Some(Warning::NO_REFERENCE));
         assert_eq!(parse_warning_list(&r.data), Ok(vec![Warning::NO_REFERENCE]));
-        assert_eq!(msg("!01 1 IDLE --"), Message::Alert(Alert {
-            address: 1,
-            axis: 1,
-            status: Status::Idle,
-            warning: None,
-            data: String::new()
-        }));
+        assert_eq!(
+            msg("!01 1 IDLE --"),
+            Message::Alert(Alert {
+                address: 1,
+                axis: 1,
+                status: Status::Idle,
+                warning: None,
+                data: String::new()
+            })
+        );
         let Message::Info(i) = msg("#01 0 some help text") else { panic!() };
         assert_eq!(i.text, "some help text");
         assert!(matches!(Message::parse("?01 1 OK"), Err(ParseError::BadSigil(_))));
@@ -614,7 +630,10 @@ mod tests {
         assert!(Warning::STALL.is_fault() && Warning::STALL.fails_motion());
         assert!(Warning::INTERRUPTED.is_notice() && Warning::INTERRUPTED.fails_motion());
         assert!(!Warning::NO_REFERENCE.fails_motion() && Warning::NO_REFERENCE.means_not_homed());
-        assert_eq!(top_warning(&[Warning::INTERRUPTED, Warning::NO_REFERENCE, Warning::STALL]), Some(Warning::STALL));
+        assert_eq!(
+            top_warning(&[Warning::INTERRUPTED, Warning::NO_REFERENCE, Warning::STALL]),
+            Some(Warning::STALL)
+        );
         assert_eq!(format_warning_list(&[Warning::STALL, Warning::INTERRUPTED]), "02 FS NI");
         assert!(parse_warning_list("02 FS").is_err());
         assert_eq!(parse_warning_list("00"), Ok(vec![]));
@@ -647,7 +666,9 @@ mod tests {
     }
 
     fn arb_warning() -> impl Strategy<Value = Option<Warning>> {
-        proptest::option::of(proptest::sample::select(FLAG_PRIORITY.to_vec()).prop_filter_map("flag", Warning::parse))
+        proptest::option::of(
+            proptest::sample::select(FLAG_PRIORITY.to_vec()).prop_filter_map("flag", Warning::parse),
+        )
     }
 
     fn arb_id() -> impl Strategy<Value = Option<u8>> {
@@ -697,6 +718,19 @@ mod tests {
             prop_assume!(!data.split_whitespace().next().is_some_and(is_two_digit_id));
             let i = Message::Info(Info { address, axis, id: None, text: data });
             prop_assert_eq!(Message::parse(&i.to_line(checksum_on)), Ok(i));
+        }
+
+        #[test]
+        fn parsers_never_panic(text in "[ -~]{0,60}", bytes in proptest::collection::vec(any::<u8>(), 0..60)) {
+            let lossy = String::from_utf8_lossy(&bytes);
+            for t in [text.as_str(), &lossy] {
+                let _ = Message::parse(t);
+                let _ = Command::parse(t);
+                let _ = parse_warning_list(t);
+            }
+            let mut d = LineDeframer::new();
+            d.push(&bytes);
+            while let Ok(Some(_)) = d.next_line() {}
         }
 
         #[test]

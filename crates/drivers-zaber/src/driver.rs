@@ -32,9 +32,9 @@ pub enum MicrostepSize {
         /// lead of the screw [mm per motor revolution]
         lead_mm: f64,
     },
-    /// A fixed microstep size [mm] (e.g. measured on the real device).
+    /// A fixed microstep size \[mm\] (e.g. measured on the real device).
     Fixed {
-        /// one microstep [mm]
+        /// one microstep \[mm\]
         mm: f64,
     },
 }
@@ -46,10 +46,12 @@ impl Default for MicrostepSize {
 }
 
 impl MicrostepSize {
-    /// Microstep size [mm] for a device microstep `resolution`.
+    /// Microstep size \[mm\] for a device microstep `resolution`.
     pub fn microstep_mm(&self, resolution: u32) -> f64 {
         match *self {
-            MicrostepSize::FromLead { lead_mm } => lead_mm / (FULL_STEPS_PER_REV * f64::from(resolution.max(1))),
+            MicrostepSize::FromLead { lead_mm } => {
+                lead_mm / (FULL_STEPS_PER_REV * f64::from(resolution.max(1)))
+            }
             MicrostepSize::Fixed { mm } => mm,
         }
     }
@@ -85,7 +87,7 @@ pub struct ZaberConfig {
 
 impl Default for ZaberConfig {
     /// Address 1, axis 1, 1 s I/O timeout, 50 ms polls, checksums and ids on, LF, lead
-    /// 2.5 mm [unverified], speed control on.
+    /// 2.5 mm \[unverified\], speed control on.
     fn default() -> Self {
         Self {
             name: "zaber guide".to_owned(),
@@ -108,16 +110,16 @@ impl Default for ZaberConfig {
 pub struct AxisInfo {
     /// microstep resolution (`get resolution`, default 64 if unsupported)
     pub resolution: u32,
-    /// microstep size [mm]
+    /// microstep size \[mm\]
     pub microstep_mm: f64,
-    /// travel limits [microsteps] (`limit.min`, `limit.max`), if the device reports them
+    /// travel limits \[microsteps\] (`limit.min`, `limit.max`), if the device reports them
     pub limits_microsteps: Option<(i64, i64)>,
     /// `maxspeed` at connection [device units]: the 100 % of the speed fraction
     pub base_maxspeed: Option<i64>,
 }
 
 impl AxisInfo {
-    /// Travel [mm], if known.
+    /// Travel \[mm\], if known.
     pub fn travel_mm(&self) -> Option<(f64, f64)> {
         self.limits_microsteps.map(|(lo, hi)| (lo as f64 * self.microstep_mm, hi as f64 * self.microstep_mm))
     }
@@ -164,9 +166,9 @@ impl ZaberAxis<TcpStream> {
                 Err(e) => last = Some(e),
             }
         }
-        Err(ZaberError::Io(
-            last.unwrap_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")),
-        ))
+        Err(ZaberError::Io(last.unwrap_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")
+        })))
     }
 }
 
@@ -174,7 +176,8 @@ impl ZaberAxis<TcpStream> {
 impl ZaberAxis<crate::transport::SerialTransport> {
     /// Opens a serial port (115200 8N1) and identifies the axis.
     pub fn open_serial(path: &str, baud: u32, config: ZaberConfig) -> Result<Self, ZaberError> {
-        let port = crate::transport::SerialTransport::open(path, baud).map_err(|e| ZaberError::Io(e.into()))?;
+        let port =
+            crate::transport::SerialTransport::open(path, baud).map_err(|e| ZaberError::Io(e.into()))?;
         Self::new(port, config)
     }
 }
@@ -186,13 +189,19 @@ impl<T: Transport> ZaberAxis<T> {
         let mut axis = Self {
             transport,
             deframer: LineDeframer::new(),
-            info: AxisInfo { resolution: DEFAULT_RESOLUTION, microstep_mm: 0.0, limits_microsteps: None, base_maxspeed: None },
+            info: AxisInfo {
+                resolution: DEFAULT_RESOLUTION,
+                microstep_mm: 0.0,
+                limits_microsteps: None,
+                base_maxspeed: None,
+            },
             config,
             next_id: 0,
             speed_set: None,
             alerts: Vec::new(),
         };
-        let resolution = axis.get_optional_int("resolution")?.and_then(|r| u32::try_from(r).ok()).filter(|&r| r > 0);
+        let resolution =
+            axis.get_optional_int("resolution")?.and_then(|r| u32::try_from(r).ok()).filter(|&r| r > 0);
         axis.info.resolution = resolution.unwrap_or(DEFAULT_RESOLUTION);
         axis.info.microstep_mm = axis.config.microstep.microstep_mm(axis.info.resolution);
         if !(axis.info.microstep_mm.is_finite() && axis.info.microstep_mm > 0.0) {
@@ -304,7 +313,7 @@ impl<T: Transport> ZaberAxis<T> {
         if reply.status == Status::Busy { Err(ZaberError::Busy) } else { Ok(()) }
     }
 
-    /// Position [microsteps].
+    /// Position \[microsteps\].
     pub fn position_microsteps(&mut self) -> Result<i64, ZaberError> {
         self.get_int("pos")
     }
@@ -325,7 +334,9 @@ impl<T: Transport> ZaberAxis<T> {
     /// Starts an absolute move to `target` microsteps at `speed_fraction` of the base speed.
     pub fn move_absolute_microsteps(&mut self, target: i64, speed_fraction: f64) -> Result<(), ZaberError> {
         if !(speed_fraction.is_finite() && speed_fraction > 0.0) {
-            return Err(ZaberError::InvalidArgument(format!("speed fraction {speed_fraction} is not in (0, 1]")));
+            return Err(ZaberError::InvalidArgument(format!(
+                "speed fraction {speed_fraction} is not in (0, 1]"
+            )));
         }
         if let Some((lo, hi)) = self.info.limits_microsteps
             && (target < lo || target > hi)
@@ -408,7 +419,12 @@ impl<T: Transport> ZaberAxis<T> {
             }
             match wait.remaining() {
                 Some(r) => std::thread::sleep(r.min(self.config.poll_interval)),
-                None => return Err(ZaberError::Timeout { waiting_for: "IDLE after stop".to_owned(), after: wait.timeout }),
+                None => {
+                    return Err(ZaberError::Timeout {
+                        waiting_for: "IDLE after stop".to_owned(),
+                        after: wait.timeout,
+                    });
+                }
             }
         }
     }
@@ -420,7 +436,10 @@ impl<T: Transport> ZaberAxis<T> {
                 return Ok(Message::parse(&line)?);
             }
             let Some(remaining) = wait.remaining() else {
-                return Err(ZaberError::Timeout { waiting_for: format!("reply to '{what}'"), after: wait.timeout });
+                return Err(ZaberError::Timeout {
+                    waiting_for: format!("reply to '{what}'"),
+                    after: wait.timeout,
+                });
             };
             match self.transport.recv(&mut buf, remaining) {
                 Ok(0) => return Err(ZaberError::Disconnected),

@@ -50,11 +50,11 @@ pub enum ZaberError {
     /// A target beyond the travel.
     #[error("target {target_mm} mm is outside the travel {min_mm}..{max_mm} mm")]
     OutOfRange {
-        /// requested target [mm]
+        /// requested target \[mm\]
         target_mm: f64,
-        /// lower travel limit [mm]
+        /// lower travel limit \[mm\]
         min_mm: f64,
-        /// upper travel limit [mm]
+        /// upper travel limit \[mm\]
         max_mm: f64,
     },
     /// A line could not be parsed.
@@ -119,7 +119,8 @@ mod tests {
 
     #[test]
     fn kinds() {
-        let rj = |r: &str| ZaberError::Rejected { command: "x".into(), reason: r.into(), warning: None }.kind();
+        let rj =
+            |r: &str| ZaberError::Rejected { command: "x".into(), reason: r.into(), warning: None }.kind();
         assert_eq!(rj("BADDATA"), ErrorKind::OutOfRange);
         assert_eq!(rj("BADCOMMAND"), ErrorKind::Protocol);
         assert_eq!(rj("STATUSBUSY"), ErrorKind::Busy);

@@ -178,7 +178,13 @@ fn raw(stream: &mut TcpStream, d: &mut LineDeframer, line: &[u8], n: usize) -> V
     raw_within(stream, d, line, n, TIMEOUT)
 }
 
-fn raw_within(stream: &mut TcpStream, d: &mut LineDeframer, line: &[u8], n: usize, timeout: Duration) -> Vec<String> {
+fn raw_within(
+    stream: &mut TcpStream,
+    d: &mut LineDeframer,
+    line: &[u8],
+    n: usize,
+    timeout: Duration,
+) -> Vec<String> {
     ok(stream.write_all(line));
     let deadline = Instant::now() + timeout;
     let mut lines = Vec::new();

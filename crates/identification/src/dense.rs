@@ -30,9 +30,16 @@ impl DenseQr {
         let bs = factor::recommended_block_size::<f64>(m, n).max(1);
         let req = StackReq::any_of(&[
             factor::qr_in_place_scratch::<f64>(m, n, bs, Par::Seq, Default::default()),
-            householder::apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(m, bs, 1),
+            householder::apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(
+                m, bs, 1,
+            ),
         ]);
-        Self { a: Mat::zeros(m, n), rhs: Mat::zeros(m, 1), h: Mat::zeros(bs, m.min(n)), mem: MemBuffer::new(req) }
+        Self {
+            a: Mat::zeros(m, n),
+            rhs: Mat::zeros(m, 1),
+            h: Mat::zeros(bs, m.min(n)),
+            mem: MemBuffer::new(req),
+        }
     }
 
     /// Number of columns.
@@ -42,7 +49,13 @@ impl DenseQr {
 
     /// Factors `a` in place and applies `Qᵀ` to `rhs`.
     pub fn factor_and_apply(&mut self) {
-        factor::qr_in_place(self.a.as_mut(), self.h.as_mut(), Par::Seq, MemStack::new(&mut self.mem), Default::default());
+        factor::qr_in_place(
+            self.a.as_mut(),
+            self.h.as_mut(),
+            Par::Seq,
+            MemStack::new(&mut self.mem),
+            Default::default(),
+        );
         householder::apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
             self.a.as_ref(),
             self.h.as_ref(),

@@ -41,7 +41,9 @@ pub use error::{FailureReport, IdentifyError};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
 pub use problem::residual_vector;
-pub use report::{CorrelationReport, IdentificationReport, ParameterReport, REPORT_FORMAT, file_unit_label, to_file_units};
+pub use report::{
+    CorrelationReport, IdentificationReport, ParameterReport, REPORT_FORMAT, file_unit_label, to_file_units,
+};
 pub use result::{Identification, IterationLog, Termination};
 pub use stats::ErrorStats;
 pub use validation::{ModelComparison, ValidationReport, compare_models, validate};
@@ -85,12 +87,21 @@ pub fn identify(
     if equations <= params.len() {
         return Err(IdentifyError::TooFewMeasurements { equations, params: params.len() });
     }
-    if options.check_identifiability {
-        check_rank(start, measurements, params, options)?;
-    }
     let problem = Problem::new(measurements, params, start_values.clone(), options);
+    let full_check = || check_rank(start, measurements, params, options);
+    // Fast path: without prior rows the solver's first QR factor has the singular values of
+    // the stacked Jacobian, so the (cheap) rank test runs on it and the full analysis, which
+    // names the parameters, only when the rank is deficient.
+    let fast_check =
+        options.check_identifiability && problem.priors.is_empty() && options.method != Method::PaperLiteral;
+    if options.check_identifiability && !fast_check {
+        full_check()?;
+    }
     let outcome = match options.method {
-        Method::LevenbergMarquardt | Method::GaussNewton => solver::least_squares(&problem, start, options)?,
+        Method::LevenbergMarquardt | Method::GaussNewton => {
+            let check: &dyn Fn() -> Result<(), IdentifyError> = &full_check;
+            solver::least_squares(&problem, start, options, fast_check.then_some(check))?
+        }
         Method::PaperLiteral => literal::paper_literal(&problem, start, options)?,
     };
     let converged = outcome.termination.is_converged();
@@ -161,7 +172,5 @@ fn check_rank(
 
 fn priors_cover(params: &ParamSet, priors: Option<&[f64]>, unidentifiable: &[ParamId]) -> bool {
     let Some(priors) = priors else { return false };
-    unidentifiable
-        .iter()
-        .all(|p| params.index_of(*p).is_some_and(|k| priors[k].is_finite()))
+    unidentifiable.iter().all(|p| params.index_of(*p).is_some_and(|k| priors[k].is_finite()))
 }

@@ -31,7 +31,11 @@ pub const PAPER_ERROR_CHANGE_MM: f64 = 1e-6;
 const PINV_RELATIVE_CUTOFF: f64 = 1e-12;
 
 /// Adds `J⁺ e` of one 3 × L block (column-major in `block`) to `sum`.
-fn add_pseudo_inverse_correction(block: &[f64], e: &Vector3<f64>, sum: &mut [f64]) -> Result<(), IdentifyError> {
+fn add_pseudo_inverse_correction(
+    block: &[f64],
+    e: &Vector3<f64>,
+    sum: &mut [f64],
+) -> Result<(), IdentifyError> {
     let l = sum.len();
     let j = Mat::from_fn(3, l, |a, c| block[3 * c + a]);
     let svd = j.thin_svd().map_err(|e| IdentifyError::Numerical(format!("per-pose SVD failed: {e:?}")))?;
@@ -50,7 +54,11 @@ fn add_pseudo_inverse_correction(block: &[f64], e: &Vector3<f64>, sum: &mut [f64
 }
 
 /// Runs the literal scheme from `start`.
-pub(crate) fn paper_literal(problem: &Problem<'_>, start: &Model, options: &IdentifyOptions) -> Result<Outcome, IdentifyError> {
+pub(crate) fn paper_literal(
+    problem: &Problem<'_>,
+    start: &Model,
+    options: &IdentifyOptions,
+) -> Result<Outcome, IdentifyError> {
     let (m, l, n) = (problem.rows(), problem.cols(), problem.measurements.len());
     let typical = typical_scales(problem);
     let mut model = start.clone();
@@ -62,7 +70,9 @@ pub(crate) fn paper_literal(problem: &Problem<'_>, start: &Model, options: &Iden
     problem.residuals(&model, &values, &mut r, &mut vecs)?;
     let mut log = vec![log_entry(0, &vecs, sum_sq(&r), 0.0, 0.0)];
     let start_mean = log[0].mean_mm;
-    let finish = |model, values, log, termination| Ok(Outcome { model, values, log, termination, linearisation: None });
+    let finish = |model, values, log, termination| {
+        Ok(Outcome { model, values, log, termination, linearisation: None })
+    };
     for iteration in 1..=options.max_iterations {
         delta.fill(0.0);
         for (k, meas) in problem.measurements.iter().enumerate() {

@@ -196,14 +196,24 @@ impl IdentifyOptions {
             }
         }
         if !(0.0..=1.0).contains(&self.correlation_threshold) {
-            return bad(format!("correlation_threshold must be in [0, 1], got {}", self.correlation_threshold));
+            return bad(format!(
+                "correlation_threshold must be in [0, 1], got {}",
+                self.correlation_threshold
+            ));
         }
         if let Some(p) = &self.priors {
             if p.len() != params.len() {
-                return bad(format!("priors: {} standard deviations for {} parameters", p.len(), params.len()));
+                return bad(format!(
+                    "priors: {} standard deviations for {} parameters",
+                    p.len(),
+                    params.len()
+                ));
             }
             if let Some((k, v)) = p.iter().enumerate().find(|(_, v)| v.is_nan() || **v <= 0.0) {
-                return bad(format!("priors: standard deviation of `{}` must be > 0 (or inf), got {v}", params.0[k]));
+                return bad(format!(
+                    "priors: standard deviation of `{}` must be > 0 (or inf), got {v}",
+                    params.0[k]
+                ));
             }
             if self.method == Method::PaperLiteral && p.iter().any(|v| v.is_finite()) {
                 return bad("priors are not supported by the paper-literal method".into());

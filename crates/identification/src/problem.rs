@@ -45,13 +45,7 @@ impl<'a> Problem<'a> {
                     .collect()
             })
             .unwrap_or_default();
-        Self {
-            measurements,
-            params,
-            row_weight: row_weights(measurements, &options.weights),
-            priors,
-            start,
-        }
+        Self { measurements, params, row_weight: row_weights(measurements, &options.weights), priors, start }
     }
 
     /// Number of measurement rows (3 per measurement).

@@ -67,9 +67,15 @@ impl Termination {
     pub fn describe(self) -> &'static str {
         match self {
             Termination::StepTolerance => "converged: the parameter step fell below the step tolerance",
-            Termination::GradientTolerance => "converged: the residual is orthogonal to every Jacobian column",
-            Termination::CostTolerance => "converged: the relative cost reduction fell below the cost tolerance",
-            Termination::ErrorChange => "converged: the mean residual changed by less than 1e-6 mm (paper's rule)",
+            Termination::GradientTolerance => {
+                "converged: the residual is orthogonal to every Jacobian column"
+            }
+            Termination::CostTolerance => {
+                "converged: the relative cost reduction fell below the cost tolerance"
+            }
+            Termination::ErrorChange => {
+                "converged: the mean residual changed by less than 1e-6 mm (paper's rule)"
+            }
             Termination::MaxIterations => "the iteration cap was reached",
             Termination::Diverged => "diverged: the mean residual grew beyond the divergence factor",
             Termination::NonFinite => "a parameter, residual or step became NaN or infinite",
@@ -133,7 +139,11 @@ pub struct Identification {
 impl Identification {
     /// Covariance [mm²] of the predicted world position of TCP `tcp` at joints `q`:
     /// `J_q Cov J_qᵀ` with `J_q` the 3 × L Jacobian of the calibrated model.
-    pub fn predicted_position_covariance(&self, q: &JointVector, tcp: u32) -> Result<Matrix3<f64>, IdentifyError> {
+    pub fn predicted_position_covariance(
+        &self,
+        q: &JointVector,
+        tcp: u32,
+    ) -> Result<Matrix3<f64>, IdentifyError> {
         let j = self.model.jacobian(q, tcp, &self.params.0)?;
         Ok(&j * &self.covariance * j.transpose())
     }

@@ -36,7 +36,13 @@ pub(crate) fn sum_sq(v: &[f64]) -> f64 {
 }
 
 /// Log line from the unweighted residual vectors.
-pub(crate) fn log_entry(iteration: usize, vecs: &[Vector3<f64>], cost: f64, lambda: f64, step_norm: f64) -> IterationLog {
+pub(crate) fn log_entry(
+    iteration: usize,
+    vecs: &[Vector3<f64>],
+    cost: f64,
+    lambda: f64,
+    step_norm: f64,
+) -> IterationLog {
     let n = vecs.len().max(1) as f64;
     let (mut sum, mut sum_sq, mut max) = (0.0, 0.0, 0.0f64);
     for e in vecs {
@@ -45,7 +51,15 @@ pub(crate) fn log_entry(iteration: usize, vecs: &[Vector3<f64>], cost: f64, lamb
         sum_sq += v * v;
         max = max.max(v);
     }
-    IterationLog { iteration, mean_mm: sum / n, rms_mm: (sum_sq / n).sqrt(), max_mm: max, cost, lambda, step_norm }
+    IterationLog {
+        iteration,
+        mean_mm: sum / n,
+        rms_mm: (sum_sq / n).sqrt(),
+        max_mm: max,
+        cost,
+        lambda,
+        step_norm,
+    }
 }
 
 /// Typical a-priori standard deviations of the parameters (step-size yardstick).
@@ -289,7 +303,18 @@ impl<'p, 'a> Iteration<'p, 'a> {
 /// the current linearisation, so a step that is small only because λ is large never counts:
 /// the scaled gradient, the Gauss–Newton step size and the largest relative cost reduction the
 /// linear model allows (`‖Qᵀr‖² / ‖r‖²`).
-pub(crate) fn least_squares(problem: &Problem<'_>, start: &Model, options: &IdentifyOptions) -> Result<Outcome, IdentifyError> {
+///
+/// `rank_check`: when given, the numerical rank of the first factor `R` (whose singular values
+/// are those of the stacked Jacobian at the start) is computed with
+/// `vatcal_observability::indices::normalized_rank`; only if it is deficient is `rank_check`
+/// called, which runs the full identifiability analysis and returns the error naming the
+/// parameters. (Only valid without prior rows.)
+pub(crate) fn least_squares(
+    problem: &Problem<'_>,
+    start: &Model,
+    options: &IdentifyOptions,
+    rank_check: Option<&dyn Fn() -> Result<(), IdentifyError>>,
+) -> Result<Outcome, IdentifyError> {
     let gauss_newton = options.method == Method::GaussNewton;
     let mut it = Iteration::new(problem, start, options);
     it.evaluate_residuals()?;
@@ -305,6 +330,15 @@ pub(crate) fn least_squares(problem: &Problem<'_>, start: &Model, options: &Iden
     for iteration in 1..=options.max_iterations {
         it.update_scale();
         it.factor();
+        if iteration == 1
+            && let Some(check) = rank_check
+        {
+            let r = it.qr.r_owned();
+            let rank = vatcal_observability::indices::normalized_rank(r.as_ref())?;
+            if rank < problem.cols() {
+                check()?;
+            }
+        }
         let (gradient, max_diag) = it.scaled_gradient();
         if it.cost == 0.0 || gradient <= options.gradient_tolerance {
             return Ok(it.finish(Termination::GradientTolerance));
@@ -352,7 +386,7 @@ pub(crate) fn least_squares(problem: &Problem<'_>, start: &Model, options: &Iden
             let entry = log_entry(iteration, &it.vecs, it.cost, used_lambda, step_norm);
             let mean = entry.mean_mm;
             it.log.push(entry);
-            if gauss_newton && !(mean <= options.divergence_factor * start_mean) {
+            if gauss_newton && (mean.is_nan() || mean > options.divergence_factor * start_mean) {
                 return Ok(it.finish(Termination::Diverged));
             }
             break;

@@ -98,7 +98,7 @@ pub(crate) fn statistics(
     let condition_number = if s_min > 0.0 { s_max / s_min } else { f64::INFINITY };
 
     let r_post = if problem.priors.is_empty() {
-        if !(s_min > f64::EPSILON * s_max * l as f64) {
+        if s_min.is_nan() || s_min <= f64::EPSILON * s_max * l as f64 {
             return Err(IdentifyError::Numerical(format!(
                 "the information matrix is singular at the solution (singular values {s_max:.3e} .. {s_min:.3e} of the column-normalised Jacobian)"
             )));
@@ -109,7 +109,11 @@ pub(crate) fn statistics(
     };
     // R⁻¹ by a triangular solve against the identity
     let mut r_inv = Mat::<f64>::identity(l, l);
-    faer::linalg::triangular_solve::solve_upper_triangular_in_place(r_post.as_ref(), r_inv.as_mut(), faer::Par::Seq);
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        r_post.as_ref(),
+        r_inv.as_mut(),
+        faer::Par::Seq,
+    );
     if r_inv.col_iter().any(|c| c.iter().any(|x| !x.is_finite())) {
         return Err(IdentifyError::Numerical("the information matrix is singular at the solution".into()));
     }

@@ -127,7 +127,10 @@ mod tests {
     fn json_keys_carry_the_unit() {
         let s = ErrorStats::from_errors(&[Vector3::new(1.0, 0.0, 0.0)]);
         let j = serde_json::to_string(&s).expect("json");
-        assert!(j.contains("\"mean_mm\"") && j.contains("\"p95_mm\"") && j.contains("\"axis_rms_mm\""), "{j}");
+        assert!(
+            j.contains("\"mean_mm\"") && j.contains("\"p95_mm\"") && j.contains("\"axis_rms_mm\""),
+            "{j}"
+        );
         let back: ErrorStats = serde_json::from_str(&j).expect("back");
         assert_eq!(back, s);
     }

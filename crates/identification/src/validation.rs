@@ -61,11 +61,7 @@ pub fn compare_models(
 ) -> Result<ModelComparison, IdentifyError> {
     let baseline = validate(baseline, measurements)?;
     let candidate = validate(candidate, measurements)?;
-    let mean_improvement_factor = if candidate.stats.mean > 0.0 {
-        baseline.stats.mean / candidate.stats.mean
-    } else {
-        f64::MAX
-    };
+    let mean_improvement_factor =
+        if candidate.stats.mean > 0.0 { baseline.stats.mean / candidate.stats.mean } else { f64::MAX };
     Ok(ModelComparison { baseline, candidate, mean_improvement_factor })
 }
-

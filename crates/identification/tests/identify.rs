@@ -7,8 +7,8 @@ use nalgebra::Vector3;
 use vatcal_core::params::BaseParam;
 use vatcal_core::{CellFile, Measurement, ParamId, ParamSet, Target};
 use vatcal_identification::{
-    IdentificationReport, IdentifyError, IdentifyOptions, KindWeights, Method, Termination, compare_models, identify,
-    validate,
+    IdentificationReport, IdentifyError, IdentifyOptions, KindWeights, Method, Termination, compare_models,
+    identify, validate,
 };
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::{
@@ -17,7 +17,8 @@ use vatcal_sim::truth::{
 };
 
 fn nominal() -> Model {
-    let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml")).expect("fixture");
+    let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+        .expect("fixture");
     Model::from_cell(&cell).expect("model")
 }
 
@@ -82,7 +83,10 @@ fn realistic_noise_reaches_the_noise_floor_on_validation_poses() {
         fit.iterations.len() - 1,
         fit.termination
     );
-    assert!(calibrated < 0.025, "calibrated mean validation error {calibrated} mm (nominal {nominal_error} mm)");
+    assert!(
+        calibrated < 0.025,
+        "calibrated mean validation error {calibrated} mm (nominal {nominal_error} mm)"
+    );
     assert!(cmp.mean_improvement_factor > 30.0, "improvement x{}", cmp.mean_improvement_factor);
     // σ̂ estimates the per-coordinate noise (2 µm), the residual is at the noise level
     assert!((0.0013..0.0028).contains(&fit.sigma_hat_mm), "sigma_hat {} mm", fit.sigma_hat_mm);
@@ -155,29 +159,44 @@ fn gauss_newton_and_levenberg_marquardt_agree() {
 #[test]
 fn the_literal_paper_method_diverges_and_is_reported_as_such() {
     let c = campaign(5, 40, 0.002);
-    let options = IdentifyOptions { max_iterations: 10, ..IdentifyOptions::with_method(Method::PaperLiteral) };
+    let options =
+        IdentifyOptions { max_iterations: 10, ..IdentifyOptions::with_method(Method::PaperLiteral) };
     let result = identify(&c.nominal, &c.probe, &ParamSet::paper34(), &options);
     let err = match result {
         Ok(fit) => {
             let v = validate(&fit.model, &c.validation).expect("v").stats.mean;
-            panic!("the literal method claimed convergence ({:?}) with validation error {v} mm", fit.termination)
+            panic!(
+                "the literal method claimed convergence ({:?}) with validation error {v} mm",
+                fit.termination
+            )
         }
         Err(e) => e,
     };
     let report = err.failure().expect("a failure report with the log");
     assert_eq!(report.method, Method::PaperLiteral);
     assert!(
-        matches!(report.termination, Termination::Diverged | Termination::NonFinite | Termination::MaxIterations),
+        matches!(
+            report.termination,
+            Termination::Diverged | Termination::NonFinite | Termination::MaxIterations
+        ),
         "{:?}",
         report.termination
     );
     let log = &report.iterations;
     for it in log {
-        eprintln!("paper-literal it {:2}: mean {:12.4} mm  max {:12.4} mm", it.iteration, it.mean_mm, it.max_mm);
+        eprintln!(
+            "paper-literal it {:2}: mean {:12.4} mm  max {:12.4} mm",
+            it.iteration, it.mean_mm, it.max_mm
+        );
     }
     // characterisation: the first literal update makes the fit much worse, not better
     assert!(log.len() >= 2);
-    assert!(log[1].mean_mm > 5.0 * log[0].mean_mm, "after one iteration {} mm (start {} mm)", log[1].mean_mm, log[0].mean_mm);
+    assert!(
+        log[1].mean_mm > 5.0 * log[0].mean_mm,
+        "after one iteration {} mm (start {} mm)",
+        log[1].mean_mm,
+        log[0].mean_mm
+    );
     assert!(err.to_string().contains("did not converge"), "{err}");
 }
 
@@ -189,7 +208,8 @@ fn one_calibration_position_is_refused_with_names() {
     let one: Vec<Measurement> =
         probe_start_poses(&nominal, 45, 60).into_iter().filter(|m| m.position() == Some(1)).collect();
     assert!(one.len() >= 12);
-    let err = identify(&nominal, &one, &ParamSet::paper34(), &IdentifyOptions::default()).expect_err("rank deficient");
+    let err = identify(&nominal, &one, &ParamSet::paper34(), &IdentifyOptions::default())
+        .expect_err("rank deficient");
     let IdentifyError::Unidentifiable { rank, needed, unidentifiable, .. } = &err else {
         panic!("expected Unidentifiable, got {err}");
     };
@@ -210,7 +230,11 @@ fn one_calibration_position_of_a_wrong_model_is_refused_or_flagged_ill_condition
     let c = campaign(6, 45, 0.002);
     let one: Vec<Measurement> = c.probe.iter().filter(|m| m.position() == Some(1)).copied().collect();
     match identify(&c.nominal, &one, &ParamSet::paper34(), &IdentifyOptions::default()) {
-        Err(IdentifyError::Unidentifiable { .. } | IdentifyError::NotConverged(_) | IdentifyError::Numerical(_)) => {}
+        Err(
+            IdentifyError::Unidentifiable { .. }
+            | IdentifyError::NotConverged(_)
+            | IdentifyError::Numerical(_),
+        ) => {}
         Err(other) => panic!("unexpected error {other}"),
         Ok(fit) => {
             assert!(fit.condition_number > 1e4, "condition number {}", fit.condition_number);
@@ -240,7 +264,11 @@ fn priors_pin_parameters_and_regularise_rank_deficient_data() {
     assert!((free.values[d4] - start).abs() > 1e-3, "free d_4 moved only {}", free.values[d4] - start);
     // posterior σ ≤ prior σ · σ̂/σ_meas (the covariance is scaled by the estimated noise)
     let bound = 1e-9 * pinned.sigma_hat_mm / IdentifyOptions::default().measurement_sigma_mm;
-    assert!(pinned.sigma[d4] <= 1.01 * bound, "posterior sigma of a pinned parameter {} > {bound}", pinned.sigma[d4]);
+    assert!(
+        pinned.sigma[d4] <= 1.01 * bound,
+        "posterior sigma of a pinned parameter {} > {bound}",
+        pinned.sigma[d4]
+    );
     // the pinned fit is worse than the free one (d_4 of the truth differs from nominal)
     assert!(pinned.rss > free.rss);
 
@@ -277,7 +305,10 @@ fn weights_balance_probe_and_tracker_measurements() {
             &c.nominal,
             &mixed,
             &ParamSet::paper34(),
-            &IdentifyOptions { weights: KindWeights { probe: 1.0, tracker: tracker_weight }, ..IdentifyOptions::default() },
+            &IdentifyOptions {
+                weights: KindWeights { probe: 1.0, tracker: tracker_weight },
+                ..IdentifyOptions::default()
+            },
         )
         .expect("mixed fit")
     };
@@ -288,7 +319,9 @@ fn weights_balance_probe_and_tracker_measurements() {
     let tracker_err = |m: &Model| validate(m, &tracker).expect("t").stats.mean;
     let (light_probe, light_tracker) = (probe_err(&light.model), tracker_err(&light.model));
     let (heavy_probe, heavy_tracker) = (probe_err(&heavy.model), tracker_err(&heavy.model));
-    eprintln!("light: probe {light_probe:e} tracker {light_tracker:e}; heavy: probe {heavy_probe:e} tracker {heavy_tracker:e}");
+    eprintln!(
+        "light: probe {light_probe:e} tracker {light_tracker:e}; heavy: probe {heavy_probe:e} tracker {heavy_tracker:e}"
+    );
     // a negligible tracker weight leaves the (noiseless) probe data fitted exactly and the
     // tracker bias untouched; a heavy one makes the fit follow the biased tracker data and
     // pushes the conflict into the probe residuals
@@ -301,7 +334,10 @@ fn weights_balance_probe_and_tracker_measurements() {
         &c.nominal,
         &mixed,
         &ParamSet::paper34(),
-        &IdentifyOptions { weights: KindWeights { probe: 100.0, tracker: 100.0 }, ..IdentifyOptions::default() },
+        &IdentifyOptions {
+            weights: KindWeights { probe: 100.0, tracker: 100.0 },
+            ..IdentifyOptions::default()
+        },
     )
     .expect("scaled");
     let unit = fit_with(1.0);
@@ -328,7 +364,11 @@ fn predicted_uncertainty_matches_monte_carlo() {
     for a in 0..3 {
         let empirical = (errors.iter().map(|e| e[a] * e[a]).sum::<f64>() / runs as f64).sqrt();
         let ratio = empirical / predicted[a];
-        assert!((0.5..2.0).contains(&ratio), "axis {a}: empirical {empirical:e} vs predicted {:e}", predicted[a]);
+        assert!(
+            (0.5..2.0).contains(&ratio),
+            "axis {a}: empirical {empirical:e} vs predicted {:e}",
+            predicted[a]
+        );
     }
 }
 
@@ -342,11 +382,15 @@ fn failures_carry_the_log_and_bad_input_is_named() {
     assert_eq!(report.termination, Termination::MaxIterations);
     assert_eq!(report.iterations.len(), 2);
     assert!(report.iterations[1].mean_mm < report.iterations[0].mean_mm);
-    let accepted = identify(&c.nominal, &c.probe, &params, &IdentifyOptions { accept_iteration_cap: true, ..capped })
-        .expect("accepted cap");
+    let accepted =
+        identify(&c.nominal, &c.probe, &params, &IdentifyOptions { accept_iteration_cap: true, ..capped })
+            .expect("accepted cap");
     assert!(!accepted.converged);
 
-    assert!(matches!(identify(&c.nominal, &[], &params, &IdentifyOptions::default()), Err(IdentifyError::NoMeasurements)));
+    assert!(matches!(
+        identify(&c.nominal, &[], &params, &IdentifyOptions::default()),
+        Err(IdentifyError::NoMeasurements)
+    ));
     let few = &c.probe[..10];
     assert!(matches!(
         identify(&c.nominal, few, &params, &IdentifyOptions::default()),
@@ -375,7 +419,13 @@ fn json_report_round_trips_in_file_units() {
     let back = IdentificationReport::load(&path).expect("load");
     assert_eq!(back, report);
     let text = std::fs::read_to_string(&path).expect("read");
-    for key in ["\"sigma_file_units\"", "\"identified_file_units\"", "\"mean_mm\"", "\"condition_number\"", "\"termination\""] {
+    for key in [
+        "\"sigma_file_units\"",
+        "\"identified_file_units\"",
+        "\"mean_mm\"",
+        "\"condition_number\"",
+        "\"termination\"",
+    ] {
         assert!(text.contains(key), "missing {key}");
     }
     let th = back.parameter("theta_offset_3").expect("theta_offset_3");

@@ -474,6 +474,13 @@ impl Model {
 
     /// Sets one parameter (internal units).
     pub fn set_param(&mut self, id: ParamId, value: f64) -> Result<(), ModelError> {
+        self.assign_param(id, value)?;
+        self.refresh_caches();
+        Ok(())
+    }
+
+    /// Stores one parameter value without refreshing the caches (callers refresh).
+    fn assign_param(&mut self, id: ParamId, value: f64) -> Result<(), ModelError> {
         if !value.is_finite() {
             return Err(ModelError::NonFinite(id.name(), value));
         }
@@ -502,7 +509,6 @@ impl Model {
                 self.effect_values.insert(id, value);
             }
         }
-        self.refresh_caches();
         Ok(())
     }
 
@@ -516,10 +522,10 @@ impl Model {
         if set.len() != values.len() {
             return Err(ModelError::Length { expected: set.len(), got: values.len() });
         }
-        for (p, v) in set.iter().zip(values) {
-            self.set_param(*p, *v)?;
-        }
-        Ok(())
+        // one cache refresh for the whole set (identification calls this in its inner loop)
+        let result = set.iter().zip(values).try_for_each(|(p, v)| self.assign_param(*p, *v));
+        self.refresh_caches();
+        result
     }
 
     /// Every parameter this model has: the built-ins and those of switched-on effects.

@@ -66,7 +66,7 @@ use std::cmp::Ordering;
 
 use faer::linalg::matmul::matmul;
 use faer::linalg::solvers::DenseSolveCore;
-use faer::{Accum, Mat, MatRef, Par, Side};
+use faer::{Accum, Mat, MatMut, MatRef, Par, Side};
 use nalgebra::Matrix3;
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
@@ -327,7 +327,7 @@ impl DetmaxOptions {
             fixed: Vec::new(),
             objective: Objective::O1,
             ridge: 0.0,
-            refactor_every: 32,
+            refactor_every: 50,
             shortlist: 32,
             init: Initialisation::Random,
         }
@@ -483,12 +483,15 @@ fn symmetrize(m: &mut Mat<f64>) {
 /// added, the losses of the members, `M⁻¹`) is computed in f64; the f32 copy only ranks the
 /// non-members, and its rounding (~1e-7 relative in `G_k`) is reset at every refactor.
 ///
-/// The f32 copy is stored per chunk of [`CHUNK`] candidates in *planar* row order (all x rows
-/// of the chunk, then all y rows, then all z rows), so that every product with it yields, for
-/// each (row, column), a contiguous vector over the chunk's candidates and the 3 × 3 updates
-/// vectorise across candidates.
-struct Work {
-    c: Candidates,
+/// The f32 copy is stored per chunk of [`CHUNK`] candidates, column-major, in *planar* row
+/// order (all x rows of the chunk, then all y rows, then all z rows), so that every product
+/// with it yields, for each (row, column), a contiguous vector over the chunk's candidates and
+/// the 3 × 3 updates vectorise across candidates.
+struct Work<'a> {
+    /// the caller's candidates (natural units)
+    orig: &'a Candidates,
+    /// column factors `1/‖col_j‖` (1 for an all-zero column)
+    factors: Vec<f64>,
     rows32: Vec<f32>,
     /// `2 Σ ln(1/‖col_j‖)`: ln det of the normalised M = natural ln det + this
     log_scale: f64,
@@ -502,18 +505,17 @@ fn chunk_range(ci: usize, n: usize) -> (usize, usize) {
     (start, CHUNK.min(n - start))
 }
 
-impl Work {
-    fn new(original: &Candidates, ridge: f64) -> Self {
-        let norms = column_norms(original);
+impl<'a> Work<'a> {
+    fn new(orig: &'a Candidates, ridge: f64) -> Self {
+        let norms = column_norms(orig);
         let factors: Vec<f64> = norms.iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
-        let c = original.scaled(&factors);
-        let (n, l) = (c.len(), c.l);
-        let mut rows32 = Vec::with_capacity(c.rows.len());
+        let (n, l) = (orig.len(), orig.l);
+        let mut rows32 = Vec::with_capacity(orig.rows.len());
         for ci in 0..n.div_ceil(CHUNK) {
             let (start, len) = chunk_range(ci, n);
-            for a in 0..3 {
-                for i in 0..len {
-                    rows32.extend(c.row(start + i, a).iter().map(|x| *x as f32));
+            for (j, f) in factors.iter().enumerate() {
+                for a in 0..3 {
+                    rows32.extend((0..len).map(|i| (orig.row(start + i, a)[j] * f) as f32));
                 }
             }
         }
@@ -525,15 +527,34 @@ impl Work {
         } else {
             Vec::new()
         };
-        Self { c, rows32, log_scale, ridge }
+        Self { orig, factors, rows32, log_scale, ridge }
     }
 
-    /// Chunk `ci` of the f32 copy: 3len × L, row-major, planar rows (row `a·len + i` is row
-    /// `a` of candidate `start + i`).
+    fn len(&self) -> usize {
+        self.orig.len()
+    }
+
+    fn l(&self) -> usize {
+        self.orig.l
+    }
+
+    /// Normalised row `a` of candidate `k`, element `j`.
+    fn at(&self, k: usize, a: usize, j: usize) -> f64 {
+        self.orig.row(k, a)[j] * self.factors[j]
+    }
+
+    /// Normalised information matrix `D (Σ_design B_kᵀB_k) D`.
+    fn information(&self, design: &[usize]) -> Mat<f64> {
+        let m = self.orig.information(design);
+        Mat::from_fn(self.l(), self.l(), |r, c| m[(r, c)] * self.factors[r] * self.factors[c])
+    }
+
+    /// Chunk `ci` of the f32 copy: 3len × L, column-major, planar rows (row `a·len + i` is row
+    /// `a` of candidate `start + i`), so faer's matmul reads it without repacking.
     fn chunk32(&self, ci: usize) -> MatRef<'_, f32> {
-        let l = self.c.l;
-        let (start, len) = chunk_range(ci, self.c.len());
-        MatRef::from_row_major_slice(&self.rows32[3 * start * l..3 * (start + len) * l], 3 * len, l)
+        let l = self.l();
+        let (start, len) = chunk_range(ci, self.len());
+        MatRef::from_column_major_slice(&self.rows32[3 * start * l..3 * (start + len) * l], 3 * len, l)
     }
 }
 
@@ -572,7 +593,7 @@ struct Term {
 
 #[derive(Clone)]
 struct State<'a> {
-    w: &'a Work,
+    w: &'a Work<'a>,
     ridge: Vec<f64>,
     design: Vec<usize>,
     member: Vec<bool>,
@@ -604,8 +625,8 @@ fn better(a: Option<(usize, f64)>, b: Option<(usize, f64)>) -> Option<(usize, f6
 impl<'a> State<'a> {
     /// Builds the state of `design` with the ridge `ridge` (normalised units); None if
     /// singular.
-    fn new(w: &'a Work, design: Vec<usize>, fixed: &[bool], ridge: Vec<f64>, refactor_every: usize) -> Option<Self> {
-        let mut member = vec![false; w.c.len()];
+    fn new(w: &'a Work<'a>, design: Vec<usize>, fixed: &[bool], ridge: Vec<f64>, refactor_every: usize) -> Option<Self> {
+        let mut member = vec![false; w.len()];
         for &k in &design {
             member[k] = true;
         }
@@ -617,7 +638,7 @@ impl<'a> State<'a> {
             fixed: fixed.to_vec(),
             minv: Mat::zeros(0, 0),
             log_det: 0.0,
-            g: vec![0.0; 6 * w.c.len()],
+            g: vec![0.0; 6 * w.len()],
             best: None,
             since_refactor: 0,
             refactor_every: refactor_every.max(1),
@@ -627,7 +648,7 @@ impl<'a> State<'a> {
 
     /// Recomputes M⁻¹, ln det M and every G_k from scratch. False if M is singular.
     fn refactor(&mut self) -> bool {
-        let m = with_ridge(self.w.c.information(&self.design), &self.ridge);
+        let m = with_ridge(self.w.information(&self.design), &self.ridge);
         let Some((minv, log_det)) = factor(&m) else { return false };
         self.minv = minv;
         self.log_det = log_det;
@@ -640,7 +661,7 @@ impl<'a> State<'a> {
     /// candidates. False if `M⁻¹` is not positive definite.
     fn recompute_g(&mut self) -> bool {
         let (w, member) = (self.w, &self.member);
-        let (n, l) = (w.c.len(), w.c.l);
+        let (n, l) = (w.len(), w.l());
         let Ok(llt) = self.minv.llt(Side::Lower) else { return false };
         let u = llt.L();
         let u32 = Mat::from_fn(l, l, |r, c| u[(r, c)] as f32);
@@ -648,26 +669,37 @@ impl<'a> State<'a> {
             .g
             .par_chunks_mut(6 * CHUNK)
             .enumerate()
-            .map(|(ci, gch)| {
-                let (start, len) = chunk_range(ci, n);
-                let mut v = Mat::<f32>::zeros(3 * len, l);
-                matmul(v.as_mut(), Accum::Replace, w.chunk32(ci), u32.as_ref(), 1.0, Par::Seq);
-                let mut acc = vec![0.0f32; len];
-                for (e, (a, b)) in SYM.iter().enumerate() {
-                    acc.fill(0.0);
-                    for j in 0..l {
-                        let col = v.col_as_slice(j);
-                        let (va, vb) = (&col[a * len..(a + 1) * len], &col[b * len..(b + 1) * len]);
-                        for ((s, x), y) in acc.iter_mut().zip(va).zip(vb) {
-                            *s += x * y;
+            .map_init(
+                || (vec![0.0f32; 3 * CHUNK * l], vec![0.0f32; CHUNK], Vec::with_capacity(CHUNK)),
+                |(buf, acc, dets), (ci, gch)| {
+                    let (start, len) = chunk_range(ci, n);
+                    let v = &mut buf[..3 * len * l];
+                    matmul(
+                        MatMut::from_column_major_slice_mut(v, 3 * len, l),
+                        Accum::Replace,
+                        w.chunk32(ci),
+                        u32.as_ref(),
+                        1.0,
+                        Par::Seq,
+                    );
+                    let v = &*v;
+                    let acc = &mut acc[..len];
+                    for (e, (a, b)) in SYM.iter().enumerate() {
+                        acc.fill(0.0);
+                        for j in 0..l {
+                            let col = &v[j * 3 * len..(j + 1) * 3 * len];
+                            let (va, vb) = (&col[a * len..(a + 1) * len], &col[b * len..(b + 1) * len]);
+                            for ((s, x), y) in acc.iter_mut().zip(va).zip(vb) {
+                                *s += x * y;
+                            }
+                        }
+                        for (gi, s) in gch[e * len..(e + 1) * len].iter_mut().zip(acc.iter()) {
+                            *gi = f64::from(*s);
                         }
                     }
-                    for (gi, s) in gch[e * len..(e + 1) * len].iter_mut().zip(&acc) {
-                        *gi = f64::from(*s);
-                    }
-                }
-                chunk_best(gch, start, len, member, &mut Vec::with_capacity(len))
-            })
+                    chunk_best(gch, start, len, member, dets)
+                },
+            )
             .collect();
         self.best = parts.into_iter().fold(None, better);
         true
@@ -676,21 +708,25 @@ impl<'a> State<'a> {
     /// `G_k` of candidate `k` as stored (f32-accurate).
     fn g_of(&self, k: usize) -> Sym3 {
         let ci = k / CHUNK;
-        let (start, len) = chunk_range(ci, self.w.c.len());
+        let (start, len) = chunk_range(ci, self.w.len());
         let base = 6 * start + (k - start);
         std::array::from_fn(|e| self.g[base + e * len])
     }
 
     /// `M⁻¹ bᵀ` (L × 3) for candidate k (f64).
     fn z_of(&self, k: usize) -> Mat<f64> {
-        let mut z = Mat::<f64>::zeros(self.w.c.l, 3);
-        matmul(z.as_mut(), Accum::Replace, self.minv.as_ref(), self.w.c.block(k).transpose(), 1.0, Par::Seq);
+        let bt = Mat::from_fn(self.w.l(), 3, |j, a| self.w.at(k, a, j));
+        let mut z = Mat::<f64>::zeros(self.w.l(), 3);
+        matmul(z.as_mut(), Accum::Replace, self.minv.as_ref(), bt.as_ref(), 1.0, Par::Seq);
         z
     }
 
     /// `B_k Z` (3 × 3, f64).
     fn bz(&self, k: usize, z: &Mat<f64>) -> Matrix3<f64> {
-        Matrix3::from_fn(|a, b| self.w.c.row(k, a).iter().zip(z.col_as_slice(b)).map(|(x, y)| x * y).sum())
+        Matrix3::from_fn(|a, b| {
+            let row = self.w.orig.row(k, a);
+            (0..row.len()).map(|j| row[j] * self.w.factors[j] * z[(j, b)]).sum()
+        })
     }
 
     /// Exact `G_k = B_k M⁻¹ B_kᵀ` (f64), for the members whose losses decide removals.
@@ -705,7 +741,7 @@ impl<'a> State<'a> {
     /// chunk's candidates (27 multiply-adds per term and candidate). Member flags must already
     /// describe the new design.
     fn apply(&mut self, terms: &[Term]) {
-        let (n, l) = (self.w.c.len(), self.w.c.l);
+        let (n, l) = (self.w.len(), self.w.l());
         let nt = terms.len();
         // columns: Z_1..Z_nt, then Z_t · sign C_t
         let mut zz = Mat::<f32>::zeros(l, 6 * nt);
@@ -723,41 +759,53 @@ impl<'a> State<'a> {
         }
         symmetrize(&mut self.minv);
         let (w, member) = (self.w, &self.member);
+        let width = 6 * nt;
         let parts: Vec<Option<(usize, f64)>> = self
             .g
             .par_chunks_mut(6 * CHUNK)
             .enumerate()
-            .map(|(ci, gch)| {
-                let (start, len) = chunk_range(ci, n);
-                let mut pr = Mat::<f32>::zeros(3 * len, 6 * nt);
-                matmul(pr.as_mut(), Accum::Replace, w.chunk32(ci), zz.as_ref(), 1.0, Par::Seq);
-                // plane(col, a): column `col` of P/R for row `a`, over the chunk's candidates
-                let plane = |col: usize, a: usize| &pr.col_as_slice(col)[a * len..(a + 1) * len];
-                let mut acc = vec![0.0f32; len];
-                for (e, (a, b)) in SYM.iter().enumerate() {
-                    acc.fill(0.0);
-                    for t in 0..nt {
-                        for j in 0..3 {
-                            let (p, r) = (3 * t + j, 3 * (nt + t) + j);
-                            let (ra, pb) = (plane(r, *a), plane(p, *b));
-                            if a == b {
-                                for ((s, x), y) in acc.iter_mut().zip(ra).zip(pb) {
-                                    *s += x * y;
-                                }
-                            } else {
-                                let (rb, pa) = (plane(r, *b), plane(p, *a));
-                                for ((((s, x), y), u), v) in acc.iter_mut().zip(ra).zip(pb).zip(rb).zip(pa) {
-                                    *s += 0.5 * (x * y + u * v);
+            .map_init(
+                || (vec![0.0f32; 3 * CHUNK * width], vec![0.0f32; CHUNK], Vec::with_capacity(CHUNK)),
+                |(buf, acc, dets), (ci, gch)| {
+                    let (start, len) = chunk_range(ci, n);
+                    let pr = &mut buf[..3 * len * width];
+                    matmul(
+                        MatMut::from_column_major_slice_mut(pr, 3 * len, width),
+                        Accum::Replace,
+                        w.chunk32(ci),
+                        zz.as_ref(),
+                        1.0,
+                        Par::Seq,
+                    );
+                    let pr = &*pr;
+                    // plane(col, a): column `col` of [P R] for row `a`, over the chunk's candidates
+                    let plane = |col: usize, a: usize| &pr[col * 3 * len + a * len..col * 3 * len + (a + 1) * len];
+                    let acc = &mut acc[..len];
+                    for (e, (a, b)) in SYM.iter().enumerate() {
+                        acc.fill(0.0);
+                        for t in 0..nt {
+                            for j in 0..3 {
+                                let (p, r) = (3 * t + j, 3 * (nt + t) + j);
+                                let (ra, pb) = (plane(r, *a), plane(p, *b));
+                                if a == b {
+                                    for ((s, x), y) in acc.iter_mut().zip(ra).zip(pb) {
+                                        *s += x * y;
+                                    }
+                                } else {
+                                    let (rb, pa) = (plane(r, *b), plane(p, *a));
+                                    for ((((s, x), y), u), v) in acc.iter_mut().zip(ra).zip(pb).zip(rb).zip(pa) {
+                                        *s += 0.5 * (x * y + u * v);
+                                    }
                                 }
                             }
                         }
+                        for (gi, s) in gch[e * len..(e + 1) * len].iter_mut().zip(acc.iter()) {
+                            *gi += f64::from(*s);
+                        }
                     }
-                    for (gi, s) in gch[e * len..(e + 1) * len].iter_mut().zip(&acc) {
-                        *gi += f64::from(*s);
-                    }
-                }
-                chunk_best(gch, start, len, member, &mut Vec::with_capacity(len))
-            })
+                    chunk_best(gch, start, len, member, dets)
+                },
+            )
             .collect();
         self.best = parts.into_iter().fold(None, better);
         self.since_refactor += 1;
@@ -782,7 +830,7 @@ impl<'a> State<'a> {
     /// The `count` non-members with the largest gains (descending, ties by index).
     fn top_additions(&self, count: usize) -> Vec<usize> {
         let mut v: Vec<(usize, f64)> =
-            (0..self.w.c.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g_of(k)))).collect();
+            (0..self.w.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g_of(k)))).collect();
         v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         v.truncate(count);
         v.into_iter().map(|x| x.0).collect()
@@ -1033,9 +1081,9 @@ fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
 
 /// Greedy (Dykstra) design: from `fixed` and a tiny ridge, add the best candidate until
 /// `count`; then rebuild with the requested ridge. None if the result is singular.
-fn greedy_state<'a>(w: &'a Work, o: &DetmaxOptions, fixed_mask: &[bool]) -> Option<State<'a>> {
-    let n = w.c.len().max(1) as f64;
-    let greedy_ridge: Vec<f64> = (0..w.c.l)
+fn greedy_state<'a>(w: &'a Work<'a>, o: &DetmaxOptions, fixed_mask: &[bool]) -> Option<State<'a>> {
+    let n = w.len().max(1) as f64;
+    let greedy_ridge: Vec<f64> = (0..w.l())
         .map(|j| w.ridge.get(j).copied().unwrap_or(0.0).max(GREEDY_RIDGE / n))
         .collect();
     let mut s = State::new(w, o.fixed.clone(), fixed_mask, greedy_ridge, o.refactor_every)?;
@@ -1112,13 +1160,13 @@ fn refine_exact(s: &mut State<'_>, c: &Candidates, o: &DetmaxOptions) -> usize {
 }
 
 /// ln det(M + R) in natural units of a design, from scratch.
-fn natural_log_det(w: &Work, design: &[usize]) -> f64 {
-    factor(&with_ridge(w.c.information(design), &w.ridge)).map_or(f64::NEG_INFINITY, |f| f.1 - w.log_scale)
+fn natural_log_det(w: &Work<'_>, design: &[usize]) -> f64 {
+    factor(&with_ridge(w.information(design), &w.ridge)).map_or(f64::NEG_INFINITY, |f| f.1 - w.log_scale)
 }
 
 fn run_restart<'a>(
     c: &Candidates,
-    w: &'a Work,
+    w: &'a Work<'a>,
     o: &DetmaxOptions,
     r: usize,
 ) -> Result<(State<'a>, RestartOutcome), ObservabilityError> {

@@ -11,11 +11,13 @@
 //! 3. **clear of singularities**: wrist, elbow and shoulder margins ([`SingularityMargins`]);
 //! 4. **collision-free**: no contact at the measurement pose (the measuring ball may touch the
 //!    probe, nothing else);
-//! 5. **approachable**: the *approach pose* — the same tool orientation with the ball
-//!    `approach_mm` straight above the probe origin, solved from the measurement joints — is
-//!    within the joint limits (less [`MOVE_MARGIN_DEG`]) and collision-free with a probe at *every* placement (the robot waits there
-//!    while the operator re-places the plate), and the straight joint-space descent from it to
-//!    the measurement pose is collision-free at the check resolution.
+//! 5. **retreat clear**: the *retreat pose* — the same tool orientation with the ball
+//!    `retreat_height_mm` straight above the probe origin, solved from the measurement joints —
+//!    is within the joint limits (less [`MOVE_MARGIN_DEG`]) and collision-free with a probe at
+//!    *every* placement (the robot waits there while the operator re-places the plate), and the
+//!    straight joint-space descent from it to the measurement pose is collision-free at the
+//!    check resolution. The robot comes in to a measurement from its retreat pose and leaves
+//!    back to it.
 //!
 //! Only candidates that pass all stages are returned; the count after each stage is reported.
 //!
@@ -43,7 +45,10 @@ use vatcal_kinematics::Model;
 
 use crate::collision::{CollisionChecker, ProbeState};
 use crate::error::PlanError;
-use crate::ik::{RefineOptions, ToolPoseIk, max_abs_diff, refine_tool_pose, robot_base_frame, tool_pose_for_tcp, wrap_angle};
+use crate::ik::{
+    RefineOptions, ToolPoseIk, max_abs_diff, refine_tool_pose, robot_base_frame, tool_pose_for_tcp,
+    wrap_angle,
+};
 use crate::motion::{JointBounds, MOVE_MARGIN_DEG, Resolution, SingularityMargins};
 use crate::paths::segment_is_free;
 
@@ -62,11 +67,11 @@ pub struct CandidateOptions {
     pub joint_margin_deg: f64,
     /// singularity margins
     pub singularity: SingularityMargins,
-    /// height of the approach pose above the measurement pose [mm]
-    pub approach_mm: f64,
+    /// height of the retreat pose above the measurement pose [mm]
+    pub retreat_height_mm: f64,
     /// inflation of the robot bodies in collision checks [mm]
     pub collision_margin_mm: f64,
-    /// collision-check resolution of the approach descent
+    /// collision-check resolution of the descent from the retreat pose
     pub resolution: Resolution,
     /// IK refinement options
     pub refine: RefineOptions,
@@ -89,7 +94,7 @@ impl Default for CandidateOptions {
             cone_half_angle_deg: 60.0,
             joint_margin_deg: 5.0,
             singularity: SingularityMargins::default(),
-            approach_mm: 30.0,
+            retreat_height_mm: 30.0,
             collision_margin_mm: 2.0,
             resolution: Resolution::default(),
             refine: RefineOptions::default(),
@@ -110,8 +115,9 @@ pub struct Candidate {
     pub tcp: u32,
     /// measurement joints (TCP on the calibration position)
     pub q: JointVector,
-    /// approach joints (ball `approach_mm` above the probe origin, same tool orientation)
-    pub approach: JointVector,
+    /// retreat joints: ball `retreat_height_mm` straight above the probe origin, same tool
+    /// orientation; the robot comes in from here and leaves to here
+    pub retreat: JointVector,
     /// index of the sampled orientation (per position × TCP)
     pub orientation: usize,
     /// index of the guide step
@@ -123,7 +129,8 @@ pub struct Candidate {
 pub struct StageCounts {
     /// TCP poses (orientations × TCPs × positions)
     pub poses: usize,
-    /// closed-form IK solutions over all guide steps (at most 8 × guide steps × poses)
+    /// closed-form IK solutions over all guide steps (at most 8 × guide steps × poses), plus
+    /// refined solutions of a calibrated arm just beyond its nominal structure's reach
     pub ik_solutions: usize,
     /// solutions inside the joint limits shrunk by the margins
     pub within_limits: usize,
@@ -131,8 +138,8 @@ pub struct StageCounts {
     pub clear_of_singularities: usize,
     /// ... and collision-free at the measurement pose
     pub collision_free: usize,
-    /// ... and with a collision-free approach (the final candidates)
-    pub approachable: usize,
+    /// ... and with a reachable, collision-free retreat pose and descent (the final candidates)
+    pub retreat_clear: usize,
 }
 
 impl StageCounts {
@@ -142,7 +149,7 @@ impl StageCounts {
         self.within_limits += o.within_limits;
         self.clear_of_singularities += o.clear_of_singularities;
         self.collision_free += o.collision_free;
-        self.approachable += o.approachable;
+        self.retreat_clear += o.retreat_clear;
     }
 }
 
@@ -192,7 +199,11 @@ fn align(from: &Vector3<f64>, to: &Vector3<f64>) -> Matrix3<f64> {
 /// Draws one tool orientation (see the module docs): `R` with `R · u` uniform on the cap of
 /// half-angle `cone_half_angle_rad` around world +z and a uniform spin about it, where `u` is
 /// the ball-to-flange direction in the tool frame.
-pub fn sample_orientation(rng: &mut ChaCha8Rng, ball_to_flange_tool: &Vector3<f64>, cone_half_angle_rad: f64) -> Matrix3<f64> {
+pub fn sample_orientation(
+    rng: &mut ChaCha8Rng,
+    ball_to_flange_tool: &Vector3<f64>,
+    cone_half_angle_rad: f64,
+) -> Matrix3<f64> {
     let u = ball_to_flange_tool.normalize();
     let cos_min = cone_half_angle_rad.cos();
     let cos_t = 1.0 - rng.random_range(0.0..1.0) * (1.0 - cos_min);
@@ -220,7 +231,7 @@ struct Pipeline<'a> {
 enum Screen {
     Singular,
     Colliding,
-    NoApproach,
+    NoRetreat,
     Measurable(JointVector),
 }
 
@@ -242,13 +253,19 @@ impl Pipeline<'_> {
         for (step, (q1, base)) in self.bases.iter().enumerate() {
             let mut found: Vec<JointVector> = Vec::with_capacity(8);
             for seed in self.ik.seeds(*q1, base, &task.target) {
-                counts.ik_solutions += 1;
-                if !self.bounds.contains_with_slack(&seed, 0.0, slack_rad) {
+                if !seed.beyond_reach {
+                    counts.ik_solutions += 1;
+                }
+                if !self.bounds.contains_with_slack(&seed.q, 0.0, slack_rad) {
                     continue;
                 }
-                let Ok(refined) = self.ik.refine(&seed, &task.target) else {
+                let Ok(refined) = self.ik.refine(&seed.q, &task.target) else {
                     continue;
                 };
+                if seed.beyond_reach {
+                    // the calibrated arm reaches what its nominal structure cannot
+                    counts.ik_solutions += 1;
+                }
                 let mut q = refined.q;
                 for v in q.0.iter_mut().skip(1) {
                     *v = wrap_angle(*v);
@@ -261,19 +278,19 @@ impl Pipeline<'_> {
                 match self.screen(task, q) {
                     Screen::Singular => continue,
                     Screen::Colliding => counts.clear_of_singularities += 1,
-                    Screen::NoApproach => {
+                    Screen::NoRetreat => {
                         counts.clear_of_singularities += 1;
                         counts.collision_free += 1;
                     }
-                    Screen::Measurable(approach) => {
+                    Screen::Measurable(retreat) => {
                         counts.clear_of_singularities += 1;
                         counts.collision_free += 1;
-                        counts.approachable += 1;
+                        counts.retreat_clear += 1;
                         out.push(Candidate {
                             position: task.position,
                             tcp: task.tcp,
                             q,
-                            approach,
+                            retreat,
                             orientation: task.orientation,
                             guide_step: step,
                         });
@@ -294,12 +311,12 @@ impl Pipeline<'_> {
         if self.checker.check_chain(&chain, measuring).is_some() {
             return Screen::Colliding;
         }
-        self.approach(task, &q).map_or(Screen::NoApproach, Screen::Measurable)
+        self.retreat_pose(task, &q).map_or(Screen::NoRetreat, Screen::Measurable)
     }
 
-    fn approach(&self, task: &PoseTask, q: &JointVector) -> Option<JointVector> {
+    fn retreat_pose(&self, task: &PoseTask, q: &JointVector) -> Option<JointVector> {
         let mut target = task.target;
-        target.p.z += self.opts.approach_mm;
+        target.p.z += self.opts.retreat_height_mm;
         let refined = refine_tool_pose(self.model, q, &target, &self.opts.refine).ok()?;
         let mut a = refined.q;
         for (v, q0) in a.0.iter_mut().zip(&q.0).skip(1) {
@@ -365,7 +382,7 @@ fn validate(opts: &CandidateOptions) -> Result<(), PlanError> {
     }
     for (name, v) in [
         ("joint_margin_deg", opts.joint_margin_deg),
-        ("approach_mm", opts.approach_mm),
+        ("retreat_height_mm", opts.retreat_height_mm),
         ("collision_margin_mm", opts.collision_margin_mm),
         ("singularity.wrist_deg", opts.singularity.wrist_deg),
         ("singularity.elbow_deg", opts.singularity.elbow_deg),
@@ -384,7 +401,10 @@ fn select_ids(all: &[u32], wanted: Option<&[u32]>, what: &str) -> Result<Vec<u32
         None => Ok(all.to_vec()),
         Some(w) => {
             if let Some(bad) = w.iter().find(|id| !all.contains(id)) {
-                return Err(PlanError::Option { option: what.into(), reason: format!("unknown id {bad} (the model has {all:?})") });
+                return Err(PlanError::Option {
+                    option: what.into(),
+                    reason: format!("unknown id {bad} (the model has {all:?})"),
+                });
             }
             if w.is_empty() {
                 return Err(PlanError::Option { option: what.into(), reason: "must not be empty".into() });
@@ -396,7 +416,12 @@ fn select_ids(all: &[u32], wanted: Option<&[u32]>, what: &str) -> Result<Vec<u32
 
 /// Draws every TCP pose sequentially (so the stream does not depend on the thread count): one
 /// ChaCha8 stream per run, positions outer, TCPs middle, orientations inner.
-fn sample_tasks(model: &Model, positions: &[u32], tcps: &[u32], opts: &CandidateOptions) -> Result<Vec<PoseTask>, PlanError> {
+fn sample_tasks(
+    model: &Model,
+    positions: &[u32],
+    tcps: &[u32],
+    opts: &CandidateOptions,
+) -> Result<Vec<PoseTask>, PlanError> {
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let cone = deg_to_rad(opts.cone_half_angle_deg);
     let mut tasks = Vec::with_capacity(positions.len() * tcps.len() * opts.orientations);
@@ -406,9 +431,15 @@ fn sample_tasks(model: &Model, positions: &[u32], tcps: &[u32], opts: &Candidate
             reason: format!("unknown calibration position {position}"),
         })?;
         for &tcp in tcps {
-            let t = model.tcp(tcp).ok_or_else(|| PlanError::Option { option: "tcps".into(), reason: format!("unknown TCP {tcp}") })?;
+            let t = model.tcp(tcp).ok_or_else(|| PlanError::Option {
+                option: "tcps".into(),
+                reason: format!("unknown TCP {tcp}"),
+            })?;
             if t.norm() < 1e-9 {
-                return Err(PlanError::Option { option: "tcps".into(), reason: format!("TCP {tcp} is at the flange: no ball-to-flange direction") });
+                return Err(PlanError::Option {
+                    option: "tcps".into(),
+                    reason: format!("TCP {tcp} is at the flange: no ball-to-flange direction"),
+                });
             }
             for orientation in 0..opts.orientations {
                 let r = sample_orientation(&mut rng, &(-t), cone);

@@ -230,7 +230,8 @@ impl<'a> CollisionChecker<'a> {
         let e = &self.geometry.end_effector;
         let f = &chain.frames;
         let row2 = self.model.row(2);
-        let base = f[1].compose(&Frame { r: rot_x(row2.alpha) * rot_y(row2.beta), p: Vector3::new(row2.a, 0.0, 0.0) });
+        let base = f[1]
+            .compose(&Frame { r: rot_x(row2.alpha) * rot_y(row2.beta), p: Vector3::new(row2.a, 0.0, 0.0) });
         let mut out = Vec::with_capacity(BODY_NAMES.len() + self.tcps.len());
         let capsule = |a: Vector3<f64>, b: Vector3<f64>, radius: f64| Body {
             shape: Placed::Capsule(Capsule::new(v(&a), v(&b), radius + m)),
@@ -288,7 +289,7 @@ impl<'a> CollisionChecker<'a> {
                 shape: Placed::Ball(Ball::new(rr), Pose::from_translation(v(&c))),
                 center: c,
                 radius: rr,
-                    tcp: Some(*id),
+                tcp: Some(*id),
             });
         }
         out
@@ -363,22 +364,23 @@ fn intersects(p1: &Pose, s1: &dyn Shape, p2: &Pose, s2: &dyn Shape) -> bool {
 
 fn build_obstacles(model: &Model, g: &CellGeometry) -> Vec<Obstacle> {
     let mut out = Vec::new();
-    let vertical = |name: String, x: f64, y: f64, c: &vatcal_core::cell::CylinderObstacle, probe: Option<u32>| {
-        let half = 0.5 * (c.z_max_mm - c.z_min_mm);
-        let center = Vector3::new(x, y, 0.5 * (c.z_max_mm + c.z_min_mm));
-        Obstacle {
-            name,
-            shape: ObstacleShape::Cylinder(
-                Cylinder::new(half, c.radius_mm),
-                pose(&Frame { r: y_along_z(&Matrix3::identity()), p: center }),
-            ),
-            aabb: WorldAabb {
-                min: Vector3::new(x - c.radius_mm, y - c.radius_mm, c.z_min_mm),
-                max: Vector3::new(x + c.radius_mm, y + c.radius_mm, c.z_max_mm),
-            },
-            probe_position: probe,
-        }
-    };
+    let vertical =
+        |name: String, x: f64, y: f64, c: &vatcal_core::cell::CylinderObstacle, probe: Option<u32>| {
+            let half = 0.5 * (c.z_max_mm - c.z_min_mm);
+            let center = Vector3::new(x, y, 0.5 * (c.z_max_mm + c.z_min_mm));
+            Obstacle {
+                name,
+                shape: ObstacleShape::Cylinder(
+                    Cylinder::new(half, c.radius_mm),
+                    pose(&Frame { r: y_along_z(&Matrix3::identity()), p: center }),
+                ),
+                aabb: WorldAabb {
+                    min: Vector3::new(x - c.radius_mm, y - c.radius_mm, c.z_min_mm),
+                    max: Vector3::new(x + c.radius_mm, y + c.radius_mm, c.z_max_mm),
+                },
+                probe_position: probe,
+            }
+        };
     if let Some(t) = &g.tank {
         out.push(vertical("tank".into(), 0.0, 0.0, t, None));
     }
@@ -406,7 +408,10 @@ fn build_obstacles(model: &Model, g: &CellGeometry) -> Vec<Obstacle> {
     if let Some(f) = &g.floor {
         out.push(Obstacle {
             name: "floor".into(),
-            shape: ObstacleShape::Floor(HalfSpace::new(Vector::new(0.0, 0.0, 1.0)), Pose::translation(0.0, 0.0, f.z_mm)),
+            shape: ObstacleShape::Floor(
+                HalfSpace::new(Vector::new(0.0, 0.0, 1.0)),
+                Pose::translation(0.0, 0.0, f.z_mm),
+            ),
             aabb: WorldAabb {
                 min: Vector3::new(f64::NEG_INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY),
                 max: Vector3::new(f64::INFINITY, f64::INFINITY, f.z_mm),

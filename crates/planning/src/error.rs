@@ -10,7 +10,9 @@ pub enum PlanError {
     #[error("the arm of this model is not a Meca500-like arm: {0}")]
     UnsupportedArm(String),
     /// The numerical IK refinement did not converge.
-    #[error("IK refinement did not converge (tool error {position_error_mm:.3e} mm, {rotation_error_rad:.3e} rad)")]
+    #[error(
+        "IK refinement did not converge (tool error {position_error_mm:.3e} mm, {rotation_error_rad:.3e} rad)"
+    )]
     IkNotConverged {
         /// final position error [mm]
         position_error_mm: f64,
@@ -42,13 +44,13 @@ pub enum PlanError {
     /// Detmax selection failed.
     #[error("selection failed: {0}")]
     Selection(String),
-    /// No collision-free path was found between two tour poses.
-    #[error("no collision-free path from tour step {from_step} to {to_step}: {reason}")]
+    /// No collision-free path was found to a measurement of the tour.
+    #[error("no collision-free path to measurement {measurement} of the tour (from {from}): {reason}")]
     NoPath {
-        /// tour index of the start pose
-        from_step: usize,
-        /// tour index of the goal pose
-        to_step: usize,
+        /// 1-based rank of the measurement in the tour
+        measurement: usize,
+        /// where the leg starts: `the start pose` or `measurement k`
+        from: String,
         /// why (e.g. start in collision, RRT budget exhausted)
         reason: String,
     },

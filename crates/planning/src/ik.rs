@@ -148,6 +148,8 @@ pub struct ArmGeometry {
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ArmSolutions {
     q: [[f64; 6]; 8],
+    beyond_reach: [bool; 8],
+    branch: [u8; 8],
     len: usize,
 }
 
@@ -167,10 +169,29 @@ impl ArmSolutions {
         self.len == 0
     }
 
-    fn push(&mut self, q: [f64; 6]) {
+    /// For each solution: true when it is a seed placed just beyond the nominal reach
+    /// ([`ArmGeometry::solve_with_reach_slack`]), not an exact solution.
+    pub fn beyond_reach(&self) -> &[bool] {
+        &self.beyond_reach[..self.len]
+    }
+
+    /// For each solution its branch: bit 0 = shoulder (0: wrist centre on the +x side of the
+    /// J1 plane), bit 1 = elbow (0: `+acos`), bit 2 = wrist (0: `theta_6 >= 0`).
+    pub fn branches(&self) -> &[u8] {
+        &self.branch[..self.len]
+    }
+
+    /// The solution of branch `branch`, if present.
+    pub fn of_branch(&self, branch: u8) -> Option<[f64; 6]> {
+        self.branches().iter().position(|b| *b == branch).map(|k| self.q[k])
+    }
+
+    fn push(&mut self, q: [f64; 6], beyond_reach: bool, branch: u8) {
         let duplicate = self.as_slice().iter().any(|p| p.iter().zip(&q).all(|(a, b)| (a - b).abs() < 1e-12));
         if !duplicate && self.len < 8 {
             self.q[self.len] = q;
+            self.beyond_reach[self.len] = beyond_reach;
+            self.branch[self.len] = branch;
             self.len += 1;
         }
     }
@@ -251,7 +272,7 @@ impl ArmGeometry {
         let (a3, a4, d5) = (self.upper_arm_mm, self.elbow_offset_mm, self.forearm_mm);
         let l = a4.hypot(d5);
         let delta = d5.atan2(a4);
-        for shoulder in [1.0, -1.0] {
+        for (shoulder_bit, shoulder) in [(0u8, 1.0), (1, -1.0)] {
             let r = shoulder * rho;
             let theta2 = if shoulder > 0.0 { theta2_base } else { theta2_base + std::f64::consts::PI };
             let k = (r * r + h * h - a3 * a3 - a4 * a4 - d5 * d5) / (2.0 * a3);
@@ -259,20 +280,22 @@ impl ArmGeometry {
             if ratio.is_nan() || ratio.abs() > 1.0 + 1e-12 + slack {
                 continue;
             }
-            let gamma = if ratio.abs() <= 1.0 + 1e-12 {
+            let beyond = ratio.abs() > 1.0 + 1e-12;
+            let gamma = if !beyond {
                 ratio.clamp(-1.0, 1.0).acos()
             } else {
                 let edge = if ratio > 0.0 { 0.0 } else { std::f64::consts::PI };
                 (edge - ELBOW_SEED_RAD).abs()
             };
-            for elbow in [gamma, -gamma] {
+            for (elbow_bit, elbow) in [(0u8, gamma), (2, -gamma)] {
                 let theta4 = elbow - delta;
                 let (s4, c4) = theta4.sin_cos();
                 // v = a3 e(0) + a4 e(-theta4) + d5 e(-theta4 - 90 deg), e(phi) = (cos phi, sin phi)
                 let v_r = a3 + a4 * c4 - d5 * s4;
                 let v_h = -a4 * s4 - d5 * c4;
                 let theta3 = v_h.atan2(v_r) - h.atan2(r);
-                self.push_wrist(&mut out, target, [theta2, theta3, theta4]);
+                let branch = shoulder_bit | elbow_bit;
+                self.push_wrist(&mut out, target, [theta2, theta3, theta4], beyond, branch);
                 if gamma == 0.0 {
                     break;
                 }
@@ -281,35 +304,56 @@ impl ArmGeometry {
         out
     }
 
+    /// Forward kinematics of this nominal-structure arm: the tool-changer frame in the robot
+    /// base frame for joints `[q2..q7]` [rad] (the exact inverse of [`ArmGeometry::solve`]).
+    pub fn forward(&self, q: &[f64; 6]) -> Frame {
+        use std::f64::consts::FRAC_PI_2;
+        let t: [f64; 6] = std::array::from_fn(|k| q[k] + self.theta_offset_rad[k]);
+        let link = |alpha: f64, a: f64, theta: f64, d: f64| {
+            let r = rot_x(alpha) * rot_z(theta);
+            Frame { r, p: Vector3::new(a, 0.0, 0.0) + r.column(2) * d }
+        };
+        [
+            link(0.0, 0.0, t[0], self.shoulder_height_mm),
+            link(-FRAC_PI_2, 0.0, t[1], 0.0),
+            link(0.0, self.upper_arm_mm, t[2], 0.0),
+            link(-FRAC_PI_2, self.elbow_offset_mm, t[3], self.forearm_mm),
+            link(FRAC_PI_2, 0.0, t[4], 0.0),
+            link(-FRAC_PI_2, 0.0, t[5], self.flange_mm),
+        ]
+        .iter()
+        .fold(Frame::identity(), |acc, l| acc.compose(l))
+    }
+
     /// Adds the (up to two) wrist solutions for given arm angles theta_2..4.
-    fn push_wrist(&self, out: &mut ArmSolutions, target: &Frame, arm: [f64; 3]) {
+    fn push_wrist(&self, out: &mut ArmSolutions, target: &Frame, arm: [f64; 3], beyond: bool, branch: u8) {
         let [t2, t3, t4] = arm;
         // R_4 in B: Rz(t2) Rx(-90) Rz(t3) Rz(t4)   (alpha_3 = 0, beta = 0)
         let r4 = rot_z(t2) * rot_x(-std::f64::consts::FRAC_PI_2) * rot_z(t3 + t4);
         let m = r4.transpose() * target.r * rot_x(std::f64::consts::FRAC_PI_2);
         let s6 = m[(0, 1)].hypot(m[(2, 1)]);
         let c6 = m[(1, 1)];
-        let mut add = |t5: f64, t6: f64, t7: f64| {
+        let mut add = |t5: f64, t6: f64, t7: f64, wrist_bit: u8| {
             let theta = [t2, t3, t4, t5, t6, t7];
             let mut q = [0.0; 6];
             for k in 0..6 {
                 q[k] = wrap_angle(theta[k] - self.theta_offset_rad[k]);
             }
-            out.push(q);
+            out.push(q, beyond, branch | wrist_bit);
         };
         if s6 > 1e-12 {
             let t6 = s6.atan2(c6);
             let t5 = m[(2, 1)].atan2(-m[(0, 1)]);
             let t7 = m[(1, 2)].atan2(m[(1, 0)]);
-            add(t5, t6, t7);
-            add(t5 + std::f64::consts::PI, -t6, t7 + std::f64::consts::PI);
+            add(t5, t6, t7, 0);
+            add(t5 + std::f64::consts::PI, -t6, t7 + std::f64::consts::PI, 4);
         } else if c6 > 0.0 {
             // theta6 = 0: M = Ry(t5 + t7); choose t5 = 0
-            add(0.0, 0.0, m[(0, 2)].atan2(m[(0, 0)]));
+            add(0.0, 0.0, m[(0, 2)].atan2(m[(0, 0)]), 0);
         } else {
             // theta6 = pi: M = Ry(t5 - t7) Rz(pi); choose t5 = 0
             let mm = m * rot_z(std::f64::consts::PI).transpose();
-            add(0.0, std::f64::consts::PI, -mm[(0, 2)].atan2(mm[(0, 0)]));
+            add(0.0, std::f64::consts::PI, -mm[(0, 2)].atan2(mm[(0, 0)]), 0);
         }
     }
 }
@@ -329,7 +373,12 @@ pub struct RefineOptions {
 
 impl Default for RefineOptions {
     fn default() -> Self {
-        Self { max_iterations: 50, tol_position_mm: 1e-10, tol_rotation_rad: 1e-13, orientation_scale_mm: 100.0 }
+        Self {
+            max_iterations: 50,
+            tol_position_mm: 1e-10,
+            tol_rotation_rad: 1e-13,
+            orientation_scale_mm: 100.0,
+        }
     }
 }
 
@@ -385,7 +434,8 @@ pub fn refine_tool_pose(
     let (mut err, mut chain) = tool_error(model, &q, target);
     let mut lambda = 1e-6;
     let done = |e: &Vector6<f64>| {
-        e.fixed_rows::<3>(0).norm() <= opts.tol_position_mm && e.fixed_rows::<3>(3).norm() <= opts.tol_rotation_rad
+        e.fixed_rows::<3>(0).norm() <= opts.tol_position_mm
+            && e.fixed_rows::<3>(3).norm() <= opts.tol_rotation_rad
     };
     for iteration in 0..=opts.max_iterations {
         if done(&err) {
@@ -447,18 +497,56 @@ pub fn refine_tool_pose(
     })
 }
 
+/// A closed-form seed of the refinement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IkSeed {
+    /// joints (q1 as given)
+    pub q: JointVector,
+    /// true for a seed just beyond the nominal arm's reach (not an exact nominal solution)
+    pub beyond_reach: bool,
+}
+
 /// Closed-form seeds + refinement for the tool-changer frame pose of a model.
+///
+/// When the model is not exactly the nominal-structure arm (a calibrated model), each
+/// closed-form seed is first corrected [`SEED_CORRECTIONS`] times on its own branch: with
+/// `E(q) = T_nom(q)⁻¹ T_model(q)` the error of the nominal structure at the seed, the closed
+/// form is solved again for `T* E(q)⁻¹`. Near a singularity a small model error moves the
+/// solution a lot, and this keeps the seed on the right branch before the refinement.
 #[derive(Debug, Clone)]
 pub struct ToolPoseIk<'a> {
     model: &'a Model,
     arm: ArmGeometry,
     refine: RefineOptions,
+    corrections: usize,
+}
+
+/// Branch-preserving closed-form corrections of a seed on a calibrated model.
+pub const SEED_CORRECTIONS: usize = 2;
+
+/// True when the model's tool frame is the closed-form arm's at a few test configurations
+/// (nominal model: no seed correction needed).
+fn closed_form_is_exact(model: &Model, arm: &ArmGeometry) -> bool {
+    let tests = [
+        [120.0, 30.0, 20.0, -40.0, 50.0, 60.0, -70.0],
+        [10.0, -100.0, -50.0, 30.0, -120.0, -20.0, 150.0],
+        [280.0, 150.0, 80.0, -120.0, 10.0, 100.0, 5.0],
+    ];
+    tests.iter().all(|t| {
+        let q = JointVector::from_mm_deg(t[0], [t[1], t[2], t[3], t[4], t[5], t[6]]);
+        let arm_q: [f64; 6] = std::array::from_fn(|k| q.0[k + 1]);
+        let nominal = robot_base_frame(model, q.0[0]).compose(&arm.forward(&arm_q));
+        let actual = model.chain(&q).tool;
+        (nominal.p - actual.p).norm() < 1e-9 && rotation_angle_between(&nominal.r, &actual.r) < 1e-12
+    })
 }
 
 impl<'a> ToolPoseIk<'a> {
     /// IK for `model` (its arm must have the Meca500 structure, see [`ArmGeometry::from_model`]).
     pub fn new(model: &'a Model, refine: RefineOptions) -> Result<Self, PlanError> {
-        Ok(Self { model, arm: ArmGeometry::from_model(model)?, refine })
+        let arm = ArmGeometry::from_model(model)?;
+        let corrections = if closed_form_is_exact(model, &arm) { 0 } else { SEED_CORRECTIONS };
+        Ok(Self { model, arm, refine, corrections })
     }
 
     /// The closed-form geometry in use.
@@ -472,20 +560,32 @@ impl<'a> ToolPoseIk<'a> {
     }
 
     /// Closed-form seeds at guide position `q1_mm` for the world tool pose `target`, given the
-    /// robot base frame `base` at that guide position ([`robot_base_frame`]).
-    pub fn seeds(&self, q1_mm: f64, base: &Frame, target: &Frame) -> Vec<JointVector> {
-        let local = base.inverse().compose(target);
-        self.arm
-            .solve_with_reach_slack(&local, SEED_REACH_SLACK)
-            .as_slice()
-            .iter()
-            .map(|arm| {
-                let mut q = [0.0; 7];
-                q[0] = q1_mm;
-                q[1..].copy_from_slice(arm);
-                JointVector(q)
-            })
-            .collect()
+    /// robot base frame `base` at that guide position ([`robot_base_frame`]); corrected on
+    /// their branch for a calibrated model (see the type docs).
+    pub fn seeds(&self, q1_mm: f64, base: &Frame, target: &Frame) -> Vec<IkSeed> {
+        let base_inv = base.inverse();
+        let solutions = self.arm.solve_with_reach_slack(&base_inv.compose(target), SEED_REACH_SLACK);
+        let joints = |arm: &[f64; 6]| {
+            let mut q = [0.0; 7];
+            q[0] = q1_mm;
+            q[1..].copy_from_slice(arm);
+            JointVector(q)
+        };
+        let mut out = Vec::with_capacity(solutions.len());
+        for ((arm, beyond), branch) in solutions.as_slice().iter().zip(solutions.beyond_reach()).zip(solutions.branches()) {
+            let mut q = *arm;
+            for _ in 0..self.corrections {
+                let actual = self.model.chain(&joints(&q)).tool;
+                let nominal = base.compose(&self.arm.forward(&q));
+                let corrected = base_inv.compose(target).compose(&actual.inverse()).compose(&nominal);
+                match self.arm.solve_with_reach_slack(&corrected, SEED_REACH_SLACK).of_branch(*branch) {
+                    Some(next) => q = next,
+                    None => break,
+                }
+            }
+            out.push(IkSeed { q: joints(&q), beyond_reach: *beyond });
+        }
+        out
     }
 
     /// Refines one seed on the model.
@@ -499,7 +599,7 @@ impl<'a> ToolPoseIk<'a> {
         let base = robot_base_frame(self.model, q1_mm);
         let mut out: Vec<JointVector> = Vec::with_capacity(8);
         for seed in self.seeds(q1_mm, &base, target) {
-            if let Ok(r) = self.refine(&seed, target) {
+            if let Ok(r) = self.refine(&seed.q, target) {
                 let mut q = r.q;
                 for v in q.0.iter_mut().skip(1) {
                     *v = wrap_angle(*v);
@@ -525,7 +625,11 @@ pub(crate) fn max_abs_diff(a: &JointVector, b: &JointVector) -> f64 {
 
 /// World tool-changer-frame pose that puts TCP offset `tcp_in_tool` at `point_world` with tool
 /// orientation `rotation` (world).
-pub fn tool_pose_for_tcp(rotation: &Matrix3<f64>, tcp_in_tool: &Vector3<f64>, point_world: &Vector3<f64>) -> Frame {
+pub fn tool_pose_for_tcp(
+    rotation: &Matrix3<f64>,
+    tcp_in_tool: &Vector3<f64>,
+    point_world: &Vector3<f64>,
+) -> Frame {
     Frame { r: *rotation, p: point_world - rotation * tcp_in_tool }
 }
 
@@ -535,10 +639,12 @@ mod tests {
 
     #[test]
     fn wrap_angle_range() {
-        for a in [-10.0, -std::f64::consts::PI, 0.0, 3.0, std::f64::consts::PI, 7.0] {
+        use std::f64::consts::{PI, TAU};
+        for a in [-10.0, -PI, 0.0, 3.0, PI, 7.0, 100.0] {
             let w = wrap_angle(a);
-            assert!(w > -std::f64::consts::PI && w <= std::f64::consts::PI, "{a} -> {w}");
-            assert!(((a - w) / std::f64::consts::TAU).fract().abs() < 1e-12 || ((a - w) / std::f64::consts::TAU).fract().abs() > 1.0 - 1e-12);
+            assert!(w > -PI && w <= PI, "{a} -> {w}");
+            let turns = (a - w) / TAU;
+            assert!((turns - turns.round()).abs() < 1e-12, "{a} -> {w} is not a whole number of turns away");
         }
     }
 
@@ -549,7 +655,8 @@ mod tests {
             (Vector3::new(0.0, 0.0, 1.0), 0.7),
             (Vector3::new(1.0, -1.0, 0.5).normalize(), std::f64::consts::PI - 1e-9),
         ] {
-            let r = *nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle).matrix();
+            let r =
+                *nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle).matrix();
             let v = rotation_vector(&r);
             assert!((v - axis * angle).norm() < 1e-8 * angle.max(1e-6), "{v} vs {}", axis * angle);
         }

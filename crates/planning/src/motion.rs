@@ -35,7 +35,10 @@ impl MotionTimer {
     pub fn from_limits(limits: &MotionLimits) -> Result<Self, PlanError> {
         let f = limits.speed_fraction;
         if !(f > 0.0 && f <= 1.0) {
-            return Err(PlanError::Option { option: "motion.speed_fraction".into(), reason: format!("must be in (0, 1], got {f}") });
+            return Err(PlanError::Option {
+                option: "motion.speed_fraction".into(),
+                reason: format!("must be in (0, 1], got {f}"),
+            });
         }
         let mut speed = [0.0; 7];
         speed[0] = limits.guide_speed_mm_per_s * f;
@@ -43,9 +46,16 @@ impl MotionTimer {
             speed[k + 1] = deg_to_rad(*v) * f;
         }
         if speed.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err(PlanError::Option { option: "motion".into(), reason: format!("every speed must be positive, got {limits:?}") });
+            return Err(PlanError::Option {
+                option: "motion".into(),
+                reason: format!("every speed must be positive, got {limits:?}"),
+            });
         }
-        Ok(Self { speed, measurement_s: limits.measurement_s, probe_replacement_s: limits.probe_replacement_s })
+        Ok(Self {
+            speed,
+            measurement_s: limits.measurement_s,
+            probe_replacement_s: limits.probe_replacement_s,
+        })
     }
 
     /// Time [s] of the synchronised joint move from `a` to `b`.
@@ -89,9 +99,14 @@ impl Resolution {
 
     /// Checks that both steps are positive and finite.
     pub fn validate(&self) -> Result<(), PlanError> {
-        for (name, v) in [("max_joint_step_deg", self.max_joint_step_deg), ("max_guide_step_mm", self.max_guide_step_mm)] {
+        for (name, v) in
+            [("max_joint_step_deg", self.max_joint_step_deg), ("max_guide_step_mm", self.max_guide_step_mm)]
+        {
             if !(v.is_finite() && v > 0.0) {
-                return Err(PlanError::Option { option: format!("resolution.{name}"), reason: format!("must be > 0, got {v}") });
+                return Err(PlanError::Option {
+                    option: format!("resolution.{name}"),
+                    reason: format!("must be > 0, got {v}"),
+                });
             }
         }
         Ok(())
@@ -108,7 +123,7 @@ pub fn interpolate(a: &JointVector, b: &JointVector, t: f64) -> JointVector {
 }
 
 /// Margin kept from the arm joint limits by every commanded move that is not a measurement
-/// (approach poses, path waypoints) [deg]. Measurement poses keep the larger
+/// (retreat poses, path waypoints) [deg]. Measurement poses keep the larger
 /// `joint_margin_deg` of the candidate options, because auto-centring moves them slightly.
 pub const MOVE_MARGIN_DEG: f64 = 0.5;
 

@@ -34,7 +34,8 @@ pub fn candidates_csv<'a>(candidates: impl IntoIterator<Item = &'a Candidate>) -
         let rec = [c.position.to_string(), c.tcp.to_string()].into_iter().chain(joint_fields(&c.q));
         w.write_record(rec).map_err(e)?;
     }
-    let bytes = w.into_inner().map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })?;
+    let bytes =
+        w.into_inner().map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })?;
     String::from_utf8(bytes).map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })
 }
 
@@ -51,7 +52,8 @@ pub fn tour_csv(steps: &[TourStep]) -> Result<String, PlanError> {
             .chain([format!("{:.3}", s.time_s)]);
         w.write_record(rec).map_err(e)?;
     }
-    let bytes = w.into_inner().map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })?;
+    let bytes =
+        w.into_inner().map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })?;
     String::from_utf8(bytes).map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })
 }
 
@@ -76,7 +78,15 @@ pub struct IndicesSummary {
 
 impl From<&vatcal_observability::ObservabilityIndices> for IndicesSummary {
     fn from(i: &vatcal_observability::ObservabilityIndices) -> Self {
-        Self { o1: i.o1, o2: i.o2, o3: i.o3, o4: i.o4, o5: i.o5, rank: i.rank, condition_number: i.condition_number }
+        Self {
+            o1: i.o1,
+            o2: i.o2,
+            o3: i.o3,
+            o4: i.o4,
+            o5: i.o5,
+            rank: i.rank,
+            condition_number: i.condition_number,
+        }
     }
 }
 
@@ -139,9 +149,10 @@ impl PlanSummary {
         let t = &self.timing;
         let r = &self.observability_raw;
         let u = &self.observability_unit_norm;
-        let per: Vec<String> = self.selected_per_position.iter().map(|(p, n)| format!("position {p}: {n}")).collect();
+        let per: Vec<String> =
+            self.selected_per_position.iter().map(|(p, n)| format!("position {p}: {n}")).collect();
         format!(
-            "candidates per stage:\n  TCP poses                {}\n  IK solutions             {}\n  within joint limits      {}\n  clear of singularities   {}\n  collision-free           {}\n  approachable (N)         {}\n\
+            "candidates per stage:\n  TCP poses                {}\n  IK solutions             {}\n  within joint limits      {}\n  clear of singularities   {}\n  collision-free           {}\n  retreat_clear (N)         {}\n\
              selected: {} ({})\n\
              observability (natural units, {} parameters): O1 {:.3}  O2 {:.3e}  O3 {:.3e}  O4 {:.3e}  O5 {:.3e}  rank {}  cond {:.3e}\n\
              observability (unit-norm columns):             O1 {:.3}  O2 {:.3e}  O3 {:.3e}  O4 {:.3e}  O5 {:.3e}  cond {:.3e}\n\
@@ -154,7 +165,7 @@ impl PlanSummary {
             c.within_limits,
             c.clear_of_singularities,
             c.collision_free,
-            c.approachable,
+            c.retreat_clear,
             self.selected,
             per.join(", "),
             self.parameters,
@@ -171,7 +182,7 @@ impl PlanSummary {
             u.o4,
             u.o5,
             u.condition_number,
-            c.approachable,
+            c.retreat_clear,
             self.candidates_o1,
             t.ordered_s,
             t.ordered_s / 60.0,
@@ -200,7 +211,8 @@ pub fn write_plan(plan: &Plan, dir: &Path) -> Result<PlanSummary, PlanError> {
     write_text(&dir.join("selected.csv"), &candidates_csv(selected)?)?;
     write_text(&dir.join("tour.csv"), &tour_csv(&plan.steps)?)?;
     let summary = PlanSummary::of(plan);
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| write_error(&dir.join("summary.json"), e))?;
+    let json =
+        serde_json::to_string_pretty(&summary).map_err(|e| write_error(&dir.join("summary.json"), e))?;
     write_text(&dir.join("summary.json"), &json)?;
     Ok(summary)
 }

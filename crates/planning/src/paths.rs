@@ -131,7 +131,13 @@ pub struct PathPlanner<'c, 'm> {
 impl PathPlanner<'_, '_> {
     /// Plans a collision-free path from `start` to `goal` with the probe in state `probe`
     /// (see the module docs); `seed` seeds the RRT.
-    pub fn plan(&self, start: &JointVector, goal: &JointVector, probe: ProbeState, seed: u64) -> Result<JointPath, PathFailure> {
+    pub fn plan(
+        &self,
+        start: &JointVector,
+        goal: &JointVector,
+        probe: ProbeState,
+        seed: u64,
+    ) -> Result<JointPath, PathFailure> {
         let (checker, bounds, opts) = (self.checker, self.bounds, self.opts);
         if let Some(c) = checker.check(start, probe) {
             return Err(PathFailure::StartInCollision(c));
@@ -152,8 +158,9 @@ impl PathPlanner<'_, '_> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let planner = Rrt { checker, bounds, timer: self.timer, probe, opts };
         let raw = planner.connect(start, goal, &mut rng)?;
-        let verified =
-            |p: &[JointVector]| p.windows(2).all(|w| segment_is_free(checker, &w[0], &w[1], probe, &opts.resolution));
+        let verified = |p: &[JointVector]| {
+            p.windows(2).all(|w| segment_is_free(checker, &w[0], &w[1], probe, &opts.resolution))
+        };
         let mut waypoints = planner.shortcut(raw.clone(), &mut rng);
         waypoints.dedup_by(|a, b| a == b);
         let waypoints = planner.skip_ahead(waypoints);
@@ -216,8 +223,11 @@ impl Rrt<'_, '_> {
         let near = self.nearest(tree, target);
         let from = tree[near].q;
         let d = self.distance(&from, target);
-        let (to, reached) =
-            if d <= self.opts.step_s { (*target, true) } else { (interpolate(&from, target, self.opts.step_s / d), false) };
+        let (to, reached) = if d <= self.opts.step_s {
+            (*target, true)
+        } else {
+            (interpolate(&from, target, self.opts.step_s / d), false)
+        };
         if !segment_is_free(self.checker, &from, &to, self.probe, &self.opts.resolution) {
             return Extend::Trapped;
         }
@@ -245,7 +255,12 @@ impl Rrt<'_, '_> {
         out
     }
 
-    fn connect(&self, start: &JointVector, goal: &JointVector, rng: &mut ChaCha8Rng) -> Result<Vec<JointVector>, PathFailure> {
+    fn connect(
+        &self,
+        start: &JointVector,
+        goal: &JointVector,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Vec<JointVector>, PathFailure> {
         let mut a = vec![Node { q: *start, parent: 0 }];
         let mut b = vec![Node { q: *goal, parent: 0 }];
         let mut a_is_start = true;

@@ -1,8 +1,8 @@
 //! The whole planning pipeline: candidates → Detmax selection → tour → paths.
 
+use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
 use rand::seq::SliceRandom;
-use rand::SeedableRng;
 use rayon::prelude::*;
 use serde::Serialize;
 use vatcal_core::cell::MotionLimits;
@@ -37,7 +37,7 @@ pub struct PlanOptions {
     /// speeds and fixed times (the cell's `[motion]` table)
     pub motion: MotionLimits,
     /// robot configuration at the start of the campaign (`None`: start at the first
-    /// measurement's approach pose)
+    /// measurement's retreat pose)
     pub start: Option<JointVector>,
     /// master seed of every random stage (orientations, Detmax, tour restarts, RRT)
     pub seed: u64,
@@ -63,9 +63,10 @@ impl Default for PlanOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StepKind {
-    /// joint move to `q` (a waypoint of a collision-free path, an approach or a retreat)
+    /// joint move to `q` (a waypoint of a collision-free path; the last one before a
+    /// measurement and the one right after it are the retreat pose)
     Move,
-    /// straight joint move from the approach pose down to `q`, auto-centre TCP `tcp` on the
+    /// straight joint move from the retreat pose down to `q`, auto-centre TCP `tcp` on the
     /// probe at `position`, record the joints
     Measure,
     /// pause: the operator places the probe plate at `position` (the robot stays at `q`)
@@ -98,7 +99,7 @@ pub struct TourStep {
     pub time_s: f64,
 }
 
-/// One leg of the tour: the path from the previous approach pose to the next one.
+/// One leg of the tour: the path from the previous retreat pose to the next one.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Leg {
     /// the verified path
@@ -112,7 +113,7 @@ pub struct Leg {
 /// Estimated campaign durations [s].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Timing {
-    /// the optimised order, straight joint moves between approach poses
+    /// the optimised order, straight joint moves between retreat poses
     pub ordered_s: f64,
     /// the optimised order along the planned (collision-free) paths
     pub planned_paths_s: f64,
@@ -150,7 +151,7 @@ pub struct Plan {
     pub quality: SelectionQuality,
     /// visiting order: indices into `candidates.candidates`
     pub order: Vec<usize>,
-    /// one leg per measurement in `order` (the path to its approach pose)
+    /// one leg per measurement in `order` (the path to its retreat pose)
     pub legs: Vec<Leg>,
     /// the executable tour
     pub steps: Vec<TourStep>,
@@ -206,7 +207,11 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
     Ok(Plan { candidates, selected, quality, order, legs, steps, timing })
 }
 
-fn select(model: &Model, set: &CandidateSet, opts: &PlanOptions) -> Result<(Vec<usize>, SelectionQuality), PlanError> {
+fn select(
+    model: &Model,
+    set: &CandidateSet,
+    opts: &PlanOptions,
+) -> Result<(Vec<usize>, SelectionQuality), PlanError> {
     let err = |e: vatcal_observability::ObservabilityError| PlanError::Selection(e.to_string());
     let measurements: Vec<Measurement> =
         set.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
@@ -217,21 +222,30 @@ fn select(model: &Model, set: &CandidateSet, opts: &PlanOptions) -> Result<(Vec<
     let selection = detmax(&cands, &d).map_err(err)?;
     let jac = cands.design_jacobian(&selection.selected);
     let raw = observability_indices(jac.as_ref(), &opts.params, ColumnScaling::None).map_err(err)?;
-    let unit_norm = observability_indices(jac.as_ref(), &opts.params, ColumnScaling::UnitNorm).map_err(err)?;
+    let unit_norm =
+        observability_indices(jac.as_ref(), &opts.params, ColumnScaling::UnitNorm).map_err(err)?;
     let all = observability_indices(cands.stacked(), &opts.params, ColumnScaling::None).map_err(err)?;
-    Ok((selection.selected.clone(), SelectionQuality { raw, unit_norm, candidates_o1: all.o1, log_det: selection.log_det }))
+    Ok((
+        selection.selected.clone(),
+        SelectionQuality { raw, unit_norm, candidates_o1: all.o1, log_det: selection.log_det },
+    ))
 }
 
-/// Tour costs between the approach poses of `nodes` (candidate indices).
-fn tour_costs(set: &CandidateSet, nodes: &[usize], timer: &MotionTimer, start: Option<&JointVector>) -> TourCosts {
+/// Tour costs between the retreat poses of `nodes` (candidate indices).
+fn tour_costs(
+    set: &CandidateSet,
+    nodes: &[usize],
+    timer: &MotionTimer,
+    start: Option<&JointVector>,
+) -> TourCosts {
     let c = |i: usize| &set.candidates[nodes[i]];
     let cost = |i: usize, j: usize| {
         let replace = if c(i).position != c(j).position { timer.probe_replacement_s } else { 0.0 };
-        timer.move_time_s(&c(i).approach, &c(j).approach) + replace
+        timer.move_time_s(&c(i).retreat, &c(j).retreat) + replace
     };
     match start {
         Some(s) => {
-            let from_start = |j: usize| timer.move_time_s(s, &c(j).approach);
+            let from_start = |j: usize| timer.move_time_s(s, &c(j).retreat);
             TourCosts::new(nodes.len(), cost, Some(&from_start))
         }
         None => TourCosts::new(nodes.len(), cost, None),
@@ -245,9 +259,14 @@ fn order_tour(set: &CandidateSet, nodes: &[usize], timer: &MotionTimer, opts: &P
     solve_open_path(&costs, &groups, &tour).into_iter().map(|k| nodes[k]).collect()
 }
 
-/// Estimated duration of visiting `order` with straight moves (+ approach/descent, measurement
+/// Estimated duration of visiting `order` with straight moves (+ descent, auto-centring, retreat
 /// and re-placement times).
-fn estimated_time(set: &CandidateSet, order: &[usize], timer: &MotionTimer, start: Option<&JointVector>) -> (f64, usize) {
+fn estimated_time(
+    set: &CandidateSet,
+    order: &[usize],
+    timer: &MotionTimer,
+    start: Option<&JointVector>,
+) -> (f64, usize) {
     let mut t = 0.0;
     let mut replacements = 0;
     let mut prev: Option<&crate::candidates::Candidate> = None;
@@ -255,13 +274,13 @@ fn estimated_time(set: &CandidateSet, order: &[usize], timer: &MotionTimer, star
         let c = &set.candidates[i];
         match prev {
             Some(p) => {
-                t += timer.move_time_s(&p.approach, &c.approach);
+                t += timer.move_time_s(&p.retreat, &c.retreat);
                 if p.position != c.position {
                     t += timer.probe_replacement_s;
                     replacements += 1;
                 }
             }
-            None => t += start.map_or(0.0, |s| timer.move_time_s(s, &c.approach)),
+            None => t += start.map_or(0.0, |s| timer.move_time_s(s, &c.retreat)),
         }
         t += per_measurement_s(c, timer);
         prev = Some(c);
@@ -271,7 +290,11 @@ fn estimated_time(set: &CandidateSet, order: &[usize], timer: &MotionTimer, star
 
 /// Descent, auto-centring and retreat of one measurement [s].
 fn per_measurement_s(c: &crate::candidates::Candidate, timer: &MotionTimer) -> f64 {
-    2.0 * timer.move_time_s(&c.approach, &c.q) + timer.measurement_s
+    2.0 * timer.move_time_s(&c.retreat, &c.q) + timer.measurement_s
+}
+
+fn leg_origin(leg: usize) -> String {
+    if leg == 0 { "the start pose".into() } else { format!("measurement {leg}") }
 }
 
 fn leg_seed(seed: u64, leg: usize) -> u64 {
@@ -294,42 +317,64 @@ fn plan_legs(
             let (from, replace_probe) = match k {
                 0 => match &opts.start {
                     Some(s) => (*s, false),
-                    None => (c.approach, false),
+                    None => (c.retreat, false),
                 },
                 _ => {
                     let p = &set.candidates[order[k - 1]];
-                    (p.approach, p.position != c.position)
+                    (p.retreat, p.position != c.position)
                 }
             };
             let probe = ProbeState::At { position: c.position };
-            if from == c.approach {
+            if from == c.retreat {
                 if let Some(contact) = checker.check(&from, probe) {
-                    return Err(PlanError::NoPath { from_step: k, to_step: k + 1, reason: format!("approach pose in collision ({contact})") });
+                    return Err(PlanError::NoPath {
+                        measurement: k + 1,
+                        from: leg_origin(k),
+                        reason: format!("retreat pose in collision ({contact})"),
+                    });
                 }
                 let path = JointPath { waypoints: vec![from], method: PathMethod::Straight };
                 return Ok(Leg { path, position: c.position, replace_probe });
             }
-            let path = planner
-                .plan(&from, &c.approach, probe, leg_seed(opts.seed, k))
-                .map_err(|f| PlanError::NoPath { from_step: k, to_step: k + 1, reason: f.to_string() })?;
+            let path = planner.plan(&from, &c.retreat, probe, leg_seed(opts.seed, k)).map_err(|f| {
+                PlanError::NoPath { measurement: k + 1, from: leg_origin(k), reason: f.to_string() }
+            })?;
             Ok(Leg { path, position: c.position, replace_probe })
         })
         .collect();
     results.into_iter().collect()
 }
 
-fn build_steps(set: &CandidateSet, order: &[usize], legs: &[Leg], timer: &MotionTimer, has_start: bool) -> Vec<TourStep> {
+fn build_steps(
+    set: &CandidateSet,
+    order: &[usize],
+    legs: &[Leg],
+    timer: &MotionTimer,
+    has_start: bool,
+) -> Vec<TourStep> {
     let mut steps = Vec::new();
     let mut t = 0.0;
     for (k, (&i, leg)) in order.iter().zip(legs).enumerate() {
         let c = &set.candidates[i];
-        let from = leg.path.waypoints.first().copied().unwrap_or(c.approach);
+        let from = leg.path.waypoints.first().copied().unwrap_or(c.retreat);
         if k == 0 {
             // the initial placement of the plate (set-up: no time counted)
-            steps.push(TourStep { kind: StepKind::ReplaceProbe, position: c.position, tcp: c.tcp, q: from, time_s: t });
+            steps.push(TourStep {
+                kind: StepKind::ReplaceProbe,
+                position: c.position,
+                tcp: c.tcp,
+                q: from,
+                time_s: t,
+            });
         } else if leg.replace_probe {
             t += timer.probe_replacement_s;
-            steps.push(TourStep { kind: StepKind::ReplaceProbe, position: c.position, tcp: c.tcp, q: from, time_s: t });
+            steps.push(TourStep {
+                kind: StepKind::ReplaceProbe,
+                position: c.position,
+                tcp: c.tcp,
+                q: from,
+                time_s: t,
+            });
         }
         let skip = if k == 0 && !has_start { 0 } else { 1 };
         let mut prev = from;
@@ -338,10 +383,16 @@ fn build_steps(set: &CandidateSet, order: &[usize], legs: &[Leg], timer: &Motion
             steps.push(TourStep { kind: StepKind::Move, position: c.position, tcp: c.tcp, q: *w, time_s: t });
             prev = *w;
         }
-        t += timer.move_time_s(&c.approach, &c.q) + timer.measurement_s;
+        t += timer.move_time_s(&c.retreat, &c.q) + timer.measurement_s;
         steps.push(TourStep { kind: StepKind::Measure, position: c.position, tcp: c.tcp, q: c.q, time_s: t });
-        t += timer.move_time_s(&c.q, &c.approach);
-        steps.push(TourStep { kind: StepKind::Move, position: c.position, tcp: c.tcp, q: c.approach, time_s: t });
+        t += timer.move_time_s(&c.q, &c.retreat);
+        steps.push(TourStep {
+            kind: StepKind::Move,
+            position: c.position,
+            tcp: c.tcp,
+            q: c.retreat,
+            time_s: t,
+        });
     }
     steps
 }
@@ -363,7 +414,14 @@ fn timing(
     let planned_paths_s = legs.iter().map(|l| timer.path_time_s(&l.path.waypoints)).sum::<f64>()
         + replacements as f64 * timer.probe_replacement_s
         + order.iter().map(|&i| per_measurement_s(&set.candidates[i], timer)).sum::<f64>();
-    Timing { ordered_s, planned_paths_s, selection_order_s, shuffled_order_s, replacements, shuffled_replacements }
+    Timing {
+        ordered_s,
+        planned_paths_s,
+        selection_order_s,
+        shuffled_order_s,
+        replacements,
+        shuffled_replacements,
+    }
 }
 
 /// Number of legs that needed RRT-Connect.

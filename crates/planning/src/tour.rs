@@ -2,7 +2,7 @@
 //!
 //! # Cost model
 //! The robot visits the measurements one after the other; between two measurements it moves
-//! between their approach poses. The cost of going from measurement `i` to `j` is
+//! between their retreat poses. The cost of going from measurement `i` to `j` is
 //!
 //! `c(i, j) = t_move(i, j) + T_replace · [position_i ≠ position_j]`
 //!
@@ -341,8 +341,7 @@ pub fn held_karp(costs: &TourCosts) -> Option<(f64, Vec<usize>)> {
             }
         }
     }
-    let (mut last, best) =
-        (0..n).map(|j| (j, dp[full * n + j])).min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (mut last, best) = (0..n).map(|j| (j, dp[full * n + j])).min_by(|a, b| a.1.total_cmp(&b.1))?;
     let mut order = vec![last];
     let mut mask = full;
     while parent[mask * n + last] != usize::MAX {

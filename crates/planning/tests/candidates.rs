@@ -6,7 +6,9 @@ use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
 use vatcal_core::deg_to_rad;
 use vatcal_kinematics::Model;
-use vatcal_planning::candidates::{CandidateOptions, CandidateSet, generate_candidates, guide_positions, sample_orientation};
+use vatcal_planning::candidates::{
+    CandidateOptions, CandidateSet, generate_candidates, guide_positions, sample_orientation,
+};
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::motion::{Resolution, SingularityMargins};
@@ -33,17 +35,21 @@ fn verify_every_candidate(model: &Model, set: &CandidateSet, opts: &CandidateOpt
         let err = (tcp - model.position(c.position).expect("position")).norm();
         assert!(err < 1e-6, "candidate {c:?}: TCP {err} mm from the calibration position");
         for (k, (lo, hi)) in limits.iter().enumerate().skip(1) {
-            assert!(c.q.0[k] >= lo + margin - 1e-12 && c.q.0[k] <= hi - margin + 1e-12, "joint {} of {c:?}", k + 1);
+            assert!(
+                c.q.0[k] >= lo + margin - 1e-12 && c.q.0[k] <= hi - margin + 1e-12,
+                "joint {} of {c:?}",
+                k + 1
+            );
         }
         assert!((limits[0].0..=limits[0].1).contains(&c.q.0[0]));
         assert!(opts.singularity.clear(model, &model.chain(&c.q)));
         let measuring = ProbeState::Measuring { position: c.position, tcp: c.tcp };
         assert!(checker.is_free(&c.q, measuring), "{c:?} collides: {:?}", checker.check(&c.q, measuring));
-        // the approach pose: same orientation, ball 30 mm straight above, clear of every probe placement
-        let above = model.tcp_position(&c.approach, c.tcp).expect("fk");
-        assert!((above - tcp - nalgebra::Vector3::new(0.0, 0.0, opts.approach_mm)).norm() < 1e-6);
-        assert!(checker.is_free(&c.approach, ProbeState::Everywhere));
-        assert!(segment_is_free(&checker, &c.approach, &c.q, measuring, &Resolution::default()));
+        // the retreat pose: same orientation, ball 30 mm straight above, clear of every probe placement
+        let above = model.tcp_position(&c.retreat, c.tcp).expect("fk");
+        assert!((above - tcp - nalgebra::Vector3::new(0.0, 0.0, opts.retreat_height_mm)).norm() < 1e-6);
+        assert!(checker.is_free(&c.retreat, ProbeState::Everywhere));
+        assert!(segment_is_free(&checker, &c.retreat, &c.q, measuring, &Resolution::default()));
     }
 }
 
@@ -56,8 +62,8 @@ fn every_nominal_candidate_is_verifiable() {
     assert_eq!(c.poses, 12 * 9);
     assert!(c.ik_solutions <= 8 * 6 * c.poses);
     assert!(c.ik_solutions >= c.within_limits && c.within_limits >= c.clear_of_singularities);
-    assert!(c.clear_of_singularities >= c.collision_free && c.collision_free >= c.approachable);
-    assert_eq!(c.approachable, set.candidates.len());
+    assert!(c.clear_of_singularities >= c.collision_free && c.collision_free >= c.retreat_clear);
+    assert_eq!(c.retreat_clear, set.candidates.len());
     assert!(set.candidates.len() > 50, "{c:?}");
     for p in model.position_ids() {
         assert!(set.candidates.iter().any(|x| x.position == p), "no candidate at position {p}");
@@ -121,7 +127,7 @@ fn bad_options_are_rejected() {
         CandidateOptions { cone_half_angle_deg: 0.0, ..CandidateOptions::default() },
         CandidateOptions { positions: Some(vec![9]), ..CandidateOptions::default() },
         CandidateOptions { tcps: Some(vec![]), ..CandidateOptions::default() },
-        CandidateOptions { approach_mm: f64::NAN, ..CandidateOptions::default() },
+        CandidateOptions { retreat_height_mm: f64::NAN, ..CandidateOptions::default() },
     ] {
         assert!(generate_candidates(&model, &checker, &opts).is_err(), "{opts:?}");
     }

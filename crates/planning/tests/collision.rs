@@ -22,7 +22,9 @@ fn measuring_pose(model: &Model, checker: &CollisionChecker<'_>) -> JointVector 
     for _ in 0..200 {
         let r = sample_orientation(&mut rng, &(-t), 30f64.to_radians());
         for q in ik.solve(&[100.0, 200.0, 295.0], &tool_pose_for_tcp(&r, &t, &p)) {
-            if model.limit_violation(&q).is_none() && checker.is_free(&q, ProbeState::Measuring { position: 1, tcp: 2 }) {
+            if model.limit_violation(&q).is_none()
+                && checker.is_free(&q, ProbeState::Measuring { position: 1, tcp: 2 })
+            {
                 return q;
             }
         }
@@ -67,7 +69,10 @@ fn obstacles_are_placed_where_the_cell_file_says() {
     let checker = CollisionChecker::new(&model, &geometry, 0.0).expect("checker");
     let contact = checker.check(&q, ProbeState::Absent).expect("box inside ball 1");
     assert_eq!((contact.body.as_str(), contact.other.as_str()), ("ball1", "guide"));
-    let moved = CellGeometry { guide: Some(tiny(in_frame0 + Vector3::new(0.0, 0.0, 500.0))), ..CellGeometry::default() };
+    let moved = CellGeometry {
+        guide: Some(tiny(in_frame0 + Vector3::new(0.0, 0.0, 500.0))),
+        ..CellGeometry::default()
+    };
     let checker = CollisionChecker::new(&model, &moved, 0.0).expect("checker");
     assert!(checker.is_free(&q, ProbeState::Absent));
 }
@@ -85,12 +90,14 @@ fn floor_is_hit_exactly_when_it_rises_above_the_lowest_ball() {
         .fold(f64::INFINITY, f64::min)
         - radius
         - margin;
-    let with_floor = |z: f64| CellGeometry { floor: Some(PlaneObstacle { z_mm: z }), ..CellGeometry::default() };
+    let with_floor =
+        |z: f64| CellGeometry { floor: Some(PlaneObstacle { z_mm: z }), ..CellGeometry::default() };
     // the lowest body of this configuration is a ball (checked: nothing hits a floor just below it)
     let below = with_floor(lowest - 1e-3);
     assert!(CollisionChecker::new(&model, &below, margin).expect("c").is_free(&q, ProbeState::Absent));
     let above = with_floor(lowest + 1e-3);
-    let contact = CollisionChecker::new(&model, &above, margin).expect("c").check(&q, ProbeState::Absent).expect("hit");
+    let contact =
+        CollisionChecker::new(&model, &above, margin).expect("c").check(&q, ProbeState::Absent).expect("hit");
     assert!(contact.body.starts_with("ball") && contact.other == "floor", "{contact}");
 }
 
@@ -101,8 +108,12 @@ fn self_collision_of_non_adjacent_links() {
     let default = CellGeometry::default();
     assert!(CollisionChecker::new(&model, &default, 0.0).expect("c").is_free(&q, ProbeState::Absent));
     // a fat forearm reaches the end-effector (not adjacent)
-    let fat = CellGeometry { robot: RobotLinkGeometry { forearm_radius_mm: 150.0, ..RobotLinkGeometry::default() }, ..default.clone() };
-    let contact = CollisionChecker::new(&model, &fat, 0.0).expect("c").check(&q, ProbeState::Absent).expect("hit");
+    let fat = CellGeometry {
+        robot: RobotLinkGeometry { forearm_radius_mm: 150.0, ..RobotLinkGeometry::default() },
+        ..default.clone()
+    };
+    let contact =
+        CollisionChecker::new(&model, &fat, 0.0).expect("c").check(&q, ProbeState::Absent).expect("hit");
     assert!(contact.body == "forearm" || contact.other == "forearm", "{contact}");
     // upper arm forward (J2 = 90), elbow folded back (J3 = 70): the wrist centre ends 35 mm from
     // the J1 axis and 77 mm below the shoulder, inside the base cylinder
@@ -111,13 +122,18 @@ fn self_collision_of_non_adjacent_links() {
     let base_frame = vatcal_planning::ik::robot_base_frame(&model, 150.0);
     let local = base_frame.inverse().transform_point(&wrist);
     assert!(local.x.hypot(local.y) < 45.0 && local.z < 100.0, "wrist at {local} in the base frame");
-    let contact = CollisionChecker::new(&model, &default, 0.0).expect("c").check(&folded, ProbeState::Absent).expect("hit");
+    let contact = CollisionChecker::new(&model, &default, 0.0)
+        .expect("c")
+        .check(&folded, ProbeState::Absent)
+        .expect("hit");
     assert!(contact.body == "base" || contact.body == "shoulder", "{contact}");
 }
 
 #[test]
 fn invalid_geometry_tables_name_the_field() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml")).expect("read");
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+            .expect("read");
     let bad = format!("{text}\n[obstacles.robot_links]\nforearm_radius_mm = -3.0\n");
     let cell = vatcal_core::CellFile::from_toml_str(&bad, "bad.toml").expect("core accepts extra tables");
     let err = CellGeometry::from_cell(&cell).expect_err("negative radius");

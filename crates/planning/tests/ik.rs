@@ -28,9 +28,12 @@ fn joints() -> impl Strategy<Value = JointVector> {
         .prop_map(|(q1, a, b, c, d, e, f)| JointVector::from_mm_deg(q1, [a, b, c, d, e, f]))
 }
 
-/// Keeps away from the three singularities, where the branches merge.
+/// Keeps away from the three singularities, where the branches merge. Within a few degrees of
+/// the wrist singularity a calibrated wrist (axes no longer exactly intersecting) has more than
+/// the eight solutions of the spherical wrist, so "the original is among the 8 branches" only
+/// holds outside that band (candidates keep 10° from it).
 fn regular(model: &Model, q: &JointVector) -> bool {
-    let margins = SingularityMargins { wrist_deg: 2.0, elbow_deg: 2.0, shoulder_mm: 5.0 };
+    let margins = SingularityMargins { wrist_deg: 5.0, elbow_deg: 2.0, shoulder_mm: 5.0 };
     margins.clear(model, &model.chain(q))
 }
 
@@ -110,7 +113,7 @@ fn refinement_reports_non_convergence() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(ProptestConfig::with_cases(30000))]
 
     /// Nominal model: the closed form contains the original branch, and every branch it returns
     /// reproduces the pose.
@@ -123,7 +126,8 @@ proptest! {
         let base = robot_base_frame(&model, q.0[0]);
         let seeds = ik.seeds(q.0[0], &base, &target);
         prop_assert!(seeds.len() >= 2);
-        let nearest = seeds.iter().map(|s| max_diff(s, &q)).fold(f64::INFINITY, f64::min);
+        prop_assert!(seeds.iter().all(|s| !s.beyond_reach));
+        let nearest = seeds.iter().map(|s| max_diff(&s.q, &q)).fold(f64::INFINITY, f64::min);
         prop_assert!(nearest < 1e-9, "original not among the closed-form solutions (nearest {nearest})");
         for s in ik.solve_at_guide(q.0[0], &target) {
             let (dp, dr) = pose_errors(&model, &s, &target);

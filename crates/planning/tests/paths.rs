@@ -22,8 +22,13 @@ fn verify(checker: &CollisionChecker<'_>, path: &[JointVector], probe: ProbeStat
     }
 }
 
-fn approach_poses(model: &vatcal_kinematics::Model, checker: &CollisionChecker<'_>) -> Vec<Candidate> {
-    let opts = CandidateOptions { orientations: 10, guide_steps: 5, positions: Some(vec![2]), ..CandidateOptions::default() };
+fn retreat_poses(model: &vatcal_kinematics::Model, checker: &CollisionChecker<'_>) -> Vec<Candidate> {
+    let opts = CandidateOptions {
+        orientations: 10,
+        guide_steps: 5,
+        positions: Some(vec![2]),
+        ..CandidateOptions::default()
+    };
     generate_candidates(model, checker, &opts).expect("candidates").candidates
 }
 
@@ -35,15 +40,15 @@ fn rrt_connect_finds_verified_paths_where_straight_moves_collide() {
     let bounds = JointBounds::new(&model, MOVE_MARGIN_DEG, 0.0).expect("bounds");
     let timer = MotionTimer::from_limits(&MotionLimits::default()).expect("timer");
     let probe = ProbeState::At { position: 2 };
-    let poses = approach_poses(&model, &checker);
+    let poses = retreat_poses(&model, &checker);
     let opts = PathOptions::default();
     let planner = PathPlanner { checker: &checker, bounds: &bounds, timer: &timer, opts: &opts };
     // pairs whose straight joint move collides
     let mut hard = Vec::new();
     'outer: for (i, a) in poses.iter().enumerate() {
         for b in poses.iter().skip(i + 1) {
-            if !segment_is_free(&checker, &a.approach, &b.approach, probe, &opts.resolution) {
-                hard.push((a.approach, b.approach));
+            if !segment_is_free(&checker, &a.retreat, &b.retreat, probe, &opts.resolution) {
+                hard.push((a.retreat, b.retreat));
                 if hard.len() == 4 {
                     break 'outer;
                 }
@@ -71,10 +76,10 @@ fn free_straight_moves_stay_straight_and_bad_ends_are_reported() {
     let bounds = JointBounds::new(&model, MOVE_MARGIN_DEG, 0.0).expect("bounds");
     let timer = MotionTimer::from_limits(&MotionLimits::default()).expect("timer");
     let probe = ProbeState::At { position: 2 };
-    let poses = approach_poses(&model, &checker);
+    let poses = retreat_poses(&model, &checker);
     let opts = PathOptions::default();
     let planner = PathPlanner { checker: &checker, bounds: &bounds, timer: &timer, opts: &opts };
-    let a = poses[0].approach;
+    let a = poses[0].retreat;
     let mut b = a;
     b.0[6] += 0.2; // turn the last joint a little
     let path = planner.plan(&a, &b, probe, 0).expect("path");

@@ -61,7 +61,9 @@ fn replay(model: &Model, geometry: &CellGeometry, plan: &Plan, start: Option<Joi
                 let probe = ProbeState::Measuring { position: s.position, tcp: s.tcp };
                 let from = current.expect("a move precedes every measurement");
                 assert!(free_segment(&checker, &from, &s.q, probe), "step {k}: descent collides");
-                let err = (model.tcp_position(&s.q, s.tcp).expect("fk") - model.position(s.position).expect("p")).norm();
+                let err = (model.tcp_position(&s.q, s.tcp).expect("fk")
+                    - model.position(s.position).expect("p"))
+                .norm();
                 assert!(err < 1e-6, "step {k}: TCP {err} mm off");
                 assert!(model.limit_violation(&s.q).is_none());
                 measured.push(s.q);
@@ -83,9 +85,14 @@ fn small_campaign_is_planned_and_every_step_verified() {
     let model = common::nominal();
     let geometry = CellGeometry::from_cell(&cell).expect("geometry");
     let checker = CollisionChecker::new(&model, &geometry, 2.0).expect("checker");
-    // start from the approach pose of some other measurement at position 3
-    let other = CandidateOptions { orientations: 3, positions: Some(vec![3]), seed: 77, ..CandidateOptions::default() };
-    let start = generate_candidates(&model, &checker, &other).expect("c").candidates[0].approach;
+    // start from the retreat pose of some other measurement at position 3
+    let other = CandidateOptions {
+        orientations: 3,
+        positions: Some(vec![3]),
+        seed: 77,
+        ..CandidateOptions::default()
+    };
+    let start = generate_candidates(&model, &checker, &other).expect("c").candidates[0].retreat;
     let opts = small(5, Some(start));
     let plan = plan_campaign(&model, &geometry, &opts).expect("plan");
     // selection
@@ -108,7 +115,12 @@ fn small_campaign_is_planned_and_every_step_verified() {
     assert!(plan.timing.ordered_s < plan.timing.shuffled_order_s);
     assert!(plan.timing.planned_paths_s >= plan.timing.ordered_s - 1e-6);
     let last = plan.steps.last().expect("steps");
-    assert!((last.time_s - plan.timing.planned_paths_s).abs() < 0.01, "{} vs {}", last.time_s, plan.timing.planned_paths_s);
+    assert!(
+        (last.time_s - plan.timing.planned_paths_s).abs() < 0.01,
+        "{} vs {}",
+        last.time_s,
+        plan.timing.planned_paths_s
+    );
     replay(&model, &geometry, &plan, Some(start));
 }
 
@@ -136,9 +148,10 @@ fn files_round_trip_through_the_io_readers() {
     assert_eq!(tour.lines().count(), plan.steps.len() + 1);
     assert_eq!(tour.matches(",measure,").count(), 40);
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("json")).expect("valid json");
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("json"))
+            .expect("valid json");
     assert_eq!(json["selected"], 40);
-    assert!(json["counts"]["approachable"].as_u64().expect("count") >= 40);
+    assert!(json["counts"]["retreat_clear"].as_u64().expect("count") >= 40);
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -24,10 +24,12 @@ fn instance(seed: u64, n: usize, with_start: bool) -> (TourCosts, Vec<u32>) {
     let groups: Vec<u32> = (0..n).map(|_| rng.random_range(1..=3u32)).collect();
     let start = random_q(&mut rng);
     let cost = |i: usize, j: usize| {
-        timer.move_time_s(&qs[i], &qs[j]) + if groups[i] != groups[j] { timer.probe_replacement_s } else { 0.0 }
+        timer.move_time_s(&qs[i], &qs[j])
+            + if groups[i] != groups[j] { timer.probe_replacement_s } else { 0.0 }
     };
     let from_start = |j: usize| timer.move_time_s(&start, &qs[j]);
-    let costs = if with_start { TourCosts::new(n, cost, Some(&from_start)) } else { TourCosts::new(n, cost, None) };
+    let costs =
+        if with_start { TourCosts::new(n, cost, Some(&from_start)) } else { TourCosts::new(n, cost, None) };
     (costs, groups)
 }
 

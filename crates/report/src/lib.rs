@@ -94,7 +94,13 @@ pub struct PlotSpec {
 impl PlotSpec {
     /// A 900 × 520 px plot.
     pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
-        Self { title: title.into(), x_label: x_label.into(), y_label: y_label.into(), width: 900, height: 520 }
+        Self {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            width: 900,
+            height: 520,
+        }
     }
 
     fn check(&self) -> Result<(), PlotError> {
@@ -190,7 +196,11 @@ fn check_xy(x: &[f64], series: &[Series<'_>]) -> Result<(), PlotError> {
     check_finite("x", x)?;
     for s in series {
         if s.values.len() != x.len() {
-            return Err(PlotError::Length { series: s.label.to_string(), expected: x.len(), got: s.values.len() });
+            return Err(PlotError::Length {
+                series: s.label.to_string(),
+                expected: x.len(),
+                got: s.values.len(),
+            });
         }
     }
     Ok(())
@@ -233,7 +243,10 @@ pub fn bin_counts(values: &[f64], lo: f64, hi: f64, bins: usize) -> Vec<usize> {
     counts
 }
 
-fn render(spec: &PlotSpec, draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), PlotError>) -> Result<String, PlotError> {
+fn render(
+    spec: &PlotSpec,
+    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), PlotError>,
+) -> Result<String, PlotError> {
     spec.check()?;
     let mut buf = String::new();
     {
@@ -256,7 +269,11 @@ fn render(spec: &PlotSpec, draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>
 ///
 /// # Errors
 /// Empty or non-finite data, `bins == 0`, an unusable plot size, or a drawing failure.
-pub fn histogram_svg(spec: &PlotSpec, series: &[Series<'_>], options: &HistogramOptions) -> Result<String, PlotError> {
+pub fn histogram_svg(
+    spec: &PlotSpec,
+    series: &[Series<'_>],
+    options: &HistogramOptions,
+) -> Result<String, PlotError> {
     check_series(series)?;
     if options.bins == 0 || options.bins > 10_000 {
         return Err(PlotError::Option(format!("bins must be 1..=10000, got {}", options.bins)));
@@ -266,7 +283,11 @@ pub fn histogram_svg(spec: &PlotSpec, series: &[Series<'_>], options: &Histogram
         HistogramLayout::Panels => {
             let panels = root.split_evenly((series.len(), 1));
             for (k, (area, s)) in panels.iter().zip(series).enumerate() {
-                let caption = if series.len() == 1 { spec.title.clone() } else { format!("{}: {}", spec.title, s.label) };
+                let caption = if series.len() == 1 {
+                    spec.title.clone()
+                } else {
+                    format!("{}: {}", spec.title, s.label)
+                };
                 draw_histogram(area, &caption, spec, std::slice::from_ref(s), k, options)?;
             }
             Ok(())

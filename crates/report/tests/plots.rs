@@ -2,8 +2,8 @@
 
 use proptest::prelude::*;
 use vatcal_report::{
-    HistogramLayout, HistogramOptions, HistogramScale, PlotError, PlotSpec, Series, bin_counts, histogram_svg, line_plot_svg,
-    save_svg, scatter_svg,
+    HistogramLayout, HistogramOptions, HistogramScale, PlotError, PlotSpec, Series, bin_counts,
+    histogram_svg, line_plot_svg, save_svg, scatter_svg,
 };
 
 fn spec() -> PlotSpec {
@@ -46,10 +46,15 @@ fn histogram_of_two_series_has_both_legends_and_bars() {
 #[test]
 fn histogram_percentages_and_counts_differ_only_in_scale() {
     let v = [0.1, 0.2, 0.2, 0.3];
-    let opts = HistogramOptions { bins: 3, scale: HistogramScale::Count, from_zero: false, ..Default::default() };
+    let opts =
+        HistogramOptions { bins: 3, scale: HistogramScale::Count, from_zero: false, ..Default::default() };
     let counts = histogram_svg(&spec(), &[Series::new("a", &v)], &opts).expect("counts");
-    let pct = histogram_svg(&spec(), &[Series::new("a", &v)], &HistogramOptions { scale: HistogramScale::Percent, ..opts })
-        .expect("pct");
+    let pct = histogram_svg(
+        &spec(),
+        &[Series::new("a", &v)],
+        &HistogramOptions { scale: HistogramScale::Percent, ..opts },
+    )
+    .expect("pct");
     assert_eq!(counts.matches("<rect").count(), pct.matches("<rect").count());
 }
 
@@ -104,7 +109,8 @@ fn constant_series_still_plot() {
 fn save_writes_the_file_and_names_a_bad_path() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("h.svg");
-    let svg = histogram_svg(&spec(), &[Series::new("a", &[1.0, 2.0])], &HistogramOptions::default()).expect("svg");
+    let svg =
+        histogram_svg(&spec(), &[Series::new("a", &[1.0, 2.0])], &HistogramOptions::default()).expect("svg");
     save_svg(&path, &svg).expect("save");
     assert_eq!(std::fs::read_to_string(&path).expect("read"), svg);
     let bad = dir.path().join("missing-dir").join("h.svg");

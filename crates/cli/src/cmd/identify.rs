@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use vatcal_core::{Measurement, ParamSet};
 use vatcal_identification::{
-    FailureReport, Identification, IdentificationReport, IdentifyError, IdentifyOptions, IterationLog, KindWeights,
-    Method, file_unit_label, identify, to_file_units,
+    FailureReport, Identification, IdentificationReport, IdentifyError, IdentifyOptions, IterationLog,
+    KindWeights, Method, file_unit_label, identify, to_file_units,
 };
 use vatcal_kinematics::Model;
 

@@ -66,13 +66,18 @@ fn parse_start(text: &str, model: &Model) -> anyhow::Result<JointVector> {
     let values: Vec<f64> = text
         .split(',')
         .enumerate()
-        .map(|(k, s)| s.trim().parse::<f64>().with_context(|| format!("--start: q{} = `{}` is not a number", k + 1, s.trim())))
+        .map(|(k, s)| {
+            s.trim()
+                .parse::<f64>()
+                .with_context(|| format!("--start: q{} = `{}` is not a number", k + 1, s.trim()))
+        })
         .collect::<anyhow::Result<_>>()?;
     let [q1, arm @ ..] = values.as_slice() else {
         anyhow::bail!("--start needs 7 values q1..q7 (mm, deg), got none");
     };
-    let arm: [f64; 6] =
-        arm.try_into().map_err(|_| anyhow::anyhow!("--start needs 7 values q1..q7 (mm, deg), got {}", values.len()))?;
+    let arm: [f64; 6] = arm
+        .try_into()
+        .map_err(|_| anyhow::anyhow!("--start needs 7 values q1..q7 (mm, deg), got {}", values.len()))?;
     let q = JointVector::from_mm_deg(*q1, arm);
     if let Some((j, v, lo, hi)) = model.limit_violation(&q) {
         let unit = |x: f64| if j == 1 { format!("{x} mm") } else { format!("{} deg", x.to_degrees()) };
@@ -84,7 +89,8 @@ fn parse_start(text: &str, model: &Model) -> anyhow::Result<JointVector> {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cell = CellFile::load(&args.model)?;
-    let model = Model::from_cell(&cell).with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model = Model::from_cell(&cell)
+        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let geometry = CellGeometry::from_cell(&cell).with_context(|| format!("{}", args.model.display()))?;
     let params = ParamSet::parse(&args.params).map_err(|e| anyhow::anyhow!("--params: {e}"))?;
     let start = args.start.as_deref().map(|s| parse_start(s, &model)).transpose()?;
@@ -112,6 +118,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let elapsed = t0.elapsed();
     let summary = write_plan(&plan, &args.out)?;
     println!("{}", summary.text());
-    println!("planned in {:.2} s; wrote candidates.csv, selected.csv, tour.csv, summary.json to {}", elapsed.as_secs_f64(), args.out.display());
+    println!(
+        "planned in {:.2} s; wrote candidates.csv, selected.csv, tour.csv, summary.json to {}",
+        elapsed.as_secs_f64(),
+        args.out.display()
+    );
     Ok(())
 }

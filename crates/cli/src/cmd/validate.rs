@@ -57,7 +57,8 @@ pub struct ValidateOutput {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
     let tracker = vatcal_io::read_tracker_measurements(&args.tracker, &model)?;
-    let tested = validate(&model, &tracker).with_context(|| format!("validating {}", args.model.display()))?;
+    let tested =
+        validate(&model, &tracker).with_context(|| format!("validating {}", args.model.display()))?;
     let baseline = match &args.baseline {
         Some(path) => {
             let base = super::load_model(path)?;
@@ -95,7 +96,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn label(role: &str, path: &Path) -> String {
-    let name = path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let name =
+        path.file_name().map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned());
     format!("{role} ({name})")
 }
 
@@ -130,8 +132,10 @@ fn write_histogram(
         series.push(Series::new(&baseline_label, values));
     }
     series.push(Series::new(&tested_label, &tested_values));
-    let spec = PlotSpec::new("Position error on validation poses", "position error [mm]", "share of poses [%]");
-    let svg = histogram_svg(&spec, &series, &HistogramOptions { bins: args.bins, ..HistogramOptions::default() })?;
+    let spec =
+        PlotSpec::new("Position error on validation poses", "position error [mm]", "share of poses [%]");
+    let svg =
+        histogram_svg(&spec, &series, &HistogramOptions { bins: args.bins, ..HistogramOptions::default() })?;
     save_svg(path, &svg)?;
     Ok(())
 }

@@ -6,7 +6,7 @@
 //! Modified DH (Craig), the same rows as the J1..J6 rows of `fixtures/meca500-zaber.toml`
 //! with the robot standing upright (α₀ = 0):
 //!
-//! | i | α_{i-1} | a_{i-1} [mm] | θ offset | d_i [mm] |
+//! | i | α_{i-1} | a_{i-1} \[mm\] | θ offset | d_i \[mm\] |
 //! |---|---|---|---|---|
 //! | 1 | 0 | 0 | 0 | 135 |
 //! | 2 | −90° | 0 | −90° | 0 |
@@ -22,7 +22,7 @@ use nalgebra::{Isometry3, Matrix6, Rotation3, SVD, Translation3, UnitQuaternion,
 
 use crate::codec::Six;
 
-/// (α_{i-1} [deg], a_{i-1} [mm], θ offset [deg], d_i [mm]) per joint.
+/// (α_{i-1} \[deg\], a_{i-1} \[mm\], θ offset \[deg\], d_i \[mm\]) per joint.
 const MDH: [(f64, f64, f64, f64); 6] = [
     (0.0, 0.0, 0.0, 135.0),
     (-90.0, 0.0, -90.0, 0.0),
@@ -56,7 +56,7 @@ pub fn forward(joints_deg: &Six) -> Isometry3<f64> {
     pose
 }
 
-/// Mecademic pose `x, y, z [mm], α, β, γ [deg]` (intrinsic X-Y-Z Euler angles) of `pose`.
+/// Mecademic pose `x, y, z \[mm\], α, β, γ \[deg\]` (intrinsic X-Y-Z Euler angles) of `pose`.
 pub fn to_xyzabc(pose: &Isometry3<f64>) -> Six {
     let r = pose.rotation.to_rotation_matrix();
     let m = r.matrix();
@@ -80,7 +80,7 @@ pub fn from_xyzabc(p: &Six) -> Isometry3<f64> {
     Isometry3::from_parts(Translation3::new(p[0], p[1], p[2]), UnitQuaternion::from_rotation_matrix(&r))
 }
 
-/// Pose error (target − current): translation [mm] and rotation vector [rad], both in the
+/// Pose error (target − current): translation \[mm\] and rotation vector \[rad\], both in the
 /// base frame.
 fn pose_error(target: &Isometry3<f64>, current: &Isometry3<f64>) -> Vector6<f64> {
     let dp = target.translation.vector - current.translation.vector;
@@ -88,7 +88,7 @@ fn pose_error(target: &Isometry3<f64>, current: &Isometry3<f64>) -> Vector6<f64>
     Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z)
 }
 
-/// Joints [deg] reaching `target` (flange pose in the base frame), by Newton iterations on
+/// Joints \[deg\] reaching `target` (flange pose in the base frame), by Newton iterations on
 /// a central-difference Jacobian starting from `seed_deg`.
 pub fn inverse(target: &Isometry3<f64>, seed_deg: &Six) -> Result<Six, IkFailure> {
     const MAX_ITER: usize = 100;

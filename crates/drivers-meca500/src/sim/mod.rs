@@ -36,13 +36,15 @@ use std::time::Duration;
 
 use vatcal_hardware_traits::{Clock, SystemClock};
 
-pub use kinematics::{IkFailure, forward as forward_kinematics, from_xyzabc, inverse as inverse_kinematics, to_xyzabc};
+pub use kinematics::{
+    IkFailure, forward as forward_kinematics, from_xyzabc, inverse as inverse_kinematics, to_xyzabc,
+};
 pub use robot::{MotionParams, SUPPORTED_RT_CODES, SimRobot, SimState};
 pub use server::Meca500Sim;
 
 use crate::codec::Six;
 
-/// Default joint limits [deg] of a Meca500 on firmware 9.2 (protocols.md §1.10).
+/// Default joint limits \[deg\] of a Meca500 on firmware 9.2 (protocols.md §1.10).
 pub const DEFAULT_JOINT_LIMITS_DEG: [(f64, f64); 6] =
     [(-175.0, 175.0), (-70.0, 90.0), (-135.0, 70.0), (-170.0, 170.0), (-115.0, 115.0), (-36_000.0, 36_000.0)];
 
@@ -61,7 +63,7 @@ pub struct SimConfig {
     pub firmware: (u32, u32, u32),
     /// `GetRobotSerial` answer
     pub serial: String,
-    /// joint limits [deg]
+    /// joint limits \[deg\]
     pub joint_limits_deg: [(f64, f64); 6],
     /// rated joint speeds [°/s]
     pub rated_joint_speed_deg_s: [f64; 6],
@@ -71,9 +73,9 @@ pub struct SimConfig {
     pub activation_time: Duration,
     /// time `Home` takes before `[2002]` (before scaling)
     pub homing_time: Duration,
-    /// joints at power-up [deg]
+    /// joints at power-up \[deg\]
     pub initial_joints_deg: Six,
-    /// an unknown command (`[1001]`) puts the robot into error mode ([UNC] on recent firmware)
+    /// an unknown command (`[1001]`) puts the robot into error mode (\[UNC\] on recent firmware)
     pub unknown_command_enters_error_mode: bool,
     /// motion-queue capacity (overflow → `[1000]`)
     pub queue_capacity: usize,

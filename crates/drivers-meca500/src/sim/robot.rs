@@ -8,15 +8,23 @@ use nalgebra::Isometry3;
 
 use super::SimConfig;
 use super::kinematics::{self, IkFailure};
-use crate::codec::{Banner, Command, RealTimeCodes, Reply, Six, StatusWord, code, format_number, parse_command};
+use crate::codec::{
+    Banner, Command, RealTimeCodes, Reply, Six, StatusWord, code, format_number, parse_command,
+};
 
 /// Real-time monitoring codes the simulator can stream.
 pub const SUPPORTED_RT_CODES: [u16; 4] =
     [code::RT_TARGET_JOINTS, code::RT_TARGET_CART, code::RT_JOINTS, code::RT_CART];
 
 /// Error codes that `ResetError` cannot clear.
-const NOT_RESETTABLE: [u16; 6] =
-    [code::MASTERING_LOST, code::NOT_RESETTABLE, code::DRIVE_COMM, code::INIT_FAILED, code::MAINTENANCE, code::ESTOP];
+const NOT_RESETTABLE: [u16; 6] = [
+    code::MASTERING_LOST,
+    code::NOT_RESETTABLE,
+    code::DRIVE_COMM,
+    code::INIT_FAILED,
+    code::MAINTENANCE,
+    code::ESTOP,
+];
 
 /// Motion-parameter defaults restored by every activation (§1.5).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,7 +64,7 @@ impl Default for MotionParams {
 pub struct SimState {
     /// the status word the robot would report now
     pub status: StatusWord,
-    /// joints now [deg]
+    /// joints now \[deg\]
     pub joints_deg: Six,
     /// commands waiting in the motion queue
     pub queue_len: usize,
@@ -158,7 +166,7 @@ impl SimRobot {
 
     /// Monitoring interval.
     pub fn monitoring_interval(&self) -> Duration {
-        Duration::from_secs_f64(self.monitoring_interval_s)
+        secs(self.monitoring_interval_s)
     }
 
     /// The status word now.
@@ -203,12 +211,16 @@ impl SimRobot {
         self.last_pushed_status = None;
     }
 
-    /// Joints now [deg] (interpolated during a move).
+    /// Joints now \[deg\] (interpolated during a move).
     pub fn joints_now(&self, now: Duration) -> Six {
         match self.active {
             Some(Active::Move { from, to, start, duration }) => {
                 let t = self.paused_since.unwrap_or(now).saturating_sub(start);
-                let s = if duration.is_zero() { 1.0 } else { (t.as_secs_f64() / duration.as_secs_f64()).min(1.0) };
+                let s = if duration.is_zero() {
+                    1.0
+                } else {
+                    (t.as_secs_f64() / duration.as_secs_f64()).min(1.0)
+                };
                 let mut q = from;
                 for ((qi, f), t) in q.iter_mut().zip(from).zip(to) {
                     *qi = f + s * (t - f);
@@ -219,7 +231,7 @@ impl SimRobot {
         }
     }
 
-    /// TRF pose in the WRF for joints `q` [deg].
+    /// TRF pose in the WRF for joints `q` \[deg\].
     fn tool_pose(&self, q: &Six) -> Isometry3<f64> {
         self.wrf.inverse() * kinematics::forward(q) * self.trf
     }
@@ -242,7 +254,8 @@ impl SimRobot {
             Ok(p) => p,
             Err(e) => {
                 let reply = Reply::new(e.code(), format!("{e}"));
-                let enter = e.code() != code::UNKNOWN_COMMAND || self.config.unknown_command_enters_error_mode;
+                let enter =
+                    e.code() != code::UNKNOWN_COMMAND || self.config.unknown_command_enters_error_mode;
                 if enter {
                     self.enter_error(e.code(), &reply.payload, now);
                 }
@@ -331,9 +344,17 @@ impl SimRobot {
                 } else if self.estop_pressed {
                     one(code::ACTIVATION_FAILED, "Activation failed: E-Stop pressed.")
                 } else if self.activated {
-                    self.already(code::ACTIVATED, code::ALREADY_ACTIVATED, "Motors activated.", "Motors already activated.")
+                    self.already(
+                        code::ACTIVATED,
+                        code::ALREADY_ACTIVATED,
+                        "Motors activated.",
+                        "Motors already activated.",
+                    )
                 } else {
-                    self.pending = Some((now + self.scaled(self.config.activation_time), Pending::Activation));
+                    self.pending = Some((
+                        now.saturating_add(self.scaled(self.config.activation_time)),
+                        Pending::Activation,
+                    ));
                     Vec::new()
                 }
             }
@@ -353,7 +374,8 @@ impl SimRobot {
                 } else if self.homed {
                     self.already(code::HOMED, code::ALREADY_HOMED, "Homing done.", "Homing already done.")
                 } else {
-                    self.pending = Some((now + self.scaled(self.config.homing_time), Pending::Homing));
+                    self.pending =
+                        Some((now.saturating_add(self.scaled(self.config.homing_time)), Pending::Homing));
                     Vec::new()
                 }
             }
@@ -396,7 +418,8 @@ impl SimRobot {
             Command::GetJoints => vec![six_reply(code::JOINTS, None, &self.joints_now(now))],
             Command::GetPose => vec![six_reply(code::POSE, None, &self.pose_now(now))],
             Command::GetRtTargetJointPos | Command::GetRtJointPos => {
-                let c = if command == Command::GetRtJointPos { code::RT_JOINTS } else { code::RT_TARGET_JOINTS };
+                let c =
+                    if command == Command::GetRtJointPos { code::RT_JOINTS } else { code::RT_TARGET_JOINTS };
                 vec![six_reply(c, Some(now), &self.joints_now(now))]
             }
             Command::GetRtTargetCartPos | Command::GetRtCartPos => {
@@ -422,7 +445,9 @@ impl SimRobot {
             Command::SetRealTimeMonitoring(codes) => {
                 self.rt_codes = match codes {
                     RealTimeCodes::All => SUPPORTED_RT_CODES.into_iter().collect(),
-                    RealTimeCodes::Codes(c) => c.into_iter().filter(|c| SUPPORTED_RT_CODES.contains(c)).collect(),
+                    RealTimeCodes::Codes(c) => {
+                        c.into_iter().filter(|c| SUPPORTED_RT_CODES.contains(c)).collect()
+                    }
                 };
                 vec![self.rt_codes_reply()]
             }
@@ -437,7 +462,11 @@ impl SimRobot {
             }
             Command::SetEob(e) => {
                 self.eob_events = e;
-                if e { one(code::EOB_ON, "End of block is enabled.") } else { one(code::EOB_OFF, "End of block is disabled.") }
+                if e {
+                    one(code::EOB_ON, "End of block is enabled.")
+                } else {
+                    one(code::EOB_OFF, "End of block is disabled.")
+                }
             }
             Command::SetEom(e) => {
                 self.eom_events = e;
@@ -473,7 +502,10 @@ impl SimRobot {
     }
 
     fn rt_codes_reply(&self) -> Reply {
-        Reply::new(code::RT_MONITORING, self.rt_codes.iter().map(u16::to_string).collect::<Vec<_>>().join(","))
+        Reply::new(
+            code::RT_MONITORING,
+            self.rt_codes.iter().map(u16::to_string).collect::<Vec<_>>().join(","),
+        )
     }
 
     fn pose_now(&self, now: Duration) -> Six {
@@ -481,7 +513,7 @@ impl SimRobot {
     }
 
     fn scaled(&self, d: Duration) -> Duration {
-        Duration::from_secs_f64(d.as_secs_f64() / self.config.time_scale)
+        secs(d.as_secs_f64() / self.config.time_scale)
     }
 
     // ---- time ----------------------------------------------------------------------------
@@ -527,7 +559,7 @@ impl SimRobot {
         loop {
             match self.active {
                 Some(Active::Move { to, start, duration, .. }) => {
-                    if now < start + duration {
+                    if now < start.saturating_add(duration) {
                         return;
                     }
                     self.joints_deg = to;
@@ -554,7 +586,12 @@ impl SimRobot {
     }
 
     /// Executes one dequeued command (starting a motion if it is a move).
-    fn execute(&mut self, command: Command, now: Duration, out: &mut Vec<Reply>) -> Result<(), (u16, String)> {
+    fn execute(
+        &mut self,
+        command: Command,
+        now: Duration,
+        out: &mut Vec<Reply>,
+    ) -> Result<(), (u16, String)> {
         let p = &mut self.params;
         match command {
             Command::SetJointVel(v) => p.joint_vel_pct = v,
@@ -567,7 +604,9 @@ impl SimRobot {
             Command::SetTrf(s) => self.trf = kinematics::from_xyzabc(&s),
             Command::SetWrf(s) => self.wrf = kinematics::from_xyzabc(&s),
             Command::SetCheckpoint(n) => out.push(Reply::new(code::CHECKPOINT, n.to_string())),
-            Command::Delay(t) => self.active = Some(Active::Delay { until: now + self.scaled(Duration::from_secs_f64(t)) }),
+            Command::Delay(t) => {
+                self.active = Some(Active::Delay { until: now.saturating_add(self.scaled(secs(t))) })
+            }
             motion => self.start_motion(&motion, now)?,
         }
         Ok(())
@@ -587,7 +626,9 @@ impl SimRobot {
                 }
                 (q, 0.0)
             }
-            Command::MovePose(p) | Command::MoveLin(p) => self.cartesian_target(&kinematics::from_xyzabc(p))?,
+            Command::MovePose(p) | Command::MoveLin(p) => {
+                self.cartesian_target(&kinematics::from_xyzabc(p))?
+            }
             Command::MoveLinRelWrf(d) => {
                 let current = self.tool_pose(&from);
                 let delta = kinematics::from_xyzabc(d);
@@ -605,12 +646,12 @@ impl SimRobot {
         };
         self.check_limits(&to)?;
         let joint_s = self.joint_move_seconds(&from, &to);
-        let duration = Duration::from_secs_f64(joint_s.max(cart_duration_s) / self.config.time_scale);
+        let duration = secs(joint_s.max(cart_duration_s) / self.config.time_scale);
         self.active = Some(Active::Move { from, to, start: now, duration });
         Ok(())
     }
 
-    /// Joints for a TRF target pose in the WRF, and the Cartesian duration [s] at the current
+    /// Joints for a TRF target pose in the WRF, and the Cartesian duration \[s\] at the current
     /// linear/angular speeds.
     fn cartesian_target(&self, target_tool: &Isometry3<f64>) -> Result<(Six, f64), (u16, String)> {
         let current = self.tool_pose(&self.joints_deg);
@@ -649,7 +690,9 @@ impl SimRobot {
         self.queue
             .drain(..)
             .filter_map(|c| match c {
-                Command::SetCheckpoint(n) if announce => Some(Reply::new(code::CHECKPOINT_DISCARDED, n.to_string())),
+                Command::SetCheckpoint(n) if announce => {
+                    Some(Reply::new(code::CHECKPOINT_DISCARDED, n.to_string()))
+                }
                 _ => None,
             })
             .collect()
@@ -659,8 +702,8 @@ impl SimRobot {
         if let Some(since) = self.paused_since.take() {
             let pause = now.saturating_sub(since);
             match &mut self.active {
-                Some(Active::Move { start, .. }) => *start += pause,
-                Some(Active::Delay { until }) => *until += pause,
+                Some(Active::Move { start, .. }) => *start = start.saturating_add(pause),
+                Some(Active::Delay { until }) => *until = until.saturating_add(pause),
                 None => {}
             }
         }
@@ -710,6 +753,15 @@ impl SimRobot {
         }
         out.push(Reply::new(code::RT_CYCLE_END, micros(now).to_string()));
         out
+    }
+}
+
+/// Seconds → duration, saturating (NaN or negative → zero, too large → `Duration::MAX`).
+fn secs(s: f64) -> Duration {
+    if s.is_nan() || s <= 0.0 {
+        Duration::ZERO
+    } else {
+        Duration::try_from_secs_f64(s).unwrap_or(Duration::MAX)
     }
 }
 
@@ -903,6 +955,67 @@ mod tests {
             send(&mut r, "ClearMotion", ms(10)),
             ["[2044][The motion was cleared.]", "[3040][5]", "[3012][End of block.]"]
         );
+    }
+
+    fn arb_line() -> impl proptest::strategy::Strategy<Value = String> {
+        use proptest::prelude::*;
+        let names = proptest::sample::select(vec![
+            "ActivateRobot",
+            "Home",
+            "ResetError",
+            "ResumeMotion",
+            "PauseMotion",
+            "ClearMotion",
+            "DeactivateRobot",
+            "MoveJoints",
+            "MoveJointsRel",
+            "MovePose",
+            "MoveLin",
+            "MoveLinRelTrf",
+            "MoveLinRelWrf",
+            "SetTrf",
+            "SetWrf",
+            "SetJointVel",
+            "SetCartLinVel",
+            "SetCheckpoint",
+            "Delay",
+            "GetJoints",
+            "GetPose",
+            "GetRtTargetJointPos",
+            "SetRealTimeMonitoring",
+            "SetMonitoringInterval",
+            "SetCtrlPortMonitoring",
+            "SyncCmdQueue",
+            "Dance",
+        ]);
+        let arg = prop_oneof![-1e7f64..1e7, -200.0f64..200.0, Just(f64::MAX), Just(0.0)];
+        prop_oneof![
+            (names, proptest::collection::vec(arg, 0..8)).prop_map(|(n, a)| {
+                format!("{n}({})", a.iter().map(|v| format!("{v}")).collect::<Vec<_>>().join(","))
+            }),
+            "[ -~]{0,40}",
+        ]
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn arbitrary_input_never_panics(
+            lines in proptest::collection::vec(arb_line(), 0..25),
+            bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 0..64),
+        ) {
+            let mut r = ready();
+            for (i, line) in lines.iter().enumerate() {
+                let now = ms(10 * i as u64);
+                r.handle_frame(line.as_bytes(), now);
+                r.tick(now);
+                let _ = r.status_change(now);
+                let _ = r.monitoring_cycle(now);
+            }
+            r.handle_frame(&bytes, ms(1000));
+            r.tick(Duration::from_secs(1_000_000));
+            let s = r.snapshot(Duration::from_secs(1_000_000));
+            proptest::prop_assert!(s.joints_deg.iter().all(|q| q.is_finite()));
+        }
     }
 
     #[test]

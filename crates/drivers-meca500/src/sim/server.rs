@@ -80,7 +80,8 @@ impl Meca500Sim {
             config: config.clone(),
             next_cycle: Duration::ZERO,
         };
-        let thread = std::thread::Builder::new().name("meca500-sim".to_owned()).spawn(move || server.run())?;
+        let thread =
+            std::thread::Builder::new().name("meca500-sim".to_owned()).spawn(move || server.run())?;
         Ok(Self { addrs, shared, config, thread: Some(thread) })
     }
 
@@ -144,7 +145,7 @@ impl Meca500Sim {
         lock(&self.shared.injected).push(reply);
     }
 
-    /// Places the arm at `q` [deg] (test set-up; refused while a motion runs).
+    /// Places the arm at `q` \[deg\] (test set-up; refused while a motion runs).
     pub fn set_joints_deg(&self, q: Six) -> bool {
         self.robot().set_joints_deg(q)
     }
@@ -177,7 +178,10 @@ impl Client {
         match self.stream.peek(&mut probe) {
             Ok(0) => true,
             Ok(_) => false,
-            Err(e) => !matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted),
+            Err(e) => !matches!(
+                e.kind(),
+                io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+            ),
         }
     }
 }
@@ -228,7 +232,8 @@ impl Server {
             let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
             let _ = stream.set_read_timeout(Some(TICK));
             if self.client.as_mut().is_some_and(|c| !c.is_closed()) {
-                let refusal = Reply::new(code::ANOTHER_USER, "Another user is already connected, closing connection.");
+                let refusal =
+                    Reply::new(code::ANOTHER_USER, "Another user is already connected, closing connection.");
                 let mut s = stream;
                 let _ = s.write_all(&refusal.encode());
                 continue;
@@ -271,7 +276,12 @@ impl Server {
                 Vec::new()
             }
             Ok(n) => buf[..n].to_vec(),
-            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => {
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+                ) =>
+            {
                 Vec::new()
             }
             Err(_) => {
@@ -284,8 +294,10 @@ impl Server {
     /// Feeds input and time to the robot; returns the routed output.
     fn step(&mut self, input: &[u8]) -> Vec<(Route, Reply)> {
         let now = self.config.clock.now();
-        let mut out: Vec<(Route, Reply)> =
-            std::mem::take(&mut *lock(&self.shared.injected)).into_iter().map(|r| (Route::Control, r)).collect();
+        let mut out: Vec<(Route, Reply)> = std::mem::take(&mut *lock(&self.shared.injected))
+            .into_iter()
+            .map(|r| (Route::Control, r))
+            .collect();
         let mut robot = lock(&self.shared.robot);
         if let Some(client) = &mut self.client {
             client.deframer.push(input);
@@ -294,7 +306,10 @@ impl Server {
                     Ok(Some(frame)) => robot.handle_frame(&frame, now),
                     Ok(None) => break,
                     Err(FrameError::TooLong { .. }) => {
-                        vec![Reply::new(code::COMMAND_TOO_LONG, "Command too long or missing NUL terminator.")]
+                        vec![Reply::new(
+                            code::COMMAND_TOO_LONG,
+                            "Command too long or missing NUL terminator.",
+                        )]
                     }
                 };
                 out.extend(replies.into_iter().map(|r| (Route::Control, r)));
@@ -305,7 +320,7 @@ impl Server {
         out.extend(robot.tick(now).into_iter().map(|r| (Route::Control, r)));
         out.extend(robot.status_change(now).map(|s| (Route::Monitoring, s)));
         if now >= self.next_cycle {
-            self.next_cycle = now + robot.monitoring_interval();
+            self.next_cycle = now.saturating_add(robot.monitoring_interval());
             out.extend(robot.monitoring_cycle(now).into_iter().map(|r| (Route::Monitoring, r)));
         }
         out

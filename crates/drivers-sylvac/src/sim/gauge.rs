@@ -12,15 +12,15 @@ use crate::codec::{Command, GaugeError, MM_PER_INCH, Unit, format_value, parse_v
 /// A snapshot of the simulated gauge.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimState {
-    /// plunger position [mm] (0 = fully extended)
+    /// plunger position \[mm\] (0 = fully extended)
     pub plunger_mm: f64,
     /// display unit
     pub unit: Unit,
     /// preset active
     pub preset_on: bool,
-    /// preset value [mm]
+    /// preset value \[mm\]
     pub preset_mm: f64,
-    /// noise-free displayed value [mm] (before quantisation), `None` out of range
+    /// noise-free displayed value \[mm\] (before quantisation), `None` out of range
     pub display_mm: Option<f64>,
     /// continuous output on (`OUT1`)
     pub continuous_output: bool,
@@ -34,7 +34,7 @@ pub struct SimGauge {
     unit: Unit,
     preset_on: bool,
     preset_mm: f64,
-    /// plunger position at which the preset value was set [mm]
+    /// plunger position at which the preset value was set \[mm\]
     anchor_mm: f64,
     hold: Option<String>,
     keypad: bool,
@@ -78,7 +78,7 @@ impl SimGauge {
         self.continuous_output
     }
 
-    /// Noise-free displayed value [mm], `None` beyond the measuring range.
+    /// Noise-free displayed value \[mm\], `None` beyond the measuring range.
     fn display_mm(&self) -> Option<f64> {
         if !(0.0..=self.config.range_mm).contains(&self.plunger_mm) {
             return None;
@@ -253,6 +253,21 @@ mod tests {
         assert_eq!(send(&mut g, "?").as_deref(), Some("+003.0000"));
         g.set_sensor_error(true);
         assert_eq!(send(&mut g, "?").as_deref(), Some("ERR0"));
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn arbitrary_lines_never_panic(
+            lines in proptest::collection::vec("(PRE |STO|OUT|UNI|KEY|SVR|\\?|ID\\?|MM|IN)?[ -~]{0,20}", 0..20),
+            plunger in -5.0f64..20.0,
+        ) {
+            let mut g = SimGauge::new(SimConfig { noise_std_mm: 0.001, ..SimConfig::default() });
+            g.set_plunger_mm(plunger);
+            for line in &lines {
+                let _ = send(&mut g, line);
+            }
+            let _ = g.value_answer(Duration::ZERO);
+        }
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! [`SylvacSim::start`] binds `127.0.0.1:0` — one listener per gauge — and serves from a
 //! background thread until dropped. The test moves the plunger with
 //! [`SylvacSim::set_plunger_mm`]. Modelled: `?` (value with sign, zero padding and the
-//! configured decimals [UNC]), `ERR3` beyond the measuring range, `ERR0` on an injected sensor
+//! configured decimals \[UNC\]), `ERR3` beyond the measuring range, `ERR0` on an injected sensor
 //! fault, `ERR1` for unknown commands, `PRE ±v` / `PRE ON|OFF` / `PRE?`, `MM`/`IN`/`UNI?`,
 //! `UNI0/1`, `STO0/1` (frozen display), `KEY`, `SET?`, `BAT?`, `ID?`, `VER?`, `OUT1`
 //! (continuous output every [`SimConfig::output_interval`]), `SVR0/1`; resolution
@@ -30,22 +30,22 @@ pub struct SimConfig {
     pub id: String,
     /// `VER?` answer
     pub version: String,
-    /// measuring range [mm]: the plunger must stay in `0..=range_mm`, else `ERR3` ([UNC] for
+    /// measuring range \[mm\]: the plunger must stay in `0..=range_mm`, else `ERR3` (\[UNC\] for
     /// the S_Dial WORK Nano)
     pub range_mm: f64,
-    /// display resolution [mm] (readings are rounded to it)
+    /// display resolution \[mm\] (readings are rounded to it)
     pub resolution_mm: f64,
     /// decimals written in mm (inch: one more)
     pub decimals_mm: usize,
-    /// standard deviation of the Gaussian reading noise [mm]
+    /// standard deviation of the Gaussian reading noise \[mm\]
     pub noise_std_mm: f64,
     /// noise seed
     pub seed: u64,
-    /// plunger position at start [mm]
+    /// plunger position at start \[mm\]
     pub initial_plunger_mm: f64,
-    /// setters answer `OK` (default: silent, [UNC])
+    /// setters answer `OK` (default: silent, \[UNC\])
     pub ack_setters: bool,
-    /// `PRE ±v` only stores the value; `PRE ON` applies it ([UNC])
+    /// `PRE ±v` only stores the value; `PRE ON` applies it (\[UNC\])
     pub preset_requires_on: bool,
     /// period of the continuous output (`OUT1`)
     pub output_interval: Duration,

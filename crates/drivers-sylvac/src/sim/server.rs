@@ -45,8 +45,10 @@ impl SylvacSim {
         let listener = TcpListener::bind(("127.0.0.1", 0))?;
         listener.set_nonblocking(true)?;
         let addr = listener.local_addr()?;
-        let shared = Arc::new(Shared { gauge: Mutex::new(SimGauge::new(config.clone())), flags: Flags::default() });
-        let server = Server { listener, clients: Vec::new(), shared: Arc::clone(&shared), config, next_output: None };
+        let shared =
+            Arc::new(Shared { gauge: Mutex::new(SimGauge::new(config.clone())), flags: Flags::default() });
+        let server =
+            Server { listener, clients: Vec::new(), shared: Arc::clone(&shared), config, next_output: None };
         let thread = std::thread::Builder::new().name("sylvac-sim".to_owned()).spawn(move || server.run())?;
         Ok(Self { addr, shared, thread: Some(thread) })
     }
@@ -138,7 +140,11 @@ impl Server {
             match client.stream.read(&mut buf) {
                 Ok(0) => client.open = false,
                 Ok(n) => client.deframer.push(&buf[..n]),
-                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+                    ) => {}
                 Err(_) => client.open = false,
             }
             if self.shared.flags.stalled.load(Ordering::SeqCst) {
@@ -168,7 +174,7 @@ impl Server {
         if !due {
             return None;
         }
-        self.next_output = Some(now + self.config.output_interval);
+        self.next_output = Some(now.saturating_add(self.config.output_interval));
         Some(format!("{}\r", gauge.value_answer(now)))
     }
 }

@@ -6,7 +6,7 @@ use std::time::Duration;
 use super::SimConfig;
 use crate::codec::{Alert, Command, Message, Reply, Status, Warning, format_warning_list, top_warning};
 
-/// Device units → physical units (protocols.md §2.6, [UNC]): microsteps/s = maxspeed / 1.6384,
+/// Device units → physical units (protocols.md §2.6, \[UNC\]): microsteps/s = maxspeed / 1.6384,
 /// microsteps/s² = accel × 10000 / 1.6384.
 pub const SPEED_UNIT_DIVISOR: f64 = 1.6384;
 /// See [`SPEED_UNIT_DIVISOR`].
@@ -30,7 +30,7 @@ impl Profile {
         (self.to - self.from).abs()
     }
 
-    /// (accel time, cruise time) [s].
+    /// (accel time, cruise time) \[s\].
     fn phases(&self) -> (f64, f64) {
         let d = self.distance();
         if d * self.a < self.v * self.v {
@@ -68,7 +68,7 @@ impl Profile {
 /// A snapshot of the simulated device.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimState {
-    /// position now [microsteps]
+    /// position now \[microsteps\]
     pub pos_microsteps: f64,
     /// moving
     pub busy: bool,
@@ -80,7 +80,7 @@ pub struct SimState {
     pub maxspeed: i64,
     /// `accel` [device units]
     pub accel: i64,
-    /// travel limits [microsteps]
+    /// travel limits \[microsteps\]
     pub limits: (i64, i64),
 }
 
@@ -133,7 +133,7 @@ impl SimDevice {
         self.driver_enabled = true;
     }
 
-    /// Position now [microsteps].
+    /// Position now \[microsteps\].
     pub fn position(&self, now: Duration) -> f64 {
         match &self.motion {
             Some(p) => p.position(self.elapsed_s(p, now)),
@@ -199,7 +199,9 @@ impl SimDevice {
                 ok()
             }
             ["move", "rel", n] => {
-                let target = self.position(now).round() as i64 + parse_i64(n)?;
+                let target = (self.position(now).round() as i64)
+                    .checked_add(parse_i64(n)?)
+                    .ok_or_else(|| "BADDATA".to_owned())?;
                 self.check_target(target)?;
                 self.start(target as f64, false, now)?;
                 ok()
@@ -312,7 +314,9 @@ impl SimDevice {
             "comm.alert" if v == 0 || v == 1 => self.comm_alert = v == 1,
             "limit.min" if v <= self.limit_max => self.limit_min = v,
             "limit.max" if v >= self.limit_min => self.limit_max = v,
-            "maxspeed" | "accel" | "comm.alert" | "limit.min" | "limit.max" => return Err("BADDATA".to_owned()),
+            "maxspeed" | "accel" | "comm.alert" | "limit.min" | "limit.max" => {
+                return Err("BADDATA".to_owned());
+            }
             _ => return Err("BADCOMMAND".to_owned()),
         }
         Ok(())
@@ -332,11 +336,7 @@ impl SimDevice {
             self.flags.remove(&Warning::NO_REFERENCE);
             self.flags.remove(&Warning::NOT_HOMED);
         }
-        if self.comm_alert {
-            vec![self.alert()]
-        } else {
-            Vec::new()
-        }
+        if self.comm_alert { vec![self.alert()] } else { Vec::new() }
     }
 
     fn alert(&self) -> Message {
@@ -401,7 +401,10 @@ mod tests {
         assert_eq!(send(&mut d, "/1 1 dance", ms(0)), "@01 1 RJ BUSY -- BADCOMMAND");
         let t = Duration::from_secs(10);
         assert_eq!(send(&mut d, "/1 1 09 get pos", t), "@01 1 09 OK IDLE -- 100000");
-        assert_eq!(send(&mut d, "/0 0 get deviceid", t), format!("@01 0 OK IDLE -- {}", SimConfig::default().device_id));
+        assert_eq!(
+            send(&mut d, "/0 0 get deviceid", t),
+            format!("@01 0 OK IDLE -- {}", SimConfig::default().device_id)
+        );
     }
 
     #[test]
@@ -429,11 +432,36 @@ mod tests {
         assert_eq!(send(&mut d, "/1 0 warnings clear", ms(20)), "@01 0 OK IDLE -- 01 FS");
         assert_eq!(send(&mut d, "/1 0 warnings", ms(20)), "@01 0 OK IDLE -- 00");
         assert_eq!(send(&mut d, "/1 1 move abs 99999999999", ms(20)), "@01 1 RJ IDLE -- BADDATA");
+        assert_eq!(send(&mut d, "/1 1 move rel 9223372036854775807", ms(20)), "@01 1 RJ IDLE -- BADDATA");
         assert_eq!(send(&mut d, "/1 1 set maxspeed 0", ms(20)), "@01 1 RJ IDLE -- BADDATA");
         assert_eq!(send(&mut d, "/1 1 driver disable", ms(20)), "@01 1 OK IDLE FO 0");
         assert_eq!(send(&mut d, "/1 1 home", ms(20)), "@01 1 RJ IDLE FO DRIVERDISABLED");
         send(&mut d, "/1 1 driver enable", ms(20));
         assert_eq!(send(&mut d, "/1 0 system reset", ms(20)), "@01 0 OK IDLE WR 0");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn arbitrary_commands_never_panic(
+            lines in proptest::collection::vec(
+                proptest::prelude::prop_oneof![
+                    "/[0-9]{0,3} [0-9]{0,2} (home|stop|estop|move abs|move rel|get pos|set maxspeed|set accel|set limit.max|warnings|warnings clear|system reset|driver disable|driver enable) ?-?[0-9]{0,20}",
+                    "[ -~]{0,40}",
+                ],
+                0..30,
+            ),
+        ) {
+            let mut d = SimDevice::new(SimConfig { start_homed: true, ..SimConfig::default() });
+            for (i, line) in lines.iter().enumerate() {
+                let now = ms(7 * i as u64);
+                if let Ok((cmd, _)) = Command::parse(line) {
+                    let _ = d.handle(&cmd, now);
+                }
+                let _ = d.tick(now);
+            }
+            let s = d.snapshot(Duration::from_secs(100_000));
+            proptest::prop_assert!(s.pos_microsteps.is_finite());
+        }
     }
 
     #[test]

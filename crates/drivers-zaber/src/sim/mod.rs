@@ -4,17 +4,17 @@
 //! [`ZaberSim`] is dropped. What it models:
 //!
 //! * line parser accepting CR, LF or CRLF; optional checksum (verified; a line with a wrong
-//!   checksum is ignored, [UNC]; replies carry a checksum when the command had one); message
+//!   checksum is ignored, \[UNC\]; replies carry a checksum when the command had one); message
 //!   id echo; address 0 = broadcast, other addresses are silent; axis 0 or 1 (`BADAXIS`
 //!   otherwise); nothing is sent on connect;
-//! * state: position [microsteps], busy, homed, warning flags (`WR` after power-up), limits,
+//! * state: position \[microsteps\], busy, homed, warning flags (`WR` after power-up), limits,
 //!   `maxspeed`, `accel`, `comm.alert`, `resolution`, device id / serial / version;
 //! * commands: status poll, `home`, `move abs|rel`, `stop`, `estop`, `get`/`set` of the
 //!   modelled settings, `warnings [clear]`, `system reset`, `driver disable|enable`; anything
 //!   else → `RJ … BADCOMMAND`; bad values and targets → `BADDATA`; moves before homing →
 //!   `BADDATA` (configurable);
 //! * trapezoidal motion from `maxspeed`/`accel` (µsteps/s = maxspeed / 1.6384, µsteps/s² =
-//!   accel × 10000 / 1.6384, both [UNC]); `NI` when a move is interrupted; alerts
+//!   accel × 10000 / 1.6384, both \[UNC\]); `NI` when a move is interrupted; alerts
 //!   `!AA 1 IDLE WARN` when enabled;
 //! * fault injection: [`ZaberSim::inject_stall`] (`FS`), [`ZaberSim::inject_limit_hit`]
 //!   (`WL`), [`ZaberSim::set_stalled`] (no answers), [`ZaberSim::drop_clients`].
@@ -38,9 +38,9 @@ use crate::driver::{DEFAULT_LEAD_MM, DEFAULT_RESOLUTION, FULL_STEPS_PER_REV};
 pub struct SimConfig {
     /// device address in the (one-device) chain
     pub address: u8,
-    /// microstep size [mm] (default: the driver's default lead / (200 × 64), [UNC])
+    /// microstep size \[mm\] (default: the driver's default lead / (200 × 64), \[UNC\])
     pub microstep_mm: f64,
-    /// nominal travel [mm] (`limit.max` = travel / microstep)
+    /// nominal travel \[mm\] (`limit.max` = travel / microstep)
     pub travel_mm: f64,
     /// `resolution` setting (microsteps per full step)
     pub resolution: u32,
@@ -48,11 +48,11 @@ pub struct SimConfig {
     pub maxspeed: i64,
     /// initial `accel` [device units]
     pub accel: i64,
-    /// position after power-up [microsteps] (unknown to the host until homed)
+    /// position after power-up \[microsteps\] (unknown to the host until homed)
     pub power_up_microsteps: i64,
     /// start already homed (skip the `WR` phase)
     pub start_homed: bool,
-    /// refuse `move` before `home` with `BADDATA` ([UNC]: some firmware may accept)
+    /// refuse `move` before `home` with `BADDATA` (\[UNC\]: some firmware may accept)
     pub reject_move_before_home: bool,
     /// every duration is divided by this
     pub time_scale: f64,

@@ -52,7 +52,8 @@ impl ZaberSim {
             injected: Mutex::new(Vec::new()),
             flags: Flags::default(),
         });
-        let server = Server { listener, clients: Vec::new(), shared: Arc::clone(&shared), config: config.clone() };
+        let server =
+            Server { listener, clients: Vec::new(), shared: Arc::clone(&shared), config: config.clone() };
         let thread = std::thread::Builder::new().name("zaber-sim".to_owned()).spawn(move || server.run())?;
         Ok(Self { addr, shared, config, thread: Some(thread) })
     }
@@ -145,17 +146,19 @@ impl Server {
 
     fn serve_once(&mut self) {
         let now = self.config.clock.now();
-        let mut broadcast: Vec<u8> = std::mem::take(&mut *lock(&self.shared.injected))
-            .iter()
-            .flat_map(|m| m.encode(false))
-            .collect();
+        let mut broadcast: Vec<u8> =
+            std::mem::take(&mut *lock(&self.shared.injected)).iter().flat_map(|m| m.encode(false)).collect();
         broadcast.extend(lock(&self.shared.device).tick(now).iter().flat_map(|m| m.encode(false)));
         for client in &mut self.clients {
             let mut buf = [0u8; 2048];
             match client.stream.read(&mut buf) {
                 Ok(0) => client.open = false,
                 Ok(n) => client.deframer.push(&buf[..n]),
-                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted) => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+                    ) => {}
                 Err(_) => client.open = false,
             }
             if self.shared.flags.stalled.load(Ordering::SeqCst) {

@@ -10,7 +10,8 @@ use vatcal_kinematics::Model;
 
 /// The canonical cell file.
 pub fn cell() -> CellFile {
-    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml")).expect("canonical cell")
+    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+        .expect("canonical cell")
 }
 
 /// The nominal model of the canonical cell.
@@ -41,7 +42,11 @@ pub fn perturbed(seed: u64) -> Model {
         let amplitude = if matches!(b, BaseParam::X | BaseParam::Y | BaseParam::Z) { 2.0 } else { 0.3 * deg };
         nudge(&mut m, ParamId::Base(b), amplitude);
     }
-    for spec in [EffectSpec::JointCyclic { joint: 3, harmonic: 1 }, EffectSpec::GuideAngular { order: 2 }, EffectSpec::ToolFrame] {
+    for spec in [
+        EffectSpec::JointCyclic { joint: 3, harmonic: 1 },
+        EffectSpec::GuideAngular { order: 2 },
+        EffectSpec::ToolFrame,
+    ] {
         m.enable_effect(spec).expect("effect");
         for id in spec.params() {
             let amplitude = if id.name().starts_with("tool_t") { 0.3 } else { 0.05 * deg };
