@@ -2,7 +2,7 @@
 
 use std::collections::VecDeque;
 use std::net::{TcpStream, ToSocketAddrs};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use nalgebra::Vector3;
 use vatcal_hardware_traits::{
@@ -12,6 +12,7 @@ use vatcal_hardware_traits::{
 use crate::codec::{Banner, Command, Deframer, Reply, Six, StatusWord, code};
 use crate::error::Meca500Error;
 use crate::transport::{Transport, is_timeout};
+use vatcal_hardware_traits::transport::Deadline as Wait;
 
 /// Factory control port of the robot.
 pub const CONTROL_PORT: u16 = 10000;
@@ -70,23 +71,6 @@ impl Default for Meca500Config {
             status_poll_interval: Duration::from_millis(10),
             reset_trf_on_activate: true,
         }
-    }
-}
-
-/// A deadline with the timeout it came from (for error messages).
-#[derive(Debug, Clone, Copy)]
-struct Wait {
-    deadline: Instant,
-    timeout: Duration,
-}
-
-impl Wait {
-    fn new(timeout: Duration) -> Self {
-        Self { deadline: Instant::now() + timeout, timeout }
-    }
-
-    fn remaining(&self) -> Option<Duration> {
-        self.deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero())
     }
 }
 
@@ -415,7 +399,7 @@ impl<T: Transport> Meca500<T> {
     }
 
     fn timeout_error(&self, wait: &Wait, what: &str) -> Meca500Error {
-        Meca500Error::Timeout { waiting_for: what.to_owned(), after: wait.timeout }
+        Meca500Error::Timeout { waiting_for: what.to_owned(), after: wait.timeout() }
     }
 
     /// Next message from the robot, routed through [`Self::observe`].

@@ -1,13 +1,14 @@
 //! The blocking Sylvac driver: [`SylvacGauge`] implements [`Gauge`] over any [`Transport`].
 
 use std::net::{TcpStream, ToSocketAddrs};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use vatcal_hardware_traits::{Gauge, Result as HwResult};
 
 use crate::codec::{Answer, Command, LineDeframer, MAX_PRESET_MM, Unit};
 use crate::error::SylvacError;
 use crate::transport::{Transport, is_timeout};
+use vatcal_hardware_traits::transport::Deadline as Wait;
 
 /// Connection settings and timeouts.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,22 +45,6 @@ impl Default for SylvacConfig {
             preset_tolerance_mm: Some(0.002),
             preset_mode_on: false,
         }
-    }
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Wait {
-    deadline: Instant,
-    timeout: Duration,
-}
-
-impl Wait {
-    fn new(timeout: Duration) -> Self {
-        Self { deadline: Instant::now() + timeout, timeout }
-    }
-
-    fn remaining(&self) -> Option<Duration> {
-        self.deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero())
     }
 }
 
@@ -230,7 +215,7 @@ impl<T: Transport> SylvacGauge<T> {
             let Some(remaining) = wait.remaining() else {
                 return Err(SylvacError::Timeout {
                     waiting_for: format!("answer to '{command}'"),
-                    after: wait.timeout,
+                    after: wait.timeout(),
                 });
             };
             match self.transport.recv(&mut buf, remaining) {

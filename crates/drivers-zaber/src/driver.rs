@@ -1,13 +1,14 @@
 //! The blocking Zaber driver: [`ZaberAxis`] implements [`LinearAxis`] over any [`Transport`].
 
 use std::net::{TcpStream, ToSocketAddrs};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use vatcal_hardware_traits::{LinearAxis, MotionOptions, Result as HwResult};
 
 use crate::codec::{Command, LineDeframer, LineEnding, Message, Reply, Status, Warning, parse_warning_list};
 use crate::error::ZaberError;
 use crate::transport::{Transport, is_timeout};
+use vatcal_hardware_traits::transport::Deadline as Wait;
 
 /// TCP port forwarding to the whole daisy chain.
 pub const TCP_PORT_CHAIN: u16 = 55550;
@@ -122,22 +123,6 @@ impl AxisInfo {
     /// Travel \[mm\], if known.
     pub fn travel_mm(&self) -> Option<(f64, f64)> {
         self.limits_microsteps.map(|(lo, hi)| (lo as f64 * self.microstep_mm, hi as f64 * self.microstep_mm))
-    }
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Wait {
-    deadline: Instant,
-    timeout: Duration,
-}
-
-impl Wait {
-    fn new(timeout: Duration) -> Self {
-        Self { deadline: Instant::now() + timeout, timeout }
-    }
-
-    fn remaining(&self) -> Option<Duration> {
-        self.deadline.checked_duration_since(Instant::now()).filter(|d| !d.is_zero())
     }
 }
 
@@ -394,7 +379,7 @@ impl<T: Transport> ZaberAxis<T> {
             match wait.remaining() {
                 Some(r) => std::thread::sleep(r.min(self.config.poll_interval)),
                 None => {
-                    return Err(ZaberError::Timeout { waiting_for: "IDLE".to_owned(), after: wait.timeout });
+                    return Err(ZaberError::Timeout { waiting_for: "IDLE".to_owned(), after: wait.timeout() });
                 }
             }
         }
@@ -422,7 +407,7 @@ impl<T: Transport> ZaberAxis<T> {
                 None => {
                     return Err(ZaberError::Timeout {
                         waiting_for: "IDLE after stop".to_owned(),
-                        after: wait.timeout,
+                        after: wait.timeout(),
                     });
                 }
             }
@@ -438,7 +423,7 @@ impl<T: Transport> ZaberAxis<T> {
             let Some(remaining) = wait.remaining() else {
                 return Err(ZaberError::Timeout {
                     waiting_for: format!("reply to '{what}'"),
-                    after: wait.timeout,
+                    after: wait.timeout(),
                 });
             };
             match self.transport.recv(&mut buf, remaining) {

@@ -42,6 +42,7 @@ mod gauge;
 mod operator;
 mod probe;
 mod tracker;
+pub mod transport;
 
 pub use arm::{ArmJoints, ArmStatus, LinearFrame, MotionOptions, RobotArm};
 pub use axis::LinearAxis;
@@ -51,3 +52,4 @@ pub use gauge::Gauge;
 pub use operator::{Operator, OperatorInstruction};
 pub use probe::{Probe3d, ProbePlacement, ProbeReading, TRICAL_MASTER_PRESET_MM, TriCal, TriCalConfig};
 pub use tracker::PositionTracker;
+pub use transport::{Deadline, Transport};
