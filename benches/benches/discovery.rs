@@ -17,7 +17,9 @@ use vatcal_core::params::EffectParam;
 use vatcal_core::{CellFile, Measurement, ParamId, ParamSet};
 use vatcal_discovery::{DiscoverOptions, discover};
 use vatcal_kinematics::Model;
-use vatcal_sim::truth::{ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements};
+use vatcal_sim::truth::{
+    ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
+};
 
 fn canonical() -> Model {
     let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-zaber.toml"))
@@ -46,9 +48,16 @@ fn bench_discovery(c: &mut Criterion) {
     for (name, hidden) in [("null", false), ("cyclic-j4", true)] {
         let m = data(&nominal, hidden);
         let d = discover(&nominal, &m, &ParamSet::paper34(), None, &options).expect("discover");
-        eprintln!("discovery bench {name}: {} rounds, added {:?}", d.rounds.len(), d.added_effects.iter().map(|a| a.label.clone()).collect::<Vec<_>>());
+        eprintln!(
+            "discovery bench {name}: {} rounds, added {:?}",
+            d.rounds.len(),
+            d.added_effects.iter().map(|a| a.label.clone()).collect::<Vec<_>>()
+        );
         group.bench_function(format!("{name}/{}", m.len()), |b| {
-            b.iter(|| discover(black_box(&nominal), black_box(&m), &ParamSet::paper34(), None, &options).expect("discover"))
+            b.iter(|| {
+                discover(black_box(&nominal), black_box(&m), &ParamSet::paper34(), None, &options)
+                    .expect("discover")
+            })
         });
     }
     group.finish();

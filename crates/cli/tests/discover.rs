@@ -34,7 +34,8 @@ fn discover_names_a_hidden_cyclic_error_and_writes_its_outputs() {
     let (m, v) = (dir.path().join("probe.csv"), dir.path().join("tracker.csv"));
     vatcal_io::write_measurements(&m, &probe).expect("write probe");
     vatcal_io::write_measurements(&v, &tracker).expect("write tracker");
-    let (report, out, plots) = (dir.path().join("r.json"), dir.path().join("final.toml"), dir.path().join("plots"));
+    let (report, out, plots) =
+        (dir.path().join("r.json"), dir.path().join("final.toml"), dir.path().join("plots"));
     let run = vatcal()
         .args(["discover", "--model", FIXTURE, "--params", "paper34", "--seed", "3"])
         .arg("--measurements")
@@ -55,7 +56,8 @@ fn discover_names_a_hidden_cyclic_error_and_writes_its_outputs() {
     assert!(stdout.contains("added joint-cyclic (joint 4, harmonic 1)"), "{stdout}");
     assert!(stdout.contains("result: 1 effect(s) added"), "{stdout}");
 
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     let added = &json["added_effects"][0];
     assert_eq!(added["effect"], "joint-cyclic");
     assert_eq!(added["joint"], 4);

@@ -2,9 +2,9 @@
 //! that drives it (for the "where" analysis and the plots), a one-line physical meaning, and
 //! the range of physically plausible values.
 
+use vatcal_core::ParamId;
 use vatcal_core::effects::{EffectKind, EffectSpec, ThermalDriver};
 use vatcal_core::params::{EffectParam, ToolFrameDof};
-use vatcal_core::ParamId;
 
 use crate::location::Driver;
 
@@ -29,18 +29,30 @@ pub fn driver_of(spec: &EffectSpec) -> Driver {
 /// One sentence on what the effect is physically.
 pub fn meaning(kind: EffectKind) -> &'static str {
     match kind {
-        EffectKind::JointCompliance => "the joint yields under the gravity load (angle error proportional to the torque)",
-        EffectKind::JointCyclic => "periodic transmission error of the joint (strain-wave gear, encoder eccentricity)",
-        EffectKind::JointScale => "the joint's gear ratio or encoder scale differs from nominal (error proportional to the angle)",
-        EffectKind::JointBacklash => "lost motion: the joint stops short by a fixed angle depending on the approach direction",
-        EffectKind::GuideAngular => "the carriage pitches/yaws/rolls along the guide (error grows with distance from the carriage)",
+        EffectKind::JointCompliance => {
+            "the joint yields under the gravity load (angle error proportional to the torque)"
+        }
+        EffectKind::JointCyclic => {
+            "periodic transmission error of the joint (strain-wave gear, encoder eccentricity)"
+        }
+        EffectKind::JointScale => {
+            "the joint's gear ratio or encoder scale differs from nominal (error proportional to the angle)"
+        }
+        EffectKind::JointBacklash => {
+            "lost motion: the joint stops short by a fixed angle depending on the approach direction"
+        }
+        EffectKind::GuideAngular => {
+            "the carriage pitches/yaws/rolls along the guide (error grows with distance from the carriage)"
+        }
         EffectKind::GuideStraightness => "the carriage path bows sideways along the guide",
         EffectKind::GuideScale => "the guide's lead-screw pitch (or its temperature) differs from nominal",
         EffectKind::ToolFrame => "the tool changer sits offset/tilted on the flange",
         EffectKind::TcpOffset => "the CMM coordinates of one calibration ball are wrong",
         EffectKind::PositionOffset => "the CMM coordinates of one calibration position are wrong",
         EffectKind::ThermalDrift => "the arm grows or shrinks with time or temperature",
-        EffectKind::HayatiBeta => "two consecutive joint axes are not exactly as the MDH row assumes (small rotation about y)",
+        EffectKind::HayatiBeta => {
+            "two consecutive joint axes are not exactly as the MDH row assumes (small rotation about y)"
+        }
     }
 }
 
@@ -74,7 +86,9 @@ pub fn plausibility(spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(),
         if let (ParamId::Compliance(j), EffectSpec::JointCompliance { .. }) = (id, spec) {
             // the compliance starts at 0 when it is added: the identified value is `change`
             if *change <= 0.0 {
-                return Err(format!("c_{j} came out {change:.3e} rad/(N*m): a joint cannot stiffen under load"));
+                return Err(format!(
+                    "c_{j} came out {change:.3e} rad/(N*m): a joint cannot stiffen under load"
+                ));
             }
         }
         if let Some((bound, text)) = magnitude_bound(*id)

@@ -100,7 +100,8 @@ impl PairedImprovement {
     /// If the lengths differ (a programming error).
     pub fn new(before: &[Vector3<f64>], after: &[Vector3<f64>]) -> Self {
         assert_eq!(before.len(), after.len(), "paired errors must have the same length");
-        let d: Vec<f64> = before.iter().zip(after).map(|(b, a)| b.norm_squared() - a.norm_squared()).collect();
+        let d: Vec<f64> =
+            before.iter().zip(after).map(|(b, a)| b.norm_squared() - a.norm_squared()).collect();
         let n = d.len() as f64;
         let mean = d.iter().sum::<f64>() / n.max(1.0);
         let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
@@ -149,6 +150,8 @@ mod tests {
         let big = NestedComparison::new(540, 34, 0.01, 36, 0.002);
         assert!(big.f > 100.0 && big.f_ln_p_value < -50.0 && big.delta_bic < -10.0 && big.delta_aicc < 0.0);
         let none = NestedComparison::new(540, 34, 0.002, 36, 0.002);
-        assert!(none.f.abs() < 1e-12 && none.f_p_value() > 0.999 && none.delta_bic > 0.0 && none.delta_aicc > 0.0);
+        assert!(
+            none.f.abs() < 1e-12 && none.f_p_value() > 0.999 && none.delta_bic > 0.0 && none.delta_aicc > 0.0
+        );
     }
 }

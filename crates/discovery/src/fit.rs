@@ -49,7 +49,9 @@ impl Fit {
     /// Correlation of parameters `a` and `b` (indices into `params`), if known.
     pub fn correlation(&self, a: usize, b: usize) -> Option<f64> {
         let l = self.correlation.nrows();
-        (a < l && b < l && self.correlation.ncols() == l).then(|| self.correlation[(a, b)]).filter(|c| c.is_finite())
+        (a < l && b < l && self.correlation.ncols() == l)
+            .then(|| self.correlation[(a, b)])
+            .filter(|c| c.is_finite())
     }
 }
 
@@ -58,7 +60,9 @@ pub fn residuals(model: &Model, measurements: &[Measurement]) -> Result<Vec<Vect
     measurements
         .iter()
         .enumerate()
-        .map(|(i, m)| model.residual(m).map_err(|e| DiscoveryError::Measurement { index: i, message: e.to_string() }))
+        .map(|(i, m)| {
+            model.residual(m).map_err(|e| DiscoveryError::Measurement { index: i, message: e.to_string() })
+        })
         .collect()
 }
 
@@ -69,7 +73,8 @@ pub fn fit(
     params: &ParamSet,
     options: &IdentifyOptions,
 ) -> Result<Fit, DiscoveryError> {
-    let id = identify(start, measurements, params, options).map_err(|e| DiscoveryError::Fit(e.to_string()))?;
+    let id =
+        identify(start, measurements, params, options).map_err(|e| DiscoveryError::Fit(e.to_string()))?;
     let rss_mm2 = id.residuals.iter().map(|r| r.norm_squared()).sum();
     Ok(Fit {
         model: id.model,

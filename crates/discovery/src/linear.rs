@@ -169,9 +169,15 @@ impl ScoreTest {
 /// The score test of adding the effect described by `directions`, from the residual `r̂` of the
 /// current fit and the noise variance estimate `sigma2` (σ̂² = RSS₀ / (N − p₀), or a known σ²).
 /// `r̂` is projected onto `P⊥` first, so an incompletely converged fit does not inflate LM.
-pub fn score_test(space: &ColumnSpace, directions: &EffectDirections, residual: &[f64], sigma2: f64) -> ScoreTest {
+pub fn score_test(
+    space: &ColumnSpace,
+    directions: &EffectDirections,
+    residual: &[f64],
+    sigma2: f64,
+) -> ScoreTest {
     let pr = space.project_out_vec(residual);
-    let statistic = if sigma2 > 0.0 { directions.explained_sum_of_squares(&pr) / sigma2 } else { f64::INFINITY };
+    let statistic =
+        if sigma2 > 0.0 { directions.explained_sum_of_squares(&pr) / sigma2 } else { f64::INFINITY };
     let dof = directions.dof;
     let ln_p_value = if dof == 0 { f64::NAN } else { chi2_ln_sf(statistic, dof) };
     ScoreTest { statistic, dof, ln_p_value }
@@ -209,12 +215,17 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let a = random_matrix(&mut rng, 50, 4);
         // fifth column = combination of the first two (exactly redundant), scaled oddly
-        let j = Mat::from_fn(50, 5, |i, c| if c < 4 { a[(i, c)] * 1e3f64.powi(c as i32) } else { 2.0 * a[(i, 0)] - a[(i, 1)] });
+        let j = Mat::from_fn(50, 5, |i, c| {
+            if c < 4 { a[(i, c)] * 1e3f64.powi(c as i32) } else { 2.0 * a[(i, 0)] - a[(i, 1)] }
+        });
         let s = ColumnSpace::of(j.as_ref()).expect("svd");
         assert_eq!(s.rank(), 4);
         let (jn, _) = unit_columns(j.as_ref());
         let p = s.project_out(jn.as_ref());
-        let max = p.col_iter().flat_map(|c| c.iter().copied().collect::<Vec<_>>()).fold(0.0f64, |m, v| m.max(v.abs()));
+        let max = p
+            .col_iter()
+            .flat_map(|c| c.iter().copied().collect::<Vec<_>>())
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         assert!(max < 1e-12, "projection of the column space itself must vanish: {max}");
     }
 
@@ -251,7 +262,8 @@ mod tests {
         let (n, p, k) = (120, 8, 2);
         let j = random_matrix(&mut rng, n, p);
         let z = random_matrix(&mut rng, n, k);
-        let y: Vec<f64> = (0..n).map(|i| 0.3 * z[(i, 0)] - 0.1 * z[(i, 1)] + j[(i, 2)] + gaussian(&mut rng)).collect();
+        let y: Vec<f64> =
+            (0..n).map(|i| 0.3 * z[(i, 0)] - 0.1 * z[(i, 1)] + j[(i, 2)] + gaussian(&mut rng)).collect();
         let r0 = ls_residual(j.as_ref(), &y);
         let jz = Mat::from_fn(n, p + k, |i, c| if c < p { j[(i, c)] } else { z[(i, c - p)] });
         let r1 = ls_residual(jz.as_ref(), &y);
@@ -273,7 +285,8 @@ mod tests {
         for _ in 0..trials {
             let j = random_matrix(&mut rng, n, p);
             let z = random_matrix(&mut rng, n, k);
-            let y: Vec<f64> = (0..n).map(|i| j[(i, 0)] - 2.0 * j[(i, 4)] + 0.01 * gaussian(&mut rng)).collect();
+            let y: Vec<f64> =
+                (0..n).map(|i| j[(i, 0)] - 2.0 * j[(i, 4)] + 0.01 * gaussian(&mut rng)).collect();
             let r0 = ls_residual(j.as_ref(), &y);
             let s = ColumnSpace::of(j.as_ref()).expect("svd");
             let d = EffectDirections::new(&s, z.as_ref(), 1e-6).expect("svd");

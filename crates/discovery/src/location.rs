@@ -335,7 +335,11 @@ pub fn summarize_driver(
 }
 
 /// Summaries of every available driver, most significant first.
-pub fn locate(model: &Model, measurements: &[Measurement], residuals: &[Vector3<f64>]) -> Result<Vec<DriverSummary>, DiscoveryError> {
+pub fn locate(
+    model: &Model,
+    measurements: &[Measurement],
+    residuals: &[Vector3<f64>],
+) -> Result<Vec<DriverSummary>, DiscoveryError> {
     let pose = PoseData::of(model, measurements)?;
     let mut out = Vec::new();
     for d in Driver::all() {
@@ -366,7 +370,11 @@ mod tests {
                 *v = rng.random_range(-2.5..2.5);
             }
             let m = Measurement::probe(1 + (i % 3) as u32, 1 + (i % 3) as u32, JointVector(q));
-            let noise = Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)) * 0.002;
+            let noise = Vector3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            ) * 0.002;
             res.push(Vector3::new(0.02 * q[3].sin(), -0.01 * q[3].sin(), 0.0) + noise);
             ms.push(m);
         }

@@ -373,7 +373,9 @@ impl Context<'_> {
 
     fn gap(&self, model: &Model, heldout: &[Vector3<f64>]) -> Result<Gap, DiscoveryError> {
         let validation = match self.validation {
-            Some(v) if !v.is_empty() => Some(validate(model, v).map_err(|e| DiscoveryError::Fit(e.to_string()))?.stats),
+            Some(v) if !v.is_empty() => {
+                Some(validate(model, v).map_err(|e| DiscoveryError::Fit(e.to_string()))?.stats)
+            }
             _ => None,
         };
         Ok(Gap { heldout: ErrorStats::from_errors(heldout), validation })
@@ -494,8 +496,7 @@ fn score_candidates(
         None => current.rss_mm2 / n.saturating_sub(space.rank()).max(1) as f64,
     };
     for c in out.iter_mut().filter(|c| c.status == CandidateStatus::NotSignificant) {
-        let cols: Vec<usize> =
-            c.new_params.iter().filter_map(|p| all.iter().position(|q| q == p)).collect();
+        let cols: Vec<usize> = c.new_params.iter().filter_map(|p| all.iter().position(|q| q == p)).collect();
         let z = columns(&zall, &cols);
         let d = EffectDirections::new(space, z.as_ref(), ctx.options.novelty_floor)?;
         if d.dof == 0 {
@@ -531,9 +532,12 @@ fn refit_candidate(
     }
     let mut params1 = current.params.clone();
     params1.0.extend(added.iter().copied());
-    let fit1 = fit(&start, ctx.measurements, &params1, &opts.identify).map_err(|e| format!("refit failed: {e}"))?;
-    let comparison = NestedComparison::new(current.n(), rank0, current.rss_mm2, rank0 + added.len(), fit1.rss_mm2);
-    let held1 = ctx.cross_validate(&fit1.model, &params1).map_err(|e| format!("cross-validation failed: {e}"))?;
+    let fit1 =
+        fit(&start, ctx.measurements, &params1, &opts.identify).map_err(|e| format!("refit failed: {e}"))?;
+    let comparison =
+        NestedComparison::new(current.n(), rank0, current.rss_mm2, rank0 + added.len(), fit1.rss_mm2);
+    let held1 =
+        ctx.cross_validate(&fit1.model, &params1).map_err(|e| format!("cross-validation failed: {e}"))?;
     let cv_after = ErrorStats::from_errors(&held1);
     let cv_improvement = PairedImprovement::new(held0, &held1);
     let before = |p: ParamId| current.model.param(p).unwrap_or(0.0);
@@ -554,7 +558,11 @@ fn refit_candidate(
     for (a, p) in added.iter().enumerate() {
         for e in 0..existing {
             if let Some(c) = fit1.correlation(existing + a, e) {
-                confounding.push(Confounding { added: p.name(), existing: current.params.0[e].name(), correlation: c });
+                confounding.push(Confounding {
+                    added: p.name(),
+                    existing: current.params.0[e].name(),
+                    correlation: c,
+                });
             }
         }
     }
@@ -583,9 +591,13 @@ fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, cv_alpha: f64) ->
     let significant = c.f_ln_p_value < ln_threshold;
     let bic_drops = c.delta_bic < 0.0;
     let aicc_drops = c.delta_aicc < 0.0;
-    let cv_improves = mse_mm2(&e.cv_after) < mse_mm2(&e.cv_before) && e.cv_improvement.ln_p_value < cv_alpha.ln();
+    let cv_improves =
+        mse_mm2(&e.cv_after) < mse_mm2(&e.cv_before) && e.cv_improvement.ln_p_value < cv_alpha.ln();
     if !significant {
-        return Some(format!("F-test not significant (log10 p = {:.1})", c.f_ln_p_value / std::f64::consts::LN_10));
+        return Some(format!(
+            "F-test not significant (log10 p = {:.1})",
+            c.f_ln_p_value / std::f64::consts::LN_10
+        ));
     }
     if !bic_drops {
         return Some(format!("BIC does not drop ({:+.1})", c.delta_bic));
@@ -616,7 +628,8 @@ fn driver_plot(
         Some(j) => format!("residual as joint-{j} angle error [urad]"),
         None => "residual norm [um]".to_string(),
     };
-    let mut plot = DriverPlot { x_label: driver.label(), y_label, x: Vec::new(), before: Vec::new(), after: Vec::new() };
+    let mut plot =
+        DriverPlot { x_label: driver.label(), y_label, x: Vec::new(), before: Vec::new(), after: Vec::new() };
     for (i, m) in ms.iter().enumerate() {
         let Some(x) = driver.value(i, m, &pose.torques[i]) else { continue };
         let y = |r: &Vector3<f64>| match (joint, pose.joint_directions.as_ref()) {
@@ -632,6 +645,104 @@ fn driver_plot(
         plot.after.push(y(&after[i]));
     }
     Ok(plot)
+}
+
+/// Refits the screened candidates (best score first, at most `max_refits`) and marks each as
+/// rejected or passed.
+fn confirm_screened(
+    candidates: &mut [Candidate],
+    current: &Fit,
+    j0: &faer::Mat<f64>,
+    rank0: usize,
+    held0: &[Vector3<f64>],
+    ln_threshold: f64,
+    ctx: &Context<'_>,
+) {
+    let mut refits = 0;
+    for c in candidates.iter_mut() {
+        let Some(score) = c.score else { continue };
+        let screened = score.ln_p_value < ln_threshold;
+        if !screened {
+            continue;
+        }
+        if refits >= ctx.options.max_refits {
+            c.status = CandidateStatus::NotRefitted;
+            continue;
+        }
+        refits += 1;
+        match refit_candidate(current, j0, rank0, held0, c, ctx) {
+            Ok((evidence, fit1, held1)) => {
+                c.status = match rejection(&evidence, &fit1, ln_threshold, ctx.options.cv_alpha) {
+                    Some(why) => CandidateStatus::Rejected(why),
+                    None => CandidateStatus::PassedNotBest,
+                };
+                c.refit = Some((evidence, fit1, held1));
+            }
+            Err(why) => c.status = CandidateStatus::Rejected(why),
+        }
+    }
+}
+
+/// Index of the passing candidate with the lowest BIC.
+fn best_passing(candidates: &[Candidate]) -> Option<usize> {
+    let key = |c: &Candidate| c.refit.as_ref().map_or(f64::INFINITY, |r| r.0.comparison.delta_bic);
+    candidates
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| c.status == CandidateStatus::PassedNotBest)
+        .min_by(|a, b| key(a.1).total_cmp(&key(b.1)))
+        .map(|(i, _)| i)
+}
+
+/// Why nothing was added, naming the best-scored candidate.
+fn nothing_added(candidates: &[Candidate], ln_threshold: f64) -> String {
+    match candidates.iter().find(|c| c.score.is_some()) {
+        Some(c) => {
+            let why = match &c.status {
+                CandidateStatus::Rejected(why) => why.clone(),
+                _ => format!(
+                    "score test log10 p = {:.1} above the threshold {:.1}",
+                    c.score.map_or(0.0, |s| s.ln_p_value) / std::f64::consts::LN_10,
+                    ln_threshold / std::f64::consts::LN_10
+                ),
+            };
+            format!("nothing added: best candidate {} ({why})", c.spec.label())
+        }
+        None => "nothing added: no candidate can be tested".to_string(),
+    }
+}
+
+/// The record of an added candidate (its refit must be present).
+fn added_effect(
+    c: &Candidate,
+    current: &Fit,
+    gap_before: &Gap,
+    ctx: &Context<'_>,
+) -> Result<(AddedEffect, Fit, Vec<Vector3<f64>>), DiscoveryError> {
+    let lost = || DiscoveryError::Numerical("internal: the added candidate has no refit or score".into());
+    let (evidence, fit1, held1) = c.refit.clone().ok_or_else(lost)?;
+    let score = c.score.ok_or_else(lost)?;
+    let gap_after = ctx.gap(&fit1.model, &held1)?;
+    let plot = driver_plot(&c.spec, &fit1.model, ctx.measurements, &current.residuals, &fit1.residuals)?;
+    let added = AddedEffect {
+        effect: c.spec.kind().name().to_string(),
+        joint: c.spec.joint(),
+        label: c.spec.label(),
+        meaning: meaning(c.spec.kind()).to_string(),
+        spec: c.spec,
+        values: evidence.values,
+        std_errors: evidence.std_errors,
+        novelty: c.directions.as_ref().map_or(0.0, |d| d.novelty),
+        score,
+        comparison: evidence.comparison,
+        confounding: evidence.confounding,
+        gap_before_mm: gap_before.headline_mm(),
+        gap_after_mm: gap_after.headline_mm(),
+        gap_before: gap_before.clone(),
+        gap_after,
+        plot,
+    };
+    Ok((added, fit1, held1))
 }
 
 /// Runs the discovery loop from `start` with the fitted parameter set `params` on
@@ -668,89 +779,21 @@ pub fn discover(
         let mut candidates = score_candidates(&current, &space, &ctx, &mut notes)?;
         let m = candidates.iter().filter(|c| c.score.is_some()).count().max(1);
         let ln_threshold = (options.alpha / m as f64).ln();
-        candidates.sort_by(|a, b| {
-            let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
-            key(a).total_cmp(&key(b))
-        });
-        let mut refits = 0;
-        for c in candidates.iter_mut() {
-            let Some(score) = c.score else { continue };
-            let screened = score.ln_p_value < ln_threshold;
-            if !screened {
-                continue;
-            }
-            if refits >= options.max_refits {
-                c.status = CandidateStatus::NotRefitted;
-                continue;
-            }
-            refits += 1;
-            match refit_candidate(&current, &j0, rank0, &held0, c, &ctx) {
-                Ok((evidence, fit1, held1)) => {
-                    c.status = match rejection(&evidence, &fit1, ln_threshold, options.cv_alpha) {
-                        Some(why) => CandidateStatus::Rejected(why),
-                        None => CandidateStatus::PassedNotBest,
-                    };
-                    c.refit = Some((evidence, fit1, held1));
-                }
-                Err(why) => c.status = CandidateStatus::Rejected(why),
-            }
-        }
-        let best = candidates
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.status == CandidateStatus::PassedNotBest)
-            .min_by(|a, b| {
-                let key = |c: &Candidate| c.refit.as_ref().map_or(f64::INFINITY, |r| r.0.comparison.delta_bic);
-                key(a.1).total_cmp(&key(b.1))
-            })
-            .map(|(i, _)| i);
+        let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
+        candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
+        confirm_screened(&mut candidates, &current, &j0, rank0, &held0, ln_threshold, &ctx);
         let fit_summary = summarize_fit(&current, rank0, options.known_sigma_mm);
-        let decision;
-        let mut next = None;
-        if let Some(b) = best {
-            let c = &mut candidates[b];
-            c.status = CandidateStatus::Added;
-            let (evidence, fit1, held1) = c.refit.clone().ok_or(DiscoveryError::Numerical("lost refit".into()))?;
-            let gap_after = ctx.gap(&fit1.model, &held1)?;
-            let score = c.score.ok_or(DiscoveryError::Numerical("lost score".into()))?;
-            let added = AddedEffect {
-                effect: c.spec.kind().name().to_string(),
-                joint: c.spec.joint(),
-                label: c.spec.label(),
-                meaning: meaning(c.spec.kind()).to_string(),
-                spec: c.spec,
-                values: evidence.values.clone(),
-                std_errors: evidence.std_errors.clone(),
-                novelty: c.directions.as_ref().map_or(0.0, |d| d.novelty),
-                score,
-                comparison: evidence.comparison,
-                confounding: evidence.confounding.clone(),
-                gap_before_mm: gap.headline_mm(),
-                gap_after_mm: gap_after.headline_mm(),
-                gap_before: gap.clone(),
-                gap_after: gap_after.clone(),
-                plot: driver_plot(&c.spec, &fit1.model, measurements, &current.residuals, &fit1.residuals)?,
-            };
-            decision = added.summary_line();
-            added_effects.push(added);
-            next = Some((fit1, held1, gap_after));
-        } else {
-            decision = match candidates.iter().find(|c| c.score.is_some()) {
-                Some(c) => format!(
-                    "nothing added: best candidate {} ({})",
-                    c.spec.label(),
-                    match &c.status {
-                        CandidateStatus::Rejected(why) => why.clone(),
-                        _ => format!(
-                            "score test log10 p = {:.1} above the threshold {:.1}",
-                            c.score.map_or(0.0, |s| s.ln_p_value) / std::f64::consts::LN_10,
-                            ln_threshold / std::f64::consts::LN_10
-                        ),
-                    }
-                ),
-                None => "nothing added: no candidate can be tested".to_string(),
-            };
-        }
+        let next = match best_passing(&candidates) {
+            Some(b) => {
+                candidates[b].status = CandidateStatus::Added;
+                Some(added_effect(&candidates[b], &current, &gap, &ctx)?)
+            }
+            None => None,
+        };
+        let decision = match &next {
+            Some((added, ..)) => added.summary_line(),
+            None => nothing_added(&candidates, ln_threshold),
+        };
         rounds.push(Round {
             index,
             fit: fit_summary,
@@ -759,14 +802,11 @@ pub fn discover(
             candidates: candidates.into_iter().map(candidate_score).collect(),
             decision,
         });
-        match next {
-            Some((fit1, held1, gap1)) => {
-                current = fit1;
-                held0 = held1;
-                gap = gap1;
-            }
-            None => break,
-        }
+        let Some((added, fit1, held1)) = next else { break };
+        gap = added.gap_after.clone();
+        added_effects.push(added);
+        current = fit1;
+        held0 = held1;
     }
     Ok(Discovery {
         model: current.model,

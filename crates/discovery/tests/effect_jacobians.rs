@@ -104,7 +104,13 @@ fn fd_column(model: &Model, m: &Measurement, id: ParamId, tau: &[f64; 6]) -> Vec
 /// provides the analytic columns, `fd_model` the finite differences (they differ when the
 /// effect is checked "switched off").
 /// Returns the largest scaled column norm seen (so callers can check the columns are not all 0).
-fn check_columns(analytic_model: &Model, fd_model: &Model, m: &Measurement, params: &[ParamId], what: &str) -> f64 {
+fn check_columns(
+    analytic_model: &Model,
+    fd_model: &Model,
+    m: &Measurement,
+    params: &[ParamId],
+    what: &str,
+) -> f64 {
     let mut out = vec![0.0; 3 * params.len()];
     analytic_model
         .measurement_jacobian_into(m, params, &mut out)
@@ -173,7 +179,13 @@ fn every_effect_switched_on_matches_finite_differences() {
         let model = model_with(spec, &mut rng);
         let mut largest: f64 = 0.0;
         for m in measurements(&model, &mut rng, 6) {
-            largest = largest.max(check_columns(&model, &model, &m, &spec.params(), &format!("{} (on)", spec.label())));
+            largest = largest.max(check_columns(
+                &model,
+                &model,
+                &m,
+                &spec.params(),
+                &format!("{} (on)", spec.label()),
+            ));
         }
         assert!(largest > 1e-4, "{}: columns are (nearly) zero: {largest:e}", spec.label());
     }
@@ -194,7 +206,13 @@ fn effect_columns_when_switched_off_are_derivatives_at_zero() {
         on_at_zero.enable_effect(spec).expect("valid effect");
         let mut largest: f64 = 0.0;
         for m in measurements(&off, &mut rng, 5) {
-            largest = largest.max(check_columns(&off, &on_at_zero, &m, &spec.params(), &format!("{} (off)", spec.label())));
+            largest = largest.max(check_columns(
+                &off,
+                &on_at_zero,
+                &m,
+                &spec.params(),
+                &format!("{} (off)", spec.label()),
+            ));
         }
         assert!(largest > 1e-4, "{}: columns are (nearly) zero: {largest:e}", spec.label());
     }
@@ -234,7 +252,8 @@ fn thermal_drift_is_driven_by_its_own_context_field() {
     let model = nominal();
     let q = random_q(&model, &mut rng);
     let mut m = Measurement::probe(1, 1, q);
-    m.context = MeasurementContext { dir: None, time_s: Some(0.0), temperature_c: Some(model.thermal_reference_c()) };
+    m.context =
+        MeasurementContext { dir: None, time_s: Some(0.0), temperature_c: Some(model.thermal_reference_c()) };
     let params: Vec<ParamId> = [ThermalDriver::Time, ThermalDriver::Temperature]
         .iter()
         .flat_map(|d| EffectSpec::ThermalDrift { driver: *d }.params())

@@ -43,9 +43,19 @@ fn assert_gap_closed(s: &Scenario, d: &Discovery, params: &ParamSet, hidden: &[H
         d.initial_gap_mm, d.final_gap_mm
     );
     assert!(d.final_gap_mm < d.initial_gap_mm, "the gap did not shrink");
-    assert!(d.final_gap_mm <= 1.3 * oracle, "final gap {} mm vs true-structure fit {oracle} mm", d.final_gap_mm);
+    assert!(
+        d.final_gap_mm <= 1.3 * oracle,
+        "final gap {} mm vs true-structure fit {oracle} mm",
+        d.final_gap_mm
+    );
     for a in &d.added_effects {
-        assert!(a.gap_after_mm < a.gap_before_mm, "{}: gap {} -> {}", a.label, a.gap_before_mm, a.gap_after_mm);
+        assert!(
+            a.gap_after_mm < a.gap_before_mm,
+            "{}: gap {} -> {}",
+            a.label,
+            a.gap_before_mm,
+            a.gap_after_mm
+        );
     }
 }
 

@@ -22,8 +22,10 @@ fn report_json_plots_and_determinism() {
     }];
     let s = scenario(71, &hidden, None, 150);
     let options = DiscoverOptions { seed: 5, ..DiscoverOptions::default() };
-    let d1 = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &options).expect("runs");
-    let d2 = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &options).expect("runs");
+    let d1 = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &options)
+        .expect("runs");
+    let d2 = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &options)
+        .expect("runs");
     let j1 = serde_json::to_value(&d1).expect("json");
     let j2 = serde_json::to_value(&d2).expect("json");
     assert_eq!(j1, j2, "same seed, same report");
@@ -40,7 +42,9 @@ fn report_json_plots_and_determinism() {
     }
     assert!(added[0]["score"]["statistic"].as_f64().is_some());
     assert!(added[0]["comparison"]["delta_bic"].as_f64().is_some());
-    assert!(j1["final_gap_mm"].as_f64().expect("final gap") < j1["initial_gap_mm"].as_f64().expect("initial"));
+    assert!(
+        j1["final_gap_mm"].as_f64().expect("final gap") < j1["initial_gap_mm"].as_f64().expect("initial")
+    );
     // every round lists its candidates with a status
     let round = &j1["rounds"][0];
     assert!(round["candidates"].as_array().expect("candidates").iter().all(|c| c["status"].is_string()));

@@ -38,7 +38,10 @@ fn cyclic(joint: u8, deg: f64, phase_deg: f64) -> Hidden {
 fn guide(axis: Axis, urad_per_100mm: f64) -> Hidden {
     Hidden {
         spec: EffectSpec::GuideAngular { order: 1 },
-        values: vec![(ParamId::Effect(EffectParam::GuideAngular { axis, order: 1 }), urad_per_100mm * 1.5e-6)],
+        values: vec![(
+            ParamId::Effect(EffectParam::GuideAngular { axis, order: 1 }),
+            urad_per_100mm * 1.5e-6,
+        )],
     }
 }
 
@@ -60,7 +63,13 @@ fn cases() -> Vec<Case> {
     let mut v = Vec::new();
     let name = |s: &str, j: Option<u8>| (s.to_string(), j);
     for seed in 0..12u64 {
-        v.push(Case { name: format!("null {seed}"), hidden: vec![], compliance: None, params: p34(), expect: vec![] });
+        v.push(Case {
+            name: format!("null {seed}"),
+            hidden: vec![],
+            compliance: None,
+            params: p34(),
+            expect: vec![],
+        });
     }
     for (k, joint) in (2..=7u8).enumerate() {
         for deg in [0.01, 0.03] {
@@ -148,9 +157,16 @@ fn sweep() {
             let probe = synthetic_probe_measurements(&truth, &starts, ProbeNoise::default(), seed + 2);
             let validation = synthetic_tracker_measurements(&truth, 250, tracker_sigma, seed + 3);
             let s = common::Scenario { truth, probe, validation };
-            let d = discover(&nominal_model, &s.probe, &case.params, Some(&s.validation), &DiscoverOptions::default())
-                .expect("runs");
-            let mut found: Vec<(String, Option<u8>)> = d.added_effects.iter().map(|a| (a.effect.clone(), a.joint)).collect();
+            let d = discover(
+                &nominal_model,
+                &s.probe,
+                &case.params,
+                Some(&s.validation),
+                &DiscoverOptions::default(),
+            )
+            .expect("runs");
+            let mut found: Vec<(String, Option<u8>)> =
+                d.added_effects.iter().map(|a| (a.effect.clone(), a.joint)).collect();
             found.sort();
             let mut expect = case.expect.clone();
             expect.sort();

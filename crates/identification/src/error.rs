@@ -6,7 +6,7 @@ use vatcal_core::{ParamId, ParamSet};
 use vatcal_kinematics::ModelError;
 use vatcal_observability::ObservabilityError;
 
-use crate::{IterationLog, Method, Termination};
+use crate::{Identification, IterationLog, Method, Termination};
 
 /// What a failed fit leaves behind: why it stopped, the full iteration log and the last
 /// parameter values.
@@ -96,6 +96,11 @@ pub enum IdentifyError {
     /// report carries the iteration log.
     #[error("{}", .0.summary())]
     NotConverged(Box<FailureReport>),
+    /// The fit converged but the data barely determine some parameter combinations: the
+    /// condition number at the solution exceeds `max_condition_number`. The fit is attached
+    /// for inspection; the message names the strongly correlated parameters.
+    #[error("{}", ill_conditioned_message(.0))]
+    IllConditioned(Box<Identification>),
     /// A factorisation failed or the information matrix is singular.
     #[error("numerical failure: {0}")]
     Numerical(String),
@@ -131,4 +136,22 @@ impl From<ObservabilityError> for IdentifyError {
             other => IdentifyError::Observability(other),
         }
     }
+}
+
+fn ill_conditioned_message(fit: &Identification) -> String {
+    let pairs: Vec<String> = fit
+        .strong_correlations
+        .iter()
+        .take(8)
+        .map(|(a, b, c)| format!("{a}/{b} ({c:+.4})"))
+        .collect();
+    let correlated = if pairs.is_empty() {
+        String::new()
+    } else {
+        format!("; strongly correlated: {}", pairs.join(", "))
+    };
+    format!(
+        "ill-conditioned data: the condition number of the column-normalised Jacobian at the solution is {:.3e} (healthy designs: ~30){correlated}. These parameters cannot be separated by the measurements: add poses (at all three calibration positions), drop parameters, or give priors",
+        fit.condition_number
+    )
 }

@@ -63,6 +63,8 @@ use problem::Problem;
 /// * [`IdentifyError::Model`] — a parameter that is not in the model (e.g. an effect that is
 ///   not switched on); [`IdentifyError::Measurement`] — an unknown TCP / position id;
 /// * [`IdentifyError::Unidentifiable`] — rank-deficient data, naming the parameters;
+/// * [`IdentifyError::IllConditioned`] — the condition number at the solution exceeds
+///   `options.max_condition_number` (without priors), naming the correlated parameters;
 /// * [`IdentifyError::NotConverged`] — divergence, non-finite values, a stall, or the
 ///   iteration cap (unless `accept_iteration_cap`), with the full iteration log;
 /// * [`IdentifyError::Numerical`] — a singular information matrix at the solution.
@@ -122,7 +124,7 @@ pub fn identify(
     };
     let s = statistics::statistics(&problem, lin, options.correlation_threshold)?;
     let n_probe = measurements.iter().filter(|m| matches!(m.target, Target::Probe { .. })).count();
-    Ok(Identification {
+    let fit = Identification {
         method: options.method,
         model: outcome.model,
         params: params.clone(),
@@ -145,7 +147,11 @@ pub fn identify(
         termination: outcome.termination,
         n_probe,
         n_tracker: measurements.len() - n_probe,
-    })
+    };
+    if problem.priors.is_empty() && (fit.condition_number.is_nan() || fit.condition_number > options.max_condition_number) {
+        return Err(IdentifyError::IllConditioned(Box::new(fit)));
+    }
+    Ok(fit)
 }
 
 fn first_duplicate(params: &ParamSet) -> Option<ParamId> {

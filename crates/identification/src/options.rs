@@ -132,6 +132,12 @@ pub struct IdentifyOptions {
     pub correlation_threshold: f64,
     /// refuse rank-deficient data before solving (vatcal-observability's check). Default true.
     pub check_identifiability: bool,
+    /// refuse a fit whose weighted, column-normalised Jacobian at the solution has a larger
+    /// condition number (default 1e3; healthy designs of this cell are ~30, Schröer's rule of
+    /// thumb asks for < 100). Catches degeneracies the rank check at the start cannot see
+    /// (e.g. one or two calibration positions with a start model that misses them by ~1 mm).
+    /// Not applied when finite priors are given. `f64::INFINITY` switches it off.
+    pub max_condition_number: f64,
     /// return `Ok` with `converged = false` when the iteration cap is reached (default false:
     /// the cap is a failure reported with its log)
     pub accept_iteration_cap: bool,
@@ -155,6 +161,7 @@ impl Default for IdentifyOptions {
             initial_lambda: 1e-6,
             correlation_threshold: 0.9,
             check_identifiability: true,
+            max_condition_number: 1e3,
             accept_iteration_cap: false,
             divergence_factor: 100.0,
         }
@@ -194,6 +201,9 @@ impl IdentifyOptions {
             if !(v.is_finite() && v > 0.0) {
                 return bad(format!("{name} must be finite and > 0, got {v}"));
             }
+        }
+        if self.max_condition_number.is_nan() || self.max_condition_number < 1.0 {
+            return bad(format!("max_condition_number must be >= 1, got {}", self.max_condition_number));
         }
         if !(0.0..=1.0).contains(&self.correlation_threshold) {
             return bad(format!(

@@ -153,3 +153,66 @@ pub fn residual_vector(
     }
     Ok(r)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+    use vatcal_core::CellFile;
+    use vatcal_sim::truth::{ErrorBudget, perturbed_truth, probe_start_poses, synthetic_tracker_measurements};
+
+    /// The assembled Jacobian (weights and prior rows included) is minus the derivative of the
+    /// assembled residual vector (central differences). At a model with zero compliances the
+    /// held-fixed gravity torques make no difference, so the match is to round-off.
+    #[test]
+    fn stacked_jacobian_matches_central_differences() {
+        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+            .expect("fixture");
+        let model = Model::from_cell(&cell).expect("model");
+        let truth = perturbed_truth(&model, 5, &ErrorBudget::realistic());
+        let mut measurements = probe_start_poses(&model, 6, 9);
+        measurements.extend(synthetic_tracker_measurements(&truth, 3, 0.01, 4));
+        let params = ParamSet::paper34();
+        let mut priors = vec![f64::INFINITY; params.len()];
+        priors[3] = 0.01;
+        priors[30] = 0.5;
+        let options = IdentifyOptions {
+            weights: KindWeights { probe: 4.0, tracker: 0.25 },
+            priors: Some(priors),
+            ..IdentifyOptions::default()
+        };
+        let values = model.params(&params).expect("values");
+        let problem = Problem::new(&measurements, &params, values.clone(), &options);
+        let (m, l, n) = (problem.rows(), problem.cols(), measurements.len());
+        assert_eq!(m, 3 * n + 2);
+        let mut jac = Mat::<f64>::zeros(m, l);
+        let mut r = vec![0.0; m];
+        let mut vecs = vec![Vector3::zeros(); n];
+        let mut block = vec![0.0; 3 * l];
+        problem.jacobian(&model, &values, jac.as_mut(), &mut r, &mut vecs, &mut block).expect("jacobian");
+        let residual_at = |v: &[f64]| {
+            let mut md = model.clone();
+            md.set_params(&params, v).expect("set");
+            let mut out = vec![0.0; m];
+            let mut vv = vec![Vector3::zeros(); n];
+            problem.residuals(&md, v, &mut out, &mut vv).expect("residuals");
+            out
+        };
+        let r0 = residual_at(&values);
+        for i in 0..m {
+            assert!((r0[i] - r[i]).abs() < 1e-10, "residual row {i}");
+        }
+        for (j, p) in params.iter().enumerate() {
+            let h = p.typical_scale() * 1e-3;
+            let (mut plus, mut minus) = (values.clone(), values.clone());
+            plus[j] += h;
+            minus[j] -= h;
+            let (rp, rm) = (residual_at(&plus), residual_at(&minus));
+            for i in 0..m {
+                let fd = -(rp[i] - rm[i]) / (2.0 * h);
+                let scale = jac.col(j).norm_l2().max(1e-12);
+                assert!((fd - jac[(i, j)]).abs() <= 1e-6 * scale, "{p} row {i}: fd {fd} vs {}", jac[(i, j)]);
+            }
+        }
+    }
+}

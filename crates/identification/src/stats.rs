@@ -100,6 +100,31 @@ pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn order_relations_hold_for_any_errors(
+            raw in proptest::collection::vec((-5.0f64..5.0, -5.0f64..5.0, -5.0f64..5.0), 1..60)
+        ) {
+            let errors: Vec<Vector3<f64>> = raw.iter().map(|(x, y, z)| Vector3::new(*x, *y, *z)).collect();
+            let s = ErrorStats::from_errors(&errors);
+            let eps = 1e-12;
+            prop_assert!(s.median <= s.p95 + eps && s.p95 <= s.max + eps);
+            prop_assert!(s.mean <= s.rms + eps && s.rms <= s.max + eps);
+            for a in 0..3 {
+                prop_assert!(s.axis_mean[a].abs() <= s.axis_rms[a] + eps);
+            }
+            // |e|² = x² + y² + z², averaged
+            let sum_axes: f64 = s.axis_rms.iter().map(|v| v * v).sum();
+            prop_assert!((sum_axes - s.rms * s.rms).abs() <= 1e-9 * (1.0 + sum_axes));
+            // order does not matter
+            let mut reversed = errors.clone();
+            reversed.reverse();
+            let r = ErrorStats::from_errors(&reversed);
+            prop_assert!((r.median - s.median).abs() < eps && (r.p95 - s.p95).abs() < eps && r.max == s.max);
+        }
+    }
 
     #[test]
     fn stats_of_known_errors() {

@@ -23,11 +23,21 @@
 //! G_k' = G_k − P_k C_in P_kᵀ + Q_k C_out Q_kᵀ,  [P_k Q_k] = B_k [Z_in Z_out].
 //! ```
 //!
-//! So a step costs one tall product `B · [Z_in Z_out]` (3N × L times L × 6, batched with faer
-//! matmul over fixed-size chunks of candidates, in parallel with rayon) plus O(N) 3 × 3 work —
-//! no determinant or factorisation per candidate. The losses of the n+1 members after the add
-//! need only their own `P_k`. `M⁻¹`, `ln det M` and all `G_k` are recomputed from a Cholesky
-//! factorisation every [`DetmaxOptions::refactor_every`] steps to stop drift.
+//! With `C = L Lᵀ` (3 × 3 Cholesky) each term is `Q Qᵀ`, `Q = B_k Z L`, so a step costs one
+//! tall product `B · [Z_in L_in, Z_out L_out]` (3N × L times L × 6, batched with faer matmul
+//! over fixed-size chunks of candidates, chunks in parallel with rayon) plus 36 multiply-adds
+//! per candidate — no determinant or factorisation per candidate. The add and the remove are
+//! applied in that single pass. `M⁻¹`, `ln det M` and all `G_k` are recomputed from a
+//! Cholesky factorisation every [`DetmaxOptions::refactor_every`] steps to stop drift.
+//!
+//! Numerics. The exchange works on the candidates with every column divided by its norm over
+//! the whole set (the criterion is scale-invariant; unit columns keep all inner products well
+//! conditioned). The bulk pass over all N candidates is memory-bound, so it reads an f32 copy
+//! of the blocks (half the bytes; G_k accumulated in f64): the stored `G_k` of non-members
+//! are therefore f32-accurate (~1e-7 relative) and serve only to *rank* the candidates to add.
+//! Everything that enters `ln det` — the gain of the candidate actually added, the losses of
+//! the members (their `G_k` recomputed exactly from `M⁻¹` at every step), `M⁻¹` itself — is
+//! f64. The reported `log_det` is recomputed from scratch in natural units.
 //!
 //! # Algorithm
 //! 1. Start: `fixed` poses plus a random subset (ChaCha8, seed per restart). If that design is
@@ -46,9 +56,10 @@
 //!    stops when d exceeds the maximum depth. (Mitchell's failure set is not kept: the
 //!    excursions here are deterministic, so revisiting a design cannot happen without an
 //!    improvement in between.)
-//! 4. Restarts run in parallel; each has its own seed derived from `seed` and its index, and
-//!    all arithmetic inside a restart is sequential over fixed-size candidate chunks, so the
-//!    result does not depend on the number of threads. The best restart wins (ties: lowest
+//! 4. Restarts run in parallel; each has its own seed derived from `seed` and its index. Inside
+//!    a restart every candidate chunk is computed the same way whichever thread runs it, and
+//!    chunk results are combined in chunk order, so the result does not depend on the number
+//!    of threads. The best restart wins (ties: lowest
 //!    restart index).
 //!
 //! # Other objectives
@@ -105,7 +116,7 @@ impl Candidates {
         if params.is_empty() {
             return Err(ObservabilityError::NoParameters);
         }
-        if blocks.ncols() != params.len() || blocks.nrows() % 3 != 0 {
+        if blocks.ncols() != params.len() || !blocks.nrows().is_multiple_of(3) {
             return Err(ObservabilityError::InvalidInput(format!(
                 "candidate blocks are {} × {}; expected 3 rows per candidate and {} columns",
                 blocks.nrows(),
@@ -453,7 +464,7 @@ fn factor(m: &Mat<f64>) -> Option<(Mat<f64>, f64)> {
     let mut log_det = 0.0;
     for i in 0..m.nrows() {
         let p = l[(i, i)] * l[(i, i)];
-        if !(p > PIVOT_FRACTION * m[(i, i)]) || !p.is_finite() {
+        if !is_above(p, PIVOT_FRACTION * m[(i, i)]) || !p.is_finite() {
             return None;
         }
         log_det += p.ln();
@@ -461,6 +472,11 @@ fn factor(m: &Mat<f64>) -> Option<(Mat<f64>, f64)> {
     let mut inv = llt.inverse();
     symmetrize(&mut inv);
     Some((inv, log_det))
+}
+
+/// `a > b`, false when either is NaN.
+fn is_above(a: f64, b: f64) -> bool {
+    a.partial_cmp(&b) == Some(Ordering::Greater)
 }
 
 fn symmetrize(m: &mut Mat<f64>) {
@@ -476,17 +492,12 @@ fn symmetrize(m: &mut Mat<f64>) {
 // ------------------------------------------------------------------------------------------
 // the working copy of the candidates
 
-/// The candidates as the exchange sees them: every column divided by its norm over the whole
-/// set (D-optimality is invariant to column scaling, and unit columns keep every inner
-/// product well conditioned), in f64 and — for the bulk passes over all N candidates, which
-/// are memory-bound — in f32. Everything that enters `ln det` (the gain of the candidate
-/// added, the losses of the members, `M⁻¹`) is computed in f64; the f32 copy only ranks the
-/// non-members, and its rounding (~1e-7 relative in `G_k`) is reset at every refactor.
-///
-/// The f32 copy is stored per chunk of [`CHUNK`] candidates, column-major, in *planar* row
-/// order (all x rows of the chunk, then all y rows, then all z rows), so that every product
-/// with it yields, for each (row, column), a contiguous vector over the chunk's candidates and
-/// the 3 × 3 updates vectorise across candidates.
+/// The candidates as the exchange sees them (module docs, "Numerics"): the caller's blocks
+/// with column factors `1/‖col_j‖`, plus an f32 copy of the normalised blocks for the bulk
+/// passes, stored per chunk of [`CHUNK`] candidates, column-major, in *planar* row order (all
+/// x rows of the chunk, then all y rows, then all z rows), so that every product with it
+/// yields, for each (row, column), a contiguous vector over the chunk's candidates and the
+/// 3 × 3 updates vectorise across candidates.
 struct Work<'a> {
     /// the caller's candidates (natural units)
     orig: &'a Candidates,
@@ -510,16 +521,19 @@ impl<'a> Work<'a> {
         let norms = column_norms(orig);
         let factors: Vec<f64> = norms.iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
         let (n, l) = (orig.len(), orig.l);
-        let mut rows32 = Vec::with_capacity(orig.rows.len());
-        for ci in 0..n.div_ceil(CHUNK) {
+        // per chunk: read the candidates' rows in order, write the planar column-major layout
+        // (the chunk stays in cache while it is transposed)
+        let mut rows32 = vec![0.0f32; orig.rows.len()];
+        rows32.par_chunks_mut(3 * CHUNK * l).enumerate().for_each(|(ci, out)| {
             let (start, len) = chunk_range(ci, n);
-            for (j, f) in factors.iter().enumerate() {
+            for i in 0..len {
                 for a in 0..3 {
-                    rows32.extend((0..len).map(|i| (orig.row(start + i, a)[j] * f) as f32));
+                    for (j, (x, f)) in orig.row(start + i, a).iter().zip(&factors).enumerate() {
+                        out[j * 3 * len + a * len + i] = (x * f) as f32;
+                    }
                 }
             }
-        }
-        debug_assert_eq!(rows32.len(), 3 * n * l);
+        });
         let log_scale = 2.0 * factors.iter().map(|f| f.ln()).sum::<f64>();
         let nf = n.max(1) as f64;
         let ridge = if ridge > 0.0 {
@@ -735,31 +749,31 @@ impl<'a> State<'a> {
     }
 
     /// Applies `M⁻¹ += Σ sign Z C Zᵀ` and the matching `G_k` update for all candidates, and
-    /// refreshes the best non-member. One pass over the candidates: per chunk a single f32
-    /// faer matmul `[P₁ P₂ R₁ R₂] = B_ch [Z₁ Z₂ Z₁C₁ Z₂C₂]` (P_t = B_k Z_t, R_t = B_k Z_t C_t
-    /// with the sign folded into C_t), then `G_k += Σ_t sym(R_t P_tᵀ)`, vectorised across the
-    /// chunk's candidates (27 multiply-adds per term and candidate). Member flags must already
-    /// describe the new design.
-    fn apply(&mut self, terms: &[Term]) {
+    /// refreshes the best non-member. With `C_t = L_t L_tᵀ` (3 × 3 Cholesky; C is positive
+    /// definite for additions and for removals that keep M non-singular) the update is
+    /// `G_k += Σ_t sign_t Q_t Q_tᵀ`, `Q_t = B_k Z_t L_t`. One pass over the candidates: per
+    /// chunk a single f32 faer matmul `[Q₁ Q₂] = B_ch [Z₁L₁ Z₂L₂]`, then 18 multiply-adds per
+    /// term and candidate, vectorised across the chunk's candidates. Member flags must already
+    /// describe the new design. False (nothing changed) if a C_t is not positive definite.
+    fn apply(&mut self, terms: &[Term]) -> bool {
         let (n, l) = (self.w.len(), self.w.l());
         let nt = terms.len();
-        // columns: Z_1..Z_nt, then Z_t · sign C_t
-        let mut zz = Mat::<f32>::zeros(l, 6 * nt);
+        let mut zl = Mat::<f64>::zeros(l, 3 * nt);
         for (t, term) in terms.iter().enumerate() {
-            let c = Mat::from_fn(3, 3, |r, col| term.sign * term.c[(r, col)]);
-            let mut zc = Mat::<f64>::zeros(l, 3);
-            matmul(zc.as_mut(), Accum::Replace, term.z.as_ref(), c.as_ref(), 1.0, Par::Seq);
-            for j in 0..l {
-                for a in 0..3 {
-                    zz[(j, 3 * t + a)] = term.z[(j, a)] as f32;
-                    zz[(j, 3 * (nt + t) + a)] = zc[(j, a)] as f32;
-                }
-            }
-            matmul(self.minv.as_mut(), Accum::Add, zc.as_ref(), term.z.transpose(), 1.0, Par::Seq);
+            let Some(chol) = nalgebra::Cholesky::new(term.c) else { return false };
+            let lt = chol.l();
+            let lf = Mat::from_fn(3, 3, |r, col| lt[(r, col)]);
+            matmul(zl.as_mut().get_mut(.., 3 * t..3 * t + 3), Accum::Replace, term.z.as_ref(), lf.as_ref(), 1.0, Par::Seq);
+        }
+        for (t, term) in terms.iter().enumerate() {
+            let q = zl.as_ref().get(.., 3 * t..3 * t + 3);
+            matmul(self.minv.as_mut(), Accum::Add, q, q.transpose(), term.sign, Par::Seq);
         }
         symmetrize(&mut self.minv);
+        let zz = Mat::<f32>::from_fn(l, 3 * nt, |r, col| zl[(r, col)] as f32);
+        let signs: Vec<f32> = terms.iter().map(|t| t.sign as f32).collect();
         let (w, member) = (self.w, &self.member);
-        let width = 6 * nt;
+        let width = 3 * nt;
         let parts: Vec<Option<(usize, f64)>> = self
             .g
             .par_chunks_mut(6 * CHUNK)
@@ -768,34 +782,26 @@ impl<'a> State<'a> {
                 || (vec![0.0f32; 3 * CHUNK * width], vec![0.0f32; CHUNK], Vec::with_capacity(CHUNK)),
                 |(buf, acc, dets), (ci, gch)| {
                     let (start, len) = chunk_range(ci, n);
-                    let pr = &mut buf[..3 * len * width];
+                    let q = &mut buf[..3 * len * width];
                     matmul(
-                        MatMut::from_column_major_slice_mut(pr, 3 * len, width),
+                        MatMut::from_column_major_slice_mut(q, 3 * len, width),
                         Accum::Replace,
                         w.chunk32(ci),
                         zz.as_ref(),
                         1.0,
                         Par::Seq,
                     );
-                    let pr = &*pr;
-                    // plane(col, a): column `col` of [P R] for row `a`, over the chunk's candidates
-                    let plane = |col: usize, a: usize| &pr[col * 3 * len + a * len..col * 3 * len + (a + 1) * len];
+                    let q = &*q;
+                    // plane(col, a): column `col` of [Q₁ Q₂] for row `a`, over the chunk's candidates
+                    let plane = |col: usize, a: usize| &q[col * 3 * len + a * len..col * 3 * len + (a + 1) * len];
                     let acc = &mut acc[..len];
                     for (e, (a, b)) in SYM.iter().enumerate() {
                         acc.fill(0.0);
-                        for t in 0..nt {
+                        for (t, sign) in signs.iter().enumerate() {
                             for j in 0..3 {
-                                let (p, r) = (3 * t + j, 3 * (nt + t) + j);
-                                let (ra, pb) = (plane(r, *a), plane(p, *b));
-                                if a == b {
-                                    for ((s, x), y) in acc.iter_mut().zip(ra).zip(pb) {
-                                        *s += x * y;
-                                    }
-                                } else {
-                                    let (rb, pa) = (plane(r, *b), plane(p, *a));
-                                    for ((((s, x), y), u), v) in acc.iter_mut().zip(ra).zip(pb).zip(rb).zip(pa) {
-                                        *s += 0.5 * (x * y + u * v);
-                                    }
+                                let (qa, qb) = (plane(3 * t + j, *a), plane(3 * t + j, *b));
+                                for ((s, x), y) in acc.iter_mut().zip(qa).zip(qb) {
+                                    *s += sign * x * y;
                                 }
                             }
                         }
@@ -809,6 +815,7 @@ impl<'a> State<'a> {
             .collect();
         self.best = parts.into_iter().fold(None, better);
         self.since_refactor += 1;
+        true
     }
 
     fn maybe_refactor(&mut self) {
@@ -841,13 +848,17 @@ impl<'a> State<'a> {
         let g = self.bz(k, &z);
         let i_plus = Matrix3::identity() + g;
         let (Some(c), d) = (i_plus.try_inverse(), i_plus.determinant()) else { return false };
-        if !(d > 0.0) {
+        if !is_above(d, 0.0) {
+            return false;
+        }
+        self.design.push(k);
+        self.member[k] = true;
+        if !self.apply(&[Term { z, c, sign: -1.0 }]) {
+            self.design.pop();
+            self.member[k] = false;
             return false;
         }
         self.log_det += d.ln();
-        self.design.push(k);
-        self.member[k] = true;
-        self.apply(&[Term { z, c, sign: -1.0 }]);
         self.maybe_refactor();
         true
     }
@@ -878,13 +889,16 @@ impl<'a> State<'a> {
         let i_minus = Matrix3::identity() - g;
         let d = i_minus.determinant();
         let Some(c) = i_minus.try_inverse() else { return false };
-        if !(d > 0.0) {
+        if !is_above(d, 0.0) {
             return false;
         }
-        self.log_det += d.ln();
-        self.design.retain(|x| *x != k);
         self.member[k] = false;
-        self.apply(&[Term { z, c, sign: 1.0 }]);
+        if !self.apply(&[Term { z, c, sign: 1.0 }]) {
+            self.member[k] = true;
+            return false;
+        }
+        self.design.retain(|x| *x != k);
+        self.log_det += d.ln();
         self.maybe_refactor();
         true
     }
@@ -897,7 +911,7 @@ impl<'a> State<'a> {
         let g_in = self.bz(k_in, &z_in);
         let i_plus = Matrix3::identity() + g_in;
         let (Some(c_in), det_in) = (i_plus.try_inverse(), i_plus.determinant()) else { return Step::Converged };
-        if !(det_in > 0.0) {
+        if !is_above(det_in, 0.0) {
             return Step::Converged;
         }
         let gain = det_in.ln();
@@ -913,7 +927,7 @@ impl<'a> State<'a> {
         }
         // stop when removing k_in is at least as good (ties favour stopping)
         let Some((k_out, loss_out)) = best_out else { return Step::Converged };
-        if !(loss_out < loss_in) || gain - loss_out <= MIN_IMPROVEMENT {
+        if !is_above(loss_in, loss_out) || gain - loss_out <= MIN_IMPROVEMENT {
             return Step::Converged;
         }
         // Z_out = M1⁻¹ b_outᵀ = M⁻¹b_outᵀ − Z_in C_in (b_in M⁻¹ b_outᵀ)
@@ -925,15 +939,19 @@ impl<'a> State<'a> {
         let g_out = self.bz(k_out, &z_out);
         let i_minus = Matrix3::identity() - g_out;
         let (Some(c_out), det_out) = (i_minus.try_inverse(), i_minus.determinant()) else { return Step::Converged };
-        if !(det_out > 0.0) {
+        if !is_above(det_out, 0.0) {
             return Step::Converged;
         }
-        self.log_det += gain + det_out.ln();
-        self.design.retain(|k| *k != k_out);
-        self.design.push(k_in);
         self.member[k_out] = false;
         self.member[k_in] = true;
-        self.apply(&[Term { z: z_in, c: c_in, sign: -1.0 }, Term { z: z_out, c: c_out, sign: 1.0 }]);
+        if !self.apply(&[Term { z: z_in, c: c_in, sign: -1.0 }, Term { z: z_out, c: c_out, sign: 1.0 }]) {
+            self.member[k_out] = true;
+            self.member[k_in] = false;
+            return Step::Converged;
+        }
+        self.design.retain(|k| *k != k_out);
+        self.design.push(k_in);
+        self.log_det += gain + det_out.ln();
         self.maybe_refactor();
         Step::Swapped
     }
@@ -1230,11 +1248,14 @@ fn run_restart<'a>(
     Ok((s, RestartOutcome { seed, log_det, objective_value, exchanges, excursions_accepted, greedy_start }))
 }
 
+/// A finished restart: sorted design, tracked natural ln det, summary.
+type RestartRun = (Vec<usize>, f64, RestartOutcome);
+
 /// Detmax selection of `options.count` candidates (module docs).
 pub fn detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
     validate(candidates, options)?;
     let work = Work::new(candidates, options.ridge);
-    let runs: Vec<Result<(Vec<usize>, f64, RestartOutcome), ObservabilityError>> = (0..options.restarts)
+    let runs: Vec<Result<RestartRun, ObservabilityError>> = (0..options.restarts)
         .into_par_iter()
         .map(|r| {
             run_restart(candidates, &work, options, r)

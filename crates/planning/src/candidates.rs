@@ -59,17 +59,17 @@ pub struct CandidateOptions {
     pub orientations: usize,
     /// guide positions, evenly spaced over the stroke shrunk by `guide_margin_mm` (paper: 10)
     pub guide_steps: usize,
-    /// distance kept from the guide's stroke ends [mm]
+    /// distance kept from the guide's stroke ends (mm)
     pub guide_margin_mm: f64,
-    /// half-angle of the cone around world +z holding the ball-to-flange direction [deg]
+    /// half-angle of the cone around world +z holding the ball-to-flange direction (deg)
     pub cone_half_angle_deg: f64,
-    /// distance kept from every arm joint limit [deg]
+    /// distance kept from every arm joint limit (deg)
     pub joint_margin_deg: f64,
     /// singularity margins
     pub singularity: SingularityMargins,
-    /// height of the retreat pose above the measurement pose [mm]
+    /// height of the retreat pose above the measurement pose (mm)
     pub retreat_height_mm: f64,
-    /// inflation of the robot bodies in collision checks [mm]
+    /// inflation of the robot bodies in collision checks (mm)
     pub collision_margin_mm: f64,
     /// collision-check resolution of the descent from the retreat pose
     pub resolution: Resolution,
@@ -160,7 +160,7 @@ pub struct CandidateSet {
     pub candidates: Vec<Candidate>,
     /// counts per stage
     pub counts: StageCounts,
-    /// the guide positions used [mm]
+    /// the guide positions used (mm)
     pub guide_positions_mm: Vec<f64>,
 }
 

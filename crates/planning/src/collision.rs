@@ -210,7 +210,7 @@ impl<'a> CollisionChecker<'a> {
         self.model
     }
 
-    /// The safety margin [mm].
+    /// The safety margin (mm).
     pub fn margin_mm(&self) -> f64 {
         self.margin_mm
     }

@@ -14,9 +14,9 @@ pub enum PlanError {
         "IK refinement did not converge (tool error {position_error_mm:.3e} mm, {rotation_error_rad:.3e} rad)"
     )]
     IkNotConverged {
-        /// final position error [mm]
+        /// final position error (mm)
         position_error_mm: f64,
-        /// final orientation error [rad]
+        /// final orientation error (rad)
         rotation_error_rad: f64,
     },
     /// A geometry table of the cell file is invalid.

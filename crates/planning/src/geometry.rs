@@ -220,7 +220,7 @@ impl CellGeometry {
         Ok(())
     }
 
-    /// Plate centre in the tool frame [mm].
+    /// Plate centre in the tool frame (mm).
     pub(crate) fn plate_center(&self) -> Vector3<f64> {
         Vector3::from(self.end_effector.plate_center_mm)
     }

@@ -28,6 +28,14 @@
 //! theta offsets; the small angular errors of a calibrated model (alpha, beta, compliance,
 //! effects) are removed by [`refine_tool_pose`].
 //!
+//! # Seeds on a calibrated model ([`ToolPoseIk::seeds`])
+//! Each closed-form branch is corrected on its own branch before the refinement
+//! (`T* E(q)⁻¹` with `E` the nominal-structure error at the seed, [`SEED_CORRECTIONS`] times),
+//! and a wrist centre up to 2 % beyond the nominal reach still gives seeds
+//! ([`ArmGeometry::solve_with_reach_slack`]). Within a few degrees of the wrist singularity a
+//! calibrated wrist (axes no longer exactly intersecting) can have more than eight solutions;
+//! the eight branches of the spherical wrist are the ones returned.
+//!
 //! # Refinement ([`refine_tool_pose`])
 //! Levenberg–Marquardt on the 6-DOF tool-frame error `[p* - p; log(R* R^T)]` with q1 held fixed.
 //! The Jacobian columns are `z_i × (p - o_i)` (position; identical to the
@@ -43,14 +51,14 @@ use vatcal_kinematics::Model;
 use crate::error::PlanError;
 
 /// Elbow angle from the stretched / folded arm at which seeds are placed for a wrist centre
-/// just beyond the nominal reach [rad].
+/// just beyond the nominal reach (rad).
 pub const ELBOW_SEED_RAD: f64 = 0.05;
 /// Relative reach slack of the seeds used for refinement (see
 /// [`ArmGeometry::solve_with_reach_slack`]).
 const SEED_REACH_SLACK: f64 = 0.02;
-/// Tolerance on the structural angles (alpha) for the closed form to be used as a seed [rad].
+/// Tolerance on the structural angles (alpha) for the closed form to be used as a seed (rad).
 const STRUCTURE_ANGLE_TOL_RAD: f64 = 0.05;
-/// Tolerance on the structural lengths that must be zero [mm].
+/// Tolerance on the structural lengths that must be zero (mm).
 const STRUCTURE_LENGTH_TOL_MM: f64 = 5.0;
 
 /// Rotation about x.
@@ -111,7 +119,7 @@ pub fn rotation_vector(r: &Matrix3<f64>) -> Vector3<f64> {
     axis * angle
 }
 
-/// Angle [rad] of the rotation taking `a` to `b` (both rotation matrices).
+/// Angle (rad) of the rotation taking `a` to `b` (both rotation matrices).
 pub fn rotation_angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
     rotation_vector(&(b * a.transpose())).norm()
 }
@@ -130,21 +138,21 @@ pub fn robot_base_frame(model: &Model, q1_mm: f64) -> Frame {
 /// The arm lengths and offsets used by the closed form (rows 2..7 of a model).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArmGeometry {
-    /// `d_2`: height of the shoulder (J2 axis) above the base frame [mm]
+    /// `d_2`: height of the shoulder (J2 axis) above the base frame (mm)
     pub shoulder_height_mm: f64,
-    /// `a_3`: upper-arm length (J2 to J3 axis) [mm]
+    /// `a_3`: upper-arm length (J2 to J3 axis) (mm)
     pub upper_arm_mm: f64,
-    /// `a_4`: elbow offset [mm]
+    /// `a_4`: elbow offset (mm)
     pub elbow_offset_mm: f64,
-    /// `d_5`: forearm length to the wrist centre [mm]
+    /// `d_5`: forearm length to the wrist centre (mm)
     pub forearm_mm: f64,
-    /// `d_7`: wrist centre to the tool-changer frame [mm]
+    /// `d_7`: wrist centre to the tool-changer frame (mm)
     pub flange_mm: f64,
-    /// `theta_offset_2..7` [rad]
+    /// `theta_offset_2..7` (rad)
     pub theta_offset_rad: [f64; 6],
 }
 
-/// Up to eight closed-form solutions `[q2..q7]` [rad] for one tool pose.
+/// Up to eight closed-form solutions `[q2..q7]` (rad) for one tool pose.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ArmSolutions {
     q: [[f64; 6]; 8],
@@ -253,7 +261,7 @@ impl ArmGeometry {
     }
 
     /// All closed-form solutions for the tool-changer frame (frame 7) pose `target` given in
-    /// the robot base frame `B`. Each is `[q2..q7]` [rad] (model offsets removed, wrapped).
+    /// the robot base frame `B`. Each is `[q2..q7]` (rad) (model offsets removed, wrapped).
     pub fn solve(&self, target: &Frame) -> ArmSolutions {
         self.solve_with_reach_slack(target, 0.0)
     }
@@ -305,7 +313,7 @@ impl ArmGeometry {
     }
 
     /// Forward kinematics of this nominal-structure arm: the tool-changer frame in the robot
-    /// base frame for joints `[q2..q7]` [rad] (the exact inverse of [`ArmGeometry::solve`]).
+    /// base frame for joints `[q2..q7]` (rad) (the exact inverse of [`ArmGeometry::solve`]).
     pub fn forward(&self, q: &[f64; 6]) -> Frame {
         use std::f64::consts::FRAC_PI_2;
         let t: [f64; 6] = std::array::from_fn(|k| q[k] + self.theta_offset_rad[k]);
@@ -363,11 +371,11 @@ impl ArmGeometry {
 pub struct RefineOptions {
     /// maximum number of iterations
     pub max_iterations: usize,
-    /// stop when the tool position error is below this [mm] ...
+    /// stop when the tool position error is below this (mm) ...
     pub tol_position_mm: f64,
-    /// ... and the tool orientation error below this [rad]
+    /// ... and the tool orientation error below this (rad)
     pub tol_rotation_rad: f64,
-    /// length that weighs orientation against position in the damped step [mm/rad]
+    /// length that weighs orientation against position in the damped step (mm/rad)
     pub orientation_scale_mm: f64,
 }
 
@@ -389,9 +397,9 @@ pub struct Refined {
     pub q: JointVector,
     /// iterations used
     pub iterations: usize,
-    /// final tool position error [mm]
+    /// final tool position error (mm)
     pub position_error_mm: f64,
-    /// final tool orientation error [rad]
+    /// final tool orientation error (rad)
     pub rotation_error_rad: f64,
 }
 
@@ -572,7 +580,9 @@ impl<'a> ToolPoseIk<'a> {
             JointVector(q)
         };
         let mut out = Vec::with_capacity(solutions.len());
-        for ((arm, beyond), branch) in solutions.as_slice().iter().zip(solutions.beyond_reach()).zip(solutions.branches()) {
+        for ((arm, beyond), branch) in
+            solutions.as_slice().iter().zip(solutions.beyond_reach()).zip(solutions.branches())
+        {
             let mut q = *arm;
             for _ in 0..self.corrections {
                 let actual = self.model.chain(&joints(&q)).tool;

@@ -7,7 +7,7 @@
 //!
 //! `t(a, b) = max_j |b_j - a_j| / (v_j · fraction)`
 //!
-//! with `v_1` the guide speed [mm/s], `v_2..v_7` the Meca500 joint speeds [deg/s] and `fraction`
+//! with `v_1` the guide speed (mm/s), `v_2..v_7` the Meca500 joint speeds [deg/s] and `fraction`
 //! the planned fraction of the maximum speed, all from the cell's `[motion]` table
 //! ([`vatcal_core::CellFile::motion_limits`]). Acceleration phases are ignored (the Meca500 and
 //! the Zaber guide accelerate in a few tens of ms, small next to moves of seconds).
@@ -24,9 +24,9 @@ use crate::error::PlanError;
 pub struct MotionTimer {
     /// effective speed of each joint (mm/s, rad/s)
     pub speed: [f64; 7],
-    /// time per measurement (settle + auto-centre) [s]
+    /// time per measurement (settle + auto-centre) (s)
     pub measurement_s: f64,
-    /// time of one manual re-placement of the probe plate [s]
+    /// time of one manual re-placement of the probe plate (s)
     pub probe_replacement_s: f64,
 }
 
@@ -58,12 +58,12 @@ impl MotionTimer {
         })
     }
 
-    /// Time [s] of the synchronised joint move from `a` to `b`.
+    /// Time (s) of the synchronised joint move from `a` to `b`.
     pub fn move_time_s(&self, a: &JointVector, b: &JointVector) -> f64 {
         (0..7).map(|k| (b.0[k] - a.0[k]).abs() / self.speed[k]).fold(0.0, f64::max)
     }
 
-    /// Time [s] along a polyline of joint vectors.
+    /// Time (s) along a polyline of joint vectors.
     pub fn path_time_s(&self, path: &[JointVector]) -> f64 {
         path.windows(2).map(|w| self.move_time_s(&w[0], &w[1])).sum()
     }
@@ -74,9 +74,9 @@ impl MotionTimer {
 /// `max_guide_step_mm` on the guide (both ends included).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Resolution {
-    /// largest arm-joint change between two checks [deg]
+    /// largest arm-joint change between two checks (deg)
     pub max_joint_step_deg: f64,
-    /// largest guide change between two checks [mm]
+    /// largest guide change between two checks (mm)
     pub max_guide_step_mm: f64,
 }
 
@@ -123,7 +123,7 @@ pub fn interpolate(a: &JointVector, b: &JointVector, t: f64) -> JointVector {
 }
 
 /// Margin kept from the arm joint limits by every commanded move that is not a measurement
-/// (retreat poses, path waypoints) [deg]. Measurement poses keep the larger
+/// (retreat poses, path waypoints) (deg). Measurement poses keep the larger
 /// `joint_margin_deg` of the candidate options, because auto-centring moves them slightly.
 pub const MOVE_MARGIN_DEG: f64 = 0.5;
 
@@ -174,7 +174,7 @@ pub struct SingularityMargins {
     /// elbow: `|sin(theta_4 + delta)| >= sin(margin)` with `delta = atan2(d_5, a_4)` (arm neither
     /// stretched nor folded)
     pub elbow_deg: f64,
-    /// shoulder: wrist centre at least this far from the J1 axis [mm]
+    /// shoulder: wrist centre at least this far from the J1 axis (mm)
     pub shoulder_mm: f64,
 }
 

@@ -95,7 +95,7 @@ impl From<&vatcal_observability::ObservabilityIndices> for IndicesSummary {
 pub struct PlanSummary {
     /// candidate counts per stage
     pub counts: StageCounts,
-    /// guide positions used [mm]
+    /// guide positions used (mm)
     pub guide_positions_mm: Vec<f64>,
     /// number of selected measurements
     pub selected: usize,
@@ -109,7 +109,7 @@ pub struct PlanSummary {
     pub observability_unit_norm: IndicesSummary,
     /// O1 of the whole candidate set (natural units)
     pub candidates_o1: f64,
-    /// durations [s]
+    /// durations (s)
     pub timing: Timing,
     /// legs that needed RRT-Connect (the others are straight joint moves)
     pub rrt_legs: usize,
@@ -152,7 +152,7 @@ impl PlanSummary {
         let per: Vec<String> =
             self.selected_per_position.iter().map(|(p, n)| format!("position {p}: {n}")).collect();
         format!(
-            "candidates per stage:\n  TCP poses                {}\n  IK solutions             {}\n  within joint limits      {}\n  clear of singularities   {}\n  collision-free           {}\n  retreat_clear (N)         {}\n\
+            "candidates per stage:\n  TCP poses                {}\n  IK solutions             {}\n  within joint limits      {}\n  clear of singularities   {}\n  collision-free           {}\n  retreat pose clear (N)   {}\n\
              selected: {} ({})\n\
              observability (natural units, {} parameters): O1 {:.3}  O2 {:.3e}  O3 {:.3e}  O4 {:.3e}  O5 {:.3e}  rank {}  cond {:.3e}\n\
              observability (unit-norm columns):             O1 {:.3}  O2 {:.3e}  O3 {:.3e}  O4 {:.3e}  O5 {:.3e}  cond {:.3e}\n\

@@ -95,7 +95,7 @@ pub struct TourStep {
     pub tcp: u32,
     /// target joints
     pub q: JointVector,
-    /// estimated campaign time at the end of this step [s]
+    /// estimated campaign time at the end of this step (s)
     pub time_s: f64,
 }
 
@@ -110,7 +110,7 @@ pub struct Leg {
     pub replace_probe: bool,
 }
 
-/// Estimated campaign durations [s].
+/// Estimated campaign durations (s).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Timing {
     /// the optimised order, straight joint moves between retreat poses
@@ -198,8 +198,7 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
         )));
     }
     let (selected, quality) = select(model, &candidates, opts)?;
-    let nodes: Vec<usize> = selected.clone();
-    let order = order_tour(&candidates, &nodes, &timer, opts);
+    let order = order_tour(&candidates, &selected, &timer, opts);
     let bounds = JointBounds::new(model, MOVE_MARGIN_DEG.min(opts.candidates.joint_margin_deg), 0.0)?;
     let legs = plan_legs(&checker, &bounds, &timer, &candidates, &order, opts)?;
     let steps = build_steps(&candidates, &order, &legs, &timer, opts.start.is_some());
@@ -288,7 +287,7 @@ fn estimated_time(
     (t, replacements)
 }
 
-/// Descent, auto-centring and retreat of one measurement [s].
+/// Descent, auto-centring and retreat of one measurement (s).
 fn per_measurement_s(c: &crate::candidates::Candidate, timer: &MotionTimer) -> f64 {
     2.0 * timer.move_time_s(&c.retreat, &c.q) + timer.measurement_s
 }

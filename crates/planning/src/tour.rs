@@ -77,7 +77,7 @@ impl TourCosts {
         self.start[j]
     }
 
-    /// Total cost of visiting `order` (start → order[0] → ... → order[n-1]).
+    /// Total cost of visiting `order` (start → `order[0]` → ... → `order[n-1]`).
     pub fn path_cost(&self, order: &[usize]) -> f64 {
         match order.first() {
             None => 0.0,

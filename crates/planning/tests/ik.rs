@@ -113,7 +113,7 @@ fn refinement_reports_non_convergence() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(30000))]
+    #![proptest_config(ProptestConfig::with_cases(128))]
 
     /// Nominal model: the closed form contains the original branch, and every branch it returns
     /// reproduces the pose.

@@ -64,15 +64,17 @@ pub struct PrintingPathOptions {
 
 impl Default for PrintingPathOptions {
     /// 300 slices of 0.1 mm (a 30 mm part), build plate 160 mm from the flange, printing
-    /// point starting at (−15, 0, 20) mm — the tank bottom is taken as the world plane
-    /// z = 20 mm, the validation being a dry run just above the tank — moving 30 mm along a
-    /// half circle of radius 15 mm, 8° of tilt mid-print, 30° of spin, heading 0°.
+    /// point starting at (−15, −40, 20) mm — the tank bottom is taken as the world plane
+    /// z = 20 mm, the validation being a dry run just above the tank (the SMRs must be seen by
+    /// the tracker), and 40 mm off the tank's y = 0 plane, which holds the horizontal J1 axis
+    /// (a shoulder singularity) — moving 30 mm along a half circle of radius 15 mm, 8° of tilt
+    /// mid-print, 30° of spin, heading 0°.
     fn default() -> Self {
         Self {
             slices: 300,
             layer_mm: 0.1,
             plate_offset_mm: 160.0,
-            start_mm: [-15.0, 0.0, 20.0],
+            start_mm: [-15.0, -40.0, 20.0],
             lateral_radius_mm: 15.0,
             tilt_max_deg: 8.0,
             spin_deg: 30.0,
@@ -176,7 +178,7 @@ fn rot_z(a: f64) -> Matrix3<f64> {
 }
 
 /// Feasibility rules of the commanded printing path.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 pub struct PrintingJointRules<'a> {
     /// joint limits shrunk by the planning margins
     pub bounds: &'a JointBounds,

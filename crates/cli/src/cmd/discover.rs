@@ -121,7 +121,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let d = discover(&model, &measurements, &params, validation.as_deref(), &options)?;
     print_text(&mut std::io::stdout().lock(), &d)?;
     if let Some(path) = &args.out {
-        d.model.to_cell().save(path).with_context(|| format!("writing the final model to {}", path.display()))?;
+        d.model
+            .to_cell()
+            .save(path)
+            .with_context(|| format!("writing the final model to {}", path.display()))?;
     }
     if let Some(path) = &args.report {
         let json = serde_json::to_string_pretty(&d)?;

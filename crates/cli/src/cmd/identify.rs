@@ -120,7 +120,6 @@ fn print_log(log: &[IterationLog]) {
 }
 
 fn print_failure(report: &FailureReport) {
-    eprintln!("{}", report.summary());
     if report.method == Method::PaperLiteral {
         eprintln!(
             "note: the paper-literal method sums per-pose pseudo-inverse corrections; it is not a \

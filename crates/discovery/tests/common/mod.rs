@@ -7,7 +7,10 @@ use vatcal_core::{CellFile, Measurement, ParamId, ParamSet};
 use vatcal_discovery::fit::{fit, residuals};
 use vatcal_identification::{ErrorStats, IdentifyOptions};
 use vatcal_kinematics::Model;
-use vatcal_sim::truth::{ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements, synthetic_tracker_measurements};
+use vatcal_sim::truth::{
+    ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
+    synthetic_tracker_measurements,
+};
 
 /// Tracker noise of the validation data [mm] (a tracker with SMRs in nests, a few µm).
 pub const TRACKER_SIGMA_MM: f64 = 0.005;
