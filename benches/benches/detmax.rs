@@ -28,8 +28,9 @@ fn candidates(model: &Model, count: usize, seed: u64) -> Candidates {
     Candidates::from_measurements(model, &poses, &ParamSet::paper34()).expect("candidate blocks")
 }
 
+/// One restart of the plain Wynn–Mitchell exchange (no excursions), O1.
 fn one_restart(seed: u64) -> DetmaxOptions {
-    DetmaxOptions { restarts: 1, seed, ..DetmaxOptions::new(40) }
+    DetmaxOptions { restarts: 1, seed, excursions: None, ..DetmaxOptions::new(40) }
 }
 
 fn bench_detmax(c: &mut Criterion) {

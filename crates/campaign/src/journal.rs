@@ -589,6 +589,24 @@ mod tests {
     }
 
     #[test]
+    fn unsynced_records_are_written_one_by_one_and_read_back() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let path = dir.path().join("j.log");
+        let mut j = Journal::create(&path, header()).expect("create");
+        j.set_sync_each_record(false);
+        for i in 0..3 {
+            j.append(record(i, 0.25 * i as f64)).expect("append");
+            // already in the file (one write per record), before any sync
+            let lines = std::fs::read_to_string(&path).expect("read").lines().count();
+            assert_eq!(lines, 2 + i);
+        }
+        j.sync().expect("sync");
+        let written = j.records().to_vec();
+        drop(j);
+        assert_eq!(Journal::open(&path).expect("open").records(), written.as_slice());
+    }
+
+    #[test]
     fn measurements_carry_joints_dir_and_time() {
         let r = record(4, 0.5);
         let m = r.measurement().expect("measurement");

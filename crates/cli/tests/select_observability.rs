@@ -148,7 +148,13 @@ fn observability_prints_rank_and_redundant_parameters() {
     let meas = dir.path().join("meas.csv");
     write_candidates(&meas, &poses(60, 4, &[1, 2, 3]));
     let fixture = fixture();
-    let o = vatcal(&["observability", "--model", fixture.to_str().expect("path"), "--measurements", meas.to_str().expect("path")]);
+    let o = vatcal(&[
+        "observability",
+        "--model",
+        fixture.to_str().expect("path"),
+        "--measurements",
+        meas.to_str().expect("path"),
+    ]);
     let stdout = text(&o.stdout);
     assert!(o.status.success(), "stderr: {}", text(&o.stderr));
     assert!(stdout.contains("rank 34 of"), "{stdout}");

@@ -27,7 +27,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use vatcal_campaign::validation::{
-    ModelValidation, PrintingPathOptions, RandomPoseOptions, ValidationPlanOptions, build_validation_plan, evaluate,
+    ModelValidation, PrintingPathOptions, RandomPoseOptions, ValidationPlanOptions, build_validation_plan,
+    evaluate,
 };
 use vatcal_campaign::{Campaign, CampaignConfig, CampaignPlan, CellDevices};
 use vatcal_core::{CellFile, ParamSet};
@@ -217,7 +218,9 @@ pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Re
     let s = stages.lap("plan");
     log(&format!(
         "plan: {} candidates, {} measurements selected, tour of {} steps ({s:.1} s)",
-        plan_summary.counts.approachable, plan_summary.selected, plan_summary.tour_steps
+        plan.candidates.candidates.len(),
+        plan_summary.selected,
+        plan_summary.tour_steps
     ));
 
     // 2. measurement campaign on the virtual cell
@@ -255,10 +258,13 @@ pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Re
     let vopts = validation_options(opts, start);
     let models: [(&str, &Model); 2] = [(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
     let vplan = build_validation_plan(&nominal, &geometry, &models, &vopts)?;
-    let mut validation_campaign = Campaign::new(devices.devices(), &nominal, config);
-    let records = vplan.run(&mut validation_campaign, out.join(JOURNALS[1]))?;
+    let records = {
+        let mut validation_campaign = Campaign::new(devices.devices(), &nominal, config);
+        vplan.run(&mut validation_campaign, out.join(JOURNALS[1]))?
+    };
     files.note(JOURNALS[1]);
-    let smrs: Vec<_> = nominal.tcp_ids().into_iter().filter_map(|id| nominal.tcp(id).map(|t| (id, t))).collect();
+    let smrs: Vec<_> =
+        nominal.tcp_ids().into_iter().filter_map(|id| nominal.tcp(id).map(|t| (id, t))).collect();
     let results = evaluate(&records, &vplan.slices, &models, &smrs)?;
     let validation_time_s = devices.clock.now_s() - campaign_time_s;
     let s = stages.lap("validation");
@@ -280,19 +286,15 @@ pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Re
         campaign_time_s,
         fit: &fit,
         validation_plan: &vplan,
+        validation_options: &vopts,
         validation_time_s,
         results,
     });
     files.json("report.json", &report)?;
     stages.lap("report");
     let truth = cell.truth();
-    let mut outcome = DemoOutcome {
-        report,
-        identification: fit,
-        truth,
-        stage_seconds: Vec::new(),
-        files: Vec::new(),
-    };
+    let mut outcome =
+        DemoOutcome { report, identification: fit, truth, stage_seconds: Vec::new(), files: Vec::new() };
     outcome.stage_seconds = stages.done.clone();
     files.note("summary.md");
     outcome.files = files.written().to_vec();

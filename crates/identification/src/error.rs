@@ -139,17 +139,10 @@ impl From<ObservabilityError> for IdentifyError {
 }
 
 fn ill_conditioned_message(fit: &Identification) -> String {
-    let pairs: Vec<String> = fit
-        .strong_correlations
-        .iter()
-        .take(8)
-        .map(|(a, b, c)| format!("{a}/{b} ({c:+.4})"))
-        .collect();
-    let correlated = if pairs.is_empty() {
-        String::new()
-    } else {
-        format!("; strongly correlated: {}", pairs.join(", "))
-    };
+    let pairs: Vec<String> =
+        fit.strong_correlations.iter().take(8).map(|(a, b, c)| format!("{a}/{b} ({c:+.4})")).collect();
+    let correlated =
+        if pairs.is_empty() { String::new() } else { format!("; strongly correlated: {}", pairs.join(", ")) };
     format!(
         "ill-conditioned data: the condition number of the column-normalised Jacobian at the solution is {:.3e} (healthy designs: ~30){correlated}. These parameters cannot be separated by the measurements: add poses (at all three calibration positions), drop parameters, or give priors",
         fit.condition_number

@@ -148,7 +148,9 @@ pub fn identify(
         n_probe,
         n_tracker: measurements.len() - n_probe,
     };
-    if problem.priors.is_empty() && (fit.condition_number.is_nan() || fit.condition_number > options.max_condition_number) {
+    if problem.priors.is_empty()
+        && (fit.condition_number.is_nan() || fit.condition_number > options.max_condition_number)
+    {
         return Err(IdentifyError::IllConditioned(Box::new(fit)));
     }
     Ok(fit)

@@ -159,7 +159,9 @@ mod tests {
     use super::*;
     use faer::Mat;
     use vatcal_core::CellFile;
-    use vatcal_sim::truth::{ErrorBudget, perturbed_truth, probe_start_poses, synthetic_tracker_measurements};
+    use vatcal_sim::truth::{
+        ErrorBudget, perturbed_truth, probe_start_poses, synthetic_tracker_measurements,
+    };
 
     /// The assembled Jacobian (weights and prior rows included) is minus the derivative of the
     /// assembled residual vector (central differences). At a model with zero compliances the

@@ -248,7 +248,8 @@ fn one_or_two_calibration_positions_of_real_data_are_refused_as_ill_conditioned(
         }
     }
     // all three positions: accepted, well conditioned
-    let fit = identify(&c.nominal, &c.probe, &ParamSet::paper34(), &IdentifyOptions::default()).expect("3 positions");
+    let fit = identify(&c.nominal, &c.probe, &ParamSet::paper34(), &IdentifyOptions::default())
+        .expect("3 positions");
     assert!(fit.condition_number < 100.0, "cond {}", fit.condition_number);
 }
 

@@ -86,9 +86,9 @@ use vatcal_core::{Measurement, ParamSet};
 use vatcal_kinematics::Model;
 
 use crate::error::ObservabilityError;
+use crate::identifiability::ColumnScaling;
 use crate::identifiability::{AnalysisOptions, analyze_jacobian, assemble_jacobian, rank_deficient_error};
 use crate::indices::ObservabilityIndices;
-use crate::identifiability::ColumnScaling;
 
 /// Candidates per chunk of the batched updates. Fixed, so results do not depend on the
 /// number of threads.
@@ -276,7 +276,12 @@ impl Objective {
 
     /// The objective's value for a design with these singular values and `poses` poses.
     pub fn evaluate(self, singular_values: &[f64], parameter_count: usize, poses: usize) -> f64 {
-        let i = ObservabilityIndices::from_singular_values(singular_values, parameter_count, poses, ColumnScaling::None);
+        let i = ObservabilityIndices::from_singular_values(
+            singular_values,
+            parameter_count,
+            poses,
+            ColumnScaling::None,
+        );
         match self {
             Self::O1 => i.o1,
             Self::O2 => i.o2,
@@ -406,7 +411,14 @@ pub fn log_det(candidates: &Candidates, design: &[usize], ridge: f64) -> Option<
 type Sym3 = [f64; 6];
 
 fn sym_of(m: &Matrix3<f64>) -> Sym3 {
-    [m[(0, 0)], 0.5 * (m[(0, 1)] + m[(1, 0)]), 0.5 * (m[(0, 2)] + m[(2, 0)]), m[(1, 1)], 0.5 * (m[(1, 2)] + m[(2, 1)]), m[(2, 2)]]
+    [
+        m[(0, 0)],
+        0.5 * (m[(0, 1)] + m[(1, 0)]),
+        0.5 * (m[(0, 2)] + m[(2, 0)]),
+        m[(1, 1)],
+        0.5 * (m[(1, 2)] + m[(2, 1)]),
+        m[(2, 2)],
+    ]
 }
 
 fn det_i_plus(g: &Sym3, s: f64) -> f64 {
@@ -425,7 +437,6 @@ fn loss_of(g: &Sym3) -> f64 {
     let d = det_i_plus(g, -1.0);
     if d > 0.0 { -d.ln() } else { f64::INFINITY }
 }
-
 
 // ------------------------------------------------------------------------------------------
 // factorisation helpers
@@ -526,10 +537,16 @@ impl<'a> Work<'a> {
         let mut rows32 = vec![0.0f32; orig.rows.len()];
         rows32.par_chunks_mut(3 * CHUNK * l).enumerate().for_each(|(ci, out)| {
             let (start, len) = chunk_range(ci, n);
-            for i in 0..len {
+            // blocks of 16 candidates: 48 source rows stay in L1, each store run fills a line
+            const BLOCK: usize = 16;
+            for i0 in (0..len).step_by(BLOCK) {
+                let width = BLOCK.min(len - i0);
                 for a in 0..3 {
-                    for (j, (x, f)) in orig.row(start + i, a).iter().zip(&factors).enumerate() {
-                        out[j * 3 * len + a * len + i] = (x * f) as f32;
+                    for (j, f) in factors.iter().enumerate() {
+                        let dst = &mut out[j * 3 * len + a * len + i0..][..width];
+                        for (d, i) in dst.iter_mut().zip(i0..) {
+                            *d = (orig.row(start + i, a)[j] * f) as f32;
+                        }
                     }
                 }
             }
@@ -575,6 +592,29 @@ impl<'a> Work<'a> {
 /// The six entries of a symmetric 3 × 3 matrix: (row, column) of g₀..g₅.
 const SYM: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
 
+/// `G += sign · Q Qᵀ` for every candidate of a chunk: `g` holds the six planes of G (see
+/// [`SYM`]), `r[a][j]` the plane of `Q[a][j]`. One sweep over the candidates, vectorisable.
+fn add_outer_products(g: &mut [f64], r: &[[&[f32]; 3]; 3], sign: f32, len: usize) {
+    let (g0, rest) = g.split_at_mut(len);
+    let (g1, rest) = rest.split_at_mut(len);
+    let (g2, rest) = rest.split_at_mut(len);
+    let (g3, rest) = rest.split_at_mut(len);
+    let (g4, g5) = rest.split_at_mut(len);
+    let g5 = &mut g5[..len];
+    let [[x0, x1, x2], [y0, y1, y2], [z0, z1, z2]] = r.map(|row| row.map(|p| &p[..len]));
+    for i in 0..len {
+        let (a0, a1, a2) = (x0[i], x1[i], x2[i]);
+        let (b0, b1, b2) = (y0[i], y1[i], y2[i]);
+        let (c0, c1, c2) = (z0[i], z1[i], z2[i]);
+        g0[i] += f64::from(sign * (a0 * a0 + a1 * a1 + a2 * a2));
+        g1[i] += f64::from(sign * (a0 * b0 + a1 * b1 + a2 * b2));
+        g2[i] += f64::from(sign * (a0 * c0 + a1 * c1 + a2 * c2));
+        g3[i] += f64::from(sign * (b0 * b0 + b1 * b1 + b2 * b2));
+        g4[i] += f64::from(sign * (b0 * c0 + b1 * c1 + b2 * c2));
+        g5[i] += f64::from(sign * (c0 * c0 + c1 * c1 + c2 * c2));
+    }
+}
+
 /// `det(I + G)` for every candidate of a chunk from the six planes of G.
 fn det_planes(g: &[f64], len: usize, out: &mut Vec<f64>) {
     let p = |e: usize| &g[e * len..(e + 1) * len];
@@ -584,7 +624,13 @@ fn det_planes(g: &[f64], len: usize, out: &mut Vec<f64>) {
 }
 
 /// Best non-member of chunk `(start, len)` by `det(I + G)` (ties: lowest index).
-fn chunk_best(g: &[f64], start: usize, len: usize, member: &[bool], dets: &mut Vec<f64>) -> Option<(usize, f64)> {
+fn chunk_best(
+    g: &[f64],
+    start: usize,
+    len: usize,
+    member: &[bool],
+    dets: &mut Vec<f64>,
+) -> Option<(usize, f64)> {
     det_planes(g, len, dets);
     let mut best = None;
     for (i, d) in dets.iter().enumerate() {
@@ -639,7 +685,13 @@ fn better(a: Option<(usize, f64)>, b: Option<(usize, f64)>) -> Option<(usize, f6
 impl<'a> State<'a> {
     /// Builds the state of `design` with the ridge `ridge` (normalised units); None if
     /// singular.
-    fn new(w: &'a Work<'a>, design: Vec<usize>, fixed: &[bool], ridge: Vec<f64>, refactor_every: usize) -> Option<Self> {
+    fn new(
+        w: &'a Work<'a>,
+        design: Vec<usize>,
+        fixed: &[bool],
+        ridge: Vec<f64>,
+        refactor_every: usize,
+    ) -> Option<Self> {
         let mut member = vec![false; w.len()];
         for &k in &design {
             member[k] = true;
@@ -763,7 +815,14 @@ impl<'a> State<'a> {
             let Some(chol) = nalgebra::Cholesky::new(term.c) else { return false };
             let lt = chol.l();
             let lf = Mat::from_fn(3, 3, |r, col| lt[(r, col)]);
-            matmul(zl.as_mut().get_mut(.., 3 * t..3 * t + 3), Accum::Replace, term.z.as_ref(), lf.as_ref(), 1.0, Par::Seq);
+            matmul(
+                zl.as_mut().get_mut(.., 3 * t..3 * t + 3),
+                Accum::Replace,
+                term.z.as_ref(),
+                lf.as_ref(),
+                1.0,
+                Par::Seq,
+            );
         }
         for (t, term) in terms.iter().enumerate() {
             let q = zl.as_ref().get(.., 3 * t..3 * t + 3);
@@ -779,8 +838,8 @@ impl<'a> State<'a> {
             .par_chunks_mut(6 * CHUNK)
             .enumerate()
             .map_init(
-                || (vec![0.0f32; 3 * CHUNK * width], vec![0.0f32; CHUNK], Vec::with_capacity(CHUNK)),
-                |(buf, acc, dets), (ci, gch)| {
+                || (vec![0.0f32; 3 * CHUNK * width], Vec::with_capacity(CHUNK)),
+                |(buf, dets), (ci, gch)| {
                     let (start, len) = chunk_range(ci, n);
                     let q = &mut buf[..3 * len * width];
                     matmul(
@@ -793,21 +852,12 @@ impl<'a> State<'a> {
                     );
                     let q = &*q;
                     // plane(col, a): column `col` of [Q₁ Q₂] for row `a`, over the chunk's candidates
-                    let plane = |col: usize, a: usize| &q[col * 3 * len + a * len..col * 3 * len + (a + 1) * len];
-                    let acc = &mut acc[..len];
-                    for (e, (a, b)) in SYM.iter().enumerate() {
-                        acc.fill(0.0);
-                        for (t, sign) in signs.iter().enumerate() {
-                            for j in 0..3 {
-                                let (qa, qb) = (plane(3 * t + j, *a), plane(3 * t + j, *b));
-                                for ((s, x), y) in acc.iter_mut().zip(qa).zip(qb) {
-                                    *s += sign * x * y;
-                                }
-                            }
-                        }
-                        for (gi, s) in gch[e * len..(e + 1) * len].iter_mut().zip(acc.iter()) {
-                            *gi += f64::from(*s);
-                        }
+                    let plane =
+                        |col: usize, a: usize| &q[col * 3 * len + a * len..col * 3 * len + (a + 1) * len];
+                    for (t, sign) in signs.iter().enumerate() {
+                        let r: [[&[f32]; 3]; 3] =
+                            std::array::from_fn(|a| std::array::from_fn(|j| plane(3 * t + j, a)));
+                        add_outer_products(gch, &r, *sign, len);
                     }
                     chunk_best(gch, start, len, member, dets)
                 },
@@ -910,7 +960,9 @@ impl<'a> State<'a> {
         let z_in = self.z_of(k_in);
         let g_in = self.bz(k_in, &z_in);
         let i_plus = Matrix3::identity() + g_in;
-        let (Some(c_in), det_in) = (i_plus.try_inverse(), i_plus.determinant()) else { return Step::Converged };
+        let (Some(c_in), det_in) = (i_plus.try_inverse(), i_plus.determinant()) else {
+            return Step::Converged;
+        };
         if !is_above(det_in, 0.0) {
             return Step::Converged;
         }
@@ -938,7 +990,9 @@ impl<'a> State<'a> {
         matmul(z_out.as_mut(), Accum::Add, z_in.as_ref(), cx_f.as_ref(), -1.0, Par::Seq);
         let g_out = self.bz(k_out, &z_out);
         let i_minus = Matrix3::identity() - g_out;
-        let (Some(c_out), det_out) = (i_minus.try_inverse(), i_minus.determinant()) else { return Step::Converged };
+        let (Some(c_out), det_out) = (i_minus.try_inverse(), i_minus.determinant()) else {
+            return Step::Converged;
+        };
         if !is_above(det_out, 0.0) {
             return Step::Converged;
         }
@@ -1046,7 +1100,10 @@ fn validate(c: &Candidates, o: &DetmaxOptions) -> Result<(), ObservabilityError>
         return Err(ObservabilityError::InvalidInput("at least one restart is needed".into()));
     }
     if !(o.ridge >= 0.0 && o.ridge.is_finite()) {
-        return Err(ObservabilityError::InvalidInput(format!("ridge must be finite and ≥ 0, got {}", o.ridge)));
+        return Err(ObservabilityError::InvalidInput(format!(
+            "ridge must be finite and ≥ 0, got {}",
+            o.ridge
+        )));
     }
     if o.fixed.len() > o.count {
         return Err(ObservabilityError::InvalidInput(format!(
@@ -1087,12 +1144,14 @@ fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
         return Ok(());
     }
     Err(match rank_deficient_error(&report) {
-        ObservabilityError::RankDeficient { rank, needed, unidentifiable, message } => ObservabilityError::RankDeficient {
-            rank,
-            needed,
-            unidentifiable,
-            message: format!("the candidate set is rank-deficient: {message}"),
-        },
+        ObservabilityError::RankDeficient { rank, needed, unidentifiable, message } => {
+            ObservabilityError::RankDeficient {
+                rank,
+                needed,
+                unidentifiable,
+                message: format!("the candidate set is rank-deficient: {message}"),
+            }
+        }
         other => other,
     })
 }
@@ -1101,9 +1160,8 @@ fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
 /// `count`; then rebuild with the requested ridge. None if the result is singular.
 fn greedy_state<'a>(w: &'a Work<'a>, o: &DetmaxOptions, fixed_mask: &[bool]) -> Option<State<'a>> {
     let n = w.len().max(1) as f64;
-    let greedy_ridge: Vec<f64> = (0..w.l())
-        .map(|j| w.ridge.get(j).copied().unwrap_or(0.0).max(GREEDY_RIDGE / n))
-        .collect();
+    let greedy_ridge: Vec<f64> =
+        (0..w.l()).map(|j| w.ridge.get(j).copied().unwrap_or(0.0).max(GREEDY_RIDGE / n)).collect();
     let mut s = State::new(w, o.fixed.clone(), fixed_mask, greedy_ridge, o.refactor_every)?;
     while s.design.len() < o.count {
         let (k, _) = s.best_addition()?;
@@ -1333,7 +1391,10 @@ pub fn log_det_by_svd(candidates: &Candidates, design: &[usize]) -> f64 {
 /// The plain exchange of [`detmax`] (O1, random starts, same seeds, same tie-breaking and
 /// stopping rule, no excursions, no fixed poses) with every gain and loss computed from
 /// scratch by an SVD of the trial design. O(N) SVDs per step: a reference, not a tool.
-pub fn naive_detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Selection, ObservabilityError> {
+pub fn naive_detmax(
+    candidates: &Candidates,
+    options: &DetmaxOptions,
+) -> Result<Selection, ObservabilityError> {
     validate(candidates, options)?;
     let mut best: Option<(usize, Vec<usize>, f64)> = None;
     let mut restarts = Vec::new();
@@ -1343,7 +1404,9 @@ pub fn naive_detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<
         let mut design = random_start(&mut rng, candidates.len(), options.count, &options.fixed);
         let mut current = log_det_by_svd(candidates, &design);
         if !current.is_finite() {
-            return Err(ObservabilityError::InvalidInput("naive reference: the random start is singular".into()));
+            return Err(ObservabilityError::InvalidInput(
+                "naive reference: the random start is singular".into(),
+            ));
         }
         let mut exchanges = 0;
         while exchanges < options.max_exchanges {
@@ -1374,7 +1437,9 @@ pub fn naive_detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<
                 }
             }
             match out {
-                Some((k_out, loss_out)) if loss_out < loss_in && with_in - loss_out - current > MIN_IMPROVEMENT => {
+                Some((k_out, loss_out))
+                    if loss_out < loss_in && with_in - loss_out - current > MIN_IMPROVEMENT =>
+                {
                     design.retain(|x| *x != k_out);
                     current = with_in - loss_out;
                     exchanges += 1;
@@ -1394,12 +1459,26 @@ pub fn naive_detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<
         }) {
             best = Some((r, design, current));
         }
-        restarts.push(RestartOutcome { seed, log_det, objective_value, exchanges, excursions_accepted: 0, greedy_start: false });
+        restarts.push(RestartOutcome {
+            seed,
+            log_det,
+            objective_value,
+            exchanges,
+            excursions_accepted: 0,
+            greedy_start: false,
+        });
     }
     let (best_restart, selected, tracked_log_det) =
         best.ok_or_else(|| ObservabilityError::InvalidInput("no restart ran".into()))?;
     let won = &restarts[best_restart];
-    Ok(Selection { selected, log_det: won.log_det, tracked_log_det, objective_value: won.objective_value, best_restart, restarts })
+    Ok(Selection {
+        selected,
+        log_det: won.log_det,
+        tracked_log_det,
+        objective_value: won.objective_value,
+        best_restart,
+        restarts,
+    })
 }
 
 // ------------------------------------------------------------------------------------------
@@ -1416,13 +1495,18 @@ pub struct SelectionIndices {
 }
 
 /// O1..O5, rank, condition number and σ_min of `selected` (raw and candidate-normalised).
-pub fn selection_indices(candidates: &Candidates, selected: &[usize]) -> Result<SelectionIndices, ObservabilityError> {
+pub fn selection_indices(
+    candidates: &Candidates,
+    selected: &[usize],
+) -> Result<SelectionIndices, ObservabilityError> {
     let j = candidates.design_jacobian(selected);
     let raw = crate::indices::observability_indices(j.as_ref(), candidates.params(), ColumnScaling::None)?;
-    let factors: Vec<f64> = column_norms(candidates).iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
+    let factors: Vec<f64> =
+        column_norms(candidates).iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
     let mut jn = j;
     crate::identifiability::scale_columns(&mut jn, &factors);
-    let mut normalized = crate::indices::observability_indices(jn.as_ref(), candidates.params(), ColumnScaling::None)?;
+    let mut normalized =
+        crate::indices::observability_indices(jn.as_ref(), candidates.params(), ColumnScaling::None)?;
     normalized.scaling = ColumnScaling::UnitNorm;
     Ok(SelectionIndices { raw, normalized })
 }
@@ -1465,10 +1549,10 @@ pub fn position_ablation(
     ids.dedup();
     let mut rows = Vec::new();
     for subset in subsets(&ids, subset_size) {
-        let members: Vec<usize> = (0..candidates.len())
-            .filter(|k| positions[*k].is_some_and(|p| subset.contains(&p)))
-            .collect();
-        let mut row = AblationRow { positions: subset, candidate_count: members.len(), selected: None, indices: None };
+        let members: Vec<usize> =
+            (0..candidates.len()).filter(|k| positions[*k].is_some_and(|p| subset.contains(&p))).collect();
+        let mut row =
+            AblationRow { positions: subset, candidate_count: members.len(), selected: None, indices: None };
         if members.len() >= options.count {
             let restricted = candidates.subset(&members);
             let o = DetmaxOptions { ridge: options.ridge.max(1e-6), fixed: Vec::new(), ..options.clone() };

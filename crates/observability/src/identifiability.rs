@@ -70,6 +70,16 @@ pub enum ColumnScaling {
     APriori,
 }
 
+impl fmt::Display for ColumnScaling {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ColumnScaling::None => "raw (natural units)",
+            ColumnScaling::UnitNorm => "unit-norm",
+            ColumnScaling::APriori => "a-priori σ",
+        })
+    }
+}
+
 /// The factors `s_j` such that the scaled Jacobian is `J · diag(s)`.
 pub fn column_scale_factors(j: MatRef<'_, f64>, params: &[ParamId], scaling: ColumnScaling) -> Vec<f64> {
     match scaling {
@@ -116,8 +126,7 @@ pub fn assemble_jacobian(
     let mut j = Mat::<f64>::zeros(3 * measurements.len(), l);
     let mut block = vec![0.0; 3 * l];
     for (k, m) in measurements.iter().enumerate() {
-        measurement_block(model, m, &params.0, &mut block)
-            .map_err(|e| reindex(e, k))?;
+        measurement_block(model, m, &params.0, &mut block).map_err(|e| reindex(e, k))?;
         for c in 0..l {
             for r in 0..3 {
                 j[(3 * k + r, c)] = block[3 * c + r];
@@ -173,7 +182,10 @@ impl Redundancy {
     /// A sentence such as "a_1 is absorbed by base_y (-1)".
     pub fn sentence(&self) -> String {
         if self.confounded_with.is_empty() {
-            return format!("{} has no effect on these measurements (its Jacobian column is zero)", self.param);
+            return format!(
+                "{} has no effect on these measurements (its Jacobian column is zero)",
+                self.param
+            );
         }
         let partners: Vec<String> =
             self.confounded_with.iter().map(|(p, w)| format!("{p} ({w:.4})")).collect();
@@ -202,7 +214,13 @@ impl LostDirection {
             .iter()
             .enumerate()
             .map(|(i, (p, w))| {
-                let sign = if *w < 0.0 { "-" } else if i == 0 { "" } else { "+" };
+                let sign = if *w < 0.0 {
+                    "-"
+                } else if i == 0 {
+                    ""
+                } else {
+                    "+"
+                };
                 format!("{sign}{:.3} {p}", w.abs())
             })
             .collect();
@@ -386,9 +404,7 @@ pub fn analyze_jacobian(
     let kept = preference_ordered_basis(jn.as_ref(), threshold);
     let dropped: Vec<usize> = (0..l).filter(|c| !kept.contains(c)).collect();
     let redundant = explain_dropped(jn.as_ref(), &kept, &dropped, params, &column_norms);
-    let lost_directions = (rank..l)
-        .map(|i| lost_direction(singular_values[i], v.col(i), params))
-        .collect();
+    let lost_directions = (rank..l).map(|i| lost_direction(singular_values[i], v.col(i), params)).collect();
 
     Ok(IdentifiabilityReport {
         rank,
@@ -482,7 +498,12 @@ fn explain_dropped(
         .map(|(d, &col)| {
             let param = params.0[col];
             if column_norms[col] == 0.0 || kept.is_empty() {
-                return Redundancy { param, confounded_with: Vec::new(), normalized_weights: Vec::new(), fit_residual: 1.0 };
+                return Redundancy {
+                    param,
+                    confounded_with: Vec::new(),
+                    normalized_weights: Vec::new(),
+                    fit_residual: 1.0,
+                };
             }
             let x: Vec<f64> = (0..kept.len()).map(|i| solution[(i, d)]).collect();
             let fit_residual = (0..m)
@@ -523,10 +544,7 @@ fn lost_direction(singular_value: f64, v: faer::ColRef<'_, f64>, params: &ParamS
     let x: Vec<f64> = v.iter().copied().collect();
     let named = largest_entries(&x);
     let sign = named.first().map_or(1.0, |&i| x[i].signum());
-    LostDirection {
-        singular_value,
-        combination: named.iter().map(|&i| (params.0[i], sign * x[i])).collect(),
-    }
+    LostDirection { singular_value, combination: named.iter().map(|&i| (params.0[i], sign * x[i])).collect() }
 }
 
 /// Like [`analyze`], but refuses a rank-deficient parameter set with
@@ -609,11 +627,30 @@ pub fn param_set_from_spec(
     if spec.trim() == "all-identifiable" {
         return all_identifiable(model, measurements);
     }
-    let set = ParamSet::parse(spec).map_err(|e| ObservabilityError::InvalidInput(format!("parameter set `{spec}`: {e}")))?;
+    let set = ParamSet::parse(spec)
+        .map_err(|e| ObservabilityError::InvalidInput(format!("parameter set `{spec}`: {e}")))?;
     if let Some(p) = set.iter().find(|p| !model.has_param(**p)) {
         return Err(ObservabilityError::InvalidInput(format!(
             "parameter set `{spec}`: `{p}` is not part of this model (switch its effect on in the cell file first)"
         )));
     }
     Ok(set)
+}
+
+/// The columns of `j` (columns = `params`) that belong to `subset`, in `subset`'s order.
+/// Parameters of `subset` that are not in `params` are an error.
+pub fn select_columns(
+    j: MatRef<'_, f64>,
+    params: &ParamSet,
+    subset: &ParamSet,
+) -> Result<Mat<f64>, ObservabilityError> {
+    let columns = subset
+        .iter()
+        .map(|p| {
+            params.index_of(*p).ok_or_else(|| {
+                ObservabilityError::InvalidInput(format!("parameter `{p}` is not a column of the Jacobian"))
+            })
+        })
+        .collect::<Result<Vec<usize>, _>>()?;
+    Ok(Mat::from_fn(j.nrows(), columns.len(), |r, c| j[(r, columns[c])]))
 }

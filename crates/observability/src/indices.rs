@@ -104,7 +104,7 @@ impl fmt::Display for ObservabilityIndices {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "O1 {:.4}  O2 {:.4e}  O3 {:.4e}  O4 {:.4e}  O5 {:.4e}  rank {}/{}  cond {:.4e}  σ_min {:.4e}  ({} poses, {:?} columns)",
+            "O1 {:.4}  O2 {:.4e}  O3 {:.4e}  O4 {:.4e}  O5 {:.4e}  rank {}/{}  cond {:.4e}  σ_min {:.4e}  ({} poses, {} columns)",
             self.o1,
             self.o2,
             self.o3,
@@ -122,9 +122,7 @@ impl fmt::Display for ObservabilityIndices {
 
 /// Singular values of `a` (descending). Errors only if the SVD fails to converge.
 pub fn singular_values(a: MatRef<'_, f64>) -> Result<Vec<f64>, ObservabilityError> {
-    let mut s = a
-        .singular_values()
-        .map_err(|e| ObservabilityError::Numerical(format!("SVD: {e:?}")))?;
+    let mut s = a.singular_values().map_err(|e| ObservabilityError::Numerical(format!("SVD: {e:?}")))?;
     s.sort_by(|x, y| y.total_cmp(x));
     Ok(s)
 }

@@ -8,9 +8,14 @@ use vatcal_core::{BaseParam, ParamId, ParamSet};
 use vatcal_observability::identifiability::{
     AnalysisOptions, analyze_jacobian, preference_order, rank_deficient_error,
 };
-use vatcal_observability::{ObservabilityError, all_identifiable, analyze, assemble_jacobian, check_identifiable};
+use vatcal_observability::{
+    ObservabilityError, all_identifiable, analyze, assemble_jacobian, check_identifiable,
+};
 
-fn redundancy(report: &vatcal_observability::IdentifiabilityReport, p: ParamId) -> &vatcal_observability::Redundancy {
+fn redundancy(
+    report: &vatcal_observability::IdentifiabilityReport,
+    p: ParamId,
+) -> &vatcal_observability::Redundancy {
     report.redundant.iter().find(|r| r.param == p).unwrap_or_else(|| panic!("{p} not reported redundant"))
 }
 
@@ -76,7 +81,10 @@ fn three_positions_give_rank_34_and_the_paper_basis() {
         let r = redundancy(&report, p);
         assert!(r.fit_residual < 1e-8, "{}", r.sentence());
         assert!(
-            r.confounded_with.iter().any(|(q, _)| matches!(q, ParamId::Base(BaseParam::Alpha | BaseParam::Beta | BaseParam::Gamma))),
+            r.confounded_with.iter().any(|(q, _)| matches!(
+                q,
+                ParamId::Base(BaseParam::Alpha | BaseParam::Beta | BaseParam::Gamma)
+            )),
             "{}",
             r.sentence()
         );
@@ -194,7 +202,9 @@ fn too_few_poses_are_refused_with_a_count() {
     assert_eq!(report.singular_values.len(), 34);
     assert_eq!(report.lost_directions.len(), 16);
     match rank_deficient_error(&report) {
-        ObservabilityError::RankDeficient { message, .. } => assert!(message.contains("at least 12 poses"), "{message}"),
+        ObservabilityError::RankDeficient { message, .. } => {
+            assert!(message.contains("at least 12 poses"), "{message}")
+        }
         other => panic!("{other:?}"),
     }
     assert!(matches!(analyze(&model, &[], &ParamSet::paper34()), Err(ObservabilityError::NoMeasurements)));
@@ -209,4 +219,17 @@ fn unknown_tcp_is_an_error_naming_the_measurement() {
         Err(e @ ObservabilityError::Model { index: 2, .. }) => assert!(e.to_string().contains("TCP"), "{e}"),
         other => panic!("{other:?}"),
     }
+}
+
+#[test]
+fn parameter_specs_resolve_or_fail_clearly() {
+    use vatcal_observability::identifiability::param_set_from_spec;
+    let model = canonical_model();
+    let poses = probe_poses(&model, &[1, 2, 3], 40, 8);
+    assert_eq!(param_set_from_spec("paper34", &model, &poses).expect("paper34"), ParamSet::paper34());
+    assert_eq!(param_set_from_spec("all-identifiable", &model, &poses).expect("basis"), ParamSet::paper34());
+    let e = param_set_from_spec("d_4,alpha_9", &model, &poses).expect_err("unknown name");
+    assert!(e.to_string().contains("alpha_9"), "{e}");
+    let e = param_set_from_spec("d_4,tool_tx", &model, &poses).expect_err("effect not switched on");
+    assert!(e.to_string().contains("tool_tx"), "{e}");
 }

@@ -150,7 +150,10 @@ mod tests {
         let opts = PrintingPathOptions { slices: 20, layer_mm: 2.0, ..Default::default() };
         let slices = printing_path(&opts).expect("path");
         // perfect run: zero errors
-        let perfect = PathRecords { label: "ideal".into(), slices: slices.iter().map(|s| record(&s.tool_pose)).collect() };
+        let perfect = PathRecords {
+            label: "ideal".into(),
+            slices: slices.iter().map(|s| record(&s.tool_pose)).collect(),
+        };
         let v = evaluate_path(&slices, &perfect, &smrs()).expect("evaluate");
         assert!(v.tip_stats.max < 1e-9 && v.plate_stats.max < 1e-9);
         // a plate rotated by 1 mrad about an axis through the plate face, perpendicular to the
@@ -167,11 +170,13 @@ mod tests {
                 record(&vatcal_core::Frame { r, p })
             })
             .collect();
-        let v = evaluate_path(&slices, &PathRecords { label: "tilted".into(), slices: tilted }, &smrs()).expect("eval");
+        let v = evaluate_path(&slices, &PathRecords { label: "tilted".into(), slices: tilted }, &smrs())
+            .expect("eval");
         assert!(v.plate_stats.max < 1e-9, "{}", v.plate_stats.max);
         for (s, e) in slices.iter().zip(&v.tip_errors_mm) {
-            let lever = s.part_height_mm * 1e-3;
-            assert!((e.norm() - lever).abs() < 1e-9 * (1.0 + lever), "{} vs {lever}", e.norm());
+            // chord of the 1 mrad arc of radius h
+            let lever = 2.0 * s.part_height_mm * (0.5e-3f64).sin();
+            assert!((e.norm() - lever).abs() < 1e-12 * (1.0 + lever), "{} vs {lever}", e.norm());
         }
         assert!(v.orientation_errors_rad.iter().all(|a| (a - 1e-3).abs() < 1e-12));
     }

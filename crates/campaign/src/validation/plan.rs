@@ -53,7 +53,8 @@ pub struct ValidationPlanOptions {
 
 impl Default for ValidationPlanOptions {
     /// 573 random poses, the default 300-slice printing path, 2 mm collision margin, 5° joint
-    /// margin, default singularity margins and at most 2° per slice along the printing path,
+    /// margin, default singularity margins and at most 10° per slice along the printing path
+    /// (a branch flip of the IK jumps by tens of degrees; 300 slices move by ~0.1°),
     /// 11 guide starts, default path planner and motion limits, 2 tour restarts, seed 1.
     fn default() -> Self {
         Self {
@@ -62,7 +63,7 @@ impl Default for ValidationPlanOptions {
             collision_margin_mm: 2.0,
             printing_joint_margin_deg: 5.0,
             printing_singularity: SingularityMargins::default(),
-            printing_max_joint_step_deg: 2.0,
+            printing_max_joint_step_deg: 10.0,
             printing_guide_candidates: 11,
             paths: PathOptions::default(),
             motion: MotionLimits::default(),
@@ -167,7 +168,11 @@ pub fn build_validation_plan(
 }
 
 /// The random poses in a short visiting order (joint-move time, from the start if given).
-fn order_poses(poses: &[ValidationPose], timer: &MotionTimer, opts: &ValidationPlanOptions) -> Vec<ValidationPose> {
+fn order_poses(
+    poses: &[ValidationPose],
+    timer: &MotionTimer,
+    opts: &ValidationPlanOptions,
+) -> Vec<ValidationPose> {
     let cost = |i: usize, j: usize| timer.move_time_s(&poses[i].q, &poses[j].q);
     let costs = match &opts.start {
         Some(s) => {
@@ -199,7 +204,11 @@ struct StepBuilder<'a> {
 }
 
 impl<'a> StepBuilder<'a> {
-    fn new(checker: &'a CollisionChecker<'a>, timer: &'a MotionTimer, opts: &'a ValidationPlanOptions) -> Self {
+    fn new(
+        checker: &'a CollisionChecker<'a>,
+        timer: &'a MotionTimer,
+        opts: &'a ValidationPlanOptions,
+    ) -> Self {
         Self { checker, timer, opts, goals: Vec::new() }
     }
 
@@ -229,7 +238,8 @@ impl<'a> StepBuilder<'a> {
     fn finish(self) -> Result<(CampaignPlan, Vec<Option<TrackTarget>>, usize), ValidationError> {
         let reference = self.checker.model();
         let bounds = JointBounds::new(reference, MOVE_MARGIN_DEG, 0.0)?;
-        let planner = PathPlanner { checker: self.checker, bounds: &bounds, timer: self.timer, opts: &self.opts.paths };
+        let planner =
+            PathPlanner { checker: self.checker, bounds: &bounds, timer: self.timer, opts: &self.opts.paths };
         let start = self.opts.start;
         let legs: Vec<Result<(Vec<JointVector>, bool), ValidationError>> = (0..self.goals.len())
             .into_par_iter()
@@ -247,7 +257,11 @@ impl<'a> StepBuilder<'a> {
                 }
                 let seed = self.opts.seed ^ (k as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
                 let path = planner.plan(&from.0, &goal.q, ProbeState::Absent, seed).map_err(|f| {
-                    ValidationError::NoPath { from: from.1.clone(), to: goal.name.clone(), reason: f.to_string() }
+                    ValidationError::NoPath {
+                        from: from.1.clone(),
+                        to: goal.name.clone(),
+                        reason: f.to_string(),
+                    }
                 })?;
                 let rrt = path.method == PathMethod::RrtConnect;
                 Ok((path.waypoints.into_iter().skip(1).collect(), rrt))
@@ -331,7 +345,11 @@ impl ValidationPlan {
     ///
     /// # Errors
     /// The campaign's errors; records that do not hold every planned measurement.
-    pub fn run(&self, campaign: &mut Campaign<'_>, journal: impl AsRef<Path>) -> Result<ValidationRecords, ValidationError> {
+    pub fn run(
+        &self,
+        campaign: &mut Campaign<'_>,
+        journal: impl AsRef<Path>,
+    ) -> Result<ValidationRecords, ValidationError> {
         let report: CampaignReport = campaign.run(&self.campaign, journal)?;
         self.collect(&report.records)
     }
@@ -370,7 +388,9 @@ impl ValidationPlan {
         let random = random
             .into_iter()
             .enumerate()
-            .map(|(i, m)| m.ok_or_else(|| ValidationError::Incomplete(format!("random pose {i} was not measured"))))
+            .map(|(i, m)| {
+                m.ok_or_else(|| ValidationError::Incomplete(format!("random pose {i} was not measured")))
+            })
             .collect::<Result<Vec<_>, _>>()?;
         for p in &paths {
             if let Some(k) = p.slices.iter().position(|s| s.measurements.len() != self.slice_targets.len()) {

@@ -29,11 +29,17 @@ pub fn random_error_histogram_svg(results: &[ModelValidation], bins: usize) -> R
 ///
 /// # Errors
 /// No run, slice counts that differ from `slices`, or a plotting failure.
-pub fn path_error_svg(title: &str, slices: &[PrintingSlice], runs: &[&PathValidation]) -> Result<String, PlotError> {
+pub fn path_error_svg(
+    title: &str,
+    slices: &[PrintingSlice],
+    runs: &[&PathValidation],
+) -> Result<String, PlotError> {
     let x: Vec<f64> = slices.iter().map(|s| (s.index + 1) as f64).collect();
     let values: Vec<Vec<f64>> = runs.iter().map(|r| r.tip_magnitudes()).collect();
-    let labels: Vec<String> =
-        runs.iter().map(|r| format!("commanded by the {} model, mean {:.3} mm", r.label, r.tip_stats.mean)).collect();
+    let labels: Vec<String> = runs
+        .iter()
+        .map(|r| format!("commanded by the {} model, mean {:.3} mm", r.label, r.tip_stats.mean))
+        .collect();
     let series: Vec<Series<'_>> = labels.iter().zip(&values).map(|(l, v)| Series::new(l, v)).collect();
     let spec = PlotSpec::new(title, "slice", "position error at the tank bottom [mm]");
     line_plot_svg(&spec, &x, &series)

@@ -90,7 +90,8 @@ impl PrintingPathOptions {
         if self.slices < 2 {
             return bad("printing.slices", format!("needs at least 2 slices, got {}", self.slices));
         }
-        for (name, v) in [("printing.layer_mm", self.layer_mm), ("printing.plate_offset_mm", self.plate_offset_mm)]
+        for (name, v) in
+            [("printing.layer_mm", self.layer_mm), ("printing.plate_offset_mm", self.plate_offset_mm)]
         {
             if !(v.is_finite() && v > 0.0) {
                 return bad(name, format!("must be a positive length, got {v}"));
@@ -211,7 +212,8 @@ pub fn plan_printing_joints(
     slices: &[PrintingSlice],
     rules: &PrintingJointRules<'_>,
 ) -> Result<Vec<JointVector>, ValidationError> {
-    let first = slices.first().ok_or_else(|| ValidationError::PrintingPath("the path has no slices".into()))?;
+    let first =
+        slices.first().ok_or_else(|| ValidationError::PrintingPath("the path has no slices".into()))?;
     let rise = slices.last().map_or(0.0, |s| s.part_height_mm) - first.part_height_mm;
     let (lo, hi) = rules.bounds.bounds[0];
     if hi - rise < lo {
@@ -223,7 +225,8 @@ pub fn plan_printing_joints(
     let n = rules.guide_candidates.max(1);
     let mut starts: Vec<(f64, JointVector)> = Vec::new();
     for g in 0..n {
-        let q1 = if n == 1 { 0.5 * (lo + hi - rise) } else { lo + (hi - rise - lo) * g as f64 / (n - 1) as f64 };
+        let q1 =
+            if n == 1 { 0.5 * (lo + hi - rise) } else { lo + (hi - rise - lo) * g as f64 / (n - 1) as f64 };
         for q in ik.solve_at_guide(q1, &first.tool_pose) {
             if slice_is_feasible(model, &q, rules) {
                 starts.push((limit_clearance(rules.bounds, &q), q));
@@ -277,7 +280,9 @@ fn slice_is_feasible(model: &Model, q: &JointVector, rules: &PrintingJointRules<
 
 /// Smallest distance of an arm joint to its (shrunk) limits [rad].
 fn limit_clearance(bounds: &JointBounds, q: &JointVector) -> f64 {
-    (1..7).map(|k| (q.0[k] - bounds.bounds[k].0).min(bounds.bounds[k].1 - q.0[k])).fold(f64::INFINITY, f64::min)
+    (1..7)
+        .map(|k| (q.0[k] - bounds.bounds[k].0).min(bounds.bounds[k].1 - q.0[k]))
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The joints that command the printing path on `model`: every slice is solved by the full-pose
@@ -303,9 +308,8 @@ pub fn command_printing_joints(
         .iter()
         .zip(reference)
         .map(|(slice, seed)| {
-            let refined = refine_tool_pose(model, seed, &slice.tool_pose, &RefineOptions::default()).map_err(|e| {
-                ValidationError::PrintingPath(format!("slice {}: {e}", slice.index))
-            })?;
+            let refined = refine_tool_pose(model, seed, &slice.tool_pose, &RefineOptions::default())
+                .map_err(|e| ValidationError::PrintingPath(format!("slice {}: {e}", slice.index)))?;
             if let Some((joint, value, ..)) = model.limit_violation(&refined.q) {
                 return Err(ValidationError::PrintingPath(format!(
                     "slice {}: joint q{joint} = {value:.4} leaves its limits",
@@ -374,7 +378,8 @@ mod tests {
     fn bad_options_name_the_field() {
         let e = printing_path(&PrintingPathOptions { slices: 1, ..Default::default() }).expect_err("bad");
         assert!(e.to_string().contains("printing.slices"), "{e}");
-        let e = printing_path(&PrintingPathOptions { layer_mm: -0.1, ..Default::default() }).expect_err("bad");
+        let e =
+            printing_path(&PrintingPathOptions { layer_mm: -0.1, ..Default::default() }).expect_err("bad");
         assert!(e.to_string().contains("printing.layer_mm"), "{e}");
     }
 }

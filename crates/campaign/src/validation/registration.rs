@@ -40,7 +40,10 @@ pub enum RegistrationError {
 ///
 /// # Errors
 /// Different lengths, fewer than 3 points, collinear body points, non-finite coordinates.
-pub fn fit_rigid_transform(local: &[Vector3<f64>], world: &[Vector3<f64>]) -> Result<Frame, RegistrationError> {
+pub fn fit_rigid_transform(
+    local: &[Vector3<f64>],
+    world: &[Vector3<f64>],
+) -> Result<Frame, RegistrationError> {
     if local.len() != world.len() {
         return Err(RegistrationError::LengthMismatch { local: local.len(), world: world.len() });
     }
@@ -104,7 +107,7 @@ mod tests {
         /// Exact points give back the pose to rounding, for any rotation and translation.
         #[test]
         fn exact_points_give_the_pose(
-            ax in -1.0f64..1.0, ay in -1.0f64..1.0, az in -1.0f64..1.0, angle in 0.0f64..3.14,
+            ax in -1.0f64..1.0, ay in -1.0f64..1.0, az in -1.0f64..1.0, angle in 0.0f64..3.1,
             px in -500.0f64..500.0, py in -500.0f64..500.0, pz in -500.0f64..500.0,
         ) {
             let axis = Unit::try_new(Vector3::new(ax, ay, az), 1e-3).unwrap_or(Vector3::z_axis());
@@ -119,14 +122,38 @@ mod tests {
 
     #[test]
     fn noisy_points_give_the_least_squares_pose() {
-        // symmetric noise that leaves the centroid and rotation unchanged in the best fit:
-        // moving every point radially away from the centroid by the same length
-        let l = smrs();
-        let c = l.iter().sum::<Vector3<f64>>() / 3.0;
-        let world: Vec<_> = l.iter().map(|p| p + (p - c).normalize() * 0.01).collect();
+        // four SMRs (over-determined), fixed pseudo-random noise of ~10 µm
+        let mut l = smrs();
+        l.push(Vector3::new(10.0, -20.0, 90.0));
+        let axis = Unit::new_normalize(Vector3::new(0.3, -1.0, 0.4));
+        let truth = Frame {
+            r: *Rotation3::from_axis_angle(&axis, 2.0).matrix(),
+            p: Vector3::new(-40.0, 25.0, 300.0),
+        };
+        let noise = [[7.0, -3.0, 5.0], [-9.0, 4.0, 1.0], [2.0, 8.0, -6.0], [-1.0, -7.0, 3.0]];
+        let world: Vec<_> =
+            l.iter().zip(noise).map(|(p, n)| truth.transform_point(p) + Vector3::from(n) * 1e-3).collect();
         let fit = fit_rigid_transform(&l, &world).expect("fit");
-        assert!((fit.r - Matrix3::identity()).norm() < 1e-12);
-        assert!(fit.p.norm() < 1e-9);
+        let cost = |f: &Frame| {
+            l.iter().zip(&world).map(|(a, b)| (f.transform_point(a) - b).norm_squared()).sum::<f64>()
+        };
+        // close to the truth (noise-sized) ...
+        assert!((fit.p - truth.p).norm() < 0.05 && (fit.r - truth.r).norm() < 1e-3);
+        // ... and a minimum: every small rotation or translation away from it costs more
+        let c0 = cost(&fit);
+        assert!(c0 < cost(&truth));
+        for k in 0..6 {
+            for sign in [-1.0, 1.0] {
+                let mut v = [0.0; 6];
+                v[k] = sign * 1e-4;
+                let rot = Rotation3::new(Vector3::new(v[0], v[1], v[2]));
+                let moved = Frame {
+                    r: rot.matrix() * fit.r,
+                    p: rot.matrix() * fit.p + Vector3::new(v[3], v[4], v[5]),
+                };
+                assert!(cost(&moved) > c0, "direction {k} {sign}");
+            }
+        }
     }
 
     #[test]

@@ -45,6 +45,10 @@ pub struct Args {
     /// Iteration cap.
     #[arg(long, default_value_t = 50)]
     pub max_iterations: usize,
+    /// Refuse the fit when the condition number of the column-normalised Jacobian at the
+    /// solution exceeds this (healthy designs: ~30).
+    #[arg(long, default_value_t = 1e3)]
+    pub max_condition_number: f64,
 }
 
 /// Runs the identification, prints one line per iteration and a summary, writes the outputs.
@@ -56,6 +60,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let options = IdentifyOptions {
         method,
         max_iterations: args.max_iterations,
+        max_condition_number: args.max_condition_number,
         weights: KindWeights { probe: 1.0, tracker: args.tracker_weight },
         ..IdentifyOptions::default()
     };

@@ -6,7 +6,9 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use vatcal_observability::identifiability::{AnalysisOptions, analyze_jacobian, assemble_jacobian, param_set_from_spec};
+use vatcal_observability::identifiability::{
+    AnalysisOptions, analyze_jacobian, assemble_jacobian, param_set_from_spec, select_columns,
+};
 use vatcal_observability::{ColumnScaling, ObservabilityError, observability_indices};
 
 /// Arguments of `vatcal observability`.
@@ -54,15 +56,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         _ => anyhow::anyhow!("{}: {e}", args.measurements.display()),
     })?;
-    let report = analyze_jacobian(j.as_ref(), &params, &AnalysisOptions { relative_tolerance: args.tolerance })?;
-    let raw = observability_indices(j.as_ref(), &params, ColumnScaling::None)?;
-    let normalized = observability_indices(j.as_ref(), &params, ColumnScaling::UnitNorm)?;
+    let report =
+        analyze_jacobian(j.as_ref(), &params, &AnalysisOptions { relative_tolerance: args.tolerance })?;
+    // Indices of the identifiable basis (the whole set when it is fully identifiable): the
+    // indices of a rank-deficient set are ~0 and say nothing more than the rank.
+    let basis = report.identifiable_set();
+    let jb = select_columns(j.as_ref(), &params, &basis)?;
+    let raw = observability_indices(jb.as_ref(), &basis, ColumnScaling::None)?;
+    let normalized = observability_indices(jb.as_ref(), &basis, ColumnScaling::UnitNorm)?;
 
     let mut out = std::io::stdout().lock();
-    writeln!(out, "{}: {} measurements, parameter set `{}`", args.measurements.display(), measurements.len(), args.params)?;
+    writeln!(
+        out,
+        "{}: {} measurements, parameter set `{}`",
+        args.measurements.display(),
+        measurements.len(),
+        args.params
+    )?;
     write!(out, "{report}")?;
-    writeln!(out, "indices, raw units:               {raw}")?;
-    writeln!(out, "indices, unit-normalised columns: {normalized}")?;
+    let what = if report.is_full_rank() { "indices" } else { "indices of the identifiable basis" };
+    writeln!(out, "{what}, raw units:               {raw}")?;
+    writeln!(out, "{what}, unit-normalised columns: {normalized}")?;
     if !report.is_full_rank() {
         writeln!(
             out,
@@ -71,7 +85,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             report.parameter_count,
             report.unidentifiable().iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")
         )?;
-        anyhow::ensure!(!args.strict, "the parameter set `{}` is rank-deficient ({} of {})", args.params, report.rank, report.parameter_count);
+        anyhow::ensure!(
+            !args.strict,
+            "the parameter set `{}` is rank-deficient ({} of {})",
+            args.params,
+            report.rank,
+            report.parameter_count
+        );
     }
     Ok(())
 }

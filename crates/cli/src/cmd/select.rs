@@ -11,7 +11,8 @@ use std::path::PathBuf;
 use anyhow::Context;
 use vatcal_observability::ObservabilityError;
 use vatcal_observability::detmax::{
-    AblationRow, Candidates, DetmaxOptions, Objective, SelectionIndices, detmax, position_ablation, selection_indices,
+    AblationRow, Candidates, DetmaxOptions, Objective, SelectionIndices, detmax, position_ablation,
+    selection_indices,
 };
 use vatcal_observability::identifiability::param_set_from_spec;
 
@@ -38,8 +39,9 @@ pub struct Args {
     /// comma-separated list of parameter names.
     #[arg(long, default_value = "paper34")]
     pub params: String,
-    /// Maximum depth of Mitchell-style excursions (0 = plain exchange).
-    #[arg(long, default_value_t = 0)]
+    /// Maximum depth of Mitchell-style excursions after each exchange converges (0 = plain
+    /// Wynn–Mitchell exchange).
+    #[arg(long, default_value_t = 3)]
     pub excursions: usize,
     /// Objective: o1 (D-optimal, fast) or o2..o5 (exact evaluation on column-normalised
     /// Jacobians, slower).
@@ -93,11 +95,22 @@ fn describe(i: &SelectionIndices) -> String {
     )
 }
 
-fn print_ablation(out: &mut impl Write, size: usize, rows: &[AblationRow], count: usize) -> std::io::Result<()> {
+fn print_ablation(
+    out: &mut impl Write,
+    size: usize,
+    rows: &[AblationRow],
+    count: usize,
+) -> std::io::Result<()> {
     for r in rows {
         let ids: Vec<String> = r.positions.iter().map(u32::to_string).collect();
         match &r.indices {
-            Some(i) => writeln!(out, "  positions {{{}}} ({} candidates): {}", ids.join(","), r.candidate_count, describe(i))?,
+            Some(i) => writeln!(
+                out,
+                "  positions {{{}}} ({} candidates): {}",
+                ids.join(","),
+                r.candidate_count,
+                describe(i)
+            )?,
             None => writeln!(
                 out,
                 "  positions {{{}}}: only {} candidates, fewer than {count}; skipped",
@@ -112,15 +125,23 @@ fn print_ablation(out: &mut impl Write, size: usize, rows: &[AblationRow], count
         .max_by(|a, b| a.1.raw.o1.total_cmp(&b.1.raw.o1))
     {
         let ids: Vec<String> = r.positions.iter().map(u32::to_string).collect();
-        writeln!(out, "  best with {size} position(s): {{{}}}, O1 {:.4}, rank {}/{}", ids.join(","), i.raw.o1, i.raw.rank, i.raw.parameter_count)?;
+        writeln!(
+            out,
+            "  best with {size} position(s): {{{}}}, O1 {:.4}, rank {}/{}",
+            ids.join(","),
+            i.raw.o1,
+            i.raw.rank,
+            i.raw.parameter_count
+        )?;
     }
     Ok(())
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let objective = Objective::parse(&args.objective)
-        .with_context(|| format!("--objective must be one of o1, o2, o3, o4, o5, got `{}`", args.objective))?;
+    let objective = Objective::parse(&args.objective).with_context(|| {
+        format!("--objective must be one of o1, o2, o3, o4, o5, got `{}`", args.objective)
+    })?;
     let opts = options(&args, objective)?;
     let model = super::load_model(&args.model)?;
     let table = vatcal_io::read_candidates(&args.candidates, &model)?;
@@ -132,7 +153,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.count
     );
     if let Some(row) = opts.fixed.iter().find(|k| **k >= n) {
-        anyhow::bail!("--fixed: row {} does not exist ({} has {n} candidate rows)", row + 1, args.candidates.display());
+        anyhow::bail!(
+            "--fixed: row {} does not exist ({} has {n} candidate rows)",
+            row + 1,
+            args.candidates.display()
+        );
     }
     let params = param_set_from_spec(&args.params, &model, &table.measurements).context("--params")?;
     let candidates = Candidates::from_measurements(&model, &table.measurements, &params)
@@ -180,7 +205,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if !args.no_ablation {
         let positions: Vec<Option<u32>> = table.measurements.iter().map(|m| m.position()).collect();
         let ablation_opts = DetmaxOptions { objective: Objective::O1, ..opts.clone() };
-        writeln!(out, "ablation (best Detmax selection of {} poses restricted to fewer calibration positions):", args.count)?;
+        writeln!(
+            out,
+            "ablation (best Detmax selection of {} poses restricted to fewer calibration positions):",
+            args.count
+        )?;
         for size in [1, 2] {
             let rows = position_ablation(&candidates, &positions, size, &ablation_opts)?;
             print_ablation(&mut out, size, &rows, args.count)?;
