@@ -407,11 +407,8 @@ impl CellFile {
 
     /// Checks every field. Errors name the field.
     pub fn validate(&self, origin: &str) -> Result<(), CellError> {
-        let bad = |field: String, reason: String| CellError::Invalid {
-            origin: origin.to_string(),
-            field,
-            reason,
-        };
+        let bad =
+            |field: String, reason: String| CellError::Invalid { origin: origin.to_string(), field, reason };
         let finite = |field: String, v: f64| -> Result<(), CellError> {
             if v.is_finite() { Ok(()) } else { Err(bad(field, format!("must be a finite number, got {v}"))) }
         };
@@ -419,7 +416,10 @@ impl CellFile {
             return Err(bad("format".into(), format!("expected \"{FORMAT_NAME}\", got \"{}\"", self.format)));
         }
         if self.version != FORMAT_VERSION {
-            return Err(bad("version".into(), format!("unsupported version {} (this vatcal reads version {FORMAT_VERSION})", self.version)));
+            return Err(bad(
+                "version".into(),
+                format!("unsupported version {} (this vatcal reads version {FORMAT_VERSION})", self.version),
+            ));
         }
         let u = Units::default();
         for (name, got, want) in [
@@ -454,11 +454,20 @@ impl CellFile {
             match j.kind.as_str() {
                 "prismatic" | "revolute" => {
                     if j.kind != expected {
-                        return Err(bad(f("kind"), format!("joint {} must be {expected} in this cell (joint 1 is the linear guide, 2..7 the Meca500), got \"{}\"", j.index, j.kind)));
+                        return Err(bad(
+                            f("kind"),
+                            format!(
+                                "joint {} must be {expected} in this cell (joint 1 is the linear guide, 2..7 the Meca500), got \"{}\"",
+                                j.index, j.kind
+                            ),
+                        ));
                     }
                 }
                 other => {
-                    return Err(bad(f("kind"), format!("unknown joint kind \"{other}\" (expected \"prismatic\" or \"revolute\")")));
+                    return Err(bad(
+                        f("kind"),
+                        format!("unknown joint kind \"{other}\" (expected \"prismatic\" or \"revolute\")"),
+                    ));
                 }
             }
             for (name, v) in [
@@ -489,7 +498,13 @@ impl CellFile {
             finite(format!("base_in_world.{name}"), v)?;
         }
         if (b.beta_deg.abs() - 90.0).abs() < 1.0 {
-            return Err(bad("base_in_world.beta_deg".into(), format!("{} is within 1 deg of the XYZ-angle singularity at +-90 deg; re-express the base pose", b.beta_deg)));
+            return Err(bad(
+                "base_in_world.beta_deg".into(),
+                format!(
+                    "{} is within 1 deg of the XYZ-angle singularity at +-90 deg; re-express the base pose",
+                    b.beta_deg
+                ),
+            ));
         }
         for (table, list) in [("tcps", &self.tcps), ("calibration_positions", &self.calibration_positions)] {
             if list.is_empty() {
@@ -511,14 +526,23 @@ impl CellFile {
         let mut frames = BTreeSet::new();
         for (k, l) in self.inertials.links.iter().enumerate() {
             if !(2..=7).contains(&l.frame) {
-                return Err(bad(format!("inertials.links[{k}].frame"), format!("must be 2..=7 (moving Meca500 links), got {}", l.frame)));
+                return Err(bad(
+                    format!("inertials.links[{k}].frame"),
+                    format!("must be 2..=7 (moving Meca500 links), got {}", l.frame),
+                ));
             }
             if !frames.insert(l.frame) {
-                return Err(bad(format!("inertials.links[{k}].frame"), format!("duplicate frame {}", l.frame)));
+                return Err(bad(
+                    format!("inertials.links[{k}].frame"),
+                    format!("duplicate frame {}", l.frame),
+                ));
             }
             finite(format!("inertials.links[frame={}].mass_kg", l.frame), l.mass_kg)?;
             if l.mass_kg < 0.0 {
-                return Err(bad(format!("inertials.links[frame={}].mass_kg", l.frame), format!("negative mass {}", l.mass_kg)));
+                return Err(bad(
+                    format!("inertials.links[frame={}].mass_kg", l.frame),
+                    format!("negative mass {}", l.mass_kg),
+                ));
             }
             for (c, v) in l.com_mm.iter().enumerate() {
                 finite(format!("inertials.links[frame={}].com_mm[{c}]", l.frame), *v)?;
@@ -526,7 +550,10 @@ impl CellFile {
         }
         let t = &self.inertials.tool;
         if t.frame != 7 {
-            return Err(bad("inertials.tool.frame".into(), format!("the tool is attached to frame 7, got {}", t.frame)));
+            return Err(bad(
+                "inertials.tool.frame".into(),
+                format!("the tool is attached to frame 7, got {}", t.frame),
+            ));
         }
         finite("inertials.tool.mass_kg".into(), t.mass_kg)?;
         if t.mass_kg < 0.0 {
@@ -538,27 +565,45 @@ impl CellFile {
         if let Some(m) = &self.motion {
             for (k, v) in m.joint_speed_deg_per_s.iter().enumerate() {
                 if !(v.is_finite() && *v > 0.0) {
-                    return Err(bad(format!("motion.joint_speed_deg_per_s[{k}]"), format!("must be > 0, got {v}")));
+                    return Err(bad(
+                        format!("motion.joint_speed_deg_per_s[{k}]"),
+                        format!("must be > 0, got {v}"),
+                    ));
                 }
             }
-            for (name, v) in [("guide_speed_mm_per_s", m.guide_speed_mm_per_s), ("measurement_s", m.measurement_s + 1.0), ("probe_replacement_s", m.probe_replacement_s + 1.0)] {
+            for (name, v) in [
+                ("guide_speed_mm_per_s", m.guide_speed_mm_per_s),
+                ("measurement_s", m.measurement_s + 1.0),
+                ("probe_replacement_s", m.probe_replacement_s + 1.0),
+            ] {
                 if !(v.is_finite() && v > 0.0) {
                     return Err(bad(format!("motion.{name}"), "must be a positive finite number".into()));
                 }
             }
             if !(m.speed_fraction > 0.0 && m.speed_fraction <= 1.0) {
-                return Err(bad("motion.speed_fraction".into(), format!("must be in (0, 1], got {}", m.speed_fraction)));
+                return Err(bad(
+                    "motion.speed_fraction".into(),
+                    format!("must be in (0, 1], got {}", m.speed_fraction),
+                ));
             }
         }
         for (k, e) in self.effects.iter().enumerate() {
             if crate::EffectKind::from_name(&e.effect).is_none() {
                 let names: Vec<&str> = crate::EffectKind::ALL.iter().map(|k| k.name()).collect();
-                return Err(bad(format!("effects[{k}].effect"), format!("unknown effect \"{}\" (known: {})", e.effect, names.join(", "))));
+                return Err(bad(
+                    format!("effects[{k}].effect"),
+                    format!("unknown effect \"{}\" (known: {})", e.effect, names.join(", ")),
+                ));
             }
             for (key, v) in &e.values {
                 match v.as_float().or_else(|| v.as_integer().map(|i| i as f64)) {
                     Some(x) if x.is_finite() => {}
-                    _ => return Err(bad(format!("effects[{k}].values.{key}"), "must be a finite number".into())),
+                    _ => {
+                        return Err(bad(
+                            format!("effects[{k}].values.{key}"),
+                            "must be a finite number".into(),
+                        ));
+                    }
                 }
             }
         }
@@ -598,7 +643,8 @@ mod tests {
 
     #[test]
     fn unknown_tables_survive() {
-        let text = canonical_text() + "\n[provenance]\ntool = \"someone else\"\n[obstacles.extra_box]\nr = 1.0\n";
+        let text =
+            canonical_text() + "\n[provenance]\ntool = \"someone else\"\n[obstacles.extra_box]\nr = 1.0\n";
         let cell = CellFile::from_toml_str(&text, "x").expect("valid");
         assert!(cell.extra.contains_key("provenance"));
         let back = CellFile::from_toml_str(&cell.to_toml_string().expect("s"), "y").expect("reload");
@@ -628,7 +674,8 @@ mod tests {
         let without = format!("{}{}", &t[..cut], &t[end..]);
         expect_invalid(&without, "joints");
         // missing field gives a parse error mentioning the field name
-        let e = CellFile::from_toml_str(&t.replacen("d_mm = 135.0\n", "", 1), "f.toml").expect_err("must fail");
+        let e =
+            CellFile::from_toml_str(&t.replacen("d_mm = 135.0\n", "", 1), "f.toml").expect_err("must fail");
         assert!(e.to_string().contains("d_mm"), "{e}");
     }
 }

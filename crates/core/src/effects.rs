@@ -214,14 +214,11 @@ impl EffectSpec {
             EffectSpec::JointScale { joint } => vec![ParamId::Effect(E::JointScale { joint })],
             EffectSpec::JointBacklash { joint } => vec![ParamId::Effect(E::Backlash { joint })],
             EffectSpec::GuideAngular { order } => (1..=order)
-                .flat_map(|o| {
-                    Axis::ALL.map(|axis| ParamId::Effect(E::GuideAngular { axis, order: o }))
-                })
+                .flat_map(|o| Axis::ALL.map(|axis| ParamId::Effect(E::GuideAngular { axis, order: o })))
                 .collect(),
             EffectSpec::GuideStraightness { order } => (2..=order.max(2))
                 .flat_map(|o| {
-                    [Axis::X, Axis::Y]
-                        .map(|axis| ParamId::Effect(E::GuideStraightness { axis, order: o }))
+                    [Axis::X, Axis::Y].map(|axis| ParamId::Effect(E::GuideStraightness { axis, order: o }))
                 })
                 .collect(),
             EffectSpec::GuideScale => vec![ParamId::Effect(E::GuideScale)],

@@ -84,14 +84,8 @@ pub enum BaseParam {
 
 impl BaseParam {
     /// All six in the order x, y, z, alpha, beta, gamma.
-    pub const ALL: [BaseParam; 6] = [
-        BaseParam::X,
-        BaseParam::Y,
-        BaseParam::Z,
-        BaseParam::Alpha,
-        BaseParam::Beta,
-        BaseParam::Gamma,
-    ];
+    pub const ALL: [BaseParam; 6] =
+        [BaseParam::X, BaseParam::Y, BaseParam::Z, BaseParam::Alpha, BaseParam::Beta, BaseParam::Gamma];
 
     fn suffix(self) -> &'static str {
         match self {
@@ -441,7 +435,9 @@ pub struct ParamSet(pub Vec<ParamId>);
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ParamSetError {
     /// a name in a comma-separated list is not a known parameter
-    #[error("unknown parameter name `{0}` (examples of valid names: alpha_1, a_2, d_4, theta_offset_2, beta_3, c_2, base_x, tcp1_x, position2_z, cyclic4_h1_sin)")]
+    #[error(
+        "unknown parameter name `{0}` (examples of valid names: alpha_1, a_2, d_4, theta_offset_2, beta_3, c_2, base_x, tcp1_x, position2_z, cyclic4_h1_sin)"
+    )]
     UnknownName(String),
     /// a parameter appears twice
     #[error("parameter `{0}` is listed twice")]
@@ -468,13 +464,7 @@ impl ParamSet {
 
     /// The paper's 28 geometric parameters (paper34 without the compliances).
     pub fn geometric() -> Self {
-        Self(
-            Self::paper34()
-                .0
-                .into_iter()
-                .filter(|p| !matches!(p, ParamId::Compliance(_)))
-                .collect(),
-        )
+        Self(Self::paper34().0.into_iter().filter(|p| !matches!(p, ParamId::Compliance(_))).collect())
     }
 
     /// Every built-in parameter of the model: the 5 MDH values of all 7 rows, c_2..c_7, the
@@ -515,8 +505,7 @@ impl ParamSet {
             if name.is_empty() {
                 continue;
             }
-            let id = ParamId::from_name(name)
-                .ok_or_else(|| ParamSetError::UnknownName(name.to_string()))?;
+            let id = ParamId::from_name(name).ok_or_else(|| ParamSetError::UnknownName(name.to_string()))?;
             if v.contains(&id) {
                 return Err(ParamSetError::Duplicate(name.to_string()));
             }
@@ -563,7 +552,19 @@ mod tests {
         let s = ParamSet::paper34();
         assert_eq!(s.len(), 34);
         let names = s.names();
-        for n in ["alpha_1", "alpha_6", "a_2", "a_6", "d_4", "d_7", "theta_offset_2", "beta_3", "c_2", "c_7", "base_gamma"] {
+        for n in [
+            "alpha_1",
+            "alpha_6",
+            "a_2",
+            "a_6",
+            "d_4",
+            "d_7",
+            "theta_offset_2",
+            "beta_3",
+            "c_2",
+            "c_7",
+            "base_gamma",
+        ] {
             assert!(names.contains(&n.to_string()), "{n} missing");
         }
         let mut sorted = s.0.clone();

@@ -379,7 +379,10 @@ impl<T: Transport> ZaberAxis<T> {
             match wait.remaining() {
                 Some(r) => std::thread::sleep(r.min(self.config.poll_interval)),
                 None => {
-                    return Err(ZaberError::Timeout { waiting_for: "IDLE".to_owned(), after: wait.timeout() });
+                    return Err(ZaberError::Timeout {
+                        waiting_for: "IDLE".to_owned(),
+                        after: wait.timeout(),
+                    });
                 }
             }
         }

@@ -45,8 +45,7 @@ impl MassModel {
         let mut links = [Body::default(); 6];
         for l in &inertials.links {
             if (2..=7).contains(&l.frame) {
-                links[(l.frame - 2) as usize] =
-                    Body { mass_kg: l.mass_kg, com_mm: Vector3::from(l.com_mm) };
+                links[(l.frame - 2) as usize] = Body { mass_kg: l.mass_kg, com_mm: Vector3::from(l.com_mm) };
             }
         }
         let tool = Body { mass_kg: inertials.tool.mass_kg, com_mm: Vector3::from(inertials.tool.com_mm) };
@@ -144,7 +143,12 @@ mod tests {
     #[test]
     fn tool_is_lumped_into_link_seven() {
         let inertials = Inertials {
-            links: vec![vatcal_core::cell::LinkInertial { frame: 7, urdf_link: None, mass_kg: 1.0, com_mm: [0.0, 0.0, 0.0] }],
+            links: vec![vatcal_core::cell::LinkInertial {
+                frame: 7,
+                urdf_link: None,
+                mass_kg: 1.0,
+                com_mm: [0.0, 0.0, 0.0],
+            }],
             tool: vatcal_core::cell::ToolInertial { frame: 7, mass_kg: 1.0, com_mm: [0.0, 0.0, 100.0] },
         };
         let m = MassModel::from_inertials(&inertials);

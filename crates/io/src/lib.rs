@@ -101,10 +101,7 @@ impl Table {
             .trim(csv::Trim::All)
             .flexible(false)
             .from_reader(file);
-        let headers = rdr
-            .headers()
-            .map_err(|e| csv_error(path, &e))?
-            .clone();
+        let headers = rdr.headers().map_err(|e| csv_error(path, &e))?.clone();
         let index: HashMap<String, usize> =
             headers.iter().enumerate().map(|(i, h)| (h.to_string(), i)).collect();
         for col in required {
@@ -164,9 +161,8 @@ impl Table {
 
     fn id(&self, line: u64, rec: &csv::StringRecord, col: &str, known: &[u32]) -> Result<u32, IoError> {
         let s = self.field(rec, col).unwrap_or("");
-        let v: u32 = s
-            .parse()
-            .map_err(|_| self.err(line, col, format!("`{s}` is not a non-negative integer id")))?;
+        let v: u32 =
+            s.parse().map_err(|_| self.err(line, col, format!("`{s}` is not a non-negative integer id")))?;
         if !known.contains(&v) {
             return Err(self.err(line, col, format!("unknown {col} id {v} (the model has {known:?})")));
         }
@@ -187,10 +183,7 @@ impl Table {
             return Err(self.err(
                 line,
                 JOINT_COLUMNS[joint - 1],
-                format!(
-                    "{} {unit} is outside the joint limits [{lo}, {hi}] {unit}",
-                    file_units[joint - 1]
-                ),
+                format!("{} {unit} is outside the joint limits [{lo}, {hi}] {unit}", file_units[joint - 1]),
             ));
         }
         Ok(q)
@@ -234,7 +227,11 @@ pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Join
     t.rows
         .iter()
         .map(|(line, rec)| {
-            Ok(JointRow { line: *line, tcp: t.id(*line, rec, "tcp", &tcps)?, q: t.joints(*line, rec, model)? })
+            Ok(JointRow {
+                line: *line,
+                tcp: t.id(*line, rec, "tcp", &tcps)?,
+                q: t.joints(*line, rec, model)?,
+            })
         })
         .collect()
 }
@@ -269,7 +266,8 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
     t.rows
         .iter()
         .map(|(line, rec)| {
-            let xyz = Vector3::new(t.float(*line, rec, "x")?, t.float(*line, rec, "y")?, t.float(*line, rec, "z")?);
+            let xyz =
+                Vector3::new(t.float(*line, rec, "x")?, t.float(*line, rec, "y")?, t.float(*line, rec, "z")?);
             Ok(Measurement {
                 tcp: t.id(*line, rec, "tcp", &tcps)?,
                 q: t.joints(*line, rec, model)?,
@@ -286,7 +284,8 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
     let path = path.as_ref();
     let t = Table::read(path, &["tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"])?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    if !t.has("position") && !(t.has("x") && t.has("y") && t.has("z")) {
+    let has_xyz = t.has("x") && t.has("y") && t.has("z");
+    if !t.has("position") && !has_xyz {
         return Err(IoError::MissingColumn {
             path: path.into(),
             column: "position (probe rows) or x,y,z (tracker rows)".into(),
@@ -301,7 +300,11 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
                 Target::Probe { position: t.id(*line, rec, "position", &positions)? }
             } else {
                 Target::Tracker {
-                    xyz_mm: Vector3::new(t.float(*line, rec, "x")?, t.float(*line, rec, "y")?, t.float(*line, rec, "z")?),
+                    xyz_mm: Vector3::new(
+                        t.float(*line, rec, "x")?,
+                        t.float(*line, rec, "y")?,
+                        t.float(*line, rec, "z")?,
+                    ),
                 }
             };
             Ok(Measurement {
@@ -478,7 +481,9 @@ mod tests {
     #[test]
     fn reads_columns_by_name_skips_comments_and_round_trips() {
         let m = model();
-        let f = file("# comment\nq1,tcp,q2,q3,q4,q5,q6,q7,extra,position,time_s\n\n100,2,10,20,-30,40,50,60,zzz,3,1.5\n");
+        let f = file(
+            "# comment\nq1,tcp,q2,q3,q4,q5,q6,q7,extra,position,time_s\n\n100,2,10,20,-30,40,50,60,zzz,3,1.5\n",
+        );
         let ms = read_probe_measurements(f.path(), &m).expect("ok");
         assert_eq!(ms.len(), 1);
         assert_eq!(ms[0].tcp, 2);

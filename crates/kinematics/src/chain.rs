@@ -130,20 +130,15 @@ impl Model {
     /// and the deflected angles reuse the trigonometry of the torque pass.
     fn fast_tool_point(&self, q: &JointVector, t: &Vector3<f64>) -> Vector3<f64> {
         let trig = self.undeflected_trig(q);
+        let tau = if self.any_compliance { Some(self.gravity_torques_trig(q, &trig)) } else { None };
         let mut w = self.base_frame;
-        if self.any_compliance {
-            let tau = self.gravity_torques_trig(q, &trig);
-            for k in 0..7 {
-                let (s, c) = trig[k];
-                let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
-                let tr = if k == 0 { (s, c) } else { add_small_angle((s, c), self.compliance[k] * tau[k - 1]) };
-                w = w.compose(&rz_tz_trig(&self.row_fixed[k], tr, d));
-            }
-        } else {
-            for k in 0..7 {
-                let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
-                w = w.compose(&rz_tz_trig(&self.row_fixed[k], trig[k], d));
-            }
+        for (k, &(s, c)) in trig.iter().enumerate() {
+            let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
+            let tr = match tau {
+                Some(tau) if k > 0 => add_small_angle((s, c), self.compliance[k] * tau[k - 1]),
+                _ => (s, c),
+            };
+            w = w.compose(&rz_tz_trig(&self.row_fixed[k], tr, d));
         }
         w.transform_point(t)
     }
@@ -211,8 +206,10 @@ impl Model {
                     any = true;
                     for o in 2..=order {
                         let p = legendre(o, u);
-                        sx += self.effect_value(EffectParam::GuideStraightness { axis: Axis::X, order: o }) * p;
-                        sy += self.effect_value(EffectParam::GuideStraightness { axis: Axis::Y, order: o }) * p;
+                        sx +=
+                            self.effect_value(EffectParam::GuideStraightness { axis: Axis::X, order: o }) * p;
+                        sy +=
+                            self.effect_value(EffectParam::GuideStraightness { axis: Axis::Y, order: o }) * p;
                     }
                 }
                 _ => {}
@@ -223,9 +220,9 @@ impl Model {
 
     fn tool_insert(&self) -> Option<[f64; 4]> {
         use vatcal_core::ToolFrameDof as T;
-        self.effects.contains(&EffectSpec::ToolFrame).then(|| {
-            [T::Tx, T::Ty, T::Rx, T::Ry].map(|d| self.effect_value(EffectParam::ToolFrame(d)))
-        })
+        self.effects
+            .contains(&EffectSpec::ToolFrame)
+            .then(|| [T::Tx, T::Ty, T::Rx, T::Ry].map(|d| self.effect_value(EffectParam::ToolFrame(d))))
     }
 
     /// Computes every frame at `q`. Torques are evaluated when a compliance is non-zero or
@@ -333,7 +330,10 @@ impl Model {
 fn add_small_angle((s, c): (f64, f64), delta: f64) -> (f64, f64) {
     let (sd, cd) = if delta.abs() < 1e-2 {
         let d2 = delta * delta;
-        (delta * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0))), 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0))))
+        (
+            delta * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0))),
+            1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0))),
+        )
     } else {
         delta.sin_cos()
     };

@@ -53,7 +53,9 @@ pub fn missing_data(spec: &EffectSpec, data: &DataAvailability) -> Option<&'stat
         EffectSpec::JointBacklash { .. } if !data.dir => {
             Some("needs the dir2..dir7 columns (sign of the last motion of each joint)")
         }
-        EffectSpec::ThermalDrift { driver: ThermalDriver::Time } if !data.time => Some("needs the time_s column"),
+        EffectSpec::ThermalDrift { driver: ThermalDriver::Time } if !data.time => {
+            Some("needs the time_s column")
+        }
         EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature } if !data.temperature => {
             Some("needs the temperature_c column")
         }

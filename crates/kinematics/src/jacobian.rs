@@ -65,7 +65,11 @@ impl Model {
             ParamId::ThetaOffset(i) if row_ok(i) => dtheta(i),
             ParamId::D(i) if row_ok(i) => chain.axes[i as usize - 1].z * thermal(i),
             ParamId::Compliance(j) => {
-                let tau = if chain.torques_evaluated { chain.torques[j as usize - 2] } else { self.gravity_torques(q)[j as usize - 2] };
+                let tau = if chain.torques_evaluated {
+                    chain.torques[j as usize - 2]
+                } else {
+                    self.gravity_torques(q)[j as usize - 2]
+                };
                 dtheta(j) * tau
             }
             ParamId::Base(b) => {
@@ -198,7 +202,12 @@ impl Model {
     }
 
     /// Analytic Jacobian (3 × n) of TCP `tcp`'s world position at `q` (no per-sample context).
-    pub fn jacobian(&self, q: &JointVector, tcp: u32, params: &[ParamId]) -> Result<Matrix3xX<f64>, ModelError> {
+    pub fn jacobian(
+        &self,
+        q: &JointVector,
+        tcp: u32,
+        params: &[ParamId],
+    ) -> Result<Matrix3xX<f64>, ModelError> {
         let mut out = vec![0.0; 3 * params.len()];
         self.jacobian_into(q, &MeasurementContext::default(), tcp, params, &mut out)?;
         Ok(Matrix3xX::from_column_slice(&out))

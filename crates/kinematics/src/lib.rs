@@ -22,6 +22,6 @@ mod jacobian;
 mod model;
 
 pub use chain::Chain;
-pub use vatcal_core::Frame;
 pub use model::{MdhRow, Model, ModelError};
+pub use vatcal_core::Frame;
 pub use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, ParamSet, Target};

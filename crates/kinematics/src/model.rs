@@ -181,9 +181,8 @@ impl Model {
             template: cell.clone(),
         };
         for (k, e) in cell.effects.iter().enumerate() {
-            let spec = spec_from_entry(e).map_err(|m| {
-                ModelError::InvalidEffect(format!("effects[{k}] ({})", e.effect), m)
-            })?;
+            let spec = spec_from_entry(e)
+                .map_err(|m| ModelError::InvalidEffect(format!("effects[{k}] ({})", e.effect), m))?;
             model.enable_effect(spec)?;
             if let Some(t) = e.reference_temperature_c {
                 model.thermal_reference_c = t;
@@ -440,9 +439,11 @@ impl Model {
     /// True when `id` exists in this model (built-in, or belonging to a switched-on effect).
     pub fn has_param(&self, id: ParamId) -> bool {
         match id {
-            ParamId::Alpha(i) | ParamId::A(i) | ParamId::Beta(i) | ParamId::ThetaOffset(i) | ParamId::D(i) => {
-                (1..=7).contains(&i)
-            }
+            ParamId::Alpha(i)
+            | ParamId::A(i)
+            | ParamId::Beta(i)
+            | ParamId::ThetaOffset(i)
+            | ParamId::D(i) => (1..=7).contains(&i),
             ParamId::Compliance(i) => (2..=7).contains(&i),
             ParamId::Base(_) => true,
             ParamId::Tcp { id, .. } => self.tcp(id).is_some(),
@@ -549,7 +550,9 @@ impl Model {
         self.has_joint_effects = self.effects.iter().any(|e| {
             matches!(
                 e,
-                EffectSpec::JointCyclic { .. } | EffectSpec::JointScale { .. } | EffectSpec::JointBacklash { .. }
+                EffectSpec::JointCyclic { .. }
+                    | EffectSpec::JointScale { .. }
+                    | EffectSpec::JointBacklash { .. }
             )
         });
     }
@@ -578,10 +581,9 @@ fn spec_from_entry(e: &EffectEntry) -> Result<EffectSpec, String> {
     let joint = || e.joint.ok_or_else(|| "needs `joint`".to_string());
     Ok(match kind {
         EffectKind::JointCompliance => EffectSpec::JointCompliance { joint: joint()? },
-        EffectKind::JointCyclic => EffectSpec::JointCyclic {
-            joint: joint()?,
-            harmonic: e.harmonic.ok_or("needs `harmonic`")?,
-        },
+        EffectKind::JointCyclic => {
+            EffectSpec::JointCyclic { joint: joint()?, harmonic: e.harmonic.ok_or("needs `harmonic`")? }
+        }
         EffectKind::JointScale => EffectSpec::JointScale { joint: joint()? },
         EffectKind::JointBacklash => EffectSpec::JointBacklash { joint: joint()? },
         EffectKind::GuideAngular => EffectSpec::GuideAngular { order: e.order.unwrap_or(2) },
@@ -589,9 +591,9 @@ fn spec_from_entry(e: &EffectEntry) -> Result<EffectSpec, String> {
         EffectKind::GuideScale => EffectSpec::GuideScale,
         EffectKind::ToolFrame => EffectSpec::ToolFrame,
         EffectKind::TcpOffset => EffectSpec::TcpOffset { tcp: e.tcp.ok_or("needs `tcp`")? },
-        EffectKind::PositionOffset => EffectSpec::PositionOffset {
-            position: e.position.ok_or("needs `position`")?,
-        },
+        EffectKind::PositionOffset => {
+            EffectSpec::PositionOffset { position: e.position.ok_or("needs `position`")? }
+        }
         EffectKind::ThermalDrift => EffectSpec::ThermalDrift {
             driver: match e.driver.as_deref() {
                 Some("time") | None => ThermalDriver::Time,

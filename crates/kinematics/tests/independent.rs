@@ -9,7 +9,8 @@ use vatcal_core::{JointVector, MeasurementContext, ParamId};
 use vatcal_kinematics::Model;
 
 fn canonical() -> CellFile {
-    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml")).expect("fixture")
+    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+        .expect("fixture")
 }
 
 /// A heavily perturbed cell: beta on several rows, nonzero compliances, tilted base, odd TCPs.
@@ -131,8 +132,8 @@ fn check_cell(c: &CellFile, q_file: [f64; 7]) -> Result<(), TestCaseError> {
         extra[i - 1] = (c.joint(i as u8).expect("row").compliance_rad_per_n_m * tau_ref[i - 2]).to_degrees();
     }
     let frames = naive_frames(c, &q_file, &extra);
-    for i in 0..8 {
-        let diff = (chain.frames[i].to_matrix4() - frames[i]).abs().max();
+    for (i, (got, want)) in chain.frames.iter().zip(&frames).enumerate() {
+        let diff = (got.to_matrix4() - want).abs().max();
         prop_assert!(diff < 1e-9, "frame {i} differs by {diff}");
     }
     Ok(())
@@ -157,7 +158,14 @@ fn meca500_zero_pose_is_where_the_datasheet_says() {
     // With the base at the identity, q = 0 puts the flange (frame 7) at the Meca500's published
     // zero position relative to its base: 190 mm forward, 308 mm up (135 + 135 + 38 ...).
     let mut c = canonical();
-    c.base_in_world = vatcal_core::cell::BaseInWorld { x_mm: 0.0, y_mm: 0.0, z_mm: 0.0, alpha_deg: 0.0, beta_deg: 0.0, gamma_deg: 0.0 };
+    c.base_in_world = vatcal_core::cell::BaseInWorld {
+        x_mm: 0.0,
+        y_mm: 0.0,
+        z_mm: 0.0,
+        alpha_deg: 0.0,
+        beta_deg: 0.0,
+        gamma_deg: 0.0,
+    };
     let m = Model::from_cell(&c).expect("model");
     let chain = m.chain(&JointVector::default());
     // express the flange in frame 1 (the carriage); the arm base is rotated by alpha_1 = -90 deg
@@ -180,7 +188,12 @@ fn gravity_sign_matches_the_single_link_test() {
     }
     c.inertials.tool.mass_kg = 0.0;
     c.inertials.links.retain(|l| l.frame != 3);
-    c.inertials.links.push(vatcal_core::cell::LinkInertial { frame: 3, urdf_link: None, mass_kg: 2.0, com_mm: [100.0, 0.0, 0.0] });
+    c.inertials.links.push(vatcal_core::cell::LinkInertial {
+        frame: 3,
+        urdf_link: None,
+        mass_kg: 2.0,
+        com_mm: [100.0, 0.0, 0.0],
+    });
     let m = Model::from_cell(&c).expect("model");
     // find a pose where z_3 is horizontal and x_3 horizontal: check against the closed form and
     // against energy: tau = -dV/dtheta with V = m g h
@@ -200,7 +213,14 @@ fn gravity_sign_matches_the_single_link_test() {
     assert!((tau[1] + dv).abs() < 1e-6, "tau_3 {} vs -dV/dq {}", tau[1], -dv);
 }
 
-fn fd_column(m: &Model, q: &JointVector, ctx: &MeasurementContext, tcp: u32, id: ParamId, tau: &[f64; 6]) -> Vector3<f64> {
+fn fd_column(
+    m: &Model,
+    q: &JointVector,
+    ctx: &MeasurementContext,
+    tcp: u32,
+    id: ParamId,
+    tau: &[f64; 6],
+) -> Vector3<f64> {
     let hstep = match id.unit() {
         vatcal_core::params::ParamUnit::Mm => 1e-5,
         vatcal_core::params::ParamUnit::RadPerNm => 1e-6,
@@ -262,7 +282,11 @@ fn measurement_jacobian_handles_positions_and_residual_sign() {
     let m = Model::from_cell(&canonical()).expect("model");
     let q = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 40.0, 50.0, 60.0]);
     let meas = vatcal_core::Measurement::probe(2, 1, q);
-    let params = [ParamId::Position { id: 2, axis: vatcal_core::Axis::Y }, ParamId::Position { id: 1, axis: vatcal_core::Axis::Y }, ParamId::Base(vatcal_core::BaseParam::X)];
+    let params = [
+        ParamId::Position { id: 2, axis: vatcal_core::Axis::Y },
+        ParamId::Position { id: 1, axis: vatcal_core::Axis::Y },
+        ParamId::Base(vatcal_core::BaseParam::X),
+    ];
     let mut out = [0.0; 9];
     let r = m.measurement_jacobian_into(&meas, &params, &mut out).expect("ok");
     assert_eq!(&out[0..3], &[0.0, -1.0, 0.0]);

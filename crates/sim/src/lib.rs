@@ -24,6 +24,6 @@ mod noise;
 mod world;
 
 pub use cell::VirtualCell;
-pub use controller::{flange_jacobian, translation_joint_gain};
 pub use config::{NoiseBudget, ProbeImperfections, SimConfig, SimFaults, SimTiming};
+pub use controller::{flange_jacobian, translation_joint_gain};
 pub use devices::{SIM_IO_TIMEOUT, SimArm, SimGauge, SimGuide, SimOperator, SimTracker};

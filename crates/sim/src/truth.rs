@@ -318,7 +318,12 @@ fn reach_ctx(
 /// Tracker measurements: `count` random joint vectors inside the limits (10 % margin), random
 /// TCP, world position from the truth plus isotropic Gaussian noise `sigma_mm` per axis (a laser
 /// tracker with SMRs in nests: ≈ 0.02 mm).
-pub fn synthetic_tracker_measurements(truth: &Model, count: usize, sigma_mm: f64, seed: u64) -> Vec<Measurement> {
+pub fn synthetic_tracker_measurements(
+    truth: &Model,
+    count: usize,
+    sigma_mm: f64,
+    seed: u64,
+) -> Vec<Measurement> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let tcps = truth.tcp_ids();
     let mut out = Vec::with_capacity(count);
@@ -326,7 +331,8 @@ pub fn synthetic_tracker_measurements(truth: &Model, count: usize, sigma_mm: f64
         let q = random_joints(truth, &mut rng, 0.1);
         let tcp = tcps[rng.random_range(0..tcps.len())];
         let Ok(p) = truth.tcp_position(&q, tcp) else { break };
-        let noise = Vector3::new(gauss(&mut rng, sigma_mm), gauss(&mut rng, sigma_mm), gauss(&mut rng, sigma_mm));
+        let noise =
+            Vector3::new(gauss(&mut rng, sigma_mm), gauss(&mut rng, sigma_mm), gauss(&mut rng, sigma_mm));
         out.push(Measurement::tracker(tcp, q, p + noise));
     }
     out
