@@ -101,4 +101,10 @@ fn demo_reports_bad_arguments() {
     assert!(!o.status.success());
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(stderr.contains("/nonexistent/cell.toml"), "{stderr}");
+    // sizes are checked before anything runs
+    let o = run_demo(&dir.path().join("demo"), &["--count", "0"]);
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("`count`: must be at least 1"), "{stderr}");
+    assert!(!dir.path().join("demo").join("plan").exists(), "nothing was planned");
 }

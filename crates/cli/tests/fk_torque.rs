@@ -38,7 +38,13 @@ fn fk_prints_one_xyz_row_per_input_row_matching_the_library() {
 #[test]
 fn torque_prints_six_columns() {
     let out = vatcal()
-        .args(["torque", "--model", &fixture("meca500-zaber.toml"), "--input", &fixture("joints-example.csv")])
+        .args([
+            "torque",
+            "--model",
+            &fixture("meca500-zaber.toml"),
+            "--input",
+            &fixture("joints-example.csv"),
+        ])
         .output()
         .expect("run");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -56,7 +62,10 @@ fn torque_prints_six_columns() {
 fn bad_input_gives_file_line_column_and_nonzero_exit() {
     let dir = tempfile::tempdir().expect("tmp");
     let bad = write(&dir, "bad.csv", "tcp,q1,q2,q3,q4,q5,q6,q7\n1,0,0,0,0,0,0,0\n1,0,0,0,x,0,0,0\n");
-    let out = vatcal().args(["fk", "--model", &fixture("meca500-zaber.toml"), "--input", &bad]).output().expect("run");
+    let out = vatcal()
+        .args(["fk", "--model", &fixture("meca500-zaber.toml"), "--input", &bad])
+        .output()
+        .expect("run");
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("bad.csv:3") && err.contains("q4") && err.contains("not a number"), "{err}");
@@ -64,12 +73,18 @@ fn bad_input_gives_file_line_column_and_nonzero_exit() {
 
     let cell = std::fs::read_to_string(fixture("meca500-zaber.toml")).expect("read");
     let broken = write(&dir, "cell.toml", &cell.replace("q_min = -70.0", "q_min = 95.0"));
-    let out = vatcal().args(["torque", "--model", &broken, "--input", &fixture("joints-example.csv")]).output().expect("run");
+    let out = vatcal()
+        .args(["torque", "--model", &broken, "--input", &fixture("joints-example.csv")])
+        .output()
+        .expect("run");
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("cell.toml") && err.contains("joints[index=3].q_min"), "{err}");
 
-    let out = vatcal().args(["fk", "--model", &fixture("meca500-zaber.toml"), "--input", "/nonexistent.csv"]).output().expect("run");
+    let out = vatcal()
+        .args(["fk", "--model", &fixture("meca500-zaber.toml"), "--input", "/nonexistent.csv"])
+        .output()
+        .expect("run");
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent.csv"));
 }

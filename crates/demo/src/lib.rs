@@ -27,17 +27,17 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use vatcal_campaign::validation::{
-    ModelValidation, PrintingPathOptions, RandomPoseOptions, ValidationPlanOptions, build_validation_plan,
-    evaluate,
+    ModelValidation, PrintingPathOptions, RandomPoseOptions, ValidationPlan, ValidationPlanOptions,
+    ValidationRecords, build_validation_plan, evaluate,
 };
-use vatcal_campaign::{Campaign, CampaignConfig, CampaignPlan, CellDevices};
-use vatcal_core::{CellFile, ParamSet};
+use vatcal_campaign::{Campaign, CampaignConfig, CampaignPlan, CampaignReport, CellDevices};
+use vatcal_core::{CellFile, JointVector, ParamSet};
 use vatcal_hardware_traits::{Clock, TriCal, VirtualClock};
 use vatcal_identification::{Identification, IdentifyOptions, identify};
 use vatcal_kinematics::Model;
 use vatcal_planning::candidates::CandidateOptions;
 use vatcal_planning::geometry::CellGeometry;
-use vatcal_planning::output::write_plan;
+use vatcal_planning::output::{PlanSummary, write_plan};
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 use vatcal_sim::{SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell};
 
@@ -66,6 +66,26 @@ pub struct DemoSizes {
     pub random_poses: usize,
     /// slices of the printing path (paper: 300)
     pub slices: usize,
+}
+
+impl DemoSizes {
+    /// Checks every size; errors name the option.
+    pub fn check(&self) -> Result<(), DemoError> {
+        let at_least = |option: &str, value: usize, min: usize| {
+            if value < min {
+                return Err(DemoError::Option {
+                    option: option.into(),
+                    reason: format!("must be at least {min}, got {value}"),
+                });
+            }
+            Ok(())
+        };
+        at_least("orientations", self.orientations, 1)?;
+        at_least("guide_steps", self.guide_steps, 1)?;
+        at_least("count", self.count, 1)?;
+        at_least("random_poses", self.random_poses, 1)?;
+        at_least("slices", self.slices, 2)
+    }
 }
 
 impl Default for DemoSizes {
@@ -201,39 +221,28 @@ impl Stages {
 /// starts afresh). `log` receives one line per finished stage.
 ///
 /// # Errors
-/// Any stage's error ([`DemoError`]), or a file that cannot be written.
+/// Invalid sizes (checked before anything runs), any stage's error ([`DemoError`]), or a file
+/// that cannot be written.
 pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Result<DemoOutcome, DemoError> {
     let mut stages = Stages::new();
+    opts.sizes.check()?;
     prepare_output(out)?;
     let nominal = Model::from_cell(&opts.nominal)?;
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
     let mut files = output::Files::new(out);
     files.cell("nominal.toml", &opts.nominal)?;
 
-    // 1. plan
-    let plan_opts = plan_options(opts);
-    let plan = plan_campaign(&nominal, &geometry, &plan_opts)?;
-    let plan_summary = write_plan(&plan, &out.join("plan"))?;
-    files.record_plan();
+    let (candidates, plan) = plan_stage(opts, &nominal, &geometry, out, &mut files)?;
     let s = stages.lap("plan");
     log(&format!(
-        "plan: {} candidates, {} measurements selected, tour of {} steps ({s:.1} s)",
-        plan.candidates.candidates.len(),
-        plan_summary.selected,
-        plan_summary.tour_steps
+        "plan: {candidates} candidates, {} measurements selected, tour of {} steps ({s:.1} s)",
+        plan.selected, plan.tour_steps
     ));
 
-    // 2. measurement campaign on the virtual cell
-    let tour = CampaignPlan::read_tour(out.join("plan").join("tour.csv"))?;
     let cell = VirtualCell::paper(nominal.clone(), opts.seed);
     let mut devices = SimDevices::of(&cell)?;
-    let config = campaign_config(opts);
-    let campaign = Campaign::new(devices.devices(), &nominal, config.clone())
-        .run(&tour, out.join(JOURNALS[0]))
-        .map_err(DemoError::from)?;
+    let campaign = campaign_stage(opts, &nominal, out, &mut devices, &mut files)?;
     let campaign_time_s = devices.clock.now_s();
-    files.note(JOURNALS[0]);
-    files.measurements("measurements.csv", &campaign.measurements)?;
     let s = stages.lap("measurement campaign");
     log(&format!(
         "campaign: {} probe measurements ({} skipped), {:.0} min of virtual time ({s:.1} s)",
@@ -242,7 +251,6 @@ pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Re
         campaign_time_s / 60.0
     ));
 
-    // 3. identification
     let fit = identify(&nominal, &campaign.measurements, &ParamSet::paper34(), &IdentifyOptions::default())?;
     files.cell("calibrated.toml", &fit.model.to_cell())?;
     let s = stages.lap("identification");
@@ -253,53 +261,108 @@ pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Re
         fit.residual_stats.mean
     ));
 
-    // 4. validation with the simulated tracker
     let start = campaign.records.last().map(|r| r.state.joints);
-    let vopts = validation_options(opts, start);
-    let models: [(&str, &Model); 2] = [(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
-    let vplan = build_validation_plan(&nominal, &geometry, &models, &vopts)?;
-    let records = {
-        let mut validation_campaign = Campaign::new(devices.devices(), &nominal, config);
-        vplan.run(&mut validation_campaign, out.join(JOURNALS[1]))?
-    };
-    files.note(JOURNALS[1]);
-    let smrs: Vec<_> =
-        nominal.tcp_ids().into_iter().filter_map(|id| nominal.tcp(id).map(|t| (id, t))).collect();
-    let results = evaluate(&records, &vplan.slices, &models, &smrs)?;
+    let validation = validation_stage(opts, &nominal, &geometry, &fit.model, start, out, &mut devices)?;
     let validation_time_s = devices.clock.now_s() - campaign_time_s;
     let s = stages.lap("validation");
     log(&format!(
         "validation: {} random poses, {} slices × {} models, {} tracker measurements ({s:.1} s)",
-        records.random.len(),
-        vplan.slices.len(),
-        vplan.path_runs.len(),
-        vplan.measurement_count()
+        validation.records.random.len(),
+        validation.plan.slices.len(),
+        validation.plan.path_runs.len(),
+        validation.plan.measurement_count()
     ));
 
-    // 5. report folder
-    files.validation_csvs(&records, &vplan.slices, &results)?;
-    files.plots(&fit, &vplan.slices, &results)?;
+    files.note(JOURNALS[1]);
+    files.validation_csvs(&validation.records, &validation.plan.slices, &validation.results)?;
+    files.plots(&fit, &validation.plan.slices, &validation.results)?;
     let report = output::build_report(output::ReportInputs {
         opts,
-        plan: plan_summary,
+        plan,
         campaign: &campaign,
         campaign_time_s,
         fit: &fit,
-        validation_plan: &vplan,
-        validation_options: &vopts,
+        validation_plan: &validation.plan,
+        validation_options: &validation.options,
         validation_time_s,
-        results,
+        results: validation.results,
     });
     files.json("report.json", &report)?;
     stages.lap("report");
-    let truth = cell.truth();
-    let mut outcome =
-        DemoOutcome { report, identification: fit, truth, stage_seconds: Vec::new(), files: Vec::new() };
-    outcome.stage_seconds = stages.done.clone();
     files.note("summary.md");
-    outcome.files = files.written().to_vec();
+    let outcome = DemoOutcome {
+        report,
+        identification: fit,
+        truth: cell.truth(),
+        stage_seconds: stages.done,
+        files: files.written().to_vec(),
+    };
     files.summary("summary.md", &outcome)?;
     Ok(outcome)
+}
+
+/// Plans the campaign on the nominal cell and writes `plan/`; returns the number of candidates
+/// and the plan summary.
+fn plan_stage(
+    opts: &DemoOptions,
+    nominal: &Model,
+    geometry: &CellGeometry,
+    out: &Path,
+    files: &mut output::Files,
+) -> Result<(usize, PlanSummary), DemoError> {
+    let plan = plan_campaign(nominal, geometry, &plan_options(opts))?;
+    let summary = write_plan(&plan, &out.join("plan"))?;
+    files.record_plan();
+    Ok((plan.candidates.candidates.len(), summary))
+}
+
+/// Runs the planned tour (read back from `plan/tour.csv`, as a user would) on the virtual cell;
+/// writes the journal and `measurements.csv`.
+fn campaign_stage(
+    opts: &DemoOptions,
+    nominal: &Model,
+    out: &Path,
+    devices: &mut SimDevices,
+    files: &mut output::Files,
+) -> Result<CampaignReport, DemoError> {
+    let tour = CampaignPlan::read_tour(out.join("plan").join("tour.csv"))?;
+    let report = Campaign::new(devices.devices(), nominal, campaign_config(opts))
+        .run(&tour, out.join(JOURNALS[0]))
+        .map_err(DemoError::from)?;
+    files.note(JOURNALS[0]);
+    files.measurements("measurements.csv", &report.measurements)?;
+    Ok(report)
+}
+
+/// What the validation stage produced.
+struct ValidationStage {
+    options: ValidationPlanOptions,
+    plan: ValidationPlan,
+    records: ValidationRecords,
+    results: Vec<ModelValidation>,
+}
+
+/// Plans and runs the tracker validation of the nominal and the calibrated model on the same
+/// virtual cell (the session continues: same clock, same tool-changer offset), from the pose
+/// where the calibration campaign left the arm.
+fn validation_stage(
+    opts: &DemoOptions,
+    nominal: &Model,
+    geometry: &CellGeometry,
+    calibrated: &Model,
+    start: Option<JointVector>,
+    out: &Path,
+    devices: &mut SimDevices,
+) -> Result<ValidationStage, DemoError> {
+    let options = validation_options(opts, start);
+    let models: [(&str, &Model); 2] = [(NOMINAL, nominal), (CALIBRATED, calibrated)];
+    let plan = build_validation_plan(nominal, geometry, &models, &options)?;
+    let mut campaign = Campaign::new(devices.devices(), nominal, campaign_config(opts));
+    let records = plan.run(&mut campaign, out.join(JOURNALS[1]))?;
+    let smrs: Vec<_> =
+        nominal.tcp_ids().into_iter().filter_map(|id| nominal.tcp(id).map(|t| (id, t))).collect();
+    let results = evaluate(&records, &plan.slices, &models, &smrs)?;
+    Ok(ValidationStage { options, plan, records, results })
 }
 
 /// Creates `out` and removes the demo's journals from an earlier run.
@@ -347,7 +410,7 @@ fn validation_seed(seed: u64) -> u64 {
     seed ^ 0x5eed_7a11_da7e_0001
 }
 
-fn validation_options(opts: &DemoOptions, start: Option<vatcal_core::JointVector>) -> ValidationPlanOptions {
+fn validation_options(opts: &DemoOptions, start: Option<JointVector>) -> ValidationPlanOptions {
     ValidationPlanOptions {
         random: RandomPoseOptions { count: opts.sizes.random_poses, ..RandomPoseOptions::default() },
         printing: PrintingPathOptions { slices: opts.sizes.slices, ..PrintingPathOptions::default() },

@@ -301,7 +301,7 @@ pub(crate) fn comparison_table(report: &DemoReport) -> String {
         PAPER.path_nominal_mean_mm,
         PAPER.path_calibrated_mean_mm
     );
-    t
+    t.lines().map(str::trim_end).collect::<Vec<_>>().join("\n") + "\n"
 }
 
 /// Writes the files of the report folder and remembers their names.

@@ -57,7 +57,7 @@ pub fn evaluate_path(
     let mut orientation_errors_rad = Vec::with_capacity(slices.len());
     for (slice, record) in slices.iter().zip(&records.slices) {
         let registration_error =
-            |source| ValidationError::Registration { run: records.label.clone(), slice: slice.index, source };
+            |reason| ValidationError::Registration { run: records.label.clone(), slice: slice.index, reason };
         let (mut local, mut world) = (Vec::new(), Vec::new());
         for (tcp, p) in record.smr_positions() {
             let Some((_, l)) = smrs_in_tool.iter().find(|(id, _)| *id == tcp) else {

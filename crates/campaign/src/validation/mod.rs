@@ -85,14 +85,14 @@ pub enum ValidationError {
     #[error("incomplete validation records: {0}")]
     Incomplete(String),
     /// The pose of a slice cannot be fitted from its SMRs.
-    #[error("printing path `{run}`, slice {slice}: {source}")]
+    #[error("printing path `{run}`, slice {slice}: {reason}")]
     Registration {
         /// path run label
         run: String,
         /// slice index
         slice: usize,
         /// why
-        source: RegistrationError,
+        reason: RegistrationError,
     },
     /// A model rejected a measurement (unknown TCP).
     #[error(transparent)]
