@@ -106,19 +106,8 @@ impl Meca500<TcpStream> {
     /// Connects to the control port at `addr` (e.g. `"192.168.0.100:10000"`) and reads the
     /// banner.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: Meca500Config) -> Result<Self, Meca500Error> {
-        let mut last = None;
-        for a in addr.to_socket_addrs()? {
-            match TcpStream::connect_timeout(&a, config.connect_timeout) {
-                Ok(stream) => {
-                    stream.set_nodelay(true)?;
-                    return Self::new(stream, config);
-                }
-                Err(e) => last = Some(e),
-            }
-        }
-        Err(Meca500Error::Io(last.unwrap_or_else(|| {
-            std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")
-        })))
+        let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
+        Self::new(stream, config)
     }
 }
 

@@ -61,19 +61,8 @@ pub struct SylvacGauge<T: Transport = TcpStream> {
 impl SylvacGauge<TcpStream> {
     /// Connects over TCP (a serial-to-TCP bridge or the simulator) and identifies the gauge.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: SylvacConfig) -> Result<Self, SylvacError> {
-        let mut last = None;
-        for a in addr.to_socket_addrs()? {
-            match TcpStream::connect_timeout(&a, config.connect_timeout) {
-                Ok(stream) => {
-                    stream.set_nodelay(true)?;
-                    return Self::new(stream, config);
-                }
-                Err(e) => last = Some(e),
-            }
-        }
-        Err(SylvacError::Io(last.unwrap_or_else(|| {
-            std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")
-        })))
+        let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
+        Self::new(stream, config)
     }
 }
 

@@ -141,19 +141,8 @@ pub struct ZaberAxis<T: Transport = TcpStream> {
 impl ZaberAxis<TcpStream> {
     /// Connects to a raw-ASCII TCP port (e.g. `"192.168.0.50:55550"`) and identifies the axis.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: ZaberConfig) -> Result<Self, ZaberError> {
-        let mut last = None;
-        for a in addr.to_socket_addrs()? {
-            match TcpStream::connect_timeout(&a, config.connect_timeout) {
-                Ok(stream) => {
-                    stream.set_nodelay(true)?;
-                    return Self::new(stream, config);
-                }
-                Err(e) => last = Some(e),
-            }
-        }
-        Err(ZaberError::Io(last.unwrap_or_else(|| {
-            std::io::Error::new(std::io::ErrorKind::InvalidInput, "no address to connect to")
-        })))
+        let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
+        Self::new(stream, config)
     }
 }
 

@@ -6,7 +6,7 @@
 //! serial ports behind their own features, and tests can plug in in-memory implementations.
 
 use std::io::{self, Read, Write};
-use std::net::TcpStream;
+use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
 /// Smallest read timeout handed to the OS (a zero timeout means "block forever" for sockets).
@@ -50,6 +50,22 @@ impl<T: Transport + ?Sized> Transport for Box<T> {
 /// True for the error kinds [`Transport::recv`] uses to say "nothing arrived in time".
 pub fn is_timeout(e: &io::Error) -> bool {
     matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock)
+}
+
+/// Connects to the first address of `addr` that accepts within `timeout` each, with Nagle's
+/// algorithm off (commands are short lines that must go out at once).
+pub fn connect_tcp(addr: impl ToSocketAddrs, timeout: Duration) -> io::Result<TcpStream> {
+    let mut last = None;
+    for a in addr.to_socket_addrs()? {
+        match TcpStream::connect_timeout(&a, timeout) {
+            Ok(stream) => {
+                stream.set_nodelay(true)?;
+                return Ok(stream);
+            }
+            Err(e) => last = Some(e),
+        }
+    }
+    Err(last.unwrap_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "no address to connect to")))
 }
 
 /// A point in time by which an operation must finish, remembering the timeout it came from

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-/// Arguments of `vatcal fk`.
+/// Arguments of `vatcal fk` and `vatcal torque`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Cell model file (TOML, format meca500-zaber-cell).

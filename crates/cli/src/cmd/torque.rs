@@ -1,18 +1,9 @@
 //! `vatcal torque`: gravity torques of each row.
 
 use std::io::Write;
-use std::path::PathBuf;
 
-/// Arguments of `vatcal torque`.
-#[derive(Debug, clap::Args)]
-pub struct Args {
-    /// Cell model file (TOML, format meca500-zaber-cell).
-    #[arg(long)]
-    pub model: PathBuf,
-    /// Joint rows: CSV with columns tcp,q1..q7 (q1 in mm, q2..q7 in degrees).
-    #[arg(long)]
-    pub input: PathBuf,
-}
+/// Arguments of `vatcal torque` (the same as `vatcal fk`).
+pub type Args = super::fk::Args;
 
 /// Prints `tau2..tau7` [N·m] (moment of gravity about +z_i, on the model's own geometry with
 /// zero compliance) per input row, in order.
