@@ -5,6 +5,24 @@
 
 use nalgebra::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
 
+/// Rotation matrix about x by `a` [rad].
+pub fn rot_x(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
+}
+
+/// Rotation matrix about y by `a` [rad].
+pub fn rot_y(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
+}
+
+/// Rotation matrix about z by `a` [rad].
+pub fn rot_z(a: f64) -> Matrix3<f64> {
+    let (s, c) = a.sin_cos();
+    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+}
+
 /// Rigid transform `p_parent = r * p_child + p` (translation in mm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {

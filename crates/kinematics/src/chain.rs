@@ -6,7 +6,9 @@ use vatcal_core::params::{Axis, EffectParam};
 use vatcal_core::{Frame, JointVector, MeasurementContext};
 use vatcal_gravity_torque::gravity_torques;
 
-use crate::model::{Model, ModelError, rx, ry, rz};
+use vatcal_core::frame::{rot_x as rx, rot_y as ry, rot_z as rz};
+
+use crate::model::{Model, ModelError};
 
 /// World-frame axes of one MDH row, needed by the Jacobian.
 #[derive(Debug, Clone, Copy, Default)]

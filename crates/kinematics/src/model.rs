@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 use vatcal_core::cell::{CellFile, EffectEntry};
 use vatcal_core::effects::{EffectKind, EffectSpec, ThermalDriver};
 use vatcal_core::params::{BaseParam, EffectParam, ParamUnit};
@@ -10,6 +10,7 @@ use vatcal_core::{JointVector, ParamId, ParamSet, deg_to_rad, rad_to_deg};
 use vatcal_gravity_torque::MassModel;
 
 use vatcal_core::Frame;
+use vatcal_core::frame::{rot_x, rot_y, rot_z};
 
 /// One MDH row in internal units.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,19 +81,6 @@ pub struct Model {
     template: CellFile,
 }
 
-fn rot_x(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
-}
-fn rot_y(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
-}
-fn rot_z(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
-}
-
 /// `Rx(a) Ry(b)` and the fixed part of an MDH row `Rx(alpha) Tx(a) Ry(beta)`.
 pub(crate) fn row_fixed_frame(row: &MdhRow) -> Frame {
     Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) }
@@ -101,16 +89,6 @@ pub(crate) fn row_fixed_frame(row: &MdhRow) -> Frame {
 /// `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`.
 pub(crate) fn base_frame(b: &[f64; 6]) -> Frame {
     Frame { r: rot_x(b[3]) * rot_y(b[4]) * rot_z(b[5]), p: Vector3::new(b[0], b[1], b[2]) }
-}
-
-pub(crate) fn rx(a: f64) -> Matrix3<f64> {
-    rot_x(a)
-}
-pub(crate) fn ry(a: f64) -> Matrix3<f64> {
-    rot_y(a)
-}
-pub(crate) fn rz(a: f64) -> Matrix3<f64> {
-    rot_z(a)
 }
 
 /// File-unit key of an effect parameter in `[[effects]].values`.

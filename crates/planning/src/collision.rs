@@ -26,7 +26,7 @@ use vatcal_kinematics::{Chain, Model};
 
 use crate::error::PlanError;
 use crate::geometry::CellGeometry;
-use crate::ik::{rot_x, rot_y};
+use vatcal_core::frame::{rot_x, rot_y};
 
 /// Names of the robot and end-effector bodies, in body-index order (balls follow as
 /// `ball{tcp}`).

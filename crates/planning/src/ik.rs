@@ -45,6 +45,7 @@
 //! precision because `c_i d(tau_i)/dq` is tiny).
 
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use vatcal_core::frame::{rot_x, rot_y, rot_z};
 use vatcal_core::{Frame, JointVector};
 use vatcal_kinematics::Model;
 
@@ -62,23 +63,8 @@ const STRUCTURE_ANGLE_TOL_RAD: f64 = 0.05;
 const STRUCTURE_LENGTH_TOL_MM: f64 = 5.0;
 
 /// Rotation about x.
-pub(crate) fn rot_x(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
-}
-
 /// Rotation about y.
-pub(crate) fn rot_y(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
-}
-
 /// Rotation about z.
-pub(crate) fn rot_z(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
-}
-
 /// Wraps an angle into (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
     let two_pi = std::f64::consts::TAU;

@@ -31,8 +31,9 @@
 //! joint jump between slices); [`command_printing_joints`] solves every slice on another model
 //! from the reference joints, so that every model commands the same branch and guide schedule.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
+use vatcal_core::frame::{rot_x, rot_y, rot_z};
 use vatcal_core::{Frame, JointVector, deg_to_rad};
 use vatcal_kinematics::Model;
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
@@ -161,21 +162,6 @@ pub fn printing_path(opts: &PrintingPathOptions) -> Result<Vec<PrintingSlice>, V
         })
         .collect();
     Ok(slices)
-}
-
-fn rot_x(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
-}
-
-fn rot_y(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
-}
-
-fn rot_z(a: f64) -> Matrix3<f64> {
-    let (s, c) = a.sin_cos();
-    Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 }
 
 /// Feasibility rules of the commanded printing path.
