@@ -591,7 +591,7 @@ fn write_csv_atomically(path: &Path, measurements: &[Measurement]) -> Result<(),
     let tmp = PathBuf::from(tmp);
     vatcal_io::write_measurements(&tmp, measurements)?;
     std::fs::rename(&tmp, path)
-        .map_err(|source| vatcal_io::IoError::File { path: path.to_path_buf(), source }.into())
+        .map_err(|source| vatcal_io::IoError::File { path: path.to_path_buf(), cause: source }.into())
 }
 
 /// Writes the measurements of a (possibly unfinished) journal as a measurements CSV

@@ -22,12 +22,12 @@ pub const FORMAT_VERSION: i64 = 1;
 #[derive(Debug, thiserror::Error)]
 pub enum CellError {
     /// The file could not be read.
-    #[error("cannot read cell file {path}: {source}")]
+    #[error("cannot read cell file {path}: {cause}")]
     Io {
         /// file path
         path: PathBuf,
-        /// cause
-        source: std::io::Error,
+        /// cause (kept out of the error chain: the message already states it)
+        cause: std::io::Error,
     },
     /// TOML syntax error or a field of the wrong type / missing (the message carries the line).
     #[error("{origin}: {message}")]
@@ -356,7 +356,7 @@ impl CellFile {
     pub fn load(path: impl AsRef<Path>) -> Result<Self, CellError> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path)
-            .map_err(|source| CellError::Io { path: path.to_path_buf(), source })?;
+            .map_err(|source| CellError::Io { path: path.to_path_buf(), cause: source })?;
         Self::from_toml_str(&text, &path.display().to_string())
     }
 
@@ -382,7 +382,7 @@ impl CellFile {
         let path = path.as_ref();
         self.validate(&path.display().to_string())?;
         let text = self.to_toml_string()?;
-        std::fs::write(path, text).map_err(|source| CellError::Io { path: path.to_path_buf(), source })
+        std::fs::write(path, text).map_err(|source| CellError::Io { path: path.to_path_buf(), cause: source })
     }
 
     /// The row of cell joint `index` (1..=7). Valid files have all seven.

@@ -25,12 +25,12 @@ use vatcal_kinematics::Model;
 #[derive(Debug, thiserror::Error)]
 pub enum IoError {
     /// The file could not be opened, read or written.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     File {
         /// file
         path: PathBuf,
-        /// cause
-        source: std::io::Error,
+        /// cause (kept out of the error chain: the message already states it)
+        cause: std::io::Error,
     },
     /// The CSV structure is broken (e.g. a row with the wrong number of fields).
     #[error("{path}:{line}: malformed CSV: {message}")]
@@ -95,7 +95,8 @@ struct Table {
 
 impl Table {
     fn read(path: &Path, required: &[&str]) -> Result<Table, IoError> {
-        let file = std::fs::File::open(path).map_err(|source| IoError::File { path: path.into(), source })?;
+        let file =
+            std::fs::File::open(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
         let mut rdr = csv::ReaderBuilder::new()
             .comment(Some(b'#'))
             .trim(csv::Trim::All)
@@ -366,12 +367,13 @@ impl CandidateTable {
                 w.write_record(rec).map_err(|e| csv_error(path, &e))?;
             }
         }
-        w.flush().map_err(|source| IoError::File { path: path.into(), source })
+        w.flush().map_err(|source| IoError::File { path: path.into(), cause: source })
     }
 }
 
 fn writer(path: &Path) -> Result<csv::Writer<std::fs::File>, IoError> {
-    let f = std::fs::File::create(path).map_err(|source| IoError::File { path: path.into(), source })?;
+    let f =
+        std::fs::File::create(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
     Ok(csv::Writer::from_writer(f))
 }
 
@@ -391,7 +393,7 @@ pub fn write_joint_rows(path: impl AsRef<Path>, rows: &[(u32, JointVector)]) -> 
         rec.extend(joint_fields(q));
         w.write_record(&rec).map_err(|e| csv_error(path, &e))?;
     }
-    w.flush().map_err(|source| IoError::File { path: path.into(), source })
+    w.flush().map_err(|source| IoError::File { path: path.into(), cause: source })
 }
 
 /// Renders measurements as CSV text (see [`write_measurements`]).
@@ -457,7 +459,7 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
 pub fn write_measurements(path: impl AsRef<Path>, measurements: &[Measurement]) -> Result<(), IoError> {
     let path = path.as_ref();
     std::fs::write(path, measurements_to_csv(measurements))
-        .map_err(|source| IoError::File { path: path.into(), source })
+        .map_err(|source| IoError::File { path: path.into(), cause: source })
 }
 
 #[cfg(test)]
