@@ -7,6 +7,8 @@
 
 use std::fmt;
 
+use vatcal_hardware_traits::transport::{Framing, LineDeframer};
+
 /// Byte that ends every message in both directions.
 pub const NUL: u8 = 0;
 
@@ -1076,70 +1078,41 @@ fn parse_version(text: &str) -> Option<(u32, u32, u32)> {
 // Framing
 // ---------------------------------------------------------------------------------------------
 
-/// A framing problem.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum FrameError {
-    /// More than `max` bytes arrived without a terminator; the partial frame was discarded.
-    #[error("frame longer than {max} bytes without terminator")]
-    TooLong {
-        /// the limit
-        max: usize,
-    },
-}
+pub use vatcal_hardware_traits::transport::FrameError;
 
-/// Cuts a byte stream into frames. TCP may split or coalesce messages: push whatever
-/// arrived, then pop complete frames; the unterminated tail is kept for the next push.
+/// Cuts a byte stream into NUL-terminated frames: the shared
+/// [`LineDeframer`](vatcal_hardware_traits::transport::LineDeframer) configured for the
+/// Meca500 (frames up to [`MAX_FRAME_LEN`] bytes, empty frames kept). TCP may split or
+/// coalesce messages: push whatever arrived, then pop complete frames with `next_frame`; the
+/// unterminated tail is kept for the next push. Every method of the shared deframer is
+/// available through `Deref`.
 #[derive(Debug, Clone)]
-pub struct Deframer {
-    buffer: Vec<u8>,
-    accept_lf: bool,
-    max_len: usize,
-}
+pub struct Deframer(LineDeframer);
 
 impl Deframer {
     /// Splits on NUL only (what the robot sends, and what the driver reads).
     pub fn nul_only() -> Self {
-        Self { buffer: Vec::new(), accept_lf: false, max_len: MAX_FRAME_LEN }
+        Self(LineDeframer::new(Framing::nul(MAX_FRAME_LEN)))
     }
 
-    /// Splits on NUL **or** LF (the robot also accepts LF-terminated commands, §1.1).
+    /// Splits on NUL **or** LF (the robot also accepts LF-terminated commands, §1.1; a CR
+    /// before the LF is removed).
     pub fn nul_or_lf() -> Self {
-        Self { accept_lf: true, ..Self::nul_only() }
+        Self(LineDeframer::new(Framing::nul_or_lf(MAX_FRAME_LEN)))
     }
+}
 
-    /// Appends received bytes.
-    pub fn push(&mut self, bytes: &[u8]) {
-        self.buffer.extend_from_slice(bytes);
+impl std::ops::Deref for Deframer {
+    type Target = LineDeframer;
+
+    fn deref(&self) -> &LineDeframer {
+        &self.0
     }
+}
 
-    /// The next complete frame (terminator removed), `Ok(None)` when more bytes are needed,
-    /// or [`FrameError::TooLong`] when the unterminated tail exceeds the limit (the tail is
-    /// dropped so the stream can resynchronise).
-    pub fn next_frame(&mut self) -> Result<Option<Vec<u8>>, FrameError> {
-        let accept_lf = self.accept_lf;
-        match self.buffer.iter().position(|&b| b == NUL || (accept_lf && b == b'\n')) {
-            Some(end) => {
-                let mut frame: Vec<u8> = self.buffer.drain(..=end).collect();
-                frame.pop();
-                if accept_lf && frame.last() == Some(&b'\r') {
-                    frame.pop();
-                }
-                if frame.len() > self.max_len {
-                    return Err(FrameError::TooLong { max: self.max_len });
-                }
-                Ok(Some(frame))
-            }
-            None if self.buffer.len() > self.max_len => {
-                self.buffer.clear();
-                Err(FrameError::TooLong { max: self.max_len })
-            }
-            None => Ok(None),
-        }
-    }
-
-    /// Bytes waiting for a terminator.
-    pub fn pending(&self) -> usize {
-        self.buffer.len()
+impl std::ops::DerefMut for Deframer {
+    fn deref_mut(&mut self) -> &mut LineDeframer {
+        &mut self.0
     }
 }
 
@@ -1298,7 +1271,8 @@ mod tests {
         d.push(&vec![b'x'; MAX_FRAME_LEN + 1]);
         assert_eq!(d.next_frame(), Err(FrameError::TooLong { max: MAX_FRAME_LEN }));
         assert_eq!(d.pending(), 0);
-        d.push(b"[2007][1]\0");
+        // the rest of the overlong frame (up to its NUL) is dropped, then frames come intact
+        d.push(b"xxx\0[2007][1]\0");
         assert_eq!(d.next_frame(), Ok(Some(b"[2007][1]".to_vec())));
     }
 

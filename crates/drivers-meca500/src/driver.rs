@@ -100,6 +100,7 @@ pub struct Meca500<T: Transport = TcpStream> {
     next_sync: u32,
     reached: VecDeque<u32>,
     discarded: VecDeque<u32>,
+    label: String,
 }
 
 impl Meca500<TcpStream> {
@@ -107,7 +108,10 @@ impl Meca500<TcpStream> {
     /// banner.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: Meca500Config) -> Result<Self, Meca500Error> {
         let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
-        Self::new(stream, config)
+        let peer = stream.peer_addr()?;
+        let mut robot = Self::new(stream, config)?;
+        robot.label = format!("{} at {peer}", robot.config.name);
+        Ok(robot)
     }
 }
 
@@ -125,6 +129,7 @@ impl<T: Transport> Meca500<T> {
                 safe_boot: false,
                 version: (0, 0, 0),
             },
+            label: config.name.clone(),
             config,
             last_status: None,
             last_error: None,
@@ -141,6 +146,12 @@ impl<T: Transport> Meca500<T> {
     /// What the robot announced on connect.
     pub fn banner(&self) -> &Banner {
         &self.banner
+    }
+
+    /// The name errors carry: [`Meca500Config::name`] plus ` at <address>` when the driver
+    /// opened the connection itself (e.g. `meca500 at 192.168.0.100:10000`).
+    pub fn label(&self) -> &str {
+        &self.label
     }
 
     /// The configuration.
@@ -444,7 +455,7 @@ impl<T: Transport> Meca500<T> {
     }
 
     fn hw<R>(&self, r: Result<R, Meca500Error>) -> HwResult<R> {
-        r.map_err(|e| e.into_hw(&self.config.name))
+        r.map_err(|e| e.into_hw(&self.label))
     }
 }
 

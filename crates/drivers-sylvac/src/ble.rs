@@ -23,6 +23,8 @@ pub const BATTERY_LEVEL_UUID: &str = "00002a19-0000-1000-8000-00805f9b34fb";
 /// Characteristic Presentation Format descriptor (16-bit UUID 0x2904).
 pub const PRESENTATION_FORMAT_DESCRIPTOR: u16 = 0x2904;
 
+use vatcal_hardware_traits::transport::{Framing, LineDeframer};
+
 /// Exponent assumed when the presentation-format descriptor is absent (nanometres).
 pub const DEFAULT_EXPONENT: i8 = -9;
 /// Raw measurement meaning "no value" (what a plain read returns).
@@ -139,10 +141,18 @@ pub fn decode_parameters(payload: &[u8]) -> Result<Parameters, BleDecodeError> {
     Ok(Parameters { unit, resolution_m, mode })
 }
 
-/// Reassembles RemoteResponse notifications into CR-terminated answers.
-#[derive(Debug, Clone, Default)]
+/// Reassembles RemoteResponse notifications into CR-terminated answers (the shared
+/// [`LineDeframer`](vatcal_hardware_traits::transport::LineDeframer) on CR, empty answers
+/// kept).
+#[derive(Debug, Clone)]
 pub struct ResponseReassembler {
-    buffer: Vec<u8>,
+    deframer: LineDeframer,
+}
+
+impl Default for ResponseReassembler {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl ResponseReassembler {
@@ -151,22 +161,28 @@ impl ResponseReassembler {
 
     /// An empty reassembler.
     pub fn new() -> Self {
-        Self::default()
+        let framing =
+            Framing { terminators: b"\r", strip_cr: false, skip_blank: false, max_len: Self::MAX_RESPONSE };
+        Self { deframer: LineDeframer::new(framing) }
     }
 
-    /// Adds one notification; returns every answer it completed (CR removed).
+    /// Adds one notification; returns every answer it completed (CR removed). An answer
+    /// longer than [`Self::MAX_RESPONSE`] fails with [`BleDecodeError::ResponseTooLong`] and is
+    /// dropped up to its CR.
     pub fn push(&mut self, notification: &[u8]) -> Result<Vec<String>, BleDecodeError> {
-        self.buffer.extend_from_slice(notification);
+        self.deframer.push(notification);
         let mut done = Vec::new();
-        while let Some(end) = self.buffer.iter().position(|&b| b == b'\r') {
-            let line: Vec<u8> = self.buffer.drain(..=end).collect();
-            done.push(String::from_utf8_lossy(&line[..line.len() - 1]).into_owned());
-        }
-        if self.buffer.len() > Self::MAX_RESPONSE {
-            self.buffer.clear();
-            return Err(BleDecodeError::ResponseTooLong(Self::MAX_RESPONSE));
+        while let Some(line) =
+            self.deframer.next_line().map_err(|_| BleDecodeError::ResponseTooLong(Self::MAX_RESPONSE))?
+        {
+            done.push(line);
         }
         Ok(done)
+    }
+
+    /// Drops a partial answer (e.g. before a new request after a timeout).
+    pub fn clear(&mut self) {
+        self.deframer.clear();
     }
 }
 

@@ -309,54 +309,43 @@ pub fn format_value(v: f64, int_digits: usize, decimals: usize) -> String {
     format!("{sign}{:0width$.decimals$}", v.abs())
 }
 
-/// Cuts a byte stream into CR- (or LF-) terminated lines; empty lines are skipped.
-#[derive(Debug, Clone, Default)]
-pub struct LineDeframer {
-    buffer: Vec<u8>,
-}
+/// Cuts a byte stream into lines on CR or LF: the shared
+/// [`vatcal_hardware_traits::transport::LineDeframer`] configured for this protocol (lines up
+/// to [`MAX_LINE_LEN`] bytes, blank lines skipped). Every method of the shared deframer
+/// (`push`, `next_line`, `clear`, `pending`, …) is available through `Deref`.
+#[derive(Debug, Clone)]
+pub struct LineDeframer(vatcal_hardware_traits::transport::LineDeframer);
 
-/// A line longer than [`MAX_LINE_LEN`] arrived; it was discarded.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-#[error("line longer than {MAX_LINE_LEN} bytes")]
-pub struct LineTooLong;
+/// A line longer than [`MAX_LINE_LEN`] arrived; it was discarded (the shared
+/// [`FrameError`](vatcal_hardware_traits::transport::FrameError) under its old name).
+pub type LineTooLong = vatcal_hardware_traits::transport::FrameError;
 
 impl LineDeframer {
     /// An empty deframer.
     pub fn new() -> Self {
-        Self::default()
+        Self(vatcal_hardware_traits::transport::LineDeframer::new(
+            vatcal_hardware_traits::transport::Framing::cr_or_lf(MAX_LINE_LEN),
+        ))
     }
+}
 
-    /// Appends received bytes.
-    pub fn push(&mut self, bytes: &[u8]) {
-        self.buffer.extend_from_slice(bytes);
+impl Default for LineDeframer {
+    fn default() -> Self {
+        Self::new()
     }
+}
 
-    /// Drops everything buffered.
-    pub fn clear(&mut self) {
-        self.buffer.clear();
+impl std::ops::Deref for LineDeframer {
+    type Target = vatcal_hardware_traits::transport::LineDeframer;
+
+    fn deref(&self) -> &Self::Target {
+        &self.0
     }
+}
 
-    /// The next non-empty line, `Ok(None)` if more bytes are needed.
-    pub fn next_line(&mut self) -> Result<Option<String>, LineTooLong> {
-        loop {
-            match self.buffer.iter().position(|&b| b == CR || b == b'\n') {
-                Some(end) => {
-                    let line: Vec<u8> = self.buffer.drain(..=end).collect();
-                    let line = &line[..line.len() - 1];
-                    if line.len() > MAX_LINE_LEN {
-                        return Err(LineTooLong);
-                    }
-                    if !line.iter().all(u8::is_ascii_whitespace) {
-                        return Ok(Some(String::from_utf8_lossy(line).into_owned()));
-                    }
-                }
-                None if self.buffer.len() > MAX_LINE_LEN => {
-                    self.buffer.clear();
-                    return Err(LineTooLong);
-                }
-                None => return Ok(None),
-            }
-        }
+impl std::ops::DerefMut for LineDeframer {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
     }
 }
 

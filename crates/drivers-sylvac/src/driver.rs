@@ -56,13 +56,17 @@ pub struct SylvacGauge<T: Transport = TcpStream> {
     config: SylvacConfig,
     unit: Unit,
     id: String,
+    label: String,
 }
 
 impl SylvacGauge<TcpStream> {
     /// Connects over TCP (a serial-to-TCP bridge or the simulator) and identifies the gauge.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: SylvacConfig) -> Result<Self, SylvacError> {
         let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
-        Self::new(stream, config)
+        let peer = stream.peer_addr()?;
+        let mut gauge = Self::new(stream, config)?;
+        gauge.label = format!("{} at {peer}", gauge.config.name);
+        Ok(gauge)
     }
 }
 
@@ -70,8 +74,10 @@ impl SylvacGauge<TcpStream> {
 impl SylvacGauge<crate::transport::SerialTransport> {
     /// Opens a duplex cable (4800 7E2) and identifies the gauge.
     pub fn open_serial(path: &str, config: SylvacConfig) -> Result<Self, SylvacError> {
-        let port = crate::transport::SerialTransport::open(path).map_err(|e| SylvacError::Io(e.into()))?;
-        Self::new(port, config)
+        let port = crate::transport::SerialTransport::open(path, &crate::transport::SERIAL_SETTINGS)?;
+        let mut gauge = Self::new(port, config)?;
+        gauge.label = format!("{} at {path}", gauge.config.name);
+        Ok(gauge)
     }
 }
 
@@ -79,8 +85,14 @@ impl<T: Transport> SylvacGauge<T> {
     /// Wraps a connected transport: reads `ID?`, switches continuous output off (`OUT0`),
     /// forces mm (`MM`, if configured) and reads `UNI?`.
     pub fn new(transport: T, config: SylvacConfig) -> Result<Self, SylvacError> {
-        let mut gauge =
-            Self { transport, deframer: LineDeframer::new(), config, unit: Unit::Mm, id: String::new() };
+        let mut gauge = Self {
+            transport,
+            deframer: LineDeframer::new(),
+            label: config.name.clone(),
+            config,
+            unit: Unit::Mm,
+            id: String::new(),
+        };
         gauge.id = match gauge.query(&Command::Id)? {
             Answer::Text(t) => t,
             Answer::Value(v) => v.to_string(),
@@ -107,6 +119,12 @@ impl<T: Transport> SylvacGauge<T> {
     /// The display unit.
     pub fn unit(&self) -> Unit {
         self.unit
+    }
+
+    /// The name errors carry: [`SylvacConfig::name`] plus ` at <address or port>` when the
+    /// driver opened the link itself (e.g. `gauge 1 at 127.0.0.1:55561`).
+    pub fn label(&self) -> &str {
+        &self.label
     }
 
     /// The configuration.
@@ -217,7 +235,7 @@ impl<T: Transport> SylvacGauge<T> {
     }
 
     fn hw<R>(&self, r: Result<R, SylvacError>) -> HwResult<R> {
-        r.map_err(|e| e.into_hw(&self.config.name))
+        r.map_err(|e| e.into_hw(&self.label))
     }
 }
 

@@ -136,13 +136,17 @@ pub struct ZaberAxis<T: Transport = TcpStream> {
     next_id: u8,
     speed_set: Option<i64>,
     alerts: Vec<Message>,
+    label: String,
 }
 
 impl ZaberAxis<TcpStream> {
     /// Connects to a raw-ASCII TCP port (e.g. `"192.168.0.50:55550"`) and identifies the axis.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: ZaberConfig) -> Result<Self, ZaberError> {
         let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
-        Self::new(stream, config)
+        let peer = stream.peer_addr()?;
+        let mut axis = Self::new(stream, config)?;
+        axis.label = format!("{} at {peer}", axis.config.name);
+        Ok(axis)
     }
 }
 
@@ -150,9 +154,10 @@ impl ZaberAxis<TcpStream> {
 impl ZaberAxis<crate::transport::SerialTransport> {
     /// Opens a serial port (115200 8N1) and identifies the axis.
     pub fn open_serial(path: &str, baud: u32, config: ZaberConfig) -> Result<Self, ZaberError> {
-        let port =
-            crate::transport::SerialTransport::open(path, baud).map_err(|e| ZaberError::Io(e.into()))?;
-        Self::new(port, config)
+        let port = crate::transport::SerialTransport::open(path, &crate::transport::serial_settings(baud))?;
+        let mut axis = Self::new(port, config)?;
+        axis.label = format!("{} at {path}", axis.config.name);
+        Ok(axis)
     }
 }
 
@@ -169,6 +174,7 @@ impl<T: Transport> ZaberAxis<T> {
                 limits_microsteps: None,
                 base_maxspeed: None,
             },
+            label: config.name.clone(),
             config,
             next_id: 0,
             speed_set: None,
@@ -192,6 +198,12 @@ impl<T: Transport> ZaberAxis<T> {
     /// What was read at connection.
     pub fn info(&self) -> &AxisInfo {
         &self.info
+    }
+
+    /// The name errors carry: [`ZaberConfig::name`] plus ` at <address or port>` when the
+    /// driver opened the link itself (e.g. `zaber guide at 127.0.0.1:55550`).
+    pub fn label(&self) -> &str {
+        &self.label
     }
 
     /// The configuration.
@@ -428,7 +440,7 @@ impl<T: Transport> ZaberAxis<T> {
     }
 
     fn hw<R>(&self, r: Result<R, ZaberError>) -> HwResult<R> {
-        r.map_err(|e| e.into_hw(&self.config.name))
+        r.map_err(|e| e.into_hw(&self.label))
     }
 }
 
