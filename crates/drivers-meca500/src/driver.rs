@@ -13,6 +13,7 @@ use crate::codec::{Banner, Command, Deframer, Reply, Six, StatusWord, code};
 use crate::error::Meca500Error;
 use crate::transport::{Transport, is_timeout};
 use vatcal_hardware_traits::transport::Deadline as Wait;
+use vatcal_hardware_traits::transport::is_disconnect;
 
 /// Factory control port of the robot.
 pub const CONTROL_PORT: u16 = 10000;
@@ -176,8 +177,13 @@ impl<T: Transport> Meca500<T> {
 
     /// Sends one command without waiting for anything.
     pub fn send(&mut self, command: &Command) -> Result<(), Meca500Error> {
-        self.transport.send(&command.encode())?;
-        Ok(())
+        self.transport.send(&command.encode()).map_err(|e| {
+            if is_disconnect(&e) {
+                Meca500Error::Disconnected { during: format!("sending {}", command.name()) }
+            } else {
+                Meca500Error::Io(e)
+            }
+        })
     }
 
     /// Sends a request and returns the first reply whose code is in `answers`; an error
@@ -251,7 +257,15 @@ impl<T: Transport> Meca500<T> {
     }
 
     /// Sends `SetCheckpoint(k)`, waits for `[3030][k]`, then polls `[2007]` until end-of-block.
+    /// If the robot stops answering in time or answers garbage, the motion may still run:
+    /// `ClearMotion` is sent (without waiting) before the error is returned.
     pub fn wait_idle_within(&mut self, timeout: Duration) -> Result<(), Meca500Error> {
+        let r = self.wait_idle_inner(timeout);
+        self.stop_on_link_fault(&r);
+        r
+    }
+
+    fn wait_idle_inner(&mut self, timeout: Duration) -> Result<(), Meca500Error> {
         let wait = Wait::new(timeout);
         let k = self.take_checkpoint_id();
         self.send(&Command::SetCheckpoint(k))?;
@@ -262,7 +276,7 @@ impl<T: Transport> Meca500<T> {
             if self.discarded.contains(&k) {
                 return Err(Meca500Error::CheckpointDiscarded(k));
             }
-            let reply = self.read_reply(&wait, "end of motion (checkpoint)")?;
+            let reply = self.read_reply(&wait, "the end of the motion (checkpoint)")?;
             if reply.is_error() {
                 let err = self.robot_error(&reply);
                 self.drain();
@@ -280,7 +294,7 @@ impl<T: Transport> Meca500<T> {
             let pause = wait.remaining().map(|r| r.min(self.config.status_poll_interval));
             match pause {
                 Some(p) => std::thread::sleep(p),
-                None => return Err(self.timeout_error(&wait, "end of block")),
+                None => return Err(self.timeout_error(&wait, "the end of the motion (end of block)")),
             }
         }
     }
@@ -318,6 +332,16 @@ impl<T: Transport> Meca500<T> {
     }
 
     // ---- internals ----------------------------------------------------------------------
+
+    /// After a lost answer (timeout) or an unreadable one, a motion may still be running: send
+    /// `ClearMotion` while the link is up (best effort, no wait; `activate_and_home` or
+    /// `stop` resumes the queue later). Robot errors need nothing (error mode stops the arm),
+    /// and a closed link cannot carry a command.
+    fn stop_on_link_fault<R>(&mut self, r: &Result<R, Meca500Error>) {
+        if let Err(Meca500Error::Timeout { .. } | Meca500Error::Malformed(_) | Meca500Error::Frame(_)) = r {
+            let _ = self.send(&Command::ClearMotion);
+        }
+    }
 
     fn take_checkpoint_id(&mut self) -> u32 {
         let k = self.next_checkpoint;
@@ -383,7 +407,7 @@ impl<T: Transport> Meca500<T> {
                 code: *original,
                 text: format!("{text} (robot in error mode; later command refused with [1011])"),
             },
-            _ => Meca500Error::Robot { code: reply.code, text: reply.payload.clone() },
+            _ => Meca500Error::Robot { code: reply.code, text: describe(reply) },
         }
     }
 
@@ -418,9 +442,12 @@ impl<T: Transport> Meca500<T> {
                 return Err(self.timeout_error(wait, what));
             };
             match self.transport.recv(&mut buf, remaining) {
-                Ok(0) => return Err(Meca500Error::Disconnected),
+                Ok(0) => return Err(Meca500Error::Disconnected { during: format!("waiting for {what}") }),
                 Ok(n) => self.deframer.push(&buf[..n]),
                 Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) if is_disconnect(&e) => {
+                    return Err(Meca500Error::Disconnected { during: format!("waiting for {what}") });
+                }
                 Err(e) => return Err(Meca500Error::Io(e)),
             }
         }
@@ -447,7 +474,7 @@ impl<T: Transport> Meca500<T> {
             _ if reply.is_error() => {
                 let keep_original = reply.code == code::IN_ERROR && self.last_error.is_some();
                 if !keep_original {
-                    self.last_error = Some((reply.code, reply.payload.clone()));
+                    self.last_error = Some((reply.code, describe(reply)));
                 }
             }
             _ => {}
@@ -456,6 +483,18 @@ impl<T: Transport> Meca500<T> {
 
     fn hw<R>(&self, r: Result<R, Meca500Error>) -> HwResult<R> {
         r.map_err(|e| e.into_hw(&self.label))
+    }
+}
+
+/// The text of an error message; safety stops (whose payload is only `1`) get a sentence.
+fn describe(reply: &Reply) -> String {
+    match reply.code {
+        code::ESTOP => {
+            "E-Stop pressed: motors off; release it, reset the error, activate and home".to_owned()
+        }
+        code::PSTOP1 => "P-Stop 1 active: motion stopped".to_owned(),
+        code::PSTOP2 => "P-Stop 2 active: motion stopped".to_owned(),
+        _ => reply.payload.clone(),
     }
 }
 
@@ -503,6 +542,7 @@ impl<T: Transport> RobotArm for Meca500<T> {
         let r = finite_or_err(&deg, "joint target")
             .and_then(|()| joint_speed_percent(options.speed_fraction))
             .and_then(|p| self.send_queued(&[Command::SetJointVel(p), Command::MoveJoints(deg)]));
+        self.stop_on_link_fault(&r);
         self.hw(r)
     }
 
@@ -521,6 +561,7 @@ impl<T: Transport> RobotArm for Meca500<T> {
         let r = finite_or_err(&d, "displacement")
             .and_then(|()| joint_speed_percent(options.speed_fraction))
             .and_then(|p| self.send_queued(&[Command::SetCartLinVel(p / 100.0 * max), move_cmd]));
+        self.stop_on_link_fault(&r);
         self.hw(r)
     }
 

@@ -14,9 +14,12 @@ pub enum Meca500Error {
     /// Socket error.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),
-    /// The robot closed the connection.
-    #[error("the robot closed the connection")]
-    Disconnected,
+    /// The connection is gone (closed or reset by the robot, or the network).
+    #[error("connection closed while {during}")]
+    Disconnected {
+        /// what the driver was doing (`waiting for the end of the motion`, `sending MoveJoints`)
+        during: String,
+    },
     /// No answer in time.
     #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
     Timeout {
@@ -57,7 +60,7 @@ impl Meca500Error {
     pub fn kind(&self) -> ErrorKind {
         match self {
             Meca500Error::Io(e) => io_kind(e),
-            Meca500Error::Disconnected => ErrorKind::Disconnected,
+            Meca500Error::Disconnected { .. } => ErrorKind::Disconnected,
             Meca500Error::Timeout { .. } => ErrorKind::Timeout,
             Meca500Error::Robot { code, .. } => robot_code_kind(*code),
             Meca500Error::Banner(BannerError::Refused(r)) => robot_code_kind(r.code),
@@ -106,7 +109,9 @@ mod tests {
         assert_eq!(robot(1006).kind(), ErrorKind::NotHomed);
         assert_eq!(robot(1000).kind(), ErrorKind::Busy);
         assert_eq!(Meca500Error::Banner(BannerError::Refused(Reply::new(3001, "x"))).kind(), ErrorKind::Busy);
-        assert_eq!(Meca500Error::Disconnected.kind(), ErrorKind::Disconnected);
+        let closed = Meca500Error::Disconnected { during: "waiting for the end of the motion".into() };
+        assert_eq!(closed.kind(), ErrorKind::Disconnected);
+        assert_eq!(closed.to_string(), "connection closed while waiting for the end of the motion");
         let io = Meca500Error::Io(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "x"));
         assert_eq!(io.kind(), ErrorKind::Disconnected);
         let hw = robot(1007).into_hw("meca500");

@@ -9,6 +9,7 @@ use crate::codec::{Answer, Command, LineDeframer, MAX_PRESET_MM, Unit};
 use crate::error::SylvacError;
 use crate::transport::{Transport, is_timeout};
 use vatcal_hardware_traits::transport::Deadline as Wait;
+use vatcal_hardware_traits::transport::is_disconnect;
 
 /// Connection settings and timeouts.
 #[derive(Debug, Clone, PartialEq)]
@@ -141,12 +142,23 @@ impl<T: Transport> SylvacGauge<T> {
     /// (a stray setter acknowledgement is skipped); for other queries, the first line.
     pub fn query(&mut self, command: &Command) -> Result<Answer, SylvacError> {
         self.discard_pending()?;
-        self.transport.send(&command.encode())?;
+        self.send_command(command)?;
         let wait = Wait::new(self.config.io_timeout);
+        // a text line before the value of `?` may be a late setter acknowledgement: skip it,
+        // but if no value follows, report it (garbage) rather than a bare timeout
+        let mut skipped: Option<String> = None;
         loop {
-            let answer = Answer::parse(&self.read_line(&wait, command)?);
+            let line = match self.read_line(&wait, command) {
+                Ok(line) => line,
+                Err(SylvacError::Timeout { .. }) if skipped.is_some() => {
+                    let answer = skipped.unwrap_or_default();
+                    return Err(SylvacError::UnexpectedAnswer { command: command.to_text(), answer });
+                }
+                Err(e) => return Err(e),
+            };
+            let answer = Answer::parse(&line);
             match (&answer, command) {
-                (Answer::Text(_), Command::Read) => {}
+                (Answer::Text(t), Command::Read) => skipped = Some(t.clone()),
                 (Answer::Error(e), _) => {
                     return Err(SylvacError::Gauge { command: command.to_text(), error: *e });
                 }
@@ -159,7 +171,7 @@ impl<T: Transport> SylvacGauge<T> {
     /// answer (or none) accepts it.
     pub fn setter(&mut self, command: &Command) -> Result<(), SylvacError> {
         self.discard_pending()?;
-        self.transport.send(&command.encode())?;
+        self.send_command(command)?;
         let wait = Wait::new(self.config.setter_ack_window);
         match self.read_line(&wait, command) {
             Ok(line) => match Answer::parse(&line) {
@@ -198,14 +210,29 @@ impl<T: Transport> SylvacGauge<T> {
         Ok(())
     }
 
+    fn send_command(&mut self, command: &Command) -> Result<(), SylvacError> {
+        self.transport.send(&command.encode()).map_err(|e| {
+            if is_disconnect(&e) {
+                SylvacError::Disconnected { during: format!("sending '{command}'") }
+            } else {
+                SylvacError::Io(e)
+            }
+        })
+    }
+
     /// Drops whatever arrived unasked (late acknowledgements, continuous output).
     fn discard_pending(&mut self) -> Result<(), SylvacError> {
         let mut buf = [0u8; 512];
         loop {
             match self.transport.recv(&mut buf, Duration::ZERO) {
-                Ok(0) => return Err(SylvacError::Disconnected),
+                Ok(0) => {
+                    return Err(SylvacError::Disconnected { during: "idle (before a request)".to_owned() });
+                }
                 Ok(_) => {}
                 Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => break,
+                Err(e) if is_disconnect(&e) => {
+                    return Err(SylvacError::Disconnected { during: "idle (before a request)".to_owned() });
+                }
                 Err(e) => return Err(SylvacError::Io(e)),
             }
         }
@@ -226,9 +253,18 @@ impl<T: Transport> SylvacGauge<T> {
                 });
             };
             match self.transport.recv(&mut buf, remaining) {
-                Ok(0) => return Err(SylvacError::Disconnected),
+                Ok(0) => {
+                    return Err(SylvacError::Disconnected {
+                        during: format!("waiting for the answer to '{command}'"),
+                    });
+                }
                 Ok(n) => self.deframer.push(&buf[..n]),
                 Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) if is_disconnect(&e) => {
+                    return Err(SylvacError::Disconnected {
+                        during: format!("waiting for the answer to '{command}'"),
+                    });
+                }
                 Err(e) => return Err(SylvacError::Io(e)),
             }
         }

@@ -14,9 +14,12 @@ pub enum SylvacError {
     /// Transport error.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),
-    /// The peer closed the connection.
-    #[error("the gauge closed the connection")]
-    Disconnected,
+    /// The connection is gone (closed or reset by the gauge or the network, port hung up).
+    #[error("connection closed while {during}")]
+    Disconnected {
+        /// what the driver was doing (`waiting for the answer to '?'`, …)
+        during: String,
+    },
     /// No answer in time.
     #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
     Timeout {
@@ -66,7 +69,7 @@ impl SylvacError {
     pub fn kind(&self) -> ErrorKind {
         match self {
             SylvacError::Io(e) => HwError::from_io("", std::io::Error::new(e.kind(), "")).kind(),
-            SylvacError::Disconnected => ErrorKind::Disconnected,
+            SylvacError::Disconnected { .. } => ErrorKind::Disconnected,
             SylvacError::Timeout { .. } => ErrorKind::Timeout,
             SylvacError::Gauge { error: GaugeError::RangeExceeded, .. } => ErrorKind::OutOfRange,
             SylvacError::Gauge { error: GaugeError::Sensor, .. } => ErrorKind::DeviceFault { code: 0 },

@@ -9,6 +9,7 @@ use crate::codec::{Command, LineDeframer, LineEnding, Message, Reply, Status, Wa
 use crate::error::ZaberError;
 use crate::transport::{Transport, is_timeout};
 use vatcal_hardware_traits::transport::Deadline as Wait;
+use vatcal_hardware_traits::transport::is_disconnect;
 
 /// TCP port forwarding to the whole daisy chain.
 pub const TCP_PORT_CHAIN: u16 = 55550;
@@ -249,7 +250,15 @@ impl<T: Transport> ZaberAxis<T> {
             command = command.with_id(self.next_id);
             self.next_id = (self.next_id + 1) % 100;
         }
-        self.transport.send(&command.encode(self.config.checksums, self.config.line_ending))?;
+        self.transport.send(&command.encode(self.config.checksums, self.config.line_ending)).map_err(
+            |e| {
+                if is_disconnect(&e) {
+                    ZaberError::Disconnected { during: format!("sending '{text}'") }
+                } else {
+                    ZaberError::Io(e)
+                }
+            },
+        )?;
         let wait = Wait::new(self.config.io_timeout);
         loop {
             match self.read_message(&wait, text)? {
@@ -313,8 +322,25 @@ impl<T: Transport> ZaberAxis<T> {
     pub fn home_within(&mut self, timeout: Duration) -> Result<(), ZaberError> {
         let wait = Wait::new(timeout);
         self.prepare_motion()?;
-        self.command(self.config.axis, "home")?;
-        self.wait_idle_until(&wait)
+        let r = self.command(self.config.axis, "home").and_then(|_| self.wait_idle_until(&wait));
+        self.stop_on_link_fault(&r);
+        r
+    }
+
+    /// After a lost answer (timeout) or an unreadable one, the axis may still be moving: send
+    /// `stop` while the link is up (best effort, its reply is not awaited and is skipped later
+    /// by message id). A closed link cannot carry a command.
+    fn stop_on_link_fault<R>(&mut self, r: &Result<R, ZaberError>) {
+        if let Err(
+            ZaberError::Timeout { .. }
+            | ZaberError::Malformed(_)
+            | ZaberError::Frame(_)
+            | ZaberError::Protocol(_),
+        ) = r
+        {
+            let stop = Command::new(self.config.address, self.config.axis, "stop");
+            let _ = self.transport.send(&stop.encode(self.config.checksums, self.config.line_ending));
+        }
     }
 
     /// Starts an absolute move to `target` microsteps at `speed_fraction` of the base speed.
@@ -331,7 +357,9 @@ impl<T: Transport> ZaberAxis<T> {
         }
         self.prepare_motion()?;
         self.apply_speed(speed_fraction)?;
-        match self.command(self.config.axis, &format!("move abs {target}")) {
+        let started = self.command(self.config.axis, &format!("move abs {target}"));
+        self.stop_on_link_fault(&started);
+        match started {
             Ok(_) => Ok(()),
             Err(ZaberError::Rejected { reason, warning, command }) => {
                 if warning.is_some_and(|w| w.means_not_homed()) || !self.homed()? {
@@ -367,8 +395,12 @@ impl<T: Transport> ZaberAxis<T> {
 
     /// Polls until IDLE (or `timeout`), then checks the flags: a fault, `WL`, `WS` or `NI`
     /// fails with [`ZaberError::MotionFailed`] (the flags are cleared on the device).
+    /// If the device stops answering in time or answers garbage, `stop` is sent (without
+    /// waiting) before the error is returned.
     pub fn wait_idle_within(&mut self, timeout: Duration) -> Result<(), ZaberError> {
-        self.wait_idle_until(&Wait::new(timeout))
+        let r = self.wait_idle_until(&Wait::new(timeout));
+        self.stop_on_link_fault(&r);
+        r
     }
 
     fn wait_idle_until(&mut self, wait: &Wait) -> Result<(), ZaberError> {
@@ -418,22 +450,29 @@ impl<T: Transport> ZaberAxis<T> {
         }
     }
 
-    fn read_message(&mut self, wait: &Wait, what: &str) -> Result<Message, ZaberError> {
+    fn read_message(&mut self, wait: &Wait, command_text: &str) -> Result<Message, ZaberError> {
+        let what = if command_text.is_empty() {
+            "reply to a status poll".to_owned()
+        } else {
+            format!("reply to '{command_text}'")
+        };
         let mut buf = [0u8; 1024];
         loop {
             if let Some(line) = self.deframer.next_line()? {
                 return Ok(Message::parse(&line)?);
             }
             let Some(remaining) = wait.remaining() else {
-                return Err(ZaberError::Timeout {
-                    waiting_for: format!("reply to '{what}'"),
-                    after: wait.timeout(),
-                });
+                return Err(ZaberError::Timeout { waiting_for: what, after: wait.timeout() });
             };
             match self.transport.recv(&mut buf, remaining) {
-                Ok(0) => return Err(ZaberError::Disconnected),
+                Ok(0) => {
+                    return Err(ZaberError::Disconnected { during: format!("waiting for the {what}") });
+                }
                 Ok(n) => self.deframer.push(&buf[..n]),
                 Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) if is_disconnect(&e) => {
+                    return Err(ZaberError::Disconnected { during: format!("waiting for the {what}") });
+                }
                 Err(e) => return Err(ZaberError::Io(e)),
             }
         }

@@ -14,9 +14,12 @@ pub enum ZaberError {
     /// Transport error.
     #[error("I/O error: {0}")]
     Io(#[from] std::io::Error),
-    /// The peer closed the connection.
-    #[error("the device closed the connection")]
-    Disconnected,
+    /// The connection is gone (closed or reset by the device or the network, port hung up).
+    #[error("connection closed while {during}")]
+    Disconnected {
+        /// what the driver was doing (`waiting for the reply to 'move abs 100'`, …)
+        during: String,
+    },
     /// No answer in time.
     #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
     Timeout {
@@ -45,7 +48,7 @@ pub enum ZaberError {
     #[error("the axis is busy (still moving)")]
     Busy,
     /// The axis has no reference position (`WR`/`WH`): home it first.
-    #[error("the axis is not homed")]
+    #[error("the axis is not homed (home it first)")]
     NotHomed,
     /// A target beyond the travel.
     #[error("target {target_mm} mm is outside the travel {min_mm}..{max_mm} mm")]
@@ -79,7 +82,7 @@ impl ZaberError {
     pub fn kind(&self) -> ErrorKind {
         match self {
             ZaberError::Io(e) => HwError::from_io("", std::io::Error::new(e.kind(), "")).kind(),
-            ZaberError::Disconnected => ErrorKind::Disconnected,
+            ZaberError::Disconnected { .. } => ErrorKind::Disconnected,
             ZaberError::Timeout { .. } => ErrorKind::Timeout,
             ZaberError::Rejected { reason, .. } => rejection_kind(reason),
             ZaberError::MotionFailed { flags } => match flags.first() {

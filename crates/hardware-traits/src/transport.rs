@@ -115,6 +115,19 @@ pub fn is_timeout(e: &io::Error) -> bool {
     matches!(e.kind(), io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock)
 }
 
+/// True for the error kinds that mean the link is gone (reset, aborted, broken pipe, not
+/// connected, unexpected end of file): drivers report these like a closed stream.
+pub fn is_disconnect(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::ConnectionReset
+            | io::ErrorKind::ConnectionAborted
+            | io::ErrorKind::NotConnected
+            | io::ErrorKind::BrokenPipe
+            | io::ErrorKind::UnexpectedEof
+    )
+}
+
 /// Connects to the first address of `addr` that accepts within `timeout` each, with Nagle's
 /// algorithm off (commands are short lines that must go out at once).
 pub fn connect_tcp(addr: impl ToSocketAddrs, timeout: Duration) -> io::Result<TcpStream> {
