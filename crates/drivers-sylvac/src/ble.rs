@@ -1,7 +1,7 @@
 //! Bluetooth LE payload decoding (protocols.md §3.2), as pure functions.
 //!
-//! The BLE link itself (btleplug, BlueZ, D-Bus) is **not** part of this crate's build; these
-//! decoders are the part of a BLE transport that can be verified without an adapter:
+//! The BLE link itself (btleplug, BlueZ, D-Bus) is the `ble_link` module behind the off-by-default
+//! `ble` feature; these decoders are the part of it that can be verified without an adapter:
 //! the Measurement notification (int32 LE × 10^exponent metres), the exponent of the
 //! Characteristic Presentation Format descriptor, the Parameters bitmap, and the reassembly
 //! of RemoteResponse notifications (≤ 20 bytes each, CR-terminated ASCII).

@@ -133,6 +133,16 @@ impl<T: Transport> SylvacGauge<T> {
         &self.config
     }
 
+    /// The transport.
+    pub fn transport(&self) -> &T {
+        &self.transport
+    }
+
+    /// Replaces the name errors carry (see [`Self::label`]).
+    pub(crate) fn set_label(&mut self, label: String) {
+        self.label = label;
+    }
+
     /// Hands the transport back.
     pub fn into_inner(self) -> T {
         self.transport

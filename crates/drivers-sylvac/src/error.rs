@@ -44,6 +44,9 @@ pub enum SylvacError {
         /// what came back
         answer: String,
     },
+    /// The Bluetooth LE stack failed (no adapter, no D-Bus, lost link, missing characteristic).
+    #[error("Bluetooth LE: {0}")]
+    Ble(String),
     /// An overlong line arrived.
     #[error("framing: {0}")]
     Frame(#[from] LineTooLong),
@@ -77,6 +80,7 @@ impl SylvacError {
                 ErrorKind::Protocol
             }
             SylvacError::PresetOutOfRange { .. } => ErrorKind::OutOfRange,
+            SylvacError::Ble(_) => ErrorKind::Io,
             SylvacError::PresetNotApplied { .. } => ErrorKind::Protocol,
         }
     }

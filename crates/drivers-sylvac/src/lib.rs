@@ -43,12 +43,16 @@
 //! ```
 
 pub mod ble;
+#[cfg(feature = "ble")]
+pub mod ble_link;
 pub mod codec;
 pub mod driver;
 pub mod error;
 pub mod sim;
 pub mod transport;
 
+#[cfg(feature = "ble")]
+pub use ble_link::{BleConfig, BleTarget, BleTransport, SylvacBle};
 pub use codec::{Answer, Command, GaugeError, LineDeframer, Unit};
 pub use driver::{SylvacConfig, SylvacGauge};
 pub use error::SylvacError;
