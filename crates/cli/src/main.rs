@@ -36,6 +36,9 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Find missing physical effects in the model, add them, and show the gap shrink.
     Discover(cmd::discover::Args),
+    /// Joint targets (and corrected poses / Meca500 programs) that make the cell reach
+    /// requested world poses under the calibrated model.
+    Compensate(cmd::compensate::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -50,6 +53,7 @@ fn main() -> std::process::ExitCode {
         Command::Plan(a) => cmd::plan::run(a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Discover(a) => cmd::discover::run(a),
+        Command::Compensate(a) => cmd::compensate::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -8,6 +8,7 @@
 //! | probe measurements | `position,tcp,q1..q7` (+ `time_s`, `temperature_c`, `dir2..dir7`) | [`read_probe_measurements`] | [`write_measurements`] |
 //! | tracker measurements | `tcp,q1..q7,x,y,z` | [`read_tracker_measurements`] | [`write_measurements`] |
 //! | candidate poses | `position,tcp,q1..q7` | [`read_candidates`] | [`CandidateTable::write_subset`] |
+//! | pose requests | `tcp,q1,x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir2..dir7`) | [`read_pose_rows`] | (`vatcal compensate`) |
 //!
 //! Rules: a header line, columns found by name in any order, unknown columns ignored, `#`
 //! comment lines and blank lines skipped, `q1` in mm and `q2..q7` in degrees. A bad row is an
@@ -460,6 +461,60 @@ pub fn write_measurements(path: impl AsRef<Path>, measurements: &[Measurement]) 
     let path = path.as_ref();
     std::fs::write(path, measurements_to_csv(measurements))
         .map_err(|source| IoError::File { path: path.into(), cause: source })
+}
+
+/// One row of a pose-request file (`vatcal compensate`): the TCP `tcp` must reach the world
+/// point `x,y,z` \[mm\] with the tool-changer frame at Mecademic Euler angles
+/// `alpha,beta,gamma` \[deg\] (intrinsic X-Y-Z), the guide at `q1` \[mm\].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseRow {
+    /// 1-based line number in the file
+    pub line: u64,
+    /// TCP id
+    pub tcp: u32,
+    /// guide position \[mm\]
+    pub q1_mm: f64,
+    /// TCP point in the world \[mm\]
+    pub xyz_mm: [f64; 3],
+    /// tool-changer frame orientation, intrinsic X-Y-Z Euler angles \[deg\]
+    pub abc_deg: [f64; 3],
+    /// optional `time_s`, `temperature_c`, `dir2..dir7`
+    pub context: MeasurementContext,
+}
+
+/// Reads pose requests `tcp,q1,x,y,z,alpha,beta,gamma` with the optional `time_s`,
+/// `temperature_c`, `dir2..dir7` columns; TCP ids are checked against the model and `q1`
+/// against the guide limits.
+pub fn read_pose_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<PoseRow>, IoError> {
+    let path = path.as_ref();
+    let required = ["tcp", "q1", "x", "y", "z", "alpha", "beta", "gamma"];
+    let t = Table::read(path, &required)?;
+    let tcps = model.tcp_ids();
+    let (lo, hi) = model.joint_limits()[0];
+    t.rows
+        .iter()
+        .map(|(line, rec)| {
+            let line = *line;
+            let tcp = t.id(line, rec, "tcp", &tcps)?;
+            let q1_mm = t.float(line, rec, "q1")?;
+            if !(lo..=hi).contains(&q1_mm) {
+                return Err(t.err(
+                    line,
+                    "q1",
+                    format!("{q1_mm} mm is outside the guide limits [{lo}, {hi}] mm"),
+                ));
+            }
+            let f = |c: &str| t.float(line, rec, c);
+            Ok(PoseRow {
+                line,
+                tcp,
+                q1_mm,
+                xyz_mm: [f("x")?, f("y")?, f("z")?],
+                abc_deg: [f("alpha")?, f("beta")?, f("gamma")?],
+                context: t.context(line, rec)?,
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]

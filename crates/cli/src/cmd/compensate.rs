@@ -1,0 +1,261 @@
+//! `vatcal compensate`: compensated joint targets, corrected controller poses and Meca500
+//! programs from a calibrated cell model (issue 13; see `docs/compensation.md`).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use vatcal_compensation::{CompensationError, Compensator, PathOptions, PoseRequest, SolveOptions};
+use vatcal_core::CellFile;
+use vatcal_drivers_meca500::Command as MecaCommand;
+use vatcal_drivers_meca500::codec::format_number;
+use vatcal_kinematics::Model;
+
+/// The canonical nominal cell, used when neither `--nominal` nor the calibrated file names one.
+const BUILT_IN_NOMINAL: &str = include_str!("../../../../fixtures/meca500-zaber.toml");
+
+/// What `vatcal compensate` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Emit {
+    /// CSV `line,tcp,q1..q7,branch,residual_mm,residual_deg` (joint targets, mm/deg)
+    Joints,
+    /// CSV of corrected poses in the input format: FK_nominal(IK_calibrated(request))
+    Poses,
+    /// Meca500 program of `MoveJoints(...)` lines, guide moves as `# guide` comments
+    Meca500,
+    /// Meca500 program of `MovePose(...)` lines (robot base frame, WRF = TRF = identity)
+    #[value(name = "meca500-poses")]
+    Meca500Poses,
+}
+
+/// Arguments of `vatcal compensate`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Calibrated cell model (TOML, e.g. written by `vatcal identify`).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Requested poses: CSV `tcp,q1,x,y,z,alpha,beta,gamma` (mm, deg; world frame; Mecademic
+    /// intrinsic X-Y-Z Euler angles of the tool-changer frame), optional `time_s`,
+    /// `temperature_c`, `dir2..dir7`.
+    #[arg(long)]
+    pub poses: PathBuf,
+    /// Output file.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Nominal cell model of the robot controller (default: `[provenance] nominal_cell` of the
+    /// calibrated file, else the built-in canonical cell).
+    #[arg(long)]
+    pub nominal: Option<PathBuf>,
+    /// What to write.
+    #[arg(long, value_enum, default_value = "joints")]
+    pub emit: Emit,
+    /// Report unreachable rows (out of reach, limits, branch change, joint jump) and go on,
+    /// instead of failing.
+    #[arg(long)]
+    pub skip_unreachable: bool,
+    /// Largest change of an arm joint between consecutive rows [deg].
+    #[arg(long, default_value_t = 30.0)]
+    pub max_joint_step_deg: f64,
+    /// IK branch of the path (0..=7: bit 0 shoulder, bit 1 elbow, bit 2 wrist); default: the
+    /// first row's solution farthest from the joint limits.
+    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=7))]
+    pub branch: Option<u8>,
+}
+
+/// The nominal model and a description of where it came from.
+fn nominal_model(args: &Args, calibrated: &CellFile) -> anyhow::Result<(Model, String)> {
+    let from_file = |p: &Path| -> anyhow::Result<(Model, String)> {
+        let model = super::load_model(p)?;
+        let text = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
+        Ok((model, format!("{} (fnv1a64 {:016x})", p.display(), vatcal_campaign::fnv1a64(&text))))
+    };
+    if let Some(p) = &args.nominal {
+        return from_file(p);
+    }
+    let named =
+        calibrated.extra.get("provenance").and_then(|t| t.get("nominal_cell")).and_then(|v| v.as_str());
+    if let Some(name) = named {
+        let p = args.model.parent().unwrap_or(Path::new(".")).join(name);
+        return from_file(&p).with_context(|| format!("{}: [provenance] nominal_cell", args.model.display()));
+    }
+    let cell = CellFile::from_toml_str(BUILT_IN_NOMINAL, "built-in canonical cell")?;
+    let model = Model::from_cell(&cell).context("built-in canonical cell")?;
+    Ok((
+        model,
+        format!(
+            "built-in canonical cell fixtures/meca500-zaber.toml (fnv1a64 {:016x})",
+            vatcal_campaign::fnv1a64(BUILT_IN_NOMINAL.as_bytes())
+        ),
+    ))
+}
+
+/// Compensates every requested pose and writes the chosen output.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let cell = CellFile::load(&args.model)?;
+    let calibrated = Model::from_cell(&cell)
+        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model_bytes =
+        std::fs::read(&args.model).with_context(|| format!("{}: cannot read", args.model.display()))?;
+    let (nominal, nominal_desc) = nominal_model(&args, &cell)?;
+    let rows = vatcal_io::read_pose_rows(&args.poses, &calibrated)?;
+    let requests: Vec<PoseRequest> = rows
+        .iter()
+        .map(|r| PoseRequest {
+            tcp: r.tcp,
+            q1_mm: r.q1_mm,
+            xyz_mm: r.xyz_mm,
+            abc_deg: r.abc_deg,
+            context: r.context,
+        })
+        .collect();
+    let line_of = |row: usize| rows.get(row).map_or(0, |r| r.line);
+    let name_row = |e: CompensationError| -> anyhow::Error {
+        match e.row() {
+            Some(row) => anyhow::anyhow!("{}:{}: {e}", args.poses.display(), line_of(row)),
+            None => anyhow::anyhow!("{}: {e}", args.poses.display()),
+        }
+    };
+    let compensator = Compensator::new(&calibrated, &nominal).map_err(name_row)?;
+    let opts = PathOptions {
+        solve: SolveOptions::default(),
+        skip_unreachable: args.skip_unreachable,
+        max_joint_step_deg: args.max_joint_step_deg,
+        start: None,
+        branch: args.branch.map(vatcal_compensation::Branch),
+    };
+    let result = compensator.compensate_requests(&requests, &opts).map_err(name_row)?;
+
+    let mut header = String::new();
+    let _ = writeln!(header, "# vatcal compensate: {} poses from {}", requests.len(), args.poses.display());
+    let _ = writeln!(
+        header,
+        "# calibration: {} (fnv1a64 {:016x})",
+        args.model.display(),
+        vatcal_campaign::fnv1a64(&model_bytes)
+    );
+    let _ = writeln!(header, "# nominal (controller) model: {nominal_desc}");
+    if let Some(b) = result.branch {
+        let _ = writeln!(header, "# IK branch: {b}");
+    }
+    let mut skipped = String::new();
+    for s in result.skipped() {
+        let msg = format!("skipped {}:{}: {}", args.poses.display(), line_of(s.row), s.error);
+        eprintln!("{msg}");
+        let _ = writeln!(skipped, "# {msg}");
+    }
+    let mut out = header;
+    out.push_str(&skipped);
+    match args.emit {
+        Emit::Joints => {
+            out.push_str("line,tcp,q1,q2,q3,q4,q5,q6,q7,branch,residual_mm,residual_deg\n");
+            for (row, c) in result.solved() {
+                let q = c.q.to_mm_deg();
+                let _ = writeln!(
+                    out,
+                    "{},{},{},{},{},{},{},{},{},{},{:e},{:e}",
+                    line_of(row),
+                    requests[row].tcp,
+                    q[0],
+                    q[1],
+                    q[2],
+                    q[3],
+                    q[4],
+                    q[5],
+                    q[6],
+                    c.branch.0,
+                    c.position_residual_mm,
+                    c.rotation_residual_rad.to_degrees()
+                );
+            }
+        }
+        Emit::Poses => {
+            let time = requests.iter().any(|r| r.context.time_s.is_some());
+            let temp = requests.iter().any(|r| r.context.temperature_c.is_some());
+            let dir = requests.iter().any(|r| r.context.dir.is_some());
+            out.push_str("line,tcp,q1,x,y,z,alpha,beta,gamma");
+            if time {
+                out.push_str(",time_s");
+            }
+            if temp {
+                out.push_str(",temperature_c");
+            }
+            if dir {
+                out.push_str(",dir2,dir3,dir4,dir5,dir6,dir7");
+            }
+            out.push('\n');
+            for (row, c) in result.solved() {
+                let r = &requests[row];
+                let p = compensator.corrected_pose(&c.q, r.tcp, r.context).map_err(name_row)?.world;
+                let _ = write!(
+                    out,
+                    "{},{},{},{},{},{},{},{},{}",
+                    line_of(row),
+                    p.tcp,
+                    p.q1_mm,
+                    p.xyz_mm[0],
+                    p.xyz_mm[1],
+                    p.xyz_mm[2],
+                    p.abc_deg[0],
+                    p.abc_deg[1],
+                    p.abc_deg[2]
+                );
+                let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
+                if time {
+                    let _ = write!(out, ",{}", opt(r.context.time_s));
+                }
+                if temp {
+                    let _ = write!(out, ",{}", opt(r.context.temperature_c));
+                }
+                if dir {
+                    match r.context.dir {
+                        Some(d) => d.iter().for_each(|v| {
+                            let _ = write!(out, ",{v}");
+                        }),
+                        None => out.push_str(",,,,,,"),
+                    }
+                }
+                out.push('\n');
+            }
+        }
+        Emit::Meca500 | Emit::Meca500Poses => {
+            out.push_str(
+                "# Lines starting with '#' are not robot commands. Before each motion command, move the \
+                 guide to the\n# position of the '# guide q1_mm=<mm>' line above it (the Meca500 does not \
+                 drive the guide).\n",
+            );
+            if args.emit == Emit::Meca500Poses {
+                out.push_str(
+                    "# MovePose: flange pose in the robot base frame by the nominal controller kinematics; \
+                     the controller\n# must pick the same posture (IK branch above) - MoveJoints \
+                     (--emit meca500) avoids that question.\n",
+                );
+                let zero = [0.0; 6];
+                let _ = writeln!(out, "{}", MecaCommand::SetWrf(zero).to_text());
+                let _ = writeln!(out, "{}", MecaCommand::SetTrf(zero).to_text());
+            }
+            for (row, c) in result.solved() {
+                let r = &requests[row];
+                let corrected = compensator.corrected_pose(&c.q, r.tcp, r.context).map_err(name_row)?;
+                let _ = writeln!(out, "# guide q1_mm={} (line {})", format_number(c.q.0[0]), line_of(row));
+                let cmd = match args.emit {
+                    Emit::Meca500 => MecaCommand::MoveJoints(corrected.controller_joints_deg),
+                    _ => MecaCommand::MovePose(corrected.controller_pose),
+                };
+                let _ = writeln!(out, "{}", cmd.to_text());
+            }
+        }
+    }
+    std::fs::write(&args.out, out).with_context(|| format!("{}: cannot write", args.out.display()))?;
+    let solved = result.solved().count();
+    eprintln!(
+        "compensated {solved} of {} poses -> {}{}",
+        requests.len(),
+        args.out.display(),
+        if solved < requests.len() {
+            format!(" ({} skipped)", requests.len() - solved)
+        } else {
+            String::new()
+        }
+    );
+    Ok(())
+}

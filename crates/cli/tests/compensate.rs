@@ -1,0 +1,262 @@
+//! End-to-end tests of `vatcal compensate` through the real binary.
+
+use std::process::Command;
+
+use vatcal_compensation::PoseRequest;
+use vatcal_core::{CellFile, JointVector, MeasurementContext};
+use vatcal_kinematics::Model;
+
+fn vatcal() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vatcal"))
+}
+
+fn fixture(name: &str) -> String {
+    format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn nominal() -> Model {
+    Model::from_cell(&CellFile::load(fixture("meca500-zaber.toml")).expect("cell")).expect("model")
+}
+
+/// A calibrated model file (a perturbed truth of the canonical cell) and requests along a
+/// short joint-space line, written as a poses CSV.
+struct Setup {
+    dir: tempfile::TempDir,
+    model_path: String,
+    calibrated: Model,
+    requests: Vec<PoseRequest>,
+}
+
+fn setup() -> Setup {
+    let dir = tempfile::tempdir().expect("tmp");
+    let calibrated =
+        vatcal_sim::truth::perturbed_truth(&nominal(), 4, &vatcal_sim::truth::ErrorBudget::realistic());
+    let model_path = dir.path().join("calibrated.toml").display().to_string();
+    calibrated.to_cell().save(&model_path).expect("save");
+    let calibrated = Model::from_cell(&CellFile::load(&model_path).expect("load")).expect("model");
+    let a = JointVector::from_mm_deg(100.0, [0.0, 10.0, -20.0, 10.0, 40.0, 10.0]);
+    let b = JointVector::from_mm_deg(130.0, [15.0, 20.0, -30.0, 20.0, 50.0, 40.0]);
+    let requests = (0..6)
+        .map(|k| {
+            let t = k as f64 / 5.0;
+            let q = JointVector(std::array::from_fn(|i| a.0[i] + t * (b.0[i] - a.0[i])));
+            let tool = calibrated.chain(&q).tool;
+            PoseRequest::from_tool_frame(&calibrated, 2, q.0[0], &tool, MeasurementContext::default())
+                .expect("request")
+        })
+        .collect();
+    Setup { dir, model_path, calibrated, requests }
+}
+
+fn poses_csv(requests: &[PoseRequest]) -> String {
+    let mut s = String::from("tcp,q1,x,y,z,alpha,beta,gamma\n");
+    for r in requests {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},{}\n",
+            r.tcp, r.q1_mm, r.xyz_mm[0], r.xyz_mm[1], r.xyz_mm[2], r.abc_deg[0], r.abc_deg[1], r.abc_deg[2]
+        ));
+    }
+    s
+}
+
+fn write(s: &Setup, name: &str, text: &str) -> String {
+    let p = s.dir.path().join(name);
+    std::fs::write(&p, text).expect("write");
+    p.display().to_string()
+}
+
+fn run(args: &[&str]) -> (bool, String, String) {
+    let out = vatcal().args(args).output().expect("run");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// Data rows of a CSV with `#` comments, split into fields (header first).
+fn csv_rows(text: &str) -> Vec<Vec<String>> {
+    text.lines().filter(|l| !l.starts_with('#')).map(|l| l.split(',').map(String::from).collect()).collect()
+}
+
+#[test]
+fn joint_targets_reach_the_requests_under_the_calibrated_model() {
+    let s = setup();
+    let poses = write(&s, "poses.csv", &poses_csv(&s.requests));
+    let out = s.dir.path().join("targets.csv").display().to_string();
+    let (ok, _, err) = run(&["compensate", "--model", &s.model_path, "--poses", &poses, "--out", &out]);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&out).expect("out");
+    assert!(text.contains("# calibration: ") && text.contains("fnv1a64"), "{text}");
+    let rows = csv_rows(&text);
+    assert_eq!(rows[0].join(","), "line,tcp,q1,q2,q3,q4,q5,q6,q7,branch,residual_mm,residual_deg");
+    assert_eq!(rows.len(), 7);
+    // `vatcal fk` with the calibrated model on the output (it reads tcp,q1..q7) gives the
+    // requested points
+    let (ok, fk, err) = run(&["fk", "--model", &s.model_path, "--input", &out]);
+    assert!(ok, "{err}");
+    let branch = &rows[1][9];
+    for ((line, row), req) in fk.lines().skip(1).zip(&rows[1..]).zip(&s.requests) {
+        let p: Vec<f64> = line.split(',').map(|v| v.parse().expect("number")).collect();
+        for k in 0..3 {
+            assert!((p[k] - req.xyz_mm[k]).abs() < 1e-6, "{p:?} vs {:?}", req.xyz_mm);
+        }
+        assert_eq!(&row[9], branch, "one branch along the path");
+        let residual: f64 = row[10].parse().expect("residual");
+        assert!(residual < 1e-6);
+    }
+    // the joints also give the requested orientation (library FK of the same joints)
+    for (row, req) in rows[1..].iter().zip(&s.requests) {
+        let v: Vec<f64> = row[2..9].iter().map(|x| x.parse().expect("number")).collect();
+        let q = JointVector::from_mm_deg(v[0], [v[1], v[2], v[3], v[4], v[5], v[6]]);
+        let target = req.tool_target(&s.calibrated, 0).expect("target");
+        let tool = s.calibrated.chain(&q).tool;
+        assert!(vatcal_planning::ik::rotation_angle_between(&tool.r, &target.tool.r) < 1e-9);
+    }
+}
+
+#[test]
+fn corrected_poses_and_meca500_programs() {
+    let s = setup();
+    let poses = write(&s, "poses.csv", &poses_csv(&s.requests));
+    let joints = s.dir.path().join("targets.csv").display().to_string();
+    let (ok, _, err) = run(&["compensate", "--model", &s.model_path, "--poses", &poses, "--out", &joints]);
+    assert!(ok, "{err}");
+    let targets: Vec<JointVector> = csv_rows(&std::fs::read_to_string(&joints).expect("read"))[1..]
+        .iter()
+        .map(|r| {
+            let v: Vec<f64> = r[2..9].iter().map(|x| x.parse().expect("number")).collect();
+            JointVector::from_mm_deg(v[0], [v[1], v[2], v[3], v[4], v[5], v[6]])
+        })
+        .collect();
+
+    // --emit poses: FK of the nominal model at the compensated joints, in the input format
+    let corrected = s.dir.path().join("corrected.csv").display().to_string();
+    let (ok, _, err) = run(&[
+        "compensate",
+        "--model",
+        &s.model_path,
+        "--poses",
+        &poses,
+        "--out",
+        &corrected,
+        "--emit",
+        "poses",
+        "--nominal",
+        &fixture("meca500-zaber.toml"),
+    ]);
+    assert!(ok, "{err}");
+    let rows = csv_rows(&std::fs::read_to_string(&corrected).expect("read"));
+    assert_eq!(rows[0].join(","), "line,tcp,q1,x,y,z,alpha,beta,gamma");
+    let nom = nominal();
+    for (row, q) in rows[1..].iter().zip(&targets) {
+        let v: Vec<f64> = row[3..6].iter().map(|x| x.parse().expect("number")).collect();
+        let p = nom.tcp_position(q, 2).expect("fk");
+        assert!((v[0] - p.x).abs() < 1e-6 && (v[1] - p.y).abs() < 1e-6 && (v[2] - p.z).abs() < 1e-6);
+    }
+    // the corrected poses are themselves a valid poses file: compensating them under the
+    // nominal model gives back the same joints
+    let back = s.dir.path().join("back.csv").display().to_string();
+    let nominal_path = fixture("meca500-zaber.toml");
+    let (ok, _, err) = run(&["compensate", "--model", &nominal_path, "--poses", &corrected, "--out", &back]);
+    assert!(ok, "{err}");
+    for (row, q) in csv_rows(&std::fs::read_to_string(&back).expect("read"))[1..].iter().zip(&targets) {
+        let v: Vec<f64> = row[2..9].iter().map(|x| x.parse().expect("number")).collect();
+        let mm_deg = q.to_mm_deg();
+        assert!(v.iter().zip(mm_deg).all(|(a, b)| (a - b).abs() < 1e-6), "{v:?} vs {mm_deg:?}");
+    }
+
+    // --emit meca500: MoveJoints lines the driver's codec parses, one guide comment each
+    let program = s.dir.path().join("program.txt").display().to_string();
+    let (ok, _, err) = run(&[
+        "compensate",
+        "--model",
+        &s.model_path,
+        "--poses",
+        &poses,
+        "--out",
+        &program,
+        "--emit",
+        "meca500",
+    ]);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&program).expect("read");
+    assert!(text.contains(&format!("# calibration: {}", s.model_path)), "{text}");
+    let commands: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
+    let guides: Vec<f64> = text
+        .lines()
+        .filter_map(|l| l.strip_prefix("# guide q1_mm="))
+        .map(|l| l.split(' ').next().expect("value").parse().expect("number"))
+        .collect();
+    assert_eq!(commands.len(), targets.len());
+    assert_eq!(guides.len(), targets.len());
+    for ((line, q), g) in commands.iter().zip(&targets).zip(&guides) {
+        let parsed = vatcal_drivers_meca500::codec::parse_command(line).expect("parse");
+        let vatcal_drivers_meca500::Command::MoveJoints(j) = parsed.command else {
+            panic!("{line} is not MoveJoints")
+        };
+        let mm_deg = q.to_mm_deg();
+        assert!(j.iter().zip(&mm_deg[1..]).all(|(a, b)| (a - b).abs() < 1e-8), "{j:?}");
+        assert!((g - mm_deg[0]).abs() < 1e-8);
+    }
+
+    // --emit meca500-poses: MovePose lines = the controller's FK of the joints
+    let (ok, _, err) = run(&[
+        "compensate",
+        "--model",
+        &s.model_path,
+        "--poses",
+        &poses,
+        "--out",
+        &program,
+        "--emit",
+        "meca500-poses",
+    ]);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&program).expect("read");
+    let commands: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(commands[0], "SetWrf(0,0,0,0,0,0)");
+    assert_eq!(commands[1], "SetTrf(0,0,0,0,0,0)");
+    for (line, q) in commands[2..].iter().zip(&targets) {
+        let parsed = vatcal_drivers_meca500::codec::parse_command(line).expect("parse");
+        let vatcal_drivers_meca500::Command::MovePose(p) = parsed.command else { panic!("{line}") };
+        let mm_deg = q.to_mm_deg();
+        let arm: [f64; 6] = std::array::from_fn(|k| mm_deg[k + 1]);
+        let sim =
+            vatcal_drivers_meca500::sim::to_xyzabc(&vatcal_drivers_meca500::sim::forward_kinematics(&arm));
+        assert!(p.iter().zip(sim).all(|(a, b)| (a - b).abs() < 1e-6), "{p:?} vs {sim:?}");
+    }
+}
+
+#[test]
+fn bad_and_unreachable_rows_are_named() {
+    let s = setup();
+    let out = s.dir.path().join("out.csv").display().to_string();
+    let bad = write(&s, "bad.csv", "tcp,q1,x,y,z,alpha,beta,gamma\n2,100,0,0,0,0,0,0\n2,100,0,zz,0,0,0,0\n");
+    let (ok, _, err) = run(&["compensate", "--model", &s.model_path, "--poses", &bad, "--out", &out]);
+    assert!(!ok);
+    assert!(err.contains("bad.csv:3") && err.contains("`y`") && err.contains("not a number"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+
+    let mut far = s.requests.clone();
+    far[3].xyz_mm[1] += 3000.0;
+    let far_path = write(&s, "far.csv", &poses_csv(&far));
+    let (ok, _, err) = run(&["compensate", "--model", &s.model_path, "--poses", &far_path, "--out", &out]);
+    assert!(!ok);
+    assert!(err.contains("far.csv:5") && err.contains("cannot be reached"), "{err}");
+    let (ok, _, err) = run(&[
+        "compensate",
+        "--model",
+        &s.model_path,
+        "--poses",
+        &far_path,
+        "--out",
+        &out,
+        "--skip-unreachable",
+    ]);
+    assert!(ok, "{err}");
+    assert!(err.contains("skipped") && err.contains("far.csv:5"), "{err}");
+    let text = std::fs::read_to_string(&out).expect("read");
+    assert!(text.contains("# skipped"), "{text}");
+    assert_eq!(csv_rows(&text).len(), 1 + 5);
+}

@@ -1,0 +1,44 @@
+//! # vatcal-compensation
+//!
+//! Puts a calibration to work: turns requested world poses into joint targets under the
+//! **calibrated** model (issue 13), so that the cell physically lands where it is asked to, and
+//! into the poses the robot's own (nominal) controller must be sent to get there.
+//!
+//! * [`PoseRequest`] — one requested pose as a slicer writes it: TCP id, guide position `q1`
+//!   \[mm\], TCP point `x, y, z` \[mm\] in the world (resin-tank) frame and the orientation of
+//!   the tool-changer frame (frame 7) as Mecademic intrinsic X-Y-Z Euler angles `α, β, γ`
+//!   \[deg\], plus the optional per-sample context (`time_s`, `temperature_c`, `dir`) the
+//!   model's effects use. [`ToolTarget`] is the same request as a world frame.
+//! * [`Compensator`] — [`Compensator::compensate_pose`] for one pose,
+//!   [`Compensator::compensate_path`] for a path (same IK branch throughout, each pose seeded
+//!   from the previous solution, branch changes, joint jumps, limit violations and unreachable
+//!   rows named, or skipped and reported), and [`Compensator::corrected_pose`] —
+//!   `FK_nominal(IK_calibrated(request))`, the pose a `MovePose` program must send.
+//! * [`path_accuracy`] — the proof on a virtual cell: the true error along a path commanded
+//!   with compensated targets and with uncompensated (nominal) targets.
+//!
+//! The solver ([`solve`]) is Newton's method on the analytic 6×6 joint Jacobian of the tool
+//! frame (compliance and every enabled effect in the forward kinematics, the Jacobian holding
+//! gravity torques fixed as in the paper), warm-started from the previous pose; the first pose
+//! of a path, or a pose where the warm start fails, is seeded from the closed-form branches of
+//! `vatcal_planning::ik`.
+//!
+//! Units: mm and degrees in [`PoseRequest`] and in the files, mm and radians inside.
+//! See `docs/compensation.md`.
+
+mod accuracy;
+mod error;
+mod path;
+mod pose;
+pub mod solve;
+
+pub use accuracy::{ErrorSummary, PathAccuracy, path_accuracy};
+pub use error::CompensationError;
+pub use path::{
+    Compensated, Compensator, CorrectedPose, PathOptions, PathOutcome, PathResult, RowOutcome, SkippedRow,
+};
+pub use pose::{
+    PoseRequest, ToolTarget, euler_xyz_deg_to_rotation, frame_to_meca_pose, meca_pose_to_frame,
+    rotation_to_euler_xyz_deg,
+};
+pub use solve::{Branch, SolveOptions};
