@@ -34,9 +34,7 @@ pub mod solve;
 
 pub use accuracy::{ErrorSummary, PathAccuracy, path_accuracy};
 pub use error::CompensationError;
-pub use path::{
-    Compensated, Compensator, CorrectedPose, PathOptions, PathOutcome, PathResult, RowOutcome, SkippedRow,
-};
+pub use path::{Compensated, Compensator, CorrectedPose, PathOptions, PathResult, RowOutcome, SkippedRow};
 pub use pose::{
     PoseRequest, ToolTarget, euler_xyz_deg_to_rotation, frame_to_meca_pose, meca_pose_to_frame,
     rotation_to_euler_xyz_deg,

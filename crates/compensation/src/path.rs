@@ -85,9 +85,6 @@ pub enum RowOutcome {
     Skipped(SkippedRow),
 }
 
-/// Alias kept for readers of the path API.
-pub type PathOutcome = RowOutcome;
-
 /// A compensated path.
 #[derive(Debug)]
 pub struct PathResult {
@@ -397,7 +394,7 @@ impl<'a> Compensator<'a> {
                 return Ok(s);
             }
         }
-        match solutions.first() {
+        match solutions.iter().find(|(b, _)| *b != branch) {
             Some((other, _)) => Err(CompensationError::BranchChange { row, from: branch, to: *other }),
             None => Err(CompensationError::Unreachable {
                 row,
