@@ -112,6 +112,22 @@ impl PathResult {
     }
 }
 
+/// Seed of the next row of a dense path: the previous solution extrapolated linearly from the
+/// one before (the path's joints are smooth), unless that step is large (then the previous
+/// solution itself).
+fn predicted_seed(prev: &JointVector, before: Option<&JointVector>, max_step_rad: f64) -> JointVector {
+    let Some(b) = before else { return *prev };
+    let mut seed = *prev;
+    for k in 1..7 {
+        let d = prev.0[k] - b.0[k];
+        if d.abs() > 0.5 * max_step_rad {
+            return *prev;
+        }
+        seed.0[k] += d;
+    }
+    seed
+}
+
 /// What the robot's own controller must be sent for compensated joints.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CorrectedPose {
@@ -243,10 +259,15 @@ impl<'a> Compensator<'a> {
         let mut branch = opts.branch;
         let mut path_branch_fixed = false;
         let mut prev: Option<JointVector> = None;
+        // the solved row before `prev`, for a linear prediction of the next seed
+        let mut before: Option<JointVector> = None;
         for (row, target) in targets.iter().enumerate() {
             let outcome = match prev {
                 None => self.first_row(row, target, opts, branch),
-                Some(p) => self.next_row(row, target, &p, branch.unwrap_or(Branch(0)), opts),
+                Some(p) => {
+                    let seed = predicted_seed(&p, before.as_ref(), opts.max_joint_step_deg.to_radians());
+                    self.next_row(row, target, &p, &seed, branch.unwrap_or(Branch(0)), opts)
+                }
             };
             match outcome {
                 Ok(c) => {
@@ -254,6 +275,7 @@ impl<'a> Compensator<'a> {
                         branch = Some(c.branch);
                         path_branch_fixed = true;
                     }
+                    before = prev;
                     prev = Some(c.q);
                     rows.push(RowOutcome::Solved(c));
                 }
@@ -346,15 +368,25 @@ impl<'a> Compensator<'a> {
         row: usize,
         target: &ToolTarget,
         prev: &JointVector,
+        seed: &JointVector,
         branch: Branch,
         opts: &PathOptions,
     ) -> Result<Compensated, CompensationError> {
-        let warm = newton(self.calibrated, target, prev, &opts.solve);
-        let solved = match warm {
-            Ok(s) if self.branch_of(&s.q) == branch => s,
-            _ => self.reseed(row, target, prev, branch, &opts.solve, warm.err())?,
+        let mut warm = newton(self.calibrated, target, seed, &opts.solve);
+        if warm.is_err() && seed != prev {
+            warm = newton(self.calibrated, target, prev, &opts.solve);
+        }
+        let c = match warm {
+            Ok(s) => {
+                let c = self.accept(s);
+                if c.branch == branch {
+                    c
+                } else {
+                    self.accept(self.reseed(row, target, prev, branch, &opts.solve, None)?)
+                }
+            }
+            Err(e) => self.accept(self.reseed(row, target, prev, branch, &opts.solve, Some(e))?),
         };
-        let c = self.accept(solved);
         let max_step = opts.max_joint_step_deg.to_radians();
         if let Some(k) =
             (1..7).max_by(|&a, &b| (c.q.0[a] - prev.0[a]).abs().total_cmp(&(c.q.0[b] - prev.0[b]).abs()))

@@ -177,6 +177,10 @@ pub fn newton(
                 accepted = true;
                 break;
             }
+            // at rounding level a full step no longer helps: stop without halving
+            if pe <= opts.accept_position_mm && re <= opts.accept_rotation_rad {
+                break;
+            }
             scale *= 0.5;
         }
         iterations += 1;
