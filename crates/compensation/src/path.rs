@@ -112,10 +112,15 @@ impl PathResult {
     }
 }
 
-/// Seed of the next row of a dense path: the previous solution extrapolated linearly from the
-/// one before (the path's joints are smooth), unless that step is large (then the previous
-/// solution itself).
-fn predicted_seed(prev: &JointVector, before: Option<&JointVector>, max_step_rad: f64) -> JointVector {
+/// Seed of the next row of a dense path: the previous solution extrapolated from the ones
+/// before it (quadratically from three rows, linearly from two; the joints of a print path are
+/// smooth), unless a step is large (then the previous solution itself).
+fn predicted_seed(
+    prev: &JointVector,
+    before: Option<&JointVector>,
+    before2: Option<&JointVector>,
+    max_step_rad: f64,
+) -> JointVector {
     let Some(b) = before else { return *prev };
     let mut seed = *prev;
     for k in 1..7 {
@@ -123,7 +128,11 @@ fn predicted_seed(prev: &JointVector, before: Option<&JointVector>, max_step_rad
         if d.abs() > 0.5 * max_step_rad {
             return *prev;
         }
-        seed.0[k] += d;
+        seed.0[k] += match before2 {
+            // q(t+1) = 3 q(t) - 3 q(t-1) + q(t-2)
+            Some(b2) => 2.0 * d - (b.0[k] - b2.0[k]),
+            None => d,
+        };
     }
     seed
 }
@@ -261,11 +270,17 @@ impl<'a> Compensator<'a> {
         let mut prev: Option<JointVector> = None;
         // the solved row before `prev`, for a linear prediction of the next seed
         let mut before: Option<JointVector> = None;
+        let mut before2: Option<JointVector> = None;
         for (row, target) in targets.iter().enumerate() {
             let outcome = match prev {
                 None => self.first_row(row, target, opts, branch),
                 Some(p) => {
-                    let seed = predicted_seed(&p, before.as_ref(), opts.max_joint_step_deg.to_radians());
+                    let seed = predicted_seed(
+                        &p,
+                        before.as_ref(),
+                        before2.as_ref(),
+                        opts.max_joint_step_deg.to_radians(),
+                    );
                     self.next_row(row, target, &p, &seed, branch.unwrap_or(Branch(0)), opts)
                 }
             };
@@ -275,6 +290,7 @@ impl<'a> Compensator<'a> {
                         branch = Some(c.branch);
                         path_branch_fixed = true;
                     }
+                    before2 = before;
                     before = prev;
                     prev = Some(c.q);
                     rows.push(RowOutcome::Solved(c));
