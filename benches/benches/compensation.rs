@@ -41,6 +41,12 @@ fn bench_compensation(c: &mut Criterion) {
     group.bench_function("path_10000_poses", |bch| {
         bch.iter(|| comp.compensate_path(black_box(&targets), &opts).expect("path"))
     });
+    // the unit of work: one forward kinematics with compliance (gravity torques included)
+    let q = a;
+    let ctx = vatcal_core::MeasurementContext::default();
+    group.bench_function("chain_full_with_compliance", |bch| {
+        bch.iter(|| calibrated.chain_full(black_box(&q), &ctx, false, None))
+    });
     group.finish();
 }
 

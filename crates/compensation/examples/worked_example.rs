@@ -43,7 +43,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         c.rotation_residual_rad.to_degrees(),
         c.iterations
     );
-    let uncompensated = Compensator::new(&nominal, &nominal)?.compensate_pose(&request, Some(&c.q), &SolveOptions::default())?;
+    let uncompensated = Compensator::new(&nominal, &nominal)?.compensate_pose(
+        &request,
+        Some(&c.q),
+        &SolveOptions::default(),
+    )?;
     println!("uncompensated (nominal IK) q1..q7: {:?}", uncompensated.q.to_mm_deg());
     let true_miss = calibrated.tcp_position(&uncompensated.q, 2)? - nalgebra::Vector3::from(request.xyz_mm);
     println!(

@@ -19,7 +19,8 @@
 //!
 //! The solver ([`solve`]) is Newton's method on the analytic 6×6 joint Jacobian of the tool
 //! frame (compliance and every enabled effect in the forward kinematics, the Jacobian holding
-//! gravity torques fixed as in the paper), warm-started from the previous pose; the first pose
+//! gravity torques fixed as in the paper), warm-started from a quadratic prediction of the
+//! previous poses' solutions; the first pose
 //! of a path, or a pose where the warm start fails, is seeded from the closed-form branches of
 //! `vatcal_planning::ik`.
 //!
@@ -34,9 +35,7 @@ pub mod solve;
 
 pub use accuracy::{ErrorSummary, PathAccuracy, path_accuracy};
 pub use error::CompensationError;
-pub use path::{
-    Compensated, Compensator, CorrectedPose, PathOptions, PathOutcome, PathResult, RowOutcome, SkippedRow,
-};
+pub use path::{Compensated, Compensator, CorrectedPose, PathOptions, PathResult, RowOutcome, SkippedRow};
 pub use pose::{
     PoseRequest, ToolTarget, euler_xyz_deg_to_rotation, frame_to_meca_pose, meca_pose_to_frame,
     rotation_to_euler_xyz_deg,

@@ -85,9 +85,6 @@ pub enum RowOutcome {
     Skipped(SkippedRow),
 }
 
-/// Alias kept for readers of the path API.
-pub type PathOutcome = RowOutcome;
-
 /// A compensated path.
 #[derive(Debug)]
 pub struct PathResult {
@@ -113,6 +110,31 @@ impl PathResult {
             RowOutcome::Solved(_) => None,
         })
     }
+}
+
+/// Seed of the next row of a dense path: the previous solution extrapolated from the ones
+/// before it (quadratically from three rows, linearly from two; the joints of a print path are
+/// smooth), unless a step is large (then the previous solution itself).
+fn predicted_seed(
+    prev: &JointVector,
+    before: Option<&JointVector>,
+    before2: Option<&JointVector>,
+    max_step_rad: f64,
+) -> JointVector {
+    let Some(b) = before else { return *prev };
+    let mut seed = *prev;
+    for k in 1..7 {
+        let d = prev.0[k] - b.0[k];
+        if d.abs() > 0.5 * max_step_rad {
+            return *prev;
+        }
+        seed.0[k] += match before2 {
+            // q(t+1) = 3 q(t) - 3 q(t-1) + q(t-2)
+            Some(b2) => 2.0 * d - (b.0[k] - b2.0[k]),
+            None => d,
+        };
+    }
+    seed
 }
 
 /// What the robot's own controller must be sent for compensated joints.
@@ -246,10 +268,21 @@ impl<'a> Compensator<'a> {
         let mut branch = opts.branch;
         let mut path_branch_fixed = false;
         let mut prev: Option<JointVector> = None;
+        // the solved row before `prev`, for a linear prediction of the next seed
+        let mut before: Option<JointVector> = None;
+        let mut before2: Option<JointVector> = None;
         for (row, target) in targets.iter().enumerate() {
             let outcome = match prev {
                 None => self.first_row(row, target, opts, branch),
-                Some(p) => self.next_row(row, target, &p, branch.unwrap_or(Branch(0)), opts),
+                Some(p) => {
+                    let seed = predicted_seed(
+                        &p,
+                        before.as_ref(),
+                        before2.as_ref(),
+                        opts.max_joint_step_deg.to_radians(),
+                    );
+                    self.next_row(row, target, &p, &seed, branch.unwrap_or(Branch(0)), opts)
+                }
             };
             match outcome {
                 Ok(c) => {
@@ -257,6 +290,8 @@ impl<'a> Compensator<'a> {
                         branch = Some(c.branch);
                         path_branch_fixed = true;
                     }
+                    before2 = before;
+                    before = prev;
                     prev = Some(c.q);
                     rows.push(RowOutcome::Solved(c));
                 }
@@ -349,15 +384,25 @@ impl<'a> Compensator<'a> {
         row: usize,
         target: &ToolTarget,
         prev: &JointVector,
+        seed: &JointVector,
         branch: Branch,
         opts: &PathOptions,
     ) -> Result<Compensated, CompensationError> {
-        let warm = newton(self.calibrated, target, prev, &opts.solve);
-        let solved = match warm {
-            Ok(s) if self.branch_of(&s.q) == branch => s,
-            _ => self.reseed(row, target, prev, branch, &opts.solve, warm.err())?,
+        let mut warm = newton(self.calibrated, target, seed, &opts.solve);
+        if warm.is_err() && seed != prev {
+            warm = newton(self.calibrated, target, prev, &opts.solve);
+        }
+        let c = match warm {
+            Ok(s) => {
+                let c = self.accept(s);
+                if c.branch == branch {
+                    c
+                } else {
+                    self.accept(self.reseed(row, target, prev, branch, &opts.solve, None)?)
+                }
+            }
+            Err(e) => self.accept(self.reseed(row, target, prev, branch, &opts.solve, Some(e))?),
         };
-        let c = self.accept(solved);
         let max_step = opts.max_joint_step_deg.to_radians();
         if let Some(k) =
             (1..7).max_by(|&a, &b| (c.q.0[a] - prev.0[a]).abs().total_cmp(&(c.q.0[b] - prev.0[b]).abs()))
@@ -397,7 +442,7 @@ impl<'a> Compensator<'a> {
                 return Ok(s);
             }
         }
-        match solutions.first() {
+        match solutions.iter().find(|(b, _)| *b != branch) {
             Some((other, _)) => Err(CompensationError::BranchChange { row, from: branch, to: *other }),
             None => Err(CompensationError::Unreachable {
                 row,

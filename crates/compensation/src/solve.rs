@@ -46,14 +46,13 @@ pub struct SolveOptions {
 }
 
 impl Default for SolveOptions {
-    /// Iterate to 1e-10 mm / 1e-13 rad (a hundred times below what rounding allows to be
-    /// sure of), accept down to the requirement 1e-6 mm / 1e-9 rad; 30 iterations; steps of at
-    /// most 0.3 rad.
+    /// Iterate to 1e-9 mm / 1e-12 rad (a thousand times below the requirement), accept down
+    /// to the requirement 1e-6 mm / 1e-9 rad; 30 iterations; steps of at most 0.3 rad.
     fn default() -> Self {
         Self {
             max_iterations: 30,
-            tol_position_mm: 1e-10,
-            tol_rotation_rad: 1e-13,
+            tol_position_mm: 1e-9,
+            tol_rotation_rad: 1e-12,
             accept_position_mm: 1e-6,
             accept_rotation_rad: 1e-9,
             max_step_rad: 0.3,
@@ -175,6 +174,10 @@ pub fn newton(
                 e = trial_e;
                 c = trial_c;
                 accepted = true;
+                break;
+            }
+            // at rounding level a full step no longer helps: stop without halving
+            if pe <= opts.accept_position_mm && re <= opts.accept_rotation_rad {
                 break;
             }
             scale *= 0.5;
