@@ -36,6 +36,8 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Find missing physical effects in the model, add them, and show the gap shrink.
     Discover(cmd::discover::Args),
+    /// Run a planned measurement campaign on the cell named by a devices file.
+    Campaign(cmd::campaign::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -50,6 +52,7 @@ fn main() -> std::process::ExitCode {
         Command::Plan(a) => cmd::plan::run(a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Discover(a) => cmd::discover::run(a),
+        Command::Campaign(a) => cmd::campaign::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
