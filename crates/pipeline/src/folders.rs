@@ -168,3 +168,31 @@ impl RunFolder {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_plan_folder_or_tour_is_named() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let missing = PlanFolder::new(dir.path().join("nope"));
+        let e = missing.read_tour().expect_err("missing").to_string();
+        assert!(e.contains("nope") && e.contains("vatcal plan"), "{e}");
+        let empty = PlanFolder::new(dir.path());
+        let e = empty.read_tour().expect_err("no tour").to_string();
+        assert!(e.contains("tour.csv"), "{e}");
+    }
+
+    #[test]
+    fn run_folder_writes_and_reads_measurements_and_removes_journals() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let run = RunFolder::new(dir.path().join("run"));
+        run.create().expect("create");
+        std::fs::write(run.journal(), "x").expect("journal");
+        run.remove_journals().expect("remove");
+        assert!(!run.journal().exists());
+        let e = run.journal_measurements().expect_err("no journal").to_string();
+        assert!(e.contains("campaign.journal"), "{e}");
+    }
+}

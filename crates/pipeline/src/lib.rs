@@ -207,7 +207,6 @@ pub fn run<S: ReportSetup>(
     });
 
     let tour = plan_folder.read_tour()?;
-    stages.start(Stage::Campaign, Some(tour.steps.len()));
     let clock_start_s = devices.devices().clock.now_s();
     let campaign =
         campaign_stage(devices, &nominal, &tour, &folder, opts.campaign.clone(), &mut *stages.progress)?;
@@ -307,7 +306,8 @@ pub fn plan_stage(
 
 /// Runs `tour` on `devices`, journaling into the run folder's `campaign.journal` (a journal
 /// of the same plan is resumed where it stopped: nothing lost, nothing repeated), reporting
-/// every step to `progress`, and writes `measurements.csv` at the end.
+/// the start of [`Stage::Campaign`] and every step to `progress`, and writes
+/// `measurements.csv` at the end.
 ///
 /// # Errors
 /// The campaign's error (the journal keeps every completed step: run again to resume).
@@ -319,6 +319,7 @@ pub fn campaign_stage(
     config: CampaignConfig,
     progress: &mut dyn Progress,
 ) -> Result<CampaignReport, PipelineError> {
+    progress.stage_started(Stage::Campaign, Some(tour.steps.len()));
     let journal = folder.journal();
     let report = run_campaign(devices, nominal, tour, &journal, config, Stage::Campaign, progress)?;
     folder.write_measurements(&report.measurements)?;
