@@ -39,6 +39,8 @@ enum Command {
     /// Joint targets (and corrected poses / Meca500 programs) that make the cell reach
     /// requested world poses under the calibrated model.
     Compensate(cmd::compensate::Args),
+    /// Run a planned measurement campaign on the cell named by a devices file.
+    Campaign(cmd::campaign::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -54,6 +56,7 @@ fn main() -> std::process::ExitCode {
         Command::Demo(a) => cmd::demo::run(a),
         Command::Discover(a) => cmd::discover::run(a),
         Command::Compensate(a) => cmd::compensate::run(a),
+        Command::Campaign(a) => cmd::campaign::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

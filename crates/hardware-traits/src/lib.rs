@@ -41,6 +41,7 @@ mod error;
 mod gauge;
 mod operator;
 mod probe;
+pub mod sim_server;
 mod tracker;
 pub mod transport;
 

@@ -8,7 +8,7 @@ use vatcal_core::JointVector;
 use vatcal_hardware_traits::{TriCal, TriCalConfig, VirtualClock};
 use vatcal_kinematics::Model;
 
-use crate::config::{SimConfig, SimFaults, SimTiming};
+use crate::config::{SimConfig, SimFaults};
 use crate::devices::{Shared, SimArm, SimGauge, SimGuide, SimOperator, SimTracker};
 use crate::truth::{ErrorBudget, perturbed_truth};
 use crate::world::World;
@@ -28,7 +28,7 @@ use crate::world::World;
 /// methods are oracles for tests and reports — campaign code must not use them.
 #[derive(Debug, Clone)]
 pub struct VirtualCell {
-    shared: Shared,
+    pub(crate) shared: Shared,
 }
 
 impl VirtualCell {
@@ -54,10 +54,7 @@ impl VirtualCell {
     /// default [`SimConfig`] with the timing of the nominal cell file's motion limits.
     pub fn paper(nominal: Model, seed: u64) -> Self {
         let truth = perturbed_truth(&nominal, seed, &ErrorBudget::realistic());
-        let config = SimConfig {
-            timing: SimTiming::from_motion_limits(&nominal.to_cell().motion_limits()),
-            ..SimConfig::default()
-        };
+        let config = SimConfig::paper_for(&nominal);
         Self::new(nominal, truth, config, seed)
     }
 

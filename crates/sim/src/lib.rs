@@ -20,6 +20,7 @@ mod cell;
 mod config;
 mod controller;
 mod devices;
+pub mod external;
 mod noise;
 mod world;
 

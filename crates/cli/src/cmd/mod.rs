@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod campaign;
 pub mod compensate;
 pub mod demo;
 pub mod discover;

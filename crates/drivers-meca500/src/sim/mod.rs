@@ -1,7 +1,7 @@
 //! A fake Meca500 speaking the TCP text API on loopback (protocols.md §1.12 checklist).
 //!
-//! [`Meca500Sim::start`] binds `127.0.0.1:0` (an ephemeral control port, plus an ephemeral
-//! monitoring port if enabled) and serves from one background thread until the
+//! [`Meca500Sim::start`] binds [`SimConfig::control_bind`] (default `127.0.0.1:0`, an ephemeral
+//! port) and [`SimConfig::monitoring_bind`] if the monitoring port is enabled, and serves from one background thread until the
 //! [`Meca500Sim`] is dropped. What it models:
 //!
 //! * banner `[3000][Connected to Meca500 R3 v9.3.0]` (model, revision and firmware
@@ -11,7 +11,8 @@
 //!   arguments, `[3003]` for overlong input;
 //! * activation and homing with durations, `[1005]`/`[1006]`/`[1011]` refusals of queued
 //!   commands, the status word, error mode (stop, drop queue, pause), `ResetError`,
-//!   `ResumeMotion`, `PauseMotion`, `ClearMotion` (paused afterwards), `[3040]` on
+//!   `ResumeMotion`, `PauseMotion`, `ClearMotion` (paused afterwards), checkpoint ids 1…8191
+//!   (8001…8191 are the client library's own, as on the robot), `[3040]` on
 //!   firmware ≥ 10.2.1;
 //! * a motion queue: `MoveJoints`/`MoveJointsRel` (constant-speed joint interpolation at the
 //!   rated speeds × `SetJointVel`), `MovePose`/`MoveLin`/`MoveLinRelWrf`/`MoveLinRelTrf`
@@ -30,16 +31,17 @@ mod kinematics;
 mod robot;
 mod server;
 
-use std::net::SocketAddr;
+use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::Arc;
 use std::time::Duration;
 
-use vatcal_hardware_traits::{Clock, SystemClock};
+use nalgebra::Vector3;
+use vatcal_hardware_traits::{Clock, LinearFrame, SystemClock};
 
 pub use kinematics::{
     IkFailure, forward as forward_kinematics, from_xyzabc, inverse as inverse_kinematics, to_xyzabc,
 };
-pub use robot::{MotionParams, SUPPORTED_RT_CODES, SimRobot, SimState};
+pub use robot::{CHECKPOINT_IDS, MotionParams, SUPPORTED_RT_CODES, SimRobot, SimState};
 pub use server::Meca500Sim;
 
 use crate::codec::Six;
@@ -50,6 +52,28 @@ pub const DEFAULT_JOINT_LIMITS_DEG: [(f64, f64); 6] =
 
 /// Rated joint speeds [°/s] of a Meca500 R3 (the 100 % of `SetJointVel`).
 pub const RATED_JOINT_SPEED_DEG_S: [f64; 6] = [150.0, 150.0, 180.0, 300.0, 300.0, 500.0];
+
+/// A physical world behind the simulated controller (e.g. the whole virtual cell of
+/// `vatcal sim-cell`): it is told about every motion and may solve relative linear moves with
+/// the controller model of the cell instead of the simulator's built-in Meca500 kinematics.
+///
+/// The simulator calls these methods while it holds its own lock: an implementation must not
+/// call back into the [`Meca500Sim`].
+pub trait ArmBackend: Send + Sync + std::fmt::Debug {
+    /// A motion from `from_deg` to `to_deg` starts (it passed the joint-limit check).
+    fn motion_started(&self, from_deg: &Six, to_deg: &Six);
+
+    /// Joints \[deg\] that translate the flange by `translation_mm` (expressed in the axes of
+    /// the robot's base frame for [`LinearFrame::World`], of the flange for
+    /// [`LinearFrame::Tool`]) from `from_deg` with the orientation kept, or the robot's refusal
+    /// `(code, message)`. `None`: use the simulator's built-in kinematics.
+    fn linear_relative(
+        &self,
+        from_deg: &Six,
+        translation_mm: &Vector3<f64>,
+        frame: LinearFrame,
+    ) -> Option<Result<Six, (u16, String)>>;
+}
 
 /// Simulator settings.
 #[derive(Debug, Clone)]
@@ -85,11 +109,18 @@ pub struct SimConfig {
     pub monitoring_port: bool,
     /// time source
     pub clock: Arc<dyn Clock>,
+    /// address of the control port (port 0: ephemeral)
+    pub control_bind: SocketAddr,
+    /// address of the monitoring port, if enabled (port 0: ephemeral)
+    pub monitoring_bind: SocketAddr,
+    /// the physical world behind the controller, if any
+    pub backend: Option<Arc<dyn ArmBackend>>,
 }
 
 impl Default for SimConfig {
     /// Meca500 R3 v9.3.0, factory limits and speeds, real time, 1 s activation, 1.5 s homing,
-    /// zero joints, monitoring every 15 ms on its own port.
+    /// zero joints, monitoring every 15 ms on its own port, ephemeral ports on 127.0.0.1, no
+    /// backend.
     fn default() -> Self {
         Self {
             model: "Meca500".to_owned(),
@@ -107,6 +138,9 @@ impl Default for SimConfig {
             monitoring_interval: Duration::from_millis(15),
             monitoring_port: true,
             clock: Arc::new(SystemClock),
+            control_bind: (Ipv4Addr::LOCALHOST, 0).into(),
+            monitoring_bind: (Ipv4Addr::LOCALHOST, 0).into(),
+            backend: None,
         }
     }
 }

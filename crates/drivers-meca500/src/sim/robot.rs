@@ -5,6 +5,7 @@ use std::collections::{BTreeSet, VecDeque};
 use std::time::Duration;
 
 use nalgebra::Isometry3;
+use vatcal_hardware_traits::LinearFrame;
 
 use super::SimConfig;
 use super::kinematics::{self, IkFailure};
@@ -15,6 +16,11 @@ use crate::codec::{
 /// Real-time monitoring codes the simulator can stream.
 pub const SUPPORTED_RT_CODES: [u16; 4] =
     [code::RT_TARGET_JOINTS, code::RT_TARGET_CART, code::RT_JOINTS, code::RT_CART];
+
+/// Checkpoint ids the robot accepts: 1…8000 for applications, 8001…8191 reserved for the
+/// client library's own waits (mecademicpy's `WaitIdle` and friends); the real robot accepts
+/// the whole range (protocols.md §1.5).
+pub const CHECKPOINT_IDS: std::ops::RangeInclusive<u32> = 1..=8191;
 
 /// Error codes that `ResetError` cannot clear.
 const NOT_RESETTABLE: [u16; 6] = [
@@ -317,7 +323,12 @@ impl SimRobot {
             Command::SetBlending(v) => range(*v, 0.0, 100.0, "Blending"),
             Command::SetJointVelLimit(v) => range(*v, 0.001, 100.0, "Joint velocity limit"),
             Command::Delay(v) => range(*v, 0.0, 1e6, "Delay"),
-            Command::SetCheckpoint(n) => range(f64::from(*n), 1.0, 8000.0, "Checkpoint id"),
+            Command::SetCheckpoint(n) => range(
+                f64::from(*n),
+                f64::from(*CHECKPOINT_IDS.start()),
+                f64::from(*CHECKPOINT_IDS.end()),
+                "Checkpoint id",
+            ),
             Command::MoveJoints(q) => self.check_limits(q),
             _ => Ok(()),
         }
@@ -629,26 +640,69 @@ impl SimRobot {
             Command::MovePose(p) | Command::MoveLin(p) => {
                 self.cartesian_target(&kinematics::from_xyzabc(p))?
             }
-            Command::MoveLinRelWrf(d) => {
-                let current = self.tool_pose(&from);
+            Command::MoveLinRelWrf(d) | Command::MoveLinRelTrf(d) => {
+                let speed = self.params.cart_lin_vel_mm_s;
+                let solved = self.backend_linear(command, d).and_then(|(translation, frame)| {
+                    let backend = self.config.backend.as_ref()?;
+                    let q = backend.linear_relative(&from, &translation, frame)?;
+                    Some(q.map(|q| (q, translation.norm() / speed)))
+                });
+                match solved {
+                    Some(result) => result?,
+                    None => self.builtin_linear_relative(command, d, &from)?,
+                }
+            }
+            other => return Err((code::UNKNOWN_COMMAND, format!("{} is not a motion.", other.name()))),
+        };
+        self.check_limits(&to)?;
+        if let Some(backend) = &self.config.backend {
+            backend.motion_started(&from, &to);
+        }
+        let joint_s = self.joint_move_seconds(&from, &to);
+        let duration = secs(joint_s.max(cart_duration_s) / self.config.time_scale);
+        self.active = Some(Active::Move { from, to, start: now, duration });
+        Ok(())
+    }
+
+    /// A translation-only relative move handed to the backend: the translation in the base
+    /// axes (`MoveLinRelWrf`, through the WRF's orientation) or the flange axes
+    /// (`MoveLinRelTrf`, through the TRF's orientation). `None` without a backend or when the
+    /// move also rotates.
+    fn backend_linear(&self, command: &Command, d: &Six) -> Option<(nalgebra::Vector3<f64>, LinearFrame)> {
+        self.config.backend.as_ref()?;
+        if d[3..].iter().any(|a| *a != 0.0) {
+            return None;
+        }
+        let v = nalgebra::Vector3::new(d[0], d[1], d[2]);
+        match command {
+            Command::MoveLinRelWrf(_) => Some((self.wrf.rotation * v, LinearFrame::World)),
+            Command::MoveLinRelTrf(_) => Some((self.trf.rotation * v, LinearFrame::Tool)),
+            _ => None,
+        }
+    }
+
+    /// `MoveLinRelWrf`/`MoveLinRelTrf` on the simulator's built-in kinematics.
+    fn builtin_linear_relative(
+        &self,
+        command: &Command,
+        d: &Six,
+        from: &Six,
+    ) -> Result<(Six, f64), (u16, String)> {
+        match command {
+            Command::MoveLinRelWrf(_) => {
+                let current = self.tool_pose(from);
                 let delta = kinematics::from_xyzabc(d);
                 let target = Isometry3::from_parts(
                     (current.translation.vector + delta.translation.vector).into(),
                     delta.rotation * current.rotation,
                 );
-                self.cartesian_target(&target)?
+                self.cartesian_target(&target)
             }
-            Command::MoveLinRelTrf(d) => {
-                let target = self.tool_pose(&from) * kinematics::from_xyzabc(d);
-                self.cartesian_target(&target)?
+            _ => {
+                let target = self.tool_pose(from) * kinematics::from_xyzabc(d);
+                self.cartesian_target(&target)
             }
-            other => return Err((code::UNKNOWN_COMMAND, format!("{} is not a motion.", other.name()))),
-        };
-        self.check_limits(&to)?;
-        let joint_s = self.joint_move_seconds(&from, &to);
-        let duration = secs(joint_s.max(cart_duration_s) / self.config.time_scale);
-        self.active = Some(Active::Move { from, to, start: now, duration });
-        Ok(())
+        }
     }
 
     /// Joints for a TRF target pose in the WRF, and the Cartesian duration \[s\] at the current
@@ -820,6 +874,24 @@ mod tests {
         assert_eq!(send(&mut r, "ResumeMotion", ms(4)), ["[2043][Motion resumed.]"]);
         assert_eq!(r.status_change(ms(4)).map(|s| s.to_text()), Some("[2007][1,1,0,0,0,1,1]".to_owned()));
         assert_eq!(send(&mut r, "ResetError", ms(5)), ["[2006][There was no error to reset.]"]);
+    }
+
+    #[test]
+    fn client_private_checkpoints_are_accepted_beyond_the_range_refused() {
+        let mut r = ready();
+        for id in [1, 8000, 8001, 8191] {
+            assert!(
+                send(&mut r, &format!("SetCheckpoint({id})"), ms(0)) == [format!("[3030][{id}]")],
+                "{id}"
+            );
+            assert!(r.error.is_none(), "{id}");
+        }
+        for id in [0, 8192] {
+            assert!(send(&mut r, &format!("SetCheckpoint({id})"), ms(1))[0].starts_with("[1003]"), "{id}");
+            assert!(r.error.is_some(), "{id} enters error mode");
+            send(&mut r, "ResetError", ms(1));
+            send(&mut r, "ResumeMotion", ms(1));
+        }
     }
 
     #[test]

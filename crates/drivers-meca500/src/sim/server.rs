@@ -50,13 +50,13 @@ pub struct Meca500Sim {
 }
 
 impl Meca500Sim {
-    /// Binds `127.0.0.1:0` (and a second ephemeral port for monitoring if enabled) and starts
-    /// serving.
+    /// Binds [`SimConfig::control_bind`] (and [`SimConfig::monitoring_bind`] if the monitoring
+    /// port is enabled) and starts serving.
     pub fn start(config: SimConfig) -> io::Result<Self> {
-        let control = TcpListener::bind(("127.0.0.1", 0))?;
+        let control = TcpListener::bind(config.control_bind)?;
         control.set_nonblocking(true)?;
         let monitoring = if config.monitoring_port {
-            let l = TcpListener::bind(("127.0.0.1", 0))?;
+            let l = TcpListener::bind(config.monitoring_bind)?;
             l.set_nonblocking(true)?;
             Some(l)
         } else {

@@ -50,9 +50,9 @@ impl SimGauge {
         Self {
             plunger_mm: config.initial_plunger_mm,
             unit: Unit::Mm,
-            preset_on: false,
+            preset_on: config.zeroed_at_mm.is_some(),
             preset_mm: 0.0,
-            anchor_mm: 0.0,
+            anchor_mm: config.zeroed_at_mm.unwrap_or(0.0),
             hold: None,
             keypad: true,
             unit_change_allowed: true,
@@ -78,18 +78,25 @@ impl SimGauge {
         self.continuous_output
     }
 
+    /// Where the plunger is now \[mm\]: the [`PlungerSource`](super::PlungerSource)'s answer
+    /// if there is one, else the last [`SimGauge::set_plunger_mm`].
+    fn plunger_now_mm(&self) -> f64 {
+        self.config.plunger.as_ref().map_or(self.plunger_mm, |p| p.plunger_mm())
+    }
+
     /// Noise-free displayed value \[mm\], `None` beyond the measuring range.
     fn display_mm(&self) -> Option<f64> {
-        if !(0.0..=self.config.range_mm).contains(&self.plunger_mm) {
+        let plunger = self.plunger_now_mm();
+        if !(0.0..=self.config.range_mm).contains(&plunger) {
             return None;
         }
-        Some(if self.preset_on { self.plunger_mm - self.anchor_mm + self.preset_mm } else { self.plunger_mm })
+        Some(if self.preset_on { plunger - self.anchor_mm + self.preset_mm } else { plunger })
     }
 
     /// A snapshot.
     pub fn snapshot(&self) -> SimState {
         SimState {
-            plunger_mm: self.plunger_mm,
+            plunger_mm: self.plunger_now_mm(),
             unit: self.unit,
             preset_on: self.preset_on,
             preset_mm: self.preset_mm,
@@ -130,10 +137,12 @@ impl SimGauge {
     }
 
     fn noise_mm(&mut self) -> f64 {
-        match Normal::new(0.0, self.config.noise_std_mm) {
-            Ok(n) if self.config.noise_std_mm > 0.0 => n.sample(&mut self.rng),
-            _ => 0.0,
-        }
+        let world = self.config.plunger.as_ref().map_or(0.0, |p| p.reading_noise_mm());
+        world
+            + match Normal::new(0.0, self.config.noise_std_mm) {
+                Ok(n) if self.config.noise_std_mm > 0.0 => n.sample(&mut self.rng),
+                _ => 0.0,
+            }
     }
 
     /// Handles one command line; returns the answer line, if any (setters are silent unless
@@ -176,7 +185,7 @@ impl SimGauge {
                     return Some(GaugeError::RangeExceeded.to_text());
                 }
                 self.preset_mm = mm;
-                self.anchor_mm = self.plunger_mm;
+                self.anchor_mm = self.plunger_now_mm();
                 if !self.config.preset_requires_on {
                     self.preset_on = true;
                 }

@@ -2,9 +2,10 @@
 //! the byte stream a serial-to-TCP bridge to a duplex cable would carry, identical to the
 //! BLE RemoteRequest/RemoteResponse payloads).
 //!
-//! [`SylvacSim::start`] binds `127.0.0.1:0` — one listener per gauge — and serves from a
-//! background thread until dropped. The test moves the plunger with
-//! [`SylvacSim::set_plunger_mm`]. Modelled: `?` (value with sign, zero padding and the
+//! [`SylvacSim::start`] binds [`SimConfig::bind`] (default `127.0.0.1:0`) — one listener per
+//! gauge — and serves from a background thread until dropped. The test moves the plunger with
+//! [`SylvacSim::set_plunger_mm`], or a [`PlungerSource`] (a simulated world) decides where it
+//! is. Modelled: `?` (value with sign, zero padding and the
 //! configured decimals \[UNC\]), `ERR3` beyond the measuring range, `ERR0` on an injected sensor
 //! fault, `ERR1` for unknown commands, `PRE ±v` / `PRE ON|OFF` / `PRE?`, `MM`/`IN`/`UNI?`,
 //! `UNI0/1`, `STO0/1` (frozen display), `KEY`, `SET?`, `BAT?`, `ID?`, `VER?`, `OUT1`
@@ -15,6 +16,7 @@
 mod gauge;
 mod server;
 
+use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -22,6 +24,21 @@ use vatcal_hardware_traits::{Clock, SystemClock};
 
 pub use gauge::{SimGauge, SimState};
 pub use server::SylvacSim;
+
+/// Where the plunger physically is, when a world outside the simulator decides it (e.g. the
+/// ball of the virtual cell of `vatcal sim-cell` pressing on it). Called on every reading and
+/// preset, while the simulator holds its own lock.
+pub trait PlungerSource: Send + Sync + std::fmt::Debug {
+    /// Plunger position now \[mm\] (0 = fully extended, beyond `0..=range_mm` the gauge
+    /// answers `ERR3`), without reading noise.
+    fn plunger_mm(&self) -> f64;
+
+    /// Reading error of one reading \[mm\], added to the displayed value before quantisation
+    /// (the simulator's own Gaussian noise, if any, is added too).
+    fn reading_noise_mm(&self) -> f64 {
+        0.0
+    }
+}
 
 /// Simulator settings.
 #[derive(Debug, Clone)]
@@ -51,11 +68,19 @@ pub struct SimConfig {
     pub output_interval: Duration,
     /// time source
     pub clock: Arc<dyn Clock>,
+    /// address to listen on (port 0: ephemeral)
+    pub bind: SocketAddr,
+    /// where the plunger is (overrides [`SylvacSim::set_plunger_mm`]), if a world decides it
+    pub plunger: Option<Arc<dyn PlungerSource>>,
+    /// start with the preset on so that a plunger at this position \[mm\] reads zero (a gauge
+    /// zeroed before the session), instead of displaying the raw plunger position
+    pub zeroed_at_mm: Option<f64>,
 }
 
 impl Default for SimConfig {
     /// `SY289`, 12.5 mm range, 0.1 µm resolution, 4 decimals, no noise, plunger at 0, silent
-    /// setters, continuous output every 100 ms.
+    /// setters, continuous output every 100 ms, an ephemeral port on 127.0.0.1, plunger set by
+    /// the test, not zeroed.
     fn default() -> Self {
         Self {
             id: "SY289".to_owned(),
@@ -70,6 +95,9 @@ impl Default for SimConfig {
             preset_requires_on: false,
             output_interval: Duration::from_millis(100),
             clock: Arc::new(SystemClock),
+            bind: (Ipv4Addr::LOCALHOST, 0).into(),
+            plunger: None,
+            zeroed_at_mm: None,
         }
     }
 }

@@ -259,6 +259,9 @@ impl SimDevice {
             self.flags.insert(Warning::INTERRUPTED);
         }
         let from = self.position(now);
+        if let Some(backend) = &self.config.backend {
+            backend.motion_started(from, target);
+        }
         self.motion = Some(Profile {
             from,
             to: target,

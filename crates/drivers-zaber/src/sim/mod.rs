@@ -1,7 +1,7 @@
 //! A fake Zaber X-LRQ300AP speaking Zaber ASCII on loopback TCP (protocols.md §2.8).
 //!
-//! [`ZaberSim::start`] binds `127.0.0.1:0` and serves from one background thread until the
-//! [`ZaberSim`] is dropped. What it models:
+//! [`ZaberSim::start`] binds [`SimConfig::bind`] (default `127.0.0.1:0`) and serves from one
+//! background thread until the [`ZaberSim`] is dropped. What it models:
 //!
 //! * line parser accepting CR, LF or CRLF; optional checksum (verified; a line with a wrong
 //!   checksum is ignored, \[UNC\]; replies carry a checksum when the command had one); message
@@ -24,6 +24,7 @@
 mod device;
 mod server;
 
+use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::Arc;
 
 use vatcal_hardware_traits::{Clock, SystemClock};
@@ -32,6 +33,14 @@ pub use device::{ACCEL_UNIT_FACTOR, SPEED_UNIT_DIVISOR, SimDevice, SimState};
 pub use server::ZaberSim;
 
 use crate::driver::{DEFAULT_LEAD_MM, DEFAULT_RESOLUTION, FULL_STEPS_PER_REV};
+
+/// A physical world behind the simulated axis (e.g. the whole virtual cell of
+/// `vatcal sim-cell`), told about every motion. Called while the simulator holds its own lock:
+/// an implementation must not call back into the [`ZaberSim`].
+pub trait AxisBackend: Send + Sync + std::fmt::Debug {
+    /// A motion (move or homing) from `from_microsteps` to `to_microsteps` starts.
+    fn motion_started(&self, from_microsteps: f64, to_microsteps: f64);
+}
 
 /// Simulator settings.
 #[derive(Debug, Clone)]
@@ -66,6 +75,10 @@ pub struct SimConfig {
     pub version_build: u32,
     /// time source
     pub clock: Arc<dyn Clock>,
+    /// address to listen on (port 0: ephemeral)
+    pub bind: SocketAddr,
+    /// the physical world behind the axis, if any
+    pub backend: Option<Arc<dyn AxisBackend>>,
 }
 
 impl SimConfig {
@@ -92,7 +105,7 @@ impl SimConfig {
 
 impl Default for SimConfig {
     /// Address 1, 300 mm travel, microstep 2.5 mm / (200 × 64), 20 mm/s, 200 mm/s², unhomed
-    /// at 0, real time.
+    /// at 0, real time, an ephemeral port on 127.0.0.1, no backend.
     fn default() -> Self {
         let microstep_mm = DEFAULT_LEAD_MM / (FULL_STEPS_PER_REV * f64::from(DEFAULT_RESOLUTION));
         Self {
@@ -111,6 +124,8 @@ impl Default for SimConfig {
             version: "7.38".to_owned(),
             version_build: 12_345,
             clock: Arc::new(SystemClock),
+            bind: (Ipv4Addr::LOCALHOST, 0).into(),
+            backend: None,
         }
     }
 }

@@ -42,9 +42,9 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 }
 
 impl ZaberSim {
-    /// Binds `127.0.0.1:0` and starts serving.
+    /// Binds [`SimConfig::bind`] and starts serving.
     pub fn start(config: SimConfig) -> io::Result<Self> {
-        let listener = TcpListener::bind(("127.0.0.1", 0))?;
+        let listener = TcpListener::bind(config.bind)?;
         listener.set_nonblocking(true)?;
         let addr = listener.local_addr()?;
         let shared = Arc::new(Shared {

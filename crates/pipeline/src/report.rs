@@ -1,4 +1,5 @@
-//! The report folder of the demo: `report.json`, `summary.md`, CSVs and SVG plots.
+//! The report folder of a calibration run: `report.json` (one writer: [`Files::json`]),
+//! `summary.md`, the measurement and error CSVs and the SVG plots.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -14,13 +15,29 @@ use vatcal_core::{CellFile, Measurement};
 use vatcal_identification::{ErrorStats, Identification, IdentificationReport};
 use vatcal_planning::output::PlanSummary;
 use vatcal_report::{PlotSpec, Series, line_plot_svg, save_svg};
-use vatcal_sim::truth::ErrorBudget;
-use vatcal_sim::{NoiseBudget, ProbeImperfections};
 
-use crate::{CALIBRATED, DemoError, DemoOptions, DemoOutcome, NOMINAL};
+use crate::{CALIBRATED, NOMINAL, PipelineError, RunOutcome};
 
-/// Value of [`DemoReport::format`].
+/// Value of [`RunReport::format`] for the simulated demo.
 pub const REPORT_FORMAT: &str = "vatcal-demo-report/1";
+
+/// How the cell of a run was set up: serialised as the `setup` object of `report.json` and
+/// described in `summary.md`. The demo's setup names the hidden truth and the noise budget;
+/// a real cell's names its devices.
+pub trait ReportSetup: Serialize {
+    /// value of `report.json`'s `format`
+    fn format(&self) -> &str;
+    /// the first line of `summary.md` (a Markdown heading)
+    fn title(&self, seed: u64) -> String;
+    /// the paragraph under the title
+    fn intro(&self) -> String;
+    /// the bullet list of the `## Setup` section (`validation`: the sizes of the validation)
+    fn setup_markdown(&self, validation: &ValidationSummary) -> String;
+    /// the identified parameter set, e.g. `paper34 (34 parameters)`
+    fn parameters(&self) -> String;
+    /// the estimation method
+    fn method(&self) -> String;
+}
 
 /// The paper's validation figures (Rolland et al., §5), quoted for comparison.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -48,47 +65,6 @@ pub const PAPER: PaperFigures = PaperFigures {
     path_nominal_mean_mm: 1.192,
     path_calibrated_mean_mm: 0.220,
 };
-
-/// How the simulation was set up.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DemoSetup {
-    /// where the nominal cell came from (copied to `nominal.toml`)
-    pub nominal_cell: String,
-    /// how the hidden truth was made
-    pub hidden_truth: String,
-    /// standard deviation of the MDH length errors of the truth [mm]
-    pub truth_length_sigma_mm: f64,
-    /// standard deviation of the MDH angle errors of the truth [deg]
-    pub truth_angle_sigma_deg: f64,
-    /// standard deviation of the base translation errors [mm]
-    pub truth_base_translation_sigma_mm: f64,
-    /// standard deviation of the base rotation errors [deg]
-    pub truth_base_angle_sigma_deg: f64,
-    /// range of the joint compliances of the truth [rad/(N·m)]
-    pub truth_compliance_range_rad_per_n_m: (f64, f64),
-    /// robot repeatability (3σ) [mm]
-    pub robot_repeatability_mm: f64,
-    /// guide repeatability (3σ) [mm]
-    pub guide_repeatability_mm: f64,
-    /// tool-changer repeatability (3σ) [mm]
-    pub tool_changer_repeatability_mm: f64,
-    /// gauge maximum error (uniform) [mm]
-    pub gauge_max_error_mm: f64,
-    /// tracker error per axis (3σ) [mm]
-    pub tracker_error_mm: f64,
-    /// largest tilt of a true gauge axis from its nominal direction [deg]
-    pub gauge_axis_tilt_deg: f64,
-    /// candidate orientations per TCP × position
-    pub orientations: usize,
-    /// guide positions of the candidates
-    pub guide_steps: usize,
-    /// measurements selected
-    pub count: usize,
-    /// identified parameter set
-    pub parameters: String,
-    /// estimation method
-    pub method: String,
-}
 
 /// The measurement campaign.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -134,15 +110,16 @@ pub struct ValidationSummary {
     pub models: Vec<ModelValidation>,
 }
 
-/// Everything the demo measured (`report.json`). Deterministic for a given seed and options.
+/// Everything a run measured (`report.json`). Deterministic for a given seed and options on
+/// the virtual cell.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct DemoReport {
-    /// always [`REPORT_FORMAT`]
+pub struct RunReport<S> {
+    /// [`ReportSetup::format`] of the setup
     pub format: String,
     /// master seed
     pub seed: u64,
-    /// the simulated cell and the sizes
-    pub setup: DemoSetup,
+    /// the cell and the sizes
+    pub setup: S,
     /// the plan (`plan/summary.json`)
     pub plan: PlanSummary,
     /// the measurement campaign
@@ -155,7 +132,7 @@ pub struct DemoReport {
     pub paper: PaperFigures,
 }
 
-impl DemoReport {
+impl<S> RunReport<S> {
     /// The validation of the model labelled `label`.
     pub fn model(&self, label: &str) -> Option<&ModelValidation> {
         self.validation.models.iter().find(|m| m.label == label)
@@ -163,8 +140,9 @@ impl DemoReport {
 }
 
 /// What [`build_report`] needs.
-pub(crate) struct ReportInputs<'a> {
-    pub opts: &'a DemoOptions,
+pub(crate) struct ReportInputs<'a, S> {
+    pub seed: u64,
+    pub setup: S,
     pub plan: PlanSummary,
     pub campaign: &'a CampaignReport,
     pub campaign_time_s: f64,
@@ -175,12 +153,12 @@ pub(crate) struct ReportInputs<'a> {
     pub results: Vec<ModelValidation>,
 }
 
-pub(crate) fn build_report(i: ReportInputs<'_>) -> DemoReport {
+pub(crate) fn build_report<S: ReportSetup>(i: ReportInputs<'_, S>) -> RunReport<S> {
     let vp = i.validation_plan;
-    DemoReport {
-        format: REPORT_FORMAT.into(),
-        seed: i.opts.seed,
-        setup: setup(i.opts, i.fit),
+    RunReport {
+        format: i.setup.format().to_string(),
+        seed: i.seed,
+        setup: i.setup,
         plan: i.plan,
         campaign: campaign_summary(i.campaign, i.campaign_time_s),
         identification: IdentificationReport::from_identification(i.fit),
@@ -199,36 +177,7 @@ pub(crate) fn build_report(i: ReportInputs<'_>) -> DemoReport {
     }
 }
 
-fn setup(opts: &DemoOptions, fit: &Identification) -> DemoSetup {
-    let e = ErrorBudget::realistic();
-    let n = NoiseBudget::paper();
-    let p = ProbeImperfections::default();
-    DemoSetup {
-        nominal_cell: opts.nominal_source.clone(),
-        hidden_truth: format!(
-            "vatcal_sim::truth::perturbed_truth(nominal, {}, &ErrorBudget::realistic())",
-            opts.seed
-        ),
-        truth_length_sigma_mm: e.length_mm,
-        truth_angle_sigma_deg: e.angle_rad.to_degrees(),
-        truth_base_translation_sigma_mm: e.base_translation_mm,
-        truth_base_angle_sigma_deg: e.base_angle_rad.to_degrees(),
-        truth_compliance_range_rad_per_n_m: e.compliance_range,
-        robot_repeatability_mm: n.robot_repeatability_mm,
-        guide_repeatability_mm: n.guide_repeatability_mm,
-        tool_changer_repeatability_mm: n.tool_changer_repeatability_mm,
-        gauge_max_error_mm: n.gauge_max_error_mm,
-        tracker_error_mm: n.tracker_error_mm,
-        gauge_axis_tilt_deg: p.gauge_axis_tilt_rad.to_degrees(),
-        orientations: opts.sizes.orientations,
-        guide_steps: opts.sizes.guide_steps,
-        count: opts.sizes.count,
-        parameters: format!("paper34 ({} parameters)", fit.params.len()),
-        method: fit.method.to_string(),
-    }
-}
-
-fn campaign_summary(report: &CampaignReport, virtual_time_s: f64) -> CampaignSummary {
+pub(crate) fn campaign_summary(report: &CampaignReport, virtual_time_s: f64) -> CampaignSummary {
     let mut moves = Vec::new();
     let mut offsets = Vec::new();
     let mut per_position: Vec<(u32, usize)> = Vec::new();
@@ -256,14 +205,17 @@ fn campaign_summary(report: &CampaignReport, virtual_time_s: f64) -> CampaignSum
     }
 }
 
-fn stats_of<'a>(report: &'a DemoReport, label: &str) -> (Option<&'a ErrorStats>, Option<&'a ErrorStats>) {
+fn stats_of<'a, S>(
+    report: &'a RunReport<S>,
+    label: &str,
+) -> (Option<&'a ErrorStats>, Option<&'a ErrorStats>) {
     let m = report.model(label);
     (m.map(|m| &m.random.stats), m.and_then(|m| m.path.as_ref()).map(|p| &p.tip_stats))
 }
 
 /// The before/after table of `vatcal demo` (mean, 95th percentile and max per model, and the
 /// paper's means).
-pub(crate) fn comparison_table(report: &DemoReport) -> String {
+pub fn comparison_table<S>(report: &RunReport<S>) -> String {
     let (nr, np) = stats_of(report, NOMINAL);
     let (cr, cp) = stats_of(report, CALIBRATED);
     let cells = |s: Option<&ErrorStats>| match s {
@@ -330,31 +282,31 @@ impl Files {
         }
     }
 
-    fn text(&mut self, name: &str, text: &str) -> Result<(), DemoError> {
+    fn text(&mut self, name: &str, text: &str) -> Result<(), PipelineError> {
         let path = self.out.join(name);
-        std::fs::write(&path, text).map_err(|source| DemoError::Io { path, source })?;
+        std::fs::write(&path, text).map_err(|source| PipelineError::Io { path, source })?;
         self.note(name);
         Ok(())
     }
 
-    pub fn cell(&mut self, name: &str, cell: &CellFile) -> Result<(), DemoError> {
+    pub fn cell(&mut self, name: &str, cell: &CellFile) -> Result<(), PipelineError> {
         cell.save(self.out.join(name))?;
         self.note(name);
         Ok(())
     }
 
-    pub fn measurements(&mut self, name: &str, m: &[Measurement]) -> Result<(), DemoError> {
+    pub fn measurements(&mut self, name: &str, m: &[Measurement]) -> Result<(), PipelineError> {
         vatcal_io::write_measurements(self.out.join(name), m)?;
         self.note(name);
         Ok(())
     }
 
-    pub fn json(&mut self, name: &str, value: &impl Serialize) -> Result<(), DemoError> {
+    pub fn json(&mut self, name: &str, value: &impl Serialize) -> Result<(), PipelineError> {
         let text = serde_json::to_string_pretty(value)?;
         self.text(name, &text)
     }
 
-    fn svg(&mut self, name: &str, svg: &str) -> Result<(), DemoError> {
+    fn svg(&mut self, name: &str, svg: &str) -> Result<(), PipelineError> {
         save_svg(self.out.join(name), svg)?;
         self.note(name);
         Ok(())
@@ -366,7 +318,7 @@ impl Files {
         records: &ValidationRecords,
         slices: &[PrintingSlice],
         results: &[ModelValidation],
-    ) -> Result<(), DemoError> {
+    ) -> Result<(), PipelineError> {
         self.measurements("validation_random.csv", &records.random)?;
         for p in &records.paths {
             self.measurements(
@@ -385,7 +337,7 @@ impl Files {
         fit: &Identification,
         slices: &[PrintingSlice],
         results: &[ModelValidation],
-    ) -> Result<(), DemoError> {
+    ) -> Result<(), PipelineError> {
         self.svg("random_errors_histogram.svg", &random_error_histogram_svg(results, 40)?)?;
         let paths: Vec<&PathValidation> = results.iter().filter_map(|r| r.path.as_ref()).collect();
         let title = "Position error at the tank bottom along the printing path";
@@ -399,9 +351,13 @@ impl Files {
         self.svg("identification_convergence.svg", &convergence_svg(fit)?)
     }
 
-    pub fn summary(&mut self, name: &str, outcome: &DemoOutcome) -> Result<(), DemoError> {
+    pub fn summary<S: ReportSetup>(
+        &mut self,
+        name: &str,
+        outcome: &RunOutcome<S>,
+    ) -> Result<(), PipelineError> {
         let path = self.out.join(name);
-        std::fs::write(&path, summary_markdown(outcome)).map_err(|source| DemoError::Io { path, source })
+        std::fs::write(&path, summary_markdown(outcome)).map_err(|source| PipelineError::Io { path, source })
     }
 }
 
@@ -480,52 +436,14 @@ fn stats_row(name: &str, s: &ErrorStats) -> String {
 
 /// `summary.md`: setup, counts, identification log, before/after tables, the paper's figures,
 /// files, wall-clock times.
-fn summary_markdown(outcome: &DemoOutcome) -> String {
+fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
     let r = &outcome.report;
     let s = &r.setup;
     let mut m = String::new();
-    let _ = writeln!(m, "# vatcal demo — simulated calibration of the virtual cell (seed {})\n", r.seed);
-    let _ = writeln!(
-        m,
-        "Everything below was computed on the **virtual cell**: no hardware was used. The numbers \
-         are deterministic for the seed (`report.json` holds all of them).\n"
-    );
+    let _ = writeln!(m, "{}\n", s.title(r.seed));
+    let _ = writeln!(m, "{}\n", s.intro());
     let _ = writeln!(m, "## Setup\n");
-    let _ = writeln!(
-        m,
-        "* nominal cell (what the simulated robot controller believes): {} → `nominal.toml`",
-        s.nominal_cell
-    );
-    let _ = writeln!(
-        m,
-        "* hidden truth: `{}` — nominal + random errors with σ {:.2} mm on the MDH lengths, {:.3}° on the \
-         MDH angles, {:.2} mm / {:.3}° on the base pose, joint compliances drawn in {:.1e}..{:.1e} rad/(N·m)",
-        s.hidden_truth,
-        s.truth_length_sigma_mm,
-        s.truth_angle_sigma_deg,
-        s.truth_base_translation_sigma_mm,
-        s.truth_base_angle_sigma_deg,
-        s.truth_compliance_range_rad_per_n_m.0,
-        s.truth_compliance_range_rad_per_n_m.1
-    );
-    let _ = writeln!(
-        m,
-        "* device noise (the paper's budget, 3σ): robot {} mm, guide {} mm, tool changer {} mm, gauges {} mm \
-         (uniform), tracker {} mm per axis; TriCal gauge axes tilted by up to {:.1}° (unknown to the campaign)",
-        s.robot_repeatability_mm,
-        s.guide_repeatability_mm,
-        s.tool_changer_repeatability_mm,
-        s.gauge_max_error_mm,
-        s.tracker_error_mm,
-        s.gauge_axis_tilt_deg
-    );
-    let _ = writeln!(
-        m,
-        "* sizes: {} orientations × {} guide steps per TCP × position, {} measurements, {} random validation \
-         poses, {} printing slices\n",
-        s.orientations, s.guide_steps, s.count, r.validation.random_poses, r.validation.printing_path.slices
-    );
-
+    let _ = writeln!(m, "{}", s.setup_markdown(&r.validation));
     let _ = writeln!(m, "## 1. Plan (`plan/`)\n\n```text\n{}\n```\n", r.plan.text());
 
     let c = &r.campaign;
@@ -550,8 +468,8 @@ fn summary_markdown(outcome: &DemoOutcome) -> String {
     let _ = writeln!(
         m,
         "{}, {} from {} probe measurements: {} ({:?}).\n",
-        s.parameters,
-        s.method,
+        s.parameters(),
+        s.method(),
         id.n_probe,
         if id.converged { "converged" } else { "not converged" },
         id.termination

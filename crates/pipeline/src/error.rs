@@ -1,11 +1,11 @@
-//! The demo's error type.
+//! The pipeline's error type.
 
 use std::path::PathBuf;
 
-/// Why the demo stopped. Each stage's error is kept as the `source` (print the chain, e.g.
+/// Why a pipeline stage stopped. Each stage's error is kept as the `source` (print the chain, e.g.
 /// with `anyhow`'s `{:#}`, to see the cause).
 #[derive(Debug, thiserror::Error)]
-pub enum DemoError {
+pub enum PipelineError {
     /// A file or directory could not be written.
     #[error("{path}: {source}")]
     Io {
@@ -15,7 +15,7 @@ pub enum DemoError {
         source: std::io::Error,
     },
     /// An option is invalid.
-    #[error("invalid demo option `{option}`: {reason}")]
+    #[error("invalid option `{option}`: {reason}")]
     Option {
         /// option name
         option: String,
@@ -31,11 +31,19 @@ pub enum DemoError {
     /// Planning failed.
     #[error("planning failed")]
     Plan(#[from] vatcal_planning::PlanError),
-    /// The tour written by the planner cannot be read back.
+    /// The tour of a plan folder cannot be read.
     #[error(transparent)]
     Tour(#[from] vatcal_campaign::TourFileError),
-    /// A simulated device could not be set up.
-    #[error("the virtual cell cannot be set up")]
+    /// A file of a plan or run folder is missing or invalid.
+    #[error("{path}: {reason}")]
+    Folder {
+        /// the file
+        path: PathBuf,
+        /// what is wrong
+        reason: String,
+    },
+    /// A device could not be set up.
+    #[error("a device cannot be set up")]
     Device(#[from] vatcal_hardware_traits::Error),
     /// The measurement campaign failed.
     #[error("the measurement campaign failed")]
@@ -52,12 +60,15 @@ pub enum DemoError {
     /// A plot could not be drawn.
     #[error("a plot cannot be drawn")]
     Plot(#[from] vatcal_report::PlotError),
-    /// The JSON report could not be serialised.
-    #[error("report.json cannot be serialised")]
+    /// A JSON file could not be serialised.
+    #[error("JSON cannot be serialised")]
     Json(#[from] serde_json::Error),
+    /// The journal of a run folder cannot be read.
+    #[error(transparent)]
+    Journal(#[from] vatcal_campaign::JournalError),
 }
 
-impl From<vatcal_campaign::CampaignError> for DemoError {
+impl From<vatcal_campaign::CampaignError> for PipelineError {
     fn from(e: vatcal_campaign::CampaignError) -> Self {
         Self::Campaign(Box::new(e))
     }

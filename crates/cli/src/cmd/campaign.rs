@@ -1,0 +1,273 @@
+//! `vatcal campaign`: run a planned measurement campaign on the real cell (or on
+//! `vatcal sim-cell`) described by a devices file.
+//!
+//! Order: read the model, the plan folder and the devices file (every error before anything
+//! connects) → connect → check every device and print what was found → run the tour with
+//! auto-centering and the operator prompts, journaling every step → `measurements.csv`.
+//! Ctrl-C (or SIGTERM) stops the arm and the guide and leaves a journal that `--resume`
+//! continues. See `docs/campaign.md`.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{Context, bail};
+use vatcal_campaign::{CampaignConfig, CellDevices, ConsoleOperator};
+use vatcal_core::CellFile;
+use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
+use vatcal_hardware_traits::{
+    ErrorKind, Gauge, LinearAxis, MotionOptions, Operator, ProbePlacement, RobotArm, SystemClock, TriCal,
+};
+use vatcal_kinematics::Model;
+use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};
+use vatcal_pipeline::{DeviceSet, PlanFolder, RunFolder};
+
+use super::demo::BarProgress;
+
+/// Who re-places the probe plate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum OperatorKind {
+    /// a person at the cell: the instruction is printed, Enter confirms
+    Console,
+    /// the simulator (`sim_control` in the devices file) moves the plate
+    Auto,
+}
+
+/// Arguments of `vatcal campaign`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Devices file (TOML): which driver and address for the arm, guide and gauges.
+    #[arg(long, value_name = "DEVICES.toml")]
+    pub devices: PathBuf,
+    /// Plan folder written by `vatcal plan` (its `tour.csv` is run).
+    #[arg(long, value_name = "DIR")]
+    pub plan: PathBuf,
+    /// Run folder: `campaign.journal`, `measurements.csv` (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Continue the journal in `--out` (after a crash, Ctrl-C or a device fault).
+    #[arg(long)]
+    pub resume: bool,
+    /// Who re-places the probe plate.
+    #[arg(long, value_enum, default_value = "console")]
+    pub operator: OperatorKind,
+    /// Nominal cell the robot controller believes (default: the built-in
+    /// fixtures/meca500-zaber.toml); must be the one the plan was made with.
+    #[arg(long, value_name = "CELL.toml")]
+    pub model: Option<PathBuf>,
+    /// Speed of the planned moves as a fraction of each device's maximum.
+    #[arg(long, default_value_t = 0.25)]
+    pub speed: f64,
+    /// Timeout of every move and of homing [s].
+    #[arg(long, default_value_t = 120.0)]
+    pub motion_timeout_s: f64,
+    /// Skip a measurement whose auto-centering is refused (recorded in the journal) instead
+    /// of stopping.
+    #[arg(long)]
+    pub skip_failed: bool,
+    /// Never draw the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The connected devices, wrapped so that Ctrl-C stops the arm and the guide.
+struct RealCell {
+    arm: StoppableArm<Box<dyn RobotArm>>,
+    guide: StoppableAxis<Box<dyn LinearAxis>>,
+    probe: TriCal<Box<dyn Gauge>>,
+    operator: Box<dyn Operator>,
+    clock: SystemClock,
+}
+
+impl DeviceSet for RealCell {
+    fn devices(&mut self) -> CellDevices<'_> {
+        CellDevices {
+            arm: &mut self.arm,
+            guide: &mut self.guide,
+            probe: &mut self.probe,
+            tracker: None,
+            operator: &mut self.operator,
+            clock: &self.clock,
+        }
+    }
+}
+
+impl RealCell {
+    /// Stops the arm and the guide (best effort; errors are printed).
+    fn stop_motion(&mut self) {
+        if let Err(e) = self.arm.inner_mut().stop() {
+            eprintln!("warning: stopping the arm: {e}");
+        }
+        if let Err(e) = self.guide.inner_mut().stop() {
+            eprintln!("warning: stopping the guide: {e}");
+        }
+    }
+}
+
+fn load_nominal(path: Option<&PathBuf>) -> anyhow::Result<(Model, String)> {
+    let (cell, source) = match path {
+        Some(p) => (CellFile::load(p)?, p.display().to_string()),
+        None => (
+            CellFile::from_toml_str(vatcal_demo::BUILT_IN_CELL, vatcal_demo::BUILT_IN_CELL_NAME)?,
+            vatcal_demo::BUILT_IN_CELL_NAME.to_string(),
+        ),
+    };
+    let model = Model::from_cell(&cell).with_context(|| format!("{source}: cannot build the model"))?;
+    Ok((model, source))
+}
+
+/// Checks every device before anything moves; prints what it finds. The arm is activated
+/// and homed and the guide homed if needed (the campaign would do it anyway; doing it here
+/// shows the operator the state of the cell first).
+fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
+    let status = cell.arm.status().context("arm: reading the status")?;
+    println!(
+        "  arm: activated {}, homed {}, error {}",
+        status.activated,
+        status.homed,
+        status.error.map_or("none".to_string(), |(code, text)| format!("[{code}] {text}"))
+    );
+    if !(status.activated && status.homed) {
+        println!("  arm: activating and homing …");
+    }
+    cell.arm.activate_and_home(timeout).context("arm: activating and homing")?;
+    let joints = cell.arm.joints().context("arm: reading the joints")?;
+    println!("  arm: joints {:?} deg", joints.to_deg().map(|v| (v * 1000.0).round() / 1000.0));
+    let homed = cell.guide.is_homed().context("guide: reading the state")?;
+    if !homed {
+        println!("  guide: not homed, homing …");
+        cell.guide.home(timeout).context("guide: homing")?;
+    }
+    let at = cell.guide.position_mm().context("guide: reading the position")?;
+    println!("  guide: homed, at {at:.3} mm");
+    let range = vatcal_hardware_traits::Probe3d::range_mm(&cell.probe);
+    match vatcal_hardware_traits::Probe3d::read(&mut cell.probe) {
+        Ok(r) => println!(
+            "  gauges: {:.4}, {:.4}, {:.4} mm (within ±{range} mm)",
+            r.gauges_mm[0], r.gauges_mm[1], r.gauges_mm[2]
+        ),
+        // no ball in the probe yet: the plungers rest beyond the range; they answered
+        Err(e) if e.kind() == ErrorKind::OutOfRange => {
+            println!("  gauges: answering; a reading is beyond ±{range} mm (no ball seated yet): {e}")
+        }
+        Err(e) => return Err(anyhow::Error::new(e).context("gauges: reading the three gauges")),
+    }
+    Ok(())
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    // everything that can be checked without the cell, before connecting
+    let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
+    let tour = PlanFolder::new(&args.plan).read_tour()?;
+    tour.validate(&nominal)
+        .with_context(|| format!("{}: the plan does not fit {nominal_source}", args.plan.display()))?;
+    let devices_file = DevicesFile::load(&args.devices)?;
+    if !(args.speed > 0.0 && args.speed <= 1.0) {
+        bail!("--speed must be in (0, 1], got {}", args.speed);
+    }
+    if !(args.motion_timeout_s.is_finite() && args.motion_timeout_s > 0.0) {
+        bail!("--motion-timeout-s must be > 0, got {}", args.motion_timeout_s);
+    }
+    if args.operator == OperatorKind::Auto && devices_file.sim_control.is_none() {
+        bail!(
+            "{}: `--operator auto` needs `sim_control = {{ tcp = \"host:port\" }}` (the simulator's cell-control port)",
+            args.devices.display()
+        );
+    }
+    let folder = RunFolder::new(&args.out);
+    let journal = folder.journal();
+    match (journal.exists(), args.resume) {
+        (true, false) => bail!(
+            "{} exists: pass --resume to continue that campaign, or choose another --out",
+            journal.display()
+        ),
+        (false, true) => bail!("--resume: {} does not exist (nothing to resume)", journal.display()),
+        _ => {}
+    }
+    folder.create()?;
+
+    let flag = StopFlag::new();
+    let handler_flag = flag.clone();
+    ctrlc::set_handler(move || {
+        if handler_flag.is_raised() {
+            eprintln!("\nsecond interrupt: exiting now (the journal keeps every completed step)");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupt: stopping the arm and the guide …");
+        handler_flag.raise();
+    })
+    .context("installing the Ctrl-C handler")?;
+
+    println!(
+        "vatcal campaign: {} measurements in {} steps from {}, devices {}, run folder {}",
+        tour.measurement_count(),
+        tour.steps.len(),
+        args.plan.display(),
+        args.devices.display(),
+        args.out.display()
+    );
+    println!("connecting:");
+    let ConnectedDevices { arm, guide, gauges, sim_control, found, .. } = devices_file.connect()?;
+    for line in &found {
+        println!("  {line}");
+    }
+    let operator: Box<dyn Operator> = match (args.operator, sim_control) {
+        (OperatorKind::Auto, Some(control)) => Box::new(SimControlOperator::new(control)),
+        (OperatorKind::Auto, None) => bail!("--operator auto: no sim_control connection"),
+        (OperatorKind::Console, _) => Box::new(ConsoleOperator::stdio()),
+    };
+    let positions: Vec<_> =
+        nominal.position_ids().into_iter().filter_map(|id| nominal.position(id).map(|p| (id, p))).collect();
+    let probe = TriCal::new(gauges, devices_file.probe_config(ProbePlacement::radial_placements(&positions)))
+        .context("building the TriCal probe")?;
+    let mut cell = RealCell {
+        arm: StoppableArm::new(arm, flag.clone()),
+        guide: StoppableAxis::new(guide, flag.clone()),
+        probe,
+        operator,
+        clock: SystemClock,
+    };
+    let timeout = Duration::from_secs_f64(args.motion_timeout_s);
+    println!("checking:");
+    if let Err(e) = check_devices(&mut cell, timeout) {
+        cell.stop_motion();
+        return Err(e);
+    }
+
+    let config = CampaignConfig {
+        motion: MotionOptions { speed_fraction: args.speed, timeout },
+        home_timeout: timeout,
+        skip_failed_measurements: args.skip_failed,
+        show_progress: false,
+        note: format!("vatcal campaign, plan {}, devices {}", args.plan.display(), args.devices.display()),
+        ..CampaignConfig::default()
+    };
+    let mut progress = BarProgress::new(!args.quiet && std::io::stderr().is_terminal());
+    let result = vatcal_pipeline::campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress);
+    progress.clear();
+    match result {
+        Ok(report) => {
+            println!(
+                "campaign complete: {} measurements ({} skipped){}; wrote {}",
+                report.measurements.len(),
+                report.skipped,
+                report.resumed_at_step.map_or(String::new(), |s| format!(", resumed at step {s}")),
+                folder.measurements().display()
+            );
+            Ok(())
+        }
+        Err(e) => {
+            cell.stop_motion();
+            let done = folder.journal_measurements().map(|m| m.len()).unwrap_or(0);
+            let hint = format!(
+                "{done} measurements are safe in {}; fix the cause and run the same command with --resume",
+                journal.display()
+            );
+            if flag.is_raised() {
+                bail!("campaign interrupted: {hint}");
+            }
+            Err(anyhow::Error::new(e).context(format!("campaign stopped ({hint})")))
+        }
+    }
+}

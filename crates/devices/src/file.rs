@@ -1,0 +1,603 @@
+//! Parsing, validation and connection of a devices file.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use serde::Deserialize;
+use toml::Spanned;
+use vatcal_drivers_meca500::driver::{Meca500, Meca500Config};
+use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
+use vatcal_drivers_zaber::driver::{AxisInfo, MicrostepSize, ZaberAxis, ZaberConfig};
+use vatcal_hardware_traits::{Gauge, LinearAxis, PositionTracker, ProbePlacement, RobotArm, TriCalConfig};
+
+use crate::sim_control::SimControl;
+
+/// Why a devices file was rejected or a device could not be connected.
+#[derive(Debug, thiserror::Error)]
+pub enum DevicesError {
+    /// The file cannot be read.
+    #[error("{path}: {source}")]
+    Read {
+        /// the file
+        path: PathBuf,
+        /// cause
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML or does not have the expected keys (unknown key, missing
+    /// device, wrong type); the message names the line and the key.
+    #[error("{path}: {message}")]
+    Parse {
+        /// the file
+        path: PathBuf,
+        /// the TOML parser's message (line, column, key)
+        message: String,
+    },
+    /// A field has an invalid value.
+    #[error("{path}:{line}: `{field}`: {reason}")]
+    Field {
+        /// the file
+        path: PathBuf,
+        /// 1-based line of the value (0 if unknown)
+        line: usize,
+        /// the field, e.g. `gauges[2].tcp`
+        field: String,
+        /// what is wrong
+        reason: String,
+    },
+    /// A device could not be connected (or did not identify itself).
+    #[error("connecting the {role} ({what}): {source}")]
+    Connect {
+        /// `arm`, `guide`, `gauge 2`, `sim_control`
+        role: String,
+        /// kind and address
+        what: String,
+        /// the device error (names the device)
+        source: vatcal_hardware_traits::Error,
+    },
+}
+
+/// How a device is reached.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Link {
+    /// TCP `host:port` (the device itself, a serial-to-TCP bridge or a simulator)
+    Tcp(String),
+    /// serial port path (needs the `serial` feature)
+    Serial {
+        /// e.g. `/dev/ttyUSB0`
+        path: String,
+        /// baud rate (Zaber: 115200; Sylvac: fixed by the driver)
+        baud: u32,
+    },
+}
+
+impl std::fmt::Display for Link {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Link::Tcp(a) => write!(f, "tcp {a}"),
+            Link::Serial { path, baud } => write!(f, "serial {path} at {baud} Bd"),
+        }
+    }
+}
+
+/// `arm = { kind = "meca500", address = "…:10000", … }`
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArmSpec {
+    /// driver: `meca500`
+    pub kind: Spanned<String>,
+    /// control port `host:port` (Meca500: 10000)
+    pub address: Spanned<String>,
+    /// monitoring port `host:port` (Meca500: 10001); optional, checked but not used yet
+    pub monitoring: Option<Spanned<String>>,
+    /// timeout of every request [ms] (default 2000)
+    pub io_timeout_ms: Option<Spanned<u64>>,
+    /// timeout of the connection and the banner [ms] (default 5000)
+    pub connect_timeout_ms: Option<Spanned<u64>>,
+}
+
+/// `guide = { kind = "zaber", tcp = "…:55550" }` or `{ kind = "zaber", serial = "/dev/ttyUSB0" }`
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GuideSpec {
+    /// driver: `zaber`
+    pub kind: Spanned<String>,
+    /// raw-ASCII TCP port `host:port` (Zaber: 55550)
+    pub tcp: Option<Spanned<String>>,
+    /// serial port path
+    pub serial: Option<Spanned<String>>,
+    /// serial baud rate (default 115200)
+    pub baud: Option<Spanned<u32>>,
+    /// device address in the daisy chain (default 1)
+    pub device: Option<Spanned<u8>>,
+    /// axis number (default 1)
+    pub axis: Option<Spanned<u8>>,
+    /// lead of the screw [mm per revolution] for the mm ↔ microstep conversion (default: the
+    /// driver's)
+    pub lead_mm: Option<Spanned<f64>>,
+    /// timeout of every reply [ms] (default 1000)
+    pub io_timeout_ms: Option<Spanned<u64>>,
+    /// TCP connect timeout [ms] (default 5000)
+    pub connect_timeout_ms: Option<Spanned<u64>>,
+}
+
+/// `{ kind = "sylvac", tcp = "…" }` or `{ kind = "sylvac", serial = "/dev/ttyUSB1" }`
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaugeSpec {
+    /// driver: `sylvac`
+    pub kind: Spanned<String>,
+    /// TCP `host:port` (a serial-to-TCP bridge or the simulator)
+    pub tcp: Option<Spanned<String>>,
+    /// serial port path (4800 7E2, fixed by the driver)
+    pub serial: Option<Spanned<String>>,
+    /// timeout of every query [ms] (default 500)
+    pub io_timeout_ms: Option<Spanned<u64>>,
+    /// TCP connect timeout [ms] (default 2000)
+    pub connect_timeout_ms: Option<Spanned<u64>>,
+}
+
+/// `tracker = { kind = "…", tcp = "…" }` (optional; no tracker driver exists yet, so any
+/// tracker entry is rejected with a clear message).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackerSpec {
+    /// driver
+    pub kind: Spanned<String>,
+    /// TCP `host:port`
+    pub tcp: Option<Spanned<String>>,
+}
+
+/// `sim_control = { tcp = "127.0.0.1:55570" }`: the cell-control port of `vatcal sim-cell`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimControlSpec {
+    /// TCP `host:port`
+    pub tcp: Spanned<String>,
+    /// timeout of every answer [ms] (default 5000)
+    pub io_timeout_ms: Option<Spanned<u64>>,
+}
+
+/// `probe = { range_mm = 6.0 }` (optional): the TriCal built from the three gauges.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProbeSpec {
+    /// each gauge reading must stay within ±range [mm] (default 6)
+    pub range_mm: Option<Spanned<f64>>,
+}
+
+/// A parsed and validated devices file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DevicesFile {
+    /// the robot arm
+    pub arm: ArmSpec,
+    /// the linear guide
+    pub guide: GuideSpec,
+    /// the three TriCal gauges, gauge 1 first
+    pub gauges: Vec<GaugeSpec>,
+    /// a laser tracker (validation only)
+    pub tracker: Option<TrackerSpec>,
+    /// the cell-control port of a simulated cell (`--operator auto`)
+    pub sim_control: Option<SimControlSpec>,
+    /// the probe
+    pub probe: Option<ProbeSpec>,
+    #[serde(skip)]
+    source: PathBuf,
+}
+
+/// The connected devices, as trait objects.
+pub struct ConnectedDevices {
+    /// the robot arm
+    pub arm: Box<dyn RobotArm>,
+    /// the linear guide
+    pub guide: Box<dyn LinearAxis>,
+    /// the three gauges, gauge 1 first
+    pub gauges: [Box<dyn Gauge>; 3],
+    /// the tracker, if any
+    pub tracker: Option<Box<dyn PositionTracker>>,
+    /// the simulator's cell-control connection, if the file names one
+    pub sim_control: Option<SimControl>,
+    /// one line per device: role, driver, link and what it reported at connection
+    pub found: Vec<String>,
+}
+
+impl std::fmt::Debug for ConnectedDevices {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ConnectedDevices").field("found", &self.found).finish_non_exhaustive()
+    }
+}
+
+/// Checks a `host:port` address without resolving it.
+fn check_address(text: &str) -> Result<(), String> {
+    let Some((host, port)) = text.rsplit_once(':') else {
+        return Err(format!("`{text}` is not `host:port`"));
+    };
+    if host.is_empty() || host.contains(char::is_whitespace) {
+        return Err(format!("`{text}`: the host is empty or contains spaces"));
+    }
+    match port.parse::<u16>() {
+        Ok(p) if p > 0 => Ok(()),
+        _ => Err(format!("`{text}`: the port must be a number in 1..=65535")),
+    }
+}
+
+fn ms(v: &Option<Spanned<u64>>, default: Duration) -> Duration {
+    v.as_ref().map_or(default, |v| Duration::from_millis(*v.get_ref()))
+}
+
+impl DevicesFile {
+    /// Reads and validates a devices file.
+    ///
+    /// # Errors
+    /// As [`DevicesFile::parse`], or the file cannot be read.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, DevicesError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| DevicesError::Read { path: path.into(), source })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses and validates the text of a devices file (`source` names it in errors).
+    ///
+    /// # Errors
+    /// [`DevicesError::Parse`] for invalid TOML, unknown keys, missing devices or wrong types;
+    /// [`DevicesError::Field`] for an unknown `kind`, a bad address, not exactly three gauges,
+    /// both or neither of `tcp`/`serial`, a serial link without the `serial` feature, a zero
+    /// timeout, or a tracker (no driver yet).
+    pub fn parse(text: &str, source: impl AsRef<Path>) -> Result<Self, DevicesError> {
+        let source = source.as_ref();
+        let mut file: Self = toml::from_str(text).map_err(|e| DevicesError::Parse {
+            path: source.into(),
+            message: e.to_string().trim_end().replace('\n', " ").replace("  ", " "),
+        })?;
+        file.source = source.into();
+        file.validate(text)?;
+        Ok(file)
+    }
+
+    /// The file this was read from.
+    pub fn source(&self) -> &Path {
+        &self.source
+    }
+
+    fn field_error(
+        &self,
+        text: &str,
+        span: std::ops::Range<usize>,
+        field: &str,
+        reason: String,
+    ) -> DevicesError {
+        let line = text.get(..span.start).map_or(0, |t| t.matches('\n').count() + 1);
+        DevicesError::Field { path: self.source.clone(), line, field: field.into(), reason }
+    }
+
+    fn validate(&self, text: &str) -> Result<(), DevicesError> {
+        let err = |span: std::ops::Range<usize>, field: &str, reason: String| {
+            self.field_error(text, span, field, reason)
+        };
+        let kind = |k: &Spanned<String>, field: &str, expected: &str| {
+            if k.get_ref() == expected {
+                Ok(())
+            } else {
+                Err(err(
+                    k.span(),
+                    &format!("{field}.kind"),
+                    format!("unknown kind `{}` (supported: `{expected}`)", k.get_ref()),
+                ))
+            }
+        };
+        let address = |a: &Spanned<String>, field: &str| {
+            check_address(a.get_ref()).map_err(|reason| err(a.span(), field, reason))
+        };
+        let timeout = |t: &Option<Spanned<u64>>, field: &str| match t {
+            Some(t) if *t.get_ref() == 0 || *t.get_ref() > 3_600_000 => {
+                Err(err(t.span(), field, format!("{} ms is not in 1..=3600000", t.get_ref())))
+            }
+            _ => Ok(()),
+        };
+        let a = &self.arm;
+        kind(&a.kind, "arm", "meca500")?;
+        address(&a.address, "arm.address")?;
+        if let Some(m) = &a.monitoring {
+            address(m, "arm.monitoring")?;
+        }
+        timeout(&a.io_timeout_ms, "arm.io_timeout_ms")?;
+        timeout(&a.connect_timeout_ms, "arm.connect_timeout_ms")?;
+
+        let g = &self.guide;
+        kind(&g.kind, "guide", "zaber")?;
+        self.check_link(text, g.tcp.as_ref(), g.serial.as_ref(), "guide", g.kind.span())?;
+        timeout(&g.io_timeout_ms, "guide.io_timeout_ms")?;
+        timeout(&g.connect_timeout_ms, "guide.connect_timeout_ms")?;
+        if let Some(l) = &g.lead_mm
+            && !(l.get_ref().is_finite() && *l.get_ref() > 0.0)
+        {
+            return Err(err(l.span(), "guide.lead_mm", format!("{} must be > 0", l.get_ref())));
+        }
+        for (name, v) in [("guide.device", &g.device), ("guide.axis", &g.axis)] {
+            if let Some(v) = v
+                && *v.get_ref() == 0
+            {
+                return Err(err(v.span(), name, "must be at least 1".into()));
+            }
+        }
+
+        if self.gauges.len() != 3 {
+            return Err(DevicesError::Field {
+                path: self.source.clone(),
+                line: 0,
+                field: "gauges".into(),
+                reason: format!("the TriCal needs exactly 3 gauges, the file lists {}", self.gauges.len()),
+            });
+        }
+        for (i, s) in self.gauges.iter().enumerate() {
+            let field = format!("gauges[{i}]");
+            kind(&s.kind, &field, "sylvac")?;
+            self.check_link(text, s.tcp.as_ref(), s.serial.as_ref(), &field, s.kind.span())?;
+            timeout(&s.io_timeout_ms, &format!("{field}.io_timeout_ms"))?;
+            timeout(&s.connect_timeout_ms, &format!("{field}.connect_timeout_ms"))?;
+        }
+        if let Some(t) = &self.tracker {
+            return Err(err(
+                t.kind.span(),
+                "tracker.kind",
+                format!(
+                    "no laser-tracker driver exists yet (kind `{}`); remove the `tracker` entry",
+                    t.kind.get_ref()
+                ),
+            ));
+        }
+        if let Some(c) = &self.sim_control {
+            address(&c.tcp, "sim_control.tcp")?;
+            timeout(&c.io_timeout_ms, "sim_control.io_timeout_ms")?;
+        }
+        if let Some(p) = &self.probe
+            && let Some(r) = &p.range_mm
+            && !(r.get_ref().is_finite() && *r.get_ref() > 0.0)
+        {
+            return Err(err(r.span(), "probe.range_mm", format!("{} must be > 0", r.get_ref())));
+        }
+        Ok(())
+    }
+
+    fn check_link(
+        &self,
+        text: &str,
+        tcp: Option<&Spanned<String>>,
+        serial: Option<&Spanned<String>>,
+        field: &str,
+        span: std::ops::Range<usize>,
+    ) -> Result<(), DevicesError> {
+        match (tcp, serial) {
+            (Some(t), None) => check_address(t.get_ref())
+                .map_err(|reason| self.field_error(text, t.span(), &format!("{field}.tcp"), reason)),
+            (None, Some(s)) => {
+                if s.get_ref().trim().is_empty() {
+                    return Err(self.field_error(
+                        text,
+                        s.span(),
+                        &format!("{field}.serial"),
+                        "empty path".into(),
+                    ));
+                }
+                if cfg!(feature = "serial") {
+                    Ok(())
+                } else {
+                    Err(self.field_error(
+                        text,
+                        s.span(),
+                        &format!("{field}.serial"),
+                        "this vatcal was built without the `serial` feature (use a TCP bridge or rebuild with --features serial)".into(),
+                    ))
+                }
+            }
+            (Some(_), Some(s)) => {
+                Err(self.field_error(text, s.span(), field, "give either `tcp` or `serial`, not both".into()))
+            }
+            (None, None) => Err(self.field_error(
+                text,
+                span,
+                field,
+                "needs `tcp = \"host:port\"` or `serial = \"/dev/…\"`".into(),
+            )),
+        }
+    }
+
+    /// How the guide is reached.
+    pub fn guide_link(&self) -> Link {
+        link(
+            self.guide.tcp.as_ref(),
+            self.guide.serial.as_ref(),
+            self.guide.baud.as_ref().map_or(115_200, |b| *b.get_ref()),
+        )
+    }
+
+    /// How gauge `i` (0-based) is reached.
+    pub fn gauge_link(&self, i: usize) -> Option<Link> {
+        self.gauges.get(i).map(|g| link(g.tcp.as_ref(), g.serial.as_ref(), 4800))
+    }
+
+    /// The TriCal configuration: `placements` (from the nominal cell) and the range of the
+    /// `probe` entry.
+    pub fn probe_config(&self, placements: Vec<ProbePlacement>) -> TriCalConfig {
+        let mut c = TriCalConfig::new(placements);
+        if let Some(r) = self.probe.as_ref().and_then(|p| p.range_mm.as_ref()) {
+            c.range_mm = *r.get_ref();
+        }
+        c
+    }
+
+    /// The driver configuration of the arm.
+    pub fn arm_config(&self) -> Meca500Config {
+        let d = Meca500Config::default();
+        Meca500Config {
+            io_timeout: ms(&self.arm.io_timeout_ms, d.io_timeout),
+            connect_timeout: ms(&self.arm.connect_timeout_ms, d.connect_timeout),
+            ..d
+        }
+    }
+
+    /// The driver configuration of the guide.
+    pub fn guide_config(&self) -> ZaberConfig {
+        let d = ZaberConfig::default();
+        let g = &self.guide;
+        ZaberConfig {
+            address: g.device.as_ref().map_or(d.address, |v| *v.get_ref()),
+            axis: g.axis.as_ref().map_or(d.axis, |v| *v.get_ref()),
+            io_timeout: ms(&g.io_timeout_ms, d.io_timeout),
+            connect_timeout: ms(&g.connect_timeout_ms, d.connect_timeout),
+            microstep: g
+                .lead_mm
+                .as_ref()
+                .map_or(d.microstep, |l| MicrostepSize::FromLead { lead_mm: *l.get_ref() }),
+            ..d
+        }
+    }
+
+    /// The driver configuration of gauge `i` (0-based; named `gauge i+1`).
+    pub fn gauge_config(&self, i: usize) -> SylvacConfig {
+        let d = SylvacConfig::default();
+        let g = self.gauges.get(i);
+        SylvacConfig {
+            name: format!("gauge {}", i + 1),
+            io_timeout: ms(&g.and_then(|g| g.io_timeout_ms.clone()), d.io_timeout),
+            connect_timeout: ms(&g.and_then(|g| g.connect_timeout_ms.clone()), d.connect_timeout),
+            ..d
+        }
+    }
+
+    /// Connects every device with its driver (arm, guide, gauges 1–3, then the simulator's
+    /// control port if named). Nothing moves: the drivers only identify the devices.
+    ///
+    /// # Errors
+    /// The first device that cannot be connected ([`DevicesError::Connect`] names it).
+    pub fn connect(&self) -> Result<ConnectedDevices, DevicesError> {
+        let mut found = Vec::new();
+        let address = self.arm.address.get_ref().clone();
+        let arm =
+            Meca500::connect_tcp(address.as_str(), self.arm_config()).map_err(|e| DevicesError::Connect {
+                role: "arm".into(),
+                what: format!("meca500 at {address}"),
+                source: e.into_hw("meca500"),
+            })?;
+        let b = arm.banner();
+        found.push(format!(
+            "arm: meca500 at {address}: {} firmware {}.{}.{}{}",
+            b.model,
+            b.version.0,
+            b.version.1,
+            b.version.2,
+            if b.virtual_robot { " (virtual robot)" } else { "" }
+        ));
+
+        let guide_link = self.guide_link();
+        let (guide, info) =
+            connect_guide(&guide_link, self.guide_config()).map_err(|e| DevicesError::Connect {
+                role: "guide".into(),
+                what: format!("zaber over {guide_link}"),
+                source: e.into_hw("zaber guide"),
+            })?;
+        let travel = info
+            .travel_mm()
+            .map_or("travel unknown".to_string(), |(lo, hi)| format!("travel {lo:.1}..{hi:.1} mm"));
+        found.push(format!("guide: zaber over {guide_link}: {travel}"));
+
+        let mut gauges: Vec<Box<dyn Gauge>> = Vec::with_capacity(3);
+        for i in 0..3 {
+            let Some(link) = self.gauge_link(i) else { break };
+            let config = self.gauge_config(i);
+            let name = config.name.clone();
+            let (gauge, id) = connect_gauge(&link, config).map_err(|e| DevicesError::Connect {
+                role: name.clone(),
+                what: format!("sylvac over {link}"),
+                source: e.into_hw(&name),
+            })?;
+            found.push(format!("{name}: sylvac over {link}: id `{id}`"));
+            gauges.push(gauge);
+        }
+        let gauges: [Box<dyn Gauge>; 3] = gauges.try_into().map_err(|_| DevicesError::Field {
+            path: self.source.clone(),
+            line: 0,
+            field: "gauges".into(),
+            reason: "the TriCal needs exactly 3 gauges".into(),
+        })?;
+
+        let sim_control = match &self.sim_control {
+            None => None,
+            Some(c) => {
+                let io = ms(&c.io_timeout_ms, Duration::from_secs(5));
+                let address = c.tcp.get_ref();
+                let mut control =
+                    SimControl::connect(address, Duration::from_secs(5), io).map_err(|source| {
+                        DevicesError::Connect {
+                            role: "sim_control".into(),
+                            what: format!("tcp {address}"),
+                            source,
+                        }
+                    })?;
+                let placement = control.placement().map_err(|source| DevicesError::Connect {
+                    role: "sim_control".into(),
+                    what: format!("tcp {address}"),
+                    source,
+                })?;
+                found.push(format!("sim_control: tcp {address}: probe plate at placement {placement}"));
+                Some(control)
+            }
+        };
+        Ok(ConnectedDevices { arm: Box::new(arm), guide, gauges, tracker: None, sim_control, found })
+    }
+}
+
+fn link(tcp: Option<&Spanned<String>>, serial: Option<&Spanned<String>>, baud: u32) -> Link {
+    match (tcp, serial) {
+        (_, Some(s)) => Link::Serial { path: s.get_ref().clone(), baud },
+        (Some(t), None) => Link::Tcp(t.get_ref().clone()),
+        (None, None) => Link::Tcp(String::new()),
+    }
+}
+
+/// A connected guide and what it reported at connection.
+type GuideAndInfo = (Box<dyn LinearAxis>, AxisInfo);
+
+fn connect_guide(link: &Link, config: ZaberConfig) -> Result<GuideAndInfo, vatcal_drivers_zaber::ZaberError> {
+    match link {
+        Link::Tcp(a) => {
+            let g = ZaberAxis::connect_tcp(a.as_str(), config)?;
+            let info = *g.info();
+            Ok((Box::new(g), info))
+        }
+        #[cfg(feature = "serial")]
+        Link::Serial { path, baud } => {
+            let g = ZaberAxis::open_serial(path, *baud, config)?;
+            let info = *g.info();
+            Ok((Box::new(g), info))
+        }
+        #[cfg(not(feature = "serial"))]
+        Link::Serial { path, .. } => Err(vatcal_drivers_zaber::ZaberError::Io(std::io::Error::other(
+            format!("{path}: built without the `serial` feature"),
+        ))),
+    }
+}
+
+fn connect_gauge(
+    link: &Link,
+    config: SylvacConfig,
+) -> Result<(Box<dyn Gauge>, String), vatcal_drivers_sylvac::SylvacError> {
+    match link {
+        Link::Tcp(a) => {
+            let g = SylvacGauge::connect_tcp(a.as_str(), config)?;
+            let id = g.id().to_string();
+            Ok((Box::new(g), id))
+        }
+        #[cfg(feature = "serial")]
+        Link::Serial { path, .. } => {
+            let g = SylvacGauge::open_serial(path, config)?;
+            let id = g.id().to_string();
+            Ok((Box::new(g), id))
+        }
+        #[cfg(not(feature = "serial"))]
+        Link::Serial { path, .. } => Err(vatcal_drivers_sylvac::SylvacError::Io(std::io::Error::other(
+            format!("{path}: built without the `serial` feature"),
+        ))),
+    }
+}

@@ -1,0 +1,155 @@
+//! Client of the cell-control port of `vatcal sim-cell` and the automatic operator built on it.
+
+use std::io::{BufRead, BufReader, Write};
+use std::net::TcpStream;
+use std::time::Duration;
+
+use vatcal_hardware_traits::{Error, ErrorKind, Operator, OperatorInstruction, Result};
+
+const DEVICE: &str = "sim control";
+
+/// A connection to the cell-control port of `vatcal sim-cell` (one request line, one answer
+/// line).
+#[derive(Debug)]
+pub struct SimControl {
+    reader: BufReader<TcpStream>,
+    writer: TcpStream,
+}
+
+impl SimControl {
+    /// Connects to `address` (e.g. `127.0.0.1:55570`); every answer must come within
+    /// `io_timeout`.
+    ///
+    /// # Errors
+    /// The connection fails ([`ErrorKind::Timeout`], [`ErrorKind::Disconnected`], ...).
+    pub fn connect(address: &str, connect_timeout: Duration, io_timeout: Duration) -> Result<Self> {
+        let stream = vatcal_hardware_traits::transport::connect_tcp(address, connect_timeout)
+            .map_err(|e| Error::from_io(DEVICE, e).context(format!("connecting to {address}")))?;
+        stream.set_read_timeout(Some(io_timeout)).map_err(|e| Error::from_io(DEVICE, e))?;
+        stream.set_write_timeout(Some(io_timeout)).map_err(|e| Error::from_io(DEVICE, e))?;
+        let writer = stream.try_clone().map_err(|e| Error::from_io(DEVICE, e))?;
+        Ok(Self { reader: BufReader::new(stream), writer })
+    }
+
+    /// Sends `line` and returns the answer line (without the line ending).
+    fn request(&mut self, line: &str) -> Result<String> {
+        self.writer.write_all(format!("{line}\n").as_bytes()).map_err(|e| Error::from_io(DEVICE, e))?;
+        self.writer.flush().map_err(|e| Error::from_io(DEVICE, e))?;
+        let mut answer = String::new();
+        let n = self.reader.read_line(&mut answer).map_err(|e| Error::from_io(DEVICE, e))?;
+        if n == 0 {
+            return Err(Error::new(
+                ErrorKind::Disconnected,
+                DEVICE,
+                format!("connection closed after `{line}`"),
+            ));
+        }
+        Ok(answer.trim_end_matches(['\r', '\n']).to_string())
+    }
+
+    /// Re-places the probe plate at calibration position `position` (`PLACE <n>`).
+    ///
+    /// # Errors
+    /// Any answer other than `OK PLACE <n>`.
+    pub fn place(&mut self, position: u32) -> Result<()> {
+        let answer = self.request(&format!("PLACE {position}"))?;
+        if answer == format!("OK PLACE {position}") {
+            Ok(())
+        } else {
+            Err(Error::new(
+                ErrorKind::Protocol,
+                DEVICE,
+                format!("`PLACE {position}` answered `{answer}` (expected `OK PLACE {position}`)"),
+            ))
+        }
+    }
+
+    /// The current placement (`PLACEMENT?` → `PLACEMENT <n>`).
+    ///
+    /// # Errors
+    /// An answer that is not `PLACEMENT <n>`.
+    pub fn placement(&mut self) -> Result<u32> {
+        let answer = self.request("PLACEMENT?")?;
+        answer.strip_prefix("PLACEMENT ").and_then(|n| n.trim().parse().ok()).ok_or_else(|| {
+            Error::new(ErrorKind::Protocol, DEVICE, format!("`PLACEMENT?` answered `{answer}`"))
+        })
+    }
+}
+
+/// The operator of a simulated cell: re-places the probe plate through [`SimControl`];
+/// confirms every other instruction at once (nothing to do in the simulator).
+#[derive(Debug)]
+pub struct SimControlOperator {
+    control: SimControl,
+    log: Vec<String>,
+}
+
+impl SimControlOperator {
+    /// An operator on `control`.
+    pub fn new(control: SimControl) -> Self {
+        Self { control, log: Vec::new() }
+    }
+
+    /// Every instruction performed so far, in order.
+    pub fn log(&self) -> &[String] {
+        &self.log
+    }
+}
+
+impl Operator for SimControlOperator {
+    fn perform(&mut self, instruction: &OperatorInstruction) -> Result<()> {
+        if let OperatorInstruction::PlaceProbe { position } = instruction {
+            self.control.place(*position)?;
+        }
+        self.log.push(instruction.to_string());
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::net::TcpListener;
+
+    /// A one-connection fake of the sim-cell control port.
+    fn fake(answers: fn(&str) -> String) -> String {
+        let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
+        let addr = listener.local_addr().expect("addr").to_string();
+        std::thread::spawn(move || {
+            let (stream, _) = listener.accept().expect("accept");
+            let mut w = stream.try_clone().expect("clone");
+            for line in BufReader::new(stream).lines() {
+                let Ok(line) = line else { break };
+                if w.write_all(format!("{}\n", answers(&line)).as_bytes()).is_err() {
+                    break;
+                }
+            }
+        });
+        addr
+    }
+
+    fn connect(addr: &str) -> SimControl {
+        SimControl::connect(addr, Duration::from_secs(2), Duration::from_secs(2)).expect("connect")
+    }
+
+    #[test]
+    fn place_and_placement_follow_the_line_protocol() {
+        let addr = fake(|l| match l {
+            "PLACEMENT?" => "PLACEMENT 2".into(),
+            l => format!("OK {l}"),
+        });
+        let mut op = SimControlOperator::new(connect(&addr));
+        op.perform(&OperatorInstruction::PlaceProbe { position: 3 }).expect("place");
+        op.perform(&OperatorInstruction::RemoveMasterBall).expect("confirm");
+        assert_eq!(op.control.placement().expect("placement"), 2);
+        assert_eq!(op.log().len(), 2);
+    }
+
+    #[test]
+    fn a_wrong_answer_is_a_protocol_error_naming_the_device() {
+        let addr = fake(|_| "ERR no such placement".into());
+        let e = connect(&addr).place(9).expect_err("refused");
+        assert_eq!(e.kind(), ErrorKind::Protocol);
+        assert!(e.to_string().starts_with("sim control: ") && e.to_string().contains("ERR no such"), "{e}");
+    }
+}

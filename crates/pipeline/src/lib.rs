@@ -1,0 +1,434 @@
+//! # vatcal-pipeline
+//!
+//! The single composition root of a calibration run, generic over the device traits of
+//! `vatcal-hardware-traits` (it depends on no driver and on no simulator):
+//!
+//! 1. [`Stage::Plan`] (`vatcal-planning`): candidate measurement poses, Detmax selection, the
+//!    time-optimal tour, written as a [`PlanFolder`];
+//! 2. [`Stage::Campaign`] (`vatcal-campaign`): the planned measurements on any
+//!    [`DeviceSet`] with TriCal auto-centering, the crash-safe journal and `measurements.csv`
+//!    ([`campaign_stage`], also what `vatcal campaign` runs on the real cell);
+//! 3. [`Stage::Identify`] (`vatcal-identification`): the paper's 34 parameters by
+//!    Levenberg–Marquardt;
+//! 4. [`Stage::Validate`] (`vatcal_campaign::validation`): random poses and a printing path
+//!    measured with the tracker, commanded by the nominal and by the calibrated model;
+//! 5. [`Stage::Report`]: `report.json` ([`RunReport`]), `summary.md`, CSVs and SVG plots.
+//!
+//! [`run`] executes all of them in order. Progress goes to a [`Progress`] implementation
+//! (stage started/finished, step i of n with the time left); nothing here draws on a terminal.
+//! `vatcal demo` is this pipeline on the in-process virtual cell (`vatcal-demo`).
+
+mod error;
+pub mod folders;
+mod progress;
+pub mod report;
+pub mod stop;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use vatcal_campaign::validation::{
+    ModelValidation, PrintingPathOptions, RandomPoseOptions, ValidationPlan, ValidationPlanOptions,
+    ValidationRecords, build_validation_plan, evaluate,
+};
+use vatcal_campaign::{
+    Campaign, CampaignConfig, CampaignPlan, CampaignReport, CellDevices, Journal, StepRecord,
+};
+use vatcal_core::{CellFile, JointVector, ParamSet};
+use vatcal_identification::{Identification, IdentifyOptions, identify};
+use vatcal_kinematics::Model;
+use vatcal_planning::candidates::CandidateOptions;
+use vatcal_planning::geometry::CellGeometry;
+use vatcal_planning::output::PlanSummary;
+use vatcal_planning::plan::{PlanOptions, plan_campaign};
+
+pub use error::PipelineError;
+pub use folders::{PlanFolder, RunFolder};
+pub use progress::{NoProgress, Progress, Stage, StageLog, StepProgress};
+pub use report::{
+    CampaignSummary, PAPER, PaperFigures, REPORT_FORMAT, ReportSetup, RunReport, ValidationSummary,
+    comparison_table,
+};
+
+use progress::StepCounter;
+
+/// Labels of the two models compared by the validation.
+pub const NOMINAL: &str = "nominal";
+/// Label of the calibrated model in the validation.
+pub const CALIBRATED: &str = "calibrated";
+
+/// Anything that can lend the devices of one cell to a campaign, as often as needed (the
+/// measurement campaign, then the validation on the same session).
+pub trait DeviceSet {
+    /// The devices, borrowed for one campaign.
+    fn devices(&mut self) -> CellDevices<'_>;
+}
+
+/// Sizes of a run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSizes {
+    /// random tool orientations per TCP × calibration position (paper: 500)
+    pub orientations: usize,
+    /// guide positions of the candidates (paper: 10)
+    pub guide_steps: usize,
+    /// measurements selected by Detmax (paper: 40)
+    pub count: usize,
+    /// random validation poses (paper: 573)
+    pub random_poses: usize,
+    /// slices of the printing path (paper: 300)
+    pub slices: usize,
+}
+
+impl RunSizes {
+    /// Checks every size; errors name the option.
+    ///
+    /// # Errors
+    /// A size below its minimum.
+    pub fn check(&self) -> Result<(), PipelineError> {
+        let at_least = |option: &str, value: usize, min: usize| {
+            if value < min {
+                return Err(PipelineError::Option {
+                    option: option.into(),
+                    reason: format!("must be at least {min}, got {value}"),
+                });
+            }
+            Ok(())
+        };
+        at_least("orientations", self.orientations, 1)?;
+        at_least("guide_steps", self.guide_steps, 1)?;
+        at_least("count", self.count, 1)?;
+        at_least("random_poses", self.random_poses, 1)?;
+        at_least("slices", self.slices, 2)
+    }
+}
+
+impl Default for RunSizes {
+    /// The paper's sizes: 500 orientations, 10 guide steps, 40 measurements, 573 random
+    /// validation poses, 300 slices.
+    fn default() -> Self {
+        Self { orientations: 500, guide_steps: 10, count: 40, random_poses: 573, slices: 300 }
+    }
+}
+
+/// Options of a whole run ([`run`]).
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// master seed: planning and validation poses
+    pub seed: u64,
+    /// the nominal cell (what the robot controller believes)
+    pub nominal: CellFile,
+    /// sizes of every stage
+    pub sizes: RunSizes,
+    /// settings of the measurement and validation campaigns
+    pub campaign: CampaignConfig,
+}
+
+/// What a run produced.
+#[derive(Debug, Clone)]
+pub struct RunOutcome<S> {
+    /// the report (also written as `report.json`)
+    pub report: RunReport<S>,
+    /// the identification (calibrated model, statistics)
+    pub identification: Identification,
+    /// wall-clock seconds of every stage
+    pub stage_seconds: Vec<(String, f64)>,
+    /// the files written, relative to the output directory
+    pub files: Vec<PathBuf>,
+}
+
+impl<S> RunOutcome<S> {
+    /// The validation of the model labelled `label` ([`NOMINAL`] or [`CALIBRATED`]).
+    pub fn validation(&self, label: &str) -> Option<&ModelValidation> {
+        self.report.model(label)
+    }
+}
+
+/// Wall-clock stopwatch of the stages; forwards start/finish to the progress receiver.
+struct Stages<'p> {
+    start: Instant,
+    done: Vec<(String, f64)>,
+    progress: &'p mut dyn Progress,
+}
+
+impl<'p> Stages<'p> {
+    fn new(progress: &'p mut dyn Progress) -> Self {
+        Self { start: Instant::now(), done: Vec::new(), progress }
+    }
+
+    fn start(&mut self, stage: Stage, steps: Option<usize>) {
+        self.progress.stage_started(stage, steps);
+    }
+
+    /// Ends `stage`: `line` receives its duration [s] and returns the summary line.
+    fn finish(&mut self, stage: Stage, line: impl FnOnce(f64) -> Option<String>) -> f64 {
+        let s = self.start.elapsed().as_secs_f64();
+        self.start = Instant::now();
+        self.done.push((stage.name().to_string(), s));
+        let summary = line(s).unwrap_or_default();
+        self.progress.stage_finished(stage, &summary, s);
+        s
+    }
+}
+
+/// Runs the whole calibration — plan, measurement campaign, identification, validation,
+/// report — on `devices`, writing the report folder `out` (created if missing; its journals
+/// are removed first so the run starts afresh). `setup` describes the cell for the report,
+/// from the identification.
+///
+/// # Errors
+/// Invalid sizes (checked before anything runs), any stage's error, or a file that cannot be
+/// written.
+pub fn run<S: ReportSetup>(
+    opts: &RunOptions,
+    devices: &mut dyn DeviceSet,
+    setup: impl FnOnce(&Identification) -> S,
+    out: &Path,
+    progress: &mut dyn Progress,
+) -> Result<RunOutcome<S>, PipelineError> {
+    let mut stages = Stages::new(progress);
+    opts.sizes.check()?;
+    let folder = RunFolder::new(out);
+    folder.create()?;
+    folder.remove_journals()?;
+    let nominal = Model::from_cell(&opts.nominal)?;
+    let geometry = CellGeometry::from_cell(&opts.nominal)?;
+    let mut files = report::Files::new(out);
+    files.cell("nominal.toml", &opts.nominal)?;
+
+    stages.start(Stage::Plan, None);
+    let plan_folder = PlanFolder::new(out.join("plan"));
+    let (candidates, plan) = plan_stage(opts, &nominal, &geometry, &plan_folder)?;
+    files.record_plan();
+    stages.finish(Stage::Plan, |s| {
+        Some(format!(
+            "plan: {candidates} candidates, {} measurements selected, tour of {} steps ({s:.1} s)",
+            plan.selected, plan.tour_steps
+        ))
+    });
+
+    let tour = plan_folder.read_tour()?;
+    let clock_start_s = devices.devices().clock.now_s();
+    let campaign =
+        campaign_stage(devices, &nominal, &tour, &folder, opts.campaign.clone(), &mut *stages.progress)?;
+    files.note(folders::CAMPAIGN_JOURNAL);
+    files.note(folders::MEASUREMENTS_CSV);
+    let campaign_time_s = devices.devices().clock.now_s() - clock_start_s;
+    stages.finish(Stage::Campaign, |s| {
+        Some(format!(
+            "campaign: {} probe measurements ({} skipped), {:.0} min of virtual time ({s:.1} s)",
+            campaign.measurements.len(),
+            campaign.skipped,
+            campaign_time_s / 60.0
+        ))
+    });
+
+    stages.start(Stage::Identify, None);
+    let fit = identify_stage(&nominal, &campaign.measurements)?;
+    files.cell(folders::CALIBRATED_CELL, &fit.model.to_cell())?;
+    stages.finish(Stage::Identify, |s| {
+        Some(format!(
+            "identification: {} parameters, {} iterations, residual mean {:.4} mm ({s:.1} s)",
+            fit.params.len(),
+            fit.iterations.len().saturating_sub(1),
+            fit.residual_stats.mean
+        ))
+    });
+
+    let start = campaign.records.last().map(|r| r.state.joints);
+    let options = validation_options(opts, start);
+    let models: [(&str, &Model); 2] = [(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
+    let validation_plan = build_validation_plan(&nominal, &geometry, &models, &options)?;
+    stages.start(Stage::Validate, Some(validation_plan.campaign.steps.len()));
+    let validation = validation_stage(
+        devices,
+        &nominal,
+        &models,
+        validation_plan,
+        &folder,
+        opts.campaign.clone(),
+        &mut *stages.progress,
+    )?;
+    let validation_time_s = devices.devices().clock.now_s() - clock_start_s - campaign_time_s;
+    stages.finish(Stage::Validate, |s| {
+        Some(format!(
+            "validation: {} random poses, {} slices × {} models, {} tracker measurements ({s:.1} s)",
+            validation.records.random.len(),
+            validation.plan.slices.len(),
+            validation.plan.path_runs.len(),
+            validation.plan.measurement_count()
+        ))
+    });
+
+    stages.start(Stage::Report, None);
+    files.note(folders::VALIDATION_JOURNAL);
+    files.validation_csvs(&validation.records, &validation.plan.slices, &validation.results)?;
+    files.plots(&fit, &validation.plan.slices, &validation.results)?;
+    let report = report::build_report(report::ReportInputs {
+        seed: opts.seed,
+        setup: setup(&fit),
+        plan,
+        campaign: &campaign,
+        campaign_time_s,
+        fit: &fit,
+        validation_plan: &validation.plan,
+        validation_options: &options,
+        validation_time_s,
+        results: validation.results,
+    });
+    files.json("report.json", &report)?;
+    stages.finish(Stage::Report, |_| None);
+    files.note("summary.md");
+    let outcome = RunOutcome {
+        report,
+        identification: fit,
+        stage_seconds: stages.done,
+        files: files.written().to_vec(),
+    };
+    files.summary("summary.md", &outcome)?;
+    Ok(outcome)
+}
+
+/// Plans the campaign on the nominal cell and writes the plan folder; returns the number of
+/// candidates and the plan summary.
+///
+/// # Errors
+/// Planning fails or the folder cannot be written.
+pub fn plan_stage(
+    opts: &RunOptions,
+    nominal: &Model,
+    geometry: &CellGeometry,
+    folder: &PlanFolder,
+) -> Result<(usize, PlanSummary), PipelineError> {
+    let plan = plan_campaign(nominal, geometry, &plan_options(opts))?;
+    let summary = folder.write(&plan)?;
+    Ok((plan.candidates.candidates.len(), summary))
+}
+
+/// Runs `tour` on `devices`, journaling into the run folder's `campaign.journal` (a journal
+/// of the same plan is resumed where it stopped: nothing lost, nothing repeated), reporting
+/// the start of [`Stage::Campaign`] and every step to `progress`, and writes
+/// `measurements.csv` at the end.
+///
+/// # Errors
+/// The campaign's error (the journal keeps every completed step: run again to resume).
+pub fn campaign_stage(
+    devices: &mut dyn DeviceSet,
+    nominal: &Model,
+    tour: &CampaignPlan,
+    folder: &RunFolder,
+    config: CampaignConfig,
+    progress: &mut dyn Progress,
+) -> Result<CampaignReport, PipelineError> {
+    progress.stage_started(Stage::Campaign, Some(tour.steps.len()));
+    let journal = folder.journal();
+    let report = run_campaign(devices, nominal, tour, &journal, config, Stage::Campaign, progress)?;
+    folder.write_measurements(&report.measurements)?;
+    Ok(report)
+}
+
+/// Runs a campaign plan with progress reporting (steps, measurements, time left).
+fn run_campaign(
+    devices: &mut dyn DeviceSet,
+    nominal: &Model,
+    plan: &CampaignPlan,
+    journal: &Path,
+    config: CampaignConfig,
+    stage: Stage,
+    progress: &mut dyn Progress,
+) -> Result<CampaignReport, PipelineError> {
+    let mut counter = StepCounter::new(plan.steps.len(), plan.measurement_count());
+    if journal.exists()
+        && let Ok(j) = Journal::open(journal)
+    {
+        counter.resumed(j.next_step(), j.measurements().len());
+    }
+    let observer = |record: &StepRecord| {
+        let p = counter.record(record.step, record.measurement().is_some());
+        progress.step_done(stage, p);
+    };
+    let report = Campaign::new(devices.devices(), nominal, config).on_record(observer).run(plan, journal)?;
+    Ok(report)
+}
+
+/// Identifies the paper's 34 parameters from the probe measurements (Levenberg–Marquardt).
+///
+/// # Errors
+/// The identification fails (too few measurements, divergence).
+pub fn identify_stage(
+    nominal: &Model,
+    measurements: &[vatcal_core::Measurement],
+) -> Result<Identification, PipelineError> {
+    Ok(identify(nominal, measurements, &ParamSet::paper34(), &IdentifyOptions::default())?)
+}
+
+/// What the validation stage produced.
+#[derive(Debug)]
+pub struct ValidationStage {
+    /// the planned validation campaign
+    pub plan: ValidationPlan,
+    /// the tracker measurements
+    pub records: ValidationRecords,
+    /// the errors of each model
+    pub results: Vec<ModelValidation>,
+}
+
+/// Runs the tracker validation `plan` of `models` on the same devices (the session
+/// continues), journaling into `validation.journal`.
+///
+/// # Errors
+/// The campaign or the evaluation fails.
+pub fn validation_stage(
+    devices: &mut dyn DeviceSet,
+    nominal: &Model,
+    models: &[(&str, &Model)],
+    plan: ValidationPlan,
+    folder: &RunFolder,
+    config: CampaignConfig,
+    progress: &mut dyn Progress,
+) -> Result<ValidationStage, PipelineError> {
+    let mut counter = StepCounter::new(plan.campaign.steps.len(), plan.campaign.measurement_count());
+    let observer = |record: &StepRecord| {
+        let p = counter.record(record.step, record.measurement().is_some());
+        progress.step_done(Stage::Validate, p);
+    };
+    let mut campaign = Campaign::new(devices.devices(), nominal, config).on_record(observer);
+    let records = plan.run(&mut campaign, folder.path(folders::VALIDATION_JOURNAL))?;
+    drop(campaign);
+    let smrs: Vec<_> =
+        nominal.tcp_ids().into_iter().filter_map(|id| nominal.tcp(id).map(|t| (id, t))).collect();
+    let results = evaluate(&records, &plan.slices, models, &smrs)?;
+    Ok(ValidationStage { plan, records, results })
+}
+
+/// The planning options of a run.
+pub fn plan_options(opts: &RunOptions) -> PlanOptions {
+    PlanOptions {
+        candidates: CandidateOptions {
+            orientations: opts.sizes.orientations,
+            guide_steps: opts.sizes.guide_steps,
+            progress: false,
+            ..CandidateOptions::default()
+        },
+        count: opts.sizes.count,
+        motion: opts.nominal.motion_limits(),
+        seed: opts.seed,
+        ..PlanOptions::default()
+    }
+}
+
+/// Seed of the validation stage, independent of the planning seed.
+pub fn validation_seed(seed: u64) -> u64 {
+    seed ^ 0x5eed_7a11_da7e_0001
+}
+
+/// The validation options of a run, starting where the calibration campaign left the arm.
+pub fn validation_options(opts: &RunOptions, start: Option<JointVector>) -> ValidationPlanOptions {
+    ValidationPlanOptions {
+        random: RandomPoseOptions { count: opts.sizes.random_poses, ..RandomPoseOptions::default() },
+        printing: PrintingPathOptions { slices: opts.sizes.slices, ..PrintingPathOptions::default() },
+        motion: opts.nominal.motion_limits(),
+        start,
+        seed: validation_seed(opts.seed),
+        ..ValidationPlanOptions::default()
+    }
+}

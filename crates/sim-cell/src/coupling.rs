@@ -1,0 +1,118 @@
+//! The backend hooks that couple the protocol simulators to the one virtual world.
+
+use std::sync::Weak;
+use std::sync::atomic::AtomicBool;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use nalgebra::Vector3;
+use vatcal_drivers_meca500::codec::Six;
+use vatcal_drivers_meca500::sim::{ArmBackend, Meca500Sim};
+use vatcal_drivers_sylvac::sim::PlungerSource;
+use vatcal_drivers_zaber::sim::{AxisBackend, ZaberSim};
+use vatcal_hardware_traits::{ArmJoints, LinearFrame};
+use vatcal_sim::VirtualCell;
+
+/// The cell's time: wall-clock time since the start, times the time scale.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SimTime {
+    pub start: Instant,
+    pub scale: f64,
+}
+
+impl SimTime {
+    pub fn now(&self) -> Duration {
+        Duration::try_from_secs_f64(self.start.elapsed().as_secs_f64() * self.scale).unwrap_or(Duration::MAX)
+    }
+}
+
+/// Meca500 simulator → world: motions, and relative linear moves solved on the nominal model.
+#[derive(Debug)]
+pub(crate) struct ArmCoupling {
+    pub cell: VirtualCell,
+}
+
+impl ArmBackend for ArmCoupling {
+    fn motion_started(&self, from_deg: &Six, to_deg: &Six) {
+        self.cell.external_motion_started(&ArmJoints::from_deg(*from_deg), &ArmJoints::from_deg(*to_deg));
+    }
+
+    fn linear_relative(
+        &self,
+        from_deg: &Six,
+        translation_mm: &Vector3<f64>,
+        frame: LinearFrame,
+    ) -> Option<Result<Six, (u16, String)>> {
+        let from = ArmJoints::from_deg(*from_deg);
+        Some(self.cell.external_linear_target(&from, translation_mm, frame).map(|q| q.to_deg()))
+    }
+}
+
+/// Zaber simulator → world: guide motions.
+#[derive(Debug)]
+pub(crate) struct GuideCoupling {
+    pub cell: VirtualCell,
+    pub microstep_mm: f64,
+}
+
+impl AxisBackend for GuideCoupling {
+    fn motion_started(&self, from_microsteps: f64, to_microsteps: f64) {
+        self.cell.external_guide_motion_started(
+            from_microsteps * self.microstep_mm,
+            to_microsteps * self.microstep_mm,
+        );
+    }
+}
+
+/// World → Sylvac simulator: where the true ball pushes the plunger of one gauge.
+#[derive(Debug)]
+pub(crate) struct GaugeCoupling {
+    cell: VirtualCell,
+    index: usize,
+    /// the plunger position that reads zero before any preset [mm] (mid-travel)
+    zero_mm: f64,
+    arm: Weak<Meca500Sim>,
+    guide: Weak<ZaberSim>,
+    microstep_mm: f64,
+    time: SimTime,
+    /// fault injection: the gauge reads out of range
+    pub out_of_range: AtomicBool,
+}
+
+impl GaugeCoupling {
+    pub fn new(
+        cell: VirtualCell,
+        index: usize,
+        zero_mm: f64,
+        arm: Weak<Meca500Sim>,
+        guide: Weak<ZaberSim>,
+        microstep_mm: f64,
+        time: SimTime,
+    ) -> Self {
+        Self { cell, index, zero_mm, arm, guide, microstep_mm, time, out_of_range: AtomicBool::new(false) }
+    }
+
+    /// Puts the world where the Meca500 and Zaber simulators are now.
+    fn sync(&self) {
+        let (Some(arm), Some(guide)) = (self.arm.upgrade(), self.guide.upgrade()) else { return };
+        // each simulator's lock is taken and released before the world's (lock order)
+        let joints = ArmJoints::from_deg(arm.state().joints_deg);
+        let guide_mm = guide.state().pos_microsteps * self.microstep_mm;
+        self.cell.external_sync(&joints, guide_mm, self.time.now());
+    }
+}
+
+impl PlungerSource for GaugeCoupling {
+    fn plunger_mm(&self) -> f64 {
+        if self.out_of_range.load(Ordering::SeqCst) {
+            return -1.0;
+        }
+        self.sync();
+        // nothing on the plunger: it rests on its stop, fully extended
+        self.cell.external_plunger_mm(self.index).map_or(0.0, |reading| reading + self.zero_mm)
+    }
+
+    fn reading_noise_mm(&self) -> f64 {
+        self.cell.external_reading_noise_mm(self.index)
+    }
+}

@@ -1,0 +1,398 @@
+//! # vatcal-sim-cell
+//!
+//! The whole virtual cell over TCP (`vatcal sim-cell`): one process serves
+//!
+//! | port (default) | device | simulator |
+//! |---|---|---|
+//! | 10000, 10001 | Meca500 control and monitoring | `vatcal_drivers_meca500::sim` |
+//! | 55550 | Zaber ASCII (the guide) | `vatcal_drivers_zaber::sim` |
+//! | 55561, 55562, 55563 | Sylvac gauges 1–3 of the TriCal | `vatcal_drivers_sylvac::sim` |
+//! | 55570 | cell control (the operator), see [`control`] | this crate |
+//!
+//! from **one shared virtual world**, a [`VirtualCell`] of `vatcal-sim`: the protocol
+//! simulators keep their queues, timing and protocol states, and a small backend hook couples
+//! each to the world —
+//!
+//! * the Meca500 simulator tells the world about every motion (backlash direction,
+//!   repeatability draw, noise epoch) and lets the cell's **nominal** model solve relative
+//!   linear moves, exactly as the in-process [`vatcal_sim::SimArm`] does;
+//! * the Zaber simulator tells the world about every guide motion;
+//! * each Sylvac simulator asks the world where its plunger is: the world is put at the joints
+//!   the Meca500 and Zaber simulators report, and the **true** ball is read against the
+//!   **true** probe plate at the current placement, along the gauge's true (tilted) axis, with
+//!   the noise budget of the in-process gauges;
+//! * the cell-control port moves the plate (the operator).
+//!
+//! The hidden truth is a parameter ([`SimCellOptions::truth`]); by default it is the one of
+//! `vatcal demo --seed S`, `perturbed_truth(nominal, S, &ErrorBudget::realistic())` on the
+//! built-in cell, with the demo's probe imperfections and noise budget
+//! ([`SimConfig::paper_for`]). With the noise off a campaign over TCP records what the
+//! in-process demo records, up to the wire's precision (9 decimals of a degree for the arm,
+//! one microstep of the guide, the gauges' display resolution).
+//!
+//! Fault injection for end-to-end tests: [`SimCell::drop_connections`],
+//! [`SimCell::set_stalled`], [`SimCell::robot_error`], [`SimCell::set_estop`],
+//! [`SimCell::set_gauge_out_of_range`], [`SimCell::guide_stall`].
+
+pub mod control;
+mod coupling;
+mod error;
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use vatcal_core::CellFile;
+use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig as MecaConfig};
+use vatcal_drivers_sylvac::sim::{SimConfig as SylvacConfig, SylvacSim};
+use vatcal_drivers_zaber::sim::{SimConfig as ZaberConfig, ZaberSim};
+use vatcal_hardware_traits::sim_server::SimServer;
+use vatcal_kinematics::Model;
+use vatcal_sim::truth::{ErrorBudget, perturbed_truth};
+use vatcal_sim::{NoiseBudget, SimConfig, VirtualCell};
+
+pub use error::SimCellError;
+
+use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling, SimTime};
+
+/// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built in so that `vatcal
+/// sim-cell` runs from any directory (the same file as `vatcal demo`'s built-in cell).
+pub const BUILT_IN_CELL: &str = include_str!("../../../fixtures/meca500-zaber.toml");
+
+/// The TCP ports of the cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Ports {
+    /// Meca500 control port
+    pub meca500_control: u16,
+    /// Meca500 monitoring port
+    pub meca500_monitoring: u16,
+    /// Zaber ASCII port
+    pub zaber: u16,
+    /// Sylvac gauges 1, 2, 3
+    pub gauges: [u16; 3],
+    /// cell-control port (the operator)
+    pub control: u16,
+}
+
+impl Ports {
+    /// Every port ephemeral (0): for tests that run several cells at once.
+    pub fn ephemeral() -> Self {
+        Self { meca500_control: 0, meca500_monitoring: 0, zaber: 0, gauges: [0; 3], control: 0 }
+    }
+}
+
+impl Default for Ports {
+    /// The devices' usual ports: 10000, 10001, 55550, 55561–55563, and 55570.
+    fn default() -> Self {
+        Self {
+            meca500_control: 10000,
+            meca500_monitoring: 10001,
+            zaber: 55550,
+            gauges: [55561, 55562, 55563],
+            control: 55570,
+        }
+    }
+}
+
+/// Options of [`SimCell::start`].
+#[derive(Debug, Clone)]
+pub struct SimCellOptions {
+    /// address every port binds (default 127.0.0.1)
+    pub bind: IpAddr,
+    /// the ports
+    pub ports: Ports,
+    /// seed of the probe imperfections and of the noise (and of the default truth)
+    pub seed: u64,
+    /// what the robot controller believes (and where the probe placements are configured)
+    pub nominal: Model,
+    /// the hidden true cell
+    pub truth: Model,
+    /// simulated device noise (robot, guide, tool changer and gauge repeatability); probe
+    /// imperfections stay, they are part of the truth
+    pub noise: bool,
+    /// every duration is divided by this (1 = real time)
+    pub time_scale: f64,
+    /// decimals of the gauges' display in mm (the S_Dial WORK Nano shows 4: 0.1 µm)
+    pub gauge_decimals: usize,
+}
+
+impl SimCellOptions {
+    /// The cell of `vatcal demo --seed seed`: the built-in nominal cell, truth
+    /// `perturbed_truth(nominal, seed, &ErrorBudget::realistic())`, noise on, real time, the
+    /// usual ports on 127.0.0.1, 4-decimal gauges.
+    ///
+    /// # Errors
+    /// Only if the built-in cell does not parse (a build defect).
+    pub fn paper(seed: u64) -> Result<Self, SimCellError> {
+        let cell = CellFile::from_toml_str(BUILT_IN_CELL, "fixtures/meca500-zaber.toml (built in)")
+            .map_err(|e| SimCellError::Model(e.to_string()))?;
+        let nominal = Model::from_cell(&cell).map_err(|e| SimCellError::Model(e.to_string()))?;
+        let truth = perturbed_truth(&nominal, seed, &ErrorBudget::realistic());
+        Ok(Self {
+            bind: IpAddr::V4(Ipv4Addr::LOCALHOST),
+            ports: Ports::default(),
+            seed,
+            nominal,
+            truth,
+            noise: true,
+            time_scale: 1.0,
+            gauge_decimals: 4,
+        })
+    }
+
+    /// The virtual-cell configuration these options give: [`SimConfig::paper_for`] the
+    /// nominal cell, without device noise if [`SimCellOptions::noise`] is off.
+    pub fn sim_config(&self) -> SimConfig {
+        let mut config = SimConfig::paper_for(&self.nominal);
+        if !self.noise {
+            config.noise = NoiseBudget::none();
+        }
+        config
+    }
+
+    fn check(&self) -> Result<(), SimCellError> {
+        if !(self.time_scale.is_finite() && self.time_scale > 0.0) {
+            return Err(SimCellError::Option {
+                option: "time_scale".into(),
+                reason: format!("must be a positive number, got {}", self.time_scale),
+            });
+        }
+        if self.gauge_decimals > 9 {
+            return Err(SimCellError::Option {
+                option: "gauge_decimals".into(),
+                reason: format!("must be at most 9, got {}", self.gauge_decimals),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The addresses a running [`SimCell`] listens on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SimCellAddrs {
+    /// Meca500 control
+    pub meca500_control: SocketAddr,
+    /// Meca500 monitoring
+    pub meca500_monitoring: SocketAddr,
+    /// Zaber ASCII
+    pub zaber: SocketAddr,
+    /// Sylvac gauges 1, 2, 3
+    pub gauges: [SocketAddr; 3],
+    /// cell control
+    pub control: SocketAddr,
+}
+
+impl SimCellAddrs {
+    /// `(name, address)` of every port, in the order `vatcal sim-cell` prints them.
+    pub fn named(&self) -> Vec<(&'static str, SocketAddr)> {
+        vec![
+            ("meca500-control", self.meca500_control),
+            ("meca500-monitoring", self.meca500_monitoring),
+            ("zaber", self.zaber),
+            ("gauge-1", self.gauges[0]),
+            ("gauge-2", self.gauges[1]),
+            ("gauge-3", self.gauges[2]),
+            ("cell-control", self.control),
+        ]
+    }
+}
+
+/// A device of the cell, for fault injection.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Device {
+    /// the Meca500 (control and monitoring ports)
+    Arm,
+    /// the Zaber guide
+    Guide,
+    /// Sylvac gauge `.0` (0, 1, 2)
+    Gauge(usize),
+    /// the cell-control port
+    Control,
+}
+
+/// The running cell. Dropping it stops every server and closes every socket.
+#[derive(Debug)]
+pub struct SimCell {
+    // fields drop in order: the gauges (which read the arm and the guide) go first
+    gauges: Vec<SylvacSim>,
+    gauge_couplings: Vec<Arc<GaugeCoupling>>,
+    control: SimServer,
+    meca500: Arc<Meca500Sim>,
+    zaber: Arc<ZaberSim>,
+    cell: VirtualCell,
+    addrs: SimCellAddrs,
+}
+
+impl SimCell {
+    /// Builds the virtual world and starts every server.
+    ///
+    /// # Errors
+    /// Invalid options, or a port that cannot be bound (in use, no permission) — the error
+    /// names the device and the address.
+    pub fn start(options: SimCellOptions) -> Result<Self, SimCellError> {
+        options.check()?;
+        let cell = VirtualCell::new(
+            options.nominal.clone(),
+            options.truth.clone(),
+            options.sim_config(),
+            options.seed,
+        );
+        let time = SimTime { start: Instant::now(), scale: options.time_scale };
+        let at = |port: u16| SocketAddr::new(options.bind, port);
+        let bind_err = |device: &str, port: u16| {
+            let address = at(port);
+            let device = device.to_owned();
+            move |source| SimCellError::Bind { device, address, source }
+        };
+
+        // the guide: microsteps of the default lead, stroke and speed of the nominal cell
+        let mut zaber_config = ZaberConfig { time_scale: options.time_scale, ..ZaberConfig::default() };
+        let (_, stroke_mm) = cell.guide_limits_mm();
+        zaber_config.travel_mm = stroke_mm;
+        let limits = options.nominal.to_cell().motion_limits();
+        zaber_config.maxspeed =
+            ZaberConfig::maxspeed_for(limits.guide_speed_mm_per_s, zaber_config.microstep_mm);
+        let microstep_mm = zaber_config.microstep_mm;
+        zaber_config.bind = at(options.ports.zaber);
+        zaber_config.backend = Some(Arc::new(GuideCoupling { cell: cell.clone(), microstep_mm }));
+        let zaber = Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
+
+        // the arm: the nominal cell's joint limits, motions coupled to the world
+        let mut meca_config = MecaConfig { time_scale: options.time_scale, ..MecaConfig::default() };
+        meca_config.joint_limits_deg =
+            cell.arm_joint_limits().map(|(lo, hi)| (lo.to_degrees(), hi.to_degrees()));
+        meca_config.control_bind = at(options.ports.meca500_control);
+        meca_config.monitoring_bind = at(options.ports.meca500_monitoring);
+        meca_config.backend = Some(Arc::new(ArmCoupling { cell: cell.clone() }));
+        let meca500 = Arc::new(
+            Meca500Sim::start(meca_config).map_err(bind_err("meca500", options.ports.meca500_control))?,
+        );
+
+        // the gauges: the S_Dial's 12.5 mm travel, reading zero (a centred calibration ball)
+        // at 6 mm so that the display is the in-process reading and the master ball (+6.35 mm)
+        // still fits
+        let range_mm = cell.config().gauge_range_mm;
+        let mut gauges = Vec::new();
+        let mut gauge_couplings = Vec::new();
+        for (index, port) in options.ports.gauges.iter().enumerate() {
+            let coupling = Arc::new(GaugeCoupling::new(
+                cell.clone(),
+                index,
+                range_mm,
+                Arc::downgrade(&meca500),
+                Arc::downgrade(&zaber),
+                microstep_mm,
+                time,
+            ));
+            let decimals = options.gauge_decimals;
+            let config = SylvacConfig {
+                id: format!("SY289-SIM{}", index + 1),
+                resolution_mm: 10f64.powi(-(decimals as i32)),
+                decimals_mm: decimals,
+                seed: options.seed.wrapping_add(index as u64),
+                bind: at(*port),
+                plunger: Some(coupling.clone()),
+                zeroed_at_mm: Some(range_mm),
+                ..SylvacConfig::default()
+            };
+            let name = format!("gauge-{}", index + 1);
+            gauges.push(SylvacSim::start(config).map_err(bind_err(&name, *port))?);
+            gauge_couplings.push(coupling);
+        }
+
+        let control = SimServer::spawn(
+            "sim-cell-control",
+            &[at(options.ports.control)],
+            control::ControlService::new(cell.clone(), options.time_scale),
+        )
+        .map_err(bind_err("cell-control", options.ports.control))?;
+
+        let addrs = SimCellAddrs {
+            meca500_control: meca500.control_addr(),
+            meca500_monitoring: meca500.monitoring_addr().unwrap_or_else(|| at(0)),
+            zaber: zaber.addr(),
+            gauges: [gauges[0].addr(), gauges[1].addr(), gauges[2].addr()],
+            control: control.addrs()[0],
+        };
+        Ok(Self { gauges, gauge_couplings, control, meca500, zaber, cell, addrs })
+    }
+
+    /// The bound addresses.
+    pub fn addrs(&self) -> SimCellAddrs {
+        self.addrs
+    }
+
+    /// The virtual world (oracles for tests: the truth, the plate position, the true ball
+    /// offset, the physical joints).
+    pub fn cell(&self) -> &VirtualCell {
+        &self.cell
+    }
+
+    /// The Meca500 simulator (its state, and its own fault hooks).
+    pub fn meca500(&self) -> &Meca500Sim {
+        &self.meca500
+    }
+
+    /// The Zaber simulator.
+    pub fn zaber(&self) -> &ZaberSim {
+        &self.zaber
+    }
+
+    /// Gauge simulator `index` (0, 1, 2).
+    pub fn gauge(&self, index: usize) -> Option<&SylvacSim> {
+        self.gauges.get(index)
+    }
+
+    // ---- fault injection -----------------------------------------------------------------
+
+    /// Closes the connections of `device` (the client sees its socket closed).
+    pub fn drop_connections(&self, device: Device) {
+        match device {
+            Device::Arm => self.meca500.drop_client(),
+            Device::Guide => self.zaber.drop_clients(),
+            Device::Gauge(i) => {
+                if let Some(g) = self.gauges.get(i) {
+                    g.drop_clients();
+                }
+            }
+            Device::Control => self.control.drop_clients(),
+        }
+    }
+
+    /// Stalls (`true`) or revives `device`: connections stay open, nothing is answered.
+    pub fn set_stalled(&self, device: Device, stalled: bool) {
+        match device {
+            Device::Arm => self.meca500.set_stalled(stalled),
+            Device::Guide => self.zaber.set_stalled(stalled),
+            Device::Gauge(i) => {
+                if let Some(g) = self.gauges.get(i) {
+                    g.set_stalled(stalled);
+                }
+            }
+            Device::Control => self.control.set_stalled(stalled),
+        }
+    }
+
+    /// The robot raises error `code` (e.g. 3005 motion error): error mode, motion stopped.
+    pub fn robot_error(&self, code: u16, text: &str) {
+        self.meca500.inject_error(code, text);
+    }
+
+    /// Presses or releases the robot's E-Stop.
+    pub fn set_estop(&self, pressed: bool) {
+        self.meca500.set_estop(pressed);
+    }
+
+    /// Gauge `index` reads out of range (`ERR3`) until cleared, wherever the ball is.
+    pub fn set_gauge_out_of_range(&self, index: usize, on: bool) {
+        if let Some(c) = self.gauge_couplings.get(index) {
+            c.out_of_range.store(on, Ordering::SeqCst);
+        }
+    }
+
+    /// The guide's motor stalls (`FS`); a running guide move stops where it is.
+    pub fn guide_stall(&self) {
+        self.zaber.inject_stall();
+    }
+}
