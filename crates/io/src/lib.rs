@@ -554,6 +554,29 @@ mod tests {
     }
 
     #[test]
+    fn pose_rows_read_by_name_with_context_and_named_errors() {
+        let m = model();
+        let f = file("# poses\ngamma,beta,alpha,z,y,x,q1,tcp,time_s\n3,2,180,40,-40,60,100,2,7.5\n");
+        let rows = read_pose_rows(f.path(), &m).expect("ok");
+        assert_eq!(rows.len(), 1);
+        let r = &rows[0];
+        assert_eq!((r.line, r.tcp, r.q1_mm), (3, 2, 100.0));
+        assert_eq!((r.xyz_mm, r.abc_deg), ([60.0, -40.0, 40.0], [180.0, 2.0, 3.0]));
+        assert_eq!(r.context.time_s, Some(7.5));
+        let cases = [
+            ("tcp,q1,x,y,z,alpha,beta,gamma\n2,400,0,0,0,0,0,0\n", "q1", "guide limits"),
+            ("tcp,q1,x,y,z,alpha,beta,gamma\n2,100,0,0,0,0,nan,0\n", "beta", "not finite"),
+            ("tcp,q1,x,y,z,alpha,beta,gamma\n7,100,0,0,0,0,0,0\n", "tcp", "unknown tcp id 7"),
+            ("tcp,q1,x,y,z,alpha,beta\n2,100,0,0,0,0,0\n", "gamma", "missing column"),
+        ];
+        for (text, column, reason) in cases {
+            let f = file(text);
+            let e = read_pose_rows(f.path(), &m).expect_err("bad").to_string();
+            assert!(e.contains(&format!("`{column}`")) && e.contains(reason), "{e}");
+        }
+    }
+
+    #[test]
     fn errors_name_file_line_and_column() {
         let m = model();
         let cases = [
