@@ -6,8 +6,10 @@
 //! 1. **plan** (`vatcal-planning`): candidate measurement poses (IK, limits, singularities,
 //!    collisions), Detmax selection of 40, the time-optimal tour with collision-free paths;
 //! 2. **measurement campaign** (`vatcal-campaign`) on the virtual cell (`vatcal-sim`) whose
-//!    hidden truth is `perturbed_truth(nominal, seed, &ErrorBudget::realistic())` — the robot
-//!    controller believes the nominal model, the devices have the paper's noise budget —
+//!    hidden truth is chosen by [`DemoOptions::truth`] (default `paper-like`: the paper's 34
+//!    parameters' errors plus the physics they miss, `docs/virtual-cell.md`; `ideal`: only the
+//!    34 parameters' errors) — the robot controller believes the nominal model, the devices
+//!    have the paper's noise budget —
 //!    with TriCal auto-centering and the crash-safe journal;
 //! 3. **identification** (`vatcal-identification`): the paper's 34 parameters by
 //!    Levenberg–Marquardt;
@@ -39,6 +41,7 @@ use vatcal_planning::candidates::CandidateOptions;
 use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::output::{PlanSummary, write_plan};
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
+pub use vatcal_sim::truth::TruthSpec;
 use vatcal_sim::{SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell};
 
 pub use error::DemoError;
@@ -109,6 +112,8 @@ pub struct DemoOptions {
     pub sizes: DemoSizes,
     /// draw progress bars (planning and campaigns, on stderr)
     pub show_progress: bool,
+    /// the hidden truth of the virtual cell (default: paper-like)
+    pub truth: TruthSpec,
 }
 
 impl DemoOptions {
@@ -124,6 +129,7 @@ impl DemoOptions {
             nominal_source: BUILT_IN_CELL_NAME.into(),
             sizes: DemoSizes::default(),
             show_progress: false,
+            truth: TruthSpec::PaperLike,
         })
     }
 }
@@ -239,7 +245,10 @@ pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Re
         plan.selected, plan.tour_steps
     ));
 
-    let cell = VirtualCell::paper(nominal.clone(), opts.seed);
+    let cell = opts
+        .truth
+        .virtual_cell(nominal.clone(), opts.seed)
+        .map_err(|e| DemoError::Option { option: "truth".into(), reason: e.to_string() })?;
     let mut devices = SimDevices::of(&cell)?;
     let campaign = campaign_stage(opts, &nominal, out, &mut devices, &mut files)?;
     let campaign_time_s = devices.clock.now_s();
