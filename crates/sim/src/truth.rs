@@ -661,7 +661,7 @@ pub fn synthetic_tracker_measurements(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vatcal_core::CellFile;
+    use vatcal_core::{CellFile, ParamSet};
 
     fn nominal() -> Model {
         let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
@@ -710,5 +710,81 @@ mod tests {
             assert!(truth.residual(x).expect("r").norm() < 1e-9);
             assert!(m.residual(x).expect("r").norm() > 1e-3, "nominal must disagree");
         }
+    }
+
+    #[test]
+    fn truth_spec_parses_and_displays() {
+        assert_eq!("ideal".parse::<TruthSpec>().expect("ideal"), TruthSpec::Ideal);
+        assert_eq!("paper-like".parse::<TruthSpec>().expect("paper"), TruthSpec::PaperLike);
+        assert_eq!(
+            "cells/truth.toml".parse::<TruthSpec>().expect("file"),
+            TruthSpec::File(PathBuf::from("cells/truth.toml"))
+        );
+        assert!("  ".parse::<TruthSpec>().is_err());
+        assert_eq!(TruthSpec::PaperLike.to_string(), "paper-like");
+        let missing = TruthSpec::File(PathBuf::from("/nonexistent/truth.toml")).build(&nominal(), 1);
+        let msg = missing.expect_err("missing file").to_string();
+        assert!(msg.contains("/nonexistent/truth.toml"), "{msg}");
+    }
+
+    #[test]
+    fn ideal_is_the_old_truth_and_paper_like_adds_physics_on_the_same_geometry() {
+        let m = nominal();
+        let ideal = TruthSpec::Ideal.build(&m, 4).expect("ideal");
+        let old = perturbed_truth(&m, 4, &ErrorBudget::realistic());
+        assert_eq!(ideal.physics, CellPhysics::none());
+        assert!(ideal.model.effects().is_empty());
+        let paper = TruthSpec::PaperLike.build(&m, 4).expect("paper-like");
+        let again = TruthSpec::PaperLike.build(&m, 4).expect("paper-like");
+        for id in ParamSet::paper34().iter() {
+            let (a, b) = (old.param(*id).expect("p"), ideal.model.param(*id).expect("p"));
+            assert_eq!(a, b, "{}", id.name());
+            if !matches!(id, ParamId::Tcp { .. } | ParamId::Position { .. }) {
+                assert_eq!(a, paper.model.param(*id).expect("p"), "same geometric draws: {}", id.name());
+            }
+        }
+        let kinds: Vec<_> = paper.model.effects().iter().map(|e| e.kind().name()).collect();
+        for k in [
+            "joint-cyclic",
+            "joint-backlash",
+            "guide-angular",
+            "guide-straightness",
+            "guide-carriage-tilt",
+            "tool-frame",
+            "thermal-drift",
+        ] {
+            assert!(kinds.contains(&k), "{k} missing from {kinds:?}");
+        }
+        assert!(paper.model.masses() != m.masses(), "the truth's masses must differ from the estimates");
+        assert!(paper.physics.thermal.is_some() && paper.physics.tracker_registration_mm > 0.0);
+        // deterministic, and the extra physics is tenths of a millimetre at random poses
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let mut diffs = Vec::new();
+        for k in 0..200 {
+            let q = random_joints(&m, &mut rng, 0.1);
+            let ctx = MeasurementContext {
+                dir: Some(if k % 2 == 0 { [1; 6] } else { [-1; 6] }),
+                time_s: Some(600.0),
+                temperature_c: Some(21.5),
+            };
+            let a = paper.model.tcp_position_ctx(&q, &ctx, 1).expect("fk");
+            assert_eq!(a, again.model.tcp_position_ctx(&q, &ctx, 1).expect("fk"));
+            diffs.push((a - ideal.model.tcp_position(&q, 1).expect("fk")).norm());
+        }
+        let mean = diffs.iter().sum::<f64>() / diffs.len() as f64;
+        eprintln!("paper-like minus ideal truth: mean {mean:.3} mm over 200 random poses");
+        assert!((0.1..0.8).contains(&mean), "paper-like physics moves the TCP by {mean} mm on average");
+    }
+
+    #[test]
+    fn paper_like_cell_has_a_temperature_channel_and_tracker_errors() {
+        let m = nominal();
+        let cell = TruthSpec::PaperLike.virtual_cell(m.clone(), 2).expect("cell");
+        let physics = cell.config().physics;
+        let t = physics.thermal.expect("temperature channel");
+        assert!((t.at(0.0) - 20.5).abs() < 1e-12);
+        assert!(t.at(1e5) > 21.5 && t.at(1e5) < 22.5, "{}", t.at(1e5));
+        let ideal = TruthSpec::Ideal.virtual_cell(m.clone(), 2).expect("cell");
+        assert_eq!(ideal.config(), VirtualCell::paper(m, 2).config());
     }
 }
