@@ -22,6 +22,8 @@ fn run_demo(out: &Path, extra: &[&str]) -> std::process::Output {
         "100",
         "--slices",
         "100",
+        "--truth",
+        "ideal",
     ];
     args.extend_from_slice(extra);
     Command::new(env!("CARGO_BIN_EXE_vatcal")).args(&args).output().expect("run vatcal")

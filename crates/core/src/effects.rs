@@ -27,6 +27,8 @@ pub enum EffectKind {
     GuideStraightness,
     /// `guide-scale`: d_1 += s q1
     GuideScale,
+    /// `guide-carriage-tilt`: carriage rotation proportional to the arm's gravity moment
+    GuideCarriageTilt,
     /// `tool-frame`: lateral offset and tilt of the tool-changer frame
     ToolFrame,
     /// `tcp-offset`: error of a TCP's CMM coordinates
@@ -41,7 +43,7 @@ pub enum EffectKind {
 
 impl EffectKind {
     /// Every catalog entry.
-    pub const ALL: [EffectKind; 12] = [
+    pub const ALL: [EffectKind; 13] = [
         EffectKind::JointCompliance,
         EffectKind::JointCyclic,
         EffectKind::JointScale,
@@ -49,6 +51,7 @@ impl EffectKind {
         EffectKind::GuideAngular,
         EffectKind::GuideStraightness,
         EffectKind::GuideScale,
+        EffectKind::GuideCarriageTilt,
         EffectKind::ToolFrame,
         EffectKind::TcpOffset,
         EffectKind::PositionOffset,
@@ -66,6 +69,7 @@ impl EffectKind {
             EffectKind::GuideAngular => "guide-angular",
             EffectKind::GuideStraightness => "guide-straightness",
             EffectKind::GuideScale => "guide-scale",
+            EffectKind::GuideCarriageTilt => "guide-carriage-tilt",
             EffectKind::ToolFrame => "tool-frame",
             EffectKind::TcpOffset => "tcp-offset",
             EffectKind::PositionOffset => "position-offset",
@@ -145,6 +149,8 @@ pub enum EffectSpec {
     },
     /// `guide-scale`
     GuideScale,
+    /// `guide-carriage-tilt` (2 parameters: compliances about the carriage x and y axes)
+    GuideCarriageTilt,
     /// `tool-frame` (4 parameters)
     ToolFrame,
     /// `tcp-offset` of TCP `tcp` (3 parameters)
@@ -180,6 +186,7 @@ impl EffectSpec {
             EffectSpec::GuideAngular { .. } => EffectKind::GuideAngular,
             EffectSpec::GuideStraightness { .. } => EffectKind::GuideStraightness,
             EffectSpec::GuideScale => EffectKind::GuideScale,
+            EffectSpec::GuideCarriageTilt => EffectKind::GuideCarriageTilt,
             EffectSpec::ToolFrame => EffectKind::ToolFrame,
             EffectSpec::TcpOffset { .. } => EffectKind::TcpOffset,
             EffectSpec::PositionOffset { .. } => EffectKind::PositionOffset,
@@ -197,7 +204,8 @@ impl EffectSpec {
             | EffectSpec::JointBacklash { joint } => Some(joint),
             EffectSpec::GuideAngular { .. }
             | EffectSpec::GuideStraightness { .. }
-            | EffectSpec::GuideScale => Some(1),
+            | EffectSpec::GuideScale
+            | EffectSpec::GuideCarriageTilt => Some(1),
             _ => None,
         }
     }
@@ -222,6 +230,9 @@ impl EffectSpec {
                 })
                 .collect(),
             EffectSpec::GuideScale => vec![ParamId::Effect(E::GuideScale)],
+            EffectSpec::GuideCarriageTilt => {
+                [Axis::X, Axis::Y].map(|axis| ParamId::Effect(E::CarriageTilt { axis })).to_vec()
+            }
             EffectSpec::ToolFrame => {
                 ToolFrameDof::ALL.iter().map(|d| ParamId::Effect(E::ToolFrame(*d))).collect()
             }
@@ -263,7 +274,9 @@ impl EffectSpec {
                 }
             ),
             EffectSpec::HayatiBeta { row } => format!("hayati-beta (row {row}, beta_{})", row - 1),
-            EffectSpec::GuideScale | EffectSpec::ToolFrame => self.kind().name().to_string(),
+            EffectSpec::GuideScale | EffectSpec::GuideCarriageTilt | EffectSpec::ToolFrame => {
+                self.kind().name().to_string()
+            }
         }
     }
 }

@@ -177,6 +177,14 @@ pub enum EffectParam {
     },
     /// `guide-scale`: `d_1 += s q1` [mm/mm]. Name `guide_scale`.
     GuideScale,
+    /// `guide-carriage-tilt`: compliance [rad/(N·m)] of the guide carriage about its `axis`
+    /// (x or y, the carriage axes across the guide): the carriage rotates by
+    /// `k_axis · M_axis`, `M` the gravity moment of the arm and its load about the carriage
+    /// origin. Name `carriage_tilt_{x,y}`.
+    CarriageTilt {
+        /// carriage axis (x or y)
+        axis: Axis,
+    },
     /// `tool-frame`: offset/tilt of the tool-changer frame. Names `tool_tx`, `tool_ty`,
     /// `tool_rx`, `tool_ry`.
     ToolFrame(ToolFrameDof),
@@ -283,6 +291,7 @@ impl ParamId {
                     format!("guide_straightness_{}_p{order}", axis.letter())
                 }
                 EffectParam::GuideScale => "guide_scale".to_string(),
+                EffectParam::CarriageTilt { axis } => format!("carriage_tilt_{}", axis.letter()),
                 EffectParam::ToolFrame(d) => format!("tool_{}", d.suffix()),
                 EffectParam::ThermalPerSecond => "thermal_per_s".to_string(),
                 EffectParam::ThermalPerKelvin => "thermal_per_k".to_string(),
@@ -362,6 +371,11 @@ impl ParamId {
             }
             return Some(ParamId::Effect(EffectParam::GuideStraightness { axis, order }));
         }
+        if let Some(s) = name.strip_prefix("carriage_tilt_") {
+            return Axis::from_letter(s)
+                .filter(|a| *a != Axis::Z)
+                .map(|axis| ParamId::Effect(EffectParam::CarriageTilt { axis }));
+        }
         if let Some(s) = name.strip_prefix("tool_") {
             return ToolFrameDof::ALL
                 .iter()
@@ -397,6 +411,7 @@ impl ParamId {
                 EffectParam::JointScale { .. } | EffectParam::GuideScale => ParamUnit::Ratio,
                 EffectParam::ThermalPerSecond => ParamUnit::PerSecond,
                 EffectParam::ThermalPerKelvin => ParamUnit::PerKelvin,
+                EffectParam::CarriageTilt { .. } => ParamUnit::RadPerNm,
             },
         }
     }
@@ -588,6 +603,8 @@ mod tests {
         }
         all.push(ParamId::Effect(EffectParam::GuideStraightness { axis: Axis::Y, order: 2 }));
         all.push(ParamId::Effect(EffectParam::GuideScale));
+        all.push(ParamId::Effect(EffectParam::CarriageTilt { axis: Axis::X }));
+        all.push(ParamId::Effect(EffectParam::CarriageTilt { axis: Axis::Y }));
         all.extend(ToolFrameDof::ALL.iter().map(|d| ParamId::Effect(EffectParam::ToolFrame(*d))));
         all.push(ParamId::Effect(EffectParam::ThermalPerSecond));
         all.push(ParamId::Effect(EffectParam::ThermalPerKelvin));

@@ -17,6 +17,8 @@ pub fn driver_of(spec: &EffectSpec) -> Driver {
         EffectSpec::GuideAngular { .. } | EffectSpec::GuideStraightness { .. } | EffectSpec::GuideScale => {
             Driver::Joint(1)
         }
+        // the moment about the carriage is dominated by the shoulder (J2) load
+        EffectSpec::GuideCarriageTilt => Driver::Torque(3),
         EffectSpec::ToolFrame => Driver::Joint(7),
         EffectSpec::TcpOffset { .. } => Driver::Tcp,
         EffectSpec::PositionOffset { .. } => Driver::Position,
@@ -46,6 +48,9 @@ pub fn meaning(kind: EffectKind) -> &'static str {
         }
         EffectKind::GuideStraightness => "the carriage path bows sideways along the guide",
         EffectKind::GuideScale => "the guide's lead-screw pitch (or its temperature) differs from nominal",
+        EffectKind::GuideCarriageTilt => {
+            "the guide carriage tilts under the moving weight of the arm (angle proportional to the gravity moment)"
+        }
         EffectKind::ToolFrame => "the tool changer sits offset/tilted on the flange",
         EffectKind::TcpOffset => "the CMM coordinates of one calibration ball are wrong",
         EffectKind::PositionOffset => "the CMM coordinates of one calibration position are wrong",
@@ -66,6 +71,7 @@ fn magnitude_bound(id: ParamId) -> Option<(f64, &'static str)> {
             EffectParam::GuideAngular { .. } => (2e-3, "2 mrad"),
             EffectParam::GuideStraightness { .. } => (0.5, "0.5 mm"),
             EffectParam::GuideScale => (2e-3, "2000 ppm"),
+            EffectParam::CarriageTilt { .. } => (1e-3, "1e-3 rad/(N*m)"),
             EffectParam::ToolFrame(ToolFrameDof::Tx | ToolFrameDof::Ty) => (1.0, "1 mm"),
             EffectParam::ToolFrame(_) => (1.0f64.to_radians(), "1 deg"),
             EffectParam::ThermalPerSecond => (1e-7, "1e-7 /s"),

@@ -65,6 +65,16 @@ pub enum IoError {
         /// what is wrong
         reason: String,
     },
+    /// The model has an effect that depends on a context column the file does not have.
+    #[error("{path}: the model's {effect} needs the column(s) {columns}, which the file does not have")]
+    ModelNeedsColumn {
+        /// file
+        path: PathBuf,
+        /// the missing column(s), e.g. `dir2..dir7`
+        columns: String,
+        /// the effect that needs them, e.g. `joint-backlash (joint 3)`
+        effect: String,
+    },
     /// The file has a header but no data rows.
     #[error("{path}: no data rows")]
     Empty {
@@ -82,6 +92,8 @@ pub struct JointRow {
     pub tcp: u32,
     /// joints (internal units)
     pub q: JointVector,
+    /// the optional `time_s`, `temperature_c`, `dir2..dir7` columns of the row
+    pub context: MeasurementContext,
 }
 
 const JOINT_COLUMNS: [&str; 7] = ["q1", "q2", "q3", "q4", "q5", "q6", "q7"];
@@ -128,6 +140,41 @@ impl Table {
             return Err(IoError::Empty { path: path.into() });
         }
         Ok(Table { path: path.into(), headers, index, rows })
+    }
+
+    /// Fails when an effect of `model` depends on a context column (`dir2..dir7`, `time_s`,
+    /// `temperature_c`) that the file lacks, or that is empty on some row: predictions there
+    /// would silently use 0.
+    fn check_model_columns(&self, model: &Model) -> Result<(), IoError> {
+        for spec in model.effects() {
+            let columns = vatcal_kinematics::effects::context_columns(spec);
+            if columns.is_empty() {
+                continue;
+            }
+            let missing = columns.iter().any(|c| !self.has(c));
+            if missing {
+                let columns = if columns.len() > 1 {
+                    format!("{}..{}", columns[0], columns[columns.len() - 1])
+                } else {
+                    columns[0].to_string()
+                };
+                return Err(IoError::ModelNeedsColumn {
+                    path: self.path.clone(),
+                    columns,
+                    effect: spec.label(),
+                });
+            }
+            for (line, rec) in &self.rows {
+                if let Some(col) = columns.iter().find(|c| self.field(rec, c).is_none_or(str::is_empty)) {
+                    return Err(self.err(
+                        *line,
+                        col,
+                        format!("empty, but the model's {} needs it", spec.label()),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     fn has(&self, col: &str) -> bool {
@@ -219,12 +266,15 @@ fn csv_error(path: &Path, e: &csv::Error) -> IoError {
     IoError::Csv { path: path.into(), line, message: e.to_string() }
 }
 
-/// Reads `tcp,q1..q7` rows (input of `vatcal fk` / `vatcal torque`); TCP ids are checked
-/// against the model and joints against its limits.
+/// Reads `tcp,q1..q7` rows (input of `vatcal fk` / `vatcal torque`) with the optional
+/// `time_s`, `temperature_c`, `dir2..dir7` columns; TCP ids are checked against the model,
+/// joints against its limits, and the context columns its effects need must be present
+/// ([`IoError::ModelNeedsColumn`]).
 pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<JointRow>, IoError> {
     let path = path.as_ref();
     let required = ["tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"];
     let t = Table::read(path, &required)?;
+    t.check_model_columns(model)?;
     let tcps = model.tcp_ids();
     t.rows
         .iter()
@@ -233,6 +283,7 @@ pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Join
                 line: *line,
                 tcp: t.id(*line, rec, "tcp", &tcps)?,
                 q: t.joints(*line, rec, model)?,
+                context: t.context(*line, rec)?,
             })
         })
         .collect()
@@ -244,6 +295,7 @@ pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<
     let path = path.as_ref();
     let required = ["position", "tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"];
     let t = Table::read(path, &required)?;
+    t.check_model_columns(model)?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     t.rows
         .iter()
@@ -264,6 +316,7 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
     let path = path.as_ref();
     let required = ["tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7", "x", "y", "z"];
     let t = Table::read(path, &required)?;
+    t.check_model_columns(model)?;
     let tcps = model.tcp_ids();
     t.rows
         .iter()
@@ -285,6 +338,7 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
 pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
     let path = path.as_ref();
     let t = Table::read(path, &["tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"])?;
+    t.check_model_columns(model)?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
     if !t.has("position") && !has_xyz {

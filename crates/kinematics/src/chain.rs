@@ -49,6 +49,10 @@ pub struct Chain {
     pub torques: [f64; 6],
     /// Whether `torques` were evaluated.
     pub torques_evaluated: bool,
+    /// Gravity moment [N·m] of the arm and its load about the carriage origin, components
+    /// along the carriage x and y axes (evaluated when `guide-carriage-tilt` is on or when
+    /// given; `None` otherwise).
+    pub carriage_moment: Option<[f64; 2]>,
     /// Joint angles theta_1..theta_7 [rad] that entered Eq. (1).
     pub theta: [f64; 7],
     pub(crate) axes: [RowAxes; 7],
@@ -62,6 +66,17 @@ impl Chain {
     pub fn tool_point(&self, t: &Vector3<f64>) -> Vector3<f64> {
         self.tool.transform_point(t)
     }
+}
+
+/// Gravity loads evaluated on a model's undeflected geometry: what the compliance-type effects
+/// (`joint-compliance`, `guide-carriage-tilt`) multiply. Holding them fixed gives the
+/// derivatives the analytic Jacobian computes (second-order terms dropped).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct GravityLoads {
+    /// gravity torques tau_2..tau_7 [N·m]
+    pub torques: [f64; 6],
+    /// gravity moment about the carriage origin along the carriage x and y axes [N·m]
+    pub carriage_moment: [f64; 2],
 }
 
 /// Legendre polynomial P_n(u).
@@ -128,6 +143,34 @@ impl Model {
         gravity_torques(&links, &self.base_frame.r, &self.masses, &self.gravity)
     }
 
+    /// Gravity moment [N·m] of the moving arm (links 2..7 and the tool) about the origin of the
+    /// carriage frame 1, as components along the carriage x and y axes, on this model's own
+    /// undeflected geometry (no effect, no compliance). With a vertical guide the moment about
+    /// the guide axis (z) is zero, so only x and y are returned.
+    pub fn carriage_moment(&self, q: &JointVector) -> [f64; 2] {
+        let trig = self.undeflected_trig(q);
+        let mut w = self.base_frame;
+        let mut carriage = w;
+        let mut moment = Vector3::zeros();
+        for (k, tr) in trig.iter().enumerate() {
+            let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
+            w = w.compose(&rz_tz_trig(&self.row_fixed[k], *tr, d));
+            if k == 0 {
+                carriage = w;
+            } else {
+                let body = self.masses.links[k - 1];
+                let arm_m = (w.transform_point(&body.com_mm) - carriage.p) * 1e-3;
+                moment += arm_m.cross(&(self.gravity * body.mass_kg));
+            }
+        }
+        [moment.dot(&carriage.x_axis()), moment.dot(&carriage.y_axis())]
+    }
+
+    /// Gravity torques and carriage moment at `q` (see [`GravityLoads`]).
+    pub fn gravity_loads(&self, q: &JointVector) -> GravityLoads {
+        GravityLoads { torques: self.gravity_torques(q), carriage_moment: self.carriage_moment(q) }
+    }
+
     /// Lean FK of a point in the tool frame when no effect is switched on: no Jacobian axes,
     /// and the deflected angles reuse the trigonometry of the torque pass.
     fn fast_tool_point(&self, q: &JointVector, t: &Vector3<f64>) -> Vector3<f64> {
@@ -189,11 +232,17 @@ impl Model {
 
     /// The inserted guide transform `T(sx, sy, 0) Rx(ex) Ry(ey) Rz(ez)` at guide coordinate u,
     /// if a guide effect is on: returns `(sx, sy, [ex, ey, ez])`.
-    fn guide_insert(&self, u: f64) -> Option<(f64, f64, [f64; 3])> {
+    fn guide_insert(&self, u: f64, moment: Option<[f64; 2]>) -> Option<(f64, f64, [f64; 3])> {
         let mut any = false;
         let (mut sx, mut sy, mut e) = (0.0, 0.0, [0.0; 3]);
         for spec in &self.effects {
             match *spec {
+                EffectSpec::GuideCarriageTilt => {
+                    any = true;
+                    let m = moment.unwrap_or([0.0; 2]);
+                    e[0] += self.effect_value(EffectParam::CarriageTilt { axis: Axis::X }) * m[0];
+                    e[1] += self.effect_value(EffectParam::CarriageTilt { axis: Axis::Y }) * m[1];
+                }
                 EffectSpec::GuideAngular { order } => {
                     any = true;
                     for o in 1..=order {
@@ -237,10 +286,33 @@ impl Model {
         with_torques: bool,
         fixed_torques: Option<&[f64; 6]>,
     ) -> Chain {
+        self.chain_inner(q, ctx, with_torques, fixed_torques, None)
+    }
+
+    /// Every frame at `q` with all gravity loads held at `loads` (torques for the compliances,
+    /// carriage moment for `guide-carriage-tilt`): the function whose derivatives the analytic
+    /// Jacobian gives.
+    pub fn chain_with_loads(&self, q: &JointVector, ctx: &MeasurementContext, loads: &GravityLoads) -> Chain {
+        self.chain_inner(q, ctx, true, Some(&loads.torques), Some(loads.carriage_moment))
+    }
+
+    fn chain_inner(
+        &self,
+        q: &JointVector,
+        ctx: &MeasurementContext,
+        with_torques: bool,
+        fixed_torques: Option<&[f64; 6]>,
+        fixed_moment: Option<[f64; 2]>,
+    ) -> Chain {
         let (torques, torques_evaluated) = match fixed_torques {
             Some(t) => (*t, true),
             None if with_torques || self.any_compliance => (self.gravity_torques(q), true),
             None => ([0.0; 6], false),
+        };
+        let carriage_moment = match fixed_moment {
+            Some(m) => Some(m),
+            None if self.effects.contains(&EffectSpec::GuideCarriageTilt) => Some(self.carriage_moment(q)),
+            None => None,
         };
         let thermal_factor = if self.effects.is_empty() { 1.0 } else { self.thermal(ctx) };
         let guide_scale = if self.effects.contains(&EffectSpec::GuideScale) {
@@ -283,7 +355,7 @@ impl Model {
             axes[k].o = w.p;
             if k == 0
                 && !self.effects.is_empty()
-                && let Some((sx, sy, e)) = self.guide_insert(self.guide_u(q.0[0]))
+                && let Some((sx, sy, e)) = self.guide_insert(self.guide_u(q.0[0]), carriage_moment)
             {
                 let (ins, ax) = insert_transform(&w, sx, sy, e[0], e[1], Some(e[2]));
                 guide = Some(ax);
@@ -298,7 +370,18 @@ impl Model {
             tool_axes = Some(ax);
             tool = w.compose(&ins);
         }
-        Chain { frames, tool, torques, torques_evaluated, theta, axes, guide, tool_axes, thermal_factor }
+        Chain {
+            frames,
+            tool,
+            torques,
+            torques_evaluated,
+            carriage_moment,
+            theta,
+            axes,
+            guide,
+            tool_axes,
+            thermal_factor,
+        }
     }
 
     /// Every frame at `q` (no per-sample context).

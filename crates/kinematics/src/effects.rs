@@ -9,6 +9,7 @@
 //! | `guide-angular` | after frame 1: `Rx(e_x(u)) Ry(e_y(u)) Rz(e_z(u))`, `e(u) = Σ_o e_o P_o(u)` | `guide_angular_{x,y,z}_p{o}` [rad] |
 //! | `guide-straightness` | after frame 1: `T(s_x(u), s_y(u), 0)`, orders ≥ 2 | `guide_straightness_{x,y}_p{o}` [mm] |
 //! | `guide-scale` | `d_1 = (1 + s) q1 + d_offset` | `guide_scale` |
+//! | `guide-carriage-tilt` | after frame 1: `Rx(k_x M_x) Ry(k_y M_y)`, `M` = gravity moment of links 2..7 + tool about the carriage origin (carriage axes, undeflected geometry) | `carriage_tilt_{x,y}` [rad/(N·m)] |
 //! | `tool-frame` | tool-changer frame = frame 7 · `T(tx, ty, 0) Rx(rx) Ry(ry)` | `tool_tx`, `tool_ty` [mm], `tool_rx`, `tool_ry` [rad] |
 //! | `tcp-offset` | TCP coordinates | `tcp{k}_{x,y,z}` [mm] |
 //! | `position-offset` | calibration-position coordinates | `position{k}_{x,y,z}` [mm] |
@@ -47,6 +48,17 @@ impl DataAvailability {
     }
 }
 
+/// The per-measurement context columns (file names) an effect's predictions depend on:
+/// `dir2..dir7` for backlash, `time_s` / `temperature_c` for thermal drift, none otherwise.
+pub fn context_columns(spec: &EffectSpec) -> &'static [&'static str] {
+    match spec {
+        EffectSpec::JointBacklash { .. } => &["dir2", "dir3", "dir4", "dir5", "dir6", "dir7"],
+        EffectSpec::ThermalDrift { driver: ThermalDriver::Time } => &["time_s"],
+        EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature } => &["temperature_c"],
+        _ => &[],
+    }
+}
+
 /// Why a catalog effect cannot be a candidate with this data, if it cannot.
 pub fn missing_data(spec: &EffectSpec, data: &DataAvailability) -> Option<&'static str> {
     match spec {
@@ -80,6 +92,7 @@ pub fn candidate_effects(model: &Model, measurements: &[Measurement]) -> Vec<Eff
     v.push(EffectSpec::GuideAngular { order: 2 });
     v.push(EffectSpec::GuideStraightness { order: 2 });
     v.push(EffectSpec::GuideScale);
+    v.push(EffectSpec::GuideCarriageTilt);
     v.push(EffectSpec::ToolFrame);
     let mut tcps: Vec<u32> = measurements.iter().map(|m| m.tcp).collect();
     tcps.sort_unstable();

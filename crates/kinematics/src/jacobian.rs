@@ -149,6 +149,16 @@ impl Model {
                 dir * legendre(order, u)
             }
             EffectParam::GuideScale => chain.axes[0].z * q.0[0],
+            EffectParam::CarriageTilt { axis } => {
+                let k = match axis {
+                    Axis::X => 0,
+                    Axis::Y => 1,
+                    Axis::Z => return Err(ModelError::ParamNotInModel(ParamId::Effect(e).name())),
+                };
+                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[1]));
+                let moment = chain.carriage_moment.unwrap_or_else(|| self.carriage_moment(q));
+                rot(ax.rot[k], ax.o) * moment[k]
+            }
             EffectParam::ToolFrame(dof) => {
                 let ax = chain.tool_axes.unwrap_or_else(|| Self::zero_insert(&chain.frames[7]));
                 match dof {

@@ -21,7 +21,7 @@ pub mod effects;
 mod jacobian;
 mod model;
 
-pub use chain::Chain;
+pub use chain::{Chain, GravityLoads};
 pub use model::{MdhRow, Model, ModelError};
 pub use vatcal_core::Frame;
 pub use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, ParamSet, Target};

@@ -264,7 +264,7 @@ impl Model {
             EffectSpec::TcpOffset { tcp } => e.tcp = Some(tcp),
             EffectSpec::PositionOffset { position } => e.position = Some(position),
             EffectSpec::HayatiBeta { row } => e.row = Some(row),
-            EffectSpec::GuideScale | EffectSpec::ToolFrame => {}
+            EffectSpec::GuideScale | EffectSpec::GuideCarriageTilt | EffectSpec::ToolFrame => {}
         }
         if !spec.kind().is_builtin() {
             for id in spec.params() {
@@ -349,6 +349,17 @@ impl Model {
     /// The mass model used for gravity torques.
     pub fn masses(&self) -> &MassModel {
         &self.masses
+    }
+
+    /// Replaces the mass model used for gravity torques and the carriage moment (e.g. a
+    /// simulated truth whose masses differ from the nominal estimates).
+    pub fn set_masses(&mut self, masses: MassModel) {
+        self.masses = masses;
+    }
+
+    /// Sets the reference temperature [°C] of a temperature-driven thermal drift.
+    pub fn set_thermal_reference_c(&mut self, t_c: f64) {
+        self.thermal_reference_c = t_c;
     }
 
     /// Effects switched on in this model, in the order they were added.
@@ -567,6 +578,7 @@ fn spec_from_entry(e: &EffectEntry) -> Result<EffectSpec, String> {
         EffectKind::GuideAngular => EffectSpec::GuideAngular { order: e.order.unwrap_or(2) },
         EffectKind::GuideStraightness => EffectSpec::GuideStraightness { order: e.order.unwrap_or(2) },
         EffectKind::GuideScale => EffectSpec::GuideScale,
+        EffectKind::GuideCarriageTilt => EffectSpec::GuideCarriageTilt,
         EffectKind::ToolFrame => EffectSpec::ToolFrame,
         EffectKind::TcpOffset => EffectSpec::TcpOffset { tcp: e.tcp.ok_or("needs `tcp`")? },
         EffectKind::PositionOffset => {

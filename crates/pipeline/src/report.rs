@@ -37,6 +37,11 @@ pub trait ReportSetup: Serialize {
     fn parameters(&self) -> String;
     /// the estimation method
     fn method(&self) -> String;
+    /// a paragraph under the comparison with the paper (what the numbers can and cannot show);
+    /// empty: none
+    fn comparison_note(&self) -> String {
+        String::new()
+    }
 }
 
 /// The paper's validation figures (Rolland et al., §5), quoted for comparison.
@@ -576,13 +581,10 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         "| **paper**, printing path ({} slices) | {:.3} | {:.3} |",
         PAPER.path_slices, PAPER.path_nominal_mean_mm, PAPER.path_calibrated_mean_mm
     );
-    let _ = writeln!(
-        m,
-        "\nThe hidden truth differs from the nominal cell only in the paper's 34 parameters, so a calibrated \
-         model can match it up to the noise of the simulated devices: the calibrated errors above are that \
-         noise floor (tracker, robot and tool-changer repeatability). The paper's 0.271 / 0.220 mm also contain \
-         whatever the real cell does beyond the model, and the real tracker's registration errors.\n"
-    );
+    let note = outcome.report.setup.comparison_note();
+    if !note.is_empty() {
+        let _ = writeln!(m, "\n{note}\n");
+    }
 
     let _ = writeln!(m, "## Files\n");
     for file in &outcome.files {

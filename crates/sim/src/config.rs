@@ -136,6 +136,61 @@ impl Default for SimFaults {
     }
 }
 
+/// Slow temperature of the cell, driven by the virtual clock:
+/// `T(t) = start + rise (1 − e^(−t/τ)) + cycle_amplitude sin(2π t / cycle_period)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThermalProfile {
+    /// temperature at t = 0 [°C]
+    pub start_c: f64,
+    /// warm-up rise reached for t ≫ τ [K]
+    pub rise_k: f64,
+    /// warm-up time constant τ [s]
+    pub time_constant_s: f64,
+    /// amplitude of the room's air-conditioning cycle [K]
+    pub cycle_amplitude_k: f64,
+    /// period of that cycle [s]
+    pub cycle_period_s: f64,
+}
+
+impl ThermalProfile {
+    /// Temperature at virtual time `t_s` [°C].
+    pub fn at(&self, t_s: f64) -> f64 {
+        let warm = if self.time_constant_s > 0.0 { 1.0 - (-t_s / self.time_constant_s).exp() } else { 1.0 };
+        let cycle = if self.cycle_period_s > 0.0 {
+            (std::f64::consts::TAU * t_s / self.cycle_period_s).sin()
+        } else {
+            0.0
+        };
+        self.start_c + self.rise_k * warm + self.cycle_amplitude_k * cycle
+    }
+}
+
+/// Physics of the cell that is not a parameter of the true model: the temperature the clock
+/// drives (seen by a temperature-driven `thermal-drift` of the truth and recorded as
+/// `temperature_c`), and the systematic errors of the laser tracker. All zero / `None` =
+/// today's idealised cell.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CellPhysics {
+    /// cell temperature; `None`: no temperature channel (context `temperature_c` is empty)
+    pub thermal: Option<ThermalProfile>,
+    /// σ per axis of the translation error of the tracker's registration to the world [mm]
+    /// (drawn once per cell)
+    pub tracker_registration_mm: f64,
+    /// σ per axis of the rotation error of that registration [rad], about the centroid of the
+    /// calibration positions (the points the registration was measured on)
+    pub tracker_registration_rad: f64,
+    /// σ per axis of the offset of each SMR's optical centre from its nest centre, constant per
+    /// SMR (they are not re-oriented in their nests) [mm]
+    pub smr_nest_mm: f64,
+}
+
+impl CellPhysics {
+    /// Nothing: no temperature channel, a perfectly registered tracker, perfect SMRs.
+    pub fn none() -> Self {
+        Self::default()
+    }
+}
+
 /// Everything the virtual cell needs besides the models and the seed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimConfig {
@@ -153,6 +208,8 @@ pub struct SimConfig {
     pub master_ball_radius_mm: f64,
     /// calibration ball radius (1 in) [mm]
     pub ball_radius_mm: f64,
+    /// temperature and tracker systematics ([`CellPhysics::none`] by default)
+    pub physics: CellPhysics,
 }
 
 impl Default for SimConfig {
@@ -167,6 +224,7 @@ impl Default for SimConfig {
             gauge_range_mm: 6.0,
             master_ball_radius_mm: 19.05,
             ball_radius_mm: 12.7,
+            physics: CellPhysics::none(),
         }
     }
 }

@@ -25,6 +25,8 @@ mod noise;
 mod world;
 
 pub use cell::VirtualCell;
-pub use config::{NoiseBudget, ProbeImperfections, SimConfig, SimFaults, SimTiming};
+pub use config::{
+    CellPhysics, NoiseBudget, ProbeImperfections, SimConfig, SimFaults, SimTiming, ThermalProfile,
+};
 pub use controller::{flange_jacobian, translation_joint_gain};
 pub use devices::{SIM_IO_TIMEOUT, SimArm, SimGauge, SimGuide, SimOperator, SimTracker};

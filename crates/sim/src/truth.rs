@@ -8,13 +8,21 @@
 //! * [`synthetic_probe_measurements`] / [`synthetic_tracker_measurements`] — data as the real
 //!   cell would record it.
 
+use std::fmt;
+use std::path::PathBuf;
+use std::str::FromStr;
+
 use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
-use vatcal_core::params::BaseParam;
-use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, Target};
+use vatcal_core::effects::{EffectSpec, ThermalDriver};
+use vatcal_core::params::{Axis, BaseParam, EffectParam, ToolFrameDof};
+use vatcal_core::{CellFile, JointVector, Measurement, MeasurementContext, ParamId, Target};
 use vatcal_kinematics::Model;
+
+use crate::cell::VirtualCell;
+use crate::config::{CellPhysics, SimConfig, SimTiming, ThermalProfile};
 
 /// Standard deviations of the random errors of the true cell (internal units).
 #[derive(Debug, Clone, PartialEq)]
@@ -52,6 +60,13 @@ impl ErrorBudget {
             tcp_mm: 0.0,
             position_mm: 0.0,
         }
+    }
+
+    /// [`ErrorBudget::realistic`] plus CMM errors of the TCPs (ball centres, 3 µm per axis:
+    /// the CMM's 1.5 µm and the ball-radius tolerance) and of the calibration positions
+    /// (5 µm per axis: CMM of the trihedral nests and the kinematic coupling's seating).
+    pub fn paper_like() -> Self {
+        Self { tcp_mm: 0.003, position_mm: 0.005, ..Self::realistic() }
     }
 
     /// No errors at all (truth = nominal).
@@ -130,6 +145,311 @@ pub fn perturbed_truth(nominal: &Model, seed: u64, budget: &ErrorBudget) -> Mode
         }
     }
     truth
+}
+
+/// Sizes of the physics a real Meca500-on-guide cell has beyond the paper's 34 parameters
+/// (internal units). See `docs/virtual-cell.md` for the reasoning behind every number.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PaperLikePhysics {
+    /// amplitude range (uniform) of the 1st and 2nd harmonic transmission errors of each
+    /// strain-wave gear [rad]; phases uniform
+    pub cyclic_low_rad: (f64, f64),
+    /// amplitude range of harmonics 3 and 4 [rad]
+    pub cyclic_mid_rad: (f64, f64),
+    /// amplitude range of the harmonic at twice the wave-generator turns per output turn
+    /// ([`PaperLikePhysics::gear_ratio`] × 2) [rad]
+    pub cyclic_high_rad: (f64, f64),
+    /// gear ratio of the strain-wave gears (harmonic `2 × ratio`, at most 255)
+    pub gear_ratio: u8,
+    /// half the lost motion of each joint, uniform range [rad] (`θ += b dir`)
+    pub backlash_rad: (f64, f64),
+    /// σ of the guide's pitch/yaw/roll Legendre coefficients, orders 1..=3 [rad]
+    pub guide_angular_rad: f64,
+    /// σ of the guide's straightness coefficients, orders 2..=3 [mm]
+    pub guide_straightness_mm: f64,
+    /// carriage tilt compliances about its x and y axes, uniform range [rad/(N·m)]
+    pub carriage_tilt_rad_per_n_m: (f64, f64),
+    /// relative σ of each link mass (and of the tool mass)
+    pub mass_relative: f64,
+    /// σ per axis of each centre of mass [mm]
+    pub com_mm: f64,
+    /// σ of the tool changer's lateral offset on the flange [mm]
+    pub tool_offset_mm: f64,
+    /// σ of the tool changer's tilt on the flange [rad]
+    pub tool_tilt_rad: f64,
+    /// linear expansion coefficient of the arm [1/K] (aluminium: 23e-6)
+    pub thermal_per_k: f64,
+    /// reference temperature of the nominal lengths [°C]
+    pub reference_c: f64,
+    /// the cell's temperature over the virtual time
+    pub temperature: ThermalProfile,
+    /// tracker registration and SMR-nest errors
+    pub tracker: CellPhysics,
+}
+
+impl PaperLikePhysics {
+    /// The sizes used by [`TruthSpec::PaperLike`] (table in `docs/virtual-cell.md`).
+    pub fn paper() -> Self {
+        let arcmin = (1.0f64 / 60.0).to_radians();
+        Self {
+            cyclic_low_rad: (0.55 * arcmin, 1.65 * arcmin),
+            cyclic_mid_rad: (0.1 * arcmin, 0.4 * arcmin),
+            cyclic_high_rad: (0.05 * arcmin, 0.15 * arcmin),
+            gear_ratio: 100,
+            backlash_rad: (0.02 * arcmin, 0.06 * arcmin),
+            guide_angular_rad: 60e-6,
+            guide_straightness_mm: 0.004,
+            carriage_tilt_rad_per_n_m: (3.0e-5, 6.0e-5),
+            mass_relative: 0.25,
+            com_mm: 15.0,
+            tool_offset_mm: 0.05,
+            tool_tilt_rad: 0.025f64.to_radians(),
+            thermal_per_k: 23e-6,
+            reference_c: 20.0,
+            temperature: ThermalProfile {
+                start_c: 20.5,
+                rise_k: 1.5,
+                time_constant_s: 1200.0,
+                cycle_amplitude_k: 0.3,
+                cycle_period_s: 3600.0,
+            },
+            tracker: CellPhysics {
+                thermal: None,
+                tracker_registration_mm: 0.007,
+                tracker_registration_rad: 15e-6,
+                smr_nest_mm: 0.005,
+            },
+        }
+    }
+}
+
+/// The paper-like true cell: [`perturbed_truth`] with [`ErrorBudget::paper_like`] (the same
+/// geometric errors as the `ideal` truth of this seed, plus CMM errors), then the physics of
+/// `physics` drawn from their own seeded stream: gear harmonics, backlash, guide angular and
+/// straightness errors, carriage tilt, wrong masses and centres of mass, a tool-changer
+/// offset, and a temperature-driven thermal growth.
+pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) -> Model {
+    let mut truth = perturbed_truth(nominal, seed, &ErrorBudget::realistic());
+    // CMM errors from their own stream, so the geometric draws are those of `ideal`
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a11_c0de_0c33_0001);
+    let budget = ErrorBudget::paper_like();
+    let add = |truth: &mut Model, rng: &mut ChaCha8Rng, id: ParamId, sigma: f64| {
+        if let Ok(v) = truth.param(id) {
+            let _ = truth.set_param(id, v + gauss(rng, sigma));
+        }
+    };
+    for id in nominal.tcp_ids() {
+        for axis in Axis::ALL {
+            add(&mut truth, &mut rng, ParamId::Tcp { id, axis }, budget.tcp_mm);
+        }
+    }
+    for id in nominal.position_ids() {
+        for axis in Axis::ALL {
+            add(&mut truth, &mut rng, ParamId::Position { id, axis }, budget.position_mm);
+        }
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a11_c0de_9b35_0002);
+    // draws always consume the stream, so that a zero size leaves the other draws unchanged
+    let uniform = |rng: &mut ChaCha8Rng, (lo, hi): (f64, f64)| lo + (hi - lo) * rng.random::<f64>();
+    let gauss = |rng: &mut ChaCha8Rng, sigma: f64| {
+        let z: f64 = rand_distr::StandardNormal.sample(rng);
+        sigma * z
+    };
+    let set = |truth: &mut Model, spec: EffectSpec, values: &[f64]| {
+        // every spec here is valid for a cell model with joints 2..7
+        if truth.enable_effect(spec).is_ok() {
+            for (id, v) in spec.params().into_iter().zip(values) {
+                let _ = truth.set_param(id, *v);
+            }
+        }
+    };
+    let high = (2 * u16::from(physics.gear_ratio)).min(255) as u8;
+    for joint in 2..=7u8 {
+        for (harmonic, range) in [
+            (1u8, physics.cyclic_low_rad),
+            (2, physics.cyclic_low_rad),
+            (3, physics.cyclic_mid_rad),
+            (4, physics.cyclic_mid_rad),
+            (high, physics.cyclic_high_rad),
+        ] {
+            let amplitude = uniform(&mut rng, range);
+            let phase = rng.random_range(0.0..std::f64::consts::TAU);
+            let (s, c) = phase.sin_cos();
+            set(&mut truth, EffectSpec::JointCyclic { joint, harmonic }, &[amplitude * c, amplitude * s]);
+        }
+        let b = uniform(&mut rng, physics.backlash_rad);
+        set(&mut truth, EffectSpec::JointBacklash { joint }, &[b]);
+    }
+    let angular = EffectSpec::GuideAngular { order: 3 };
+    let values: Vec<f64> =
+        angular.params().iter().map(|_| gauss(&mut rng, physics.guide_angular_rad)).collect();
+    set(&mut truth, angular, &values);
+    let straight = EffectSpec::GuideStraightness { order: 3 };
+    let values: Vec<f64> =
+        straight.params().iter().map(|_| gauss(&mut rng, physics.guide_straightness_mm)).collect();
+    set(&mut truth, straight, &values);
+    let tilt = [
+        uniform(&mut rng, physics.carriage_tilt_rad_per_n_m),
+        uniform(&mut rng, physics.carriage_tilt_rad_per_n_m),
+    ];
+    set(&mut truth, EffectSpec::GuideCarriageTilt, &tilt);
+    let tool: Vec<f64> = ToolFrameDof::ALL
+        .iter()
+        .map(|d| match d {
+            ToolFrameDof::Tx | ToolFrameDof::Ty => gauss(&mut rng, physics.tool_offset_mm),
+            ToolFrameDof::Rx | ToolFrameDof::Ry => gauss(&mut rng, physics.tool_tilt_rad),
+        })
+        .collect();
+    set(&mut truth, EffectSpec::ToolFrame, &tool);
+    set(
+        &mut truth,
+        EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature },
+        &[physics.thermal_per_k],
+    );
+    truth.set_thermal_reference_c(physics.reference_c);
+    let mut masses = truth.masses().clone();
+    for body in masses.links.iter_mut() {
+        body.mass_kg *= (1.0 + gauss(&mut rng, physics.mass_relative)).max(0.2);
+        for k in 0..3 {
+            body.com_mm[k] += gauss(&mut rng, physics.com_mm);
+        }
+    }
+    truth.set_masses(masses);
+    debug_assert!(truth.has_param(ParamId::Effect(EffectParam::CarriageTilt { axis: Axis::X })));
+    truth
+}
+
+/// Which hidden truth a virtual cell gets (`--truth ideal|paper-like|FILE`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum TruthSpec {
+    /// [`perturbed_truth`] with [`ErrorBudget::realistic`]: only errors of the paper's 34
+    /// parameters; ideal tracker, no temperature channel (the behaviour before the paper-like
+    /// truth existed)
+    Ideal,
+    /// [`paper_like_truth`] with [`PaperLikePhysics::paper`], plus the temperature channel and
+    /// the tracker's registration and SMR-nest errors
+    PaperLike,
+    /// a cell file of the truth (a cell TOML with effects enabled), with the paper-like
+    /// temperature channel (its thermal drift, if any, sees it) and tracker errors
+    File(PathBuf),
+}
+
+impl FromStr for TruthSpec {
+    type Err = TruthError;
+
+    /// `ideal`, `paper-like`, or a path to a cell file (must not be empty).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.trim() {
+            "ideal" => Ok(Self::Ideal),
+            "paper-like" | "paper_like" => Ok(Self::PaperLike),
+            "" => Err(TruthError::Spec("expected `ideal`, `paper-like` or a cell file, got nothing".into())),
+            path => Ok(Self::File(PathBuf::from(path))),
+        }
+    }
+}
+
+impl fmt::Display for TruthSpec {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Ideal => f.write_str("ideal"),
+            Self::PaperLike => f.write_str("paper-like"),
+            Self::File(p) => write!(f, "{}", p.display()),
+        }
+    }
+}
+
+/// Why a truth could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum TruthError {
+    /// The `--truth` value is malformed.
+    #[error("--truth: {0}")]
+    Spec(String),
+    /// The truth's cell file could not be read or is invalid.
+    #[error("truth file {path}: {message}")]
+    File {
+        /// the file
+        path: PathBuf,
+        /// what went wrong
+        message: String,
+    },
+}
+
+/// A built truth: the hidden model and the physics of the devices around it.
+#[derive(Debug, Clone)]
+pub struct BuiltTruth {
+    /// the hidden true model (oracle)
+    pub model: Model,
+    /// temperature channel and tracker systematics for [`SimConfig::physics`]
+    pub physics: CellPhysics,
+    /// one line saying what the truth contains (for reports)
+    pub description: String,
+}
+
+impl TruthSpec {
+    /// Builds the hidden truth for `nominal` and `seed` (deterministic).
+    ///
+    /// # Errors
+    /// A truth file that cannot be read or is not a valid cell model.
+    pub fn build(&self, nominal: &Model, seed: u64) -> Result<BuiltTruth, TruthError> {
+        let paper = PaperLikePhysics::paper();
+        let paper_physics = CellPhysics { thermal: Some(paper.temperature), ..paper.tracker };
+        Ok(match self {
+            Self::Ideal => BuiltTruth {
+                model: perturbed_truth(nominal, seed, &ErrorBudget::realistic()),
+                physics: CellPhysics::none(),
+                description: "ideal: random errors of the paper's 34 parameters only (no effect \
+                              outside the model, ideal tracker)"
+                    .into(),
+            },
+            Self::PaperLike => BuiltTruth {
+                model: paper_like_truth(nominal, seed, &paper),
+                physics: paper_physics,
+                description: "paper-like: random errors of the 34 parameters plus gear harmonics, \
+                              backlash, guide pitch/yaw/roll and straightness, carriage tilt, wrong \
+                              masses, CMM errors, tool-changer offset, thermal growth and tracker \
+                              registration/SMR errors (docs/virtual-cell.md)"
+                    .into(),
+            },
+            Self::File(path) => {
+                let err = |message: String| TruthError::File { path: path.clone(), message };
+                let cell = CellFile::load(path).map_err(|e| err(e.to_string()))?;
+                let model = Model::from_cell(&cell).map_err(|e| err(e.to_string()))?;
+                if model.tcp_ids() != nominal.tcp_ids() || model.position_ids() != nominal.position_ids() {
+                    return Err(err(format!(
+                        "its TCPs {:?} / calibration positions {:?} differ from the nominal cell's {:?} / {:?}",
+                        model.tcp_ids(),
+                        model.position_ids(),
+                        nominal.tcp_ids(),
+                        nominal.position_ids()
+                    )));
+                }
+                BuiltTruth {
+                    model,
+                    physics: paper_physics,
+                    description: format!(
+                        "file {}: the cell file's model, paper-like temperature channel and tracker errors",
+                        path.display()
+                    ),
+                }
+            }
+        })
+    }
+
+    /// A virtual cell on this truth: [`TruthSpec::build`], the default [`SimConfig`] with the
+    /// nominal cell's motion limits and the truth's [`CellPhysics`]. `ideal` gives exactly
+    /// [`VirtualCell::paper`].
+    ///
+    /// # Errors
+    /// As [`TruthSpec::build`].
+    pub fn virtual_cell(&self, nominal: Model, seed: u64) -> Result<VirtualCell, TruthError> {
+        let built = self.build(&nominal, seed)?;
+        let config = SimConfig {
+            timing: SimTiming::from_motion_limits(&nominal.to_cell().motion_limits()),
+            physics: built.physics,
+            ..SimConfig::default()
+        };
+        Ok(VirtualCell::new(nominal, built.model, config, seed))
+    }
 }
 
 /// Why [`reach`] failed.
@@ -341,7 +661,7 @@ pub fn synthetic_tracker_measurements(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vatcal_core::CellFile;
+    use vatcal_core::{CellFile, ParamSet};
 
     fn nominal() -> Model {
         let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
@@ -390,5 +710,81 @@ mod tests {
             assert!(truth.residual(x).expect("r").norm() < 1e-9);
             assert!(m.residual(x).expect("r").norm() > 1e-3, "nominal must disagree");
         }
+    }
+
+    #[test]
+    fn truth_spec_parses_and_displays() {
+        assert_eq!("ideal".parse::<TruthSpec>().expect("ideal"), TruthSpec::Ideal);
+        assert_eq!("paper-like".parse::<TruthSpec>().expect("paper"), TruthSpec::PaperLike);
+        assert_eq!(
+            "cells/truth.toml".parse::<TruthSpec>().expect("file"),
+            TruthSpec::File(PathBuf::from("cells/truth.toml"))
+        );
+        assert!("  ".parse::<TruthSpec>().is_err());
+        assert_eq!(TruthSpec::PaperLike.to_string(), "paper-like");
+        let missing = TruthSpec::File(PathBuf::from("/nonexistent/truth.toml")).build(&nominal(), 1);
+        let msg = missing.expect_err("missing file").to_string();
+        assert!(msg.contains("/nonexistent/truth.toml"), "{msg}");
+    }
+
+    #[test]
+    fn ideal_is_the_old_truth_and_paper_like_adds_physics_on_the_same_geometry() {
+        let m = nominal();
+        let ideal = TruthSpec::Ideal.build(&m, 4).expect("ideal");
+        let old = perturbed_truth(&m, 4, &ErrorBudget::realistic());
+        assert_eq!(ideal.physics, CellPhysics::none());
+        assert!(ideal.model.effects().is_empty());
+        let paper = TruthSpec::PaperLike.build(&m, 4).expect("paper-like");
+        let again = TruthSpec::PaperLike.build(&m, 4).expect("paper-like");
+        for id in ParamSet::paper34().iter() {
+            let (a, b) = (old.param(*id).expect("p"), ideal.model.param(*id).expect("p"));
+            assert_eq!(a, b, "{}", id.name());
+            if !matches!(id, ParamId::Tcp { .. } | ParamId::Position { .. }) {
+                assert_eq!(a, paper.model.param(*id).expect("p"), "same geometric draws: {}", id.name());
+            }
+        }
+        let kinds: Vec<_> = paper.model.effects().iter().map(|e| e.kind().name()).collect();
+        for k in [
+            "joint-cyclic",
+            "joint-backlash",
+            "guide-angular",
+            "guide-straightness",
+            "guide-carriage-tilt",
+            "tool-frame",
+            "thermal-drift",
+        ] {
+            assert!(kinds.contains(&k), "{k} missing from {kinds:?}");
+        }
+        assert!(paper.model.masses() != m.masses(), "the truth's masses must differ from the estimates");
+        assert!(paper.physics.thermal.is_some() && paper.physics.tracker_registration_mm > 0.0);
+        // deterministic, and the extra physics is tenths of a millimetre at random poses
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let mut diffs = Vec::new();
+        for k in 0..200 {
+            let q = random_joints(&m, &mut rng, 0.1);
+            let ctx = MeasurementContext {
+                dir: Some(if k % 2 == 0 { [1; 6] } else { [-1; 6] }),
+                time_s: Some(600.0),
+                temperature_c: Some(21.5),
+            };
+            let a = paper.model.tcp_position_ctx(&q, &ctx, 1).expect("fk");
+            assert_eq!(a, again.model.tcp_position_ctx(&q, &ctx, 1).expect("fk"));
+            diffs.push((a - ideal.model.tcp_position(&q, 1).expect("fk")).norm());
+        }
+        let mean = diffs.iter().sum::<f64>() / diffs.len() as f64;
+        eprintln!("paper-like minus ideal truth: mean {mean:.3} mm over 200 random poses");
+        assert!((0.1..0.8).contains(&mean), "paper-like physics moves the TCP by {mean} mm on average");
+    }
+
+    #[test]
+    fn paper_like_cell_has_a_temperature_channel_and_tracker_errors() {
+        let m = nominal();
+        let cell = TruthSpec::PaperLike.virtual_cell(m.clone(), 2).expect("cell");
+        let physics = cell.config().physics;
+        let t = physics.thermal.expect("temperature channel");
+        assert!((t.at(0.0) - 20.5).abs() < 1e-12);
+        assert!(t.at(1e5) > 21.5 && t.at(1e5) < 22.5, "{}", t.at(1e5));
+        let ideal = TruthSpec::Ideal.virtual_cell(m.clone(), 2).expect("cell");
+        assert_eq!(ideal.config(), VirtualCell::paper(m, 2).config());
     }
 }

@@ -101,6 +101,24 @@ pub(crate) struct World {
     pub reads_since_epoch: u64,
     /// world displacements requested by relative linear moves (oracle for tests)
     pub linear_moves: Vec<Vector3<f64>>,
+    /// tracker registration error: reported = pivot + rotation (p − pivot) + translation
+    pub tracker_registration: Option<TrackerRegistration>,
+    /// offset of each SMR's optical centre from its nest centre, tool frame [mm]
+    pub smr_offsets_mm: BTreeMap<u32, Vector3<f64>>,
+}
+
+/// The systematic error of the tracker's registration to the world frame.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct TrackerRegistration {
+    pub pivot: Vector3<f64>,
+    pub rotation: Matrix3<f64>,
+    pub translation: Vector3<f64>,
+}
+
+impl TrackerRegistration {
+    fn apply(&self, p: &Vector3<f64>) -> Vector3<f64> {
+        self.pivot + self.rotation * (p - self.pivot) + self.translation
+    }
 }
 
 /// Rotation by an angle drawn uniformly in [0, max] about a random axis.
@@ -156,6 +174,25 @@ impl World {
         let mut tool_rng = noise::rng(key(seed, "tool-changer", &[]));
         let tool_offset_mm = gauss3(&mut tool_rng, config.noise.tool_changer_repeatability_mm / 3.0);
 
+        // tracker systematics (own streams: the other draws do not change when they are on)
+        let physics = &config.physics;
+        let mut reg_rng = noise::rng(key(seed, "tracker-registration", &[]));
+        let pivot = if positions.is_empty() {
+            Vector3::zeros()
+        } else {
+            positions.iter().map(|(_, p)| *p).sum::<Vector3<f64>>() / positions.len() as f64
+        };
+        let tracker_registration = (physics.tracker_registration_mm > 0.0
+            || physics.tracker_registration_rad > 0.0)
+            .then(|| TrackerRegistration {
+                pivot,
+                rotation: *Rotation3::new(gauss3(&mut reg_rng, physics.tracker_registration_rad)).matrix(),
+                translation: gauss3(&mut reg_rng, physics.tracker_registration_mm),
+            });
+        let mut smr_rng = noise::rng(key(seed, "smr-nests", &[]));
+        let smr_offsets_mm =
+            truth.tcp_ids().into_iter().map(|t| (t, gauss3(&mut smr_rng, physics.smr_nest_mm))).collect();
+
         Self {
             seed,
             config,
@@ -185,6 +222,8 @@ impl World {
             epoch: key(seed, "start", &[]),
             reads_since_epoch: 0,
             linear_moves: Vec::new(),
+            tracker_registration,
+            smr_offsets_mm,
         }
     }
 
@@ -264,20 +303,27 @@ impl World {
         JointVector(q)
     }
 
-    /// Per-sample context the true model sees (backlash direction, time).
+    /// Per-sample context the true model sees (backlash direction, time, temperature when the
+    /// cell has a temperature channel).
     pub fn context(&self) -> MeasurementContext {
+        let t = self.now().as_secs_f64();
         MeasurementContext {
             dir: Some(self.arm.dir),
-            time_s: Some(self.now().as_secs_f64()),
-            temperature_c: None,
+            time_s: Some(t),
+            temperature_c: self.config.physics.thermal.map(|p| p.at(t)),
         }
     }
 
     /// True world position of the centre of ball (TCP) `tcp` [mm].
     pub fn ball_world(&self, tcp: u32) -> Option<Vector3<f64>> {
+        self.tool_point_world(tcp, &Vector3::zeros())
+    }
+
+    /// True world position of the point `offset` (tool frame) away from ball `tcp`'s centre.
+    fn tool_point_world(&self, tcp: u32, offset: &Vector3<f64>) -> Option<Vector3<f64>> {
         let t = self.truth.tcp(tcp)?;
         let chain = self.truth.chain_full(&self.physical_joints(), &self.context(), false, None);
-        Some(chain.tool_point(&(t + self.tool_offset_mm)) + self.arm.offset_mm)
+        Some(chain.tool_point(&(t + self.tool_offset_mm + offset)) + self.arm.offset_mm)
     }
 
     /// Ball-centre offset from the true probe origin (world) and the ball's radius, for the
@@ -344,10 +390,19 @@ impl World {
     }
 
     /// One noisy tracker measurement of ball/SMR `target`.
+    /// With [`CellPhysics`](crate::CellPhysics) tracker errors, the SMR's optical centre sits
+    /// off its nest centre and the reading carries the registration error.
     pub fn track(&mut self, target: u32) -> Result<Vector3<f64>, Error> {
-        let p = self.ball_world(target).ok_or_else(|| {
+        let nest = self.smr_offsets_mm.get(&target).copied().unwrap_or_else(Vector3::zeros);
+        let p = if nest == Vector3::zeros() {
+            self.ball_world(target)
+        } else {
+            self.tool_point_world(target, &nest)
+        };
+        let p = p.ok_or_else(|| {
             Error::new(ErrorKind::OutOfRange, "sim tracker", format!("unknown target {target}"))
         })?;
+        let p = self.tracker_registration.map_or(p, |r| r.apply(&p));
         let mut rng = self.reading_rng("tracker", u64::from(target));
         Ok(p + gauss3(&mut rng, self.config.noise.tracker_error_mm / 3.0))
     }

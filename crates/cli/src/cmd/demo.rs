@@ -110,6 +110,10 @@ pub struct Args {
     /// Slices of the validation printing path.
     #[arg(long, default_value_t = 300)]
     pub slices: usize,
+    /// Hidden truth of the virtual cell: `ideal` (errors of the 34 parameters only),
+    /// `paper-like` (plus the physics they miss, docs/virtual-cell.md) or a cell file of the truth.
+    #[arg(long, default_value = "paper-like", value_name = "ideal|paper-like|FILE")]
+    pub truth: vatcal_demo::TruthSpec,
     /// Never draw progress bars (they are drawn only when stdout is a terminal).
     #[arg(long)]
     pub quiet: bool,
@@ -128,10 +132,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     opts.sizes.random_poses = args.random_poses;
     opts.sizes.slices = args.slices;
     let mut progress = BarProgress::new(!args.quiet && std::io::stdout().is_terminal());
+    opts.truth = args.truth.clone();
     println!(
-        "vatcal demo: simulated calibration of {} (seed {}), report in {}",
+        "vatcal demo: simulated calibration of {} (seed {}, truth {}), report in {}",
         opts.nominal_source,
         args.seed,
+        opts.truth,
         args.out.display()
     );
     let outcome = run_demo_with_progress(&opts, &args.out, &mut progress)

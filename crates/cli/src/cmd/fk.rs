@@ -11,12 +11,15 @@ pub struct Args {
     /// Cell model file (TOML, format meca500-zaber-cell).
     #[arg(long)]
     pub model: PathBuf,
-    /// Joint rows: CSV with columns tcp,q1..q7 (q1 in mm, q2..q7 in degrees).
+    /// Joint rows: CSV with columns tcp,q1..q7 (q1 in mm, q2..q7 in degrees), and the optional
+    /// context columns time_s, temperature_c, dir2..dir7 (required when the model has an effect
+    /// that depends on them: backlash, thermal drift).
     #[arg(long)]
     pub input: PathBuf,
 }
 
-/// Prints `x,y,z` (world, mm) per input row, in order.
+/// Prints `x,y,z` (world, mm) per input row, in order, with each row's context (approach
+/// directions, time, temperature) applied to the model's effects.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
     let rows = vatcal_io::read_joint_rows(&args.input, &model)?;
@@ -24,7 +27,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     writeln!(out, "x,y,z")?;
     for row in rows {
         let p = model
-            .tcp_position(&row.q, row.tcp)
+            .tcp_position_ctx(&row.q, &row.context, row.tcp)
             .with_context(|| format!("{}:{}", args.input.display(), row.line))?;
         writeln!(out, "{},{},{}", p.x, p.y, p.z)?;
     }

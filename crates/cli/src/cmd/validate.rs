@@ -17,7 +17,9 @@ pub struct Args {
     /// Optional baseline model to compare with (e.g. the nominal cell file).
     #[arg(long)]
     pub baseline: Option<PathBuf>,
-    /// Validation measurements: CSV with columns tcp,q1..q7,x,y,z (world, mm).
+    /// Validation measurements: CSV with columns tcp,q1..q7,x,y,z (world, mm), and the optional
+    /// context columns time_s, temperature_c, dir2..dir7 (applied to the models' effects;
+    /// required when a model has backlash or thermal drift).
     #[arg(long)]
     pub tracker: PathBuf,
     /// Write a histogram of the error magnitudes (baseline and model) as SVG.
@@ -62,6 +64,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let baseline = match &args.baseline {
         Some(path) => {
             let base = super::load_model(path)?;
+            // read again with the baseline: checks the context columns its effects need
+            let tracker = vatcal_io::read_tracker_measurements(&args.tracker, &base)?;
             Some((path, validate(&base, &tracker).with_context(|| format!("validating {}", path.display()))?))
         }
         None => None,
