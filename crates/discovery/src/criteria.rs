@@ -169,19 +169,17 @@ impl HeldOutComparison {
         } else {
             0.0
         };
-        let rms = |f: &dyn Fn(&(Vector3<f64>, Vector3<f64>)) -> f64| {
-            (pairs.iter().map(|p| f(p).powi(2)).sum::<f64>() / nf).sqrt()
-        };
+        let rms = |values: &mut dyn Iterator<Item = f64>| (values.map(|v| v * v).sum::<f64>() / nf).sqrt();
         Self {
             points: n,
             missing: before.len() - n,
-            rms_before_mm: rms(&|p| p.0.norm()),
-            rms_after_mm: rms(&|p| p.1.norm()),
+            rms_before_mm: rms(&mut pairs.iter().map(|p| p.0.norm())),
+            rms_after_mm: rms(&mut pairs.iter().map(|p| p.1.norm())),
             mean_reduction_mm2: mean,
             std_error_mm2: se,
             z,
             ln_p_value: normal_ln_sf(z),
-            change_rms_mm: rms(&|p| (p.0 - p.1).norm()),
+            change_rms_mm: rms(&mut pairs.iter().map(|p| (p.0 - p.1).norm())),
         }
     }
 }

@@ -770,7 +770,7 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
     if h.points < 2 {
         return CandidateStatus::Rejected("no held-out predictions (every confirmation fold failed)".into());
     }
-    if !(h.z > e.z_required) {
+    if h.z.is_nan() || h.z <= e.z_required {
         return CandidateStatus::Rejected(format!(
             "held-out error not lower by more than its uncertainty (RMS {:.4} -> {:.4} mm, reduction {:.3e} +- {:.3e} mm2, z = {:.2} < {:.2})",
             h.rms_before_mm, h.rms_after_mm, h.mean_reduction_mm2, h.std_error_mm2, h.z, e.z_required
@@ -837,7 +837,7 @@ fn confirm_screened(
     let mut refits = 0;
     for c in candidates.iter_mut() {
         let Some(score) = c.score else { continue };
-        if !(score.ln_p_value < th.ln_screen) {
+        if score.ln_p_value.is_nan() || score.ln_p_value >= th.ln_screen {
             continue;
         }
         if refits >= ctx.options.max_refits {
