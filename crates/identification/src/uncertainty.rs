@@ -124,6 +124,23 @@ impl CmmUncertainty {
         Ok(Self { sigma_mm, coordinates, transfer })
     }
 
+    /// `A = P_c − P_ρ J⁺ J_c` (3 × CMM coordinates, columns in the order of
+    /// [`CmmUncertainty::coordinates`]): the error of the predicted world position of TCP `tcp`
+    /// at `q` per unit error `c_file − c_true` of each CMM coordinate, after the fit has
+    /// absorbed what it can.
+    pub fn sensitivity(
+        &self,
+        fit: &Identification,
+        q: &JointVector,
+        tcp: u32,
+    ) -> Result<DMatrix<f64>, IdentifyError> {
+        let p_rho = fit.model.jacobian(q, tcp, &fit.params.0)?;
+        let p_c = fit.model.jacobian(q, tcp, &self.coordinates.0)?;
+        let p_rho = DMatrix::from_column_slice(3, p_rho.ncols(), p_rho.as_slice());
+        let p_c = DMatrix::from_column_slice(3, p_c.ncols(), p_c.as_slice());
+        Ok(&p_c - &p_rho * &self.transfer)
+    }
+
     /// Systematic covariance [mm²] of the predicted world position of TCP `tcp` at `q`.
     pub fn covariance(
         &self,
@@ -131,11 +148,7 @@ impl CmmUncertainty {
         q: &JointVector,
         tcp: u32,
     ) -> Result<Matrix3<f64>, IdentifyError> {
-        let p_rho = fit.model.jacobian(q, tcp, &fit.params.0)?;
-        let p_c = fit.model.jacobian(q, tcp, &self.coordinates.0)?;
-        let p_rho = DMatrix::from_column_slice(3, p_rho.ncols(), p_rho.as_slice());
-        let p_c = DMatrix::from_column_slice(3, p_c.ncols(), p_c.as_slice());
-        let a = &p_c - &p_rho * &self.transfer;
+        let a = self.sensitivity(fit, q, tcp)?;
         let c = &a * a.transpose() * (self.sigma_mm * self.sigma_mm);
         Ok(Matrix3::from_fn(|r, k| c[(r, k)]))
     }
