@@ -101,6 +101,10 @@ pub enum StepOutcome {
         readings_mm: [f64; 3],
         /// final offset in the probe frame (nominal axes) [mm]
         offset_mm: [f64; 3],
+        /// the same offset in world axes (through the nominal placement) [mm]; the
+        /// measurement's target is the calibration position plus this (absent in old journals)
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        offset_world_mm: Option<[f64; 3]>,
         /// corrective moves made
         iterations: usize,
         /// composite error after each reading [mm]
@@ -143,7 +147,11 @@ impl StepRecord {
             StepOutcome::Tracked { tcp, xyz_mm } => (*tcp, Target::Tracker { xyz_mm: (*xyz_mm).into() }),
             _ => return None,
         };
-        Some(Measurement { tcp, q: self.state.joints, target, context })
+        let probe_offset_mm = match &self.outcome {
+            StepOutcome::Measured { offset_world_mm: Some(o), .. } => Some((*o).into()),
+            _ => None,
+        };
+        Some(Measurement { tcp, q: self.state.joints, target, context, probe_offset_mm })
     }
 }
 
@@ -474,6 +482,7 @@ mod tests {
                 tcp: 3,
                 readings_mm: [0.001, -0.002, x],
                 offset_mm: [0.1, 0.2, 0.3],
+                offset_world_mm: Some([0.3, -0.1, 0.2]),
                 iterations: 3,
                 composite_history_mm: vec![1.0, 0.05, 0.002],
             },

@@ -544,6 +544,7 @@ impl<'a> Campaign<'a> {
                     tcp,
                     readings_mm: g,
                     offset_mm: [c.x, c.y, c.z],
+                    offset_world_mm: Some(o.final_offset_world_mm.into()),
                     iterations: o.iterations,
                     composite_history_mm: o.composite_history_mm,
                 })

@@ -69,7 +69,10 @@ fn a_complete_campaign_records_centred_joints_with_time_and_direction() {
     let csv = dir.path().join("measurements.csv");
     assert_eq!(export_measurements(&journal, &csv).expect("export"), report.measurements.len());
     let header = std::fs::read_to_string(&csv).expect("csv").lines().next().expect("header").to_string();
-    assert_eq!(header, "position,tcp,q1,q2,q3,q4,q5,q6,q7,time_s,dir2,dir3,dir4,dir5,dir6,dir7");
+    assert_eq!(
+        header,
+        "position,tcp,q1,q2,q3,q4,q5,q6,q7,time_s,dir2,dir3,dir4,dir5,dir6,dir7,offset_x_mm,offset_y_mm,offset_z_mm"
+    );
     let back = vatcal_io::read_probe_measurements(&csv, &nominal).expect("read csv");
     assert_close_measurements(&back, &report.measurements);
     assert_eq!(

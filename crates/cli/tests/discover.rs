@@ -68,6 +68,11 @@ fn discover_names_a_hidden_cyclic_error_and_writes_its_outputs() {
     let final_model = CellFile::load(&out).expect("final model loads");
     assert!(final_model.effects.iter().any(|e| e.effect == "joint-cyclic" && e.joint == Some(4)));
     assert!(plots.join("step1-joint-cyclic-j4.svg").exists());
+    // the HTML report beside the JSON: self-contained, the plot inline
+    let html = std::fs::read_to_string(report.with_extension("html")).expect("html report");
+    assert!(html.starts_with("<!DOCTYPE html>") && html.contains("<svg"), "html");
+    assert!(html.contains("joint-cyclic (joint 4, harmonic 1)"));
+    assert!(!html.contains("<script") && !html.contains("href=\"http"));
 }
 
 #[test]

@@ -44,17 +44,52 @@ pub struct Measurement {
     pub target: Target,
     /// optional per-sample data
     pub context: MeasurementContext,
+    /// probe measurements: the final centring offset read by the gauges, in world axes
+    /// (ball centre − probe origin, at most the centring tolerance, ~5 µm) [mm]. The observed
+    /// target is then `calibration position + offset` instead of the position itself. `None`
+    /// (or a tracker measurement) = no offset.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probe_offset_mm: Option<Vector3<f64>>,
 }
 
 impl Measurement {
     /// A probe measurement without context data.
     pub fn probe(position: u32, tcp: u32, q: JointVector) -> Self {
-        Self { tcp, q, target: Target::Probe { position }, context: MeasurementContext::default() }
+        Self {
+            tcp,
+            q,
+            target: Target::Probe { position },
+            context: MeasurementContext::default(),
+            probe_offset_mm: None,
+        }
     }
 
     /// A tracker measurement without context data.
     pub fn tracker(tcp: u32, q: JointVector, xyz_mm: Vector3<f64>) -> Self {
-        Self { tcp, q, target: Target::Tracker { xyz_mm }, context: MeasurementContext::default() }
+        Self {
+            tcp,
+            q,
+            target: Target::Tracker { xyz_mm },
+            context: MeasurementContext::default(),
+            probe_offset_mm: None,
+        }
+    }
+
+    /// The same probe measurement with the final centring offset `offset_mm` (world axes)
+    /// recorded: the observed target becomes `calibration position + offset_mm`.
+    pub fn with_probe_offset(mut self, offset_mm: Vector3<f64>) -> Self {
+        self.probe_offset_mm = Some(offset_mm);
+        self
+    }
+
+    /// What to add to the model's residual ([`Target`]: `position − FK` / `measured − FK`) to
+    /// get the residual against the observed target: the recorded centring offset of a probe
+    /// measurement, zero otherwise [mm].
+    pub fn target_offset_mm(&self) -> Vector3<f64> {
+        match (self.target, self.probe_offset_mm) {
+            (Target::Probe { .. }, Some(o)) => o,
+            _ => Vector3::zeros(),
+        }
     }
 
     /// Calibration position id for probe measurements.

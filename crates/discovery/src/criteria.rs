@@ -117,6 +117,73 @@ impl PairedImprovement {
     }
 }
 
+/// Held-out comparison of two models on the same measurements, each predicted by fits that did
+/// not see it: the paired differences `d_k = ‖e_before,k‖² − ‖e_after,k‖²` of the squared
+/// prediction errors, their mean and its standard error, and how much the predictions change
+/// (`‖e_before,k − e_after,k‖`, the effect's size where it matters). Measurements without a
+/// held-out prediction under either model (a skipped fold) are left out and counted.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HeldOutComparison {
+    /// measurements compared
+    pub points: usize,
+    /// measurements without a held-out prediction (skipped folds)
+    pub missing: usize,
+    /// RMS held-out error norm without the change [mm]
+    pub rms_before_mm: f64,
+    /// RMS held-out error norm with the change [mm]
+    pub rms_after_mm: f64,
+    /// mean reduction of the squared held-out error per measurement [mm²] (> 0: better)
+    pub mean_reduction_mm2: f64,
+    /// standard error of that mean [mm²]
+    pub std_error_mm2: f64,
+    /// `mean_reduction / std_error`
+    pub z: f64,
+    /// `ln P(Z > z)` under "no improvement" (one-sided)
+    pub ln_p_value: f64,
+    /// RMS of the change of the predictions `‖e_before,k − e_after,k‖` [mm]
+    pub change_rms_mm: f64,
+}
+
+impl HeldOutComparison {
+    /// Compares held-out errors `before` and `after` (same measurements, same order; `None` =
+    /// no prediction).
+    ///
+    /// # Panics
+    /// If the lengths differ (a programming error).
+    pub fn new(before: &[Option<Vector3<f64>>], after: &[Option<Vector3<f64>>]) -> Self {
+        assert_eq!(before.len(), after.len(), "paired errors must have the same length");
+        let pairs: Vec<(Vector3<f64>, Vector3<f64>)> =
+            before.iter().zip(after).filter_map(|(b, a)| Some(((*b)?, (*a)?))).collect();
+        let n = pairs.len();
+        let nf = n.max(1) as f64;
+        let d: Vec<f64> = pairs.iter().map(|(b, a)| b.norm_squared() - a.norm_squared()).collect();
+        let mean = d.iter().sum::<f64>() / nf;
+        let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (nf - 1.0).max(1.0);
+        let se = (var / nf).sqrt();
+        let z = if n < 2 {
+            0.0
+        } else if se > 0.0 {
+            mean / se
+        } else if mean > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        };
+        let rms = |values: &mut dyn Iterator<Item = f64>| (values.map(|v| v * v).sum::<f64>() / nf).sqrt();
+        Self {
+            points: n,
+            missing: before.len() - n,
+            rms_before_mm: rms(&mut pairs.iter().map(|p| p.0.norm())),
+            rms_after_mm: rms(&mut pairs.iter().map(|p| p.1.norm())),
+            mean_reduction_mm2: mean,
+            std_error_mm2: se,
+            z,
+            ln_p_value: normal_ln_sf(z),
+            change_rms_mm: rms(&mut pairs.iter().map(|p| (p.0 - p.1).norm())),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -143,6 +210,25 @@ mod tests {
             before.iter().enumerate().map(|(k, e)| if k % 2 == 0 { e * 0.5 } else { e * 1.3 }).collect();
         let q = PairedImprovement::new(&before, &mixed);
         assert!(q.z.abs() < 2.0, "{}", q.z);
+    }
+
+    #[test]
+    fn held_out_comparison_pairs_only_predicted_points_and_measures_the_change() {
+        let before: Vec<Option<Vector3<f64>>> =
+            (0..60).map(|k| Some(Vector3::new(0.010 + 0.001 * ((k * 7) % 5) as f64, 0.0, 0.0))).collect();
+        let mut after: Vec<Option<Vector3<f64>>> = before.iter().map(|e| e.map(|v| v * 0.5)).collect();
+        after[3] = None;
+        let c = HeldOutComparison::new(&before, &after);
+        assert_eq!((c.points, c.missing), (59, 1));
+        assert!(c.z > 10.0 && c.mean_reduction_mm2 > 0.0 && c.rms_after_mm < c.rms_before_mm);
+        // the predictions moved by half the error: 5..7 µm
+        assert!(c.change_rms_mm > 0.005 && c.change_rms_mm < 0.007, "{}", c.change_rms_mm);
+        // no change at all: z = 0, change 0
+        let same = HeldOutComparison::new(&before, &before);
+        assert!(same.z == 0.0 && same.change_rms_mm == 0.0 && same.ln_p_value > -0.7);
+        // worse predictions: negative z
+        let worse: Vec<Option<Vector3<f64>>> = before.iter().map(|e| e.map(|v| v * 1.2)).collect();
+        assert!(HeldOutComparison::new(&before, &worse).z < -5.0);
     }
 
     #[test]

@@ -113,6 +113,22 @@ pub fn normal_ln_sf(z: f64) -> f64 {
     if z >= 0.0 { half_tail } else { (-half_tail.exp()).ln_1p() }
 }
 
+/// The upper quantile `z` with `P(Z > z) = alpha` of a standard normal Z (bisection on
+/// [`normal_ln_sf`], |error| < 1e-10; `alpha` is clamped to `[1e-300, 1 − 1e-16]`).
+pub fn normal_upper_quantile(alpha: f64) -> f64 {
+    let ln_alpha = alpha.clamp(1e-300, 1.0 - 1e-16).ln();
+    let (mut lo, mut hi) = (-40.0_f64, 40.0_f64);
+    while hi - lo > 1e-10 {
+        let mid = 0.5 * (lo + hi);
+        if normal_ln_sf(mid) > ln_alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 /// Continued fraction of the incomplete beta function (Numerical Recipes `betacf`).
 fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
     let qab = a + b;

@@ -55,13 +55,17 @@ impl Fit {
     }
 }
 
-/// Residual vectors of `measurements` under `model` [mm].
+/// Residual vectors of `measurements` under `model` [mm] (against the observed target: the
+/// recorded centring offset of a probe measurement included).
 pub fn residuals(model: &Model, measurements: &[Measurement]) -> Result<Vec<Vector3<f64>>, DiscoveryError> {
     measurements
         .iter()
         .enumerate()
         .map(|(i, m)| {
-            model.residual(m).map_err(|e| DiscoveryError::Measurement { index: i, message: e.to_string() })
+            model
+                .residual(m)
+                .map(|r| r + m.target_offset_mm())
+                .map_err(|e| DiscoveryError::Measurement { index: i, message: e.to_string() })
         })
         .collect()
 }

@@ -42,6 +42,31 @@ pub fn stratified_folds(measurements: &[Measurement], k: usize, seed: u64) -> Ve
     fold
 }
 
+/// Seeded split into a screening part (`true`) and a confirmation part (`false`), stratified by
+/// calibration position: in every stratum a share `screen_fraction` (rounded, at least one and,
+/// with two or more members, at most all but one) goes to screening. Deterministic for a seed.
+pub fn screening_split(measurements: &[Measurement], screen_fraction: f64, seed: u64) -> Vec<bool> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5c7e_e41d_c0f1_a2b3);
+    let mut groups: BTreeMap<Option<u32>, Vec<usize>> = BTreeMap::new();
+    for (i, m) in measurements.iter().enumerate() {
+        groups.entry(stratum(m)).or_default().push(i);
+    }
+    let frac = if screen_fraction.is_finite() { screen_fraction.clamp(0.0, 1.0) } else { 0.5 };
+    let mut screen = vec![false; measurements.len()];
+    for members in groups.values_mut() {
+        for i in (1..members.len()).rev() {
+            let j = rng.random_range(0..=i);
+            members.swap(i, j);
+        }
+        let n = members.len();
+        let take = ((frac * n as f64).round() as usize).clamp(1.min(n), n.saturating_sub(1).max(1));
+        for idx in &members[..take.min(n)] {
+            screen[*idx] = true;
+        }
+    }
+    screen
+}
+
 /// Indices of the training and test measurements of fold `f`.
 pub fn split(folds: &[usize], f: usize) -> (Vec<usize>, Vec<usize>) {
     (0..folds.len()).partition(|i| folds[*i] != f)
@@ -71,6 +96,20 @@ mod tests {
                 assert!(train.iter().any(|i| m[*i].position() == Some(p)));
             }
         }
+    }
+
+    #[test]
+    fn screening_split_is_stratified_deterministic_and_disjoint() {
+        let m = data(90);
+        let s = screening_split(&m, 0.5, 7);
+        assert_eq!(s, screening_split(&m, 0.5, 7));
+        assert_ne!(s, screening_split(&m, 0.5, 8));
+        for p in 1..=3 {
+            let n_screen = (0..90).filter(|i| s[*i] && m[*i].position() == Some(p)).count();
+            assert_eq!(n_screen, 15, "position {p}");
+        }
+        let s3 = screening_split(&m, 0.3, 7);
+        assert_eq!(s3.iter().filter(|x| **x).count(), 27);
     }
 
     proptest::proptest! {

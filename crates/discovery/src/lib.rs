@@ -1,8 +1,10 @@
 //! # vatcal-discovery
 //!
 //! Missing-effect discovery (background.md §8): fit the current model, locate where it
-//! disagrees with the data, score every catalog effect that is not yet in the model, add the
-//! best significant one, refit, and repeat until nothing passes. See `docs/discovery.md`.
+//! disagrees with the data, screen every catalog effect that is not yet in the model on one part
+//! of the data, confirm the best on held-out data the screening never saw, add an effect only if
+//! it shrinks the held-out gap by more than its uncertainty, refit, check the earlier additions
+//! are still needed, and repeat until nothing passes. See `docs/discovery.md`.
 //!
 //! * [`workflow`] — the loop ([`discover`]) and its report types;
 //! * [`distributions`] — χ² and F tail probabilities (also as logarithms);
@@ -12,18 +14,21 @@
 //! * [`location`] — residuals against every driving variable ("the where");
 //! * [`catalog`] — driving variable, meaning and plausible range of each effect;
 //! * [`fit`] — the fits (through `vatcal-identification`);
-//! * [`plots`] — residual against an added effect's driving variable, before and after.
+//! * [`plots`] — residual against an added effect's driving variable, before and after;
+//! * [`html`] — the report as one self-contained HTML page.
 
 pub mod catalog;
 pub mod criteria;
 pub mod distributions;
 pub mod fit;
 pub mod folds;
+pub mod html;
 pub mod linear;
 pub mod location;
 pub mod plots;
 pub mod workflow;
 
+pub use html::html_report;
 pub use plots::write_effect_plots;
 pub use workflow::{AddedEffect, DiscoverOptions, Discovery, Gap, discover};
 

@@ -1,18 +1,27 @@
-//! The discovery loop (background.md §8.3).
+//! The discovery loop (background.md §8.3) with a held-out decision rule.
 //!
-//! Each round:
-//! 1. the current model is fitted (identification crate);
-//! 2. its residuals are located against every driving variable ([`crate::location`]);
-//! 3. every catalog effect not yet in the model is scored: novelty `‖P⊥Z‖/‖Z‖` (≈ 0: not
-//!    discoverable with this data) and the score test with σ̂ from the current fit; the
-//!    candidates that pass a Bonferroni threshold `α/m` are refitted and must also pass the
-//!    F-test (same threshold), lower BIC and AICc, a significantly lower stratified K-fold
-//!    cross-validated prediction error (paired one-sided z-test), and a plausibility check of
-//!    the identified values;
-//! 4. the passing candidate with the lowest BIC is added (`enable_effect` + its identifiable
-//!    parameters join the fitted set), and the gap — held-out and validation error — before
-//!    and after is recorded;
-//! 5. repeat until no candidate passes.
+//! The measurements are split once (seeded, stratified by calibration position) into a
+//! **screening** part S and a **confirmation** part C. Each round:
+//! 1. the current model is fitted to all data (identification crate) and its residuals are
+//!    located against every driving variable ([`crate::location`], a diagnostic);
+//! 2. **screening** on S only: the current model is refitted to S and every catalog effect not
+//!    yet in the model is scored there (novelty `‖P⊥Z‖/‖Z‖` and the score test). The
+//!    false-alarm probability is spent over the rounds: round r screens at `α·2⁻ʳ/m` (m scored
+//!    candidates), so the family-wise level over **all** rounds and candidates is ≤ α;
+//! 3. **confirmation** on C only (data the screening never saw): for the best screened
+//!    candidates, every point of C is predicted by fits without it (K folds of C; training =
+//!    S + the other folds of C), without and with the effect. The effect must lower the
+//!    held-out squared error by more than `z_r` standard errors of the paired differences
+//!    (`z_r` at the level `confirm_alpha·2⁻ʳ/max_refits`), its predictions must change by more
+//!    than the noise (else it is reported as *detected, negligible (x µm)* and not added), and
+//!    its identified values must be plausible;
+//! 4. the confirmed candidate with the largest held-out improvement is added (refitted on all
+//!    data); then a **backward check** removes earlier effects that no longer lower the
+//!    held-out error by more than one standard error with the new one present;
+//! 5. repeat until no candidate is confirmed.
+//!
+//! A cross-validation fold whose fit fails (ill-conditioned, not converged) is skipped,
+//! counted and reported; it does not abort the run.
 
 use std::collections::BTreeMap;
 
@@ -21,43 +30,58 @@ use serde::Serialize;
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::params::ParamUnit;
 use vatcal_core::{Measurement, ParamId, ParamSet, rad_to_deg};
-use vatcal_identification::{ErrorStats, IdentifyOptions, validate};
+use vatcal_identification::{ErrorStats, IdentifyOptions, KindSigmas, KindWeights};
 use vatcal_kinematics::Model;
 use vatcal_kinematics::effects::{DataAvailability, candidate_effects, missing_data};
 use vatcal_observability::assemble_jacobian;
 
 use crate::DiscoveryError;
 use crate::catalog::{driver_of, meaning, plausibility};
-use crate::criteria::{NestedComparison, PairedImprovement};
-use crate::distributions::chi2_ln_sf;
+use crate::criteria::{HeldOutComparison, NestedComparison};
+use crate::distributions::{chi2_ln_sf, normal_upper_quantile};
 use crate::fit::{Fit, fit, residuals};
-use crate::folds::{split, stratified_folds};
+use crate::folds::{screening_split, stratified_folds};
 use crate::linear::{ColumnSpace, EffectDirections, ScoreTest, score_test, unit_columns};
 use crate::location::{DriverSummary, PoseData, locate};
 
 /// Settings of [`discover`].
 #[derive(Debug, Clone)]
 pub struct DiscoverOptions {
-    /// family-wise false-alarm probability of one round; each of the m scored candidates is
-    /// tested at `alpha / m` (Bonferroni)
+    /// family-wise false-alarm probability of the screening over **all** rounds: round r
+    /// (1-based) spends `alpha·2⁻ʳ`, split over its m scored candidates (`alpha·2⁻ʳ/m` each)
     pub alpha: f64,
+    /// family-wise level of the held-out confirmation over all rounds: round r confirms at
+    /// `confirm_alpha·2⁻ʳ/max_refits` per refitted candidate (one-sided paired z-test)
+    pub confirm_alpha: f64,
+    /// share of the measurements (per calibration position) used for screening; the rest
+    /// confirms
+    pub screen_fraction: f64,
+    /// an effect whose held-out predictions change by less than this many times the noise
+    /// (RMS of `‖Δprediction‖` below `negligible_factor · √3 · σ̂₁`, σ̂₁ the per-axis noise
+    /// estimate of the refit **with** the effect, i.e. what is left once it is modelled) is
+    /// reported as "detected, negligible" and not added
+    pub negligible_factor: f64,
     /// directions of a candidate whose novelty (singular value of the unit-normalised `P⊥Z`)
     /// is at or below this are treated as absorbed by the current parameters
     pub novelty_floor: f64,
-    /// number of cross-validation folds
+    /// number of cross-validation folds (of the confirmation part, and of all data for the
+    /// reported held-out gap)
     pub folds: usize,
-    /// seed of the fold assignment
+    /// seed of the screening/confirmation split and of the folds
     pub seed: u64,
-    /// how many screened candidates (best score first) are refitted per round
+    /// how many screened candidates (best score first) are confirmed per round
     pub max_refits: usize,
-    /// upper bound on the number of effects added
+    /// upper bound on the number of rounds
     pub max_rounds: usize,
-    /// one-sided level of the paired test that the cross-validated (held-out) errors improve
-    /// with the effect; confirmation of a screened candidate, so not divided by m
-    pub cv_alpha: f64,
-    /// known noise σ per axis [mm]; when `None` the score test uses σ̂ of the current fit
+    /// known noise σ per axis [mm] for the score test; when `None` σ̂ of the screening fit is used
     pub known_sigma_mm: Option<f64>,
-    /// options of every fit
+    /// estimate σ of probe and of tracker residuals separately and weight the fits by them
+    /// (only matters when both kinds are in the data)
+    pub weight_by_kind: bool,
+    /// standard deviation of the systematic CMM errors of the TCP and calibration-position
+    /// coordinates [mm] (per coordinate), included in the reported prediction uncertainty
+    pub cmm_sigma_mm: f64,
+    /// options of every fit (the kind weights are replaced when `weight_by_kind`)
     pub identify: IdentifyOptions,
 }
 
@@ -65,28 +89,30 @@ impl Default for DiscoverOptions {
     fn default() -> Self {
         Self {
             alpha: 0.01,
+            confirm_alpha: 0.05,
+            screen_fraction: 0.5,
+            negligible_factor: 1.0,
             novelty_floor: 1e-3,
             folds: 5,
             seed: 1,
             max_refits: 4,
             max_rounds: 8,
-            cv_alpha: 0.05,
             known_sigma_mm: None,
+            weight_by_kind: true,
+            cmm_sigma_mm: 0.002,
             identify: IdentifyOptions::default(),
         }
     }
 }
 
-/// Mean squared residual norm [mm²] of error statistics.
-fn mse_mm2(s: &ErrorStats) -> f64 {
-    s.rms * s.rms
-}
-
 /// How far the model is from the data it did not see.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Gap {
-    /// errors of K-fold cross-validation (each measurement predicted by a fit without it)
+    /// errors of K-fold cross-validation over all measurements (each predicted by a fit without
+    /// it); measurements of skipped folds are left out
     pub heldout: ErrorStats,
+    /// folds whose fit failed and were skipped
+    pub skipped_folds: usize,
     /// errors on the independent validation set, when given
     pub validation: Option<ErrorStats>,
 }
@@ -115,9 +141,9 @@ pub struct FitSummary {
     pub residuals: usize,
     /// numerical rank of the fitted Jacobian (identified directions)
     pub rank: usize,
-    /// residual sum of squares [mm²]
+    /// residual sum of squares [mm²] (unweighted)
     pub rss_mm2: f64,
-    /// σ̂ = sqrt(RSS / (N − rank)) per axis [mm]
+    /// σ̂ = sqrt(weighted RSS / (N − rank)) per axis of a weight-1 (probe) measurement [mm]
     pub sigma_hat_mm: f64,
     /// mean / RMS / max residual norm of the fit [mm]
     pub fit_errors: ErrorStats,
@@ -139,13 +165,16 @@ pub enum CandidateStatus {
     AlreadyInModel,
     /// its columns are absorbed by the current parameters (novelty ≈ 0)
     NotDiscoverable,
-    /// the score test did not pass the screening threshold
+    /// the score test on the screening data did not pass the threshold
     NotSignificant,
-    /// screened, but not among the candidates refitted this round
+    /// screened, but not among the candidates confirmed this round
     NotRefitted,
     /// refitted and rejected (the reason names the failed check)
     Rejected(String),
-    /// passed every check, but another candidate was better (lower BIC)
+    /// real (lowers the held-out error significantly) but changes the predictions by less
+    /// than the noise: not added (the reason gives the size)
+    DetectedNegligible(String),
+    /// passed every check, but another candidate improved the held-out error more
     PassedNotBest,
     /// added to the model this round
     Added,
@@ -167,14 +196,14 @@ pub struct Confounding {
 pub struct RefitEvidence {
     /// the parameters that joined the fitted set (the identifiable ones of the effect)
     pub fitted_params: Vec<String>,
-    /// F-test, ΔAICc, ΔBIC
+    /// F-test, ΔAICc, ΔBIC of the refit on all data (reported, not decisive)
     pub comparison: NestedComparison,
-    /// cross-validated prediction errors without / with the effect
-    pub cv_before: ErrorStats,
-    /// cross-validated prediction errors with the effect
-    pub cv_after: ErrorStats,
-    /// paired test of the held-out errors (without − with the effect)
-    pub cv_improvement: PairedImprovement,
+    /// held-out comparison on the confirmation data (decisive)
+    pub heldout: HeldOutComparison,
+    /// z the held-out improvement had to exceed this round
+    pub z_required: f64,
+    /// prediction change below which the effect counts as negligible [mm]
+    pub negligible_below_mm: f64,
     /// identified values in file units (angles in degrees), keyed by parameter name with unit
     pub values: BTreeMap<String, f64>,
     /// their standard deviations in the same units
@@ -196,15 +225,41 @@ pub struct CandidateScore {
     pub joint: Option<u8>,
     /// the effect's parameters that are not fitted yet
     pub params: Vec<String>,
-    /// overall novelty ‖P⊥Ẑ‖/‖Ẑ‖ (None when not computed)
+    /// overall novelty ‖P⊥Ẑ‖/‖Ẑ‖ on the screening data (None when not computed)
     pub novelty: Option<f64>,
-    /// score test (None when not computed)
+    /// score test on the screening data (None when not computed)
     pub score: Option<ScoreTest>,
-    /// result of the refit (screened candidates only)
+    /// result of the refit and confirmation (screened candidates only)
     pub refit: Option<RefitEvidence>,
     /// outcome
     #[serde(flatten)]
     pub status: CandidateStatus,
+}
+
+/// An effect removed by the backward check.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RemovedEffect {
+    /// human label
+    pub label: String,
+    /// round in which it was added
+    pub added_in_round: usize,
+    /// round in which it was removed
+    pub removed_in_round: usize,
+    /// why: the held-out comparison without / with it, given the later effects
+    pub heldout: HeldOutComparison,
+}
+
+/// An effect that is real but too small to matter.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NegligibleEffect {
+    /// human label
+    pub label: String,
+    /// round
+    pub round: usize,
+    /// RMS change of the held-out predictions it would make [µm]
+    pub change_um: f64,
+    /// the held-out comparison
+    pub heldout: HeldOutComparison,
 }
 
 /// One round of the loop.
@@ -212,14 +267,18 @@ pub struct CandidateScore {
 pub struct Round {
     /// 1-based
     pub index: usize,
-    /// the fit of the current model
+    /// the fit of the current model to all data
     pub fit: FitSummary,
     /// residuals against every driving variable, most significant first
     pub location: Vec<DriverSummary>,
-    /// Bonferroni screening threshold `ln(alpha/m)`
+    /// screening threshold `ln(alpha·2⁻ʳ/m)`
     pub ln_threshold: f64,
-    /// every candidate, best score first
+    /// z the held-out improvement of a candidate had to exceed
+    pub z_required: f64,
+    /// every candidate, best screening score first
     pub candidates: Vec<CandidateScore>,
+    /// effects removed by the backward check after this round's addition
+    pub removed: Vec<RemovedEffect>,
     /// what was decided, in one sentence
     pub decision: String,
 }
@@ -254,16 +313,20 @@ pub struct AddedEffect {
     pub meaning: String,
     /// the catalog instance
     pub spec: EffectSpec,
+    /// round in which it was added
+    pub round: usize,
     /// identified values in file units, keyed by parameter name with unit
     pub values: BTreeMap<String, f64>,
     /// their standard deviations
     pub std_errors: BTreeMap<String, f64>,
-    /// novelty of the effect before it was added
+    /// novelty of the effect before it was added (screening data)
     pub novelty: f64,
-    /// the score test
+    /// the score test (screening data)
     pub score: ScoreTest,
-    /// F-test and information criteria of the refit
+    /// F-test and information criteria of the refit (all data)
     pub comparison: NestedComparison,
+    /// the held-out comparison on the confirmation data that admitted it
+    pub heldout: HeldOutComparison,
     /// largest correlations with existing parameters
     pub confounding: Vec<Confounding>,
     /// headline gap before adding it [mm]
@@ -284,18 +347,34 @@ impl AddedEffect {
     pub fn summary_line(&self) -> String {
         let shrink = 100.0 * (1.0 - self.gap_after_mm / self.gap_before_mm.max(f64::MIN_POSITIVE));
         format!(
-            "added {} (LM = {:.1} on {} dof, log10 p = {:.1}; F = {:.1}; dBIC = {:.1}; novelty {:.2}): gap {:.4} -> {:.4} mm ({shrink:.0} % smaller)",
+            "added {} (screening LM = {:.1} on {} dof, log10 p = {:.1}; held-out RMS {:.4} -> {:.4} mm, z = {:.1}, predictions change {:.1} um): gap {:.4} -> {:.4} mm ({shrink:.0} % smaller)",
             self.label,
             self.score.statistic,
             self.score.dof,
             self.score.ln_p_value / std::f64::consts::LN_10,
-            self.comparison.f,
-            self.comparison.delta_bic,
-            self.novelty,
+            self.heldout.rms_before_mm,
+            self.heldout.rms_after_mm,
+            self.heldout.z,
+            1e3 * self.heldout.change_rms_mm,
             self.gap_before_mm,
             self.gap_after_mm,
         )
     }
+}
+
+/// Predicted TCP position uncertainty of the final model, averaged over poses.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PredictedUncertainty {
+    /// what the poses are (`validation` or `measurements`)
+    pub poses: String,
+    /// number of poses
+    pub count: usize,
+    /// mean of `‖σ‖` (per-axis σ as a vector) from the parameter covariance alone [mm]
+    pub statistical_mean_mm: f64,
+    /// the same with the systematic CMM errors of TCP and position coordinates [mm]
+    pub with_cmm_mean_mm: f64,
+    /// the CMM standard deviation per coordinate used [mm]
+    pub cmm_sigma_mm: f64,
 }
 
 /// Everything the loop found.
@@ -307,10 +386,20 @@ pub struct Discovery {
     /// the final fitted parameter set
     #[serde(serialize_with = "serialize_param_names")]
     pub params: ParamSet,
-    /// the effects added, in order
+    /// the effects in the final model, in the order added
     pub added_effects: Vec<AddedEffect>,
+    /// effects added and later removed by the backward check
+    pub removed_effects: Vec<RemovedEffect>,
+    /// effects detected but too small to matter (not added)
+    pub negligible_effects: Vec<NegligibleEffect>,
     /// every round
     pub rounds: Vec<Round>,
+    /// measurements used for screening / for confirmation
+    pub split: [usize; 2],
+    /// σ of probe and tracker residuals of the initial fit (used as weights when both exist)
+    pub kind_sigmas: KindSigmas,
+    /// cross-validation folds skipped over the whole run (their fit failed)
+    pub skipped_folds: usize,
     /// gap of the starting parameter set
     pub initial_gap: Gap,
     /// gap of the final model
@@ -319,7 +408,9 @@ pub struct Discovery {
     pub initial_gap_mm: f64,
     /// headline final gap [mm]
     pub final_gap_mm: f64,
-    /// remarks (skipped candidates, data limits)
+    /// predicted uncertainty of the final model (statistical, and with CMM errors)
+    pub uncertainty: Option<PredictedUncertainty>,
+    /// remarks (skipped candidates, skipped folds, data limits)
     pub notes: Vec<String>,
 }
 
@@ -343,46 +434,121 @@ struct Candidate {
     directions: Option<EffectDirections>,
     score: Option<ScoreTest>,
     status: CandidateStatus,
-    refit: Option<(RefitEvidence, Fit, Vec<Vector3<f64>>)>,
+    refit: Option<(RefitEvidence, Fit)>,
+}
+
+/// Held-out predictions of a cross-validation: one error per measurement (`None` = not
+/// predicted: not in the evaluated part, or its fold was skipped).
+struct CrossValidation {
+    errors: Vec<Option<Vector3<f64>>>,
+    skipped: Vec<String>,
+}
+
+impl CrossValidation {
+    fn stats(&self) -> ErrorStats {
+        let e: Vec<Vector3<f64>> = self.errors.iter().flatten().copied().collect();
+        ErrorStats::from_errors(&e)
+    }
 }
 
 /// Fixed inputs of one run.
 struct Context<'a> {
     measurements: &'a [Measurement],
     validation: Option<&'a [Measurement]>,
-    folds: Vec<usize>,
-    options: &'a DiscoverOptions,
+    /// fold of every measurement over all data (reported gap)
+    all_folds: Vec<Option<usize>>,
+    /// fold of every confirmation measurement (`None` for screening ones)
+    confirm_folds: Vec<Option<usize>>,
+    /// the screening measurements
+    screen: Vec<Measurement>,
+    options: DiscoverOptions,
 }
 
 impl Context<'_> {
-    /// Held-out residual of every measurement: K fits, each without one fold.
-    fn cross_validate(&self, start: &Model, params: &ParamSet) -> Result<Vec<Vector3<f64>>, DiscoveryError> {
-        let k = self.folds.iter().copied().max().map_or(1, |m| m + 1);
-        let mut held = vec![Vector3::zeros(); self.measurements.len()];
+    /// Held-out residual of every measurement with `Some` fold: one fit per fold on every
+    /// other measurement (a failing fold is skipped and named).
+    fn cross_validate(&self, start: &Model, params: &ParamSet, folds: &[Option<usize>]) -> CrossValidation {
+        let k = folds.iter().flatten().copied().max().map_or(0, |m| m + 1);
+        let mut cv = CrossValidation { errors: vec![None; self.measurements.len()], skipped: Vec::new() };
         for f in 0..k {
-            let (train, test) = split(&self.folds, f);
-            let train_ms: Vec<Measurement> = train.iter().map(|i| self.measurements[*i]).collect();
+            let test: Vec<usize> = (0..folds.len()).filter(|i| folds[*i] == Some(f)).collect();
+            if test.is_empty() {
+                continue;
+            }
+            let train: Vec<Measurement> =
+                (0..folds.len()).filter(|i| folds[*i] != Some(f)).map(|i| self.measurements[i]).collect();
             let test_ms: Vec<Measurement> = test.iter().map(|i| self.measurements[*i]).collect();
-            let trained = fit(start, &train_ms, params, &self.options.identify)?;
-            for (i, r) in test.iter().zip(residuals(&trained.model, &test_ms)?) {
-                held[*i] = r;
+            let predicted = fit(start, &train, params, &self.options.identify)
+                .and_then(|trained| residuals(&trained.model, &test_ms));
+            match predicted {
+                Ok(r) => {
+                    for (i, e) in test.iter().zip(r) {
+                        cv.errors[*i] = Some(e);
+                    }
+                }
+                Err(e) => {
+                    cv.skipped.push(format!("fold {} of {k} ({} measurements): {e}", f + 1, test.len()))
+                }
             }
         }
-        Ok(held)
+        cv
     }
 
-    fn gap(&self, model: &Model, heldout: &[Vector3<f64>]) -> Result<Gap, DiscoveryError> {
+    fn gap(&self, model: &Model, heldout: &CrossValidation) -> Result<Gap, DiscoveryError> {
         let validation = match self.validation {
-            Some(v) if !v.is_empty() => {
-                Some(validate(model, v).map_err(|e| DiscoveryError::Fit(e.to_string()))?.stats)
-            }
+            Some(v) if !v.is_empty() => Some(ErrorStats::from_errors(&residuals(model, v)?)),
             _ => None,
         };
-        Ok(Gap { heldout: ErrorStats::from_errors(heldout), validation })
+        Ok(Gap { heldout: heldout.stats(), skipped_folds: heldout.skipped.len(), validation })
+    }
+
+    /// Per-axis noise estimate of a weight-1 measurement from a fit with `rank` identified
+    /// directions (or the known σ).
+    fn sigma_hat(&self, f: &Fit, ms: &[Measurement], rank: usize) -> f64 {
+        if let Some(s) = self.options.known_sigma_mm {
+            return s;
+        }
+        let w = &self.options.identify.weights;
+        let rss: f64 = ms.iter().zip(&f.residuals).map(|(m, r)| kind_weight(m, w) * r.norm_squared()).sum();
+        (rss / (3 * ms.len()).saturating_sub(rank).max(1) as f64).sqrt()
     }
 }
 
-fn summarize_fit(f: &Fit, rank: usize, known_sigma_mm: Option<f64>) -> FitSummary {
+/// Weight of a measurement's kind.
+fn kind_weight(m: &Measurement, w: &KindWeights) -> f64 {
+    match m.target {
+        vatcal_core::Target::Probe { .. } => w.probe,
+        vatcal_core::Target::Tracker { .. } => w.tracker,
+    }
+}
+
+/// Multiplies the row block of every measurement by `√w` of its kind.
+fn weigh_rows(j: &mut faer::Mat<f64>, ms: &[Measurement], w: &KindWeights) {
+    if w.probe == 1.0 && w.tracker == 1.0 {
+        return;
+    }
+    for (k, m) in ms.iter().enumerate() {
+        let s = kind_weight(m, w).sqrt();
+        for c in 0..j.ncols() {
+            for a in 0..3 {
+                j[(3 * k + a, c)] *= s;
+            }
+        }
+    }
+}
+
+/// The stacked residual of a fit, rows weighted by `√w`.
+fn weighted_residual(f: &Fit, ms: &[Measurement], w: &KindWeights) -> Vec<f64> {
+    ms.iter()
+        .zip(&f.residuals)
+        .flat_map(|(m, r)| {
+            let s = kind_weight(m, w).sqrt();
+            [s * r.x, s * r.y, s * r.z]
+        })
+        .collect()
+}
+
+fn summarize_fit(f: &Fit, ms: &[Measurement], rank: usize, ctx: &Context<'_>) -> FitSummary {
     let n = f.n();
     let dof = n.saturating_sub(rank).max(1);
     FitSummary {
@@ -391,9 +557,9 @@ fn summarize_fit(f: &Fit, rank: usize, known_sigma_mm: Option<f64>) -> FitSummar
         residuals: n,
         rank,
         rss_mm2: f.rss_mm2,
-        sigma_hat_mm: (f.rss_mm2 / dof as f64).sqrt(),
+        sigma_hat_mm: ctx.sigma_hat(f, ms, rank),
         fit_errors: ErrorStats::from_errors(&f.residuals),
-        chi2_ln_p_value: known_sigma_mm.map(|s| chi2_ln_sf(f.rss_mm2 / (s * s), dof)),
+        chi2_ln_p_value: ctx.options.known_sigma_mm.map(|s| chi2_ln_sf(f.rss_mm2 / (s * s), dof)),
         iterations: f.iterations,
         converged: f.converged,
     }
@@ -446,9 +612,11 @@ pub fn candidates(model: &Model, measurements: &[Measurement]) -> Vec<EffectSpec
     v
 }
 
-/// Scores every candidate effect against the current fit.
+/// Scores every candidate effect on the screening data (`screen_fit` = the current model
+/// refitted to the screening measurements).
 fn score_candidates(
     current: &Fit,
+    screen_fit: &Fit,
     space: &ColumnSpace,
     ctx: &Context<'_>,
     notes: &mut Vec<String>,
@@ -487,14 +655,12 @@ fn score_candidates(
     if all.is_empty() {
         return Ok(out);
     }
-    let zall = assemble_jacobian(&current.model, ctx.measurements, &ParamSet(all.clone()))
+    let w = ctx.options.identify.weights;
+    let mut zall = assemble_jacobian(&screen_fit.model, &ctx.screen, &ParamSet(all.clone()))
         .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
-    let r = current.stacked_residual();
-    let n = r.len();
-    let sigma2 = match ctx.options.known_sigma_mm {
-        Some(s) => s * s,
-        None => current.rss_mm2 / n.saturating_sub(space.rank()).max(1) as f64,
-    };
+    weigh_rows(&mut zall, &ctx.screen, &w);
+    let r = weighted_residual(screen_fit, &ctx.screen, &w);
+    let sigma = ctx.sigma_hat(screen_fit, &ctx.screen, space.rank());
     for c in out.iter_mut().filter(|c| c.status == CandidateStatus::NotSignificant) {
         let cols: Vec<usize> = c.new_params.iter().filter_map(|p| all.iter().position(|q| q == p)).collect();
         let z = columns(&zall, &cols);
@@ -502,23 +668,33 @@ fn score_candidates(
         if d.dof == 0 {
             c.status = CandidateStatus::NotDiscoverable;
         } else {
-            c.score = Some(score_test(space, &d, &r, sigma2));
+            c.score = Some(score_test(space, &d, &r, sigma * sigma));
         }
         c.directions = Some(d);
     }
     Ok(out)
 }
 
-/// Refits with one candidate and collects the evidence.
+/// The thresholds of one round.
+struct Thresholds {
+    ln_screen: f64,
+    z_required: f64,
+}
+
+/// Refits with one candidate on all data, confirms it on the held-out confirmation data and
+/// collects the evidence.
+#[allow(clippy::too_many_arguments)]
 fn refit_candidate(
     current: &Fit,
     j0: &faer::Mat<f64>,
     rank0: usize,
-    held0: &[Vector3<f64>],
+    held0: &CrossValidation,
     candidate: &Candidate,
+    th: &Thresholds,
     ctx: &Context<'_>,
-) -> Result<(RefitEvidence, Fit, Vec<Vector3<f64>>), String> {
-    let opts = ctx.options;
+    notes: &mut Vec<String>,
+) -> Result<(RefitEvidence, Fit), String> {
+    let opts = &ctx.options;
     let mut start = current.model.clone();
     start.enable_effect(candidate.spec).map_err(|e| e.to_string())?;
     let z = assemble_jacobian(&start, ctx.measurements, &ParamSet(candidate.new_params.clone()))
@@ -536,10 +712,11 @@ fn refit_candidate(
         fit(&start, ctx.measurements, &params1, &opts.identify).map_err(|e| format!("refit failed: {e}"))?;
     let comparison =
         NestedComparison::new(current.n(), rank0, current.rss_mm2, rank0 + added.len(), fit1.rss_mm2);
-    let held1 =
-        ctx.cross_validate(&fit1.model, &params1).map_err(|e| format!("cross-validation failed: {e}"))?;
-    let cv_after = ErrorStats::from_errors(&held1);
-    let cv_improvement = PairedImprovement::new(held0, &held1);
+    let held1 = ctx.cross_validate(&start, &params1, &ctx.confirm_folds);
+    for s in &held1.skipped {
+        notes.push(format!("confirmation of {}: skipped {s}", candidate.spec.label()));
+    }
+    let heldout = HeldOutComparison::new(&held0.errors, &held1.errors);
     let before = |p: ParamId| current.model.param(p).unwrap_or(0.0);
     let changes: Vec<(ParamId, f64)> =
         added.iter().map(|p| (*p, fit1.value(*p).unwrap_or(0.0) - before(*p))).collect();
@@ -571,47 +748,45 @@ fn refit_candidate(
     let evidence = RefitEvidence {
         fitted_params: added.iter().map(|p| p.name()).collect(),
         comparison,
-        cv_before: ErrorStats::from_errors(held0),
-        cv_after,
-        cv_improvement,
+        heldout,
+        z_required: th.z_required,
+        negligible_below_mm: opts.negligible_factor
+            * 3f64.sqrt()
+            * ctx.sigma_hat(&fit1, ctx.measurements, rank0 + added.len()),
         values,
         std_errors,
         confounding,
         implausible,
     };
-    Ok((evidence, fit1, held1))
+    Ok((evidence, fit1))
 }
 
-/// Why refit evidence does not support adding the effect (`None` = it does).
-fn rejection(e: &RefitEvidence, fit1: &Fit, ln_threshold: f64, cv_alpha: f64) -> Option<String> {
-    let c = &e.comparison;
+/// The decision rule: what the evidence says about adding the effect.
+fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
+    let h = &e.heldout;
     if !fit1.converged {
-        return Some("refit did not converge".into());
+        return CandidateStatus::Rejected("refit did not converge".into());
     }
-    let significant = c.f_ln_p_value < ln_threshold;
-    let bic_drops = c.delta_bic < 0.0;
-    let aicc_drops = c.delta_aicc < 0.0;
-    let cv_improves =
-        mse_mm2(&e.cv_after) < mse_mm2(&e.cv_before) && e.cv_improvement.ln_p_value < cv_alpha.ln();
-    if !significant {
-        return Some(format!(
-            "F-test not significant (log10 p = {:.1})",
-            c.f_ln_p_value / std::f64::consts::LN_10
+    if h.points < 2 {
+        return CandidateStatus::Rejected("no held-out predictions (every confirmation fold failed)".into());
+    }
+    if h.z.is_nan() || h.z <= e.z_required {
+        return CandidateStatus::Rejected(format!(
+            "held-out error not lower by more than its uncertainty (RMS {:.4} -> {:.4} mm, reduction {:.3e} +- {:.3e} mm2, z = {:.2} < {:.2})",
+            h.rms_before_mm, h.rms_after_mm, h.mean_reduction_mm2, h.std_error_mm2, h.z, e.z_required
         ));
     }
-    if !bic_drops {
-        return Some(format!("BIC does not drop ({:+.1})", c.delta_bic));
-    }
-    if !aicc_drops {
-        return Some(format!("AICc does not drop ({:+.1})", c.delta_aicc));
-    }
-    if !cv_improves {
-        return Some(format!(
-            "cross-validated error does not improve significantly (RMS {:.4} -> {:.4} mm, paired z = {:.2})",
-            e.cv_before.rms, e.cv_after.rms, e.cv_improvement.z
+    if h.change_rms_mm < e.negligible_below_mm {
+        return CandidateStatus::DetectedNegligible(format!(
+            "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um)",
+            1e3 * h.change_rms_mm,
+            1e3 * e.negligible_below_mm
         ));
     }
-    e.implausible.as_ref().map(|why| format!("implausible: {why}"))
+    if let Some(why) = &e.implausible {
+        return CandidateStatus::Rejected(format!("implausible: {why}"));
+    }
+    CandidateStatus::PassedNotBest
 }
 
 fn driver_plot(
@@ -647,22 +822,22 @@ fn driver_plot(
     Ok(plot)
 }
 
-/// Refits the screened candidates (best score first, at most `max_refits`) and marks each as
-/// rejected or passed.
+/// Refits and confirms the screened candidates (best score first, at most `max_refits`).
+#[allow(clippy::too_many_arguments)]
 fn confirm_screened(
     candidates: &mut [Candidate],
     current: &Fit,
     j0: &faer::Mat<f64>,
     rank0: usize,
-    held0: &[Vector3<f64>],
-    ln_threshold: f64,
+    held0: &CrossValidation,
+    th: &Thresholds,
     ctx: &Context<'_>,
+    notes: &mut Vec<String>,
 ) {
     let mut refits = 0;
     for c in candidates.iter_mut() {
         let Some(score) = c.score else { continue };
-        let screened = score.ln_p_value < ln_threshold;
-        if !screened {
+        if score.ln_p_value.is_nan() || score.ln_p_value >= th.ln_screen {
             continue;
         }
         if refits >= ctx.options.max_refits {
@@ -670,27 +845,24 @@ fn confirm_screened(
             continue;
         }
         refits += 1;
-        match refit_candidate(current, j0, rank0, held0, c, ctx) {
-            Ok((evidence, fit1, held1)) => {
-                c.status = match rejection(&evidence, &fit1, ln_threshold, ctx.options.cv_alpha) {
-                    Some(why) => CandidateStatus::Rejected(why),
-                    None => CandidateStatus::PassedNotBest,
-                };
-                c.refit = Some((evidence, fit1, held1));
+        match refit_candidate(current, j0, rank0, held0, c, th, ctx, notes) {
+            Ok((evidence, fit1)) => {
+                c.status = decide(&evidence, &fit1);
+                c.refit = Some((evidence, fit1));
             }
             Err(why) => c.status = CandidateStatus::Rejected(why),
         }
     }
 }
 
-/// Index of the passing candidate with the lowest BIC.
+/// Index of the passing candidate with the largest held-out improvement.
 fn best_passing(candidates: &[Candidate]) -> Option<usize> {
-    let key = |c: &Candidate| c.refit.as_ref().map_or(f64::INFINITY, |r| r.0.comparison.delta_bic);
+    let key = |c: &Candidate| c.refit.as_ref().map_or(f64::NEG_INFINITY, |r| r.0.heldout.mean_reduction_mm2);
     candidates
         .iter()
         .enumerate()
         .filter(|(_, c)| c.status == CandidateStatus::PassedNotBest)
-        .min_by(|a, b| key(a.1).total_cmp(&key(b.1)))
+        .max_by(|a, b| key(a.1).total_cmp(&key(b.1)))
         .map(|(i, _)| i)
 }
 
@@ -699,9 +871,9 @@ fn nothing_added(candidates: &[Candidate], ln_threshold: f64) -> String {
     match candidates.iter().find(|c| c.score.is_some()) {
         Some(c) => {
             let why = match &c.status {
-                CandidateStatus::Rejected(why) => why.clone(),
+                CandidateStatus::Rejected(why) | CandidateStatus::DetectedNegligible(why) => why.clone(),
                 _ => format!(
-                    "score test log10 p = {:.1} above the threshold {:.1}",
+                    "screening log10 p = {:.1} above the threshold {:.1}",
                     c.score.map_or(0.0, |s| s.ln_p_value) / std::f64::consts::LN_10,
                     ln_threshold / std::f64::consts::LN_10
                 ),
@@ -715,13 +887,15 @@ fn nothing_added(candidates: &[Candidate], ln_threshold: f64) -> String {
 /// The record of an added candidate (its refit must be present).
 fn added_effect(
     c: &Candidate,
+    round: usize,
     current: &Fit,
     gap_before: &Gap,
     ctx: &Context<'_>,
-) -> Result<(AddedEffect, Fit, Vec<Vector3<f64>>), DiscoveryError> {
+) -> Result<(AddedEffect, Fit, CrossValidation), DiscoveryError> {
     let lost = || DiscoveryError::Numerical("internal: the added candidate has no refit or score".into());
-    let (evidence, fit1, held1) = c.refit.clone().ok_or_else(lost)?;
+    let (evidence, fit1) = c.refit.clone().ok_or_else(lost)?;
     let score = c.score.ok_or_else(lost)?;
+    let held1 = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
     let gap_after = ctx.gap(&fit1.model, &held1)?;
     let plot = driver_plot(&c.spec, &fit1.model, ctx.measurements, &current.residuals, &fit1.residuals)?;
     let added = AddedEffect {
@@ -730,11 +904,13 @@ fn added_effect(
         label: c.spec.label(),
         meaning: meaning(c.spec.kind()).to_string(),
         spec: c.spec,
+        round,
         values: evidence.values,
         std_errors: evidence.std_errors,
         novelty: c.directions.as_ref().map_or(0.0, |d| d.novelty),
         score,
         comparison: evidence.comparison,
+        heldout: evidence.heldout,
         confounding: evidence.confounding,
         gap_before_mm: gap_before.headline_mm(),
         gap_after_mm: gap_after.headline_mm(),
@@ -743,6 +919,114 @@ fn added_effect(
         plot,
     };
     Ok((added, fit1, held1))
+}
+
+/// `start` with the effects `specs` switched on and every parameter of `params` set to its
+/// value in `values_from` (effects not in `specs` are absent, their parameters unfitted).
+fn rebuild(
+    start: &Model,
+    specs: &[EffectSpec],
+    values_from: &Model,
+    params: &ParamSet,
+) -> Result<Model, String> {
+    let mut m = start.clone();
+    for s in specs {
+        m.enable_effect(*s).map_err(|e| e.to_string())?;
+    }
+    for p in params.iter() {
+        let v = values_from.param(*p).map_err(|e| e.to_string())?;
+        m.set_param(*p, v).map_err(|e| e.to_string())?;
+    }
+    Ok(m)
+}
+
+/// Backward check after an addition: every earlier added effect must still lower the held-out
+/// error of the confirmation data by more than one standard error (and by more than the
+/// noise) given the others; the weakest one that does not is removed and the model refitted,
+/// until all pass. Returns the removed effects.
+#[allow(clippy::too_many_arguments)]
+fn backward_check(
+    start: &Model,
+    added: &mut Vec<AddedEffect>,
+    current: &mut Fit,
+    round: usize,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Result<Vec<RemovedEffect>, DiscoveryError> {
+    let mut removed = Vec::new();
+    while added.len() >= 2 {
+        let rank = current.params.len();
+        let negligible_below_mm =
+            ctx.options.negligible_factor * 3f64.sqrt() * ctx.sigma_hat(current, ctx.measurements, rank);
+        let with = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
+        let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
+        // the newest effect was just confirmed; check the earlier ones
+        for k in 0..added.len() - 1 {
+            let own: Vec<ParamId> = added[k].spec.params();
+            let params = ParamSet(current.params.iter().copied().filter(|p| !own.contains(p)).collect());
+            let specs: Vec<EffectSpec> =
+                added.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, a)| a.spec).collect();
+            let Ok(base) = rebuild(start, &specs, &current.model, &params) else { continue };
+            let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
+            let h = HeldOutComparison::new(&without.errors, &with.errors);
+            let keep = h.z > 1.0 && h.change_rms_mm >= negligible_below_mm;
+            if keep {
+                continue;
+            }
+            let Ok(refit) = fit(&base, ctx.measurements, &params, &ctx.options.identify) else {
+                notes.push(format!("backward check: refit without {} failed; kept", added[k].label));
+                continue;
+            };
+            if weakest.as_ref().is_none_or(|(_, w, _)| h.z < w.z) {
+                weakest = Some((k, h, refit));
+            }
+        }
+        let Some((k, h, refit)) = weakest else { break };
+        let gone = added.remove(k);
+        removed.push(RemovedEffect {
+            label: gone.label,
+            added_in_round: gone.round,
+            removed_in_round: round,
+            heldout: h,
+        });
+        *current = refit;
+    }
+    Ok(removed)
+}
+
+/// Predicted TCP uncertainty of the final model at the validation poses (or the measurement
+/// poses), without and with the systematic CMM errors.
+fn predicted_uncertainty(
+    model: &Model,
+    params: &ParamSet,
+    ctx: &Context<'_>,
+) -> Result<PredictedUncertainty, String> {
+    let id = vatcal_identification::identify(model, ctx.measurements, params, &ctx.options.identify)
+        .map_err(|e| e.to_string())?;
+    let cmm = vatcal_identification::CmmUncertainty::new(
+        &id,
+        ctx.measurements,
+        &ctx.options.identify.weights,
+        ctx.options.cmm_sigma_mm,
+    )
+    .map_err(|e| e.to_string())?;
+    let (label, poses) = match ctx.validation {
+        Some(v) if !v.is_empty() => ("validation", v),
+        _ => ("measurements", ctx.measurements),
+    };
+    let (mut stat, mut total) = (0.0, 0.0);
+    for m in poses {
+        stat += id.predicted_position_sigma(&m.q, m.tcp).map_err(|e| e.to_string())?.norm();
+        total += cmm.total_sigma(&id, &m.q, m.tcp).map_err(|e| e.to_string())?.norm();
+    }
+    let n = poses.len().max(1) as f64;
+    Ok(PredictedUncertainty {
+        poses: label.to_string(),
+        count: poses.len(),
+        statistical_mean_mm: stat / n,
+        with_cmm_mean_mm: total / n,
+        cmm_sigma_mm: ctx.options.cmm_sigma_mm,
+    })
 }
 
 /// Runs the discovery loop from `start` with the fitted parameter set `params` on
@@ -757,66 +1041,184 @@ pub fn discover(
     if measurements.is_empty() {
         return Err(DiscoveryError::NoMeasurements);
     }
-    let ctx = Context {
-        measurements,
-        validation,
-        folds: stratified_folds(measurements, options.folds.max(2), options.seed),
-        options,
-    };
     let mut notes = Vec::new();
-    let mut current = fit(start, measurements, params, &options.identify)?;
-    let mut held0 = ctx.cross_validate(&current.model, &current.params)?;
-    let initial_gap = ctx.gap(&current.model, &held0)?;
+    let mut options = options.clone();
+    // separate σ for probe and tracker residuals (inverse-variance weights)
+    let first = fit(start, measurements, params, &options.identify)?;
+    let kind_sigmas = KindSigmas::estimate(measurements, &first.residuals, params.len());
+    let weighted =
+        options.weight_by_kind && kind_sigmas.probe_mm.is_some() && kind_sigmas.tracker_mm.is_some();
+    let mut current = if weighted {
+        options.identify.weights = kind_sigmas.weights();
+        notes.push(format!(
+            "probe and tracker residuals weighted by their own sigma ({:.4} / {:.4} mm per axis)",
+            kind_sigmas.probe_mm.unwrap_or(0.0),
+            kind_sigmas.tracker_mm.unwrap_or(0.0)
+        ));
+        fit(start, measurements, params, &options.identify)?
+    } else {
+        first
+    };
+    let is_screen = screening_split(measurements, options.screen_fraction, options.seed);
+    let screen: Vec<Measurement> =
+        measurements.iter().zip(&is_screen).filter(|(_, s)| **s).map(|(m, _)| *m).collect();
+    let confirm_idx: Vec<usize> = (0..measurements.len()).filter(|i| !is_screen[*i]).collect();
+    let confirm_ms: Vec<Measurement> = confirm_idx.iter().map(|i| measurements[*i]).collect();
+    let k = options.folds.max(2);
+    let mut confirm_folds = vec![None; measurements.len()];
+    for (i, f) in confirm_idx.iter().zip(stratified_folds(&confirm_ms, k, options.seed.wrapping_add(1))) {
+        confirm_folds[*i] = Some(f);
+    }
+    let all_folds = stratified_folds(measurements, k, options.seed).into_iter().map(Some).collect();
+    let split = [screen.len(), confirm_ms.len()];
+    let ctx = Context { measurements, validation, all_folds, confirm_folds, screen, options };
+    let options = &ctx.options;
+    let mut skipped_folds = 0;
+    let mut held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
+    skipped_folds += held_all.skipped.len();
+    notes.extend(held_all.skipped.iter().map(|s| format!("held-out gap: skipped {s}")));
+    let initial_gap = ctx.gap(&current.model, &held_all)?;
     let mut gap = initial_gap.clone();
     let mut rounds = Vec::new();
-    let mut added_effects = Vec::new();
+    let mut added_effects: Vec<AddedEffect> = Vec::new();
+    let mut removed_effects = Vec::new();
+    let mut negligible_effects = Vec::new();
     for index in 1..=options.max_rounds.max(1) {
-        let j0 = assemble_jacobian(&current.model, measurements, &current.params)
+        let spend = 0.5f64.powi(index as i32);
+        let mut j0 = assemble_jacobian(&current.model, measurements, &current.params)
             .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
-        let space = ColumnSpace::of(j0.as_ref())?;
-        let rank0 = space.rank();
+        weigh_rows(&mut j0, measurements, &options.identify.weights);
+        let rank0 = ColumnSpace::of(j0.as_ref())?.rank();
         let location = locate(&current.model, measurements, &current.residuals)?;
-        let mut candidates = score_candidates(&current, &space, &ctx, &mut notes)?;
+        let fit_summary = summarize_fit(&current, measurements, rank0, &ctx);
+        // screening on S
+        let screen_fit = match fit(&current.model, &ctx.screen, &current.params, &options.identify) {
+            Ok(f) => f,
+            Err(e) => {
+                rounds.push(Round {
+                    index,
+                    fit: fit_summary,
+                    location,
+                    ln_threshold: f64::NAN,
+                    z_required: f64::NAN,
+                    candidates: Vec::new(),
+                    removed: Vec::new(),
+                    decision: format!(
+                        "nothing added: the fit to the {} screening measurements failed ({e}); more measurements are needed",
+                        ctx.screen.len()
+                    ),
+                });
+                break;
+            }
+        };
+        let mut js = assemble_jacobian(&screen_fit.model, &ctx.screen, &current.params)
+            .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
+        weigh_rows(&mut js, &ctx.screen, &options.identify.weights);
+        let space = ColumnSpace::of(js.as_ref())?;
+        let mut candidates = score_candidates(&current, &screen_fit, &space, &ctx, &mut notes)?;
         let m = candidates.iter().filter(|c| c.score.is_some()).count().max(1);
-        let ln_threshold = (options.alpha / m as f64).ln();
+        let th = Thresholds {
+            ln_screen: (options.alpha * spend / m as f64).ln(),
+            z_required: normal_upper_quantile(
+                options.confirm_alpha * spend / options.max_refits.max(1) as f64,
+            ),
+        };
         let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
         candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
-        confirm_screened(&mut candidates, &current, &j0, rank0, &held0, ln_threshold, &ctx);
-        let fit_summary = summarize_fit(&current, rank0, options.known_sigma_mm);
+        let any_screened = candidates.iter().any(|c| c.score.is_some_and(|s| s.ln_p_value < th.ln_screen));
+        let held0 = if any_screened {
+            let h = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
+            notes.extend(
+                h.skipped.iter().map(|s| format!("round {index} confirmation baseline: skipped {s}")),
+            );
+            h
+        } else {
+            CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
+        };
+        let mut fold_notes = Vec::new();
+        confirm_screened(&mut candidates, &current, &j0, rank0, &held0, &th, &ctx, &mut fold_notes);
+        skipped_folds += held0.skipped.len() + fold_notes.len();
+        notes.extend(fold_notes);
+        for c in &candidates {
+            if let (CandidateStatus::DetectedNegligible(_), Some((e, _))) = (&c.status, &c.refit) {
+                negligible_effects.push(NegligibleEffect {
+                    label: c.spec.label(),
+                    round: index,
+                    change_um: 1e3 * e.heldout.change_rms_mm,
+                    heldout: e.heldout,
+                });
+            }
+        }
         let next = match best_passing(&candidates) {
             Some(b) => {
                 candidates[b].status = CandidateStatus::Added;
-                Some(added_effect(&candidates[b], &current, &gap, &ctx)?)
+                Some(added_effect(&candidates[b], index, &current, &gap, &ctx)?)
             }
             None => None,
         };
-        let decision = match &next {
+        let mut decision = match &next {
             Some((added, ..)) => added.summary_line(),
-            None => nothing_added(&candidates, ln_threshold),
+            None => nothing_added(&candidates, th.ln_screen),
         };
+        let mut removed = Vec::new();
+        let done = next.is_none();
+        if let Some((added, fit1, held1)) = next {
+            skipped_folds += held1.skipped.len();
+            gap = added.gap_after.clone();
+            added_effects.push(added);
+            current = fit1;
+            held_all = held1;
+            removed = backward_check(start, &mut added_effects, &mut current, index, &ctx, &mut notes)?;
+            if !removed.is_empty() {
+                held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
+                gap = ctx.gap(&current.model, &held_all)?;
+                let names: Vec<&str> = removed.iter().map(|r| r.label.as_str()).collect();
+                decision.push_str(&format!("; backward check removed {}", names.join(", ")));
+            }
+        }
         rounds.push(Round {
             index,
             fit: fit_summary,
             location,
-            ln_threshold,
+            ln_threshold: th.ln_screen,
+            z_required: th.z_required,
             candidates: candidates.into_iter().map(candidate_score).collect(),
+            removed: removed.clone(),
             decision,
         });
-        let Some((added, fit1, held1)) = next else { break };
-        gap = added.gap_after.clone();
-        added_effects.push(added);
-        current = fit1;
-        held0 = held1;
+        removed_effects.extend(removed);
+        if done {
+            break;
+        }
     }
+    let _ = &held_all;
+    if skipped_folds > 0 {
+        notes.push(format!(
+            "{skipped_folds} cross-validation fold(s) skipped over the run (their fit failed)"
+        ));
+    }
+    let uncertainty = match predicted_uncertainty(&current.model, &current.params, &ctx) {
+        Ok(u) => Some(u),
+        Err(e) => {
+            notes.push(format!("predicted uncertainty not computed: {e}"));
+            None
+        }
+    };
     Ok(Discovery {
         model: current.model,
         params: current.params,
         added_effects,
+        removed_effects,
+        negligible_effects,
         rounds,
+        split,
+        kind_sigmas,
+        skipped_folds,
         initial_gap_mm: initial_gap.headline_mm(),
         initial_gap,
         final_gap_mm: gap.headline_mm(),
         final_gap: gap,
+        uncertainty,
         notes,
     })
 }

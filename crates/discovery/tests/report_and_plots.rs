@@ -61,6 +61,15 @@ fn report_json_plots_and_determinism() {
     assert!(svg.starts_with("<svg") && svg.contains("before") && svg.contains("after"));
     assert!(files[0].file_name().is_some_and(|n| n.to_string_lossy() == "step1-joint-cyclic-j6.svg"));
 
+    // the HTML report: one self-contained page with the plot inline
+    let html = vatcal_discovery::html_report(&d1).expect("html").render();
+    assert!(html.starts_with("<!DOCTYPE html>"));
+    assert_eq!(html.matches("<svg").count(), 1, "one inline plot per added effect");
+    assert!(html.contains("joint-cyclic (joint 6"), "names the effect");
+    for external in ["<script", "<link", "src=\"http", "href=\"http", "url("] {
+        assert!(!html.contains(external), "{external}");
+    }
+
     // the final model writes to a cell file with the effect in it
     let cell = d1.model.to_cell();
     assert!(cell.effects.iter().any(|e| e.effect == "joint-cyclic" && e.joint == Some(6)));

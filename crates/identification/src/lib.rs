@@ -14,6 +14,10 @@
 //! * [`Identification`] — calibrated model, values, σ, covariance, correlations, iteration
 //!   log, residual statistics, σ̂, condition number, predicted TCP uncertainty at any pose.
 //! * [`IdentificationReport`] — the JSON report (file units).
+//! * [`KindSigmas`] — σ of probe and tracker residuals estimated separately (inverse-variance
+//!   weights); [`CmmUncertainty`] — systematic CMM errors of the TCP and calibration-position
+//!   coordinates propagated into the predicted TCP uncertainty. The residual of a probe
+//!   measurement is taken against `position + recorded centring offset` when the offset is known.
 //! * [`validate`], [`compare_models`] — position errors of one or two models on a validation
 //!   set; [`ErrorStats`] — mean / RMS / median / 95th percentile / max / per-axis statistics,
 //!   shared by every crate that reports position errors.
@@ -31,6 +35,7 @@ mod result;
 mod solver;
 mod statistics;
 pub mod stats;
+mod uncertainty;
 mod validation;
 
 use vatcal_core::{Measurement, ParamId, ParamSet, Target};
@@ -46,6 +51,7 @@ pub use report::{
 };
 pub use result::{Identification, IterationLog, Termination};
 pub use stats::ErrorStats;
+pub use uncertainty::{CmmUncertainty, KindSigmas};
 pub use validation::{ModelComparison, ValidationReport, compare_models, validate};
 
 use problem::Problem;

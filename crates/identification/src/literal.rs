@@ -78,7 +78,8 @@ pub(crate) fn paper_literal(
         for (k, meas) in problem.measurements.iter().enumerate() {
             let e = model
                 .measurement_jacobian_into(meas, &problem.params.0, &mut block)
-                .map_err(|source| IdentifyError::Measurement { index: k, source })?;
+                .map_err(|source| IdentifyError::Measurement { index: k, source })?
+                + meas.target_offset_mm();
             add_pseudo_inverse_correction(&block, &e, &mut delta)?;
         }
         if delta.iter().any(|d| !d.is_finite()) {

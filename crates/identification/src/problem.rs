@@ -3,7 +3,8 @@
 //!
 //! Rows: measurement k occupies rows `3k..3k+3` (x, y, z), multiplied by `√w_k` (its kind's
 //! weight); then one row per parameter with a finite prior. The residual of a measurement is
-//! [`Model::residual`] (`target − FK`); the Jacobian row block is
+//! [`Model::residual`] (`target − FK`) plus the recorded centring offset of a probe measurement
+//! ([`Measurement::target_offset_mm`]: the observed target is `position + offset`); the Jacobian row block is
 //! [`Model::measurement_jacobian_into`] (`d(FK − target)/dρ`), so that
 //! `r(ρ + Δ) ≈ r(ρ) − J Δ` and the Gauss–Newton step solves `J Δ ≈ r`.
 
@@ -73,7 +74,8 @@ impl<'a> Problem<'a> {
         vecs: &mut [Vector3<f64>],
     ) -> Result<(), IdentifyError> {
         for (k, m) in self.measurements.iter().enumerate() {
-            let e = model.residual(m).map_err(|source| IdentifyError::Measurement { index: k, source })?;
+            let e = model.residual(m).map_err(|source| IdentifyError::Measurement { index: k, source })?
+                + m.target_offset_mm();
             vecs[k] = e;
             let w = self.row_weight[k];
             r[3 * k..3 * k + 3].copy_from_slice(&[w * e.x, w * e.y, w * e.z]);
@@ -104,7 +106,8 @@ impl<'a> Problem<'a> {
         for (k, m) in self.measurements.iter().enumerate() {
             let e = model
                 .measurement_jacobian_into(m, &self.params.0, block)
-                .map_err(|source| IdentifyError::Measurement { index: k, source })?;
+                .map_err(|source| IdentifyError::Measurement { index: k, source })?
+                + m.target_offset_mm();
             vecs[k] = e;
             let w = self.row_weight[k];
             r[3 * k..3 * k + 3].copy_from_slice(&[w * e.x, w * e.y, w * e.z]);
@@ -148,7 +151,8 @@ pub fn residual_vector(
     let w = row_weights(measurements, weights);
     let mut r = Vec::with_capacity(3 * measurements.len());
     for (k, m) in measurements.iter().enumerate() {
-        let e = model.residual(m).map_err(|source| IdentifyError::Measurement { index: k, source })?;
+        let e = model.residual(m).map_err(|source| IdentifyError::Measurement { index: k, source })?
+            + m.target_offset_mm();
         r.extend(e.iter().map(|v| v * w[k]));
     }
     Ok(r)

@@ -37,7 +37,12 @@ pub fn validate(model: &Model, measurements: &[Measurement]) -> Result<Validatio
     let errors_mm = measurements
         .iter()
         .enumerate()
-        .map(|(index, m)| model.residual(m).map_err(|source| IdentifyError::Measurement { index, source }))
+        .map(|(index, m)| {
+            model
+                .residual(m)
+                .map(|r| r + m.target_offset_mm())
+                .map_err(|source| IdentifyError::Measurement { index, source })
+        })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(ValidationReport { stats: ErrorStats::from_errors(&errors_mm), errors_mm })
 }

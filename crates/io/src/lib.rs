@@ -5,7 +5,7 @@
 //! | file | columns | reader | writer |
 //! |---|---|---|---|
 //! | joint rows | `tcp,q1..q7` | [`read_joint_rows`] | [`write_joint_rows`] |
-//! | probe measurements | `position,tcp,q1..q7` (+ `time_s`, `temperature_c`, `dir2..dir7`) | [`read_probe_measurements`] | [`write_measurements`] |
+//! | probe measurements | `position,tcp,q1..q7` (+ `time_s`, `temperature_c`, `dir2..dir7`, `offset_x_mm,offset_y_mm,offset_z_mm`) | [`read_probe_measurements`] | [`write_measurements`] |
 //! | tracker measurements | `tcp,q1..q7,x,y,z` | [`read_tracker_measurements`] | [`write_measurements`] |
 //! | candidate poses | `position,tcp,q1..q7` | [`read_candidates`] | [`CandidateTable::write_subset`] |
 //! | pose requests | `tcp,q1,x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir2..dir7`) | [`read_pose_rows`] | (`vatcal compensate`) |
@@ -259,7 +259,29 @@ impl Table {
         };
         Ok(MeasurementContext { dir, time_s, temperature_c })
     }
+
+    /// The optional final centring offset `offset_x_mm,offset_y_mm,offset_z_mm` (world axes) of
+    /// a probe row: all three present or all three empty/absent.
+    fn probe_offset(&self, line: u64, rec: &csv::StringRecord) -> Result<Option<Vector3<f64>>, IoError> {
+        let v: Vec<Option<f64>> =
+            OFFSET_COLUMNS.iter().map(|c| self.optional_float(line, rec, c)).collect::<Result<_, _>>()?;
+        match (v[0], v[1], v[2]) {
+            (Some(x), Some(y), Some(z)) => Ok(Some(Vector3::new(x, y, z))),
+            (None, None, None) => Ok(None),
+            _ => {
+                let k = v.iter().position(Option::is_none).unwrap_or(0);
+                Err(self.err(
+                    line,
+                    OFFSET_COLUMNS[k],
+                    "the centring offset needs all three of offset_x_mm, offset_y_mm, offset_z_mm",
+                ))
+            }
+        }
+    }
 }
+
+/// The optional per-row centring offset columns of probe measurements (world axes, mm).
+pub const OFFSET_COLUMNS: [&str; 3] = ["offset_x_mm", "offset_y_mm", "offset_z_mm"];
 
 fn csv_error(path: &Path, e: &csv::Error) -> IoError {
     let line = e.position().map_or(0, |p| p.line());
@@ -306,6 +328,7 @@ pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<
                 q: t.joints(*line, rec, model)?,
                 target: Target::Probe { position },
                 context: t.context(*line, rec)?,
+                probe_offset_mm: t.probe_offset(*line, rec)?,
             })
         })
         .collect()
@@ -328,6 +351,7 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
                 q: t.joints(*line, rec, model)?,
                 target: Target::Tracker { xyz_mm: xyz },
                 context: t.context(*line, rec)?,
+                probe_offset_mm: None,
             })
         })
         .collect()
@@ -363,11 +387,13 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
                     ),
                 }
             };
+            let probe_offset_mm = if has_pos { t.probe_offset(*line, rec)? } else { None };
             Ok(Measurement {
                 tcp: t.id(*line, rec, "tcp", &tcps)?,
                 q: t.joints(*line, rec, model)?,
                 target,
                 context: t.context(*line, rec)?,
+                probe_offset_mm,
             })
         })
         .collect()
@@ -401,6 +427,7 @@ pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<Candidat
             q: t.joints(*line, rec, model)?,
             target: Target::Probe { position },
             context: t.context(*line, rec)?,
+            probe_offset_mm: t.probe_offset(*line, rec)?,
         });
     }
     Ok(CandidateTable {
@@ -458,6 +485,7 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
     let time = measurements.iter().any(|m| m.context.time_s.is_some());
     let temp = measurements.iter().any(|m| m.context.temperature_c.is_some());
     let dir = measurements.iter().any(|m| m.context.dir.is_some());
+    let offset = measurements.iter().any(|m| m.probe_offset_mm.is_some());
     let mut header: Vec<&str> = Vec::new();
     if any_probe {
         header.push("position");
@@ -475,6 +503,9 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
     }
     if dir {
         header.extend(["dir2", "dir3", "dir4", "dir5", "dir6", "dir7"]);
+    }
+    if offset {
+        header.extend(OFFSET_COLUMNS);
     }
     let mut out = header.join(",");
     out.push('\n');
@@ -501,6 +532,12 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
             match m.context.dir {
                 Some(d) => rec.extend(d.iter().map(|v| v.to_string())),
                 None => rec.extend(std::iter::repeat_n(String::new(), 6)),
+            }
+        }
+        if offset {
+            match m.probe_offset_mm {
+                Some(o) => rec.extend(o.iter().map(|v| v.to_string())),
+                None => rec.extend(std::iter::repeat_n(String::new(), 3)),
             }
         }
         out.push_str(&rec.join(","));
@@ -628,6 +665,37 @@ mod tests {
             let e = read_pose_rows(f.path(), &m).expect_err("bad").to_string();
             assert!(e.contains(&format!("`{column}`")) && e.contains(reason), "{e}");
         }
+    }
+
+    #[test]
+    fn centring_offsets_are_read_written_and_checked() {
+        let m = model();
+        let f = file(
+            "position,tcp,q1,q2,q3,q4,q5,q6,q7,offset_x_mm,offset_y_mm,offset_z_mm\n\
+             1,1,100,0,0,0,0,0,0,0.001,-0.002,0.0035\n\
+             2,1,100,0,0,0,0,0,0,,,\n",
+        );
+        let ms = read_probe_measurements(f.path(), &m).expect("ok");
+        assert_eq!(ms[0].probe_offset_mm, Some(Vector3::new(0.001, -0.002, 0.0035)));
+        assert_eq!(ms[0].target_offset_mm(), Vector3::new(0.001, -0.002, 0.0035));
+        assert_eq!(ms[1].probe_offset_mm, None);
+        let out = tempfile::NamedTempFile::new().expect("tmp");
+        write_measurements(out.path(), &ms).expect("write");
+        assert!(
+            std::fs::read_to_string(out.path())
+                .expect("read")
+                .contains("offset_x_mm,offset_y_mm,offset_z_mm")
+        );
+        assert_eq!(read_measurements(out.path(), &m).expect("reread"), ms);
+        // without the columns nothing changes
+        let plain = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,0,0,0,0,0\n");
+        assert_eq!(read_probe_measurements(plain.path(), &m).expect("ok")[0].probe_offset_mm, None);
+        // a partial triple is an error naming the missing column
+        let bad = file(
+            "position,tcp,q1,q2,q3,q4,q5,q6,q7,offset_x_mm,offset_y_mm,offset_z_mm\n1,1,100,0,0,0,0,0,0,0.001,,0.002\n",
+        );
+        let e = read_probe_measurements(bad.path(), &m).expect_err("must fail").to_string();
+        assert!(e.contains(":2:") && e.contains("offset_y_mm") && e.contains("all three"), "{e}");
     }
 
     #[test]

@@ -10,10 +10,13 @@
 //! | [`scatter_svg`] | points of one or more series against an x variable | residual vs a joint angle, a torque, time |
 //!
 //! Every function returns the SVG document as a `String`; [`save_svg`] writes it to a file.
+//! [`html::HtmlReport`] assembles text, tables and these SVGs into one self-contained HTML file.
 //! Inputs are checked: empty or non-finite data is an error ([`PlotError`]), never a panic.
 //! Units belong in the labels (e.g. `"position error [mm]"`).
 
 use std::path::{Path, PathBuf};
+
+pub mod html;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -602,7 +602,7 @@ pub fn synthetic_probe_measurements(
         let Target::Probe { position } = s.target else { continue };
         let Some(target) = truth.position(position) else { continue };
         if let Ok(q) = reach_ctx(truth, &s.q, &s.context, s.tcp, &(target + offset)) {
-            out.push(Measurement { tcp: s.tcp, q, target: Target::Probe { position }, context: s.context });
+            out.push(Measurement { q, target: Target::Probe { position }, ..*s });
         }
     }
     out

@@ -30,7 +30,8 @@ pub struct Args {
     /// Write the final model (with the added effects) here.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write the full report (JSON) here.
+    /// Write the full report (JSON) here, and beside it the same name with `.html`: one
+    /// self-contained page (plots inline) readable offline in a browser.
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Write one SVG per added effect (residual vs its driving variable, before/after) here.
@@ -48,6 +49,10 @@ pub struct Args {
     /// Known measurement noise per axis [mm]; by default it is estimated from each fit.
     #[arg(long)]
     pub noise_mm: Option<f64>,
+    /// Standard deviation of the CMM coordinates of the TCPs and calibration positions [mm],
+    /// included in the reported prediction uncertainty.
+    #[arg(long, default_value_t = 0.002)]
+    pub cmm_sigma_mm: f64,
 }
 
 fn read_all(path: &PathBuf, model: &Model) -> anyhow::Result<Vec<Measurement>> {
@@ -67,6 +72,11 @@ fn parameter_set(spec: &str, model: &Model, measurements: &[Measurement]) -> any
 fn check_options(args: &Args) -> anyhow::Result<()> {
     anyhow::ensure!(args.alpha > 0.0 && args.alpha < 1.0, "--alpha must be in (0, 1), got {}", args.alpha);
     anyhow::ensure!(args.folds >= 2, "--folds must be at least 2, got {}", args.folds);
+    anyhow::ensure!(
+        args.cmm_sigma_mm.is_finite() && args.cmm_sigma_mm >= 0.0,
+        "--cmm-sigma-mm must be >= 0, got {}",
+        args.cmm_sigma_mm
+    );
     if let Some(s) = args.noise_mm {
         anyhow::ensure!(s.is_finite() && s > 0.0, "--noise-mm must be a positive number, got {s}");
     }
@@ -89,8 +99,29 @@ fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
         )?;
         writeln!(out, "  {}", round.decision)?;
     }
+    for n in &d.negligible_effects {
+        writeln!(
+            out,
+            "detected, negligible ({:.1} um): {} (round {}, not added)",
+            n.change_um, n.label, n.round
+        )?;
+    }
+    for x in &d.removed_effects {
+        writeln!(
+            out,
+            "removed by the backward check in round {}: {} (added in round {})",
+            x.removed_in_round, x.label, x.added_in_round
+        )?;
+    }
     for note in &d.notes {
         writeln!(out, "note: {note}")?;
+    }
+    if let Some(u) = &d.uncertainty {
+        writeln!(
+            out,
+            "predicted TCP uncertainty ({} {} poses): mean |sigma| {:.4} mm statistical, {:.4} mm with {:.4} mm CMM errors",
+            u.count, u.poses, u.statistical_mean_mm, u.with_cmm_mean_mm, u.cmm_sigma_mm
+        )?;
     }
     let names: Vec<&str> = d.added_effects.iter().map(|a| a.label.as_str()).collect();
     writeln!(
@@ -116,6 +147,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         folds: args.folds,
         seed: args.seed,
         known_sigma_mm: args.noise_mm,
+        cmm_sigma_mm: args.cmm_sigma_mm,
         ..DiscoverOptions::default()
     };
     let d = discover(&model, &measurements, &params, validation.as_deref(), &options)?;
@@ -129,6 +161,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.report {
         let json = serde_json::to_string_pretty(&d)?;
         std::fs::write(path, json).with_context(|| format!("writing the report to {}", path.display()))?;
+        let html_path = if path.extension().is_some_and(|e| e == "html") {
+            path.with_extension("report.html")
+        } else {
+            path.with_extension("html")
+        };
+        vatcal_discovery::html_report(&d)
+            .and_then(|h| h.save(&html_path))
+            .with_context(|| format!("writing the HTML report to {}", html_path.display()))?;
     }
     if let Some(dir) = &args.plots {
         write_effect_plots(&d, dir).with_context(|| format!("writing plots to {}", dir.display()))?;

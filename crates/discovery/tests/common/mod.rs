@@ -2,6 +2,8 @@
 
 #![allow(dead_code)]
 
+pub mod campaign;
+
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::{CellFile, Measurement, ParamId, ParamSet};
 use vatcal_discovery::fit::{fit, residuals};
