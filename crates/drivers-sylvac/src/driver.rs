@@ -139,6 +139,7 @@ impl<T: Transport> SylvacGauge<T> {
     }
 
     /// Replaces the name errors carry (see [`Self::label`]).
+    #[cfg(feature = "ble")]
     pub(crate) fn set_label(&mut self, label: String) {
         self.label = label;
     }
