@@ -16,12 +16,12 @@ use crate::sim_control::SimControl;
 #[derive(Debug, thiserror::Error)]
 pub enum DevicesError {
     /// The file cannot be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: {cause}")]
     Read {
         /// the file
         path: PathBuf,
-        /// cause
-        source: std::io::Error,
+        /// cause (stated in the message, not repeated as a source)
+        cause: std::io::Error,
     },
     /// The file is not valid TOML or does not have the expected keys (unknown key, missing
     /// device, wrong type); the message names the line and the key.
@@ -45,14 +45,15 @@ pub enum DevicesError {
         reason: String,
     },
     /// A device could not be connected (or did not identify itself).
-    #[error("connecting the {role} ({what}): {source}")]
+    #[error("connecting the {role} ({what}): {cause}")]
     Connect {
         /// `arm`, `guide`, `gauge 2`, `sim_control`
         role: String,
         /// kind and address
         what: String,
-        /// the device error (names the device)
-        source: vatcal_hardware_traits::Error,
+        /// the device error (names the device; stated in the message, not repeated as a
+        /// source)
+        cause: vatcal_hardware_traits::Error,
     },
 }
 
@@ -232,8 +233,8 @@ impl DevicesFile {
     /// As [`DevicesFile::parse`], or the file cannot be read.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, DevicesError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
-            .map_err(|source| DevicesError::Read { path: path.into(), source })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|cause| DevicesError::Read { path: path.into(), cause })?;
         Self::parse(&text, path)
     }
 
@@ -478,7 +479,7 @@ impl DevicesFile {
             Meca500::connect_tcp(address.as_str(), self.arm_config()).map_err(|e| DevicesError::Connect {
                 role: "arm".into(),
                 what: format!("meca500 at {address}"),
-                source: e.into_hw("meca500"),
+                cause: e.into_hw("meca500"),
             })?;
         let b = arm.banner();
         found.push(format!(
@@ -495,7 +496,7 @@ impl DevicesFile {
             connect_guide(&guide_link, self.guide_config()).map_err(|e| DevicesError::Connect {
                 role: "guide".into(),
                 what: format!("zaber over {guide_link}"),
-                source: e.into_hw("zaber guide"),
+                cause: e.into_hw("zaber guide"),
             })?;
         let travel = info
             .travel_mm()
@@ -510,7 +511,7 @@ impl DevicesFile {
             let (gauge, id) = connect_gauge(&link, config).map_err(|e| DevicesError::Connect {
                 role: name.clone(),
                 what: format!("sylvac over {link}"),
-                source: e.into_hw(&name),
+                cause: e.into_hw(&name),
             })?;
             found.push(format!("{name}: sylvac over {link}: id `{id}`"));
             gauges.push(gauge);
@@ -527,20 +528,16 @@ impl DevicesFile {
             Some(c) => {
                 let io = ms(&c.io_timeout_ms, Duration::from_secs(5));
                 let address = c.tcp.get_ref();
-                let mut control =
-                    SimControl::connect(address, Duration::from_secs(5), io).map_err(|source| {
-                        DevicesError::Connect {
-                            role: "sim_control".into(),
-                            what: format!("tcp {address}"),
-                            source,
-                        }
-                    })?;
-                let placement = control.placement().map_err(|source| DevicesError::Connect {
+                let connect_err = |cause| DevicesError::Connect {
                     role: "sim_control".into(),
                     what: format!("tcp {address}"),
-                    source,
-                })?;
-                found.push(format!("sim_control: tcp {address}: probe plate at placement {placement}"));
+                    cause,
+                };
+                let mut control =
+                    SimControl::connect(address, Duration::from_secs(5), io).map_err(connect_err)?;
+                let placement = control.placement().map_err(connect_err)?;
+                let at = placement.map_or("not placed yet".to_string(), |p| format!("at placement {p}"));
+                found.push(format!("sim_control: tcp {address}: probe plate {at}"));
                 Some(control)
             }
         };

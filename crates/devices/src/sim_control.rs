@@ -64,15 +64,19 @@ impl SimControl {
         }
     }
 
-    /// The current placement (`PLACEMENT?` → `PLACEMENT <n>`).
+    /// The current placement (`PLACEMENT?` → `PLACEMENT <n>`, or `PLACEMENT NONE` before the
+    /// first `PLACE`).
     ///
     /// # Errors
-    /// An answer that is not `PLACEMENT <n>`.
-    pub fn placement(&mut self) -> Result<u32> {
+    /// An answer that is neither.
+    pub fn placement(&mut self) -> Result<Option<u32>> {
         let answer = self.request("PLACEMENT?")?;
-        answer.strip_prefix("PLACEMENT ").and_then(|n| n.trim().parse().ok()).ok_or_else(|| {
-            Error::new(ErrorKind::Protocol, DEVICE, format!("`PLACEMENT?` answered `{answer}`"))
-        })
+        let bad = || Error::new(ErrorKind::Protocol, DEVICE, format!("`PLACEMENT?` answered `{answer}`"));
+        match answer.strip_prefix("PLACEMENT ").map(str::trim) {
+            Some("NONE") => Ok(None),
+            Some(n) => n.parse().map(Some).map_err(|_| bad()),
+            None => Err(bad()),
+        }
     }
 }
 
@@ -141,7 +145,7 @@ mod tests {
         let mut op = SimControlOperator::new(connect(&addr));
         op.perform(&OperatorInstruction::PlaceProbe { position: 3 }).expect("place");
         op.perform(&OperatorInstruction::RemoveMasterBall).expect("confirm");
-        assert_eq!(op.control.placement().expect("placement"), 2);
+        assert_eq!(op.control.placement().expect("placement"), Some(2));
         assert_eq!(op.log().len(), 2);
     }
 
