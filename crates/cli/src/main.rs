@@ -36,6 +36,8 @@ enum Command {
     Demo(cmd::demo::Args),
     /// Find missing physical effects in the model, add them, and show the gap shrink.
     Discover(cmd::discover::Args),
+    /// Serve the whole virtual cell over TCP (Meca500, Zaber, Sylvac gauges, cell control).
+    SimCell(cmd::sim_cell::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -50,6 +52,7 @@ fn main() -> std::process::ExitCode {
         Command::Plan(a) => cmd::plan::run(a),
         Command::Demo(a) => cmd::demo::run(a),
         Command::Discover(a) => cmd::discover::run(a),
+        Command::SimCell(a) => cmd::sim_cell::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
