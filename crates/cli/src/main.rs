@@ -41,6 +41,8 @@ enum Command {
     Compensate(cmd::compensate::Args),
     /// Run a planned measurement campaign on the cell named by a devices file.
     Campaign(cmd::campaign::Args),
+    /// Serve the whole virtual cell over TCP (Meca500, Zaber, Sylvac gauges, cell control).
+    SimCell(cmd::sim_cell::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -57,6 +59,7 @@ fn main() -> std::process::ExitCode {
         Command::Discover(a) => cmd::discover::run(a),
         Command::Compensate(a) => cmd::compensate::run(a),
         Command::Campaign(a) => cmd::campaign::run(a),
+        Command::SimCell(a) => cmd::sim_cell::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

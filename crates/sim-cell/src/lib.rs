@@ -49,8 +49,8 @@ use vatcal_drivers_sylvac::sim::{SimConfig as SylvacConfig, SylvacSim};
 use vatcal_drivers_zaber::sim::{SimConfig as ZaberConfig, ZaberSim};
 use vatcal_hardware_traits::sim_server::SimServer;
 use vatcal_kinematics::Model;
-use vatcal_sim::truth::{ErrorBudget, perturbed_truth};
-use vatcal_sim::{NoiseBudget, SimConfig, VirtualCell};
+use vatcal_sim::truth::{ErrorBudget, TruthSpec, perturbed_truth};
+use vatcal_sim::{CellPhysics, NoiseBudget, SimConfig, VirtualCell};
 
 pub use error::SimCellError;
 
@@ -108,6 +108,9 @@ pub struct SimCellOptions {
     pub nominal: Model,
     /// the hidden true cell
     pub truth: Model,
+    /// what the truth's world has beyond its model (temperature channel, tracker
+    /// systematics); [`CellPhysics::default`]: none
+    pub physics: CellPhysics,
     /// simulated device noise (robot, guide, tool changer and gauge repeatability); probe
     /// imperfections stay, they are part of the truth
     pub noise: bool,
@@ -135,16 +138,41 @@ impl SimCellOptions {
             seed,
             nominal,
             truth,
+            physics: CellPhysics::default(),
             noise: true,
             time_scale: 1.0,
             gauge_decimals: 4,
         })
     }
 
+    /// The cell of `vatcal demo --seed seed --truth spec`: as [`SimCellOptions::paper`], with the
+    /// hidden truth (model and cell physics) built by `spec` (the demo's default is
+    /// [`TruthSpec::PaperLike`]).
+    ///
+    /// # Errors
+    /// A truth file that cannot be read or does not fit the nominal cell.
+    pub fn with_truth(seed: u64, spec: &TruthSpec) -> Result<Self, SimCellError> {
+        let mut options = Self::paper(seed)?;
+        options.set_truth(spec)?;
+        Ok(options)
+    }
+
+    /// Replaces the hidden truth by the one `spec` builds for the current nominal cell and seed.
+    ///
+    /// # Errors
+    /// A truth file that cannot be read or does not fit the nominal cell.
+    pub fn set_truth(&mut self, spec: &TruthSpec) -> Result<(), SimCellError> {
+        let built = spec.build(&self.nominal, self.seed).map_err(|e| SimCellError::Model(e.to_string()))?;
+        self.truth = built.model;
+        self.physics = built.physics;
+        Ok(())
+    }
+
     /// The virtual-cell configuration these options give: [`SimConfig::paper_for`] the
     /// nominal cell, without device noise if [`SimCellOptions::noise`] is off.
     pub fn sim_config(&self) -> SimConfig {
         let mut config = SimConfig::paper_for(&self.nominal);
+        config.physics = self.physics;
         if !self.noise {
             config.noise = NoiseBudget::none();
         }

@@ -9,6 +9,7 @@ pub mod identify;
 pub mod observability;
 pub mod plan;
 pub mod select;
+pub mod sim_cell;
 pub mod torque;
 pub mod validate;
 

@@ -1,30 +1,21 @@
-//! Sockets of the simulator: one background thread, any number of TCP clients on loopback.
+//! Sockets of the simulator: the shared accept/serve loop of `vatcal-hardware-traits`
+//! (`sim_server`), any number of TCP clients.
 
-use std::io::{self, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::collections::HashMap;
+use std::io;
+use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::thread::JoinHandle;
 use std::time::Duration;
+
+use vatcal_hardware_traits::sim_server::{Admission, Audience, ClientId, SimServer, SimService};
 
 use super::SimConfig;
 use super::gauge::{SimGauge, SimState};
 use crate::codec::LineDeframer;
 
-const TICK: Duration = Duration::from_millis(1);
-const WRITE_TIMEOUT: Duration = Duration::from_millis(500);
-
-#[derive(Debug, Default)]
-struct Flags {
-    stop: AtomicBool,
-    stalled: AtomicBool,
-    drop_clients: AtomicBool,
-}
-
 #[derive(Debug)]
 struct Shared {
     gauge: Mutex<SimGauge>,
-    flags: Flags,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -36,21 +27,18 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 pub struct SylvacSim {
     addr: SocketAddr,
     shared: Arc<Shared>,
-    thread: Option<JoinHandle<()>>,
+    server: SimServer,
 }
 
 impl SylvacSim {
     /// Binds [`SimConfig::bind`] and starts serving.
     pub fn start(config: SimConfig) -> io::Result<Self> {
-        let listener = TcpListener::bind(config.bind)?;
-        listener.set_nonblocking(true)?;
-        let addr = listener.local_addr()?;
-        let shared =
-            Arc::new(Shared { gauge: Mutex::new(SimGauge::new(config.clone())), flags: Flags::default() });
-        let server =
-            Server { listener, clients: Vec::new(), shared: Arc::clone(&shared), config, next_output: None };
-        let thread = std::thread::Builder::new().name("sylvac-sim".to_owned()).spawn(move || server.run())?;
-        Ok(Self { addr, shared, thread: Some(thread) })
+        let shared = Arc::new(Shared { gauge: Mutex::new(SimGauge::new(config.clone())) });
+        let bind = config.bind;
+        let service =
+            Service { shared: Arc::clone(&shared), config, deframers: HashMap::new(), next_output: None };
+        let server = SimServer::spawn("sylvac-sim", &[bind], service)?;
+        Ok(Self { addr: server.addrs()[0], shared, server })
     }
 
     /// The address to connect to.
@@ -76,105 +64,61 @@ impl SylvacSim {
 
     /// Stops (`true`) or restarts all answers while keeping the connections open.
     pub fn set_stalled(&self, stalled: bool) {
-        self.shared.flags.stalled.store(stalled, Ordering::SeqCst);
+        self.server.set_stalled(stalled);
     }
 
     /// Closes every client connection.
     pub fn drop_clients(&self) {
-        self.shared.flags.drop_clients.store(true, Ordering::SeqCst);
+        self.server.drop_clients();
     }
 }
 
-impl Drop for SylvacSim {
-    fn drop(&mut self) {
-        self.shared.flags.stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
+/// The gauge's command set: per-client line framing, answers to the sender, the continuous
+/// output (`OUT1`) to every client.
 #[derive(Debug)]
-struct Client {
-    stream: TcpStream,
-    deframer: LineDeframer,
-    open: bool,
-}
-
-#[derive(Debug)]
-struct Server {
-    listener: TcpListener,
-    clients: Vec<Client>,
+struct Service {
     shared: Arc<Shared>,
     config: SimConfig,
+    deframers: HashMap<u64, LineDeframer>,
     next_output: Option<Duration>,
 }
 
-impl Server {
-    fn run(mut self) {
-        while !self.shared.flags.stop.load(Ordering::SeqCst) {
-            while let Ok((stream, _)) = self.listener.accept() {
-                let _ = stream.set_nonblocking(false);
-                let _ = stream.set_nodelay(true);
-                let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
-                let _ = stream.set_read_timeout(Some(TICK));
-                self.clients.push(Client { stream, deframer: LineDeframer::new(), open: true });
-            }
-            if self.shared.flags.drop_clients.swap(false, Ordering::SeqCst) {
-                self.clients.clear();
-            }
-            if self.clients.is_empty() || self.shared.flags.stalled.load(Ordering::SeqCst) {
-                std::thread::sleep(TICK);
-                continue;
-            }
-            self.serve_once();
-            self.clients.retain(|c| c.open);
-        }
+impl SimService for Service {
+    fn connect(&mut self, client: ClientId) -> Admission {
+        self.deframers.insert(client.id, LineDeframer::new());
+        Admission::Accept(Vec::new())
     }
 
-    fn serve_once(&mut self) {
+    fn input(&mut self, client: ClientId, bytes: &[u8]) -> Vec<(Audience, Vec<u8>)> {
         let now = self.config.clock.now();
-        let stream_line = self.continuous_output(now);
-        for client in &mut self.clients {
-            let mut buf = [0u8; 512];
-            match client.stream.read(&mut buf) {
-                Ok(0) => client.open = false,
-                Ok(n) => client.deframer.push(&buf[..n]),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
-                    ) => {}
-                Err(_) => client.open = false,
-            }
-            if self.shared.flags.stalled.load(Ordering::SeqCst) {
-                continue; // keep the bytes, answer later
-            }
-            let mut out = stream_line.clone().unwrap_or_default();
-            while let Ok(Some(line)) = client.deframer.next_line() {
-                if let Some(answer) = lock(&self.shared.gauge).handle_line(&line, now) {
-                    out.push_str(&answer);
-                    out.push('\r');
-                }
-            }
-            if !out.is_empty() && client.stream.write_all(out.as_bytes()).is_err() {
-                client.open = false;
+        let deframer = self.deframers.entry(client.id).or_default();
+        deframer.push(bytes);
+        let mut out = String::new();
+        while let Ok(Some(line)) = deframer.next_line() {
+            if let Some(answer) = lock(&self.shared.gauge).handle_line(&line, now) {
+                out.push_str(&answer);
+                out.push('\r');
             }
         }
+        vec![(Audience::Client(client), out.into_bytes())]
     }
 
     /// The periodic value line when `OUT1` is on.
-    fn continuous_output(&mut self, now: Duration) -> Option<String> {
+    fn poll(&mut self) -> Vec<(Audience, Vec<u8>)> {
+        let now = self.config.clock.now();
         let mut gauge = lock(&self.shared.gauge);
         if !gauge.continuous_output() {
             self.next_output = None;
-            return None;
+            return Vec::new();
         }
-        let due = self.next_output.is_none_or(|t| now >= t);
-        if !due {
-            return None;
+        if self.next_output.is_some_and(|t| now < t) {
+            return Vec::new();
         }
         self.next_output = Some(now.saturating_add(self.config.output_interval));
-        Some(format!("{}\r", gauge.value_answer(now)))
+        vec![(Audience::All, format!("{}\r", gauge.value_answer(now)).into_bytes())]
+    }
+
+    fn disconnected(&mut self, client: ClientId) {
+        self.deframers.remove(&client.id);
     }
 }

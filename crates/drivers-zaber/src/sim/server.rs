@@ -1,31 +1,22 @@
-//! Sockets of the simulator: one background thread, any number of TCP clients on loopback.
+//! Sockets of the simulator: the shared accept/serve loop of `vatcal-hardware-traits`
+//! (`sim_server`), any number of TCP clients.
 
-use std::io::{self, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::collections::HashMap;
+use std::io;
+use std::net::SocketAddr;
 use std::sync::{Arc, Mutex, MutexGuard};
-use std::thread::JoinHandle;
 use std::time::Duration;
+
+use vatcal_hardware_traits::sim_server::{Admission, Audience, ClientId, SimServer, SimService};
 
 use super::SimConfig;
 use super::device::{SimDevice, SimState};
 use crate::codec::{Command, LineDeframer, Message};
 
-const TICK: Duration = Duration::from_millis(1);
-const WRITE_TIMEOUT: Duration = Duration::from_millis(500);
-
-#[derive(Debug, Default)]
-struct Flags {
-    stop: AtomicBool,
-    stalled: AtomicBool,
-    drop_clients: AtomicBool,
-}
-
 #[derive(Debug)]
 struct Shared {
     device: Mutex<SimDevice>,
     injected: Mutex<Vec<Message>>,
-    flags: Flags,
 }
 
 /// A running Zaber simulator. Dropping it stops the thread and closes every socket.
@@ -34,7 +25,7 @@ pub struct ZaberSim {
     addr: SocketAddr,
     shared: Arc<Shared>,
     config: SimConfig,
-    thread: Option<JoinHandle<()>>,
+    server: SimServer,
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
@@ -44,18 +35,18 @@ fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 impl ZaberSim {
     /// Binds [`SimConfig::bind`] and starts serving.
     pub fn start(config: SimConfig) -> io::Result<Self> {
-        let listener = TcpListener::bind(config.bind)?;
-        listener.set_nonblocking(true)?;
-        let addr = listener.local_addr()?;
         let shared = Arc::new(Shared {
             device: Mutex::new(SimDevice::new(config.clone())),
             injected: Mutex::new(Vec::new()),
-            flags: Flags::default(),
         });
-        let server =
-            Server { listener, clients: Vec::new(), shared: Arc::clone(&shared), config: config.clone() };
-        let thread = std::thread::Builder::new().name("zaber-sim".to_owned()).spawn(move || server.run())?;
-        Ok(Self { addr, shared, config, thread: Some(thread) })
+        let service = Service {
+            shared: Arc::clone(&shared),
+            config: config.clone(),
+            deframers: HashMap::new(),
+            answered: false,
+        };
+        let server = SimServer::spawn("zaber-sim", &[config.bind], service)?;
+        Ok(Self { addr: server.addrs()[0], shared, config, server })
     }
 
     /// The address to connect to.
@@ -75,12 +66,12 @@ impl ZaberSim {
 
     /// Stops (`true`) or restarts all answers while keeping the connections open.
     pub fn set_stalled(&self, stalled: bool) {
-        self.shared.flags.stalled.store(stalled, Ordering::SeqCst);
+        self.server.set_stalled(stalled);
     }
 
     /// Closes every client connection.
     pub fn drop_clients(&self) {
-        self.shared.flags.drop_clients.store(true, Ordering::SeqCst);
+        self.server.drop_clients();
     }
 
     /// The motor stalls (`FS`); a running move stops where it is.
@@ -98,83 +89,63 @@ impl ZaberSim {
     }
 }
 
-impl Drop for ZaberSim {
-    fn drop(&mut self) {
-        self.shared.flags.stop.store(true, Ordering::SeqCst);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
-
+/// The protocol on the device: per-client line framing, replies to the sender, alerts to all.
 #[derive(Debug)]
-struct Client {
-    stream: TcpStream,
-    deframer: LineDeframer,
-    open: bool,
-}
-
-#[derive(Debug)]
-struct Server {
-    listener: TcpListener,
-    clients: Vec<Client>,
+struct Service {
     shared: Arc<Shared>,
     config: SimConfig,
+    deframers: HashMap<u64, LineDeframer>,
+    /// commands were answered in this turn of the loop
+    answered: bool,
 }
 
-impl Server {
-    fn run(mut self) {
-        while !self.shared.flags.stop.load(Ordering::SeqCst) {
-            while let Ok((stream, _)) = self.listener.accept() {
-                let _ = stream.set_nonblocking(false);
-                let _ = stream.set_nodelay(true);
-                let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
-                let _ = stream.set_read_timeout(Some(TICK));
-                self.clients.push(Client { stream, deframer: LineDeframer::new(), open: true });
-            }
-            if self.shared.flags.drop_clients.swap(false, Ordering::SeqCst) {
-                self.clients.clear();
-            }
-            if self.clients.is_empty() || self.shared.flags.stalled.load(Ordering::SeqCst) {
-                std::thread::sleep(TICK);
-                continue;
-            }
-            self.serve_once();
-            self.clients.retain(|c| c.open);
-        }
+impl Service {
+    /// Injected alerts and those of finished moves, for every client.
+    fn alerts(&mut self, now: Duration) -> Vec<(Audience, Vec<u8>)> {
+        let mut bytes: Vec<u8> =
+            std::mem::take(&mut *lock(&self.shared.injected)).iter().flat_map(|m| m.encode(false)).collect();
+        bytes.extend(lock(&self.shared.device).tick(now).iter().flat_map(|m| m.encode(false)));
+        vec![(Audience::All, bytes)]
+    }
+}
+
+impl SimService for Service {
+    fn connect(&mut self, client: ClientId) -> Admission {
+        // nothing is sent on connect
+        self.deframers.insert(client.id, LineDeframer::new());
+        Admission::Accept(Vec::new())
     }
 
-    fn serve_once(&mut self) {
+    fn input(&mut self, client: ClientId, bytes: &[u8]) -> Vec<(Audience, Vec<u8>)> {
         let now = self.config.clock.now();
-        let mut broadcast: Vec<u8> =
-            std::mem::take(&mut *lock(&self.shared.injected)).iter().flat_map(|m| m.encode(false)).collect();
-        broadcast.extend(lock(&self.shared.device).tick(now).iter().flat_map(|m| m.encode(false)));
-        for client in &mut self.clients {
-            let mut buf = [0u8; 2048];
-            match client.stream.read(&mut buf) {
-                Ok(0) => client.open = false,
-                Ok(n) => client.deframer.push(&buf[..n]),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
-                    ) => {}
-                Err(_) => client.open = false,
-            }
-            if self.shared.flags.stalled.load(Ordering::SeqCst) {
-                continue; // keep the bytes, answer later
-            }
-            let mut out = broadcast.clone();
-            while let Ok(Some(line)) = client.deframer.next_line() {
-                // lines with a wrong checksum or that are not commands are ignored
-                let Ok((cmd, checksum)) = Command::parse(&line) else { continue };
-                if let Some(reply) = lock(&self.shared.device).handle(&cmd, now) {
-                    out.extend(reply.encode(checksum));
-                }
-            }
-            if !out.is_empty() && client.stream.write_all(&out).is_err() {
-                client.open = false;
+        // alerts of moves that finished before this command come first
+        let mut out = self.alerts(now);
+        let deframer = self.deframers.entry(client.id).or_default();
+        deframer.push(bytes);
+        let mut replies = Vec::new();
+        while let Ok(Some(line)) = deframer.next_line() {
+            // lines with a wrong checksum or that are not commands are ignored
+            let Ok((cmd, checksum)) = Command::parse(&line) else { continue };
+            if let Some(reply) = lock(&self.shared.device).handle(&cmd, now) {
+                replies.extend(reply.encode(checksum));
             }
         }
+        out.push((Audience::Client(client), replies));
+        self.answered = true;
+        out
+    }
+
+    fn poll(&mut self) -> Vec<(Audience, Vec<u8>)> {
+        // a move started by this turn's commands is looked at from the next turn on (its
+        // alert never shares a read with the command's reply)
+        if std::mem::take(&mut self.answered) {
+            return Vec::new();
+        }
+        let now = self.config.clock.now();
+        self.alerts(now)
+    }
+
+    fn disconnected(&mut self, client: ClientId) {
+        self.deframers.remove(&client.id);
     }
 }
