@@ -152,6 +152,9 @@ fn campaign_over_tcp_identifies_the_same_cell_as_the_demo() {
     let demo_dir = dir.path().join("demo");
     let mut opts = DemoOptions::new(3).expect("built-in cell");
     opts.sizes = DemoSizes { orientations: 40, guide_steps: 4, count: 40, random_poses: 60, slices: 20 };
+    // the sim-cell above runs `SimCellOptions::paper` = the `ideal` truth: the paper-like
+    // truth's thermal channel follows wall-clock time × K over TCP but virtual time in process
+    opts.truth = vatcal_demo::TruthSpec::Ideal;
     let demo = run_demo(&opts, &demo_dir, &mut |_| {}).expect("demo");
     let in_process = &demo.identification.model;
     // predictions over the workspace: the demo's random validation poses, every TCP
