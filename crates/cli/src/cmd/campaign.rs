@@ -116,7 +116,8 @@ fn load_nominal(path: Option<&PathBuf>) -> anyhow::Result<(Model, String)> {
     Ok((model, source))
 }
 
-/// Checks every device before anything moves; prints what it finds. The arm is activated
+/// Checks every device before anything moves; prints what it finds. An arm in error mode
+/// (the fault that stopped the previous run) has its error reset; the arm is activated
 /// and homed and the guide homed if needed (the campaign would do it anyway; doing it here
 /// shows the operator the state of the cell first).
 fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
@@ -125,9 +126,15 @@ fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
         "  arm: activated {}, homed {}, error {}",
         status.activated,
         status.homed,
-        status.error.map_or("none".to_string(), |(code, text)| format!("[{code}] {text}"))
+        status.error.as_ref().map_or("none".to_string(), |(code, text)| format!("[{code}] {text}"))
     );
-    if !(status.activated && status.homed) {
+    if let Some((code, text)) = &status.error {
+        // a fault stopped the previous run (robot error, released E-stop): the operator fixed
+        // the cause and asked to continue; leaving error mode moves nothing
+        println!("  arm: in error mode [{code}] {text}; resetting the error …");
+        cell.arm.reset_error().context("arm: resetting the error")?;
+    }
+    if !(status.activated && status.homed && status.error.is_none()) {
         println!("  arm: activating and homing …");
     }
     cell.arm.activate_and_home(timeout).context("arm: activating and homing")?;
