@@ -421,6 +421,7 @@ fn fault_then_resume(
         assert!(error[0].contains(name), "`{name}` missing from: {}", error[0]);
     }
     assert!(error[0].contains("--resume"), "{}", error[0]);
+    assert_eq!(error[0].matches(names[0]).count(), 1, "no cause repeated: {}", error[0]);
     let before_text = std::fs::read_to_string(&journal).expect("journal");
     let before = journaled_measurements(&journal);
     assert!(before < planned, "the fault came after the end");

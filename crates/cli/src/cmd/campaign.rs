@@ -162,6 +162,22 @@ fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The error and its causes on one line, without repeating a cause whose text an outer error
+/// already quotes (the campaign's errors carry their device error in their own message).
+fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut line = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+        cause = c.source();
+    }
+    line
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     // everything that can be checked without the cell, before connecting
@@ -274,7 +290,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if flag.is_raised() {
                 bail!("campaign interrupted: {hint}");
             }
-            Err(anyhow::Error::new(e).context(format!("campaign stopped ({hint})")))
+            bail!("campaign stopped ({hint}): {}", one_line(&e))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+
+    #[derive(Debug)]
+    struct E(&'static str, Option<Box<E>>);
+    impl std::fmt::Display for E {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str(self.0)
+        }
+    }
+    impl std::error::Error for E {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            self.1.as_deref().map(|e| e as &(dyn std::error::Error + 'static))
+        }
+    }
+
+    #[test]
+    fn one_line_skips_causes_already_quoted() {
+        let inner = E("gauge 2: timeout", None);
+        let middle = E("step 3: centring: gauge 2: timeout", Some(Box::new(inner)));
+        let outer = E("campaign failed", Some(Box::new(middle)));
+        assert_eq!(one_line(&outer), "campaign failed: step 3: centring: gauge 2: timeout");
     }
 }
