@@ -397,7 +397,10 @@ impl<'a> Campaign<'a> {
         let options = self.config.motion;
         let before = self.read_joints(step)?;
         let d = &mut self.devices;
-        let what = |s: &str| format!("{s} to q = {:?} (mm/deg)", target.to_mm_deg());
+        let what = |s: &str| {
+            let q = target.to_mm_deg().map(|v| format!("{v:.3}"));
+            format!("{s} to q = [{}] (mm/deg)", q.join(", "))
+        };
         d.guide
             .move_absolute_mm(target.guide_mm(), &options)
             .map_err(device_err(step, what("moving the guide")))?;

@@ -1,16 +1,23 @@
-//! `vatcal campaign` as a real child process against the simulated cell served over TCP by
-//! `vatcal-sim-cell` (ephemeral ports on 127.0.0.1, time scale 1000):
+//! `vatcal campaign` as a real child process against the simulated cell served over TCP
+//! (ephemeral ports on 127.0.0.1, time scale 1000):
 //!
-//! * the "done means": `vatcal plan --seed 3` → campaign `--operator auto` → every
-//!   planned measurement in `measurements.csv` → `vatcal identify` → predictions agree with
-//!   the in-process demo of the same seed within 10 µm mean;
+//! * the "done means" with real child processes only, as a user types it: `vatcal plan
+//!   --seed 3`, `vatcal sim-cell --seed 3 --truth ideal` (its `listening …` lines give the
+//!   ports; the devices file is `fixtures/sim-cell-devices.toml` with those ports), campaign
+//!   `--operator auto` → every planned measurement in `measurements.csv` → `vatcal identify`
+//!   → predictions agree with the in-process demo of the same seed within 10 µm mean;
 //! * `kill -9` in the middle, then `--resume`: the same measurements as an uninterrupted run;
-//! * a dropped connection: a one-line error naming the device, and `--resume` loses nothing.
+//! * device faults injected through the `vatcal-sim-cell` library's hooks (dropped connection,
+//!   stalled gauge, robot error mode, E-stop, gauge out of range): a one-line error naming the
+//!   device, and `--resume` loses nothing and repeats nothing;
+//! * probe zeroing with `--operator auto`: the master ball is seated and removed through the
+//!   cell-control port (`MASTER <n>`, `MASTER OFF`).
 //!
 //! Small plan sizes (40 orientations × 4 guide steps, 40 measurements) keep each test short.
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::process::{Child, ChildStdout, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use vatcal_core::CellFile;
@@ -43,7 +50,90 @@ fn start_cell(seed: u64) -> SimCell {
     SimCell::start(options).expect("sim-cell")
 }
 
-/// A devices file pointing at the running cell.
+/// `vatcal sim-cell` as a child process on ephemeral ports; killed when dropped.
+struct SimCellProcess {
+    child: Child,
+    /// `(name, address)` from its `listening NAME ADDRESS` lines
+    listening: Vec<(String, String)>,
+    _stdout: BufReader<ChildStdout>,
+}
+
+impl SimCellProcess {
+    fn start(args: &[&str]) -> Self {
+        let mut all = vec!["sim-cell", "--bind", "127.0.0.1"];
+        all.extend_from_slice(args);
+        for flag in [
+            "--meca500-control-port",
+            "--meca500-monitoring-port",
+            "--zaber-port",
+            "--gauge1-port",
+            "--gauge2-port",
+            "--gauge3-port",
+            "--control-port",
+        ] {
+            all.extend([flag, "0"]);
+        }
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
+            .args(&all)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("spawn vatcal sim-cell");
+        let mut stdout = BufReader::new(child.stdout.take().expect("stdout"));
+        let mut listening = Vec::new();
+        loop {
+            let mut line = String::new();
+            let n = stdout.read_line(&mut line).expect("read sim-cell stdout");
+            assert!(n > 0, "vatcal sim-cell ended before it was ready: {:?}", child.wait());
+            if let Some(rest) = line.trim().strip_prefix("listening ") {
+                let (name, addr) = rest.split_once(' ').expect("`listening NAME ADDRESS`");
+                listening.push((name.to_string(), addr.to_string()));
+            } else if line.starts_with("vatcal sim-cell:") {
+                break;
+            }
+        }
+        Self { child, listening, _stdout: stdout }
+    }
+
+    fn addr(&self, name: &str) -> &str {
+        self.listening
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, a)| a.as_str())
+            .unwrap_or_else(|| panic!("no `listening {name}` line in {:?}", self.listening))
+    }
+
+    /// `fixtures/sim-cell-devices.toml` with the default ports replaced by the actual ones.
+    fn devices_file(&self, dir: &Path) -> PathBuf {
+        let fixture = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/sim-cell-devices.toml");
+        let mut text = std::fs::read_to_string(fixture).expect("fixture");
+        for (default, name) in [
+            ("127.0.0.1:10000", "meca500-control"),
+            ("127.0.0.1:10001", "meca500-monitoring"),
+            ("127.0.0.1:55550", "zaber"),
+            ("127.0.0.1:55561", "gauge-1"),
+            ("127.0.0.1:55562", "gauge-2"),
+            ("127.0.0.1:55563", "gauge-3"),
+            ("127.0.0.1:55570", "cell-control"),
+        ] {
+            let quoted = format!("\"{default}\"");
+            assert_eq!(text.matches(&quoted).count(), 1, "{fixture} names {default} once");
+            text = text.replace(&quoted, &format!("\"{}\"", self.addr(name)));
+        }
+        let path = dir.join("sim-cell-devices.toml");
+        std::fs::write(&path, text).expect("write devices file");
+        path
+    }
+}
+
+impl Drop for SimCellProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A devices file pointing at the running in-process cell.
 fn devices_file(cell: &SimCell, dir: &Path) -> PathBuf {
     let a = cell.addrs();
     let text = format!(
@@ -121,11 +211,13 @@ fn journaled_measurements(journal: &Path) -> usize {
 }
 
 #[test]
-fn campaign_over_tcp_identifies_the_same_cell_as_the_demo() {
+fn done_means_plan_sim_cell_campaign_identify_agree_with_the_demo() {
     let dir = tempfile::tempdir().expect("tmp");
-    let cell = start_cell(3);
-    let devices = devices_file(&cell, dir.path());
     let plan = plan(3, dir.path());
+    // the sim-cell's `ideal` truth: the paper-like truth's thermal channel follows wall-clock
+    // time × K over TCP but virtual time in process, so only `ideal` can match the demo closely
+    let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000", "--truth", "ideal"]);
+    let devices = cell.devices_file(dir.path());
     let run = dir.path().join("run");
     let t0 = Instant::now();
     let stdout = ok(&vatcal(&campaign_args(&devices, &plan, &run)));
@@ -152,8 +244,6 @@ fn campaign_over_tcp_identifies_the_same_cell_as_the_demo() {
     let demo_dir = dir.path().join("demo");
     let mut opts = DemoOptions::new(3).expect("built-in cell");
     opts.sizes = DemoSizes { orientations: 40, guide_steps: 4, count: 40, random_poses: 60, slices: 20 };
-    // the sim-cell above runs `SimCellOptions::paper` = the `ideal` truth: the paper-like
-    // truth's thermal channel follows wall-clock time × K over TCP but virtual time in process
     opts.truth = vatcal_demo::TruthSpec::Ideal;
     let demo = run_demo(&opts, &demo_dir, &mut |_| {}).expect("demo");
     let in_process = &demo.identification.model;
@@ -258,13 +348,199 @@ fn a_dropped_connection_stops_with_one_line_naming_the_device_and_resume_loses_n
     let rows = rows_without_time(&out.join("measurements.csv"));
     assert_eq!(rows.len(), planned, "nothing lost, nothing duplicated");
     // the measured (position, tcp) sequence is the plan's
-    let tour = std::fs::read_to_string(plan.join("tour.csv")).expect("tour");
-    let planned_ids: Vec<String> = tour
-        .lines()
-        .filter(|l| l.split(',').nth(1) == Some("measure"))
-        .map(|l| l.split(',').skip(2).take(2).collect::<Vec<_>>().join(","))
-        .collect();
     let measured_ids: Vec<String> =
         rows.iter().map(|r| r.split(',').take(2).collect::<Vec<_>>().join(",")).collect();
-    assert_eq!(measured_ids, planned_ids);
+    assert_eq!(measured_ids, planned_ids(&plan));
+}
+
+/// Waits at most `limit` for `child` to end and returns its output (killed and failed after).
+fn wait_output(mut child: Child, limit: Duration) -> Output {
+    let deadline = Instant::now() + limit;
+    while child.try_wait().expect("try_wait").is_none() {
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let o = child.wait_with_output().expect("reap");
+            panic!(
+                "the campaign did not stop within {limit:?}; stderr:\n{}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.wait_with_output().expect("output")
+}
+
+/// `(position, tcp)` of every planned measurement, in order.
+fn planned_ids(plan: &Path) -> Vec<String> {
+    let tour = std::fs::read_to_string(plan.join("tour.csv")).expect("tour");
+    tour.lines()
+        .filter(|l| l.split(',').nth(1) == Some("measure"))
+        .map(|l| l.split(',').skip(2).take(2).collect::<Vec<_>>().join(","))
+        .collect()
+}
+
+/// Runs a campaign on a fresh in-process cell, calls `inject` once a third of the plan is
+/// measured, and requires the campaign to stop with exactly one `error:` line that contains
+/// every string of `names`. Then `clear` removes the cause and `--resume` must finish the
+/// plan: the journal written before the fault is kept as it was (append-only), and the
+/// measurements are the plan's, each exactly once. Returns the error line.
+fn fault_then_resume(
+    seed: u64,
+    inject: impl Fn(&SimCell),
+    clear: impl Fn(&SimCell),
+    names: &[&str],
+) -> String {
+    let dir = tempfile::tempdir().expect("tmp");
+    let plan = plan(seed, dir.path());
+    let planned = planned_measurements(&plan);
+    let cell = start_cell(seed);
+    let devices = devices_file(&cell, dir.path());
+    let out = dir.path().join("run");
+    let child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
+        .args(campaign_args(&devices, &plan, &out))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let journal = out.join("campaign.journal");
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while journaled_measurements(&journal) < planned / 3 {
+        assert!(Instant::now() < deadline, "the child recorded too few measurements");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let t0 = Instant::now();
+    inject(&cell);
+    let o = wait_output(child, Duration::from_secs(30));
+    let stop_s = t0.elapsed().as_secs_f64();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "the campaign must stop");
+    let error: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error: ")).collect();
+    assert_eq!(error.len(), 1, "{stderr}");
+    assert!(!error[0].contains('\n'));
+    for name in names {
+        assert!(error[0].contains(name), "`{name}` missing from: {}", error[0]);
+    }
+    assert!(error[0].contains("--resume"), "{}", error[0]);
+    assert_eq!(error[0].matches(names[0]).count(), 1, "no cause repeated: {}", error[0]);
+    let before_text = std::fs::read_to_string(&journal).expect("journal");
+    let before = journaled_measurements(&journal);
+    assert!(before < planned, "the fault came after the end");
+    eprintln!("stopped {stop_s:.2} s after the fault, {before} of {planned} measured: {}", error[0]);
+
+    clear(&cell);
+    let mut args = campaign_args(&devices, &plan, &out);
+    args.push("--resume");
+    let stdout = ok(&vatcal(&args));
+    assert!(stdout.contains("resumed at step"), "{stdout}");
+    let after_text = std::fs::read_to_string(&journal).expect("journal");
+    assert!(after_text.starts_with(&before_text), "the resume rewrote the journal written before the fault");
+    let rows = rows_without_time(&out.join("measurements.csv"));
+    let measured_ids: Vec<String> =
+        rows.iter().map(|r| r.split(',').take(2).collect::<Vec<_>>().join(",")).collect();
+    assert_eq!(measured_ids, planned_ids(&plan), "nothing lost, nothing duplicated");
+    error[0].to_string()
+}
+
+#[test]
+fn a_stalled_gauge_stops_with_one_line_naming_it_and_resume_loses_nothing() {
+    fault_then_resume(
+        11,
+        |c| c.set_stalled(Device::Gauge(1), true),
+        |c| c.set_stalled(Device::Gauge(1), false),
+        &["gauge 2 at 127.0.0.1"],
+    );
+}
+
+#[test]
+fn a_robot_error_stops_with_one_line_naming_the_arm_and_resume_loses_nothing() {
+    fault_then_resume(
+        12,
+        |c| c.robot_error(3005, "Motion error."),
+        |_| {}, // the resume resets the arm's error
+        &["meca500 at 127.0.0.1", "3005"],
+    );
+}
+
+#[test]
+fn an_estop_stops_with_one_line_naming_the_arm_and_resume_loses_nothing() {
+    fault_then_resume(13, |c| c.set_estop(true), |c| c.set_estop(false), &["meca500 at 127.0.0.1", "3070"]);
+}
+
+#[test]
+fn a_gauge_out_of_range_stops_with_one_line_naming_it_and_resume_loses_nothing() {
+    fault_then_resume(
+        14,
+        |c| c.set_gauge_out_of_range(2, true),
+        |c| c.set_gauge_out_of_range(2, false),
+        &["gauge 3 at 127.0.0.1"],
+    );
+}
+
+#[test]
+fn probe_zeroing_with_the_auto_operator_seats_the_master_ball_through_the_control_port() {
+    use vatcal_campaign::{Campaign, CampaignConfig, CampaignPlan, CampaignStep, CellDevices, StepOutcome};
+    use vatcal_core::Target;
+    use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
+    use vatcal_hardware_traits::{ProbePlacement, SystemClock, TriCal};
+
+    let dir = tempfile::tempdir().expect("tmp");
+    let plan_dir = plan(9, dir.path());
+    let cell = start_cell(9);
+    let devices = DevicesFile::load(devices_file(&cell, dir.path())).expect("devices file");
+    // the tour's first placement with a zeroing step, and its first three measurements
+    let tour = CampaignPlan::read_tour(plan_dir.join("tour.csv")).expect("tour");
+    let mut steps = Vec::new();
+    for step in tour.steps {
+        let measure = matches!(step, CampaignStep::Measure { .. });
+        let place = match step {
+            CampaignStep::PlaceProbe { position } => Some(position),
+            _ => None,
+        };
+        steps.push(step);
+        if let Some(position) = place {
+            steps.push(CampaignStep::ZeroProbe { position });
+        }
+        if measure && steps.iter().filter(|s| matches!(s, CampaignStep::Measure { .. })).count() == 3 {
+            break;
+        }
+    }
+    let plan = CampaignPlan { steps };
+    let nominal = Model::from_cell(&CellFile::load(FIXTURE).expect("cell")).expect("model");
+    plan.validate(&nominal).expect("a valid plan");
+
+    let ConnectedDevices { mut arm, mut guide, gauges, sim_control, .. } =
+        devices.connect().expect("connect");
+    let positions: Vec<_> =
+        nominal.position_ids().into_iter().filter_map(|id| nominal.position(id).map(|p| (id, p))).collect();
+    let mut probe = TriCal::new(gauges, devices.probe_config(ProbePlacement::radial_placements(&positions)))
+        .expect("probe");
+    let mut operator = SimControlOperator::new(sim_control.expect("sim_control"));
+    let clock = SystemClock;
+    let cell_devices = CellDevices {
+        arm: &mut arm,
+        guide: &mut guide,
+        probe: &mut probe,
+        tracker: None,
+        operator: &mut operator,
+        clock: &clock,
+    };
+    let config = CampaignConfig { show_progress: false, ..CampaignConfig::default() };
+    let report = Campaign::new(cell_devices, &nominal, config)
+        .run(&plan, dir.path().join("zeroing.journal"))
+        .expect("the campaign with zeroing steps");
+    let log = operator.log().join("; ");
+    assert!(log.contains("seat the master ball") && log.contains("remove the master ball"), "{log}");
+    assert!(report.records.iter().any(|r| matches!(r.outcome, StepOutcome::ProbeZeroed { .. })));
+    assert_eq!(report.measurements.len(), 3);
+    // the probe was zeroed on the master ball (not on whatever the plungers touched): every
+    // recorded pose puts the hidden true ball on the true probe origin, to the simulated
+    // repeatability and probe imperfections
+    let truth = cell.cell().truth();
+    for m in &report.measurements {
+        let Target::Probe { position } = m.target else { panic!("a probe measurement") };
+        let ball = truth.tcp_position(&m.q, m.tcp).expect("fk");
+        let miss_mm = (ball - truth.position(position).expect("position")).norm();
+        eprintln!("zeroed probe: true ball {:.1} µm from the true probe origin", miss_mm * 1e3);
+        assert!(miss_mm < 0.05, "{:.1} µm", miss_mm * 1e3);
+    }
 }

@@ -47,21 +47,42 @@ impl SimControl {
         Ok(answer.trim_end_matches(['\r', '\n']).to_string())
     }
 
-    /// Re-places the probe plate at calibration position `position` (`PLACE <n>`).
-    ///
-    /// # Errors
-    /// Any answer other than `OK PLACE <n>`.
-    pub fn place(&mut self, position: u32) -> Result<()> {
-        let answer = self.request(&format!("PLACE {position}"))?;
-        if answer == format!("OK PLACE {position}") {
+    /// Sends `command` and requires the answer `OK <command>`.
+    fn command(&mut self, command: &str) -> Result<()> {
+        let answer = self.request(command)?;
+        if answer == format!("OK {command}") {
             Ok(())
         } else {
             Err(Error::new(
                 ErrorKind::Protocol,
                 DEVICE,
-                format!("`PLACE {position}` answered `{answer}` (expected `OK PLACE {position}`)"),
+                format!("`{command}` answered `{answer}` (expected `OK {command}`)"),
             ))
         }
+    }
+
+    /// Re-places the probe plate at calibration position `position` (`PLACE <n>`).
+    ///
+    /// # Errors
+    /// Any answer other than `OK PLACE <n>`.
+    pub fn place(&mut self, position: u32) -> Result<()> {
+        self.command(&format!("PLACE {position}"))
+    }
+
+    /// Seats the master ball in the probe, the plate being at `position` (`MASTER <n>`).
+    ///
+    /// # Errors
+    /// Any answer other than `OK MASTER <n>` (e.g. the plate is elsewhere).
+    pub fn seat_master(&mut self, position: u32) -> Result<()> {
+        self.command(&format!("MASTER {position}"))
+    }
+
+    /// Removes the master ball (`MASTER OFF`).
+    ///
+    /// # Errors
+    /// Any answer other than `OK MASTER OFF`.
+    pub fn remove_master(&mut self) -> Result<()> {
+        self.command("MASTER OFF")
     }
 
     /// The current placement (`PLACEMENT?` → `PLACEMENT <n>`, or `PLACEMENT NONE` before the
@@ -80,8 +101,9 @@ impl SimControl {
     }
 }
 
-/// The operator of a simulated cell: re-places the probe plate through [`SimControl`];
-/// confirms every other instruction at once (nothing to do in the simulator).
+/// The operator of a simulated cell: re-places the probe plate (`PLACE <n>`) and seats and
+/// removes the master ball for probe zeroing (`MASTER <n>`, `MASTER OFF`) through
+/// [`SimControl`]; confirms motions at once (nothing to do in the simulator).
 #[derive(Debug)]
 pub struct SimControlOperator {
     control: SimControl,
@@ -102,8 +124,11 @@ impl SimControlOperator {
 
 impl Operator for SimControlOperator {
     fn perform(&mut self, instruction: &OperatorInstruction) -> Result<()> {
-        if let OperatorInstruction::PlaceProbe { position } = instruction {
-            self.control.place(*position)?;
+        match instruction {
+            OperatorInstruction::PlaceProbe { position } => self.control.place(*position)?,
+            OperatorInstruction::SeatMasterBall { position } => self.control.seat_master(*position)?,
+            OperatorInstruction::RemoveMasterBall => self.control.remove_master()?,
+            OperatorInstruction::ConfirmMotion { .. } => {}
         }
         self.log.push(instruction.to_string());
         Ok(())
@@ -147,6 +172,25 @@ mod tests {
         op.perform(&OperatorInstruction::RemoveMasterBall).expect("confirm");
         assert_eq!(op.control.placement().expect("placement"), Some(2));
         assert_eq!(op.log().len(), 2);
+    }
+
+    #[test]
+    fn master_ball_instructions_are_sent_as_master_commands() {
+        // the fake answers `OK <line>` only to the commands the operator must send
+        let addr = fake(|l| match l {
+            "PLACE 2" | "MASTER 2" | "MASTER OFF" => format!("OK {l}"),
+            l => format!("ERR unexpected `{l}`"),
+        });
+        let mut op = SimControlOperator::new(connect(&addr));
+        op.perform(&OperatorInstruction::PlaceProbe { position: 2 }).expect("place");
+        op.perform(&OperatorInstruction::SeatMasterBall { position: 2 }).expect("seat the master ball");
+        op.perform(&OperatorInstruction::RemoveMasterBall).expect("remove the master ball");
+        op.perform(&OperatorInstruction::ConfirmMotion { description: "x".into() }).expect("confirm");
+        assert_eq!(op.log().len(), 4);
+        // a refusal (e.g. the plate is elsewhere) is an error naming the device, not logged
+        let e = op.perform(&OperatorInstruction::SeatMasterBall { position: 3 }).expect_err("refused");
+        assert!(e.to_string().starts_with("sim control: ") && e.to_string().contains("MASTER 3"), "{e}");
+        assert_eq!(op.log().len(), 4);
     }
 
     #[test]

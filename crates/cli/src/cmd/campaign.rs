@@ -116,7 +116,8 @@ fn load_nominal(path: Option<&PathBuf>) -> anyhow::Result<(Model, String)> {
     Ok((model, source))
 }
 
-/// Checks every device before anything moves; prints what it finds. The arm is activated
+/// Checks every device before anything moves; prints what it finds. An arm in error mode
+/// (the fault that stopped the previous run) has its error reset; the arm is activated
 /// and homed and the guide homed if needed (the campaign would do it anyway; doing it here
 /// shows the operator the state of the cell first).
 fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
@@ -125,9 +126,15 @@ fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
         "  arm: activated {}, homed {}, error {}",
         status.activated,
         status.homed,
-        status.error.map_or("none".to_string(), |(code, text)| format!("[{code}] {text}"))
+        status.error.as_ref().map_or("none".to_string(), |(code, text)| format!("[{code}] {text}"))
     );
-    if !(status.activated && status.homed) {
+    if let Some((code, text)) = &status.error {
+        // a fault stopped the previous run (robot error, released E-stop): the operator fixed
+        // the cause and asked to continue; leaving error mode moves nothing
+        println!("  arm: in error mode [{code}] {text}; resetting the error …");
+        cell.arm.reset_error().context("arm: resetting the error")?;
+    }
+    if !(status.activated && status.homed && status.error.is_none()) {
         println!("  arm: activating and homing …");
     }
     cell.arm.activate_and_home(timeout).context("arm: activating and homing")?;
@@ -153,6 +160,22 @@ fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
         Err(e) => return Err(anyhow::Error::new(e).context("gauges: reading the three gauges")),
     }
     Ok(())
+}
+
+/// The error and its causes on one line, without repeating a cause whose text an outer error
+/// already quotes (the campaign's errors carry their device error in their own message).
+fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
+    let mut line = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !line.contains(&text) {
+            line.push_str(": ");
+            line.push_str(&text);
+        }
+        cause = c.source();
+    }
+    line
 }
 
 /// Runs the subcommand.
@@ -267,7 +290,33 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if flag.is_raised() {
                 bail!("campaign interrupted: {hint}");
             }
-            Err(anyhow::Error::new(e).context(format!("campaign stopped ({hint})")))
+            bail!("campaign stopped ({hint}): {}", one_line(&e))
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+
+    #[derive(Debug)]
+    struct E(&'static str, Option<Box<E>>);
+    impl std::fmt::Display for E {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str(self.0)
+        }
+    }
+    impl std::error::Error for E {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            self.1.as_deref().map(|e| e as &(dyn std::error::Error + 'static))
+        }
+    }
+
+    #[test]
+    fn one_line_skips_causes_already_quoted() {
+        let inner = E("gauge 2: timeout", None);
+        let middle = E("step 3: centring: gauge 2: timeout", Some(Box::new(inner)));
+        let outer = E("campaign failed", Some(Box::new(middle)));
+        assert_eq!(one_line(&outer), "campaign failed: step 3: centring: gauge 2: timeout");
     }
 }
