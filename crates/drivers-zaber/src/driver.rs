@@ -304,6 +304,17 @@ impl<T: Transport> ZaberAxis<T> {
     /// Clears the clearable flags before a new motion, refusing with [`ZaberError::Busy`] if
     /// the axis still moves (a new move would interrupt it and leave `NI` behind).
     fn prepare_motion(&mut self) -> Result<(), ZaberError> {
+        // a fault latched since the last move (stall, driver disabled, …) means the position
+        // may be wrong: refuse to move instead of clearing it silently (homing clears it)
+        let faults: Vec<Warning> = self.warnings()?.into_iter().filter(Warning::is_fault).collect();
+        if !faults.is_empty() {
+            return Err(ZaberError::MotionFailed { flags: faults });
+        }
+        self.clear_for_motion()
+    }
+
+    /// `warnings clear` before a motion; refuses while the axis is busy.
+    fn clear_for_motion(&mut self) -> Result<(), ZaberError> {
         let reply = self.command(0, "warnings clear")?;
         if reply.status == Status::Busy { Err(ZaberError::Busy) } else { Ok(()) }
     }
@@ -313,15 +324,16 @@ impl<T: Transport> ZaberAxis<T> {
         self.get_int("pos")
     }
 
-    /// True when the axis shows neither `WR` nor `WH`.
+    /// True when the axis shows neither `WR` nor `WH`, nor a latched fault (`F…`: after a
+    /// stall the position is not to be trusted until the axis is homed again).
     pub fn homed(&mut self) -> Result<bool, ZaberError> {
-        Ok(!self.warnings()?.iter().any(Warning::means_not_homed))
+        Ok(!self.warnings()?.iter().any(|w| w.means_not_homed() || w.is_fault()))
     }
 
     /// Starts homing and waits for IDLE within `timeout`.
     pub fn home_within(&mut self, timeout: Duration) -> Result<(), ZaberError> {
         let wait = Wait::new(timeout);
-        self.prepare_motion()?;
+        self.clear_for_motion()?;
         let r = self.command(self.config.axis, "home").and_then(|_| self.wait_idle_until(&wait));
         self.stop_on_link_fault(&r);
         r

@@ -235,3 +235,23 @@ fn truncated_reply_then_silence_times_out() {
     assert!(t0.elapsed() < Duration::from_secs(2), "{:?}", t0.elapsed());
     assert!(line.contains("no reply to a status poll within 0.300 s"), "{line}");
 }
+
+#[test]
+fn stall_latched_while_idle_refuses_the_next_move_until_homed() {
+    let sim = ok(ZaberSim::start(SimConfig { start_homed: true, time_scale: 100.0, ..SimConfig::default() }));
+    let addr = sim.addr();
+    let mut guide = ok(ZaberAxis::connect_tcp(addr, config()));
+    ok(guide.move_absolute_mm(10.0, &opts()));
+    ok(guide.wait_idle(TIMEOUT));
+    sim.inject_stall();
+    // the stall is not cleared silently by the next move: the position is not to be trusted
+    let line = one_line(guide.move_absolute_mm(20.0, &opts()), addr, ErrorKind::DeviceFault {
+        code: Warning::STALL.code(),
+    });
+    assert!(line.contains("FS"), "{line}");
+    assert!(!ok(guide.is_homed()), "a latched fault means: home again");
+    ok(guide.home(TIMEOUT));
+    assert!(ok(guide.is_homed()));
+    ok(guide.move_absolute_mm(20.0, &opts()));
+    ok(guide.wait_idle(TIMEOUT));
+}
