@@ -237,3 +237,50 @@ pub fn summary_markdown(c: &CompensationSummary) -> String {
         writeln!(m, "| printing path, compensated targets (`vatcal compensate`) | {co_mean} | {co_max} |");
     m
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vatcal_campaign::validation::{
+        PrintingPathOptions, RandomPoseOptions, ValidationPlanOptions, build_validation_plan,
+    };
+    use vatcal_core::CellFile;
+    use vatcal_planning::geometry::CellGeometry;
+
+    fn plan() -> (Model, ValidationPlan) {
+        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+            .expect("canonical cell");
+        let nominal = Model::from_cell(&cell).expect("model");
+        let geometry = CellGeometry::from_cell(&cell).expect("geometry");
+        let opts = ValidationPlanOptions {
+            random: RandomPoseOptions { count: 2, ..RandomPoseOptions::default() },
+            printing: PrintingPathOptions { slices: 20, ..PrintingPathOptions::default() },
+            ..ValidationPlanOptions::default()
+        };
+        let models: [(&str, &Model); 2] = [(NOMINAL, &nominal), (CALIBRATED, &nominal)];
+        let plan = build_validation_plan(&nominal, &geometry, &models, &opts).expect("plan");
+        (nominal, plan)
+    }
+
+    #[test]
+    fn the_commanded_runs_must_be_the_compensation_targets() {
+        let (nominal, plan) = plan();
+        let t = check_printing_path(&nominal, &nominal, &plan).expect("the plan's runs are the targets");
+        assert_eq!(t.compensated.len(), 20);
+        assert!(
+            t.calibrated_run_difference <= JOINT_AGREEMENT && t.nominal_run_difference <= JOINT_AGREEMENT
+        );
+        // the nominal model compensating itself applies no correction
+        assert!(t.correction_mm.iter().all(|d| *d < 1e-6), "{:?}", t.correction_mm);
+        // a commanded joint off by 1e-4 rad is caught, naming the run
+        let mut bad = plan.clone();
+        bad.path_runs[1].joints[7].0[3] += 1e-4;
+        let e = check_printing_path(&nominal, &nominal, &bad).expect_err("mismatch");
+        assert!(e.to_string().contains("`calibrated`") && e.to_string().contains("1.000e-4"), "{e}");
+        // a missing run is an error, not a silent skip
+        let mut missing = plan;
+        missing.path_runs.retain(|r| r.label != NOMINAL);
+        let e = check_printing_path(&nominal, &nominal, &missing).expect_err("missing");
+        assert!(e.to_string().contains("`nominal`"), "{e}");
+    }
+}
