@@ -63,6 +63,10 @@ pub enum PipelineError {
     /// A JSON file could not be serialised.
     #[error("JSON cannot be serialised")]
     Json(#[from] serde_json::Error),
+    /// The printing path's targets from `vatcal-compensation` cannot be solved or differ from
+    /// the commanded joints.
+    #[error("compensation of the printing path: {0}")]
+    Compensation(String),
     /// The journal of a run folder cannot be read.
     #[error(transparent)]
     Journal(#[from] vatcal_campaign::JournalError),

@@ -11,13 +11,16 @@
 //! 3. [`Stage::Identify`] (`vatcal-identification`): the paper's 34 parameters by
 //!    Levenberg–Marquardt;
 //! 4. [`Stage::Validate`] (`vatcal_campaign::validation`): random poses and a printing path
-//!    measured with the tracker, commanded by the nominal and by the calibrated model;
+//!    measured with the tracker, commanded by the nominal and by the calibrated model; the
+//!    two printing-path runs are the uncompensated and compensated targets of
+//!    `vatcal-compensation` (checked before any motion, [`compensation`]);
 //! 5. [`Stage::Report`]: `report.json` ([`RunReport`]), `summary.md`, CSVs and SVG plots.
 //!
 //! [`run`] executes all of them in order. Progress goes to a [`Progress`] implementation
 //! (stage started/finished, step i of n with the time left); nothing here draws on a terminal.
 //! `vatcal demo` is this pipeline on the in-process virtual cell (`vatcal-demo`).
 
+pub mod compensation;
 mod error;
 pub mod folders;
 mod progress;
@@ -238,6 +241,7 @@ pub fn run<S: ReportSetup>(
     let options = validation_options(opts, start);
     let models: [(&str, &Model); 2] = [(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
     let validation_plan = build_validation_plan(&nominal, &geometry, &models, &options)?;
+    let printing_targets = compensation::check_printing_path(&nominal, &fit.model, &validation_plan)?;
     stages.start(Stage::Validate, Some(validation_plan.campaign.steps.len()));
     let validation = validation_stage(
         devices,
@@ -273,6 +277,7 @@ pub fn run<S: ReportSetup>(
         validation_plan: &validation.plan,
         validation_options: &options,
         validation_time_s,
+        compensation: compensation::CompensationSummary::new(&printing_targets, &validation.results),
         results: validation.results,
     });
     files.json("report.json", &report)?;

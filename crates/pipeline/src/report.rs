@@ -133,6 +133,9 @@ pub struct RunReport<S> {
     pub identification: IdentificationReport,
     /// the validation with the simulated laser tracker
     pub validation: ValidationSummary,
+    /// the printing path commanded with uncompensated and compensated targets
+    /// (`vatcal-compensation`, the library of `vatcal compensate`)
+    pub compensation: crate::compensation::CompensationSummary,
     /// the paper's figures, for comparison (not ours)
     pub paper: PaperFigures,
 }
@@ -156,6 +159,7 @@ pub(crate) struct ReportInputs<'a, S> {
     pub validation_options: &'a ValidationPlanOptions,
     pub validation_time_s: f64,
     pub results: Vec<ModelValidation>,
+    pub compensation: crate::compensation::CompensationSummary,
 }
 
 pub(crate) fn build_report<S: ReportSetup>(i: ReportInputs<'_, S>) -> RunReport<S> {
@@ -178,6 +182,7 @@ pub(crate) fn build_report<S: ReportSetup>(i: ReportInputs<'_, S>) -> RunReport<
             virtual_time_s: i.validation_time_s,
             models: i.results,
         },
+        compensation: i.compensation,
         paper: PAPER,
     }
 }
@@ -581,6 +586,7 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         "| **paper**, printing path ({} slices) | {:.3} | {:.3} |",
         PAPER.path_slices, PAPER.path_nominal_mean_mm, PAPER.path_calibrated_mean_mm
     );
+    m.push_str(&crate::compensation::summary_markdown(&r.compensation));
     let note = outcome.report.setup.comparison_note();
     if !note.is_empty() {
         let _ = writeln!(m, "\n{note}\n");
