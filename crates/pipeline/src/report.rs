@@ -135,6 +135,9 @@ pub struct RunReport<S> {
     pub validation: ValidationSummary,
     /// the paper's figures, for comparison (not ours)
     pub paper: PaperFigures,
+    /// the discovery stage, when it ran
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub discovery: Option<crate::discovery_stage::DiscoveryReport>,
 }
 
 impl<S> RunReport<S> {
@@ -179,6 +182,7 @@ pub(crate) fn build_report<S: ReportSetup>(i: ReportInputs<'_, S>) -> RunReport<
             models: i.results,
         },
         paper: PAPER,
+        discovery: None,
     }
 }
 
@@ -311,7 +315,7 @@ impl Files {
         self.text(name, &text)
     }
 
-    fn svg(&mut self, name: &str, svg: &str) -> Result<(), PipelineError> {
+    pub(crate) fn svg(&mut self, name: &str, svg: &str) -> Result<(), PipelineError> {
         save_svg(self.out.join(name), svg)?;
         self.note(name);
         Ok(())
@@ -581,6 +585,9 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         "| **paper**, printing path ({} slices) | {:.3} | {:.3} |",
         PAPER.path_slices, PAPER.path_nominal_mean_mm, PAPER.path_calibrated_mean_mm
     );
+    if let Some(d) = &outcome.discovery {
+        m.push_str(&crate::discovery_stage::summary_section(r, d));
+    }
     let note = outcome.report.setup.comparison_note();
     if !note.is_empty() {
         let _ = writeln!(m, "\n{note}\n");
