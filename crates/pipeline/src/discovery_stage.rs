@@ -401,3 +401,71 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
     let _ = writeln!(m);
     m
 }
+
+/// `summary.html`: the text of `summary.md` as one self-contained page (headings, tables,
+/// code blocks, paragraphs), with the SVG plots of the run inline.
+pub fn summary_html(markdown: &str, svgs: &[(String, String)]) -> vatcal_report::html::HtmlReport {
+    let mut lines = markdown.lines().peekable();
+    let title = lines.peek().map_or("vatcal", |l| l.trim_start_matches('#').trim()).to_string();
+    lines.next();
+    let mut r = vatcal_report::html::HtmlReport::new(title);
+    let mut para = String::new();
+    let flush = |r: &mut vatcal_report::html::HtmlReport, para: &mut String| {
+        if !para.trim().is_empty() {
+            r.paragraph(para.trim().to_string());
+        }
+        para.clear();
+    };
+    let cells = |l: &str| -> Vec<String> {
+        l.trim().trim_matches('|').split('|').map(|c| c.trim().to_string()).collect()
+    };
+    while let Some(line) = lines.next() {
+        if let Some(h) = line.strip_prefix('#') {
+            flush(&mut r, &mut para);
+            r.heading(h.trim_start_matches('#').trim());
+        } else if line.starts_with("```") {
+            flush(&mut r, &mut para);
+            let mut block = String::new();
+            for l in lines.by_ref() {
+                if l.starts_with("```") {
+                    break;
+                }
+                block.push_str(l);
+                block.push('\n');
+            }
+            r.preformatted(block);
+        } else if line.starts_with('|') {
+            flush(&mut r, &mut para);
+            let header = cells(line);
+            let mut rows = Vec::new();
+            while let Some(l) = lines.peek() {
+                if !l.starts_with('|') {
+                    break;
+                }
+                let row = cells(l);
+                if !row.iter().all(|c| c.chars().all(|ch| matches!(ch, '-' | ':'))) {
+                    rows.push(row);
+                }
+                lines.next();
+            }
+            let h: Vec<&str> = header.iter().map(String::as_str).collect();
+            r.table(&h, &rows);
+        } else if line.starts_with("* ") {
+            flush(&mut r, &mut para);
+            r.paragraph(line.to_string());
+        } else if line.trim().is_empty() {
+            flush(&mut r, &mut para);
+        } else {
+            para.push_str(line);
+            para.push('\n');
+        }
+    }
+    flush(&mut r, &mut para);
+    if !svgs.is_empty() {
+        r.heading("Plots");
+        for (name, svg) in svgs {
+            r.svg(svg.clone(), name.clone());
+        }
+    }
+    r
+}

@@ -345,6 +345,9 @@ pub fn run_with_discovery<S: ReportSetup>(
     files.json("report.json", &report)?;
     stages.finish(Stage::Report, |_| None);
     files.note("summary.md");
+    if discovered.is_some() {
+        files.note("summary.html");
+    }
     let outcome = RunOutcome {
         report,
         identification: fit,
@@ -353,6 +356,9 @@ pub fn run_with_discovery<S: ReportSetup>(
         discovery: discovered,
     };
     files.summary("summary.md", &outcome)?;
+    if outcome.discovery.is_some() {
+        report::write_summary_html(out)?;
+    }
     Ok(outcome)
 }
 

@@ -605,3 +605,25 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
     let _ = writeln!(m, "* total: {total:.2} s");
     m
 }
+
+/// Writes `summary.html` from `summary.md` and the SVG files of the run folder `out`.
+pub(crate) fn write_summary_html(out: &Path) -> Result<(), PipelineError> {
+    let read = |path: std::path::PathBuf| {
+        std::fs::read_to_string(&path).map_err(|source| PipelineError::Io { path, source })
+    };
+    let markdown = read(out.join("summary.md"))?;
+    let mut names: Vec<String> = std::fs::read_dir(out)
+        .map_err(|source| PipelineError::Io { path: out.to_path_buf(), source })?
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".svg"))
+        .collect();
+    names.sort();
+    let mut svgs = Vec::new();
+    for n in names {
+        let svg = read(out.join(&n))?;
+        svgs.push((n, svg));
+    }
+    crate::discovery_stage::summary_html(&markdown, &svgs).save(out.join("summary.html"))?;
+    Ok(())
+}
