@@ -56,13 +56,14 @@ pub struct DiscoveryStageOptions {
 
 impl DiscoveryStageOptions {
     /// 120 extra measurements planned for [`default_plan_effects`]; the discovery's defaults
-    /// with `seed`.
+    /// with `seed` and `negligible_factor` 0.25 (the default 1.0 compares the prediction change
+    /// with σ̂ of the refit, which unmodelled physics inflates to ~0.1 mm; docs/discovery.md).
     pub fn new(seed: u64) -> Self {
         Self {
             count: 120,
             plan_effects: default_plan_effects(),
             true_effects: None,
-            discover: DiscoverOptions { seed, ..DiscoverOptions::default() },
+            discover: DiscoverOptions { seed, negligible_factor: 0.25, ..DiscoverOptions::default() },
         }
     }
 }
