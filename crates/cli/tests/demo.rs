@@ -24,6 +24,8 @@ fn run_demo(out: &Path, extra: &[&str]) -> std::process::Output {
         "100",
         "--truth",
         "ideal",
+        // the discovery stage is tested in crates/demo/tests/discovery.rs
+        "--no-discovery",
     ];
     args.extend_from_slice(extra);
     Command::new(env!("CARGO_BIN_EXE_vatcal")).args(&args).output().expect("run vatcal")

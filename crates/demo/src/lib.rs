@@ -27,7 +27,9 @@ use vatcal_hardware_traits::{TriCal, VirtualClock};
 use vatcal_identification::Identification;
 use vatcal_kinematics::Model;
 use vatcal_pipeline::report::ValidationSummary;
-use vatcal_pipeline::{DeviceSet, Progress, ReportSetup, RunOptions, RunReport, StageLog};
+use vatcal_pipeline::{
+    DeviceSet, DiscoveryStageOptions, Progress, ReportSetup, RunOptions, RunReport, StageLog,
+};
 use vatcal_sim::truth::ErrorBudget;
 pub use vatcal_sim::truth::TruthSpec;
 use vatcal_sim::{
@@ -60,6 +62,9 @@ pub struct DemoOptions {
     pub sizes: DemoSizes,
     /// the hidden truth of the virtual cell (default: paper-like)
     pub truth: TruthSpec,
+    /// run the discovery stage after the calibration (default: on): extra probe measurements,
+    /// missing-effect discovery, and the fit with the truth's effect structure (the oracle)
+    pub discovery: bool,
 }
 
 impl DemoOptions {
@@ -75,6 +80,7 @@ impl DemoOptions {
             nominal_source: BUILT_IN_CELL_NAME.into(),
             sizes: DemoSizes::default(),
             truth: TruthSpec::PaperLike,
+            discovery: true,
         })
     }
 
@@ -280,6 +286,8 @@ pub struct DemoOutcome {
     pub stage_seconds: Vec<(String, f64)>,
     /// the files written, relative to the output directory
     pub files: Vec<PathBuf>,
+    /// the discovery stage, when it ran
+    pub discovery: Option<vatcal_pipeline::DiscoveryOutcome>,
 }
 
 impl DemoOutcome {
@@ -362,8 +370,13 @@ pub fn run_demo_with_progress(
         .virtual_cell(nominal.clone(), opts.seed)
         .map_err(|e| DemoError::Option { option: "truth".into(), reason: e.to_string() })?;
     let mut devices = SimDevices::of(&cell)?;
-    let outcome = vatcal_pipeline::run(
+    let stage = opts.discovery.then(|| DiscoveryStageOptions {
+        true_effects: Some(cell.truth().effects().to_vec()),
+        ..DiscoveryStageOptions::new(opts.seed)
+    });
+    let outcome = vatcal_pipeline::run_with_discovery(
         &opts.run_options(),
+        stage.as_ref(),
         &mut devices,
         |fit| DemoSetup::of(opts, fit),
         out,
@@ -375,5 +388,6 @@ pub fn run_demo_with_progress(
         truth: cell.truth(),
         stage_seconds: outcome.stage_seconds,
         files: outcome.files,
+        discovery: outcome.discovery,
     })
 }

@@ -13,6 +13,8 @@ fn options(seed: u64, sizes: DemoSizes) -> DemoOptions {
     o.sizes = sizes;
     // these tests check the noise floor: a truth with nothing outside the 34 parameters
     o.truth = vatcal_demo::TruthSpec::Ideal;
+    // the discovery stage is tested on the paper-like truth in `discovery.rs`
+    o.discovery = false;
     o
 }
 

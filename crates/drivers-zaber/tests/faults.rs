@@ -245,9 +245,11 @@ fn stall_latched_while_idle_refuses_the_next_move_until_homed() {
     ok(guide.wait_idle(TIMEOUT));
     sim.inject_stall();
     // the stall is not cleared silently by the next move: the position is not to be trusted
-    let line = one_line(guide.move_absolute_mm(20.0, &opts()), addr, ErrorKind::DeviceFault {
-        code: Warning::STALL.code(),
-    });
+    let line = one_line(
+        guide.move_absolute_mm(20.0, &opts()),
+        addr,
+        ErrorKind::DeviceFault { code: Warning::STALL.code() },
+    );
     assert!(line.contains("FS"), "{line}");
     assert!(!ok(guide.is_homed()), "a latched fault means: home again");
     ok(guide.home(TIMEOUT));

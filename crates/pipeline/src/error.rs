@@ -70,6 +70,9 @@ pub enum PipelineError {
     /// The journal of a run folder cannot be read.
     #[error(transparent)]
     Journal(#[from] vatcal_campaign::JournalError),
+    /// The discovery stage failed.
+    #[error("discovery failed")]
+    Discovery(#[from] vatcal_discovery::DiscoveryError),
 }
 
 impl From<vatcal_campaign::CampaignError> for PipelineError {

@@ -21,6 +21,7 @@
 //! `vatcal demo` is this pipeline on the in-process virtual cell (`vatcal-demo`).
 
 pub mod compensation;
+pub mod discovery_stage;
 mod error;
 pub mod folders;
 mod progress;
@@ -45,6 +46,7 @@ use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::output::PlanSummary;
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 
+pub use discovery_stage::{DISCOVERED, DiscoveryOutcome, DiscoveryStageOptions, TRUE_STRUCTURE};
 pub use error::PipelineError;
 pub use folders::{PlanFolder, RunFolder};
 pub use progress::{NoProgress, Progress, Stage, StageLog, StepProgress};
@@ -137,6 +139,8 @@ pub struct RunOutcome<S> {
     pub stage_seconds: Vec<(String, f64)>,
     /// the files written, relative to the output directory
     pub files: Vec<PathBuf>,
+    /// the discovery stage, when it ran ([`run_with_discovery`])
+    pub discovery: Option<DiscoveryOutcome>,
 }
 
 impl<S> RunOutcome<S> {
@@ -183,6 +187,25 @@ impl<'p> Stages<'p> {
 /// written.
 pub fn run<S: ReportSetup>(
     opts: &RunOptions,
+    devices: &mut dyn DeviceSet,
+    setup: impl FnOnce(&Identification) -> S,
+    out: &Path,
+    progress: &mut dyn Progress,
+) -> Result<RunOutcome<S>, PipelineError> {
+    run_with_discovery(opts, None, devices, setup, out, progress)
+}
+
+/// [`run`] with, when `discovery` is given, the discovery stage
+/// ([`discovery_stage::discovery_stage`]) between the identification and the validation: the
+/// discovered model (and the true-structure model, when the oracle is given) are validated
+/// beside the nominal and the calibrated one, `report.json` gains a `discovery` object and the
+/// summary a discovery section.
+///
+/// # Errors
+/// As [`run`], and the discovery stage's errors.
+pub fn run_with_discovery<S: ReportSetup>(
+    opts: &RunOptions,
+    discovery: Option<&DiscoveryStageOptions>,
     devices: &mut dyn DeviceSet,
     setup: impl FnOnce(&Identification) -> S,
     out: &Path,
@@ -237,9 +260,50 @@ pub fn run<S: ReportSetup>(
         ))
     });
 
-    let start = campaign.records.last().map(|r| r.state.joints);
+    let mut start = campaign.records.last().map(|r| r.state.joints);
+    let discovered = match discovery {
+        Some(stage) => {
+            let d = discovery_stage::discovery_stage(
+                opts,
+                stage,
+                devices,
+                &nominal,
+                &fit.model,
+                &campaign.measurements,
+                start,
+                out,
+                opts.campaign.clone(),
+                &mut *stages.progress,
+            )?;
+            files.note(discovery_stage::DISCOVERY_JOURNAL);
+            files.note(discovery_stage::DISCOVERY_MEASUREMENTS_CSV);
+            for p in &d.plots {
+                files.svg(&p.file, &p.svg)?;
+            }
+            start = d.last_joints.or(start);
+            stages.finish(Stage::Discover, |s| {
+                let names: Vec<&str> = d.discovery.added_effects.iter().map(|a| a.label.as_str()).collect();
+                Some(format!(
+                    "discovery: {} extra probe measurements, {} effect(s) added ({}), held-out gap {:.4} -> {:.4} mm ({s:.1} s)",
+                    d.extra_measurements,
+                    names.len(),
+                    names.join(", "),
+                    d.discovery.initial_gap_mm,
+                    d.discovery.final_gap_mm
+                ))
+            });
+            Some(d)
+        }
+        None => None,
+    };
     let options = validation_options(opts, start);
-    let models: [(&str, &Model); 2] = [(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
+    let mut models: Vec<(&str, &Model)> = vec![(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
+    if let Some(d) = &discovered {
+        models.push((DISCOVERED, &d.discovery.model));
+        if let Some(t) = &d.true_structure {
+            models.push((TRUE_STRUCTURE, t));
+        }
+    }
     let validation_plan = build_validation_plan(&nominal, &geometry, &models, &options)?;
     let printing_targets = compensation::check_printing_path(&nominal, &fit.model, &validation_plan)?;
     stages.start(Stage::Validate, Some(validation_plan.campaign.steps.len()));
@@ -267,7 +331,7 @@ pub fn run<S: ReportSetup>(
     files.note(folders::VALIDATION_JOURNAL);
     files.validation_csvs(&validation.records, &validation.plan.slices, &validation.results)?;
     files.plots(&fit, &validation.plan.slices, &validation.results)?;
-    let report = report::build_report(report::ReportInputs {
+    let mut report = report::build_report(report::ReportInputs {
         seed: opts.seed,
         setup: setup(&fit),
         plan,
@@ -280,16 +344,26 @@ pub fn run<S: ReportSetup>(
         compensation: compensation::CompensationSummary::new(&printing_targets, &validation.results),
         results: validation.results,
     });
+    if let Some(d) = &discovered {
+        report.discovery = Some(discovery_stage::DiscoveryReport::of(d)?);
+    }
     files.json("report.json", &report)?;
     stages.finish(Stage::Report, |_| None);
     files.note("summary.md");
+    if discovered.is_some() {
+        files.note("summary.html");
+    }
     let outcome = RunOutcome {
         report,
         identification: fit,
         stage_seconds: stages.done,
         files: files.written().to_vec(),
+        discovery: discovered,
     };
     files.summary("summary.md", &outcome)?;
+    if outcome.discovery.is_some() {
+        report::write_summary_html(out)?;
+    }
     Ok(outcome)
 }
 

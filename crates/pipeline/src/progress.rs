@@ -13,6 +13,8 @@ pub enum Stage {
     Campaign,
     /// parameter identification (`calibrated.toml`)
     Identify,
+    /// discovery campaign, missing-effect discovery and the true-structure fit
+    Discover,
     /// laser-tracker validation of the nominal and the calibrated model
     Validate,
     /// report folder (`report.json`, `summary.md`, CSVs, plots)
@@ -26,6 +28,7 @@ impl Stage {
             Stage::Plan => "plan",
             Stage::Campaign => "measurement campaign",
             Stage::Identify => "identification",
+            Stage::Discover => "discovery",
             Stage::Validate => "validation",
             Stage::Report => "report",
         }

@@ -138,6 +138,9 @@ pub struct RunReport<S> {
     pub compensation: crate::compensation::CompensationSummary,
     /// the paper's figures, for comparison (not ours)
     pub paper: PaperFigures,
+    /// the discovery stage, when it ran
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub discovery: Option<crate::discovery_stage::DiscoveryReport>,
 }
 
 impl<S> RunReport<S> {
@@ -184,6 +187,7 @@ pub(crate) fn build_report<S: ReportSetup>(i: ReportInputs<'_, S>) -> RunReport<
         },
         compensation: i.compensation,
         paper: PAPER,
+        discovery: None,
     }
 }
 
@@ -316,7 +320,7 @@ impl Files {
         self.text(name, &text)
     }
 
-    fn svg(&mut self, name: &str, svg: &str) -> Result<(), PipelineError> {
+    pub(crate) fn svg(&mut self, name: &str, svg: &str) -> Result<(), PipelineError> {
         save_svg(self.out.join(name), svg)?;
         self.note(name);
         Ok(())
@@ -587,6 +591,9 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         PAPER.path_slices, PAPER.path_nominal_mean_mm, PAPER.path_calibrated_mean_mm
     );
     m.push_str(&crate::compensation::summary_markdown(&r.compensation));
+    if let Some(d) = &outcome.discovery {
+        m.push_str(&crate::discovery_stage::summary_section(r, d));
+    }
     let note = outcome.report.setup.comparison_note();
     if !note.is_empty() {
         let _ = writeln!(m, "\n{note}\n");
@@ -603,4 +610,26 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
     }
     let _ = writeln!(m, "* total: {total:.2} s");
     m
+}
+
+/// Writes `summary.html` from `summary.md` and the SVG files of the run folder `out`.
+pub(crate) fn write_summary_html(out: &Path) -> Result<(), PipelineError> {
+    let read = |path: std::path::PathBuf| {
+        std::fs::read_to_string(&path).map_err(|source| PipelineError::Io { path, source })
+    };
+    let markdown = read(out.join("summary.md"))?;
+    let mut names: Vec<String> = std::fs::read_dir(out)
+        .map_err(|source| PipelineError::Io { path: out.to_path_buf(), source })?
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".svg"))
+        .collect();
+    names.sort();
+    let mut svgs = Vec::new();
+    for n in names {
+        let svg = read(out.join(&n))?;
+        svgs.push((n, svg));
+    }
+    crate::discovery_stage::summary_html(&markdown, &svgs).save(out.join("summary.html"))?;
+    Ok(())
 }

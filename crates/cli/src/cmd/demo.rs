@@ -114,6 +114,10 @@ pub struct Args {
     /// `paper-like` (plus the physics they miss, docs/virtual-cell.md) or a cell file of the truth.
     #[arg(long, default_value = "paper-like", value_name = "ideal|paper-like|FILE")]
     pub truth: vatcal_demo::TruthSpec,
+    /// Skip the discovery stage (extra probe campaign, missing-effect discovery, true-structure
+    /// fit) that runs after the calibration.
+    #[arg(long)]
+    pub no_discovery: bool,
     /// Never draw progress bars (they are drawn only when stdout is a terminal).
     #[arg(long)]
     pub quiet: bool,
@@ -133,6 +137,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     opts.sizes.slices = args.slices;
     let mut progress = BarProgress::new(!args.quiet && std::io::stdout().is_terminal());
     opts.truth = args.truth.clone();
+    opts.discovery = !args.no_discovery;
     println!(
         "vatcal demo: simulated calibration of {} (seed {}, truth {}), report in {}",
         opts.nominal_source,
