@@ -15,7 +15,7 @@
 
 use std::fmt;
 
-use nalgebra::{Matrix6, Vector6};
+use nalgebra::Vector6;
 use vatcal_core::{Frame, JointVector};
 use vatcal_kinematics::{Chain, Model};
 use vatcal_planning::ik::{ArmGeometry, rotation_vector, wrap_angle};
@@ -100,22 +100,7 @@ pub fn tool_error(chain: &Chain, target: &Frame) -> Vector6<f64> {
     Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z)
 }
 
-/// The 6×6 Jacobian of the tool frame with respect to q2..q7: `[z_i × (p − o_i); z_i]`.
-#[inline]
-pub fn tool_jacobian(chain: &Chain) -> Matrix6<f64> {
-    let p = chain.tool.p;
-    let mut j = Matrix6::zeros();
-    for k in 0..6 {
-        let f = &chain.frames[k + 2];
-        let z = f.z_axis();
-        let lin = z.cross(&(p - f.p));
-        for r in 0..3 {
-            j[(r, k)] = lin[r];
-            j[(r + 3, k)] = z[r];
-        }
-    }
-    j
-}
+pub use vatcal_planning::ik::tool_jacobian;
 
 #[inline]
 fn norms(e: &Vector6<f64>) -> (f64, f64) {

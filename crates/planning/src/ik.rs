@@ -397,8 +397,10 @@ fn tool_error(model: &Model, q: &JointVector, target: &Frame) -> (Vector6<f64>, 
     (Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z), chain)
 }
 
-/// The 6×6 joint Jacobian (q2..q7) of the tool frame: `[z_i × (p - o_i); z_i]`.
-fn tool_jacobian(chain: &vatcal_kinematics::Chain) -> Matrix6<f64> {
+/// The 6×6 joint Jacobian (q2..q7) of the tool frame: `[z_i × (p - o_i); z_i]` (world axes;
+/// rows: translation, then rotation).
+#[inline]
+pub fn tool_jacobian(chain: &vatcal_kinematics::Chain) -> Matrix6<f64> {
     let p = chain.tool.p;
     let mut j = Matrix6::zeros();
     for k in 0..6 {
