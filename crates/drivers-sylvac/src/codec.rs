@@ -310,44 +310,15 @@ pub fn format_value(v: f64, int_digits: usize, decimals: usize) -> String {
 }
 
 /// Cuts a byte stream into lines on CR or LF: the shared
-/// [`vatcal_hardware_traits::transport::LineDeframer`] configured for this protocol (lines up
-/// to [`MAX_LINE_LEN`] bytes, blank lines skipped). Every method of the shared deframer
-/// (`push`, `next_line`, `clear`, `pending`, …) is available through `Deref`.
-#[derive(Debug, Clone)]
-pub struct LineDeframer(vatcal_hardware_traits::transport::LineDeframer);
+/// [`CrOrLfDeframer`](vatcal_hardware_traits::transport::CrOrLfDeframer) with lines of up to
+/// [`MAX_LINE_LEN`] bytes, blank lines skipped. Every method of the shared
+/// [`LineDeframer`](vatcal_hardware_traits::transport::LineDeframer) (`push`, `next_line`,
+/// `clear`, `pending`, …) is available through `Deref`.
+pub type LineDeframer = vatcal_hardware_traits::transport::CrOrLfDeframer<MAX_LINE_LEN>;
 
 /// A line longer than [`MAX_LINE_LEN`] arrived; it was discarded (the shared
 /// [`FrameError`](vatcal_hardware_traits::transport::FrameError) under its old name).
 pub type LineTooLong = vatcal_hardware_traits::transport::FrameError;
-
-impl LineDeframer {
-    /// An empty deframer.
-    pub fn new() -> Self {
-        Self(vatcal_hardware_traits::transport::LineDeframer::new(
-            vatcal_hardware_traits::transport::Framing::cr_or_lf(MAX_LINE_LEN),
-        ))
-    }
-}
-
-impl Default for LineDeframer {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl std::ops::Deref for LineDeframer {
-    type Target = vatcal_hardware_traits::transport::LineDeframer;
-
-    fn deref(&self) -> &Self::Target {
-        &self.0
-    }
-}
-
-impl std::ops::DerefMut for LineDeframer {
-    fn deref_mut(&mut self) -> &mut Self::Target {
-        &mut self.0
-    }
-}
 
 #[cfg(test)]
 mod tests {

@@ -407,6 +407,38 @@ impl Deadline {
     }
 }
 
+/// A [`LineDeframer`] for line protocols ended by CR, LF or CRLF with lines of at most
+/// `MAX_LEN` bytes ([`Framing::cr_or_lf`]): the Zaber ASCII and Sylvac protocols each name
+/// theirs as a type alias. Every method of [`LineDeframer`] is available through `Deref`.
+#[derive(Debug, Clone)]
+pub struct CrOrLfDeframer<const MAX_LEN: usize>(LineDeframer);
+
+impl<const MAX_LEN: usize> CrOrLfDeframer<MAX_LEN> {
+    /// An empty deframer.
+    pub fn new() -> Self {
+        Self(LineDeframer::new(Framing::cr_or_lf(MAX_LEN)))
+    }
+}
+
+impl<const MAX_LEN: usize> Default for CrOrLfDeframer<MAX_LEN> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const MAX_LEN: usize> std::ops::Deref for CrOrLfDeframer<MAX_LEN> {
+    type Target = LineDeframer;
+
+    fn deref(&self) -> &LineDeframer {
+        &self.0
+    }
+}
+
+impl<const MAX_LEN: usize> std::ops::DerefMut for CrOrLfDeframer<MAX_LEN> {
+    fn deref_mut(&mut self) -> &mut LineDeframer {
+        &mut self.0
+    }
+}
 #[cfg(test)]
 mod tests {
     use super::*;
