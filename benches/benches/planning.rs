@@ -1,7 +1,8 @@
 //! Planning benchmarks (issue 6 targets on this 2-core machine): the whole `vatcal plan` with
 //! default options (4,500 TCP poses × 10 guide steps, Detmax 40 of N, tour, paths) ≤ 10 s, and
 //! the closed-form IK of one tool pose (all 8 branches) ≤ 5 µs. Also the closed form + refinement
-//! on the nominal model and on a calibrated model, and one collision check.
+//! on the nominal model and on a calibrated model, one collision check, and the multi-start
+//! numerical IK (issue 12; no target) of the same tool pose.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -11,7 +12,8 @@ use vatcal_core::{CellFile, JointVector, ParamId};
 use vatcal_kinematics::Model;
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::geometry::CellGeometry;
-use vatcal_planning::ik::{ArmGeometry, RefineOptions, ToolPoseIk, robot_base_frame};
+use vatcal_planning::ik::{ArmAtGuide, ArmGeometry, RefineOptions, ToolPoseIk, robot_base_frame};
+use vatcal_planning::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, solve_local};
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 
 fn cell() -> CellFile {
@@ -45,6 +47,32 @@ fn bench_ik(c: &mut Criterion) {
     });
     group.bench_function("closed_form_plus_refinement_calibrated", |b| {
         b.iter(|| black_box(ik_calibrated.solve_at_guide(black_box(120.0), black_box(&target_calibrated))))
+    });
+    let arm_at_guide = ArmAtGuide { model: &model, q1_mm: 120.0 };
+    let joints: Vec<JointSpec> =
+        model.joint_limits()[1..].iter().map(|(lo, hi)| JointSpec::revolute(*lo, *hi)).collect();
+    let numeric = NumericIk::new(&arm_at_guide, &joints, MultiStartOptions::default()).expect("numeric ik");
+    let refine = MultiStartOptions::default().refine;
+    // the first start that converges (a converging local solve, not an abandoned one)
+    let start = numeric
+        .starts()
+        .iter()
+        .find(|s| solve_local(&arm_at_guide, &joints, s, &IkTarget::Pose(target), &refine).is_ok())
+        .expect("a converging start")
+        .clone();
+    group.bench_function("numeric_multistart_all_branches", |b| {
+        b.iter(|| black_box(numeric.solve(black_box(&IkTarget::Pose(target)))))
+    });
+    group.bench_function("numeric_one_converging_local_solve", |b| {
+        b.iter(|| {
+            black_box(solve_local(
+                &arm_at_guide,
+                &joints,
+                black_box(&start),
+                &IkTarget::Pose(target),
+                &refine,
+            ))
+        })
     });
     group.bench_function("collision_check", |b| {
         b.iter(|| black_box(checker.check(black_box(&q), ProbeState::Everywhere)))

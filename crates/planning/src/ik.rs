@@ -42,14 +42,16 @@
 //! `ParamId::ThetaOffset(i)` columns of `Model::jacobian`) and `z_i` (orientation), with the joint
 //! axes from [`vatcal_kinematics::Chain::frames`]. Gravity torques are held fixed in the
 //! Jacobian, so with compliance the iteration is quasi-Newton (still converging to machine
-//! precision because `c_i d(tau_i)/dq` is tiny).
+//! precision because `c_i d(tau_i)/dq` is tiny). The iteration is the chain-agnostic one of
+//! [`crate::numeric_ik::solve_local`], run on [`ArmAtGuide`] (the arm with q1 fixed).
 
-use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Matrix6xX, Vector3};
 use vatcal_core::frame::{rot_x, rot_y, rot_z};
 use vatcal_core::{Frame, JointVector};
 use vatcal_kinematics::Model;
 
 use crate::error::PlanError;
+use crate::numeric_ik::{IkTarget, JointSpec, ToolKinematics, solve_local};
 
 /// Elbow angle from the stretched / folded arm at which seeds are placed for a wrist centre
 /// just beyond the nominal reach (rad).
@@ -389,14 +391,6 @@ pub struct Refined {
     pub rotation_error_rad: f64,
 }
 
-/// 6-DOF error `[p* - p; log(R* R^T)]` of the tool frame at `q`, and the chain.
-fn tool_error(model: &Model, q: &JointVector, target: &Frame) -> (Vector6<f64>, vatcal_kinematics::Chain) {
-    let chain = model.chain(q);
-    let dp = target.p - chain.tool.p;
-    let dr = rotation_vector(&(target.r * chain.tool.r.transpose()));
-    (Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z), chain)
-}
-
 /// The 6×6 joint Jacobian (q2..q7) of the tool frame: `[z_i × (p - o_i); z_i]` (world axes;
 /// rows: translation, then rotation).
 #[inline]
@@ -415,81 +409,59 @@ pub fn tool_jacobian(chain: &vatcal_kinematics::Chain) -> Matrix6<f64> {
     j
 }
 
+/// The arm of a [`Model`] with the guide held at `q1_mm`, as a [`ToolKinematics`] of six
+/// joints `[q2..q7]` (rad): tool-changer frame in the world and [`tool_jacobian`].
+#[derive(Debug, Clone, Copy)]
+pub struct ArmAtGuide<'a> {
+    /// the model
+    pub model: &'a Model,
+    /// guide position (mm)
+    pub q1_mm: f64,
+}
+
+impl ArmAtGuide<'_> {
+    /// The cell's joint vector for arm joints `q` (rad).
+    pub fn joints(&self, q: &[f64]) -> JointVector {
+        let mut v = JointVector::default();
+        v.0[0] = self.q1_mm;
+        v.0[1..].copy_from_slice(&q[..6]);
+        v
+    }
+}
+
+impl ToolKinematics for ArmAtGuide<'_> {
+    type Eval = vatcal_kinematics::Chain;
+
+    fn dof(&self) -> usize {
+        6
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, vatcal_kinematics::Chain) {
+        let chain = self.model.chain(&self.joints(q));
+        (chain.tool, chain)
+    }
+
+    fn jacobian(&self, chain: &vatcal_kinematics::Chain, jacobian: &mut Matrix6xX<f64>) {
+        jacobian.copy_from(&tool_jacobian(chain));
+    }
+}
+
 /// Refines `seed` (q1 held fixed) so that the model's tool-changer frame reaches `target`
-/// (world). Levenberg–Marquardt on the weighted 6-DOF error; see the module docs.
+/// (world). Levenberg–Marquardt on the weighted 6-DOF error (no joint limits):
+/// [`crate::numeric_ik::solve_local`] on [`ArmAtGuide`]; see the module docs.
 pub fn refine_tool_pose(
     model: &Model,
     seed: &JointVector,
     target: &Frame,
     opts: &RefineOptions,
 ) -> Result<Refined, PlanError> {
-    let scale = opts.orientation_scale_mm;
-    let weights = Vector6::new(1.0, 1.0, 1.0, scale, scale, scale);
-    let cost = |e: &Vector6<f64>| e.component_mul(&weights).norm_squared();
-    let mut q = *seed;
-    let (mut err, mut chain) = tool_error(model, &q, target);
-    let mut lambda = 1e-6;
-    let done = |e: &Vector6<f64>| {
-        e.fixed_rows::<3>(0).norm() <= opts.tol_position_mm
-            && e.fixed_rows::<3>(3).norm() <= opts.tol_rotation_rad
-    };
-    for iteration in 0..=opts.max_iterations {
-        if done(&err) {
-            return Ok(Refined {
-                q,
-                iterations: iteration,
-                position_error_mm: err.fixed_rows::<3>(0).norm(),
-                rotation_error_rad: err.fixed_rows::<3>(3).norm(),
-            });
-        }
-        if iteration == opts.max_iterations {
-            break;
-        }
-        let jw = {
-            let mut j = tool_jacobian(&chain);
-            for r in 0..6 {
-                for c in 0..6 {
-                    j[(r, c)] *= weights[r];
-                }
-            }
-            j
-        };
-        let ew = err.component_mul(&weights);
-        let jtj = jw.transpose() * jw;
-        let jte = jw.transpose() * ew;
-        let c0 = cost(&err);
-        let mut improved = false;
-        for _ in 0..12 {
-            let mut a = jtj;
-            for d in 0..6 {
-                a[(d, d)] += lambda * (1.0 + jtj[(d, d)]);
-            }
-            let Some(step) = a.cholesky().map(|ch| ch.solve(&jte)) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut trial = q;
-            for k in 0..6 {
-                trial.0[k + 1] += step[k];
-            }
-            let (e, ch) = tool_error(model, &trial, target);
-            if cost(&e) < c0 || done(&e) {
-                q = trial;
-                err = e;
-                chain = ch;
-                lambda = (lambda * 0.1).max(1e-15);
-                improved = true;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    Err(PlanError::IkNotConverged {
-        position_error_mm: err.fixed_rows::<3>(0).norm(),
-        rotation_error_rad: err.fixed_rows::<3>(3).norm(),
+    let arm = ArmAtGuide { model, q1_mm: seed.0[0] };
+    let r = solve_local(&arm, &[JointSpec::continuous(); 6], &seed.0[1..], &IkTarget::Pose(*target), opts)?;
+    Ok(Refined {
+        q: arm.joints(&r.q),
+        iterations: r.iterations,
+        position_error_mm: r.position_error_mm,
+        rotation_error_rad: r.rotation_error_rad,
     })
 }
 

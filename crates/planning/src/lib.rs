@@ -29,6 +29,7 @@ pub mod error;
 pub mod geometry;
 pub mod ik;
 pub mod motion;
+pub mod numeric_ik;
 pub mod output;
 pub mod paths;
 pub mod plan;

@@ -1,0 +1,208 @@
+//! Numerical multi-start IK: IK∘FK round trips on a UR5e-class arm (no spherical wrist; its
+//! standard DH table coded here, independent of the cell file) and on the Meca500 arm of the
+//! canonical cell (cross-checked against the closed form), position-only targets and
+//! unreachable targets.
+
+mod common;
+
+use nalgebra::{Matrix6xX, Vector3};
+use rand::rngs::ChaCha8Rng;
+use rand::{RngExt, SeedableRng};
+use vatcal_core::Frame;
+use vatcal_core::frame::{rot_x, rot_z};
+use vatcal_planning::ik::{ArmAtGuide, RefineOptions, ToolPoseIk, rotation_angle_between};
+use vatcal_planning::numeric_ik::{
+    IkTarget, JointSpec, MultiStartOptions, NumericIk, ToolKinematics, same_solution,
+};
+
+/// UR5e from Universal Robots' published standard DH table (mm, rad):
+/// `T_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)`.
+struct Ur5e;
+
+const UR5E_D: [f64; 6] = [162.5, 0.0, 0.0, 133.3, 99.7, 99.6];
+const UR5E_A: [f64; 6] = [0.0, -425.0, -392.2, 0.0, 0.0, 0.0];
+const UR5E_ALPHA: [f64; 6] =
+    [std::f64::consts::FRAC_PI_2, 0.0, 0.0, std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2, 0.0];
+
+impl ToolKinematics for Ur5e {
+    /// frames 0..=6
+    type Eval = [Frame; 7];
+
+    fn dof(&self) -> usize {
+        6
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, [Frame; 7]) {
+        let mut frames = [Frame::identity(); 7];
+        for i in 0..6 {
+            let r = rot_z(q[i]);
+            let link = Frame {
+                r: r * rot_x(UR5E_ALPHA[i]),
+                p: Vector3::new(0.0, 0.0, UR5E_D[i]) + r * Vector3::new(UR5E_A[i], 0.0, 0.0),
+            };
+            frames[i + 1] = frames[i].compose(&link);
+        }
+        (frames[6], frames)
+    }
+
+    fn jacobian(&self, frames: &[Frame; 7], j: &mut Matrix6xX<f64>) {
+        let p = frames[6].p;
+        for i in 0..6 {
+            // joint i turns about z of frame i (standard DH)
+            let z = frames[i].z_axis();
+            let lin = z.cross(&(p - frames[i].p));
+            for r in 0..3 {
+                j[(r, i)] = lin[r];
+                j[(r + 3, i)] = z[r];
+            }
+        }
+    }
+}
+
+fn ur5e_joints() -> [JointSpec; 6] {
+    let lim = 360f64.to_radians();
+    [JointSpec::revolute(-lim, lim); 6]
+}
+
+fn pose_error<K: ToolKinematics>(kin: &K, q: &[f64], target: &Frame) -> (f64, f64) {
+    let (tool, _) = kin.evaluate(q);
+    ((tool.p - target.p).norm(), rotation_angle_between(&tool.r, &target.r))
+}
+
+#[test]
+fn ur5e_jacobian_matches_finite_differences() {
+    let q = [0.3, -1.1, 1.4, -0.7, 0.9, 2.1];
+    let (tool, frames) = Ur5e.evaluate(&q);
+    let mut j = Matrix6xX::zeros(6);
+    Ur5e.jacobian(&frames, &mut j);
+    let h = 1e-6;
+    for k in 0..6 {
+        let mut qp = q;
+        qp[k] += h;
+        let (tp, _) = Ur5e.evaluate(&qp);
+        let v = (tp.p - tool.p) / h;
+        let w = vatcal_planning::ik::rotation_vector(&(tp.r * tool.r.transpose())) / h;
+        for r in 0..3 {
+            assert!((j[(r, k)] - v[r]).abs() < 1e-3, "column {k} row {r}");
+            assert!((j[(r + 3, k)] - w[r]).abs() < 1e-6, "column {k} row {}", r + 3);
+        }
+    }
+}
+
+#[test]
+fn ur5e_round_trips_and_finds_several_branches() {
+    let joints = ur5e_joints();
+    let ik = NumericIk::new(&Ur5e, &joints, MultiStartOptions::default()).expect("ik");
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let targets = 40;
+    let (mut original_found, mut total) = (0, 0);
+    for _ in 0..targets {
+        let q: Vec<f64> = (0..6).map(|_| rng.random_range(-3.1..3.1)).collect();
+        let target = Ur5e.evaluate(&q).0;
+        let out = ik.solve(&IkTarget::Pose(target));
+        assert!(out.solutions.len() >= 2, "{} solutions for q = {q:?}", out.solutions.len());
+        assert!(
+            out.solutions.len() <= 8,
+            "a 6R arm has at most 8 solutions here, got {}",
+            out.solutions.len()
+        );
+        for s in out.joints() {
+            let (dp, dr) = pose_error(&Ur5e, s, &target);
+            assert!(dp < 1e-9 && dr < 1e-12, "{dp} mm, {dr} rad");
+            assert!(s.iter().all(|v| v.abs() <= std::f64::consts::PI), "not normalised: {s:?}");
+        }
+        for (a, sa) in out.joints().enumerate() {
+            for sb in out.joints().skip(a + 1) {
+                assert!(!same_solution(&joints, sa, sb, 1e-6), "duplicate solutions {sa:?}");
+            }
+        }
+        if out.joints().any(|s| same_solution(&joints, s, &q, 1e-6)) {
+            original_found += 1;
+        }
+        total += out.solutions.len();
+    }
+    eprintln!("UR5e: {total} solutions for {targets} targets, original found for {original_found}");
+    assert!(
+        original_found >= targets * 9 / 10,
+        "original branch found for only {original_found} of {targets}"
+    );
+}
+
+#[test]
+fn ur5e_unreachable_target_is_reported_not_solved() {
+    let ik = NumericIk::new(&Ur5e, &ur5e_joints(), MultiStartOptions::default()).expect("ik");
+    let far = Frame { r: nalgebra::Matrix3::identity(), p: Vector3::new(1500.0, 200.0, 300.0) };
+    let out = ik.solve(&IkTarget::Pose(far));
+    assert!(out.is_empty());
+    assert!(out.best_position_error_mm > 100.0, "{}", out.best_position_error_mm);
+    assert_eq!(out.starts, ik.starts().len());
+}
+
+#[test]
+fn ur5e_point_target_reaches_the_point() {
+    let ik = NumericIk::new(&Ur5e, &ur5e_joints(), MultiStartOptions::default()).expect("ik");
+    let tcp = Vector3::new(10.0, -20.0, 80.0);
+    let point = Vector3::new(300.0, -250.0, 400.0);
+    let out = ik.solve(&IkTarget::Point { tcp_in_tool: tcp, point });
+    assert!(out.solutions.len() >= 2);
+    for s in out.joints() {
+        let (tool, _) = Ur5e.evaluate(s);
+        let miss = (tool.transform_point(&tcp) - point).norm();
+        assert!(miss < 1e-9, "{miss} mm");
+    }
+}
+
+#[test]
+fn meca500_numeric_finds_the_closed_form_branches() {
+    // the canonical cell's arm, guide at 150 mm; nominal and calibrated models
+    for (calibrated, model) in [(false, common::nominal()), (true, common::perturbed(5))] {
+        let limits = model.joint_limits();
+        let joints: Vec<JointSpec> =
+            limits[1..].iter().map(|(lo, hi)| JointSpec::revolute(*lo, *hi)).collect();
+        let arm = ArmAtGuide { model: &model, q1_mm: 150.0 };
+        let ik = NumericIk::new(&arm, &joints, MultiStartOptions::default()).expect("ik");
+        let closed = ToolPoseIk::new(&model, RefineOptions::default()).expect("closed form");
+        let mut rng = ChaCha8Rng::seed_from_u64(2);
+        let (mut expected, mut matched) = (0, 0);
+        for _ in 0..25 {
+            let q: Vec<f64> = joints
+                .iter()
+                .map(|j| {
+                    let (lo, hi) = j.limits.expect("limits");
+                    rng.random_range(lo + 0.2..hi - 0.2)
+                })
+                .collect();
+            let target = arm.evaluate(&q).0;
+            let numeric = ik.solve(&IkTarget::Pose(target));
+            for s in numeric.joints() {
+                let (dp, dr) = pose_error(&arm, s, &target);
+                assert!(dp < 1e-9 && dr < 1e-12, "{dp} mm, {dr} rad");
+            }
+            let closed_all = closed.solve_at_guide(150.0, &target);
+            if !calibrated {
+                // the closed form of the nominal spherical wrist is complete: nothing else exists
+                for s in numeric.joints() {
+                    assert!(
+                        closed_all.iter().any(|c| same_solution(&joints, s, &c.0[1..], 1e-6)),
+                        "numeric solution {s:?} is not a closed-form one"
+                    );
+                }
+            }
+            // the closed-form solutions inside the limits
+            for c in closed_all {
+                let c = &c.0[1..];
+                if c.iter().zip(&joints).all(|(v, j)| j.limits.is_some_and(|(lo, hi)| *v >= lo && *v <= hi)) {
+                    expected += 1;
+                    if numeric.joints().any(|s| same_solution(&joints, s, c, 1e-6)) {
+                        matched += 1;
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "Meca500: numeric IK found {matched} of {expected} closed-form solutions within the limits"
+        );
+        assert!(expected > 50);
+        assert!(matched * 10 >= expected * 9, "numeric IK found only {matched} of {expected}");
+    }
+}
