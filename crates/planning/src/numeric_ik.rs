@@ -34,7 +34,7 @@
 //! (rad) modulo a whole turn. A target that no start reaches is reported as unreachable
 //! ([`IkOutcome::is_empty`]) with the smallest residual seen.
 
-use nalgebra::{DMatrix, DVector, Matrix6xX, Vector3};
+use nalgebra::{Matrix6xX, SMatrix, SVector, Vector3, Vector6};
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use vatcal_core::Frame;
@@ -42,6 +42,8 @@ use vatcal_core::Frame;
 use crate::error::PlanError;
 use crate::ik::{RefineOptions, rotation_vector, wrap_angle};
 
+/// Largest joint count of the numerical IK (the workspace's `MAX_JOINTS`).
+pub const MAX_IK_JOINTS: usize = 12;
 /// Position error (mm) below which a start is never abandoned as stalled (it is converging).
 const STALL_FLOOR_MM: f64 = 1e-3;
 
@@ -141,16 +143,6 @@ pub enum IkTarget {
     },
 }
 
-impl IkTarget {
-    /// Number of error components (6 for a pose, 3 for a point).
-    fn rows(&self) -> usize {
-        match self {
-            IkTarget::Pose(_) => 6,
-            IkTarget::Point { .. } => 3,
-        }
-    }
-}
-
 /// A converged local solve.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LocalSolution {
@@ -164,55 +156,47 @@ pub struct LocalSolution {
     pub rotation_error_rad: f64,
 }
 
-/// Error vector of the target at a tool frame (unweighted): `[p* - p; log(R* R^T)]` or
-/// `p* - p_tcp`.
-fn target_error(target: &IkTarget, tool: &Frame, out: &mut DVector<f64>) {
+/// Error vector of the target at a tool frame (unweighted): `[p* - p; log(R* R^T)]`, or
+/// `[p* - p_tcp; 0]` for a point target (zero rows add nothing to the normal equations).
+fn target_error(target: &IkTarget, tool: &Frame) -> Vector6<f64> {
     match target {
         IkTarget::Pose(t) => {
             let dp = t.p - tool.p;
             let dr = rotation_vector(&(t.r * tool.r.transpose()));
-            for k in 0..3 {
-                out[k] = dp[k];
-                out[k + 3] = dr[k];
-            }
+            Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z)
         }
         IkTarget::Point { tcp_in_tool, point } => {
             let dp = point - tool.transform_point(tcp_in_tool);
-            for k in 0..3 {
-                out[k] = dp[k];
-            }
+            Vector6::new(dp.x, dp.y, dp.z, 0.0, 0.0, 0.0)
         }
     }
 }
 
 /// (position error, rotation error) of an error vector.
-fn error_norms(e: &DVector<f64>) -> (f64, f64) {
-    let pos = e.rows(0, 3).norm();
-    let rot = if e.len() == 6 { e.rows(3, 3).norm() } else { 0.0 };
-    (pos, rot)
+fn error_norms(e: &Vector6<f64>) -> (f64, f64) {
+    (e.fixed_rows::<3>(0).norm(), e.fixed_rows::<3>(3).norm())
 }
 
 /// Weighted Jacobian of the error components (rows as in [`target_error`], times the weights).
-fn weighted_jacobian(
+fn weighted_jacobian<const N: usize>(
     target: &IkTarget,
     tool: &Frame,
     j6: &Matrix6xX<f64>,
-    weights: &DVector<f64>,
-) -> DMatrix<f64> {
-    let n = j6.ncols();
-    let mut j = DMatrix::zeros(target.rows(), n);
+    weights: &Vector6<f64>,
+) -> SMatrix<f64, 6, N> {
+    let mut j = SMatrix::<f64, 6, N>::zeros();
     match target {
         IkTarget::Pose(_) => {
-            for c in 0..n {
+            for c in 0..N {
                 for r in 0..6 {
                     j[(r, c)] = j6[(r, c)] * weights[r];
                 }
             }
         }
         IkTarget::Point { tcp_in_tool, .. } => {
-            // v_tcp = v + w × (R t)
+            // v_tcp = v + w × (R t); rows 3..6 stay zero
             let arm = tool.r * tcp_in_tool;
-            for c in 0..n {
+            for c in 0..N {
                 let v = Vector3::new(j6[(0, c)], j6[(1, c)], j6[(2, c)]);
                 let w = Vector3::new(j6[(3, c)], j6[(4, c)], j6[(5, c)]);
                 let lin = v + w.cross(&arm);
@@ -225,23 +209,25 @@ fn weighted_jacobian(
     j
 }
 
-/// `(J^T J, J^T e)`, each entry summed over the rows in order (the same arithmetic as
-/// nalgebra's fixed-size product, so that the 6-joint refinement gives the same bits as
-/// before it was made generic; nalgebra's dynamic product sums in another order).
-fn normal_equations(j: &DMatrix<f64>, e: &DVector<f64>) -> (DMatrix<f64>, DVector<f64>) {
-    let (m, n) = j.shape();
-    let mut jtj = DMatrix::zeros(n, n);
-    let mut jte = DVector::zeros(n);
-    for c in 0..n {
-        for r in 0..n {
+/// `(J^T J, J^T e)`, each entry summed over the rows in order (the arithmetic of nalgebra's
+/// fixed-size product, so that the 6-joint refinement gives the same bits as before it was
+/// made generic).
+fn normal_equations<const N: usize>(
+    j: &SMatrix<f64, 6, N>,
+    e: &Vector6<f64>,
+) -> (SMatrix<f64, N, N>, SVector<f64, N>) {
+    let mut jtj = SMatrix::<f64, N, N>::zeros();
+    let mut jte = SVector::<f64, N>::zeros();
+    for c in 0..N {
+        for r in 0..N {
             let mut acc = j[(0, r)] * j[(0, c)];
-            for k in 1..m {
+            for k in 1..6 {
                 acc += j[(k, r)] * j[(k, c)];
             }
             jtj[(r, c)] = acc;
         }
         let mut acc = j[(0, c)] * e[0];
-        for k in 1..m {
+        for k in 1..6 {
             acc += j[(k, c)] * e[k];
         }
         jte[c] = acc;
@@ -259,11 +245,11 @@ struct Stall {
 /// Checks that the joint specs and a joint vector fit the chain.
 fn check_dims<K: ToolKinematics>(kin: &K, joints: &[JointSpec], q: &[f64]) -> Result<(), PlanError> {
     let n = kin.dof();
-    if n == 0 || joints.len() != n || q.len() != n {
+    if n == 0 || n > MAX_IK_JOINTS || joints.len() != n || q.len() != n {
         return Err(PlanError::Option {
             option: "joints".into(),
             reason: format!(
-                "the chain has {n} joints, got {} joint specs and a start of {} values",
+                "the chain has {n} joints (1..={MAX_IK_JOINTS} supported), got {} joint specs and a start of {} values",
                 joints.len(),
                 q.len()
             ),
@@ -298,70 +284,85 @@ fn levenberg_marquardt<K: ToolKinematics>(
     opts: &RefineOptions,
     stall: Option<Stall>,
 ) -> Result<LocalSolution, PlanError> {
-    let n = joints.len();
-    let m = target.rows();
+    macro_rules! dispatch {
+        ($($n:literal)*) => {
+            match joints.len() {
+                $($n => lm::<K, $n>(kin, joints, seed, target, opts, stall),)*
+                n => Err(PlanError::Option {
+                    option: "joints".into(),
+                    reason: format!("the numerical IK handles 1..={MAX_IK_JOINTS} joints, got {n}"),
+                }),
+            }
+        };
+    }
+    dispatch!(1 2 3 4 5 6 7 8 9 10 11 12)
+}
+
+/// The iteration for `N` joints (fixed-size matrices: no allocation in the loop).
+fn lm<K: ToolKinematics, const N: usize>(
+    kin: &K,
+    joints: &[JointSpec],
+    seed: &[f64],
+    target: &IkTarget,
+    opts: &RefineOptions,
+    stall: Option<Stall>,
+) -> Result<LocalSolution, PlanError> {
     let scale = opts.orientation_scale_mm;
-    let weights = DVector::from_fn(m, |r, _| if r < 3 { 1.0 } else { scale });
-    let cost = |e: &DVector<f64>| e.component_mul(&weights).norm_squared();
-    let done = |e: &DVector<f64>| {
+    let weights = Vector6::new(1.0, 1.0, 1.0, scale, scale, scale);
+    let cost = |e: &Vector6<f64>| e.component_mul(&weights).norm_squared();
+    let done = |e: &Vector6<f64>| {
         let (p, r) = error_norms(e);
         p <= opts.tol_position_mm && r <= opts.tol_rotation_rad
     };
-    let mut q: Vec<f64> = seed.iter().zip(joints).map(|(v, j)| j.clamp(*v)).collect();
+    let mut q: [f64; N] = std::array::from_fn(|k| joints[k].clamp(seed[k]));
     let (mut tool, mut eval) = kin.evaluate(&q);
-    let mut err = DVector::zeros(m);
-    target_error(target, &tool, &mut err);
-    let mut trial_err = DVector::zeros(m);
-    let mut j6 = Matrix6xX::zeros(n);
-    let mut trial = q.clone();
-    let mut frozen = vec![false; n];
+    let mut err = target_error(target, &tool);
+    // allocated on the first iteration (an exact seed returns without one)
+    let mut j6: Option<Matrix6xX<f64>> = None;
     let mut lambda = 1e-6;
     let mut history: Vec<f64> = Vec::new();
     for iteration in 0..=opts.max_iterations {
         if done(&err) {
             let (position_error_mm, rotation_error_rad) = error_norms(&err);
-            return Ok(LocalSolution { q, iterations: iteration, position_error_mm, rotation_error_rad });
+            return Ok(LocalSolution {
+                q: q.to_vec(),
+                iterations: iteration,
+                position_error_mm,
+                rotation_error_rad,
+            });
         }
         if iteration == opts.max_iterations {
             break;
         }
-        kin.jacobian(&eval, &mut j6);
-        let jw = weighted_jacobian(target, &tool, &j6, &weights);
+        let j6 = j6.get_or_insert_with(|| Matrix6xX::zeros(N));
+        kin.jacobian(&eval, j6);
+        let jw = weighted_jacobian::<N>(target, &tool, j6, &weights);
         let ew = err.component_mul(&weights);
         let (jtj, jte) = normal_equations(&jw, &ew);
         let c0 = cost(&err);
-        let at_bound =
-            q.iter().zip(joints).any(|(v, j)| j.limits.is_some_and(|(lo, hi)| *v <= lo || *v >= hi));
         let mut improved = false;
         for _ in 0..12 {
-            let mut a = jtj.clone();
-            for d in 0..n {
+            let mut a = jtj;
+            for d in 0..N {
                 a[(d, d)] += lambda * (1.0 + jtj[(d, d)]);
             }
-            let solved = if at_bound { a.clone().cholesky() } else { std::mem::take(&mut a).cholesky() };
-            let Some(mut step) = solved.map(|ch| ch.solve(&jte)) else {
+            let Some(mut step) = a.cholesky().map(|ch| ch.solve(&jte)) else {
                 lambda *= 10.0;
                 continue;
             };
             // joints on a bound whose step points outward are frozen for this step
-            let mut any_frozen = false;
-            for k in 0..n {
-                frozen[k] = match joints[k].limits {
-                    Some((lo, hi)) => (q[k] <= lo && step[k] < 0.0) || (q[k] >= hi && step[k] > 0.0),
-                    None => false,
-                };
-                any_frozen |= frozen[k];
-            }
-            if any_frozen {
-                for k in (0..n).filter(|k| frozen[*k]) {
-                    for c in 0..n {
+            let frozen: [bool; N] = std::array::from_fn(|k| match joints[k].limits {
+                Some((lo, hi)) => (q[k] <= lo && step[k] < 0.0) || (q[k] >= hi && step[k] > 0.0),
+                None => false,
+            });
+            if frozen.iter().any(|f| *f) {
+                let mut rhs = jte;
+                for k in (0..N).filter(|k| frozen[*k]) {
+                    for c in 0..N {
                         a[(k, c)] = 0.0;
                         a[(c, k)] = 0.0;
                     }
                     a[(k, k)] = 1.0;
-                }
-                let mut rhs = jte.clone();
-                for k in (0..n).filter(|k| frozen[*k]) {
                     rhs[k] = 0.0;
                 }
                 let Some(s) = a.cholesky().map(|ch| ch.solve(&rhs)) else {
@@ -370,15 +371,13 @@ fn levenberg_marquardt<K: ToolKinematics>(
                 };
                 step = s;
             }
-            for k in 0..n {
-                trial[k] = joints[k].clamp(q[k] + step[k]);
-            }
+            let trial: [f64; N] = std::array::from_fn(|k| joints[k].clamp(q[k] + step[k]));
             let (t_tool, t_eval) = kin.evaluate(&trial);
-            target_error(target, &t_tool, &mut trial_err);
+            let trial_err = target_error(target, &t_tool);
             let c1 = cost(&trial_err);
             if c1 < c0 || done(&trial_err) {
-                std::mem::swap(&mut q, &mut trial);
-                std::mem::swap(&mut err, &mut trial_err);
+                q = trial;
+                err = trial_err;
                 tool = t_tool;
                 eval = t_eval;
                 lambda = (lambda * 0.1).max(1e-15);
@@ -396,7 +395,7 @@ fn levenberg_marquardt<K: ToolKinematics>(
             let k = history.len();
             if k > s.window
                 && c > s.factor * history[k - 1 - s.window]
-                && err.rows(0, 3).norm() > STALL_FLOOR_MM
+                && err.fixed_rows::<3>(0).norm() > STALL_FLOOR_MM
             {
                 break;
             }
