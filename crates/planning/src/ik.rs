@@ -446,6 +446,60 @@ impl ToolKinematics for ArmAtGuide<'_> {
     }
 }
 
+/// Any joints of a [`Model`]'s chain as a [`ToolKinematics`]: the joints `free` (1-based cell
+/// joints, in this order) are solved for, the others are held at their values in `fixed`.
+/// Jacobian column of joint `i`: `[z_i × (p - o_i); z_i]` (revolute) or `[z_i; 0]` (prismatic),
+/// with the axes of MDH frame `i` from [`vatcal_kinematics::Chain::frames`] (effects and
+/// compliance held fixed, as in [`tool_jacobian`]).
+#[derive(Debug, Clone)]
+pub struct ChainTool<'a> {
+    /// the model
+    pub model: &'a Model,
+    /// values of the joints that are not solved for (internal units)
+    pub fixed: JointVector,
+    /// the joints solved for (1-based)
+    pub free: Vec<usize>,
+    /// per free joint: true when revolute
+    pub revolute: Vec<bool>,
+}
+
+impl ChainTool<'_> {
+    /// The cell's joint vector for the free joints' values `q`.
+    pub fn joints(&self, q: &[f64]) -> JointVector {
+        let mut v = self.fixed;
+        for (i, x) in self.free.iter().zip(q) {
+            v.set(*i, *x);
+        }
+        v
+    }
+}
+
+impl ToolKinematics for ChainTool<'_> {
+    type Eval = vatcal_kinematics::Chain;
+
+    fn dof(&self) -> usize {
+        self.free.len()
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, vatcal_kinematics::Chain) {
+        let chain = self.model.chain(&self.joints(q));
+        (chain.tool, chain)
+    }
+
+    fn jacobian(&self, chain: &vatcal_kinematics::Chain, jacobian: &mut Matrix6xX<f64>) {
+        let p = chain.tool.p;
+        for (c, (i, revolute)) in self.free.iter().zip(&self.revolute).enumerate() {
+            let f = &chain.frames[*i];
+            let z = f.z_axis();
+            let (lin, ang) = if *revolute { (z.cross(&(p - f.p)), z) } else { (z, Vector3::zeros()) };
+            for r in 0..3 {
+                jacobian[(r, c)] = lin[r];
+                jacobian[(r + 3, c)] = ang[r];
+            }
+        }
+    }
+}
+
 /// Refines `seed` (q1 held fixed) so that the model's tool-changer frame reaches `target`
 /// (world). Levenberg–Marquardt on the weighted 6-DOF error (no joint limits):
 /// [`crate::numeric_ik::solve_local`] on [`ArmAtGuide`]; see the module docs.

@@ -10,7 +10,7 @@ use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use vatcal_core::Frame;
 use vatcal_core::frame::{rot_x, rot_z};
-use vatcal_planning::ik::{ArmAtGuide, RefineOptions, ToolPoseIk, rotation_angle_between};
+use vatcal_planning::ik::{ArmAtGuide, ChainTool, RefineOptions, ToolPoseIk, rotation_angle_between};
 use vatcal_planning::numeric_ik::{
     IkTarget, JointSpec, MultiStartOptions, NumericIk, ToolKinematics, same_solution,
 };
@@ -204,5 +204,86 @@ fn meca500_numeric_finds_the_closed_form_branches() {
         );
         assert!(expected > 50);
         assert!(matched * 10 >= expected * 9, "numeric IK found only {matched} of {expected}");
+    }
+}
+
+/// The canonical cell with all seven joints free (prismatic guide + 6R: redundant).
+fn canonical_chain_tool(model: &vatcal_kinematics::Model) -> ChainTool<'_> {
+    ChainTool {
+        model,
+        fixed: vatcal_core::JointVector::default(),
+        free: (1..=7).collect(),
+        revolute: (1..=7).map(|i| i > 1).collect(),
+    }
+}
+
+#[test]
+fn chain_tool_jacobian_matches_finite_differences() {
+    let model = common::perturbed(9);
+    let tool = canonical_chain_tool(&model);
+    let q = [140.0, 0.3, -0.4, 0.5, -0.6, 0.7, -0.8];
+    let (_, chain) = tool.evaluate(&q);
+    let mut j = Matrix6xX::zeros(7);
+    tool.jacobian(&chain, &mut j);
+    for k in 0..7 {
+        let h = if k == 0 { 1e-4 } else { 1e-7 };
+        let mut qp = q;
+        qp[k] += h;
+        let mut qm = q;
+        qm[k] -= h;
+        let (tp, _) = tool.evaluate(&qp);
+        let (tm, _) = tool.evaluate(&qm);
+        let v = (tp.p - tm.p) / (2.0 * h);
+        let w = vatcal_planning::ik::rotation_vector(&(tp.r * tm.r.transpose())) / (2.0 * h);
+        // compliance and effects are held fixed in the Jacobian: agreement to 1 % of the column
+        let (jv, jw) = (j.fixed_view::<3, 1>(0, k), j.fixed_view::<3, 1>(3, k));
+        assert!((jv - v).norm() <= 0.01 * v.norm().max(1.0), "joint {}: {jv} vs {v}", k + 1);
+        assert!((jw - w).norm() <= 0.01 * w.norm().max(1e-3) + 1e-9, "joint {}: {jw} vs {w}", k + 1);
+    }
+    // without compliance and effects the Jacobian is exact
+    let nominal = common::nominal();
+    let tool = canonical_chain_tool(&nominal);
+    let (_, chain) = tool.evaluate(&q);
+    tool.jacobian(&chain, &mut j);
+    for k in 0..7 {
+        let h = if k == 0 { 1e-4 } else { 1e-7 };
+        let (mut qp, mut qm) = (q, q);
+        qp[k] += h;
+        qm[k] -= h;
+        let (tp, _) = tool.evaluate(&qp);
+        let (tm, _) = tool.evaluate(&qm);
+        let v = (tp.p - tm.p) / (2.0 * h);
+        assert!((j.fixed_view::<3, 1>(0, k) - v).norm() < 1e-5, "joint {}", k + 1);
+    }
+}
+
+#[test]
+fn redundant_seven_joint_chain_solutions_reach_the_pose() {
+    let model = common::nominal();
+    let tool = canonical_chain_tool(&model);
+    let joints: Vec<JointSpec> = model
+        .joint_limits()
+        .iter()
+        .enumerate()
+        .map(
+            |(k, (lo, hi))| {
+                if k == 0 { JointSpec::prismatic(*lo, *hi) } else { JointSpec::revolute(*lo, *hi) }
+            },
+        )
+        .collect();
+    let ik = NumericIk::new(&tool, &joints, MultiStartOptions::default()).expect("ik");
+    let q = [120.0, 0.5, 0.3, -0.7, 0.9, 1.0, -1.2];
+    let target = tool.evaluate(&q).0;
+    let out = ik.solve(&IkTarget::Pose(target));
+    // a 7-joint chain has a one-parameter family of solutions: the starts land on many of them
+    assert!(out.solutions.len() >= 3, "{} solutions", out.solutions.len());
+    let guides: Vec<f64> = out.joints().map(|s| s[0]).collect();
+    let spread = guides.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        - guides.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!(spread > 1.0, "solutions at guide positions {guides:?}");
+    for s in out.joints() {
+        let (dp, dr) = pose_error(&tool, s, &target);
+        assert!(dp < 1e-9 && dr < 1e-12, "{dp} mm, {dr} rad");
+        assert!(model.limit_violation(&tool.joints(s)).is_none());
     }
 }
