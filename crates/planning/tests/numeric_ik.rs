@@ -6,6 +6,7 @@
 mod common;
 
 use nalgebra::{Matrix6xX, Vector3};
+use proptest::prelude::*;
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use vatcal_core::Frame;
@@ -285,5 +286,115 @@ fn redundant_seven_joint_chain_solutions_reach_the_pose() {
         let (dp, dr) = pose_error(&tool, s, &target);
         assert!(dp < 1e-9 && dr < 1e-12, "{dp} mm, {dr} rad");
         assert!(model.limit_violation(&tool.joints(s)).is_none());
+    }
+}
+
+/// A serial chain of standard-DH rows, each revolute or prismatic (for the property test).
+#[derive(Debug, Clone)]
+struct DhChain {
+    /// (alpha rad, a mm, d mm (offset for prismatic rows), theta rad (offset for revolute rows), revolute)
+    rows: Vec<(f64, f64, f64, f64, bool)>,
+}
+
+impl ToolKinematics for DhChain {
+    type Eval = Vec<Frame>;
+
+    fn dof(&self) -> usize {
+        self.rows.len()
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, Vec<Frame>) {
+        let mut frames = vec![Frame::identity()];
+        for ((alpha, a, d, theta, revolute), v) in self.rows.iter().zip(q) {
+            let (t, dd) = if *revolute { (theta + v, *d) } else { (*theta, d + v) };
+            let r = rot_z(t);
+            let link = Frame {
+                r: r * rot_x(*alpha),
+                p: Vector3::new(0.0, 0.0, dd) + r * Vector3::new(*a, 0.0, 0.0),
+            };
+            let next = frames[frames.len() - 1].compose(&link);
+            frames.push(next);
+        }
+        (frames[frames.len() - 1], frames)
+    }
+
+    fn jacobian(&self, frames: &Vec<Frame>, j: &mut Matrix6xX<f64>) {
+        let p = frames[frames.len() - 1].p;
+        for (i, row) in self.rows.iter().enumerate() {
+            let z = frames[i].z_axis();
+            let (lin, ang) = if row.4 { (z.cross(&(p - frames[i].p)), z) } else { (z, Vector3::zeros()) };
+            for r in 0..3 {
+                j[(r, i)] = lin[r];
+                j[(r + 3, i)] = ang[r];
+            }
+        }
+    }
+}
+
+fn dh_chain() -> impl Strategy<Value = (DhChain, Vec<JointSpec>, Vec<f64>)> {
+    proptest::collection::vec(
+        (-3.1..3.1f64, -300.0..300.0f64, -200.0..200.0f64, -3.1..3.1f64, 0..5u8, 0.0..1.0f64, any::<bool>()),
+        1..=8,
+    )
+    .prop_map(|rows| {
+        let mut chain = DhChain { rows: Vec::new() };
+        let mut joints = Vec::new();
+        let mut q = Vec::new();
+        for (alpha, a, d, theta, kind, u, limited) in rows {
+            // one row in five prismatic (stroke 0..300 mm), the others revolute, some continuous
+            let revolute = kind != 0;
+            chain.rows.push((alpha, a, d, theta, revolute));
+            let spec = match (revolute, limited) {
+                (false, _) => JointSpec::prismatic(0.0, 300.0),
+                (true, true) => JointSpec::revolute(-2.5, 2.5),
+                (true, false) => JointSpec::continuous(),
+            };
+            let (lo, hi) = spec.limits.unwrap_or((-3.1, 3.1));
+            q.push(lo + u * (hi - lo));
+            joints.push(spec);
+        }
+        (chain, joints, q)
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// Any chain of 1..=8 joints: every returned solution reaches the target (pose for six
+    /// or more joints, TCP point otherwise), is inside the limits and is distinct; a target
+    /// made by FK of joints inside the limits is found in the common case (checked in
+    /// aggregate by the UR5e and Meca500 tests).
+    #[test]
+    fn any_chain_solutions_are_valid((chain, joints, q) in dh_chain()) {
+        let opts = MultiStartOptions { random_starts: 16, ..MultiStartOptions::default() };
+        let ik = NumericIk::new(&chain, &joints, opts).expect("ik");
+        let (tool, _) = chain.evaluate(&q);
+        let tcp = Vector3::new(5.0, -3.0, 40.0);
+        let target = if chain.rows.len() >= 6 {
+            IkTarget::Pose(tool)
+        } else {
+            IkTarget::Point { tcp_in_tool: tcp, point: tool.transform_point(&tcp) }
+        };
+        let out = ik.solve(&target);
+        prop_assert!(out.best_position_error_mm.is_finite());
+        for (a, s) in out.joints().enumerate() {
+            let (t, _) = chain.evaluate(s);
+            match target {
+                IkTarget::Pose(p) => {
+                    prop_assert!((t.p - p.p).norm() < 1e-9 && rotation_angle_between(&t.r, &p.r) < 1e-12);
+                }
+                IkTarget::Point { tcp_in_tool, point } => {
+                    prop_assert!((t.transform_point(&tcp_in_tool) - point).norm() < 1e-9);
+                }
+            }
+            for (v, j) in s.iter().zip(&joints) {
+                if let Some((lo, hi)) = j.limits {
+                    prop_assert!(*v >= lo && *v <= hi, "{v} outside {lo}..{hi}");
+                }
+            }
+            for other in out.joints().skip(a + 1) {
+                prop_assert!(!same_solution(&joints, s, other, 1e-6));
+            }
+        }
     }
 }
