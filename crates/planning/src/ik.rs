@@ -51,7 +51,7 @@ use vatcal_core::{Frame, JointVector};
 use vatcal_kinematics::Model;
 
 use crate::error::PlanError;
-use crate::numeric_ik::{IkTarget, JointSpec, ToolKinematics, solve_local};
+use crate::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, ToolKinematics, solve_local};
 
 /// Elbow angle from the stretched / folded arm at which seeds are placed for a wrist centre
 /// just beyond the nominal reach (rad).
@@ -639,6 +639,126 @@ impl<'a> ToolPoseIk<'a> {
     /// Every solution over several guide positions (up to 8 per position).
     pub fn solve(&self, guide_positions_mm: &[f64], target: &Frame) -> Vec<JointVector> {
         guide_positions_mm.iter().flat_map(|q1| self.solve_at_guide(*q1, target)).collect()
+    }
+}
+
+/// Per joint of `model` (1..=N): true when revolute.
+fn revolute_joints(model: &Model) -> Vec<bool> {
+    // the canonical chain: prismatic guide, then six revolute joints
+    let _ = model;
+    (1..=7).map(|i| i > 1).collect()
+}
+
+/// The numerical IK's view of joint `i` (1-based) of `model`: kind and limits (none for a
+/// continuous joint).
+fn joint_spec(model: &Model, i: usize, revolute: bool) -> JointSpec {
+    let (lo, hi) = model.joint_limits()[i - 1];
+    if revolute { JointSpec::revolute(lo, hi) } else { JointSpec::prismatic(lo, hi) }
+}
+
+/// Inverse kinematics of the tool-changer frame of any [`Model`]: the closed form + refinement
+/// ([`ToolPoseIk`]) when the arm has the Meca500 structure ([`ArmGeometry::from_model`]), the
+/// multi-start numerical IK ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`]) otherwise.
+/// The first prismatic joint, if any, is the guide: it is held at the given guide positions
+/// and the other joints are solved for; a chain without one ignores the guide positions.
+#[derive(Debug)]
+pub struct ModelIk<'a> {
+    model: &'a Model,
+    solver: Solver<'a>,
+}
+
+#[derive(Debug)]
+enum Solver<'a> {
+    ClosedForm(ToolPoseIk<'a>),
+    Numeric { guide: Option<usize>, free: Vec<usize>, specs: Vec<JointSpec>, opts: MultiStartOptions },
+}
+
+impl<'a> ModelIk<'a> {
+    /// The closed form when the model allows it, the numerical IK otherwise.
+    ///
+    /// # Errors
+    /// Invalid numerical-IK options or joint limits ([`PlanError::Option`]).
+    pub fn new(
+        model: &'a Model,
+        refine: RefineOptions,
+        numeric: MultiStartOptions,
+    ) -> Result<Self, PlanError> {
+        match ToolPoseIk::new(model, refine) {
+            Ok(ik) => Ok(Self { model, solver: Solver::ClosedForm(ik) }),
+            Err(PlanError::UnsupportedArm(_)) => Self::numerical(model, numeric),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Always the numerical IK (also for a Meca500-like arm, e.g. to cross-check the closed form).
+    ///
+    /// # Errors
+    /// Invalid options or joint limits ([`PlanError::Option`]).
+    pub fn numerical(model: &'a Model, numeric: MultiStartOptions) -> Result<Self, PlanError> {
+        let revolute = revolute_joints(model);
+        let guide = revolute.iter().position(|r| !r).map(|k| k + 1);
+        let free: Vec<usize> = (1..=revolute.len()).filter(|i| Some(*i) != guide).collect();
+        let specs: Vec<JointSpec> = free.iter().map(|i| joint_spec(model, *i, revolute[i - 1])).collect();
+        let me = Self { model, solver: Solver::Numeric { guide, free, specs, opts: numeric } };
+        // validate the options and limits once
+        me.numeric_at(0.0).transpose()?;
+        Ok(me)
+    }
+
+    /// True when the closed form is in use.
+    pub fn is_closed_form(&self) -> bool {
+        matches!(self.solver, Solver::ClosedForm(_))
+    }
+
+    /// The joint held at the guide positions (1-based), if the chain has one.
+    pub fn guide_joint(&self) -> Option<usize> {
+        match &self.solver {
+            Solver::ClosedForm(_) => Some(1),
+            Solver::Numeric { guide, .. } => *guide,
+        }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &'a Model {
+        self.model
+    }
+
+    /// The numerical solver with the guide at `guide_mm` (`None` for the closed form).
+    fn numeric_at(&self, guide_mm: f64) -> Option<Result<NumericIk<ChainTool<'a>>, PlanError>> {
+        let Solver::Numeric { guide, free, specs, opts } = &self.solver else {
+            return None;
+        };
+        let mut fixed = JointVector::default();
+        if let Some(g) = guide {
+            fixed.set(*g, guide_mm);
+        }
+        let revolute = specs.iter().map(|s| s.revolute).collect();
+        let tool = ChainTool { model: self.model, fixed, free: free.clone(), revolute };
+        Some(NumericIk::new(tool, specs, *opts))
+    }
+
+    /// Every solution with the guide at `guide_mm` (ignored without a guide), duplicates
+    /// merged; revolute joints wrapped to (-pi, pi] where the limits allow.
+    pub fn solve_at_guide(&self, guide_mm: f64, target: &Frame) -> Vec<JointVector> {
+        match self.numeric_at(guide_mm) {
+            None => match &self.solver {
+                Solver::ClosedForm(ik) => ik.solve_at_guide(guide_mm, target),
+                Solver::Numeric { .. } => Vec::new(),
+            },
+            Some(Err(_)) => Vec::new(),
+            Some(Ok(ik)) => {
+                let out = ik.solve(&IkTarget::Pose(*target));
+                out.joints().map(|q| ik.kinematics().joints(q)).collect()
+            }
+        }
+    }
+
+    /// Every solution over several guide positions (one pass when the chain has no guide).
+    pub fn solve(&self, guide_positions_mm: &[f64], target: &Frame) -> Vec<JointVector> {
+        if self.guide_joint().is_none() {
+            return self.solve_at_guide(0.0, target);
+        }
+        guide_positions_mm.iter().flat_map(|g| self.solve_at_guide(*g, target)).collect()
     }
 }
 

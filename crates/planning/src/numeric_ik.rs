@@ -72,6 +72,22 @@ pub trait ToolKinematics {
     fn jacobian(&self, eval: &Self::Eval, jacobian: &mut Matrix6xX<f64>);
 }
 
+impl<K: ToolKinematics + ?Sized> ToolKinematics for &K {
+    type Eval = K::Eval;
+
+    fn dof(&self) -> usize {
+        (**self).dof()
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, K::Eval) {
+        (**self).evaluate(q)
+    }
+
+    fn jacobian(&self, eval: &K::Eval, jacobian: &mut Matrix6xX<f64>) {
+        (**self).jacobian(eval, jacobian)
+    }
+}
+
 /// One joint as the numerical IK sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointSpec {
@@ -469,25 +485,25 @@ impl IkOutcome {
     }
 }
 
-/// Multi-start numerical IK of one chain (see the module docs).
+/// Multi-start numerical IK of one chain (see the module docs); `K` may be a reference.
 #[derive(Debug, Clone)]
-pub struct NumericIk<'a, K> {
-    kin: &'a K,
+pub struct NumericIk<K> {
+    kin: K,
     joints: Vec<JointSpec>,
     starts: Vec<Vec<f64>>,
     opts: MultiStartOptions,
 }
 
-impl<'a, K: ToolKinematics> NumericIk<'a, K> {
+impl<K: ToolKinematics> NumericIk<K> {
     /// The solver for `kin` with joints `joints` (one per [`ToolKinematics::dof`]).
     ///
     /// # Errors
     /// [`PlanError::Option`] when the joint count does not match, a limit is not finite or
     /// reversed, a prismatic joint has no limits (its starts need a range), or there are no
     /// starts (`grid_levels == 0` and `random_starts == 0`).
-    pub fn new(kin: &'a K, joints: &[JointSpec], opts: MultiStartOptions) -> Result<Self, PlanError> {
+    pub fn new(kin: K, joints: &[JointSpec], opts: MultiStartOptions) -> Result<Self, PlanError> {
         let n = kin.dof();
-        check_dims(kin, joints, &vec![0.0; joints.len()])?;
+        check_dims(&kin, joints, &vec![0.0; joints.len()])?;
         for (k, j) in joints.iter().enumerate() {
             match j.limits {
                 Some((lo, hi)) if !(lo.is_finite() && hi.is_finite() && lo <= hi) => {
@@ -558,8 +574,8 @@ impl<'a, K: ToolKinematics> NumericIk<'a, K> {
     }
 
     /// The chain.
-    pub fn kinematics(&self) -> &'a K {
-        self.kin
+    pub fn kinematics(&self) -> &K {
+        &self.kin
     }
 
     /// Every solution for `target` reached from the starts (see the module docs). Never
@@ -582,7 +598,8 @@ impl<'a, K: ToolKinematics> NumericIk<'a, K> {
         let fixed = self.starts.iter().map(Vec::as_slice);
         for start in extra_starts.iter().copied().filter(|s| s.len() == n).chain(fixed) {
             out.starts += 1;
-            let result = levenberg_marquardt(self.kin, &self.joints, start, target, &self.opts.refine, stall);
+            let result =
+                levenberg_marquardt(&self.kin, &self.joints, start, target, &self.opts.refine, stall);
             let (p, r) = match &result {
                 Ok(s) => (s.position_error_mm, s.rotation_error_rad),
                 Err(PlanError::IkNotConverged { position_error_mm, rotation_error_rad }) => {

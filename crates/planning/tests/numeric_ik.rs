@@ -11,7 +11,9 @@ use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use vatcal_core::Frame;
 use vatcal_core::frame::{rot_x, rot_z};
-use vatcal_planning::ik::{ArmAtGuide, ChainTool, RefineOptions, ToolPoseIk, rotation_angle_between};
+use vatcal_planning::ik::{
+    ArmAtGuide, ChainTool, ModelIk, RefineOptions, ToolPoseIk, rotation_angle_between,
+};
 use vatcal_planning::numeric_ik::{
     IkTarget, JointSpec, MultiStartOptions, NumericIk, ToolKinematics, same_solution,
 };
@@ -396,5 +398,31 @@ proptest! {
                 prop_assert!(!same_solution(&joints, s, other, 1e-6));
             }
         }
+    }
+}
+
+#[test]
+fn model_ik_picks_the_closed_form_and_the_numerical_one_agrees() {
+    let model = common::nominal();
+    let closed = ModelIk::new(&model, RefineOptions::default(), MultiStartOptions::default()).expect("ik");
+    assert!(closed.is_closed_form());
+    assert_eq!(closed.guide_joint(), Some(1));
+    let numeric = ModelIk::numerical(&model, MultiStartOptions::default()).expect("numeric");
+    assert!(!numeric.is_closed_form());
+    assert_eq!(numeric.guide_joint(), Some(1));
+    let q = vatcal_core::JointVector::from_mm_deg(80.0, [20.0, 10.0, -30.0, 40.0, 50.0, -60.0]);
+    let target = model.chain(&q).tool;
+    let a = closed.solve(&[80.0, 200.0], &target);
+    let b = numeric.solve(&[80.0, 200.0], &target);
+    assert!(b.len() >= 2 && b.len() <= a.len(), "{} numerical vs {} closed-form solutions", b.len(), a.len());
+    let joints: Vec<JointSpec> = (0..7)
+        .map(|k| if k == 0 { JointSpec::prismatic(0.0, 300.0) } else { JointSpec::continuous() })
+        .collect();
+    for s in &b {
+        assert!(
+            a.iter().any(|c| same_solution(&joints, &s.0[..], &c.0[..], 1e-6)),
+            "{s:?} not a closed-form solution"
+        );
+        assert!(model.limit_violation(s).is_none());
     }
 }
