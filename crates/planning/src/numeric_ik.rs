@@ -486,6 +486,57 @@ impl IkOutcome {
 }
 
 /// Multi-start numerical IK of one chain (see the module docs); `K` may be a reference.
+///
+/// # Examples
+/// A planar two-link arm (links of 100 mm) reaching a point with both elbows:
+/// ```
+/// use nalgebra::{Matrix6xX, Vector3};
+/// use vatcal_core::Frame;
+/// use vatcal_core::frame::rot_z;
+/// use vatcal_planning::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, ToolKinematics};
+///
+/// struct Planar2R;
+///
+/// impl ToolKinematics for Planar2R {
+///     type Eval = [f64; 2];
+///     fn dof(&self) -> usize {
+///         2
+///     }
+///     fn evaluate(&self, q: &[f64]) -> (Frame, [f64; 2]) {
+///         let (a, b) = (q[0], q[0] + q[1]);
+///         let p = Vector3::new(100.0 * (a.cos() + b.cos()), 100.0 * (a.sin() + b.sin()), 0.0);
+///         (Frame { r: rot_z(b), p }, [a, b])
+///     }
+///     fn jacobian(&self, &[a, b]: &[f64; 2], j: &mut Matrix6xX<f64>) {
+///         j.fill(0.0);
+///         j[(0, 0)] = -100.0 * (a.sin() + b.sin());
+///         j[(1, 0)] = 100.0 * (a.cos() + b.cos());
+///         j[(0, 1)] = -100.0 * b.sin();
+///         j[(1, 1)] = 100.0 * b.cos();
+///         j[(5, 0)] = 1.0;
+///         j[(5, 1)] = 1.0;
+///     }
+/// }
+///
+/// let joints = [JointSpec::continuous(), JointSpec::revolute(-3.0, 3.0)];
+/// let ik = NumericIk::new(Planar2R, &joints, MultiStartOptions::default())?;
+/// let target = IkTarget::Point { tcp_in_tool: Vector3::zeros(), point: Vector3::new(120.0, 70.0, 0.0) };
+/// let out = ik.solve(&target);
+/// assert_eq!(out.solutions.len(), 2); // elbow up and elbow down
+/// for q in out.joints() {
+///     let (tool, _) = Planar2R.evaluate(q);
+///     assert!((tool.p - Vector3::new(120.0, 70.0, 0.0)).norm() < 1e-9);
+/// }
+/// // out of reach: no solution, and the closest miss is reported
+/// let far = IkTarget::Point { tcp_in_tool: Vector3::zeros(), point: Vector3::new(250.0, 0.0, 0.0) };
+/// let out = ik.solve(&far);
+/// assert!(out.is_empty() && (out.best_position_error_mm - 50.0).abs() < 1e-6);
+/// # Ok::<(), vatcal_planning::PlanError>(())
+/// ```
+///
+/// # Errors
+/// [`NumericIk::new`] rejects mismatched joint counts, bad limits and empty start sets;
+/// [`NumericIk::solve`] never fails (an unreachable target gives an empty [`IkOutcome`]).
 #[derive(Debug, Clone)]
 pub struct NumericIk<K> {
     kin: K,
