@@ -12,7 +12,7 @@
 
 use nalgebra::Vector3;
 use serde::Serialize;
-use vatcal_core::{Measurement, ParamId, Target, deg_to_rad};
+use vatcal_core::{MAX_JOINTS, Measurement, ParamId, Target, deg_to_rad};
 use vatcal_kinematics::Model;
 
 use crate::DiscoveryError;
@@ -78,11 +78,11 @@ impl Driver {
 
     /// The value of this variable for measurement `index` (None when the data lacks it), in
     /// the units of [`Driver::label`]. `torques` are the gravity torques of that measurement.
-    pub fn value(&self, index: usize, m: &Measurement, torques: &[f64; 6]) -> Option<f64> {
+    pub fn value(&self, index: usize, m: &Measurement, torques: &[f64; MAX_JOINTS]) -> Option<f64> {
         match *self {
             Driver::Joint(1) => Some(m.q.get(1)),
             Driver::Joint(j) => Some(m.q.get(j as usize).to_degrees()),
-            Driver::Torque(j) => Some(torques[j as usize - 2]),
+            Driver::Torque(j) => Some(torques[j as usize - 1]),
             Driver::Tcp => Some(f64::from(m.tcp)),
             Driver::Position => Some(match m.target {
                 Target::Probe { position } => f64::from(position),
@@ -90,7 +90,7 @@ impl Driver {
             }),
             Driver::Time => m.context.time_s,
             Driver::Temperature => m.context.temperature_c,
-            Driver::Direction(j) => m.context.dir.map(|d| f64::from(d[j as usize - 2])),
+            Driver::Direction(j) => m.context.dir.map(|d| f64::from(d[j as usize - 1])),
             Driver::Order => Some(index as f64),
         }
     }
@@ -220,8 +220,8 @@ fn bins(kind: DriverKind, v: &[f64], norms: &[f64]) -> Vec<Bin> {
 /// Per-measurement quantities the drivers need besides the measurement itself.
 #[derive(Debug, Clone, Default)]
 pub struct PoseData {
-    /// gravity torques tau2..tau7 [N·m]
-    pub torques: Vec<[f64; 6]>,
+    /// gravity torques [N·m], `[i - 1]` for joint i
+    pub torques: Vec<[f64; MAX_JOINTS]>,
     /// `∂p/∂θ_j` of joints 2..7 [mm/rad] (the direction an angle error of joint j moves the
     /// TCP), when known
     pub joint_directions: Option<Vec<[Vector3<f64>; 6]>>,
@@ -246,7 +246,7 @@ impl PoseData {
     }
 
     /// Torques only (no joint directions: every driver uses the world residual components).
-    pub fn torques_only(torques: Vec<[f64; 6]>) -> Self {
+    pub fn torques_only(torques: Vec<[f64; MAX_JOINTS]>) -> Self {
         Self { torques, joint_directions: None }
     }
 }
@@ -369,7 +369,7 @@ mod tests {
             for v in q.iter_mut().skip(1) {
                 *v = rng.random_range(-2.5..2.5);
             }
-            let m = Measurement::probe(1 + (i % 3) as u32, 1 + (i % 3) as u32, JointVector(q));
+            let m = Measurement::probe(1 + (i % 3) as u32, 1 + (i % 3) as u32, JointVector::new(q));
             let noise = Vector3::new(
                 rng.random_range(-1.0..1.0),
                 rng.random_range(-1.0..1.0),
@@ -378,7 +378,7 @@ mod tests {
             res.push(Vector3::new(0.02 * q[3].sin(), -0.01 * q[3].sin(), 0.0) + noise);
             ms.push(m);
         }
-        let pose = PoseData::torques_only(vec![[0.0; 6]; ms.len()]);
+        let pose = PoseData::torques_only(vec![[0.0; MAX_JOINTS]; ms.len()]);
         let all: Vec<DriverSummary> = Driver::all()
             .into_iter()
             .filter_map(|d| summarize_driver(d, &ms, &res, &pose).expect("ok"))

@@ -253,7 +253,7 @@ impl Table {
                     _ => return Err(self.err(line, col, format!("direction must be +1, -1 or 0, got {v}"))),
                 };
             }
-            Some(d)
+            Some(vatcal_core::measurement::dirs_from_meca500_arm(d))
         } else {
             None
         };
@@ -530,7 +530,7 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
         }
         if dir {
             match m.context.dir {
-                Some(d) => rec.extend(d.iter().map(|v| v.to_string())),
+                Some(d) => rec.extend(d[1..7].iter().map(|v| v.to_string())),
                 None => rec.extend(std::iter::repeat_n(String::new(), 6)),
             }
         }
