@@ -116,7 +116,7 @@ pub fn rotation_angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
 /// Includes the model's base pose, guide effects and the fixed part of row 2.
 pub fn robot_base_frame(model: &Model, q1_mm: f64) -> Frame {
     let mut q = JointVector::default();
-    q.0[0] = q1_mm;
+    q[0] = q1_mm;
     let chain = model.chain(&q);
     let row = model.row(2);
     let fixed = Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) };
@@ -199,6 +199,12 @@ impl ArmGeometry {
     /// is accepted: its small deviations are removed by the refinement).
     pub fn from_model(model: &Model) -> Result<Self, PlanError> {
         use std::f64::consts::FRAC_PI_2;
+        if !model.is_meca500_on_guide() {
+            return Err(PlanError::UnsupportedArm(format!(
+                "the closed-form IK needs the 7-joint Meca500-on-guide chain (prismatic guide + 6 revolute joints); this chain has {}",
+                model.describe_chain()
+            )));
+        }
         let angle = |row: usize, want: f64| {
             let got = model.row(row).alpha;
             if (wrap_angle(got - want)).abs() > STRUCTURE_ANGLE_TOL_RAD {
@@ -423,8 +429,8 @@ impl ArmAtGuide<'_> {
     /// The cell's joint vector for arm joints `q` (rad).
     pub fn joints(&self, q: &[f64]) -> JointVector {
         let mut v = JointVector::default();
-        v.0[0] = self.q1_mm;
-        v.0[1..].copy_from_slice(&q[..6]);
+        v[0] = self.q1_mm;
+        v.as_mut_slice()[1..7].copy_from_slice(&q[..6]);
         v
     }
 }
@@ -509,8 +515,14 @@ pub fn refine_tool_pose(
     target: &Frame,
     opts: &RefineOptions,
 ) -> Result<Refined, PlanError> {
-    let arm = ArmAtGuide { model, q1_mm: seed.0[0] };
-    let r = solve_local(&arm, &[JointSpec::continuous(); 6], &seed.0[1..], &IkTarget::Pose(*target), opts)?;
+    let arm = ArmAtGuide { model, q1_mm: seed[0] };
+    let r = solve_local(
+        &arm,
+        &[JointSpec::continuous(); 6],
+        &seed.as_slice()[1..],
+        &IkTarget::Pose(*target),
+        opts,
+    )?;
     Ok(Refined {
         q: arm.joints(&r.q),
         iterations: r.iterations,
@@ -556,8 +568,8 @@ fn closed_form_is_exact(model: &Model, arm: &ArmGeometry) -> bool {
     ];
     tests.iter().all(|t| {
         let q = JointVector::from_mm_deg(t[0], [t[1], t[2], t[3], t[4], t[5], t[6]]);
-        let arm_q: [f64; 6] = std::array::from_fn(|k| q.0[k + 1]);
-        let nominal = robot_base_frame(model, q.0[0]).compose(&arm.forward(&arm_q));
+        let arm_q: [f64; 6] = std::array::from_fn(|k| q[k + 1]);
+        let nominal = robot_base_frame(model, q[0]).compose(&arm.forward(&arm_q));
         let actual = model.chain(&q).tool;
         (nominal.p - actual.p).norm() < 1e-9 && rotation_angle_between(&nominal.r, &actual.r) < 1e-12
     })
@@ -591,7 +603,7 @@ impl<'a> ToolPoseIk<'a> {
             let mut q = [0.0; 7];
             q[0] = q1_mm;
             q[1..].copy_from_slice(arm);
-            JointVector(q)
+            JointVector::new(q)
         };
         let mut out = Vec::with_capacity(solutions.len());
         for ((arm, beyond), branch) in
@@ -625,7 +637,7 @@ impl<'a> ToolPoseIk<'a> {
         for seed in self.seeds(q1_mm, &base, target) {
             if let Ok(r) = self.refine(&seed.q, target) {
                 let mut q = r.q;
-                for v in q.0.iter_mut().skip(1) {
+                for v in q.as_mut_slice().iter_mut().skip(1) {
                     *v = wrap_angle(*v);
                 }
                 if !out.iter().any(|p| max_abs_diff(p, &q) < 1e-9) {
@@ -644,16 +656,19 @@ impl<'a> ToolPoseIk<'a> {
 
 /// Per joint of `model` (1..=N): true when revolute.
 fn revolute_joints(model: &Model) -> Vec<bool> {
-    // the canonical chain: prismatic guide, then six revolute joints
-    let _ = model;
-    (1..=7).map(|i| i > 1).collect()
+    model.joint_kinds().iter().map(|k| k.is_revolute()).collect()
 }
 
 /// The numerical IK's view of joint `i` (1-based) of `model`: kind and limits (none for a
 /// continuous joint).
 fn joint_spec(model: &Model, i: usize, revolute: bool) -> JointSpec {
-    let (lo, hi) = model.joint_limits()[i - 1];
-    if revolute { JointSpec::revolute(lo, hi) } else { JointSpec::prismatic(lo, hi) }
+    match (model.joint_limit(i), revolute) {
+        (Some((lo, hi)), true) => JointSpec::revolute(lo, hi),
+        (Some((lo, hi)), false) => JointSpec::prismatic(lo, hi),
+        (None, true) => JointSpec::continuous(),
+        // a prismatic joint always has limits in a valid cell; NumericIk::new reports it otherwise
+        (None, false) => JointSpec { revolute: false, limits: None },
+    }
 }
 
 /// Inverse kinematics of the tool-changer frame of any [`Model`]: the closed form + refinement
@@ -728,7 +743,7 @@ impl<'a> ModelIk<'a> {
         let Solver::Numeric { guide, free, specs, opts } = &self.solver else {
             return None;
         };
-        let mut fixed = JointVector::default();
+        let mut fixed = JointVector::zeros(self.model.joint_count());
         if let Some(g) = guide {
             fixed.set(*g, guide_mm);
         }
@@ -764,7 +779,7 @@ impl<'a> ModelIk<'a> {
 
 /// Largest absolute componentwise difference of two joint vectors (internal units).
 pub(crate) fn max_abs_diff(a: &JointVector, b: &JointVector) -> f64 {
-    a.0.iter().zip(&b.0).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.as_slice().iter().zip(b.as_slice()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
 /// World tool-changer-frame pose that puts TCP offset `tcp_in_tool` at `point_world` with tool

@@ -186,14 +186,14 @@ fn meca500_numeric_finds_the_closed_form_branches() {
                 // the closed form of the nominal spherical wrist is complete: nothing else exists
                 for s in numeric.joints() {
                     assert!(
-                        closed_all.iter().any(|c| same_solution(&joints, s, &c.0[1..], 1e-6)),
+                        closed_all.iter().any(|c| same_solution(&joints, s, &c.as_slice()[1..], 1e-6)),
                         "numeric solution {s:?} is not a closed-form one"
                     );
                 }
             }
             // the closed-form solutions inside the limits
             for c in closed_all {
-                let c = &c.0[1..];
+                let c = &c.as_slice()[1..];
                 if c.iter().zip(&joints).all(|(v, j)| j.limits.is_some_and(|(lo, hi)| *v >= lo && *v <= hi)) {
                     expected += 1;
                     if numeric.joints().any(|s| same_solution(&joints, s, c, 1e-6)) {
@@ -420,9 +420,55 @@ fn model_ik_picks_the_closed_form_and_the_numerical_one_agrees() {
         .collect();
     for s in &b {
         assert!(
-            a.iter().any(|c| same_solution(&joints, &s.0[..], &c.0[..], 1e-6)),
+            a.iter().any(|c| same_solution(&joints, s.as_slice(), c.as_slice(), 1e-6)),
             "{s:?} not a closed-form solution"
         );
         assert!(model.limit_violation(s).is_none());
+    }
+}
+
+/// A model from a fixture of issue 12.
+fn fixture_model(name: &str) -> vatcal_kinematics::Model {
+    let path = format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"));
+    let cell = vatcal_core::CellFile::load(&path).expect("fixture");
+    vatcal_kinematics::Model::from_cell(&cell).expect("model")
+}
+
+#[test]
+fn model_ik_solves_the_new_fixtures_numerically() {
+    for name in ["ur5e.toml", "meca500-table.toml"] {
+        let model = fixture_model(name);
+        let ik = ModelIk::new(&model, RefineOptions::default(), MultiStartOptions::default()).expect("ik");
+        assert!(!ik.is_closed_form(), "{name}");
+        assert_eq!(ik.guide_joint(), None, "{name}: no prismatic joint");
+        let n = model.joint_count();
+        let mut rng = ChaCha8Rng::seed_from_u64(4);
+        let (mut found, mut total) = (0, 0);
+        for _ in 0..10 {
+            let q: Vec<f64> = (1..=n)
+                .map(|i| match model.joint_limit(i) {
+                    Some((lo, hi)) => rng.random_range(lo.max(-3.0) + 0.1..hi.min(3.0) - 0.1),
+                    None => rng.random_range(-3.0..3.0),
+                })
+                .collect();
+            let qv = vatcal_core::JointVector::from_slice(&q).expect("joints");
+            let target = model.chain(&qv).tool;
+            let solutions = ik.solve(&[], &target);
+            assert!(!solutions.is_empty(), "{name}: no solution for {q:?}");
+            for s in &solutions {
+                assert_eq!(s.len(), n);
+                let tool = model.chain(s).tool;
+                let (dp, dr) = ((tool.p - target.p).norm(), rotation_angle_between(&tool.r, &target.r));
+                assert!(dp < 1e-9 && dr < 1e-12, "{name}: {dp} mm, {dr} rad");
+                assert!(model.limit_violation(s).is_none(), "{name}: {s:?} outside the limits");
+            }
+            let specs: Vec<JointSpec> = (0..n).map(|_| JointSpec::continuous()).collect();
+            if solutions.iter().any(|s| same_solution(&specs, s.as_slice(), &q, 1e-6)) {
+                found += 1;
+            }
+            total += solutions.len();
+        }
+        eprintln!("{name}: {total} solutions for 10 targets, original among them for {found}");
+        assert!(found >= 9, "{name}: original found for only {found} of 10");
     }
 }
