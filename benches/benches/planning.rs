@@ -12,7 +12,7 @@ use vatcal_core::{CellFile, JointVector, ParamId};
 use vatcal_kinematics::Model;
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::geometry::CellGeometry;
-use vatcal_planning::ik::{ArmAtGuide, ArmGeometry, RefineOptions, ToolPoseIk, robot_base_frame};
+use vatcal_planning::ik::{ArmAtGuide, ArmGeometry, ModelIk, RefineOptions, ToolPoseIk, robot_base_frame};
 use vatcal_planning::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, solve_local};
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 
@@ -73,6 +73,17 @@ fn bench_ik(c: &mut Criterion) {
                 &refine,
             ))
         })
+    });
+    let ur5e = Model::from_cell(
+        &CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/ur5e.toml")).expect("ur5e fixture"),
+    )
+    .expect("ur5e model");
+    let ur5e_ik =
+        ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default()).expect("ur5e ik");
+    let ur5e_q = JointVector::from_slice(&[0.3, -1.2, 1.1, -0.8, 1.4, 0.6]).expect("joints");
+    let ur5e_target = ur5e.chain(&ur5e_q).tool;
+    group.bench_function("numeric_multistart_ur5e_fixture", |b| {
+        b.iter(|| black_box(ur5e_ik.solve(&[], black_box(&ur5e_target))))
     });
     group.bench_function("collision_check", |b| {
         b.iter(|| black_box(checker.check(black_box(&q), ProbeState::Everywhere)))
