@@ -1,7 +1,8 @@
 //! Planning benchmarks (issue 6 targets on this 2-core machine): the whole `vatcal plan` with
 //! default options (4,500 TCP poses × 10 guide steps, Detmax 40 of N, tour, paths) ≤ 10 s, and
 //! the closed-form IK of one tool pose (all 8 branches) ≤ 5 µs. Also the closed form + refinement
-//! on the nominal model and on a calibrated model, and one collision check.
+//! on the nominal model and on a calibrated model, one collision check, and the multi-start
+//! numerical IK (issue 12; no target) of the same tool pose.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -11,7 +12,8 @@ use vatcal_core::{CellFile, JointVector, ParamId};
 use vatcal_kinematics::Model;
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::geometry::CellGeometry;
-use vatcal_planning::ik::{ArmGeometry, RefineOptions, ToolPoseIk, robot_base_frame};
+use vatcal_planning::ik::{ArmAtGuide, ArmGeometry, ModelIk, RefineOptions, ToolPoseIk, robot_base_frame};
+use vatcal_planning::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, solve_local};
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 
 fn cell() -> CellFile {
@@ -23,7 +25,7 @@ fn bench_ik(c: &mut Criterion) {
     let model = Model::from_cell(&cell()).expect("model");
     let q = JointVector::from_mm_deg(120.0, [30.0, 20.0, -40.0, 50.0, 60.0, -70.0]);
     let target = model.chain(&q).tool;
-    let base = robot_base_frame(&model, q.0[0]);
+    let base = robot_base_frame(&model, q[0]);
     let local = base.inverse().compose(&target);
     let arm = ArmGeometry::from_model(&model).expect("arm");
     let ik = ToolPoseIk::new(&model, RefineOptions::default()).expect("ik");
@@ -45,6 +47,43 @@ fn bench_ik(c: &mut Criterion) {
     });
     group.bench_function("closed_form_plus_refinement_calibrated", |b| {
         b.iter(|| black_box(ik_calibrated.solve_at_guide(black_box(120.0), black_box(&target_calibrated))))
+    });
+    let arm_at_guide = ArmAtGuide { model: &model, q1_mm: 120.0 };
+    let joints: Vec<JointSpec> =
+        model.joint_limits()[1..].iter().map(|(lo, hi)| JointSpec::revolute(*lo, *hi)).collect();
+    let numeric = NumericIk::new(&arm_at_guide, &joints, MultiStartOptions::default()).expect("numeric ik");
+    let refine = MultiStartOptions::default().refine;
+    // the first start that converges (a converging local solve, not an abandoned one)
+    let start = numeric
+        .starts()
+        .iter()
+        .find(|s| solve_local(&arm_at_guide, &joints, s, &IkTarget::Pose(target), &refine).is_ok())
+        .expect("a converging start")
+        .clone();
+    group.bench_function("numeric_multistart_all_branches", |b| {
+        b.iter(|| black_box(numeric.solve(black_box(&IkTarget::Pose(target)))))
+    });
+    group.bench_function("numeric_one_converging_local_solve", |b| {
+        b.iter(|| {
+            black_box(solve_local(
+                &arm_at_guide,
+                &joints,
+                black_box(&start),
+                &IkTarget::Pose(target),
+                &refine,
+            ))
+        })
+    });
+    let ur5e = Model::from_cell(
+        &CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/ur5e.toml")).expect("ur5e fixture"),
+    )
+    .expect("ur5e model");
+    let ur5e_ik =
+        ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default()).expect("ur5e ik");
+    let ur5e_q = JointVector::from_slice(&[0.3, -1.2, 1.1, -0.8, 1.4, 0.6]).expect("joints");
+    let ur5e_target = ur5e.chain(&ur5e_q).tool;
+    group.bench_function("numeric_multistart_ur5e_fixture", |b| {
+        b.iter(|| black_box(ur5e_ik.solve(&[], black_box(&ur5e_target))))
     });
     group.bench_function("collision_check", |b| {
         b.iter(|| black_box(checker.check(black_box(&q), ProbeState::Everywhere)))

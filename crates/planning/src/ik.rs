@@ -42,14 +42,16 @@
 //! `ParamId::ThetaOffset(i)` columns of `Model::jacobian`) and `z_i` (orientation), with the joint
 //! axes from [`vatcal_kinematics::Chain::frames`]. Gravity torques are held fixed in the
 //! Jacobian, so with compliance the iteration is quasi-Newton (still converging to machine
-//! precision because `c_i d(tau_i)/dq` is tiny).
+//! precision because `c_i d(tau_i)/dq` is tiny). The iteration is the chain-agnostic one of
+//! [`crate::numeric_ik::solve_local`], run on [`ArmAtGuide`] (the arm with q1 fixed).
 
-use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Matrix6xX, Vector3};
 use vatcal_core::frame::{rot_x, rot_y, rot_z};
 use vatcal_core::{Frame, JointVector};
 use vatcal_kinematics::Model;
 
 use crate::error::PlanError;
+use crate::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, ToolKinematics, solve_local};
 
 /// Elbow angle from the stretched / folded arm at which seeds are placed for a wrist centre
 /// just beyond the nominal reach (rad).
@@ -114,7 +116,7 @@ pub fn rotation_angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
 /// Includes the model's base pose, guide effects and the fixed part of row 2.
 pub fn robot_base_frame(model: &Model, q1_mm: f64) -> Frame {
     let mut q = JointVector::default();
-    q.0[0] = q1_mm;
+    q[0] = q1_mm;
     let chain = model.chain(&q);
     let row = model.row(2);
     let fixed = Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) };
@@ -197,6 +199,12 @@ impl ArmGeometry {
     /// is accepted: its small deviations are removed by the refinement).
     pub fn from_model(model: &Model) -> Result<Self, PlanError> {
         use std::f64::consts::FRAC_PI_2;
+        if !model.is_meca500_on_guide() {
+            return Err(PlanError::UnsupportedArm(format!(
+                "the closed-form IK needs the 7-joint Meca500-on-guide chain (prismatic guide + 6 revolute joints); this chain has {}",
+                model.describe_chain()
+            )));
+        }
         let angle = |row: usize, want: f64| {
             let got = model.row(row).alpha;
             if (wrap_angle(got - want)).abs() > STRUCTURE_ANGLE_TOL_RAD {
@@ -389,14 +397,6 @@ pub struct Refined {
     pub rotation_error_rad: f64,
 }
 
-/// 6-DOF error `[p* - p; log(R* R^T)]` of the tool frame at `q`, and the chain.
-fn tool_error(model: &Model, q: &JointVector, target: &Frame) -> (Vector6<f64>, vatcal_kinematics::Chain) {
-    let chain = model.chain(q);
-    let dp = target.p - chain.tool.p;
-    let dr = rotation_vector(&(target.r * chain.tool.r.transpose()));
-    (Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z), chain)
-}
-
 /// The 6×6 joint Jacobian (q2..q7) of the tool frame: `[z_i × (p - o_i); z_i]` (world axes;
 /// rows: translation, then rotation).
 #[inline]
@@ -415,81 +415,119 @@ pub fn tool_jacobian(chain: &vatcal_kinematics::Chain) -> Matrix6<f64> {
     j
 }
 
+/// The arm of a [`Model`] with the guide held at `q1_mm`, as a [`ToolKinematics`] of six
+/// joints `[q2..q7]` (rad): tool-changer frame in the world and [`tool_jacobian`].
+#[derive(Debug, Clone, Copy)]
+pub struct ArmAtGuide<'a> {
+    /// the model
+    pub model: &'a Model,
+    /// guide position (mm)
+    pub q1_mm: f64,
+}
+
+impl ArmAtGuide<'_> {
+    /// The cell's joint vector for arm joints `q` (rad).
+    pub fn joints(&self, q: &[f64]) -> JointVector {
+        let mut v = JointVector::default();
+        v[0] = self.q1_mm;
+        v.as_mut_slice()[1..7].copy_from_slice(&q[..6]);
+        v
+    }
+}
+
+impl ToolKinematics for ArmAtGuide<'_> {
+    type Eval = vatcal_kinematics::Chain;
+
+    fn dof(&self) -> usize {
+        6
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, vatcal_kinematics::Chain) {
+        let chain = self.model.chain(&self.joints(q));
+        (chain.tool, chain)
+    }
+
+    fn jacobian(&self, chain: &vatcal_kinematics::Chain, jacobian: &mut Matrix6xX<f64>) {
+        jacobian.copy_from(&tool_jacobian(chain));
+    }
+}
+
+/// Any joints of a [`Model`]'s chain as a [`ToolKinematics`]: the joints `free` (1-based cell
+/// joints, in this order) are solved for, the others are held at their values in `fixed`.
+/// Jacobian column of joint `i`: `[z_i × (p - o_i); z_i]` (revolute) or `[z_i; 0]` (prismatic),
+/// with the axes of MDH frame `i` from [`vatcal_kinematics::Chain::frames`] (effects and
+/// compliance held fixed, as in [`tool_jacobian`]).
+#[derive(Debug, Clone)]
+pub struct ChainTool<'a> {
+    /// the model
+    pub model: &'a Model,
+    /// values of the joints that are not solved for (internal units)
+    pub fixed: JointVector,
+    /// the joints solved for (1-based)
+    pub free: Vec<usize>,
+    /// per free joint: true when revolute
+    pub revolute: Vec<bool>,
+}
+
+impl ChainTool<'_> {
+    /// The cell's joint vector for the free joints' values `q`.
+    pub fn joints(&self, q: &[f64]) -> JointVector {
+        let mut v = self.fixed;
+        for (i, x) in self.free.iter().zip(q) {
+            v.set(*i, *x);
+        }
+        v
+    }
+}
+
+impl ToolKinematics for ChainTool<'_> {
+    type Eval = vatcal_kinematics::Chain;
+
+    fn dof(&self) -> usize {
+        self.free.len()
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, vatcal_kinematics::Chain) {
+        let chain = self.model.chain(&self.joints(q));
+        (chain.tool, chain)
+    }
+
+    fn jacobian(&self, chain: &vatcal_kinematics::Chain, jacobian: &mut Matrix6xX<f64>) {
+        let p = chain.tool.p;
+        for (c, (i, revolute)) in self.free.iter().zip(&self.revolute).enumerate() {
+            let f = &chain.frames[*i];
+            let z = f.z_axis();
+            let (lin, ang) = if *revolute { (z.cross(&(p - f.p)), z) } else { (z, Vector3::zeros()) };
+            for r in 0..3 {
+                jacobian[(r, c)] = lin[r];
+                jacobian[(r + 3, c)] = ang[r];
+            }
+        }
+    }
+}
+
 /// Refines `seed` (q1 held fixed) so that the model's tool-changer frame reaches `target`
-/// (world). Levenberg–Marquardt on the weighted 6-DOF error; see the module docs.
+/// (world). Levenberg–Marquardt on the weighted 6-DOF error (no joint limits):
+/// [`crate::numeric_ik::solve_local`] on [`ArmAtGuide`]; see the module docs.
 pub fn refine_tool_pose(
     model: &Model,
     seed: &JointVector,
     target: &Frame,
     opts: &RefineOptions,
 ) -> Result<Refined, PlanError> {
-    let scale = opts.orientation_scale_mm;
-    let weights = Vector6::new(1.0, 1.0, 1.0, scale, scale, scale);
-    let cost = |e: &Vector6<f64>| e.component_mul(&weights).norm_squared();
-    let mut q = *seed;
-    let (mut err, mut chain) = tool_error(model, &q, target);
-    let mut lambda = 1e-6;
-    let done = |e: &Vector6<f64>| {
-        e.fixed_rows::<3>(0).norm() <= opts.tol_position_mm
-            && e.fixed_rows::<3>(3).norm() <= opts.tol_rotation_rad
-    };
-    for iteration in 0..=opts.max_iterations {
-        if done(&err) {
-            return Ok(Refined {
-                q,
-                iterations: iteration,
-                position_error_mm: err.fixed_rows::<3>(0).norm(),
-                rotation_error_rad: err.fixed_rows::<3>(3).norm(),
-            });
-        }
-        if iteration == opts.max_iterations {
-            break;
-        }
-        let jw = {
-            let mut j = tool_jacobian(&chain);
-            for r in 0..6 {
-                for c in 0..6 {
-                    j[(r, c)] *= weights[r];
-                }
-            }
-            j
-        };
-        let ew = err.component_mul(&weights);
-        let jtj = jw.transpose() * jw;
-        let jte = jw.transpose() * ew;
-        let c0 = cost(&err);
-        let mut improved = false;
-        for _ in 0..12 {
-            let mut a = jtj;
-            for d in 0..6 {
-                a[(d, d)] += lambda * (1.0 + jtj[(d, d)]);
-            }
-            let Some(step) = a.cholesky().map(|ch| ch.solve(&jte)) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let mut trial = q;
-            for k in 0..6 {
-                trial.0[k + 1] += step[k];
-            }
-            let (e, ch) = tool_error(model, &trial, target);
-            if cost(&e) < c0 || done(&e) {
-                q = trial;
-                err = e;
-                chain = ch;
-                lambda = (lambda * 0.1).max(1e-15);
-                improved = true;
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    Err(PlanError::IkNotConverged {
-        position_error_mm: err.fixed_rows::<3>(0).norm(),
-        rotation_error_rad: err.fixed_rows::<3>(3).norm(),
+    let arm = ArmAtGuide { model, q1_mm: seed[0] };
+    let r = solve_local(
+        &arm,
+        &[JointSpec::continuous(); 6],
+        &seed.as_slice()[1..],
+        &IkTarget::Pose(*target),
+        opts,
+    )?;
+    Ok(Refined {
+        q: arm.joints(&r.q),
+        iterations: r.iterations,
+        position_error_mm: r.position_error_mm,
+        rotation_error_rad: r.rotation_error_rad,
     })
 }
 
@@ -530,8 +568,8 @@ fn closed_form_is_exact(model: &Model, arm: &ArmGeometry) -> bool {
     ];
     tests.iter().all(|t| {
         let q = JointVector::from_mm_deg(t[0], [t[1], t[2], t[3], t[4], t[5], t[6]]);
-        let arm_q: [f64; 6] = std::array::from_fn(|k| q.0[k + 1]);
-        let nominal = robot_base_frame(model, q.0[0]).compose(&arm.forward(&arm_q));
+        let arm_q: [f64; 6] = std::array::from_fn(|k| q[k + 1]);
+        let nominal = robot_base_frame(model, q[0]).compose(&arm.forward(&arm_q));
         let actual = model.chain(&q).tool;
         (nominal.p - actual.p).norm() < 1e-9 && rotation_angle_between(&nominal.r, &actual.r) < 1e-12
     })
@@ -565,7 +603,7 @@ impl<'a> ToolPoseIk<'a> {
             let mut q = [0.0; 7];
             q[0] = q1_mm;
             q[1..].copy_from_slice(arm);
-            JointVector(q)
+            JointVector::new(q)
         };
         let mut out = Vec::with_capacity(solutions.len());
         for ((arm, beyond), branch) in
@@ -599,7 +637,7 @@ impl<'a> ToolPoseIk<'a> {
         for seed in self.seeds(q1_mm, &base, target) {
             if let Ok(r) = self.refine(&seed.q, target) {
                 let mut q = r.q;
-                for v in q.0.iter_mut().skip(1) {
+                for v in q.as_mut_slice().iter_mut().skip(1) {
                     *v = wrap_angle(*v);
                 }
                 if !out.iter().any(|p| max_abs_diff(p, &q) < 1e-9) {
@@ -616,9 +654,132 @@ impl<'a> ToolPoseIk<'a> {
     }
 }
 
+/// Per joint of `model` (1..=N): true when revolute.
+fn revolute_joints(model: &Model) -> Vec<bool> {
+    model.joint_kinds().iter().map(|k| k.is_revolute()).collect()
+}
+
+/// The numerical IK's view of joint `i` (1-based) of `model`: kind and limits (none for a
+/// continuous joint).
+fn joint_spec(model: &Model, i: usize, revolute: bool) -> JointSpec {
+    match (model.joint_limit(i), revolute) {
+        (Some((lo, hi)), true) => JointSpec::revolute(lo, hi),
+        (Some((lo, hi)), false) => JointSpec::prismatic(lo, hi),
+        (None, true) => JointSpec::continuous(),
+        // a prismatic joint always has limits in a valid cell; NumericIk::new reports it otherwise
+        (None, false) => JointSpec { revolute: false, limits: None },
+    }
+}
+
+/// Inverse kinematics of the tool-changer frame of any [`Model`]: the closed form + refinement
+/// ([`ToolPoseIk`]) when the arm has the Meca500 structure ([`ArmGeometry::from_model`]), the
+/// multi-start numerical IK ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`]) otherwise.
+/// The first prismatic joint, if any, is the guide: it is held at the given guide positions
+/// and the other joints are solved for; a chain without one ignores the guide positions.
+#[derive(Debug)]
+pub struct ModelIk<'a> {
+    model: &'a Model,
+    solver: Solver<'a>,
+}
+
+#[derive(Debug)]
+enum Solver<'a> {
+    ClosedForm(ToolPoseIk<'a>),
+    Numeric { guide: Option<usize>, free: Vec<usize>, specs: Vec<JointSpec>, opts: MultiStartOptions },
+}
+
+impl<'a> ModelIk<'a> {
+    /// The closed form when the model allows it, the numerical IK otherwise.
+    ///
+    /// # Errors
+    /// Invalid numerical-IK options or joint limits ([`PlanError::Option`]).
+    pub fn new(
+        model: &'a Model,
+        refine: RefineOptions,
+        numeric: MultiStartOptions,
+    ) -> Result<Self, PlanError> {
+        match ToolPoseIk::new(model, refine) {
+            Ok(ik) => Ok(Self { model, solver: Solver::ClosedForm(ik) }),
+            Err(PlanError::UnsupportedArm(_)) => Self::numerical(model, numeric),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// Always the numerical IK (also for a Meca500-like arm, e.g. to cross-check the closed form).
+    ///
+    /// # Errors
+    /// Invalid options or joint limits ([`PlanError::Option`]).
+    pub fn numerical(model: &'a Model, numeric: MultiStartOptions) -> Result<Self, PlanError> {
+        let revolute = revolute_joints(model);
+        let guide = revolute.iter().position(|r| !r).map(|k| k + 1);
+        let free: Vec<usize> = (1..=revolute.len()).filter(|i| Some(*i) != guide).collect();
+        let specs: Vec<JointSpec> = free.iter().map(|i| joint_spec(model, *i, revolute[i - 1])).collect();
+        let me = Self { model, solver: Solver::Numeric { guide, free, specs, opts: numeric } };
+        // validate the options and limits once
+        me.numeric_at(0.0).transpose()?;
+        Ok(me)
+    }
+
+    /// True when the closed form is in use.
+    pub fn is_closed_form(&self) -> bool {
+        matches!(self.solver, Solver::ClosedForm(_))
+    }
+
+    /// The joint held at the guide positions (1-based), if the chain has one.
+    pub fn guide_joint(&self) -> Option<usize> {
+        match &self.solver {
+            Solver::ClosedForm(_) => Some(1),
+            Solver::Numeric { guide, .. } => *guide,
+        }
+    }
+
+    /// The model.
+    pub fn model(&self) -> &'a Model {
+        self.model
+    }
+
+    /// The numerical solver with the guide at `guide_mm` (`None` for the closed form).
+    fn numeric_at(&self, guide_mm: f64) -> Option<Result<NumericIk<ChainTool<'a>>, PlanError>> {
+        let Solver::Numeric { guide, free, specs, opts } = &self.solver else {
+            return None;
+        };
+        let mut fixed = JointVector::zeros(self.model.joint_count());
+        if let Some(g) = guide {
+            fixed.set(*g, guide_mm);
+        }
+        let revolute = specs.iter().map(|s| s.revolute).collect();
+        let tool = ChainTool { model: self.model, fixed, free: free.clone(), revolute };
+        Some(NumericIk::new(tool, specs, *opts))
+    }
+
+    /// Every solution with the guide at `guide_mm` (ignored without a guide), duplicates
+    /// merged; revolute joints wrapped to (-pi, pi] where the limits allow.
+    pub fn solve_at_guide(&self, guide_mm: f64, target: &Frame) -> Vec<JointVector> {
+        match self.numeric_at(guide_mm) {
+            None => match &self.solver {
+                Solver::ClosedForm(ik) => ik.solve_at_guide(guide_mm, target),
+                Solver::Numeric { .. } => Vec::new(),
+            },
+            Some(Err(_)) => Vec::new(),
+            Some(Ok(ik)) => {
+                let out = ik.solve(&IkTarget::Pose(*target));
+                out.joints().map(|q| ik.kinematics().joints(q)).collect()
+            }
+        }
+    }
+
+    /// Every solution over several guide positions (one pass when the chain has no guide).
+    pub fn solve(&self, guide_positions_mm: &[f64], target: &Frame) -> Vec<JointVector> {
+        if self.guide_joint().is_none() {
+            return self.solve_at_guide(0.0, target);
+        }
+        guide_positions_mm.iter().flat_map(|g| self.solve_at_guide(*g, target)).collect()
+    }
+}
+
 /// Largest absolute componentwise difference of two joint vectors (internal units).
 pub(crate) fn max_abs_diff(a: &JointVector, b: &JointVector) -> f64 {
-    a.0.iter().zip(&b.0).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.as_slice().iter().zip(b.as_slice()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
 /// World tool-changer-frame pose that puts TCP offset `tcp_in_tool` at `point_world` with tool

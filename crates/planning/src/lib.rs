@@ -5,7 +5,8 @@
 //!
 //! 1. [`ik`] — closed-form inverse kinematics of the nominal Meca500 (up to 8 branches per tool
 //!    pose and guide position) and its Levenberg–Marquardt refinement on the full, possibly
-//!    calibrated, [`vatcal_kinematics::Model`];
+//!    calibrated, [`vatcal_kinematics::Model`]; [`numeric_ik`] — multi-start numerical IK for
+//!    any serial chain (used by [`ik::ModelIk`] when there is no closed form);
 //! 2. [`candidates`] — random tool orientations per TCP × calibration position, IK at every
 //!    guide step, joint-limit, singularity and collision screening (paper: 3,284 candidates);
 //! 3. selection — Detmax (`vatcal-observability`) of `count` candidates, with O1..O5;
@@ -29,6 +30,7 @@ pub mod error;
 pub mod geometry;
 pub mod ik;
 pub mod motion;
+pub mod numeric_ik;
 pub mod output;
 pub mod paths;
 pub mod plan;
