@@ -36,8 +36,8 @@
 //!   and its `x` axis along `T`'s `x` axis when `T`'s `z` axis lies along axis `N` (so frame `N`
 //!   is `T`'s own frame for the usual flange / `tool0` links and the TCP is `(0, 0, 0)`).
 //!
-//! Values within 1e-12 (relative) of a multiple of 1e-6 mm or degrees are snapped onto it, so
-//! that `-90.00000000000001` reads `-90`; this moves a TCP by far less than 1e-9 mm. After the conversion, the forward kinematics of the
+//! Values within a few units in the last place of a multiple of 1e-6 mm or degrees are snapped
+//! onto it, so that `-90.00000000000001` reads `-90`; this moves a TCP by far less than 1e-9 mm. After the conversion, the forward kinematics of the
 //! rows is checked against the URDF's at a few joint vectors, and a mismatch above 1e-6 mm is
 //! reported as an error (it would be a bug, never silent garbage).
 //!
