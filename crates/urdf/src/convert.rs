@@ -37,6 +37,19 @@ struct Step {
     motion: Option<(JointKind, Vector3<f64>)>,
 }
 
+/// What the rows need from an actuated joint of the path besides the geometry.
+#[derive(Debug, Clone)]
+struct Actuated {
+    name: String,
+    child: String,
+    kind: JointKind,
+    continuous: bool,
+    q_min: Option<f64>,
+    q_max: Option<f64>,
+    /// index into `robot.joints`
+    joint: usize,
+}
+
 /// URDF `<origin>` as a frame (`R = Rz(yaw) Ry(pitch) Rx(roll)`), translation in mm.
 fn pose_frame(p: &Pose) -> Frame {
     Frame {
@@ -276,7 +289,15 @@ pub(crate) fn convert(
                 } else {
                     (Some(lo * M_TO_MM), Some(hi * M_TO_MM))
                 };
-                rows.push((j.name.clone(), j.child.link.clone(), kind, continuous, q_min, q_max, ji));
+                rows.push(Actuated {
+                    name: j.name.clone(),
+                    child: j.child.link.clone(),
+                    kind,
+                    continuous,
+                    q_min,
+                    q_max,
+                    joint: ji,
+                });
                 Some((kind, a / n))
             }
         };
@@ -332,21 +353,21 @@ pub(crate) fn convert(
 
     // 5. rows
     let mut joints = Vec::with_capacity(n);
-    for (i, (name, child, kind, continuous, q_min, q_max, _)) in rows.iter().enumerate() {
+    for (i, r) in rows.iter().enumerate() {
         let prev = if i == 0 { &f0 } else { &frames[i - 1] };
         let [alpha, a, beta, theta, d] = decompose(&prev.inverse().compose(&frames[i]));
         joints.push(ImportedJoint {
-            name: name.clone(),
-            child_link: child.clone(),
-            kind: *kind,
-            continuous: *continuous,
+            name: r.name.clone(),
+            child_link: r.child.clone(),
+            kind: r.kind,
+            continuous: r.continuous,
             alpha_deg: clean(alpha.to_degrees()),
             a_mm: clean(a),
             beta_deg: clean(beta.to_degrees()),
             theta_deg: clean(theta.to_degrees()),
             d_mm: clean(d),
-            q_min: q_min.map(clean),
-            q_max: q_max.map(clean),
+            q_min: r.q_min.map(clean),
+            q_max: r.q_max.map(clean),
         });
     }
     let [ba, bb, bg] = xyz_euler(&f0.r);
@@ -361,9 +382,10 @@ pub(crate) fn convert(
     let tcp = frames[n - 1].inverse().transform_point(&tip_pose.p);
 
     // 6. inertials
-    let frame_of_joint: HashMap<usize, usize> = rows.iter().enumerate().map(|(i, r)| (r.6, i + 1)).collect();
+    let frame_of_joint: HashMap<usize, usize> =
+        rows.iter().enumerate().map(|(i, r)| (r.joint, i + 1)).collect();
     let (inertials, notes) =
-        inertials(tree, base, &steps_link_poses(tree, base), &frame_of_joint, &frames, text, origin)?;
+        inertials(tree, base, &link_poses_at_zero(tree, base), &frame_of_joint, &frames, text, origin)?;
 
     let chain = ImportedChain {
         robot_name: robot.name.clone(),
@@ -400,7 +422,7 @@ pub(crate) fn convert(
 }
 
 /// Poses at q = 0 of every link below `base` (base-link frame, mm).
-fn steps_link_poses<'a>(tree: &Tree<'a>, base: &'a str) -> HashMap<&'a str, Frame> {
+fn link_poses_at_zero<'a>(tree: &Tree<'a>, base: &'a str) -> HashMap<&'a str, Frame> {
     let mut poses: HashMap<&str, Frame> = HashMap::new();
     poses.insert(base, Frame::identity());
     for l in tree.subtree(base) {
