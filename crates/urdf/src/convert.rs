@@ -31,7 +31,7 @@ struct Line {
 
 /// One joint of the path: its constant origin and, for actuated joints, how it moves.
 #[derive(Debug, Clone)]
-struct Step {
+pub(crate) struct Step {
     origin: Frame,
     /// kind and unit axis in the joint frame
     motion: Option<(JointKind, Vector3<f64>)>,
@@ -39,10 +39,10 @@ struct Step {
 
 /// What the rows need from an actuated joint of the path besides the geometry.
 #[derive(Debug, Clone)]
-struct Actuated {
+pub(crate) struct Actuated {
     name: String,
     child: String,
-    kind: JointKind,
+    pub kind: JointKind,
     continuous: bool,
     q_min: Option<f64>,
     q_max: Option<f64>,
@@ -161,7 +161,7 @@ fn pair_frame(
 }
 
 /// Forward kinematics of the URDF path (tip origin in the base-link frame), `q` internal units.
-fn urdf_tip(steps: &[Step], q: &[f64]) -> Vector3<f64> {
+pub(crate) fn urdf_tip(steps: &[Step], q: &[f64]) -> Vector3<f64> {
     let mut x = Frame::identity();
     let mut k = 0;
     for s in steps {
@@ -204,15 +204,16 @@ fn chain_tip(chain: &ImportedChain, q: &[f64]) -> Vector3<f64> {
     x.transform_point(&Vector3::from(chain.tcp_mm))
 }
 
-/// The conversion (see the crate docs). `path` = joint indices from `base` down to `tip`.
-pub(crate) fn convert(
+/// The steps of the path (constant origins and motions) and its actuated joints, validated:
+/// unsupported / mimic joints, unusable axes, origins and limits, and joint counts are errors.
+pub(crate) fn path_steps(
     tree: &Tree<'_>,
     path: &[usize],
     base: &str,
     tip: &str,
     text: &str,
     origin: &str,
-) -> Result<ImportedChain, UrdfImportError> {
+) -> Result<(Vec<Step>, Vec<Actuated>), UrdfImportError> {
     let robot = tree.robot;
     let locate = |tag: &str, name: &str| match element_line(text, tag, name) {
         Some(line) => format!("{origin}:{line}"),
@@ -303,15 +304,29 @@ pub(crate) fn convert(
         };
         steps.push(Step { origin: pose_frame(&j.origin), motion });
     }
-    let n = rows.len();
-    if n == 0 || n > MAX_IMPORTED_JOINTS {
+    if rows.is_empty() || rows.len() > MAX_IMPORTED_JOINTS {
         return Err(UrdfImportError::JointCount {
             origin: origin.to_string(),
             base: base.to_string(),
             tip: tip.to_string(),
-            count: n,
+            count: rows.len(),
         });
     }
+    Ok((steps, rows))
+}
+
+/// The conversion (see the crate docs). `path` = joint indices from `base` down to `tip`.
+pub(crate) fn convert(
+    tree: &Tree<'_>,
+    path: &[usize],
+    base: &str,
+    tip: &str,
+    text: &str,
+    origin: &str,
+) -> Result<ImportedChain, UrdfImportError> {
+    let robot = tree.robot;
+    let (steps, rows) = path_steps(tree, path, base, tip, text, origin)?;
+    let n = rows.len();
 
     // 2. joint axes and tip pose at q = 0, in the base-link frame
     let mut x = Frame::identity();

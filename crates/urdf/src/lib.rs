@@ -316,3 +316,62 @@ pub fn import_str(
     let path = tree.path(base_link, tip_link, origin)?;
     convert::convert(&tree, &path, base_link, tip_link, text, origin)
 }
+
+/// Forward kinematics straight from a URDF's joint origins and axes (no MDH rows involved): the
+/// position of the tip link's origin in the base link's frame. Use it to check a model built from
+/// an [`ImportedChain`] (`vatcal import-urdf` does, and so do the tests).
+///
+/// ```
+/// # let urdf = r#"<robot name="one"><link name="b"/><link name="t"/>
+/// #   <joint name="j" type="continuous"><parent link="b"/><child link="t"/>
+/// #   <origin xyz="0.1 0 0"/><axis xyz="0 0 1"/></joint></robot>"#;
+/// let fk = vatcal_urdf::UrdfFk::new(urdf, "one.urdf", "b", "t")?;
+/// let p = fk.tip_position_mm(&[90.0]).expect("one joint value");
+/// assert!((p[0] - 100.0).abs() < 1e-12 && p[1].abs() < 1e-12);
+/// # Ok::<(), vatcal_urdf::UrdfImportError>(())
+/// ```
+#[derive(Debug, Clone)]
+pub struct UrdfFk {
+    steps: Vec<convert::Step>,
+    kinds: Vec<JointKind>,
+}
+
+impl UrdfFk {
+    /// Parses `text` and validates the path from `base_link` to `tip_link` like
+    /// [`import_str`] does.
+    ///
+    /// # Errors
+    /// The same as [`import_str`] (apart from the self-check and the inertials).
+    pub fn new(text: &str, origin: &str, base_link: &str, tip_link: &str) -> Result<Self, UrdfImportError> {
+        let robot = urdf_rs::read_from_string(text)
+            .map_err(|e| UrdfImportError::Parse { origin: origin.to_string(), message: e.to_string() })?;
+        let tree = tree::Tree::new(&robot, origin)?;
+        let path = tree.path(base_link, tip_link, origin)?;
+        let (steps, rows) = convert::path_steps(&tree, &path, base_link, tip_link, text, origin)?;
+        Ok(Self { steps, kinds: rows.iter().map(|r| r.kind).collect() })
+    }
+
+    /// Number of actuated joints (the length [`UrdfFk::tip_position_mm`] expects).
+    pub fn joint_count(&self) -> usize {
+        self.kinds.len()
+    }
+
+    /// Tip origin in the base link's frame [mm] for joint values in file units (degrees for
+    /// revolute joints, mm for prismatic ones, in chain order); `None` when `q_file` does not
+    /// have [`UrdfFk::joint_count`] values.
+    pub fn tip_position_mm(&self, q_file: &[f64]) -> Option<[f64; 3]> {
+        if q_file.len() != self.kinds.len() {
+            return None;
+        }
+        let q: Vec<f64> = q_file
+            .iter()
+            .zip(&self.kinds)
+            .map(|(v, k)| match k {
+                JointKind::Revolute => v.to_radians(),
+                JointKind::Prismatic => *v,
+            })
+            .collect();
+        let p = convert::urdf_tip(&self.steps, &q);
+        Some([p.x, p.y, p.z])
+    }
+}

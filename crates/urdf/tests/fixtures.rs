@@ -194,3 +194,23 @@ fn meca500_rows_and_limits() {
     }
     println!("base {:?}", chain.base_in_world);
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// The public URDF FK agrees with the tests' independent one.
+    #[test]
+    fn public_urdf_fk_matches_the_independent_one(q in proptest::collection::vec(-3.2f64..3.2, 6)) {
+        let path = fixture("ur5e.urdf");
+        let text = std::fs::read_to_string(&path).expect("read");
+        let fk = vatcal_urdf::UrdfFk::new(&text, &path, "base_link", "tool0").expect("fk");
+        let (robot, chain) = ur5e();
+        prop_assert_eq!(fk.joint_count(), 6);
+        prop_assert!(fk.tip_position_mm(&q[..5]).is_none());
+        let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+        let p = fk.tip_position_mm(&q_deg).expect("6 values");
+        let poses = common::urdf_link_poses(&robot, "base_link", &by_name(&chain, &q));
+        let tip = poses["tool0"] * Point3::origin();
+        prop_assert!((Vector3::from(p) - tip.coords).norm() < 1e-9);
+    }
+}
