@@ -182,7 +182,7 @@ pub(crate) fn urdf_tip(steps: &[Step], q: &[f64]) -> Vector3<f64> {
 }
 
 /// Forward kinematics of the imported rows (file units in `chain`, `q` internal units).
-fn chain_tip(chain: &ImportedChain, q: &[f64]) -> Vector3<f64> {
+pub(crate) fn chain_tip(chain: &ImportedChain, q: &[f64]) -> Vector3<f64> {
     let b = &chain.base_in_world;
     let mut x = Frame {
         r: rot_x(b.alpha_deg.to_radians()) * rot_y(b.beta_deg.to_radians()) * rot_z(b.gamma_deg.to_radians()),

@@ -78,28 +78,22 @@
 //! # Ok::<(), vatcal_urdf::UrdfImportError>(())
 //! ```
 
+mod cell;
 mod convert;
 mod tree;
 
 use std::path::{Path, PathBuf};
 
+pub use cell::DEFAULT_GRAVITY_M_PER_S2;
+pub use vatcal_core::JointKind;
 pub use vatcal_core::cell::{BaseInWorld, LinkInertial};
 
 /// Most actuated joints an imported chain may have (the cell model's limit).
-pub const MAX_IMPORTED_JOINTS: usize = 12;
+pub const MAX_IMPORTED_JOINTS: usize = vatcal_core::MAX_JOINTS;
 
 /// Consecutive joint axes closer than this to parallel (or anti-parallel) use the Hayati
 /// construction (`beta`) instead of the common normal [deg].
 pub const PARALLEL_AXES_TOLERANCE_DEG: f64 = 1.0;
-
-/// How an actuated joint moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum JointKind {
-    /// rotation about `z_i`: `theta_i = q_i + theta_deg` (q in degrees in files)
-    Revolute,
-    /// translation along `z_i`: `d_i = q_i + d_mm` (q in mm in files)
-    Prismatic,
-}
 
 /// One MDH + Hayati-β row, i.e. one actuated URDF joint, in file units.
 #[derive(Debug, Clone, PartialEq)]

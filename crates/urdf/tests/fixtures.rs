@@ -214,3 +214,39 @@ proptest! {
         prop_assert!((Vector3::from(p) - tip.coords).norm() < 1e-9);
     }
 }
+
+#[test]
+fn to_cell_is_a_valid_version_2_cell_that_round_trips() {
+    for (chain, n) in [(ur5e().1, 6), (meca500().1, 6)] {
+        let cell = chain.to_cell("fixture.urdf");
+        assert_eq!((cell.format.as_str(), cell.version), ("serial-robot-cell", 2));
+        cell.validate("to_cell").expect("valid cell");
+        assert_eq!(cell.joints.len(), n);
+        for (row, j) in cell.joints.iter().zip(&chain.joints) {
+            assert_eq!((row.name.as_str(), row.kind.as_str()), (j.name.as_str(), "revolute"));
+            assert_eq!(
+                (row.alpha_deg, row.a_mm, row.beta_deg, row.theta_deg, row.d_mm),
+                (j.alpha_deg, j.a_mm, j.beta_deg, j.theta_deg, j.d_mm)
+            );
+            assert_eq!((row.q_min, row.q_max), (j.q_min, j.q_max));
+        }
+        assert_eq!(cell.tcps.len(), 1);
+        assert_eq!(cell.inertials.tool.frame as usize, n);
+        assert_eq!(cell.inertials.tool.mass_kg, 0.0);
+        // the placeholder calibration position is where TCP 1 is at q = 0
+        let p = chain.tcp_at_zero_mm();
+        let c = &cell.calibration_positions[0];
+        assert_eq!([c.x_mm, c.y_mm, c.z_mm], p);
+        let text = cell.to_toml_string().expect("serialise");
+        let back = vatcal_core::CellFile::from_toml_str(&text, "round trip").expect("reload");
+        assert_eq!(back, cell);
+        assert!(text.contains("[urdf_import]") && text.contains("tip_link"), "{text}");
+    }
+    // UR5e at q = 0: tool0 at (a2 + a3, -d4 - d6, d1 - d5) = (-817.2, -232.9, 62.8) mm in UR's DH
+    // base frame, i.e. (817.2, 232.9, 62.8) in base_link (turned 180° about z)
+    let p = ur5e().1.tcp_at_zero_mm();
+    let want = [817.2, 232.9, 62.8];
+    for k in 0..3 {
+        assert!((p[k] - want[k]).abs() < 1e-9, "{p:?}");
+    }
+}
