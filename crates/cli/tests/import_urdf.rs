@@ -98,6 +98,7 @@ fn import_and_compare(urdf: &str, base: &str, tip: &str, seed: u64, through_cli:
 #[test]
 fn ur5e_written_cell_matches_the_urdf() {
     let (worst, summary) = import_and_compare("ur5e.urdf", "base_link", "tool0", 12, false);
+    println!("max deviation {worst:e} mm");
     assert!(worst < 1e-9, "max deviation {worst:e} mm");
     assert!(summary.contains("ur5e (6 joints, base_link -> tool0)"), "{summary}");
     assert!(summary.contains("shoulder_pan_joint") && summary.contains("check: FK"), "{summary}");
@@ -106,12 +107,14 @@ fn ur5e_written_cell_matches_the_urdf() {
 #[test]
 fn ur5e_vatcal_fk_matches_the_urdf() {
     let (worst, _) = import_and_compare("ur5e.urdf", "base_link", "tool0", 12, true);
+    println!("max deviation {worst:e} mm");
     assert!(worst < 1e-9, "max deviation {worst:e} mm");
 }
 
 #[test]
 fn meca500_vatcal_fk_matches_the_urdf() {
     let (worst, _) = import_and_compare("meca500.urdf", "meca_base_link", "meca_axis_6_link", 7, true);
+    println!("max deviation {worst:e} mm");
     assert!(worst < 1e-9, "max deviation {worst:e} mm");
 }
 
