@@ -43,6 +43,8 @@ enum Command {
     Campaign(cmd::campaign::Args),
     /// Serve the whole virtual cell over TCP (Meca500, Zaber, Sylvac gauges, cell control).
     SimCell(cmd::sim_cell::Args),
+    /// Write a cell file (format version 2) from the serial chain between two links of a URDF.
+    ImportUrdf(cmd::import_urdf::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -60,6 +62,7 @@ fn main() -> std::process::ExitCode {
         Command::Compensate(a) => cmd::compensate::run(a),
         Command::Campaign(a) => cmd::campaign::run(a),
         Command::SimCell(a) => cmd::sim_cell::run(a),
+        Command::ImportUrdf(a) => cmd::import_urdf::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

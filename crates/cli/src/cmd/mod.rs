@@ -6,6 +6,7 @@ pub mod demo;
 pub mod discover;
 pub mod fk;
 pub mod identify;
+pub mod import_urdf;
 pub mod observability;
 pub mod plan;
 pub mod select;
