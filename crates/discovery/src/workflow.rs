@@ -6,18 +6,20 @@
 //!    located against every driving variable ([`crate::location`], a diagnostic);
 //! 2. **screening** on S only: the current model is refitted to S and every catalog effect not
 //!    yet in the model is scored there (novelty `‖P⊥Z‖/‖Z‖` and the score test). The
-//!    false-alarm probability is spent over the rounds: round r screens at `α·2⁻ʳ/m` (m scored
+//!    false-alarm probability is spent over the rounds: round r screens at `α·s_r/m` (m scored
 //!    candidates), so the family-wise level over **all** rounds and candidates is ≤ α;
 //! 3. **confirmation** on C only (data the screening never saw): for the best screened
 //!    candidates, every point of C is predicted by fits without it (K folds of C; training =
 //!    S + the other folds of C), without and with the effect. The effect must lower the
 //!    held-out squared error by more than `z_r` standard errors of the paired differences
-//!    (`z_r` at the level `confirm_alpha·2⁻ʳ/max_refits`), its predictions must change by more
-//!    than the noise (else it is reported as *detected, negligible (x µm)* and not added), and
-//!    its identified values must be plausible;
+//!    (`z_r` at the level `confirm_alpha·s_r/max_refits`, `s_r = 6/(π²r²)`, [`round_spending`]),
+//!    its predictions must change by more than the noise (the instruments' known noise when
+//!    given, else σ̂; below it the effect is reported as *detected, negligible (x µm)* and not
+//!    added), and its identified values must be plausible;
 //! 4. the confirmed candidate with the largest held-out improvement is added (refitted on all
-//!    data); then a **backward check** removes earlier effects that no longer lower the
-//!    held-out error by more than one standard error with the new one present;
+//!    data); then a **backward check** removes earlier effects (those correlated with the new
+//!    one) that no longer lower the held-out error by more than one standard error with the
+//!    new one present;
 //! 5. repeat until no candidate is confirmed.
 //!
 //! A cross-validation fold whose fit fails (ill-conditioned, not converged) is skipped,
@@ -48,10 +50,10 @@ use crate::location::{DriverSummary, PoseData, locate};
 #[derive(Debug, Clone)]
 pub struct DiscoverOptions {
     /// family-wise false-alarm probability of the screening over **all** rounds: round r
-    /// (1-based) spends `alpha·2⁻ʳ`, split over its m scored candidates (`alpha·2⁻ʳ/m` each)
+    /// (1-based) spends `alpha·s_r` ([`round_spending`]), split over its m scored candidates
     pub alpha: f64,
     /// family-wise level of the held-out confirmation over all rounds: round r confirms at
-    /// `confirm_alpha·2⁻ʳ/max_refits` per refitted candidate (one-sided paired z-test)
+    /// `confirm_alpha·s_r/max_refits` per refitted candidate (one-sided paired z-test)
     pub confirm_alpha: f64,
     /// share of the measurements (per calibration position) used for screening; the rest
     /// confirms
@@ -73,8 +75,19 @@ pub struct DiscoverOptions {
     pub max_refits: usize,
     /// upper bound on the number of rounds
     pub max_rounds: usize,
+    /// the backward check after an addition re-tests an earlier effect only when one of its
+    /// parameters correlates with one of the new effect's by at least this (absolute value,
+    /// in the fit with both): an effect can only be made redundant by one that shares its
+    /// directions
+    pub redundancy_correlation: f64,
     /// known noise σ per axis [mm] for the score test; when `None` σ̂ of the screening fit is used
     pub known_sigma_mm: Option<f64>,
+    /// the instruments' known measurement noise per kind (σ per axis of probe and of tracker
+    /// rows [mm], e.g. from the device specifications). When given, the size rule compares an
+    /// effect's prediction change with this noise instead of σ̂ of the refit (which effects
+    /// still unmodelled inflate), and probe/tracker rows are weighted by it; the score test
+    /// keeps σ̂ (conservative while effects are missing). `None`: σ̂ everywhere.
+    pub instrument_sigmas: Option<KindSigmas>,
     /// estimate σ of probe and of tracker residuals separately and weight the fits by them
     /// (only matters when both kinds are in the data)
     pub weight_by_kind: bool,
@@ -96,8 +109,10 @@ impl Default for DiscoverOptions {
             folds: 5,
             seed: 1,
             max_refits: 4,
-            max_rounds: 8,
+            max_rounds: 16,
+            redundancy_correlation: 0.2,
             known_sigma_mm: None,
+            instrument_sigmas: None,
             weight_by_kind: true,
             cmm_sigma_mm: 0.002,
             identify: IdentifyOptions::default(),
@@ -271,7 +286,7 @@ pub struct Round {
     pub fit: FitSummary,
     /// residuals against every driving variable, most significant first
     pub location: Vec<DriverSummary>,
-    /// screening threshold `ln(alpha·2⁻ʳ/m)`
+    /// screening threshold `ln(alpha·s_r/m)`
     pub ln_threshold: f64,
     /// z the held-out improvement of a candidate had to exceed
     pub z_required: f64,
@@ -434,7 +449,7 @@ struct Candidate {
     directions: Option<EffectDirections>,
     score: Option<ScoreTest>,
     status: CandidateStatus,
-    refit: Option<(RefitEvidence, Fit)>,
+    refit: Option<(RefitEvidence, Fit, CrossValidation)>,
 }
 
 /// Held-out predictions of a cross-validation: one error per measurement (`None` = not
@@ -512,6 +527,29 @@ impl Context<'_> {
         let rss: f64 = ms.iter().zip(&f.residuals).map(|(m, r)| kind_weight(m, w) * r.norm_squared()).sum();
         (rss / (3 * ms.len()).saturating_sub(rank).max(1) as f64).sqrt()
     }
+
+    /// Per-axis noise the size rule compares a prediction change with: the instruments' known
+    /// noise of a weight-1 row (probe σ when the data has probe rows, else tracker σ) when
+    /// given, else [`Context::sigma_hat`] of the fit.
+    fn noise_sigma(&self, f: &Fit, ms: &[Measurement], rank: usize) -> f64 {
+        let known = self.options.instrument_sigmas.and_then(|k| {
+            let has_probe = ms.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
+            if has_probe { k.probe_mm } else { k.tracker_mm }
+        });
+        match known {
+            Some(s) if s > 0.0 && s.is_finite() => s,
+            _ => self.sigma_hat(f, ms, rank),
+        }
+    }
+}
+
+/// Share of the false-alarm probability spent in round `r` (1-based): `6/(π² r²)`, which sums
+/// to 1 over all rounds, so spending `alpha · spend(r)` per round keeps the family-wise level
+/// over every round below `alpha` while later rounds (needed when a cell has many missing
+/// effects) stay testable (round 8 still spends 0.95 %, where `2⁻ʳ` would spend 0.39 %).
+pub fn round_spending(r: usize) -> f64 {
+    let r = r.max(1) as f64;
+    6.0 / (std::f64::consts::PI * std::f64::consts::PI * r * r)
 }
 
 /// Weight of a measurement's kind.
@@ -592,12 +630,28 @@ fn identifiable_subset(
     Ok(kept)
 }
 
+/// Highest gear harmonic [`candidates`] proposes.
+pub const MAX_PROPOSED_HARMONIC: u8 = 4;
+
 /// The catalog's candidates plus the lower orders of the guide-angular polynomial (order 1 =
 /// a linear pitch/yaw/roll, 3 parameters, is tested on its own so that a linear error does not
 /// have to pay for the 3 quadratic parameters too; the order-2 candidate is then the test of
-/// the quadratic terms).
+/// the quadratic terms), plus the next gear harmonic of a joint once the model has its
+/// harmonic h ≥ 2 (harmonics enter in order, up to [`MAX_PROPOSED_HARMONIC`]: a strain-wave
+/// gear whose error curve has a second harmonic has higher ones too, and proposing them only
+/// then keeps the number of scored candidates, and so the Bonferroni price, small).
 pub fn candidates(model: &Model, measurements: &[Measurement]) -> Vec<EffectSpec> {
     let mut v = candidate_effects(model, measurements);
+    for spec in model.effects() {
+        if let EffectSpec::JointCyclic { joint, harmonic } = *spec
+            && (2..MAX_PROPOSED_HARMONIC).contains(&harmonic)
+        {
+            let next = EffectSpec::JointCyclic { joint, harmonic: harmonic + 1 };
+            if !v.contains(&next) {
+                v.push(next);
+            }
+        }
+    }
     let mut lower = Vec::new();
     for spec in &v {
         if let EffectSpec::GuideAngular { order } = *spec {
@@ -693,7 +747,7 @@ fn refit_candidate(
     th: &Thresholds,
     ctx: &Context<'_>,
     notes: &mut Vec<String>,
-) -> Result<(RefitEvidence, Fit), String> {
+) -> Result<(RefitEvidence, Fit, CrossValidation), String> {
     let opts = &ctx.options;
     let mut start = current.model.clone();
     start.enable_effect(candidate.spec).map_err(|e| e.to_string())?;
@@ -752,13 +806,13 @@ fn refit_candidate(
         z_required: th.z_required,
         negligible_below_mm: opts.negligible_factor
             * 3f64.sqrt()
-            * ctx.sigma_hat(&fit1, ctx.measurements, rank0 + added.len()),
+            * ctx.noise_sigma(&fit1, ctx.measurements, rank0 + added.len()),
         values,
         std_errors,
         confounding,
         implausible,
     };
-    Ok((evidence, fit1))
+    Ok((evidence, fit1, held1))
 }
 
 /// The decision rule: what the evidence says about adding the effect.
@@ -846,9 +900,9 @@ fn confirm_screened(
         }
         refits += 1;
         match refit_candidate(current, j0, rank0, held0, c, th, ctx, notes) {
-            Ok((evidence, fit1)) => {
+            Ok((evidence, fit1, held1)) => {
                 c.status = decide(&evidence, &fit1);
-                c.refit = Some((evidence, fit1));
+                c.refit = Some((evidence, fit1, held1));
             }
             Err(why) => c.status = CandidateStatus::Rejected(why),
         }
@@ -893,7 +947,8 @@ fn added_effect(
     ctx: &Context<'_>,
 ) -> Result<(AddedEffect, Fit, CrossValidation), DiscoveryError> {
     let lost = || DiscoveryError::Numerical("internal: the added candidate has no refit or score".into());
-    let (evidence, fit1) = c.refit.clone().ok_or_else(lost)?;
+    let (evidence, fit1, _) = c.refit.as_ref().ok_or_else(lost)?;
+    let (evidence, fit1) = (evidence.clone(), fit1.clone());
     let score = c.score.ok_or_else(lost)?;
     let held1 = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
     let gap_after = ctx.gap(&fit1.model, &held1)?;
@@ -950,19 +1005,39 @@ fn backward_check(
     added: &mut Vec<AddedEffect>,
     current: &mut Fit,
     round: usize,
+    with_current: &CrossValidation,
     ctx: &Context<'_>,
     notes: &mut Vec<String>,
 ) -> Result<Vec<RemovedEffect>, DiscoveryError> {
     let mut removed = Vec::new();
+    let mut recomputed: Option<CrossValidation> = None;
+    // parameters of the effect just added: an earlier effect can only have become redundant
+    // if its parameters are correlated with these
+    let newest: Vec<usize> = added
+        .last()
+        .map(|a| a.spec.params().into_iter().filter_map(|p| current.params.index_of(p)).collect())
+        .unwrap_or_default();
     while added.len() >= 2 {
         let rank = current.params.len();
         let negligible_below_mm =
-            ctx.options.negligible_factor * 3f64.sqrt() * ctx.sigma_hat(current, ctx.measurements, rank);
-        let with = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
+            ctx.options.negligible_factor * 3f64.sqrt() * ctx.noise_sigma(current, ctx.measurements, rank);
+        let with = recomputed.as_ref().unwrap_or(with_current);
         let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
         // the newest effect was just confirmed; check the earlier ones
         for k in 0..added.len() - 1 {
             let own: Vec<ParamId> = added[k].spec.params();
+            let own_idx: Vec<usize> = own.iter().filter_map(|p| current.params.index_of(*p)).collect();
+            let linked = recomputed.is_some()
+                || own_idx.iter().any(|a| {
+                    newest.iter().any(|b| {
+                        current
+                            .correlation(*a, *b)
+                            .is_none_or(|c| c.abs() >= ctx.options.redundancy_correlation)
+                    })
+                });
+            if !linked {
+                continue;
+            }
             let params = ParamSet(current.params.iter().copied().filter(|p| !own.contains(p)).collect());
             let specs: Vec<EffectSpec> =
                 added.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, a)| a.spec).collect();
@@ -990,6 +1065,7 @@ fn backward_check(
             heldout: h,
         });
         *current = refit;
+        recomputed = Some(ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds));
     }
     Ok(removed)
 }
@@ -1045,13 +1121,16 @@ pub fn discover(
     let mut options = options.clone();
     // separate σ for probe and tracker residuals (inverse-variance weights)
     let first = fit(start, measurements, params, &options.identify)?;
-    let kind_sigmas = KindSigmas::estimate(measurements, &first.residuals, params.len());
+    let estimated = KindSigmas::estimate(measurements, &first.residuals, params.len());
+    let known = options.instrument_sigmas.filter(|k| k.probe_mm.is_some() && k.tracker_mm.is_some());
+    let kind_sigmas = known.unwrap_or(estimated);
     let weighted =
         options.weight_by_kind && kind_sigmas.probe_mm.is_some() && kind_sigmas.tracker_mm.is_some();
     let mut current = if weighted {
         options.identify.weights = kind_sigmas.weights();
         notes.push(format!(
-            "probe and tracker residuals weighted by their own sigma ({:.4} / {:.4} mm per axis)",
+            "probe and tracker residuals weighted by their {} sigma ({:.4} / {:.4} mm per axis)",
+            if known.is_some() { "instruments' known" } else { "own estimated" },
             kind_sigmas.probe_mm.unwrap_or(0.0),
             kind_sigmas.tracker_mm.unwrap_or(0.0)
         ));
@@ -1083,8 +1162,10 @@ pub fn discover(
     let mut added_effects: Vec<AddedEffect> = Vec::new();
     let mut removed_effects = Vec::new();
     let mut negligible_effects = Vec::new();
+    // confirmation-fold CV of the current model, when already known
+    let mut confirm_cv: Option<CrossValidation> = None;
     for index in 1..=options.max_rounds.max(1) {
-        let spend = 0.5f64.powi(index as i32);
+        let spend = round_spending(index);
         let mut j0 = assemble_jacobian(&current.model, measurements, &current.params)
             .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
         weigh_rows(&mut j0, measurements, &options.identify.weights);
@@ -1126,21 +1207,24 @@ pub fn discover(
         let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
         candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
         let any_screened = candidates.iter().any(|c| c.score.is_some_and(|s| s.ln_p_value < th.ln_screen));
-        let held0 = if any_screened {
+        let cached = confirm_cv.take();
+        let held0 = if !any_screened {
+            CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
+        } else if let Some(h) = cached {
+            h
+        } else {
             let h = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
             notes.extend(
                 h.skipped.iter().map(|s| format!("round {index} confirmation baseline: skipped {s}")),
             );
             h
-        } else {
-            CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
         };
         let mut fold_notes = Vec::new();
         confirm_screened(&mut candidates, &current, &j0, rank0, &held0, &th, &ctx, &mut fold_notes);
         skipped_folds += held0.skipped.len() + fold_notes.len();
         notes.extend(fold_notes);
         for c in &candidates {
-            if let (CandidateStatus::DetectedNegligible(_), Some((e, _))) = (&c.status, &c.refit) {
+            if let (CandidateStatus::DetectedNegligible(_), Some((e, ..))) = (&c.status, &c.refit) {
                 negligible_effects.push(NegligibleEffect {
                     label: c.spec.label(),
                     round: index,
@@ -1152,7 +1236,13 @@ pub fn discover(
         let next = match best_passing(&candidates) {
             Some(b) => {
                 candidates[b].status = CandidateStatus::Added;
-                Some(added_effect(&candidates[b], index, &current, &gap, &ctx)?)
+                let added = added_effect(&candidates[b], index, &current, &gap, &ctx)?;
+                // the confirmation CV of the refit is that of the new current model: reused by
+                // the backward check and as the next round's baseline
+                confirm_cv = candidates[b].refit.as_mut().map(|r| {
+                    std::mem::replace(&mut r.2, CrossValidation { errors: Vec::new(), skipped: Vec::new() })
+                });
+                Some(added)
             }
             None => None,
         };
@@ -1168,8 +1258,15 @@ pub fn discover(
             added_effects.push(added);
             current = fit1;
             held_all = held1;
-            removed = backward_check(start, &mut added_effects, &mut current, index, &ctx, &mut notes)?;
-            if !removed.is_empty() {
+            let with = match confirm_cv.take() {
+                Some(cv) => cv,
+                None => ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds),
+            };
+            removed =
+                backward_check(start, &mut added_effects, &mut current, index, &with, &ctx, &mut notes)?;
+            if removed.is_empty() {
+                confirm_cv = Some(with);
+            } else {
                 held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
                 gap = ctx.gap(&current.model, &held_all)?;
                 let names: Vec<&str> = removed.iter().map(|r| r.label.as_str()).collect();
@@ -1233,5 +1330,18 @@ fn candidate_score(c: Candidate) -> CandidateScore {
         score: c.score,
         refit: c.refit.map(|r| r.0),
         status: c.status,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::round_spending;
+
+    #[test]
+    fn round_spending_sums_to_at_most_one_and_decreases() {
+        let total: f64 = (1..=100_000).map(round_spending).sum();
+        assert!(total < 1.0 && total > 0.9999, "{total}");
+        assert!((1..50).all(|r| round_spending(r + 1) < round_spending(r)));
+        assert!((round_spending(1) - 6.0 / std::f64::consts::PI.powi(2)).abs() < 1e-15);
     }
 }

@@ -56,15 +56,26 @@ pub struct DiscoveryStageOptions {
 
 impl DiscoveryStageOptions {
     /// 120 extra measurements planned for [`default_plan_effects`]; the discovery's defaults
-    /// with `seed` and `negligible_factor` 0.25 (the default 1.0 compares the prediction change
-    /// with σ̂ of the refit, which unmodelled physics inflates to ~0.1 mm; docs/discovery.md).
+    /// with `seed`. Give the instruments' noise with [`DiscoveryStageOptions::with_instrument_noise`]
+    /// so that the size rule does not compare with σ̂, which the physics still unmodelled
+    /// inflates to ~0.1 mm (docs/discovery.md).
     pub fn new(seed: u64) -> Self {
         Self {
-            count: 120,
+            count: 360,
             plan_effects: default_plan_effects(),
             true_effects: None,
-            discover: DiscoverOptions { seed, negligible_factor: 0.25, ..DiscoverOptions::default() },
+            discover: DiscoverOptions { seed, ..DiscoverOptions::default() },
         }
+    }
+
+    /// The same with the instruments' known noise per axis: probe measurements (after
+    /// centring, the offset read by the gauges) and tracker measurements [mm].
+    pub fn with_instrument_noise(mut self, probe_mm: f64, tracker_mm: f64) -> Self {
+        self.discover.instrument_sigmas = Some(vatcal_identification::KindSigmas {
+            probe_mm: Some(probe_mm),
+            tracker_mm: Some(tracker_mm),
+        });
+        self
     }
 }
 
