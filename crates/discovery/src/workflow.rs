@@ -75,6 +75,12 @@ pub struct DiscoverOptions {
     pub max_refits: usize,
     /// upper bound on the number of rounds
     pub max_rounds: usize,
+    /// when no candidate passes alone, confirm the refitted candidates that each lowered the
+    /// held-out error by more than one standard error **together** (one more test of the
+    /// round, at `confirm_alpha·s_r/(max_refits + 1)`), then prune the block's members with
+    /// the backward check: with many missing effects each one's held-out gain is masked by
+    /// the others' misfit, together they are not
+    pub block_step: bool,
     /// the backward check after an addition re-tests an earlier effect only when one of its
     /// parameters correlates with one of the new effect's by at least this (absolute value,
     /// in the fit with both): an effect can only be made redundant by one that shares its
@@ -111,6 +117,7 @@ impl Default for DiscoverOptions {
             max_refits: 4,
             max_rounds: 16,
             redundancy_correlation: 0.2,
+            block_step: true,
             known_sigma_mm: None,
             instrument_sigmas: None,
             weight_by_kind: true,
@@ -748,15 +755,45 @@ fn refit_candidate(
     ctx: &Context<'_>,
     notes: &mut Vec<String>,
 ) -> Result<(RefitEvidence, Fit, CrossValidation), String> {
+    refit_effects(
+        current,
+        j0,
+        rank0,
+        held0,
+        &[(candidate.spec, candidate.new_params.clone())],
+        th,
+        ctx,
+        notes,
+    )
+}
+
+/// Refits with several effects at once (each with its not yet fitted parameters) on all data,
+/// confirms them together on the held-out confirmation data and collects the evidence.
+#[allow(clippy::too_many_arguments)]
+fn refit_effects(
+    current: &Fit,
+    j0: &faer::Mat<f64>,
+    rank0: usize,
+    held0: &CrossValidation,
+    effects: &[(EffectSpec, Vec<ParamId>)],
+    th: &Thresholds,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Result<(RefitEvidence, Fit, CrossValidation), String> {
     let opts = &ctx.options;
     let mut start = current.model.clone();
-    start.enable_effect(candidate.spec).map_err(|e| e.to_string())?;
-    let z = assemble_jacobian(&start, ctx.measurements, &ParamSet(candidate.new_params.clone()))
+    let mut new_params: Vec<ParamId> = Vec::new();
+    for (spec, params) in effects {
+        start.enable_effect(*spec).map_err(|e| e.to_string())?;
+        new_params.extend(params.iter().copied().filter(|p| !new_params.contains(p)).collect::<Vec<_>>());
+    }
+    let label = effects.iter().map(|(s, _)| s.label()).collect::<Vec<_>>().join(" + ");
+    let z = assemble_jacobian(&start, ctx.measurements, &ParamSet(new_params.clone()))
         .map_err(|e| e.to_string())?;
     let (zn, _) = unit_columns(z.as_ref());
     let (jn, _) = unit_columns(j0.as_ref());
     let subset = identifiable_subset(&jn, &zn, opts.novelty_floor).map_err(|e| e.to_string())?;
-    let added: Vec<ParamId> = subset.iter().map(|k| candidate.new_params[*k]).collect();
+    let added: Vec<ParamId> = subset.iter().map(|k| new_params[*k]).collect();
     if added.is_empty() {
         return Err("no identifiable parameter".into());
     }
@@ -768,13 +805,18 @@ fn refit_candidate(
         NestedComparison::new(current.n(), rank0, current.rss_mm2, rank0 + added.len(), fit1.rss_mm2);
     let held1 = ctx.cross_validate(&start, &params1, &ctx.confirm_folds);
     for s in &held1.skipped {
-        notes.push(format!("confirmation of {}: skipped {s}", candidate.spec.label()));
+        notes.push(format!("confirmation of {label}: skipped {s}"));
     }
     let heldout = HeldOutComparison::new(&held0.errors, &held1.errors);
     let before = |p: ParamId| current.model.param(p).unwrap_or(0.0);
     let changes: Vec<(ParamId, f64)> =
         added.iter().map(|p| (*p, fit1.value(*p).unwrap_or(0.0) - before(*p))).collect();
-    let implausible = plausibility(&candidate.spec, &changes).err();
+    let implausible = effects.iter().find_map(|(spec, params)| {
+        let own: Vec<(ParamId, f64)> = changes.iter().copied().filter(|(p, _)| params.contains(p)).collect();
+        plausibility(spec, &own)
+            .err()
+            .map(|why| if effects.len() > 1 { format!("{}: {why}", spec.label()) } else { why })
+    });
     let mut values = BTreeMap::new();
     let mut std_errors = BTreeMap::new();
     for p in &added {
@@ -815,6 +857,9 @@ fn refit_candidate(
     Ok((evidence, fit1, held1))
 }
 
+/// Start of the rejection reason of a candidate that failed the held-out z-test.
+const HELDOUT_NOT_LOWER: &str = "held-out error not lower by more than its uncertainty";
+
 /// The decision rule: what the evidence says about adding the effect.
 fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
     let h = &e.heldout;
@@ -826,7 +871,7 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
     }
     if h.z.is_nan() || h.z <= e.z_required {
         return CandidateStatus::Rejected(format!(
-            "held-out error not lower by more than its uncertainty (RMS {:.4} -> {:.4} mm, reduction {:.3e} +- {:.3e} mm2, z = {:.2} < {:.2})",
+            "{HELDOUT_NOT_LOWER} (RMS {:.4} -> {:.4} mm, reduction {:.3e} +- {:.3e} mm2, z = {:.2} < {:.2})",
             h.rms_before_mm, h.rms_after_mm, h.mean_reduction_mm2, h.std_error_mm2, h.z, e.z_required
         ));
     }
@@ -948,32 +993,103 @@ fn added_effect(
 ) -> Result<(AddedEffect, Fit, CrossValidation), DiscoveryError> {
     let lost = || DiscoveryError::Numerical("internal: the added candidate has no refit or score".into());
     let (evidence, fit1, _) = c.refit.as_ref().ok_or_else(lost)?;
-    let (evidence, fit1) = (evidence.clone(), fit1.clone());
-    let score = c.score.ok_or_else(lost)?;
     let held1 = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
     let gap_after = ctx.gap(&fit1.model, &held1)?;
+    let added = added_record(c, evidence, fit1, round, current, gap_before, &gap_after, ctx)?;
+    Ok((added, fit1.clone(), held1))
+}
+
+/// The record of candidate `c` added with the refit `fit1` (its own or a block's) and its
+/// evidence; values and standard errors restricted to `c`'s parameters.
+#[allow(clippy::too_many_arguments)]
+fn added_record(
+    c: &Candidate,
+    evidence: &RefitEvidence,
+    fit1: &Fit,
+    round: usize,
+    current: &Fit,
+    gap_before: &Gap,
+    gap_after: &Gap,
+    ctx: &Context<'_>,
+) -> Result<AddedEffect, DiscoveryError> {
+    let lost = || DiscoveryError::Numerical("internal: the added candidate has no score".into());
+    let score = c.score.ok_or_else(lost)?;
+    let keys: Vec<String> = c.new_params.iter().map(|p| file_value(*p, 0.0).0).collect();
+    let own = |m: &BTreeMap<String, f64>| -> BTreeMap<String, f64> {
+        m.iter().filter(|(k, _)| keys.contains(k)).map(|(k, v)| (k.clone(), *v)).collect()
+    };
     let plot = driver_plot(&c.spec, &fit1.model, ctx.measurements, &current.residuals, &fit1.residuals)?;
-    let added = AddedEffect {
+    Ok(AddedEffect {
         effect: c.spec.kind().name().to_string(),
         joint: c.spec.joint(),
         label: c.spec.label(),
         meaning: meaning(c.spec.kind()).to_string(),
         spec: c.spec,
         round,
-        values: evidence.values,
-        std_errors: evidence.std_errors,
+        values: own(&evidence.values),
+        std_errors: own(&evidence.std_errors),
         novelty: c.directions.as_ref().map_or(0.0, |d| d.novelty),
         score,
         comparison: evidence.comparison,
         heldout: evidence.heldout,
-        confounding: evidence.confounding,
+        confounding: evidence.confounding.clone(),
         gap_before_mm: gap_before.headline_mm(),
         gap_after_mm: gap_after.headline_mm(),
         gap_before: gap_before.clone(),
-        gap_after,
+        gap_after: gap_after.clone(),
         plot,
-    };
-    Ok((added, fit1, held1))
+    })
+}
+
+/// Whether a refitted candidate failed **only** the held-out z-test but still lowered the
+/// held-out error by more than one standard error and changed the predictions by more than
+/// the noise: a member of the round's block.
+fn block_member(c: &Candidate) -> bool {
+    let Some((e, f, _)) = &c.refit else { return false };
+    matches!(&c.status, CandidateStatus::Rejected(why) if why.starts_with(HELDOUT_NOT_LOWER))
+        && f.converged
+        && e.implausible.is_none()
+        && e.heldout.z > 1.0
+        && e.heldout.change_rms_mm >= e.negligible_below_mm
+}
+
+/// The block step of a round in which no candidate passed alone (module docs): the refitted
+/// candidates that each lowered the held-out error by more than one standard error are
+/// refitted **together** and confirmed together at `z_block` (one more test of the round).
+/// Returns the members' indices and the block's evidence, fit and confirmation CV when the
+/// block passes the decision rule.
+#[allow(clippy::too_many_arguments)]
+fn block_step(
+    candidates: &[Candidate],
+    current: &Fit,
+    j0: &faer::Mat<f64>,
+    rank0: usize,
+    held0: &CrossValidation,
+    z_block: f64,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Option<(Vec<usize>, RefitEvidence, Fit, CrossValidation)> {
+    let members: Vec<usize> = (0..candidates.len()).filter(|i| block_member(&candidates[*i])).collect();
+    if members.len() < 2 {
+        return None;
+    }
+    let effects: Vec<(EffectSpec, Vec<ParamId>)> =
+        members.iter().map(|i| (candidates[*i].spec, candidates[*i].new_params.clone())).collect();
+    let th = Thresholds { ln_screen: f64::NAN, z_required: z_block };
+    match refit_effects(current, j0, rank0, held0, &effects, &th, ctx, notes) {
+        Ok((evidence, fit1, held1)) => match decide(&evidence, &fit1) {
+            CandidateStatus::PassedNotBest => Some((members, evidence, fit1, held1)),
+            other => {
+                let label = effects.iter().map(|(s, _)| s.label()).collect::<Vec<_>>().join(" + ");
+                notes.push(format!("block {label} not added: {other:?}"));
+                None
+            }
+        },
+        Err(why) => {
+            notes.push(format!("block refit failed: {why}"));
+            None
+        }
+    }
 }
 
 /// `start` with the effects `specs` switched on and every parameter of `params` set to its
@@ -1003,6 +1119,7 @@ fn rebuild(
 fn backward_check(
     start: &Model,
     added: &mut Vec<AddedEffect>,
+    fresh: usize,
     current: &mut Fit,
     round: usize,
     with_current: &CrossValidation,
@@ -1011,20 +1128,27 @@ fn backward_check(
 ) -> Result<Vec<RemovedEffect>, DiscoveryError> {
     let mut removed = Vec::new();
     let mut recomputed: Option<CrossValidation> = None;
-    // parameters of the effect just added: an earlier effect can only have become redundant
+    // parameters of the effect(s) just added: an earlier effect can only have become redundant
     // if its parameters are correlated with these
     let newest: Vec<usize> = added
-        .last()
-        .map(|a| a.spec.params().into_iter().filter_map(|p| current.params.index_of(p)).collect())
-        .unwrap_or_default();
+        .iter()
+        .rev()
+        .take(fresh)
+        .flat_map(|a| a.spec.params())
+        .filter_map(|p| current.params.index_of(p))
+        .collect();
+    // a single new effect was just confirmed alone and is not re-tested; every member of a
+    // block is (each must still lower the held-out error given the others)
+    let exempt = usize::from(fresh == 1);
     while added.len() >= 2 {
         let rank = current.params.len();
+        let _ = fresh;
         let negligible_below_mm =
             ctx.options.negligible_factor * 3f64.sqrt() * ctx.noise_sigma(current, ctx.measurements, rank);
         let with = recomputed.as_ref().unwrap_or(with_current);
         let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
         // the newest effect was just confirmed; check the earlier ones
-        for k in 0..added.len() - 1 {
+        for k in 0..added.len() - exempt.min(added.len()) {
             let own: Vec<ParamId> = added[k].spec.params();
             let own_idx: Vec<usize> = own.iter().filter_map(|p| current.params.index_of(*p)).collect();
             let linked = recomputed.is_some()
@@ -1233,7 +1357,41 @@ pub fn discover(
                 });
             }
         }
+        let mut block: Option<Vec<usize>> = None;
+        let mut extra_added: Vec<AddedEffect> = Vec::new();
         let next = match best_passing(&candidates) {
+            None if options.block_step => {
+                let z_block = normal_upper_quantile(
+                    options.confirm_alpha * spend / (options.max_refits.max(1) + 1) as f64,
+                );
+                match block_step(&candidates, &current, &j0, rank0, &held0, z_block, &ctx, &mut notes) {
+                    Some((members, evidence, fit1, held1)) => {
+                        let held_gap = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
+                        let gap_after = ctx.gap(&fit1.model, &held_gap)?;
+                        let mut records = Vec::new();
+                        for i in &members {
+                            records.push(added_record(
+                                &candidates[*i],
+                                &evidence,
+                                &fit1,
+                                index,
+                                &current,
+                                &gap,
+                                &gap_after,
+                                &ctx,
+                            )?);
+                            candidates[*i].status = CandidateStatus::Added;
+                        }
+                        confirm_cv = Some(held1);
+                        block = Some(members);
+                        let rest = records.split_off(1);
+                        extra_added = rest;
+                        records.pop().map(|first| (first, fit1, held_gap))
+                    }
+                    None => None,
+                }
+            }
+            None => None,
             Some(b) => {
                 candidates[b].status = CandidateStatus::Added;
                 let added = added_effect(&candidates[b], index, &current, &gap, &ctx)?;
@@ -1244,11 +1402,23 @@ pub fn discover(
                 });
                 Some(added)
             }
-            None => None,
         };
-        let mut decision = match &next {
-            Some((added, ..)) => added.summary_line(),
-            None => nothing_added(&candidates, th.ln_screen),
+        let mut decision = match (&next, &block) {
+            (Some((added, ..)), Some(members)) => {
+                let labels: Vec<String> = members.iter().map(|i| candidates[*i].spec.label()).collect();
+                format!(
+                    "no candidate passed alone; added together as a block ({}): held-out RMS {:.4} -> {:.4} mm, z = {:.1}, predictions change {:.1} um; gap {:.4} -> {:.4} mm",
+                    labels.join(", "),
+                    added.heldout.rms_before_mm,
+                    added.heldout.rms_after_mm,
+                    added.heldout.z,
+                    1e3 * added.heldout.change_rms_mm,
+                    added.gap_before_mm,
+                    added.gap_after_mm
+                )
+            }
+            (Some((added, ..)), None) => added.summary_line(),
+            (None, _) => nothing_added(&candidates, th.ln_screen),
         };
         let mut removed = Vec::new();
         let done = next.is_none();
@@ -1256,14 +1426,24 @@ pub fn discover(
             skipped_folds += held1.skipped.len();
             gap = added.gap_after.clone();
             added_effects.push(added);
+            let fresh = 1 + extra_added.len();
+            added_effects.append(&mut extra_added);
             current = fit1;
             held_all = held1;
             let with = match confirm_cv.take() {
                 Some(cv) => cv,
                 None => ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds),
             };
-            removed =
-                backward_check(start, &mut added_effects, &mut current, index, &with, &ctx, &mut notes)?;
+            removed = backward_check(
+                start,
+                &mut added_effects,
+                fresh,
+                &mut current,
+                index,
+                &with,
+                &ctx,
+                &mut notes,
+            )?;
             if removed.is_empty() {
                 confirm_cv = Some(with);
             } else {
