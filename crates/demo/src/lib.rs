@@ -343,6 +343,19 @@ impl DeviceSet for SimDevices {
     }
 }
 
+/// The instruments' noise per axis [mm] that a cell with the device budget `noise` declares
+/// (its data sheets; 3σ figures): a probe measurement — the ball where the recorded centring
+/// offset says — carries the robot's and the guide's repeatability of that motion and the
+/// gauge error (uniform, σ = max/√3); a tracker measurement the tracker's error. The
+/// tool-changer repeatability is drawn once per session, a systematic offset, not noise.
+pub fn instrument_noise_mm(noise: &vatcal_sim::NoiseBudget) -> (f64, f64) {
+    let probe = ((noise.robot_repeatability_mm / 3.0).powi(2)
+        + (noise.guide_repeatability_mm / 3.0).powi(2)
+        + (noise.gauge_max_error_mm / 3f64.sqrt()).powi(2))
+    .sqrt();
+    (probe, noise.tracker_error_mm / 3.0)
+}
+
 /// Runs the whole simulated calibration and writes the report folder `out` (created if
 /// missing; the demo's own files in it are replaced, its journals removed first so the run
 /// starts afresh). `log` receives one line per finished stage.
@@ -370,9 +383,10 @@ pub fn run_demo_with_progress(
         .virtual_cell(nominal.clone(), opts.seed)
         .map_err(|e| DemoError::Option { option: "truth".into(), reason: e.to_string() })?;
     let mut devices = SimDevices::of(&cell)?;
+    let (probe_sigma_mm, tracker_sigma_mm) = instrument_noise_mm(&cell.config().noise);
     let stage = opts.discovery.then(|| DiscoveryStageOptions {
         true_effects: Some(cell.truth().effects().to_vec()),
-        ..DiscoveryStageOptions::new(opts.seed)
+        ..DiscoveryStageOptions::new(opts.seed).with_instrument_noise(probe_sigma_mm, tracker_sigma_mm)
     });
     let outcome = vatcal_pipeline::run_with_discovery(
         &opts.run_options(),

@@ -1,7 +1,8 @@
 //! The discovery stage of the demo on the paper-like truth: four validated models (nominal,
 //! the paper's 34 parameters, discovered, true structure), the `discovery` object of
-//! `report.json`, `summary.html`; the discovered model is not worse than the 34-parameter one
-//! on the held-out tracker validation. Smaller validation sizes keep it fast.
+//! `report.json`, `summary.html`; the discovered model's mean error on the held-out tracker
+//! validation is at most 40 % of the 34-parameter one (issue 11's goal; seed 1). Smaller
+//! validation sizes keep it fast.
 
 use vatcal_demo::{DemoOptions, DemoSizes, run_demo};
 
@@ -25,6 +26,11 @@ fn the_demo_discovers_on_the_paper_like_truth_and_validates_four_models() {
         "discovered {discovered} mm worse than the 34 parameters {calibrated} mm"
     );
     assert!(truth < calibrated, "the true-structure floor {truth} mm is not below {calibrated} mm");
+    // issue 11's goal on this seed (measured with 573 poses: 0.063 / 0.258 mm = 25 %)
+    assert!(
+        discovered <= 0.4 * calibrated,
+        "discovered {discovered} mm is more than 40 % of the 34 parameters' {calibrated} mm"
+    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).expect("json"))
             .expect("parse");

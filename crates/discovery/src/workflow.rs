@@ -6,18 +6,20 @@
 //!    located against every driving variable ([`crate::location`], a diagnostic);
 //! 2. **screening** on S only: the current model is refitted to S and every catalog effect not
 //!    yet in the model is scored there (novelty `‖P⊥Z‖/‖Z‖` and the score test). The
-//!    false-alarm probability is spent over the rounds: round r screens at `α·2⁻ʳ/m` (m scored
+//!    false-alarm probability is spent over the rounds: round r screens at `α·s_r/m` (m scored
 //!    candidates), so the family-wise level over **all** rounds and candidates is ≤ α;
 //! 3. **confirmation** on C only (data the screening never saw): for the best screened
 //!    candidates, every point of C is predicted by fits without it (K folds of C; training =
 //!    S + the other folds of C), without and with the effect. The effect must lower the
 //!    held-out squared error by more than `z_r` standard errors of the paired differences
-//!    (`z_r` at the level `confirm_alpha·2⁻ʳ/max_refits`), its predictions must change by more
-//!    than the noise (else it is reported as *detected, negligible (x µm)* and not added), and
-//!    its identified values must be plausible;
+//!    (`z_r` at the level `confirm_alpha·s_r/max_refits`, `s_r = 6/(π²r²)`, [`round_spending`]),
+//!    its predictions must change by more than the noise (the instruments' known noise when
+//!    given, else σ̂; below it the effect is reported as *detected, negligible (x µm)* and not
+//!    added), and its identified values must be plausible;
 //! 4. the confirmed candidate with the largest held-out improvement is added (refitted on all
-//!    data); then a **backward check** removes earlier effects that no longer lower the
-//!    held-out error by more than one standard error with the new one present;
+//!    data); then a **backward check** removes earlier effects (those correlated with the new
+//!    one) that no longer lower the held-out error by more than one standard error with the
+//!    new one present;
 //! 5. repeat until no candidate is confirmed.
 //!
 //! A cross-validation fold whose fit fails (ill-conditioned, not converged) is skipped,
@@ -48,10 +50,10 @@ use crate::location::{DriverSummary, PoseData, locate};
 #[derive(Debug, Clone)]
 pub struct DiscoverOptions {
     /// family-wise false-alarm probability of the screening over **all** rounds: round r
-    /// (1-based) spends `alpha·2⁻ʳ`, split over its m scored candidates (`alpha·2⁻ʳ/m` each)
+    /// (1-based) spends `alpha·s_r` ([`round_spending`]), split over its m scored candidates
     pub alpha: f64,
     /// family-wise level of the held-out confirmation over all rounds: round r confirms at
-    /// `confirm_alpha·2⁻ʳ/max_refits` per refitted candidate (one-sided paired z-test)
+    /// `confirm_alpha·s_r/max_refits` per refitted candidate (one-sided paired z-test)
     pub confirm_alpha: f64,
     /// share of the measurements (per calibration position) used for screening; the rest
     /// confirms
@@ -73,8 +75,25 @@ pub struct DiscoverOptions {
     pub max_refits: usize,
     /// upper bound on the number of rounds
     pub max_rounds: usize,
+    /// when no candidate passes alone, confirm the refitted candidates that each lowered the
+    /// held-out error by more than one standard error **together** (one more test of the
+    /// round, at `confirm_alpha·s_r/(max_refits + 1)`), then prune the block's members with
+    /// the backward check: with many missing effects each one's held-out gain is masked by
+    /// the others' misfit, together they are not
+    pub block_step: bool,
+    /// the backward check after an addition re-tests an earlier effect only when one of its
+    /// parameters correlates with one of the new effect's by at least this (absolute value,
+    /// in the fit with both): an effect can only be made redundant by one that shares its
+    /// directions
+    pub redundancy_correlation: f64,
     /// known noise σ per axis [mm] for the score test; when `None` σ̂ of the screening fit is used
     pub known_sigma_mm: Option<f64>,
+    /// the instruments' known measurement noise per kind (σ per axis of probe and of tracker
+    /// rows [mm], e.g. from the device specifications). When given, the size rule compares an
+    /// effect's prediction change with this noise instead of σ̂ of the refit (which effects
+    /// still unmodelled inflate), and probe/tracker rows are weighted by it; the score test
+    /// keeps σ̂ (conservative while effects are missing). `None`: σ̂ everywhere.
+    pub instrument_sigmas: Option<KindSigmas>,
     /// estimate σ of probe and of tracker residuals separately and weight the fits by them
     /// (only matters when both kinds are in the data)
     pub weight_by_kind: bool,
@@ -96,8 +115,11 @@ impl Default for DiscoverOptions {
             folds: 5,
             seed: 1,
             max_refits: 4,
-            max_rounds: 8,
+            max_rounds: 16,
+            redundancy_correlation: 0.2,
+            block_step: true,
             known_sigma_mm: None,
+            instrument_sigmas: None,
             weight_by_kind: true,
             cmm_sigma_mm: 0.002,
             identify: IdentifyOptions::default(),
@@ -271,7 +293,7 @@ pub struct Round {
     pub fit: FitSummary,
     /// residuals against every driving variable, most significant first
     pub location: Vec<DriverSummary>,
-    /// screening threshold `ln(alpha·2⁻ʳ/m)`
+    /// screening threshold `ln(alpha·s_r/m)`
     pub ln_threshold: f64,
     /// z the held-out improvement of a candidate had to exceed
     pub z_required: f64,
@@ -434,7 +456,7 @@ struct Candidate {
     directions: Option<EffectDirections>,
     score: Option<ScoreTest>,
     status: CandidateStatus,
-    refit: Option<(RefitEvidence, Fit)>,
+    refit: Option<(RefitEvidence, Fit, CrossValidation)>,
 }
 
 /// Held-out predictions of a cross-validation: one error per measurement (`None` = not
@@ -512,6 +534,29 @@ impl Context<'_> {
         let rss: f64 = ms.iter().zip(&f.residuals).map(|(m, r)| kind_weight(m, w) * r.norm_squared()).sum();
         (rss / (3 * ms.len()).saturating_sub(rank).max(1) as f64).sqrt()
     }
+
+    /// Per-axis noise the size rule compares a prediction change with: the instruments' known
+    /// noise of a weight-1 row (probe σ when the data has probe rows, else tracker σ) when
+    /// given, else [`Context::sigma_hat`] of the fit.
+    fn noise_sigma(&self, f: &Fit, ms: &[Measurement], rank: usize) -> f64 {
+        let known = self.options.instrument_sigmas.and_then(|k| {
+            let has_probe = ms.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
+            if has_probe { k.probe_mm } else { k.tracker_mm }
+        });
+        match known {
+            Some(s) if s > 0.0 && s.is_finite() => s,
+            _ => self.sigma_hat(f, ms, rank),
+        }
+    }
+}
+
+/// Share of the false-alarm probability spent in round `r` (1-based): `6/(π² r²)`, which sums
+/// to 1 over all rounds, so spending `alpha · spend(r)` per round keeps the family-wise level
+/// over every round below `alpha` while later rounds (needed when a cell has many missing
+/// effects) stay testable (round 8 still spends 0.95 %, where `2⁻ʳ` would spend 0.39 %).
+pub fn round_spending(r: usize) -> f64 {
+    let r = r.max(1) as f64;
+    6.0 / (std::f64::consts::PI * std::f64::consts::PI * r * r)
 }
 
 /// Weight of a measurement's kind.
@@ -592,12 +637,28 @@ fn identifiable_subset(
     Ok(kept)
 }
 
+/// Highest gear harmonic [`candidates`] proposes.
+pub const MAX_PROPOSED_HARMONIC: u8 = 4;
+
 /// The catalog's candidates plus the lower orders of the guide-angular polynomial (order 1 =
 /// a linear pitch/yaw/roll, 3 parameters, is tested on its own so that a linear error does not
 /// have to pay for the 3 quadratic parameters too; the order-2 candidate is then the test of
-/// the quadratic terms).
+/// the quadratic terms), plus the next gear harmonic of a joint once the model has its
+/// harmonic h ≥ 2 (harmonics enter in order, up to [`MAX_PROPOSED_HARMONIC`]: a strain-wave
+/// gear whose error curve has a second harmonic has higher ones too, and proposing them only
+/// then keeps the number of scored candidates, and so the Bonferroni price, small).
 pub fn candidates(model: &Model, measurements: &[Measurement]) -> Vec<EffectSpec> {
     let mut v = candidate_effects(model, measurements);
+    for spec in model.effects() {
+        if let EffectSpec::JointCyclic { joint, harmonic } = *spec
+            && (2..MAX_PROPOSED_HARMONIC).contains(&harmonic)
+        {
+            let next = EffectSpec::JointCyclic { joint, harmonic: harmonic + 1 };
+            if !v.contains(&next) {
+                v.push(next);
+            }
+        }
+    }
     let mut lower = Vec::new();
     for spec in &v {
         if let EffectSpec::GuideAngular { order } = *spec {
@@ -693,16 +754,46 @@ fn refit_candidate(
     th: &Thresholds,
     ctx: &Context<'_>,
     notes: &mut Vec<String>,
-) -> Result<(RefitEvidence, Fit), String> {
+) -> Result<(RefitEvidence, Fit, CrossValidation), String> {
+    refit_effects(
+        current,
+        j0,
+        rank0,
+        held0,
+        &[(candidate.spec, candidate.new_params.clone())],
+        th,
+        ctx,
+        notes,
+    )
+}
+
+/// Refits with several effects at once (each with its not yet fitted parameters) on all data,
+/// confirms them together on the held-out confirmation data and collects the evidence.
+#[allow(clippy::too_many_arguments)]
+fn refit_effects(
+    current: &Fit,
+    j0: &faer::Mat<f64>,
+    rank0: usize,
+    held0: &CrossValidation,
+    effects: &[(EffectSpec, Vec<ParamId>)],
+    th: &Thresholds,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Result<(RefitEvidence, Fit, CrossValidation), String> {
     let opts = &ctx.options;
     let mut start = current.model.clone();
-    start.enable_effect(candidate.spec).map_err(|e| e.to_string())?;
-    let z = assemble_jacobian(&start, ctx.measurements, &ParamSet(candidate.new_params.clone()))
+    let mut new_params: Vec<ParamId> = Vec::new();
+    for (spec, params) in effects {
+        start.enable_effect(*spec).map_err(|e| e.to_string())?;
+        new_params.extend(params.iter().copied().filter(|p| !new_params.contains(p)).collect::<Vec<_>>());
+    }
+    let label = effects.iter().map(|(s, _)| s.label()).collect::<Vec<_>>().join(" + ");
+    let z = assemble_jacobian(&start, ctx.measurements, &ParamSet(new_params.clone()))
         .map_err(|e| e.to_string())?;
     let (zn, _) = unit_columns(z.as_ref());
     let (jn, _) = unit_columns(j0.as_ref());
     let subset = identifiable_subset(&jn, &zn, opts.novelty_floor).map_err(|e| e.to_string())?;
-    let added: Vec<ParamId> = subset.iter().map(|k| candidate.new_params[*k]).collect();
+    let added: Vec<ParamId> = subset.iter().map(|k| new_params[*k]).collect();
     if added.is_empty() {
         return Err("no identifiable parameter".into());
     }
@@ -714,13 +805,18 @@ fn refit_candidate(
         NestedComparison::new(current.n(), rank0, current.rss_mm2, rank0 + added.len(), fit1.rss_mm2);
     let held1 = ctx.cross_validate(&start, &params1, &ctx.confirm_folds);
     for s in &held1.skipped {
-        notes.push(format!("confirmation of {}: skipped {s}", candidate.spec.label()));
+        notes.push(format!("confirmation of {label}: skipped {s}"));
     }
     let heldout = HeldOutComparison::new(&held0.errors, &held1.errors);
     let before = |p: ParamId| current.model.param(p).unwrap_or(0.0);
     let changes: Vec<(ParamId, f64)> =
         added.iter().map(|p| (*p, fit1.value(*p).unwrap_or(0.0) - before(*p))).collect();
-    let implausible = plausibility(&candidate.spec, &changes).err();
+    let implausible = effects.iter().find_map(|(spec, params)| {
+        let own: Vec<(ParamId, f64)> = changes.iter().copied().filter(|(p, _)| params.contains(p)).collect();
+        plausibility(spec, &own)
+            .err()
+            .map(|why| if effects.len() > 1 { format!("{}: {why}", spec.label()) } else { why })
+    });
     let mut values = BTreeMap::new();
     let mut std_errors = BTreeMap::new();
     for p in &added {
@@ -752,14 +848,17 @@ fn refit_candidate(
         z_required: th.z_required,
         negligible_below_mm: opts.negligible_factor
             * 3f64.sqrt()
-            * ctx.sigma_hat(&fit1, ctx.measurements, rank0 + added.len()),
+            * ctx.noise_sigma(&fit1, ctx.measurements, rank0 + added.len()),
         values,
         std_errors,
         confounding,
         implausible,
     };
-    Ok((evidence, fit1))
+    Ok((evidence, fit1, held1))
 }
+
+/// Start of the rejection reason of a candidate that failed the held-out z-test.
+const HELDOUT_NOT_LOWER: &str = "held-out error not lower by more than its uncertainty";
 
 /// The decision rule: what the evidence says about adding the effect.
 fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
@@ -772,7 +871,7 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
     }
     if h.z.is_nan() || h.z <= e.z_required {
         return CandidateStatus::Rejected(format!(
-            "held-out error not lower by more than its uncertainty (RMS {:.4} -> {:.4} mm, reduction {:.3e} +- {:.3e} mm2, z = {:.2} < {:.2})",
+            "{HELDOUT_NOT_LOWER} (RMS {:.4} -> {:.4} mm, reduction {:.3e} +- {:.3e} mm2, z = {:.2} < {:.2})",
             h.rms_before_mm, h.rms_after_mm, h.mean_reduction_mm2, h.std_error_mm2, h.z, e.z_required
         ));
     }
@@ -852,9 +951,9 @@ fn confirm_screened(
         }
         refits += 1;
         match refit_candidate(current, j0, rank0, held0, c, th, ctx, notes) {
-            Ok((evidence, fit1)) => {
+            Ok((evidence, fit1, held1)) => {
                 c.status = decide(&evidence, &fit1);
-                c.refit = Some((evidence, fit1));
+                c.refit = Some((evidence, fit1, held1));
             }
             Err(why) => c.status = CandidateStatus::Rejected(why),
         }
@@ -899,32 +998,104 @@ fn added_effect(
     ctx: &Context<'_>,
 ) -> Result<(AddedEffect, Fit, CrossValidation), DiscoveryError> {
     let lost = || DiscoveryError::Numerical("internal: the added candidate has no refit or score".into());
-    let (evidence, fit1) = c.refit.clone().ok_or_else(lost)?;
-    let score = c.score.ok_or_else(lost)?;
+    let (evidence, fit1, _) = c.refit.as_ref().ok_or_else(lost)?;
     let held1 = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
     let gap_after = ctx.gap(&fit1.model, &held1)?;
+    let added = added_record(c, evidence, fit1, round, current, gap_before, &gap_after, ctx)?;
+    Ok((added, fit1.clone(), held1))
+}
+
+/// The record of candidate `c` added with the refit `fit1` (its own or a block's) and its
+/// evidence; values and standard errors restricted to `c`'s parameters.
+#[allow(clippy::too_many_arguments)]
+fn added_record(
+    c: &Candidate,
+    evidence: &RefitEvidence,
+    fit1: &Fit,
+    round: usize,
+    current: &Fit,
+    gap_before: &Gap,
+    gap_after: &Gap,
+    ctx: &Context<'_>,
+) -> Result<AddedEffect, DiscoveryError> {
+    let lost = || DiscoveryError::Numerical("internal: the added candidate has no score".into());
+    let score = c.score.ok_or_else(lost)?;
+    let keys: Vec<String> = c.new_params.iter().map(|p| file_value(*p, 0.0).0).collect();
+    let own = |m: &BTreeMap<String, f64>| -> BTreeMap<String, f64> {
+        m.iter().filter(|(k, _)| keys.contains(k)).map(|(k, v)| (k.clone(), *v)).collect()
+    };
     let plot = driver_plot(&c.spec, &fit1.model, ctx.measurements, &current.residuals, &fit1.residuals)?;
-    let added = AddedEffect {
+    Ok(AddedEffect {
         effect: c.spec.kind().name().to_string(),
         joint: c.spec.joint(),
         label: c.spec.label(),
         meaning: meaning(c.spec.kind()).to_string(),
         spec: c.spec,
         round,
-        values: evidence.values,
-        std_errors: evidence.std_errors,
+        values: own(&evidence.values),
+        std_errors: own(&evidence.std_errors),
         novelty: c.directions.as_ref().map_or(0.0, |d| d.novelty),
         score,
         comparison: evidence.comparison,
         heldout: evidence.heldout,
-        confounding: evidence.confounding,
+        confounding: evidence.confounding.clone(),
         gap_before_mm: gap_before.headline_mm(),
         gap_after_mm: gap_after.headline_mm(),
         gap_before: gap_before.clone(),
-        gap_after,
+        gap_after: gap_after.clone(),
         plot,
-    };
-    Ok((added, fit1, held1))
+    })
+}
+
+/// Whether a refitted candidate failed **only** the held-out z-test but still lowered the
+/// held-out error by more than one standard error and changed the predictions by more than
+/// the noise: a member of the round's block.
+fn block_member(c: &Candidate) -> bool {
+    let Some((e, f, _)) = &c.refit else { return false };
+    matches!(&c.status, CandidateStatus::Rejected(why) if why.starts_with(HELDOUT_NOT_LOWER))
+        && f.converged
+        && e.implausible.is_none()
+        && e.heldout.z > 1.0
+        && e.heldout.change_rms_mm >= e.negligible_below_mm
+}
+
+/// The block step of a round in which no candidate passed alone (module docs): the refitted
+/// candidates that each lowered the held-out error by more than one standard error are
+/// refitted **together** and confirmed together at `z_block` (one more test of the round).
+/// Returns the members' indices and the block's evidence, fit and confirmation CV when the
+/// block passes the decision rule.
+#[allow(clippy::too_many_arguments)]
+fn block_step(
+    candidates: &[Candidate],
+    current: &Fit,
+    j0: &faer::Mat<f64>,
+    rank0: usize,
+    held0: &CrossValidation,
+    z_block: f64,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Option<(Vec<usize>, RefitEvidence, Fit, CrossValidation)> {
+    let members: Vec<usize> = (0..candidates.len()).filter(|i| block_member(&candidates[*i])).collect();
+    if members.len() < 2 {
+        return None;
+    }
+    let effects: Vec<(EffectSpec, Vec<ParamId>)> =
+        members.iter().map(|i| (candidates[*i].spec, candidates[*i].new_params.clone())).collect();
+    let th = Thresholds { ln_screen: f64::NAN, z_required: z_block };
+    match refit_effects(current, j0, rank0, held0, &effects, &th, ctx, notes) {
+        Ok((evidence, fit1, held1)) => match decide(&evidence, &fit1) {
+            CandidateStatus::PassedNotBest => Some((members, evidence, fit1, held1)),
+            other => {
+                let label = effects.iter().map(|(s, _)| s.label()).collect::<Vec<_>>().join(" + ");
+                notes.push(format!("block {label} not added: {other:?}"));
+                None
+            }
+        },
+        Err(why) => {
+            notes.push(format!("block refit failed: {why}"));
+            None
+        }
+    }
 }
 
 /// `start` with the effects `specs` switched on and every parameter of `params` set to its
@@ -954,21 +1125,49 @@ fn rebuild(
 fn backward_check(
     start: &Model,
     added: &mut Vec<AddedEffect>,
+    fresh: usize,
     current: &mut Fit,
     round: usize,
+    with_current: &CrossValidation,
     ctx: &Context<'_>,
     notes: &mut Vec<String>,
 ) -> Result<Vec<RemovedEffect>, DiscoveryError> {
     let mut removed = Vec::new();
+    let mut recomputed: Option<CrossValidation> = None;
+    // parameters of the effect(s) just added: an earlier effect can only have become redundant
+    // if its parameters are correlated with these
+    let newest: Vec<usize> = added
+        .iter()
+        .rev()
+        .take(fresh)
+        .flat_map(|a| a.spec.params())
+        .filter_map(|p| current.params.index_of(p))
+        .collect();
+    // a single new effect was just confirmed alone and is not re-tested; every member of a
+    // block is (each must still lower the held-out error given the others)
+    let exempt = usize::from(fresh == 1);
     while added.len() >= 2 {
         let rank = current.params.len();
+        let _ = fresh;
         let negligible_below_mm =
-            ctx.options.negligible_factor * 3f64.sqrt() * ctx.sigma_hat(current, ctx.measurements, rank);
-        let with = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
+            ctx.options.negligible_factor * 3f64.sqrt() * ctx.noise_sigma(current, ctx.measurements, rank);
+        let with = recomputed.as_ref().unwrap_or(with_current);
         let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
         // the newest effect was just confirmed; check the earlier ones
-        for k in 0..added.len() - 1 {
+        for k in 0..added.len() - exempt.min(added.len()) {
             let own: Vec<ParamId> = added[k].spec.params();
+            let own_idx: Vec<usize> = own.iter().filter_map(|p| current.params.index_of(*p)).collect();
+            let linked = recomputed.is_some()
+                || own_idx.iter().any(|a| {
+                    newest.iter().any(|b| {
+                        current
+                            .correlation(*a, *b)
+                            .is_none_or(|c| c.abs() >= ctx.options.redundancy_correlation)
+                    })
+                });
+            if !linked {
+                continue;
+            }
             let params = ParamSet(current.params.iter().copied().filter(|p| !own.contains(p)).collect());
             let specs: Vec<EffectSpec> =
                 added.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, a)| a.spec).collect();
@@ -996,6 +1195,7 @@ fn backward_check(
             heldout: h,
         });
         *current = refit;
+        recomputed = Some(ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds));
     }
     Ok(removed)
 }
@@ -1051,13 +1251,16 @@ pub fn discover(
     let mut options = options.clone();
     // separate σ for probe and tracker residuals (inverse-variance weights)
     let first = fit(start, measurements, params, &options.identify)?;
-    let kind_sigmas = KindSigmas::estimate(measurements, &first.residuals, params.len());
+    let estimated = KindSigmas::estimate(measurements, &first.residuals, params.len());
+    let known = options.instrument_sigmas.filter(|k| k.probe_mm.is_some() && k.tracker_mm.is_some());
+    let kind_sigmas = known.unwrap_or(estimated);
     let weighted =
         options.weight_by_kind && kind_sigmas.probe_mm.is_some() && kind_sigmas.tracker_mm.is_some();
     let mut current = if weighted {
         options.identify.weights = kind_sigmas.weights();
         notes.push(format!(
-            "probe and tracker residuals weighted by their own sigma ({:.4} / {:.4} mm per axis)",
+            "probe and tracker residuals weighted by their {} sigma ({:.4} / {:.4} mm per axis)",
+            if known.is_some() { "instruments' known" } else { "own estimated" },
             kind_sigmas.probe_mm.unwrap_or(0.0),
             kind_sigmas.tracker_mm.unwrap_or(0.0)
         ));
@@ -1089,8 +1292,10 @@ pub fn discover(
     let mut added_effects: Vec<AddedEffect> = Vec::new();
     let mut removed_effects = Vec::new();
     let mut negligible_effects = Vec::new();
+    // confirmation-fold CV of the current model, when already known
+    let mut confirm_cv: Option<CrossValidation> = None;
     for index in 1..=options.max_rounds.max(1) {
-        let spend = 0.5f64.powi(index as i32);
+        let spend = round_spending(index);
         let mut j0 = assemble_jacobian(&current.model, measurements, &current.params)
             .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
         weigh_rows(&mut j0, measurements, &options.identify.weights);
@@ -1132,21 +1337,24 @@ pub fn discover(
         let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
         candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
         let any_screened = candidates.iter().any(|c| c.score.is_some_and(|s| s.ln_p_value < th.ln_screen));
-        let held0 = if any_screened {
+        let cached = confirm_cv.take();
+        let held0 = if !any_screened {
+            CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
+        } else if let Some(h) = cached {
+            h
+        } else {
             let h = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
             notes.extend(
                 h.skipped.iter().map(|s| format!("round {index} confirmation baseline: skipped {s}")),
             );
             h
-        } else {
-            CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
         };
         let mut fold_notes = Vec::new();
         confirm_screened(&mut candidates, &current, &j0, rank0, &held0, &th, &ctx, &mut fold_notes);
         skipped_folds += held0.skipped.len() + fold_notes.len();
         notes.extend(fold_notes);
         for c in &candidates {
-            if let (CandidateStatus::DetectedNegligible(_), Some((e, _))) = (&c.status, &c.refit) {
+            if let (CandidateStatus::DetectedNegligible(_), Some((e, ..))) = (&c.status, &c.refit) {
                 negligible_effects.push(NegligibleEffect {
                     label: c.spec.label(),
                     round: index,
@@ -1155,16 +1363,68 @@ pub fn discover(
                 });
             }
         }
+        let mut block: Option<Vec<usize>> = None;
+        let mut extra_added: Vec<AddedEffect> = Vec::new();
         let next = match best_passing(&candidates) {
-            Some(b) => {
-                candidates[b].status = CandidateStatus::Added;
-                Some(added_effect(&candidates[b], index, &current, &gap, &ctx)?)
+            None if options.block_step => {
+                let z_block = normal_upper_quantile(
+                    options.confirm_alpha * spend / (options.max_refits.max(1) + 1) as f64,
+                );
+                match block_step(&candidates, &current, &j0, rank0, &held0, z_block, &ctx, &mut notes) {
+                    Some((members, evidence, fit1, held1)) => {
+                        let held_gap = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
+                        let gap_after = ctx.gap(&fit1.model, &held_gap)?;
+                        let mut records = Vec::new();
+                        for i in &members {
+                            records.push(added_record(
+                                &candidates[*i],
+                                &evidence,
+                                &fit1,
+                                index,
+                                &current,
+                                &gap,
+                                &gap_after,
+                                &ctx,
+                            )?);
+                            candidates[*i].status = CandidateStatus::Added;
+                        }
+                        confirm_cv = Some(held1);
+                        block = Some(members);
+                        let rest = records.split_off(1);
+                        extra_added = rest;
+                        records.pop().map(|first| (first, fit1, held_gap))
+                    }
+                    None => None,
+                }
             }
             None => None,
+            Some(b) => {
+                candidates[b].status = CandidateStatus::Added;
+                let added = added_effect(&candidates[b], index, &current, &gap, &ctx)?;
+                // the confirmation CV of the refit is that of the new current model: reused by
+                // the backward check and as the next round's baseline
+                confirm_cv = candidates[b].refit.as_mut().map(|r| {
+                    std::mem::replace(&mut r.2, CrossValidation { errors: Vec::new(), skipped: Vec::new() })
+                });
+                Some(added)
+            }
         };
-        let mut decision = match &next {
-            Some((added, ..)) => added.summary_line(),
-            None => nothing_added(&candidates, th.ln_screen),
+        let mut decision = match (&next, &block) {
+            (Some((added, ..)), Some(members)) => {
+                let labels: Vec<String> = members.iter().map(|i| candidates[*i].spec.label()).collect();
+                format!(
+                    "no candidate passed alone; added together as a block ({}): held-out RMS {:.4} -> {:.4} mm, z = {:.1}, predictions change {:.1} um; gap {:.4} -> {:.4} mm",
+                    labels.join(", "),
+                    added.heldout.rms_before_mm,
+                    added.heldout.rms_after_mm,
+                    added.heldout.z,
+                    1e3 * added.heldout.change_rms_mm,
+                    added.gap_before_mm,
+                    added.gap_after_mm
+                )
+            }
+            (Some((added, ..)), None) => added.summary_line(),
+            (None, _) => nothing_added(&candidates, th.ln_screen),
         };
         let mut removed = Vec::new();
         let done = next.is_none();
@@ -1172,10 +1432,27 @@ pub fn discover(
             skipped_folds += held1.skipped.len();
             gap = added.gap_after.clone();
             added_effects.push(added);
+            let fresh = 1 + extra_added.len();
+            added_effects.append(&mut extra_added);
             current = fit1;
             held_all = held1;
-            removed = backward_check(start, &mut added_effects, &mut current, index, &ctx, &mut notes)?;
-            if !removed.is_empty() {
+            let with = match confirm_cv.take() {
+                Some(cv) => cv,
+                None => ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds),
+            };
+            removed = backward_check(
+                start,
+                &mut added_effects,
+                fresh,
+                &mut current,
+                index,
+                &with,
+                &ctx,
+                &mut notes,
+            )?;
+            if removed.is_empty() {
+                confirm_cv = Some(with);
+            } else {
                 held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
                 gap = ctx.gap(&current.model, &held_all)?;
                 let names: Vec<&str> = removed.iter().map(|r| r.label.as_str()).collect();
@@ -1239,5 +1516,18 @@ fn candidate_score(c: Candidate) -> CandidateScore {
         score: c.score,
         refit: c.refit.map(|r| r.0),
         status: c.status,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::round_spending;
+
+    #[test]
+    fn round_spending_sums_to_at_most_one_and_decreases() {
+        let total: f64 = (1..=100_000).map(round_spending).sum();
+        assert!(total < 1.0 && total > 0.9999, "{total}");
+        assert!((1..50).all(|r| round_spending(r + 1) < round_spending(r)));
+        assert!((round_spending(1) - 6.0 / std::f64::consts::PI.powi(2)).abs() < 1e-15);
     }
 }

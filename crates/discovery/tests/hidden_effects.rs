@@ -179,3 +179,62 @@ fn two_hidden_effects_are_both_found() {
     assert_eq!(found, vec![("joint-cyclic".to_string(), Some(3)), ("tool-frame".to_string(), None)]);
     assert_gap_closed(&s, &d, &ParamSet::paper34(), &hidden);
 }
+
+fn cyclic_h(joint: u8, harmonic: u8, amplitude_deg: f64, phase_deg: f64) -> Hidden {
+    let a = amplitude_deg.to_radians();
+    let (s, c) = phase_deg.to_radians().sin_cos();
+    Hidden {
+        spec: EffectSpec::JointCyclic { joint, harmonic },
+        values: vec![
+            (ParamId::Effect(EffectParam::CyclicSin { joint, harmonic }), a * c),
+            (ParamId::Effect(EffectParam::CyclicCos { joint, harmonic }), a * s),
+        ],
+    }
+}
+
+/// Several effects at once, on top of one the catalog does not propose (a 3rd gear harmonic):
+/// σ̂ of every fit stays far above the instruments' noise, so the size rule must use the known
+/// instrument noise (`instrument_sigmas`) to add the catalog effects over several rounds.
+#[test]
+fn several_effects_are_added_over_rounds_with_the_known_instrument_noise() {
+    let hidden = [
+        cyclic_h(2, 1, 0.012, 20.0),
+        cyclic_h(3, 2, 0.012, -70.0),
+        cyclic_h(5, 1, 0.015, 110.0),
+        tool_frame(),
+        cyclic_h(4, 3, 0.03, 45.0),
+    ];
+    let s = scenario(71, &hidden, None, N_PROBE);
+    let probe_sigma_mm = 0.002;
+    let options = DiscoverOptions {
+        instrument_sigmas: Some(vatcal_identification::KindSigmas {
+            probe_mm: Some(probe_sigma_mm),
+            tracker_mm: Some(0.005),
+        }),
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &options)
+        .expect("discovery runs");
+    for round in &d.rounds {
+        eprintln!("round {} (sigma-hat {:.4} mm): {}", round.index, round.fit.sigma_hat_mm, round.decision);
+    }
+    // the misfit of the uncatalogued harmonic keeps σ̂ well above the instrument noise
+    assert!(d.rounds[0].fit.sigma_hat_mm > 3.0 * probe_sigma_mm, "{}", d.rounds[0].fit.sigma_hat_mm);
+    // the size rule compares with the instrument noise, not with σ̂
+    for c in d.rounds.iter().flat_map(|r| &r.candidates) {
+        if let Some(r) = &c.refit {
+            assert!((r.negligible_below_mm - 3f64.sqrt() * probe_sigma_mm).abs() < 1e-12, "{}", c.label);
+        }
+    }
+    let found = names(&d);
+    for want in [("joint-cyclic", 2), ("joint-cyclic", 3), ("joint-cyclic", 5)] {
+        assert!(found.contains(&(want.0.to_string(), Some(want.1))), "{want:?} not in {found:?}");
+    }
+    assert!(found.contains(&("tool-frame".to_string(), None)), "{found:?}");
+    // nothing unrelated: every addition is a hidden effect or stands in for the joint-4 harmonic
+    for (name, joint) in &found {
+        let ok = name == "tool-frame" || matches!(joint, Some(2..=5));
+        assert!(ok, "unexpected {name} {joint:?} in {found:?}");
+    }
+    assert!(d.final_gap_mm < 0.5 * d.initial_gap_mm, "{} -> {}", d.initial_gap_mm, d.final_gap_mm);
+}
