@@ -590,7 +590,6 @@ pub fn read_pose_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<PoseR
     let tcps = model.tcp_ids();
     let (lo, hi) = model.joint_limits()[0];
     t.convert(|line, rec| {
-        let line = line;
         let tcp = t.id(line, rec, "tcp", &tcps)?;
         let q1_mm = t.float(line, rec, "q1")?;
         if !(lo..=hi).contains(&q1_mm) {
