@@ -236,7 +236,7 @@ impl PoseData {
         for (index, m) in measurements.iter().enumerate() {
             model
                 .jacobian_into(&m.q, &m.context, m.tcp, &joints, &mut buf)
-                .map_err(|e| DiscoveryError::Measurement { index, message: e.to_string() })?;
+                .map_err(|source| DiscoveryError::Measurement { index, source })?;
             dirs.push(std::array::from_fn(|j| Vector3::new(buf[3 * j], buf[3 * j + 1], buf[3 * j + 2])));
         }
         Ok(Self {
