@@ -36,7 +36,7 @@ pub use console::ConsoleOperator;
 pub use journal::{
     CellState, JOURNAL_FORMAT, JOURNAL_VERSION, Journal, JournalError, JournalHeader, StepOutcome, StepRecord,
 };
-pub use plan::{CampaignPlan, CampaignStep, PlanError, PlanOptions, TourFileError};
+pub use plan::{CampaignPlan, CampaignPlanOptions, CampaignStep, PlanError, TourFileError};
 pub use runner::{
     Campaign, CampaignConfig, CampaignError, CampaignReport, CellDevices, StepLabel, WarmUp,
     export_measurements,

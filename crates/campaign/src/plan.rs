@@ -128,7 +128,7 @@ pub enum TourFileError {
 
 /// Options of [`CampaignPlan::from_poses`].
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct PlanOptions {
+pub struct CampaignPlanOptions {
     /// a pose where the arm is clear of the probe; visited before every plate re-placement
     pub clear_pose: Option<JointVector>,
     /// zero the probe with the master ball after every placement
@@ -147,7 +147,7 @@ impl CampaignPlan {
     /// placement whenever the position changes (preceded by a move to `clear_pose` if given,
     /// followed by zeroing if asked), then a straight joint move to the pose and a
     /// measurement. Tracker poses: a move and a tracker measurement.
-    pub fn from_poses(poses: &[Measurement], options: &PlanOptions) -> Self {
+    pub fn from_poses(poses: &[Measurement], options: &CampaignPlanOptions) -> Self {
         let mut steps = Vec::new();
         let mut placed = None;
         for m in poses {

@@ -179,3 +179,55 @@ fn observability_prints_rank_and_redundant_parameters() {
     assert!(stdout.contains("rank 31 of 34"), "{stdout}");
     assert!(text(&o.stderr).contains("rank-deficient"), "{}", text(&o.stderr));
 }
+
+/// The selections of `vatcal select` did not change with the speed-up of issue 12 (parallel
+/// CSV conversion and candidate Jacobians): the expected rows were written by the binary
+/// before that change on the same candidates (seeded poses, the same as
+/// `cargo run -p vatcal-benches --example candidates_csv -- 2000 11 FILE`).
+#[test]
+fn select_picks_the_same_rows_as_before_the_speed_up() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let cands = dir.path().join("cands.csv");
+    write_candidates(&cands, &poses(2000, 11, &[1, 2, 3]));
+    let fixture = fixture();
+    let one_restart: &[&str] = &["--restarts", "1", "--excursions", "0"];
+    let expected_one_restart = [
+        19, 30, 53, 70, 76, 80, 131, 312, 327, 336, 338, 359, 379, 380, 390, 475, 504, 525, 579, 620, 625,
+        646, 655, 683, 776, 791, 811, 865, 917, 920, 1124, 1132, 1207, 1230, 1375, 1530, 1670, 1827, 1846,
+        1926,
+    ];
+    let expected_defaults = [
+        19, 30, 53, 80, 125, 131, 250, 327, 338, 359, 379, 390, 475, 525, 646, 655, 800, 811, 828, 865, 900,
+        920, 932, 1025, 1061, 1119, 1124, 1132, 1162, 1202, 1207, 1236, 1375, 1419, 1474, 1530, 1594, 1826,
+        1827, 1953,
+    ];
+    for (extra, expected) in [(one_restart, &expected_one_restart), (&[][..], &expected_defaults)] {
+        let out = dir.path().join("selected.csv");
+        let mut args = vec![
+            "select",
+            "--model",
+            fixture.to_str().expect("path"),
+            "--candidates",
+            cands.to_str().expect("path"),
+            "--count",
+            "40",
+            "--seed",
+            "7",
+            "--no-ablation",
+            "--out",
+            out.to_str().expect("path"),
+        ];
+        args.extend_from_slice(extra);
+        let o = vatcal(&args);
+        assert!(o.status.success(), "stderr: {}", text(&o.stderr));
+        let written = std::fs::read_to_string(&out).expect("output");
+        let rows: Vec<usize> = written
+            .lines()
+            .skip(1)
+            .map(|l| {
+                l.rsplit(',').next().and_then(|s| s.strip_prefix("row")).expect("label").parse().expect("row")
+            })
+            .collect();
+        assert_eq!(rows, expected.to_vec(), "selection with {extra:?}");
+    }
+}

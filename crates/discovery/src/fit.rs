@@ -65,7 +65,7 @@ pub fn residuals(model: &Model, measurements: &[Measurement]) -> Result<Vec<Vect
             model
                 .residual(m)
                 .map(|r| r + m.target_offset_mm())
-                .map_err(|e| DiscoveryError::Measurement { index: i, message: e.to_string() })
+                .map_err(|source| DiscoveryError::Measurement { index: i, source })
         })
         .collect()
 }
@@ -77,8 +77,7 @@ pub fn fit(
     params: &ParamSet,
     options: &IdentifyOptions,
 ) -> Result<Fit, DiscoveryError> {
-    let id =
-        identify(start, measurements, params, options).map_err(|e| DiscoveryError::Fit(e.to_string()))?;
+    let id = identify(start, measurements, params, options).map_err(|e| DiscoveryError::Fit(Box::new(e)))?;
     let rss_mm2 = id.residuals.iter().map(|r| r.norm_squared()).sum();
     Ok(Fit {
         model: id.model,

@@ -39,19 +39,20 @@ pub enum DiscoveryError {
     #[error("no measurements given")]
     NoMeasurements,
     /// The model rejected a measurement (unknown TCP or calibration position).
-    #[error("measurement {index}: {message}")]
+    #[error("measurement {index}: {source}")]
     Measurement {
         /// 0-based index of the measurement
         index: usize,
-        /// the model's message
-        message: String,
+        /// the model's error
+        #[source]
+        source: vatcal_kinematics::ModelError,
     },
-    /// A fit failed (the identification crate's message).
+    /// A fit failed (the identification crate's error is the source).
     #[error("fit failed: {0}")]
-    Fit(String),
-    /// A Jacobian could not be assembled.
+    Fit(#[source] Box<vatcal_identification::IdentifyError>),
+    /// A Jacobian could not be assembled (the observability crate's error is the source).
     #[error("Jacobian: {0}")]
-    Jacobian(String),
+    Jacobian(#[source] vatcal_observability::ObservabilityError),
     /// A dense factorisation failed.
     #[error("numerical failure: {0}")]
     Numerical(String),

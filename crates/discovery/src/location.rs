@@ -277,7 +277,7 @@ impl PoseData {
         for (index, m) in measurements.iter().enumerate() {
             model
                 .jacobian_into(&m.q, &m.context, m.tcp, &joints, &mut buf)
-                .map_err(|e| DiscoveryError::Measurement { index, message: e.to_string() })?;
+                .map_err(|e| DiscoveryError::Measurement { index, source: e })?;
             let mut d = [Vector3::zeros(); MAX_JOINTS];
             for (k, j) in revolute.iter().enumerate() {
                 d[j - 1] = Vector3::new(buf[3 * k], buf[3 * k + 1], buf[3 * k + 2]);

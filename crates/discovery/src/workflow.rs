@@ -718,7 +718,7 @@ fn score_candidates(
     }
     let w = ctx.options.identify.weights;
     let mut zall = assemble_jacobian(&screen_fit.model, &ctx.screen, &ParamSet(all.clone()))
-        .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
+        .map_err(DiscoveryError::Jacobian)?;
     weigh_rows(&mut zall, &ctx.screen, &w);
     let r = weighted_residual(screen_fit, &ctx.screen, &w);
     let sigma = ctx.sigma_hat(screen_fit, &ctx.screen, space.rank());
@@ -1297,7 +1297,7 @@ pub fn discover(
     for index in 1..=options.max_rounds.max(1) {
         let spend = round_spending(index);
         let mut j0 = assemble_jacobian(&current.model, measurements, &current.params)
-            .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
+            .map_err(DiscoveryError::Jacobian)?;
         weigh_rows(&mut j0, measurements, &options.identify.weights);
         let rank0 = ColumnSpace::of(j0.as_ref())?.rank();
         let location = locate(&current.model, measurements, &current.residuals)?;
@@ -1323,7 +1323,7 @@ pub fn discover(
             }
         };
         let mut js = assemble_jacobian(&screen_fit.model, &ctx.screen, &current.params)
-            .map_err(|e| DiscoveryError::Jacobian(e.to_string()))?;
+            .map_err(DiscoveryError::Jacobian)?;
         weigh_rows(&mut js, &ctx.screen, &options.identify.weights);
         let space = ColumnSpace::of(js.as_ref())?;
         let mut candidates = score_candidates(&current, &screen_fit, &space, &ctx, &mut notes)?;

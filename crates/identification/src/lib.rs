@@ -27,14 +27,14 @@
 
 mod dense;
 mod error;
+mod error_stats;
+mod fit_statistics;
 mod literal;
 mod options;
 mod problem;
 mod report;
 mod result;
 mod solver;
-mod statistics;
-pub mod stats;
 mod uncertainty;
 mod validation;
 
@@ -43,6 +43,7 @@ use vatcal_kinematics::Model;
 use vatcal_observability::ObservabilityError;
 
 pub use error::{FailureReport, IdentifyError};
+pub use error_stats::ErrorStats;
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
 pub use problem::residual_vector;
@@ -50,7 +51,6 @@ pub use report::{
     CorrelationReport, IdentificationReport, ParameterReport, REPORT_FORMAT, file_unit_label, to_file_units,
 };
 pub use result::{Identification, IterationLog, Termination};
-pub use stats::ErrorStats;
 pub use uncertainty::{CmmUncertainty, KindSigmas};
 pub use validation::{ModelComparison, ValidationReport, compare_models, validate};
 
@@ -126,9 +126,9 @@ pub fn identify(
     }
     let lin = match outcome.linearisation {
         Some(lin) => lin,
-        None => statistics::Linearisation::evaluate(&problem, &outcome.model, &outcome.values)?,
+        None => fit_statistics::Linearisation::evaluate(&problem, &outcome.model, &outcome.values)?,
     };
-    let s = statistics::statistics(&problem, lin, options.correlation_threshold)?;
+    let s = fit_statistics::statistics(&problem, lin, options.correlation_threshold)?;
     let n_probe = measurements.iter().filter(|m| matches!(m.target, Target::Probe { .. })).count();
     let fit = Identification {
         method: options.method,

@@ -13,8 +13,8 @@ use nalgebra::Vector3;
 use vatcal_kinematics::Model;
 
 use crate::dense::DenseQr;
+use crate::fit_statistics::Linearisation;
 use crate::problem::Problem;
-use crate::statistics::Linearisation;
 use crate::{IdentifyError, IdentifyOptions, IterationLog, Method, Scaling, Termination};
 
 /// Where an iteration ended.

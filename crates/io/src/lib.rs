@@ -20,10 +20,10 @@
 //! the reason ([`IoError::Row`]); nothing is silently dropped. Numbers are written with Rust's
 //! shortest round-trip formatting.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::{JointKind, JointVector, MAX_JOINTS, Measurement, MeasurementContext, Target};
 use vatcal_kinematics::Model;
@@ -174,7 +174,9 @@ fn required_columns(prefix: &[&str], model: &Model, suffix: &[&str]) -> Vec<Stri
 struct Table {
     path: PathBuf,
     headers: csv::StringRecord,
-    index: HashMap<String, usize>,
+    /// `(column name, field index)`, first occurrence of each name; searched linearly (a few
+    /// columns: cheaper than hashing the name at every field lookup of every row)
+    index: Vec<(String, usize)>,
     rows: Vec<(u64, csv::StringRecord)>,
     /// joint kinds of the model the rows are read for (empty: no joint columns)
     kinds: Vec<JointKind>,
@@ -209,8 +211,12 @@ impl Table {
             .flexible(false)
             .from_reader(text.as_slice());
         let headers = rdr.headers().map_err(|e| csv_error(path, &e))?.clone();
-        let index: HashMap<String, usize> =
-            headers.iter().enumerate().map(|(i, h)| (h.to_string(), i)).collect();
+        let mut index: Vec<(String, usize)> = Vec::with_capacity(headers.len());
+        for (i, h) in headers.iter().enumerate() {
+            if !index.iter().any(|(name, _)| name == h) {
+                index.push((h.to_string(), i));
+            }
+        }
         if let Some(n) = joints {
             let mut found: Vec<usize> = headers
                 .iter()
@@ -229,7 +235,7 @@ impl Table {
             }
         }
         for col in required {
-            if !index.contains_key(*col) {
+            if !index.iter().any(|(name, _)| name == col) {
                 return Err(IoError::MissingColumn {
                     path: path.into(),
                     column: (*col).to_string(),
@@ -291,11 +297,26 @@ impl Table {
     }
 
     fn has(&self, col: &str) -> bool {
-        self.index.contains_key(col)
+        self.column(col).is_some()
+    }
+
+    fn column(&self, col: &str) -> Option<usize> {
+        self.index.iter().find(|(name, _)| name == col).map(|(_, i)| *i)
     }
 
     fn field<'a>(&self, rec: &'a csv::StringRecord, col: &str) -> Option<&'a str> {
-        self.index.get(col).and_then(|i| rec.get(*i))
+        self.column(col).and_then(|i| rec.get(i))
+    }
+
+    /// Converts every row with `f`, in parallel; the rows keep their order and an error is the
+    /// one of the first bad row (as a sequential pass would report).
+    fn convert<T: Send>(
+        &self,
+        f: impl Fn(u64, &csv::StringRecord) -> Result<T, IoError> + Sync,
+    ) -> Result<Vec<T>, IoError> {
+        let results: Vec<Result<T, IoError>> =
+            self.rows.par_iter().with_min_len(256).map(|(line, rec)| f(*line, rec)).collect();
+        results.into_iter().collect()
     }
 
     fn err(&self, line: u64, column: &str, reason: impl Into<String>) -> IoError {
@@ -415,17 +436,14 @@ pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Join
     let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
     t.check_model_columns(model)?;
     let tcps = model.tcp_ids();
-    t.rows
-        .iter()
-        .map(|(line, rec)| {
-            Ok(JointRow {
-                line: *line,
-                tcp: t.id(*line, rec, "tcp", &tcps)?,
-                q: t.joints(*line, rec, model)?,
-                context: t.context(*line, rec)?,
-            })
+    t.convert(|line, rec| {
+        Ok(JointRow {
+            line,
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
+            context: t.context(line, rec)?,
         })
-        .collect()
+    })
 }
 
 /// Reads probe measurements `position,tcp,q1..qN` with the optional `time_s`,
@@ -435,19 +453,16 @@ pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<
     let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
     t.check_model_columns(model)?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    t.rows
-        .iter()
-        .map(|(line, rec)| {
-            let position = t.id(*line, rec, "position", &positions)?;
-            Ok(Measurement {
-                tcp: t.id(*line, rec, "tcp", &tcps)?,
-                q: t.joints(*line, rec, model)?,
-                target: Target::Probe { position },
-                context: t.context(*line, rec)?,
-                probe_offset_mm: t.probe_offset(*line, rec)?,
-            })
+    t.convert(|line, rec| {
+        let position = t.id(line, rec, "position", &positions)?;
+        Ok(Measurement {
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
+            target: Target::Probe { position },
+            context: t.context(line, rec)?,
+            probe_offset_mm: t.probe_offset(line, rec)?,
         })
-        .collect()
+    })
 }
 
 /// Reads tracker measurements `tcp,q1..qN,x,y,z` (world, mm), with the same optional columns.
@@ -456,20 +471,16 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
     let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]))?;
     t.check_model_columns(model)?;
     let tcps = model.tcp_ids();
-    t.rows
-        .iter()
-        .map(|(line, rec)| {
-            let xyz =
-                Vector3::new(t.float(*line, rec, "x")?, t.float(*line, rec, "y")?, t.float(*line, rec, "z")?);
-            Ok(Measurement {
-                tcp: t.id(*line, rec, "tcp", &tcps)?,
-                q: t.joints(*line, rec, model)?,
-                target: Target::Tracker { xyz_mm: xyz },
-                context: t.context(*line, rec)?,
-                probe_offset_mm: None,
-            })
+    t.convert(|line, rec| {
+        let xyz = Vector3::new(t.float(line, rec, "x")?, t.float(line, rec, "y")?, t.float(line, rec, "z")?);
+        Ok(Measurement {
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
+            target: Target::Tracker { xyz_mm: xyz },
+            context: t.context(line, rec)?,
+            probe_offset_mm: None,
         })
-        .collect()
+    })
 }
 
 /// Reads a file that may hold probe rows (`position` column) or tracker rows (`x,y,z`), or
@@ -487,31 +498,28 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
             required: format!("tcp,{} and position or x,y,z", span(&joint_columns(model.joint_count()))),
         });
     }
-    t.rows
-        .iter()
-        .map(|(line, rec)| {
-            let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
-            let target = if has_pos {
-                Target::Probe { position: t.id(*line, rec, "position", &positions)? }
-            } else {
-                Target::Tracker {
-                    xyz_mm: Vector3::new(
-                        t.float(*line, rec, "x")?,
-                        t.float(*line, rec, "y")?,
-                        t.float(*line, rec, "z")?,
-                    ),
-                }
-            };
-            let probe_offset_mm = if has_pos { t.probe_offset(*line, rec)? } else { None };
-            Ok(Measurement {
-                tcp: t.id(*line, rec, "tcp", &tcps)?,
-                q: t.joints(*line, rec, model)?,
-                target,
-                context: t.context(*line, rec)?,
-                probe_offset_mm,
-            })
+    t.convert(|line, rec| {
+        let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
+        let target = if has_pos {
+            Target::Probe { position: t.id(line, rec, "position", &positions)? }
+        } else {
+            Target::Tracker {
+                xyz_mm: Vector3::new(
+                    t.float(line, rec, "x")?,
+                    t.float(line, rec, "y")?,
+                    t.float(line, rec, "z")?,
+                ),
+            }
+        };
+        let probe_offset_mm = if has_pos { t.probe_offset(line, rec)? } else { None };
+        Ok(Measurement {
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
+            target,
+            context: t.context(line, rec)?,
+            probe_offset_mm,
         })
-        .collect()
+    })
 }
 
 /// A candidate-pose table: the parsed measurements plus the raw rows, so a selection can be
@@ -533,17 +541,16 @@ pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<Candidat
     let path = path.as_ref();
     let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    let mut measurements = Vec::with_capacity(t.rows.len());
-    for (line, rec) in &t.rows {
-        let position = t.id(*line, rec, "position", &positions)?;
-        measurements.push(Measurement {
-            tcp: t.id(*line, rec, "tcp", &tcps)?,
-            q: t.joints(*line, rec, model)?,
+    let measurements = t.convert(|line, rec| {
+        let position = t.id(line, rec, "position", &positions)?;
+        Ok(Measurement {
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
             target: Target::Probe { position },
-            context: t.context(*line, rec)?,
-            probe_offset_mm: t.probe_offset(*line, rec)?,
-        });
-    }
+            context: t.context(line, rec)?,
+            probe_offset_mm: t.probe_offset(line, rec)?,
+        })
+    })?;
     Ok(CandidateTable {
         headers: t.headers.clone(),
         lines: t.rows.iter().map(|r| r.0).collect(),
@@ -742,30 +749,22 @@ pub fn read_pose_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<PoseR
     let t = Table::read(path, &required)?;
     let tcps = model.tcp_ids();
     let (lo, hi) = model.joint_limits()[0];
-    t.rows
-        .iter()
-        .map(|(line, rec)| {
-            let line = *line;
-            let tcp = t.id(line, rec, "tcp", &tcps)?;
-            let q1_mm = t.float(line, rec, "q1")?;
-            if !(lo..=hi).contains(&q1_mm) {
-                return Err(t.err(
-                    line,
-                    "q1",
-                    format!("{q1_mm} mm is outside the guide limits [{lo}, {hi}] mm"),
-                ));
-            }
-            let f = |c: &str| t.float(line, rec, c);
-            Ok(PoseRow {
-                line,
-                tcp,
-                q1_mm,
-                xyz_mm: [f("x")?, f("y")?, f("z")?],
-                abc_deg: [f("alpha")?, f("beta")?, f("gamma")?],
-                context: t.context(line, rec)?,
-            })
+    t.convert(|line, rec| {
+        let tcp = t.id(line, rec, "tcp", &tcps)?;
+        let q1_mm = t.float(line, rec, "q1")?;
+        if !(lo..=hi).contains(&q1_mm) {
+            return Err(t.err(line, "q1", format!("{q1_mm} mm is outside the guide limits [{lo}, {hi}] mm")));
+        }
+        let f = |c: &str| t.float(line, rec, c);
+        Ok(PoseRow {
+            line,
+            tcp,
+            q1_mm,
+            xyz_mm: [f("x")?, f("y")?, f("z")?],
+            abc_deg: [f("alpha")?, f("beta")?, f("gamma")?],
+            context: t.context(line, rec)?,
         })
-        .collect()
+    })
 }
 
 #[cfg(test)]
@@ -937,6 +936,36 @@ mod tests {
         let f = file("tcp,q1,x,y,z,alpha,beta,gamma\n1,0,0,0,0,0,0,0\n");
         let e = read_pose_rows(f.path(), &ur).expect_err("not the guide cell").to_string();
         assert!(e.contains("Meca500-on-guide"), "{e}");
+    }
+
+    /// Rows are converted in parallel: the order is kept, and with several bad rows the error
+    /// is the first one's, whichever thread meets it first.
+    #[test]
+    fn large_files_keep_row_order_and_report_the_first_bad_row() {
+        let m = model();
+        let mut text = String::from("position,tcp,q1,q2,q3,q4,q5,q6,q7\n");
+        for i in 0..3000 {
+            text.push_str(&format!("{},1,{},0,0,0,0,0,0\n", 1 + i % 3, f64::from(i) * 0.1));
+        }
+        let f = file(&text);
+        let c = read_candidates(f.path(), &m).expect("ok");
+        assert_eq!(c.measurements.len(), 3000);
+        for (i, ms) in c.measurements.iter().enumerate() {
+            assert_eq!(ms.position(), Some(1 + i as u32 % 3));
+            assert_eq!(ms.q.to_mm_deg()[0], i as f64 * 0.1, "row {i}");
+            assert_eq!(c.lines[i], i as u64 + 2);
+        }
+        // bad rows at data rows 2500 and 700 (file lines 2502 and 702): line 702 is named
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        lines[2501] = "1,1,0,0,0,0,0,x,0".into();
+        lines[701] = "1,9,0,0,0,0,0,0,0".into();
+        let f = file(&(lines.join("\n") + "\n"));
+        for e in [
+            read_candidates(f.path(), &m).expect_err("bad rows").to_string(),
+            read_probe_measurements(f.path(), &m).expect_err("bad rows").to_string(),
+        ] {
+            assert!(e.contains(":702:") && e.contains("unknown tcp id 9"), "{e}");
+        }
     }
 
     #[test]

@@ -87,12 +87,18 @@ use vatcal_kinematics::Model;
 
 use crate::error::ObservabilityError;
 use crate::identifiability::ColumnScaling;
-use crate::identifiability::{AnalysisOptions, analyze_jacobian, assemble_jacobian, rank_deficient_error};
+#[cfg(doc)]
+use crate::identifiability::assemble_jacobian;
+use crate::identifiability::{
+    AnalysisOptions, analyze_jacobian, measurement_block, rank_deficient_error, reindex,
+};
 use crate::indices::ObservabilityIndices;
 
 /// Candidates per chunk of the batched updates. Fixed, so results do not depend on the
 /// number of threads.
 const CHUNK: usize = 1024;
+/// Measurements per parallel task when the candidate Jacobians are evaluated.
+const JACOBIAN_CHUNK: usize = 256;
 /// A Cholesky pivot `L_ii²` below this fraction of `M_ii` counts as singular.
 const PIVOT_FRACTION: f64 = 1e-13;
 /// Relative ridge used by the greedy start before it is removed again.
@@ -137,13 +143,44 @@ impl Candidates {
         Ok(Self { rows, l, params })
     }
 
-    /// The Jacobian blocks of probe/tracker measurements ([`assemble_jacobian`]).
+    /// The Jacobian blocks of probe/tracker measurements (the blocks of [`assemble_jacobian`],
+    /// bit for bit). Evaluated in parallel over fixed chunks of measurements, written straight
+    /// into the row-major storage; an error names the lowest failing measurement index.
     pub fn from_measurements(
         model: &Model,
         measurements: &[Measurement],
         params: &ParamSet,
     ) -> Result<Self, ObservabilityError> {
-        Self::from_stacked(assemble_jacobian(model, measurements, params)?, params.clone())
+        if params.is_empty() {
+            return Err(ObservabilityError::NoParameters);
+        }
+        let l = params.len();
+        let mut rows = vec![0.0; 3 * l * measurements.len()];
+        let errors: Vec<ObservabilityError> = rows
+            .par_chunks_mut(3 * l * JACOBIAN_CHUNK)
+            .zip(measurements.par_chunks(JACOBIAN_CHUNK))
+            .enumerate()
+            .filter_map(|(ci, (out, chunk))| {
+                let mut block = vec![0.0; 3 * l];
+                for (i, (m, dst)) in chunk.iter().zip(out.chunks_mut(3 * l)).enumerate() {
+                    if let Err(e) = measurement_block(model, m, &params.0, &mut block) {
+                        return Some(reindex(e, ci * JACOBIAN_CHUNK + i));
+                    }
+                    // column-major 3 × L block -> three row-major rows
+                    for (c, col) in block.chunks_exact(3).enumerate() {
+                        for (r, v) in col.iter().enumerate() {
+                            dst[r * l + c] = *v;
+                        }
+                    }
+                }
+                None
+            })
+            .collect();
+        // chunks are collected in order: the first error is the lowest index
+        if let Some(e) = errors.into_iter().next() {
+            return Err(e);
+        }
+        Ok(Self { rows, l, params: params.clone() })
     }
 
     /// Number of candidates N.

@@ -285,3 +285,29 @@ fn selection_reaches_99_percent_of_an_independent_reference_best() {
     eprintln!("O1 ours {mine:.4}, reference best {theirs:.4}");
     assert!(mine >= 0.99 * theirs, "ours {mine} < 99% of reference {theirs}");
 }
+
+/// The parallel candidate Jacobians are the blocks of `assemble_jacobian`, bit for bit (so the
+/// selection does not depend on how they are computed), and a bad measurement is reported
+/// with the index of the first one, as a sequential pass would.
+#[test]
+fn candidate_blocks_equal_the_assembled_jacobian_and_name_the_first_bad_pose() {
+    let model = canonical_model();
+    let params = ParamSet::paper34();
+    let mut poses = probe_poses(&model, &[1, 2, 3], 700, 21);
+    let c = Candidates::from_measurements(&model, &poses, &params).expect("candidates");
+    let j = vatcal_observability::assemble_jacobian(&model, &poses, &params).expect("jacobian");
+    assert_eq!(c.len(), poses.len());
+    let stacked = c.stacked();
+    for r in 0..j.nrows() {
+        for col in 0..j.ncols() {
+            assert_eq!(stacked[(r, col)].to_bits(), j[(r, col)].to_bits(), "row {r}, column {col}");
+        }
+    }
+    // unknown TCP ids in two chunks: the lower index is named
+    poses[650].tcp = 99;
+    poses[300].tcp = 99;
+    match Candidates::from_measurements(&model, &poses, &params) {
+        Err(ObservabilityError::Model { index, .. }) => assert_eq!(index, 300),
+        other => panic!("expected a model error at index 300, got {other:?}"),
+    }
+}

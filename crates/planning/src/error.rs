@@ -41,9 +41,9 @@ pub enum PlanError {
     /// The model layer failed (unknown TCP or position, ...).
     #[error(transparent)]
     Model(#[from] vatcal_kinematics::ModelError),
-    /// Detmax selection failed.
+    /// Detmax selection failed (the observability error is the source).
     #[error("selection failed: {0}")]
-    Selection(String),
+    Selection(#[source] vatcal_observability::ObservabilityError),
     /// No collision-free path was found to a measurement of the tour.
     #[error("no collision-free path to measurement {measurement} of the tour (from {from}): {reason}")]
     NoPath {

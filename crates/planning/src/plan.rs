@@ -211,7 +211,7 @@ fn select(
     set: &CandidateSet,
     opts: &PlanOptions,
 ) -> Result<(Vec<usize>, SelectionQuality), PlanError> {
-    let err = |e: vatcal_observability::ObservabilityError| PlanError::Selection(e.to_string());
+    let err = PlanError::Selection;
     let measurements: Vec<Measurement> =
         set.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
     let cands = Candidates::from_measurements(model, &measurements, &opts.params).map_err(err)?;

@@ -207,7 +207,7 @@ fn clear_pose() -> JointVector {
 
 #[test]
 fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
-    use vatcal_campaign::{Campaign, CampaignConfig, CampaignPlan, CellDevices, PlanOptions};
+    use vatcal_campaign::{Campaign, CampaignConfig, CampaignPlan, CampaignPlanOptions, CellDevices};
     use vatcal_hardware_traits::{SystemClock, TriCal};
 
     let seed = 7;
@@ -224,8 +224,10 @@ fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
         .collect();
     assert_eq!(poses.len(), 8);
     poses.sort_by_key(|m| m.position());
-    let plan =
-        CampaignPlan::from_poses(&poses, &PlanOptions { clear_pose: Some(clear_pose()), zero_probe: true });
+    let plan = CampaignPlan::from_poses(
+        &poses,
+        &CampaignPlanOptions { clear_pose: Some(clear_pose()), zero_probe: true },
+    );
     let config =
         CampaignConfig { show_progress: false, sync_journal_each_step: false, ..CampaignConfig::default() };
     let dir = std::env::temp_dir().join(format!("vatcal-sim-cell-e2e-{}", std::process::id()));

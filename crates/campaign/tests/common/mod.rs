@@ -1,7 +1,7 @@
 //! Helpers shared by the campaign tests: the paper's virtual cell and small plans.
 #![allow(dead_code)]
 
-use vatcal_campaign::{CampaignConfig, CampaignPlan, CellDevices, PlanOptions};
+use vatcal_campaign::{CampaignConfig, CampaignPlan, CampaignPlanOptions, CellDevices};
 use vatcal_core::{CellFile, JointVector, Measurement};
 use vatcal_hardware_traits::{TriCal, VirtualClock};
 use vatcal_kinematics::Model;
@@ -84,7 +84,7 @@ pub fn poses(n: usize, seed: u64) -> Vec<Measurement> {
 pub fn plan(n: usize, seed: u64) -> CampaignPlan {
     CampaignPlan::from_poses(
         &poses(n, seed),
-        &PlanOptions { clear_pose: Some(clear_pose()), zero_probe: false },
+        &CampaignPlanOptions { clear_pose: Some(clear_pose()), zero_probe: false },
     )
 }
 

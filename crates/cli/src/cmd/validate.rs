@@ -35,7 +35,7 @@ pub struct Args {
 
 /// One validated model in the JSON report.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct ModelValidation {
+pub struct ValidatedModel {
     /// the cell file
     pub model_file: String,
     /// errors and statistics
@@ -48,9 +48,9 @@ pub struct ValidateOutput {
     /// the validation measurements
     pub tracker_file: String,
     /// the model under test
-    pub model: ModelValidation,
+    pub model: ValidatedModel,
     /// the baseline, if given
-    pub baseline: Option<ModelValidation>,
+    pub baseline: Option<ValidatedModel>,
     /// baseline mean error / model mean error, if a baseline was given
     pub mean_improvement_factor: Option<f64>,
 }
@@ -87,9 +87,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.report {
         let out = ValidateOutput {
             tracker_file: args.tracker.display().to_string(),
-            model: ModelValidation { model_file: args.model.display().to_string(), validation: tested },
+            model: ValidatedModel { model_file: args.model.display().to_string(), validation: tested },
             baseline: baseline
-                .map(|(p, v)| ModelValidation { model_file: p.display().to_string(), validation: v }),
+                .map(|(p, v)| ValidatedModel { model_file: p.display().to_string(), validation: v }),
             mean_improvement_factor: factor,
         };
         let text = serde_json::to_string_pretty(&out)?;
