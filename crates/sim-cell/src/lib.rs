@@ -41,7 +41,6 @@ mod error;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
-use std::time::Instant;
 
 use vatcal_core::CellFile;
 use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig as MecaConfig};
@@ -54,7 +53,7 @@ use vatcal_sim::{CellPhysics, NoiseBudget, SimConfig, VirtualCell};
 
 pub use error::SimCellError;
 
-use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling, SimTime};
+use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling};
 
 /// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built in so that `vatcal
 /// sim-cell` runs from any directory (the same file as `vatcal demo`'s built-in cell).
@@ -266,7 +265,6 @@ impl SimCell {
             options.sim_config(),
             options.seed,
         );
-        let time = SimTime { start: Instant::now(), scale: options.time_scale };
         let at = |port: u16| SocketAddr::new(options.bind, port);
         let bind_err = |device: &str, port: u16| {
             let address = at(port);
@@ -282,6 +280,7 @@ impl SimCell {
         zaber_config.maxspeed =
             ZaberConfig::maxspeed_for(limits.guide_speed_mm_per_s, zaber_config.microstep_mm);
         let microstep_mm = zaber_config.microstep_mm;
+        let guide_full_maxspeed = zaber_config.maxspeed;
         zaber_config.bind = at(options.ports.zaber);
         zaber_config.backend = Some(Arc::new(GuideCoupling { cell: cell.clone(), microstep_mm }));
         let zaber = Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
@@ -311,7 +310,7 @@ impl SimCell {
                 Arc::downgrade(&meca500),
                 Arc::downgrade(&zaber),
                 microstep_mm,
-                time,
+                guide_full_maxspeed,
             ));
             let decimals = options.gauge_decimals;
             let config = SylvacConfig {
