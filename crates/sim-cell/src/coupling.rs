@@ -90,7 +90,7 @@ impl GaugeCoupling {
 
     /// Puts the world where the Meca500 and Zaber simulators are now, with the speeds in
     /// force (the world's virtual clock advances by the motions since the last sync).
-    fn sync(&self) {
+    pub fn sync(&self) {
         let (Some(arm), Some(guide)) = (self.arm.upgrade(), self.guide.upgrade()) else { return };
         // each simulator's lock is taken and released before the world's (lock order)
         let arm_state = arm.state();

@@ -331,7 +331,10 @@ impl SimCell {
         let control = SimServer::spawn(
             "sim-cell-control",
             &[at(options.ports.control)],
-            control::ControlService::new(cell.clone(), options.time_scale),
+            control::ControlService::new(cell.clone(), options.time_scale).with_sync({
+                let coupling = Arc::clone(&gauge_couplings[0]);
+                Arc::new(move || coupling.sync())
+            }),
         )
         .map_err(bind_err("cell-control", options.ports.control))?;
 

@@ -33,6 +33,10 @@ use crate::controller::{LinearMoveError, translate_flange, world_displacement};
 use crate::noise::{bits, key, uniform};
 use crate::world::{Motion, PendingSegment};
 
+/// Joint changes below this are the protocol's rounding, not motion (1e-9 rad ≈ 6e-8°, well
+/// above the Meca500 protocol's 9 decimals of a degree and far below any physical motion).
+const WIRE_RESOLUTION_RAD: f64 = 1e-9;
+
 /// Meca500 error code of a move refused for a joint limit.
 pub const CODE_JOINT_LIMIT: u16 = 1007;
 /// Meca500 error code of a move refused near a singularity.
@@ -56,7 +60,16 @@ impl VirtualCell {
         parts.extend(bits(&from.0));
         let event = key(w.seed, "arm-joints", &parts);
         w.arm.motion = Motion::at_rest(from.0);
+        let dir_before = w.arm.dir;
         w.start_arm_motion(to.0, 1.0, event);
+        // a joint commanded to where it already is, up to the wire's precision (9 decimals of
+        // a degree: a joint target read back and sent again), does not move: its backlash side
+        // stays
+        for (j, before) in dir_before.iter().enumerate() {
+            if (to.0[j] - from.0[j]).abs() < WIRE_RESOLUTION_RAD {
+                w.arm.dir[j] = *before;
+            }
+        }
         match w.pending.last_mut() {
             Some(segment) if segment.arm.is_none() => segment.arm = Some((from.0, to.0)),
             _ => w.pending.push(PendingSegment { arm: Some((from.0, to.0)), guide: None }),
@@ -243,6 +256,24 @@ mod tests {
         let homing = Duration::from_secs_f64(inproc.config().timing.homing_s);
         assert!(inproc.clock().now() > Duration::from_secs(60), "the operator's minute at least");
         assert_eq!(ext.clock().now(), inproc.clock().now() - homing);
+    }
+
+    /// A joint target sent again after a read-back (rounded by the wire) is no motion: the
+    /// joint keeps its backlash side; a real motion changes it.
+    #[test]
+    fn wire_rounding_does_not_reverse_a_joint() {
+        let nominal = nominal();
+        let truth = crate::truth::perturbed_truth(&nominal, 5, &crate::truth::ErrorBudget::realistic());
+        let cell = VirtualCell::new(nominal, truth, SimConfig::default(), 5);
+        let a = ArmJoints([0.1, 0.2, -0.3, 0.4, 0.5, -0.6]);
+        cell.external_motion_started(&ArmJoints([0.0; 6]), &a);
+        assert_eq!(cell.motion_directions(), [1, 1, -1, 1, 1, -1]);
+        let mut rounded = a;
+        rounded.0[0] -= 1e-12; // 6e-11°: below the Meca500 protocol's 9 decimals
+        rounded.0[1] += 1e-3; // a real motion, same direction
+        rounded.0[2] += 1e-3; // a real reversal
+        cell.external_motion_started(&a, &rounded);
+        assert_eq!(cell.motion_directions(), [1, 1, 1, 1, 1, -1]);
     }
 
     /// Joints that put the nominal TCP `tcp` near calibration position `position` (a pose
