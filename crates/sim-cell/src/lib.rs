@@ -21,7 +21,12 @@
 //!   the Meca500 and Zaber simulators report, and the **true** ball is read against the
 //!   **true** probe plate at the current placement, along the gauge's true (tilted) axis, with
 //!   the noise budget of the in-process gauges;
-//! * the cell-control port moves the plate (the operator).
+//! * the cell-control port moves the plate (the operator) and tells the cell's time (`TIME?`).
+//!
+//! The world's physics (thermal drift, the time of its context) follows the cell's **virtual
+//! clock**, advanced by the durations the in-process devices would take for the same motions,
+//! readings and re-placements ([`VirtualCell::external_sync`]), never by the wall clock: the
+//! time scale only paces the simulators.
 //!
 //! The hidden truth is a parameter ([`SimCellOptions::truth`]); by default it is the one of
 //! `vatcal demo --seed S`, `perturbed_truth(nominal, S, &ErrorBudget::realistic())` on the
@@ -113,7 +118,8 @@ pub struct SimCellOptions {
     /// simulated device noise (robot, guide, tool changer and gauge repeatability); probe
     /// imperfections stay, they are part of the truth
     pub noise: bool,
-    /// every duration is divided by this (1 = real time)
+    /// every duration of the simulators is divided by this (1 = real time); the physics
+    /// follows the virtual clock whatever the scale
     pub time_scale: f64,
     /// decimals of the gauges' display in mm (the S_Dial WORK Nano shows 4: 0.1 µm)
     pub gauge_decimals: usize,
