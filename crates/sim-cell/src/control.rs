@@ -9,7 +9,7 @@
 //! | `PLACEMENT?` | `PLACEMENT <n>` or `PLACEMENT NONE` | where the plate is |
 //! | `MASTER <n>` | `OK MASTER <n>` | the operator seats the master ball in the probe (plate at `n`) |
 //! | `MASTER OFF` | `OK MASTER OFF` | the operator removes the master ball |
-//! | `TIME?` | `TIME <s>` | the cell's virtual time [s] (motions, readings and re-placements so far, as the in-process cell counts them; independent of the time scale) |
+//! | `TIME?` | `TIME <s>` | the cell's virtual time in seconds (motions, readings and re-placements so far, as the in-process cell counts them; independent of the time scale) |
 //! | anything else, or a refused action | `ERR <reason>` | nothing |
 //!
 //! Several clients may be connected; each gets the answers to its own commands.
