@@ -7,6 +7,14 @@
 //! when the ball is centred, neither the gauge axes nor the robot's model need to be exact: they
 //! only set the contraction rate (background §7.4).
 //!
+//! Backlash: a joint with lost motion sits on one side or the other of its gear play depending
+//! on the direction it last moved. A small linear correction reverses some joints, so the
+//! arm jumps by the play and the loop limit-cycles above the tolerance. Every correction
+//! therefore ends with each joint approaching its target from the side of the pose's planned
+//! approach (the `approach` directions): a joint that the linear move reversed is taken past
+//! its target by [`CenteringConfig::approach_overshoot_rad`] and brought back (two joint
+//! moves), as a metrology engineer does on a machine with backlash.
+//!
 //! Safety: each step is capped in length, the loop stops with a typed error if the error grows
 //! (beyond the first reading, or on two consecutive moves, with a noise allowance), if a
 //! reading leaves the gauge range (or comes within a margin of it), or after an iteration cap.
@@ -34,11 +42,16 @@ pub struct CenteringConfig {
     pub range_margin_mm: f64,
     /// speed and timeout of the corrective moves
     pub motion: MotionOptions,
+    /// after a linear correction, every joint it moved against its approach direction is
+    /// taken this far past its target and brought back, so each joint ends on the backlash side
+    /// of the pose's planned approach [rad]; 0 disables it (the linear move alone). It must
+    /// exceed the joints' lost motion (strain-wave gears: ≤ 1 arcmin = 0.29 mrad)
+    pub approach_overshoot_rad: f64,
 }
 
 impl Default for CenteringConfig {
     /// 5 µm tolerance, 12 iterations, 2 mm step cap, 10 µm growth allowance, 0.25 mm range
-    /// margin, 10 % speed with a 30 s timeout.
+    /// margin, 10 % speed with a 30 s timeout, 0.3 mrad (≈ 1 arcmin) approach overshoot.
     fn default() -> Self {
         Self {
             tolerance_mm: 0.005,
@@ -47,6 +60,7 @@ impl Default for CenteringConfig {
             growth_allowance_mm: 0.010,
             range_margin_mm: 0.25,
             motion: MotionOptions { speed_fraction: 0.1, timeout: std::time::Duration::from_secs(30) },
+            approach_overshoot_rad: 3e-4,
         }
     }
 }
@@ -117,6 +131,15 @@ pub struct CenteringOutcome {
     /// arm joints read before each corrective move, then the final joints
     /// (`iterations + 1` entries) [rad]
     pub joint_trace: Vec<ArmJoints>,
+    /// sign of the last motion of each arm joint (cell joints 2..7) when the ball was centred:
+    /// the `approach` given to [`auto_center`], updated by every motion it made (0 = never
+    /// moved). These are the measurement's `dir2..dir7`
+    pub approach_dir: [i8; 6],
+    /// arm motions made: the corrective linear moves plus the joint moves that restored the
+    /// approach side (two per correction that reversed a joint)
+    pub arm_motions: usize,
+    /// the joints the last arm motion started from (`None` when nothing moved) [rad]
+    pub last_motion_from: Option<ArmJoints>,
 }
 
 /// Auto-centres the ball in the probe at calibration position `position`.
@@ -124,12 +147,18 @@ pub struct CenteringOutcome {
 /// `controller` is the kinematic model the robot controller uses (the nominal one): it maps
 /// the world correction into the flange frame at the current joints, so the arm's
 /// [`LinearFrame::Tool`] move realises it as well as the controller can. The guide is only read.
+///
+/// `approach` is the sign of the last motion of each arm joint (cell joints 2..7) when the
+/// arm arrived at the approach pose (`+1`, `-1`, or 0 when unknown: the joint's first
+/// correction then sets it). Every correction ends with each joint arriving from that side
+/// (see [`CenteringConfig::approach_overshoot_rad`]).
 pub fn auto_center(
     arm: &mut dyn RobotArm,
     guide: &mut dyn LinearAxis,
     probe: &mut dyn Probe3d,
     controller: &Model,
     position: u32,
+    approach: [i8; 6],
     config: &CenteringConfig,
 ) -> Result<CenteringOutcome, CenteringError> {
     let placement = probe.placement(position).ok_or(CenteringError::NoPlacement { position })?;
@@ -138,6 +167,11 @@ pub fn auto_center(
     let mut history: Vec<f64> = Vec::new();
     let mut steps: Vec<Vector3<f64>> = Vec::new();
     let mut trace: Vec<ArmJoints> = Vec::new();
+    let mut preferred = approach;
+    let mut dir = approach;
+    let mut arm_motions = 0;
+    let mut last_motion_from = None;
+    let limits = controller.joint_limits();
     loop {
         let reading = read_safely(probe, range_mm, config.range_margin_mm)?;
         let composite = reading.composite_mm();
@@ -159,6 +193,9 @@ pub fn auto_center(
                 composite_history_mm: history,
                 steps_world_mm: steps,
                 joint_trace: trace,
+                approach_dir: dir,
+                arm_motions,
+                last_motion_from,
             });
         }
         if steps.len() >= config.max_iterations {
@@ -176,6 +213,39 @@ pub fn auto_center(
         let step_tool = flange.r.transpose() * step_world;
         arm.move_linear_relative_and_wait(&step_tool, LinearFrame::Tool, &config.motion)?;
         steps.push(step_world);
+        arm_motions += 1;
+        last_motion_from = Some(joints);
+        let after = arm.joints()?;
+        // joints the linear move reversed: past the target, then back onto it from the side
+        // of the planned approach
+        let mut pre = after;
+        for j in 0..6 {
+            let moved = after.0[j] - joints.0[j];
+            if moved == 0.0 {
+                continue;
+            }
+            let sign: i8 = if moved > 0.0 { 1 } else { -1 };
+            dir[j] = sign;
+            if preferred[j] == 0 {
+                preferred[j] = sign;
+            }
+            if sign != preferred[j] && config.approach_overshoot_rad > 0.0 {
+                let (lo, hi) = limits[j + 1];
+                pre.0[j] =
+                    (after.0[j] - f64::from(preferred[j]) * config.approach_overshoot_rad).clamp(lo, hi);
+            }
+        }
+        if pre != after {
+            arm.move_joints_and_wait(&pre, &config.motion)?;
+            arm.move_joints_and_wait(&after, &config.motion)?;
+            arm_motions += 2;
+            last_motion_from = Some(pre);
+            for (d, (p, a)) in dir.iter_mut().zip(pre.0.iter().zip(&after.0)) {
+                if p != a {
+                    *d = if a > p { 1 } else { -1 };
+                }
+            }
+        }
     }
 }
 

@@ -528,16 +528,14 @@ impl<'a> Campaign<'a> {
             &mut *d.probe,
             self.controller,
             position,
+            state.dir,
             &self.config.centering,
         );
         match result {
             Ok(o) => {
-                for pair in o.joint_trace.windows(2) {
-                    let (a, b) = (pair[0].with_guide(0.0), pair[1].with_guide(0.0));
-                    update_dir(&mut state.dir, &a, &b);
-                }
-                if o.joint_trace.len() >= 2 {
-                    state.arm_from = o.joint_trace[o.joint_trace.len() - 2].0;
+                state.dir = o.approach_dir;
+                if let Some(from) = o.last_motion_from {
+                    state.arm_from = from.0;
                 }
                 state.joints = self.read_joints(label)?;
                 let g = o.final_reading.gauges_mm;

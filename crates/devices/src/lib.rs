@@ -23,7 +23,8 @@
 //! [`SimControl`] speaks the cell-control line protocol of `vatcal sim-cell`
 //! (`PLACE <n>` → `OK PLACE <n>`, `PLACEMENT?` → `PLACEMENT <n>`); [`SimControlOperator`] is
 //! the operator of `vatcal campaign --operator auto`, who re-places the probe plate by telling
-//! the simulator.
+//! the simulator; [`SimCellClock`] is that campaign's clock, the simulated cell's virtual time
+//! (`TIME?` → `TIME <s>`).
 
 mod file;
 mod sim_control;
@@ -32,4 +33,4 @@ pub use file::{
     ArmSpec, ConnectedDevices, DevicesError, DevicesFile, GaugeSpec, GuideSpec, Link, ProbeSpec,
     SimControlSpec, TrackerSpec,
 };
-pub use sim_control::{SimControl, SimControlOperator};
+pub use sim_control::{SimCellClock, SimControl, SimControlOperator};

@@ -2,9 +2,10 @@
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpStream;
+use std::sync::Mutex;
 use std::time::Duration;
 
-use vatcal_hardware_traits::{Error, ErrorKind, Operator, OperatorInstruction, Result};
+use vatcal_hardware_traits::{Clock, Error, ErrorKind, Operator, OperatorInstruction, Result};
 
 const DEVICE: &str = "sim control";
 
@@ -14,6 +15,8 @@ const DEVICE: &str = "sim control";
 pub struct SimControl {
     reader: BufReader<TcpStream>,
     writer: TcpStream,
+    address: String,
+    timeouts: (Duration, Duration),
 }
 
 impl SimControl {
@@ -28,7 +31,35 @@ impl SimControl {
         stream.set_read_timeout(Some(io_timeout)).map_err(|e| Error::from_io(DEVICE, e))?;
         stream.set_write_timeout(Some(io_timeout)).map_err(|e| Error::from_io(DEVICE, e))?;
         let writer = stream.try_clone().map_err(|e| Error::from_io(DEVICE, e))?;
-        Ok(Self { reader: BufReader::new(stream), writer })
+        Ok(Self {
+            reader: BufReader::new(stream),
+            writer,
+            address: address.to_owned(),
+            timeouts: (connect_timeout, io_timeout),
+        })
+    }
+
+    /// The simulated cell's virtual time (`TIME?` → `TIME <s>`) [s].
+    ///
+    /// # Errors
+    /// An answer that is not `TIME <seconds>`.
+    pub fn time_s(&mut self) -> Result<f64> {
+        let answer = self.request("TIME?")?;
+        answer
+            .strip_prefix("TIME ")
+            .and_then(|t| t.trim().parse::<f64>().ok())
+            .filter(|t| t.is_finite() && *t >= 0.0)
+            .ok_or_else(|| Error::new(ErrorKind::Protocol, DEVICE, format!("`TIME?` answered `{answer}`")))
+    }
+
+    /// A [`SimCellClock`] on a second connection to the same port.
+    ///
+    /// # Errors
+    /// The connection or the first `TIME?` fails.
+    pub fn clock(&self) -> Result<SimCellClock> {
+        let mut control = Self::connect(&self.address, self.timeouts.0, self.timeouts.1)?;
+        let last_s = control.time_s()?;
+        Ok(SimCellClock { control: Mutex::new((control, last_s)) })
     }
 
     /// Sends `line` and returns the answer line (without the line ending).
@@ -101,6 +132,38 @@ impl SimControl {
     }
 }
 
+/// The clock of a simulated cell: its virtual time, read over the cell-control port
+/// (`TIME?`), which counts the simulated motions, readings and re-placements exactly as the
+/// in-process virtual cell does, whatever the simulator's time scale. A campaign against
+/// `vatcal sim-cell --operator auto` stamps its `time_s` with it, so the column means the same
+/// as in `vatcal demo`.
+///
+/// [`Clock::now`] cannot fail: if the port stops answering, it returns the last time read
+/// (the campaign's next device call reports the fault). [`Clock::sleep`] sleeps the wall
+/// clock: the simulated cell's time advances with its devices' events, not by waiting.
+#[derive(Debug)]
+pub struct SimCellClock {
+    control: Mutex<(SimControl, f64)>,
+}
+
+impl Clock for SimCellClock {
+    fn now(&self) -> Duration {
+        let mut guard = match self.control.lock() {
+            Ok(g) => g,
+            Err(poisoned) => poisoned.into_inner(),
+        };
+        let (control, last_s) = &mut *guard;
+        if let Ok(t) = control.time_s() {
+            *last_s = last_s.max(t);
+        }
+        Duration::try_from_secs_f64(*last_s).unwrap_or(Duration::ZERO)
+    }
+
+    fn sleep(&self, duration: Duration) {
+        std::thread::sleep(duration);
+    }
+}
+
 /// The operator of a simulated cell: re-places the probe plate (`PLACE <n>`) and seats and
 /// removes the master ball for probe zeroing (`MASTER <n>`, `MASTER OFF`) through
 /// [`SimControl`]; confirms motions at once (nothing to do in the simulator).
@@ -140,18 +203,22 @@ mod tests {
     use super::*;
     use std::net::TcpListener;
 
-    /// A one-connection fake of the sim-cell control port.
+    /// A fake of the sim-cell control port (any number of connections).
     fn fake(answers: fn(&str) -> String) -> String {
         let listener = TcpListener::bind("127.0.0.1:0").expect("bind");
         let addr = listener.local_addr().expect("addr").to_string();
         std::thread::spawn(move || {
-            let (stream, _) = listener.accept().expect("accept");
-            let mut w = stream.try_clone().expect("clone");
-            for line in BufReader::new(stream).lines() {
-                let Ok(line) = line else { break };
-                if w.write_all(format!("{}\n", answers(&line)).as_bytes()).is_err() {
-                    break;
-                }
+            for stream in listener.incoming() {
+                let Ok(stream) = stream else { break };
+                std::thread::spawn(move || {
+                    let mut w = stream.try_clone().expect("clone");
+                    for line in BufReader::new(stream).lines() {
+                        let Ok(line) = line else { break };
+                        if w.write_all(format!("{}\n", answers(&line)).as_bytes()).is_err() {
+                            break;
+                        }
+                    }
+                });
             }
         });
         addr
@@ -191,6 +258,21 @@ mod tests {
         let e = op.perform(&OperatorInstruction::SeatMasterBall { position: 3 }).expect_err("refused");
         assert!(e.to_string().starts_with("sim control: ") && e.to_string().contains("MASTER 3"), "{e}");
         assert_eq!(op.log().len(), 4);
+    }
+
+    #[test]
+    fn the_clock_reads_the_cells_virtual_time() {
+        let addr = fake(|l| match l {
+            "TIME?" => "TIME 612.250000".into(),
+            l => format!("ERR unexpected `{l}`"),
+        });
+        let clock = connect(&addr).clock().expect("clock");
+        assert_eq!(clock.now(), Duration::from_millis(612_250));
+        assert_eq!(clock.now_s(), 612.25);
+        let addr = fake(|_| "TIME soon".into());
+        let e = connect(&addr).time_s().expect_err("garbled");
+        assert_eq!(e.kind(), ErrorKind::Protocol);
+        assert!(e.to_string().contains("TIME soon"), "{e}");
     }
 
     #[test]

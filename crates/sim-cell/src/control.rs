@@ -9,32 +9,51 @@
 //! | `PLACEMENT?` | `PLACEMENT <n>` or `PLACEMENT NONE` | where the plate is |
 //! | `MASTER <n>` | `OK MASTER <n>` | the operator seats the master ball in the probe (plate at `n`) |
 //! | `MASTER OFF` | `OK MASTER OFF` | the operator removes the master ball |
+//! | `TIME?` | `TIME <s>` | the cell's virtual time in seconds (motions, readings and re-placements so far, as the in-process cell counts them; independent of the time scale) |
 //! | anything else, or a refused action | `ERR <reason>` | nothing |
 //!
 //! Several clients may be connected; each gets the answers to its own commands.
 
 use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::Duration;
 
 use vatcal_hardware_traits::sim_server::{Admission, Audience, ClientId, SimService};
-use vatcal_hardware_traits::{Operator, OperatorInstruction};
+use vatcal_hardware_traits::{Clock, Operator, OperatorInstruction};
 use vatcal_sim::VirtualCell;
 
 /// Longest accepted line; a longer one is answered `ERR` and discarded.
 const MAX_LINE: usize = 256;
 
 /// The cell-control protocol on the virtual cell.
-#[derive(Debug)]
 pub struct ControlService {
     cell: VirtualCell,
     time_scale: f64,
     buffers: HashMap<u64, Vec<u8>>,
+    /// puts the world where the motion simulators are (their motions onto the virtual clock)
+    sync: Option<Arc<dyn Fn() + Send + Sync>>,
+}
+
+impl std::fmt::Debug for ControlService {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ControlService")
+            .field("time_scale", &self.time_scale)
+            .field("sync", &self.sync.is_some())
+            .finish_non_exhaustive()
+    }
 }
 
 impl ControlService {
     /// The operator of `cell`; actions take their time ÷ `time_scale` of wall-clock time.
     pub fn new(cell: VirtualCell, time_scale: f64) -> Self {
-        Self { cell, time_scale, buffers: HashMap::new() }
+        Self { cell, time_scale, buffers: HashMap::new(), sync: None }
+    }
+
+    /// `sync` is called before the time is read (`TIME?`): it puts the world where the
+    /// external motion simulators are, so their motions are on the virtual clock.
+    pub fn with_sync(mut self, sync: Arc<dyn Fn() + Send + Sync>) -> Self {
+        self.sync = Some(sync);
+        self
     }
 
     /// Answers one command line (without its terminator).
@@ -56,6 +75,12 @@ impl ControlService {
                 }
                 Err(reason) => format!("ERR {reason}"),
             },
+            ["TIME?"] => {
+                if let Some(sync) = &self.sync {
+                    sync();
+                }
+                format!("TIME {:.6}", self.cell.clock().now().as_secs_f64())
+            }
             ["PLACEMENT?"] => match self.cell.plate_position() {
                 Some(n) => format!("PLACEMENT {n}"),
                 None => "PLACEMENT NONE".to_owned(),
@@ -75,7 +100,7 @@ impl ControlService {
             },
             [] => "ERR empty command".to_owned(),
             _ => format!(
-                "ERR unknown command '{}' (PLACE <n>, PLACEMENT?, MASTER <n>, MASTER OFF)",
+                "ERR unknown command '{}' (PLACE <n>, PLACEMENT?, MASTER <n>, MASTER OFF, TIME?)",
                 line.trim()
             ),
         }
@@ -144,6 +169,9 @@ mod tests {
         assert_eq!(s.answer(&format!("MASTER {first}")), format!("OK MASTER {first}"));
         assert_eq!(s.answer("MASTER OFF"), "OK MASTER OFF");
         assert!(s.answer("MASTER 999").starts_with("ERR"));
+        // one re-placement's worth of virtual time (the operator's), whatever the time scale
+        let operator_s = s.cell.config().timing.operator_s;
+        assert_eq!(s.answer("TIME?"), format!("TIME {:.6}", operator_s));
     }
 
     #[test]

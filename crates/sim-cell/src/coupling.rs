@@ -3,7 +3,6 @@
 use std::sync::Weak;
 use std::sync::atomic::AtomicBool;
 use std::sync::atomic::Ordering;
-use std::time::{Duration, Instant};
 
 use nalgebra::Vector3;
 use vatcal_drivers_meca500::codec::Six;
@@ -12,19 +11,6 @@ use vatcal_drivers_sylvac::sim::PlungerSource;
 use vatcal_drivers_zaber::sim::{AxisBackend, ZaberSim};
 use vatcal_hardware_traits::{ArmJoints, LinearFrame};
 use vatcal_sim::VirtualCell;
-
-/// The cell's time: wall-clock time since the start, times the time scale.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct SimTime {
-    pub start: Instant,
-    pub scale: f64,
-}
-
-impl SimTime {
-    pub fn now(&self) -> Duration {
-        Duration::try_from_secs_f64(self.start.elapsed().as_secs_f64() * self.scale).unwrap_or(Duration::MAX)
-    }
-}
 
 /// Meca500 simulator → world: motions, and relative linear moves solved on the nominal model.
 #[derive(Debug)]
@@ -74,7 +60,8 @@ pub(crate) struct GaugeCoupling {
     arm: Weak<Meca500Sim>,
     guide: Weak<ZaberSim>,
     microstep_mm: f64,
-    time: SimTime,
+    /// the guide's `maxspeed` at full speed (the driver sets a fraction of it per move)
+    guide_full_maxspeed: i64,
     /// fault injection: the gauge reads out of range
     pub out_of_range: AtomicBool,
 }
@@ -87,18 +74,33 @@ impl GaugeCoupling {
         arm: Weak<Meca500Sim>,
         guide: Weak<ZaberSim>,
         microstep_mm: f64,
-        time: SimTime,
+        guide_full_maxspeed: i64,
     ) -> Self {
-        Self { cell, index, zero_mm, arm, guide, microstep_mm, time, out_of_range: AtomicBool::new(false) }
+        Self {
+            cell,
+            index,
+            zero_mm,
+            arm,
+            guide,
+            microstep_mm,
+            guide_full_maxspeed,
+            out_of_range: AtomicBool::new(false),
+        }
     }
 
-    /// Puts the world where the Meca500 and Zaber simulators are now.
-    fn sync(&self) {
+    /// Puts the world where the Meca500 and Zaber simulators are now, with the speeds in
+    /// force (the world's virtual clock advances by the motions since the last sync).
+    pub fn sync(&self) {
         let (Some(arm), Some(guide)) = (self.arm.upgrade(), self.guide.upgrade()) else { return };
         // each simulator's lock is taken and released before the world's (lock order)
-        let joints = ArmJoints::from_deg(arm.state().joints_deg);
-        let guide_mm = guide.state().pos_microsteps * self.microstep_mm;
-        self.cell.external_sync(&joints, guide_mm, self.time.now());
+        let arm_state = arm.state();
+        let joints = ArmJoints::from_deg(arm_state.joints_deg);
+        let p = arm_state.params;
+        let arm_speed = p.joint_vel_pct.min(p.joint_vel_limit_pct) / 100.0;
+        let guide_state = guide.state();
+        let guide_mm = guide_state.pos_microsteps * self.microstep_mm;
+        let guide_speed = guide_state.maxspeed as f64 / self.guide_full_maxspeed.max(1) as f64;
+        self.cell.external_sync(&joints, guide_mm, arm_speed, guide_speed);
     }
 }
 

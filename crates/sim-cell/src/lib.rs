@@ -21,7 +21,12 @@
 //!   the Meca500 and Zaber simulators report, and the **true** ball is read against the
 //!   **true** probe plate at the current placement, along the gauge's true (tilted) axis, with
 //!   the noise budget of the in-process gauges;
-//! * the cell-control port moves the plate (the operator).
+//! * the cell-control port moves the plate (the operator) and tells the cell's time (`TIME?`).
+//!
+//! The world's physics (thermal drift, the time of its context) follows the cell's **virtual
+//! clock**, advanced by the durations the in-process devices would take for the same motions,
+//! readings and re-placements ([`VirtualCell::external_sync`]), never by the wall clock: the
+//! time scale only paces the simulators.
 //!
 //! The hidden truth is a parameter ([`SimCellOptions::truth`]); by default it is the one of
 //! `vatcal demo --seed S`, `perturbed_truth(nominal, S, &ErrorBudget::realistic())` on the
@@ -41,7 +46,6 @@ mod error;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
-use std::time::Instant;
 
 use vatcal_core::CellFile;
 use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig as MecaConfig};
@@ -54,7 +58,7 @@ use vatcal_sim::{CellPhysics, NoiseBudget, SimConfig, VirtualCell};
 
 pub use error::SimCellError;
 
-use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling, SimTime};
+use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling};
 
 /// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built in so that `vatcal
 /// sim-cell` runs from any directory (the same file as `vatcal demo`'s built-in cell).
@@ -114,7 +118,8 @@ pub struct SimCellOptions {
     /// simulated device noise (robot, guide, tool changer and gauge repeatability); probe
     /// imperfections stay, they are part of the truth
     pub noise: bool,
-    /// every duration is divided by this (1 = real time)
+    /// every duration of the simulators is divided by this (1 = real time); the physics
+    /// follows the virtual clock whatever the scale
     pub time_scale: f64,
     /// decimals of the gauges' display in mm (the S_Dial WORK Nano shows 4: 0.1 µm)
     pub gauge_decimals: usize,
@@ -269,7 +274,6 @@ impl SimCell {
             options.sim_config(),
             options.seed,
         );
-        let time = SimTime { start: Instant::now(), scale: options.time_scale };
         let at = |port: u16| SocketAddr::new(options.bind, port);
         let bind_err = |device: &str, port: u16| {
             let address = at(port);
@@ -285,6 +289,7 @@ impl SimCell {
         zaber_config.maxspeed =
             ZaberConfig::maxspeed_for(limits.guide_speed_mm_per_s, zaber_config.microstep_mm);
         let microstep_mm = zaber_config.microstep_mm;
+        let guide_full_maxspeed = zaber_config.maxspeed;
         zaber_config.bind = at(options.ports.zaber);
         zaber_config.backend = Some(Arc::new(GuideCoupling { cell: cell.clone(), microstep_mm }));
         let zaber = Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
@@ -314,7 +319,7 @@ impl SimCell {
                 Arc::downgrade(&meca500),
                 Arc::downgrade(&zaber),
                 microstep_mm,
-                time,
+                guide_full_maxspeed,
             ));
             let decimals = options.gauge_decimals;
             let config = SylvacConfig {
@@ -335,7 +340,10 @@ impl SimCell {
         let control = SimServer::spawn(
             "sim-cell-control",
             &[at(options.ports.control)],
-            control::ControlService::new(cell.clone(), options.time_scale),
+            control::ControlService::new(cell.clone(), options.time_scale).with_sync({
+                let coupling = Arc::clone(&gauge_couplings[0]);
+                Arc::new(move || coupling.sync())
+            }),
         )
         .map_err(bind_err("cell-control", options.ports.control))?;
 

@@ -11,7 +11,16 @@
 //! Protocol: call [`VirtualCell::external_motion_started`] /
 //! [`VirtualCell::external_guide_motion_started`] when a motion starts (backlash direction,
 //! repeatability draw, noise epoch), and [`VirtualCell::external_sync`] with where the joints
-//! are before reading a plunger.
+//! are and the speeds in force before reading a plunger.
+//!
+//! **Time.** The cell's physics (thermal drift, the time stamps of its context) follows the
+//! cell's [`VirtualClock`](vatcal_hardware_traits::VirtualClock), never the wall clock: the
+//! external motions advance it by the durations the in-process devices would take (the
+//! cell's [`SimTiming`]: joint speeds × speed fraction + settling), a guide motion and the arm
+//! motion commanded right after it counting once (they run together), every gauge reading by
+//! [`SimTiming::gauge_read_s`], the operator by its re-placement time. A campaign over TCP
+//! therefore sees the same temperature at the same plan step as the in-process demo,
+//! whatever the simulators' `--time-scale` and the wire's latency.
 
 use std::time::Duration;
 
@@ -22,7 +31,11 @@ use crate::cell::VirtualCell;
 use crate::config::{SimConfig, SimTiming};
 use crate::controller::{LinearMoveError, translate_flange, world_displacement};
 use crate::noise::{bits, key, uniform};
-use crate::world::Motion;
+use crate::world::{Motion, PendingSegment};
+
+/// Joint changes below this are the protocol's rounding, not motion (1e-9 rad ≈ 6e-8°, well
+/// above the Meca500 protocol's 9 decimals of a degree and far below any physical motion).
+const WIRE_RESOLUTION_RAD: f64 = 1e-9;
 
 /// Meca500 error code of a move refused for a joint limit.
 pub const CODE_JOINT_LIMIT: u16 = 1007;
@@ -47,7 +60,20 @@ impl VirtualCell {
         parts.extend(bits(&from.0));
         let event = key(w.seed, "arm-joints", &parts);
         w.arm.motion = Motion::at_rest(from.0);
+        let dir_before = w.arm.dir;
         w.start_arm_motion(to.0, 1.0, event);
+        // a joint commanded to where it already is, up to the wire's precision (9 decimals of
+        // a degree: a joint target read back and sent again), does not move: its backlash side
+        // stays
+        for (j, before) in dir_before.iter().enumerate() {
+            if (to.0[j] - from.0[j]).abs() < WIRE_RESOLUTION_RAD {
+                w.arm.dir[j] = *before;
+            }
+        }
+        match w.pending.last_mut() {
+            Some(segment) if segment.arm.is_none() => segment.arm = Some((from.0, to.0)),
+            _ => w.pending.push(PendingSegment { arm: Some((from.0, to.0)), guide: None }),
+        }
     }
 
     /// An external guide motion from `from_mm` to `to_mm` starts (homing included): a fresh
@@ -57,14 +83,38 @@ impl VirtualCell {
         w.guide.homed = true;
         w.guide.motion = Motion::at_rest([from_mm]);
         w.start_guide_motion(to_mm, 1.0);
+        // a guide motion opens a segment: the campaign moves the guide first, then the arm
+        w.pending.push(PendingSegment { arm: None, guide: Some((from_mm, to_mm)) });
     }
 
     /// Where the external simulators have the joints now (arm [rad], guide as reported [mm]),
-    /// and their time: the physics puts the cell there (the guide's repeatability error is
-    /// added physically) and the clock forward to `now` (never back).
-    pub fn external_sync(&self, arm: &ArmJoints, guide_mm: f64, now: Duration) {
+    /// and the speed fractions in force (arm joint speed, guide speed; those of the motions
+    /// since the last sync): the physics puts the cell there (the guide's repeatability error
+    /// is added physically), and the clock advances by the virtual time of the motions started
+    /// since the last sync, as the in-process devices would have taken them (see the module
+    /// documentation).
+    pub fn external_sync(
+        &self,
+        arm: &ArmJoints,
+        guide_mm: f64,
+        arm_speed_fraction: f64,
+        guide_speed_fraction: f64,
+    ) {
         let mut w = self.shared.lock();
-        w.clock.advance_to(now);
+        let pending = std::mem::take(&mut w.pending);
+        let elapsed: Duration = pending
+            .iter()
+            .map(|segment| {
+                let a = segment
+                    .arm
+                    .map_or(Duration::ZERO, |(from, to)| w.arm_duration(&from, &to, arm_speed_fraction));
+                let g = segment
+                    .guide
+                    .map_or(Duration::ZERO, |(from, to)| w.guide_duration(to - from, guide_speed_fraction));
+                a.max(g)
+            })
+            .sum();
+        w.clock.advance(elapsed);
         w.arm.motion = Motion::at_rest(arm.0);
         w.guide.motion = Motion::at_rest([guide_mm]);
     }
@@ -114,11 +164,14 @@ impl VirtualCell {
     }
 
     /// The reading error of the next reading of gauge `gauge` (uniform within the gauge's
-    /// maximum error, keyed on the current noise epoch like the in-process gauges) [mm].
+    /// maximum error, keyed on the current noise epoch like the in-process gauges) [mm]. A
+    /// reading takes [`SimTiming::gauge_read_s`] of virtual time, like an in-process one.
     pub fn external_reading_noise_mm(&self, gauge: usize) -> f64 {
         let mut w = self.shared.lock();
         let max = w.config.noise.gauge_max_error_mm;
         let mut rng = w.reading_rng("gauge", gauge as u64);
+        let read = Duration::from_secs_f64(w.config.timing.gauge_read_s);
+        w.clock.advance(read);
         uniform(&mut rng, max)
     }
 
@@ -143,7 +196,9 @@ mod tests {
     use super::*;
     use crate::SimConfig;
     use vatcal_core::CellFile;
-    use vatcal_hardware_traits::{Gauge, LinearAxis, MotionOptions, Operator, OperatorInstruction, RobotArm};
+    use vatcal_hardware_traits::{
+        Clock, Gauge, LinearAxis, MotionOptions, Operator, OperatorInstruction, RobotArm,
+    };
     use vatcal_kinematics::Model;
 
     fn nominal() -> Model {
@@ -169,10 +224,12 @@ mod tests {
         let (mut arm, mut guide, mut op) = (inproc.arm(), inproc.guide(), inproc.operator());
         arm.activate_and_home(Duration::from_secs(60)).expect("home");
         guide.home(Duration::from_secs(60)).expect("home guide");
+        // guide and arm together, waited for together (as the campaign moves them)
         guide.move_absolute_mm(target[0], &options).expect("guide");
-        guide.wait_idle(Duration::from_secs(60)).expect("guide idle");
         let arm_target = ArmJoints::from_joint_vector(&target);
-        arm.move_joints_and_wait(&arm_target, &options).expect("arm");
+        arm.move_joints(&arm_target, &options).expect("arm");
+        guide.wait_idle(Duration::from_secs(60)).expect("guide idle");
+        arm.wait_idle(Duration::from_secs(60)).expect("arm idle");
         op.perform(&OperatorInstruction::PlaceProbe { position }).expect("place");
         let d = Vector3::new(0.3, -0.2, 0.1);
         arm.move_linear_relative_and_wait(&d, LinearFrame::Tool, &options).expect("linear");
@@ -187,13 +244,36 @@ mod tests {
         let after = ext.external_linear_target(&arm_target, &d, LinearFrame::Tool).expect("ik");
         assert_eq!(after, arm.joints().expect("joints"), "same controller solution");
         ext.external_motion_started(&arm_target, &after);
-        ext.external_sync(&after, target[0], Duration::from_secs(1));
+        ext.external_sync(&after, target[0], 1.0, 1.0);
         for (i, r) in inproc_readings.iter().enumerate() {
             let p = ext.external_plunger_mm(i).expect("touching");
             assert!((p - r).abs() < 1e-12, "gauge {i}: {p} vs {r}");
             assert_eq!(ext.external_reading_noise_mm(i), 0.0);
         }
         assert_eq!(ext.motion_directions(), inproc.motion_directions());
+        // one time base: the same virtual time, apart from the arm's activation and homing
+        // (the Meca500 simulator homes on its own)
+        let homing = Duration::from_secs_f64(inproc.config().timing.homing_s);
+        assert!(inproc.clock().now() > Duration::from_secs(60), "the operator's minute at least");
+        assert_eq!(ext.clock().now(), inproc.clock().now() - homing);
+    }
+
+    /// A joint target sent again after a read-back (rounded by the wire) is no motion: the
+    /// joint keeps its backlash side; a real motion changes it.
+    #[test]
+    fn wire_rounding_does_not_reverse_a_joint() {
+        let nominal = nominal();
+        let truth = crate::truth::perturbed_truth(&nominal, 5, &crate::truth::ErrorBudget::realistic());
+        let cell = VirtualCell::new(nominal, truth, SimConfig::default(), 5);
+        let a = ArmJoints([0.1, 0.2, -0.3, 0.4, 0.5, -0.6]);
+        cell.external_motion_started(&ArmJoints([0.0; 6]), &a);
+        assert_eq!(cell.motion_directions(), [1, 1, -1, 1, 1, -1]);
+        let mut rounded = a;
+        rounded.0[0] -= 1e-12; // 6e-11°: below the Meca500 protocol's 9 decimals
+        rounded.0[1] += 1e-3; // a real motion, same direction
+        rounded.0[2] += 1e-3; // a real reversal
+        cell.external_motion_started(&a, &rounded);
+        assert_eq!(cell.motion_directions(), [1, 1, 1, 1, 1, -1]);
     }
 
     /// Joints that put the nominal TCP `tcp` near calibration position `position` (a pose

@@ -105,6 +105,19 @@ pub(crate) struct World {
     pub tracker_registration: Option<TrackerRegistration>,
     /// offset of each SMR's optical centre from its nest centre, tool frame [mm]
     pub smr_offsets_mm: BTreeMap<u32, Vector3<f64>>,
+    /// motions started by external simulators whose virtual time is not yet on the clock
+    pub pending: Vec<PendingSegment>,
+}
+
+/// Motions of external simulators that run together (the guide and the arm commanded one
+/// after the other and waited for together, as the campaign does): the virtual time of the
+/// segment is the longer of the two.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct PendingSegment {
+    /// arm motion from, to [rad]
+    pub arm: Option<([f64; 6], [f64; 6])>,
+    /// guide motion from, to [mm]
+    pub guide: Option<(f64, f64)>,
 }
 
 /// The systematic error of the tracker's registration to the world frame.
@@ -224,6 +237,7 @@ impl World {
             linear_moves: Vec::new(),
             tracker_registration,
             smr_offsets_mm,
+            pending: Vec::new(),
         }
     }
 
@@ -279,15 +293,21 @@ impl World {
         self.new_epoch(event_key);
     }
 
+    /// Duration of a guide move over `distance_mm` at `speed_fraction`.
+    pub fn guide_duration(&self, distance_mm: f64, speed_fraction: f64) -> Duration {
+        let t = &self.config.timing;
+        Duration::from_secs_f64(
+            distance_mm.abs() / (t.guide_speed_mm_per_s * speed_fraction).max(1e-9) + t.settle_s,
+        )
+    }
+
     /// Starts a guide motion to `to_mm`.
     pub fn start_guide_motion(&mut self, to_mm: f64, speed_fraction: f64) {
         let now = self.now();
         let from = self.guide_mm();
         let previous_target = self.guide.motion.to[0];
-        let t = &self.config.timing;
-        let secs = (to_mm - from).abs() / (t.guide_speed_mm_per_s * speed_fraction).max(1e-9) + t.settle_s;
-        self.guide.motion =
-            Motion { from: [from], to: [to_mm], start: now, end: now + Duration::from_secs_f64(secs) };
+        let end = now + self.guide_duration(to_mm - from, speed_fraction);
+        self.guide.motion = Motion { from: [from], to: [to_mm], start: now, end };
         let event = key(self.seed, "guide", &[to_mm.to_bits(), previous_target.to_bits()]);
         let mut rng = noise::rng(key(event, "guide-offset", &[]));
         self.guide.offset_mm = gauss(&mut rng, self.config.noise.guide_repeatability_mm / 3.0);

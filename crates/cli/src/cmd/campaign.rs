@@ -16,7 +16,8 @@ use vatcal_campaign::{CampaignConfig, CellDevices, ConsoleOperator};
 use vatcal_core::CellFile;
 use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
 use vatcal_hardware_traits::{
-    ErrorKind, Gauge, LinearAxis, MotionOptions, Operator, ProbePlacement, RobotArm, SystemClock, TriCal,
+    Clock, ErrorKind, Gauge, LinearAxis, MotionOptions, Operator, ProbePlacement, RobotArm, SystemClock,
+    TriCal,
 };
 use vatcal_kinematics::Model;
 use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};
@@ -76,7 +77,8 @@ struct RealCell {
     guide: StoppableAxis<Box<dyn LinearAxis>>,
     probe: TriCal<Box<dyn Gauge>>,
     operator: Box<dyn Operator>,
-    clock: SystemClock,
+    /// the wall clock, or the simulated cell's virtual time with `--operator auto`
+    clock: Box<dyn Clock>,
 }
 
 impl DeviceSet for RealCell {
@@ -87,7 +89,7 @@ impl DeviceSet for RealCell {
             probe: &mut self.probe,
             tracker: None,
             operator: &mut self.operator,
-            clock: &self.clock,
+            clock: &*self.clock,
         }
     }
 }
@@ -235,8 +237,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     for line in &found {
         println!("  {line}");
     }
+    // with the simulated operator, `time_s` is the simulated cell's virtual time (what the
+    // in-process demo records), not the wall clock of a run sped up by `--time-scale`
+    let mut clock: Box<dyn Clock> = Box::new(SystemClock);
     let operator: Box<dyn Operator> = match (args.operator, sim_control) {
-        (OperatorKind::Auto, Some(control)) => Box::new(SimControlOperator::new(control)),
+        (OperatorKind::Auto, Some(control)) => {
+            clock = Box::new(control.clock().context("reading the simulated cell's clock (TIME?)")?);
+            Box::new(SimControlOperator::new(control))
+        }
         (OperatorKind::Auto, None) => bail!("--operator auto: no sim_control connection"),
         (OperatorKind::Console, _) => Box::new(ConsoleOperator::stdio()),
     };
@@ -249,7 +257,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         guide: StoppableAxis::new(guide, flag.clone()),
         probe,
         operator,
-        clock: SystemClock,
+        clock,
     };
     let timeout = Duration::from_secs_f64(args.motion_timeout_s);
     println!("checking:");
