@@ -91,6 +91,48 @@ pub fn combine(a: Body, b: Body) -> Body {
     Body { mass_kg: m, com_mm: (a.com_mm * a.mass_kg + b.com_mm * b.mass_kg) / m }
 }
 
+/// [`gravity_torques`] for a chain of exactly `N` joints with fixed-size arrays (no length
+/// checks in the loops; the FK hot path uses it for the common 6- and 7-joint chains).
+/// `tau[i - 1]` is the torque of joint i, 0 for prismatic joints.
+#[inline]
+pub fn gravity_torques_n<const N: usize>(
+    links: &[Frame; N],
+    kinds: &[JointKind; N],
+    base_rotation: &Matrix3<f64>,
+    masses: &MassModel,
+    gravity_world: &Vector3<f64>,
+) -> [f64; N] {
+    let mut tau = [0.0; N];
+    let Some(first) = kinds.iter().position(|k| k.is_revolute()) else { return tau };
+    // outward: g[i - 1] = gravity in frame i
+    let mut g = [Vector3::zeros(); N];
+    let mut prev = base_rotation.tr_mul(gravity_world);
+    for (gi, link) in g.iter_mut().zip(links) {
+        *gi = link.r.tr_mul(&prev);
+        prev = *gi;
+    }
+    // inward
+    let mut f = Vector3::zeros();
+    let mut n = Vector3::zeros();
+    for i in (first + 1..=N).rev() {
+        let body = masses.links[i - 1];
+        let weight = -body.mass_kg * g[i - 1];
+        let (rf, rn) = if i < N {
+            let next = &links[i];
+            let rf = next.r * f;
+            (rf, next.r * n + (next.p * 1e-3).cross(&rf))
+        } else {
+            (Vector3::zeros(), Vector3::zeros())
+        };
+        f = rf + weight;
+        n = rn + (body.com_mm * 1e-3).cross(&weight);
+        if kinds[i - 1].is_revolute() {
+            tau[i - 1] = -n.z;
+        }
+    }
+    tau
+}
+
 /// Gravity torques `tau[i - 1]` [N·m] about `+z_i` for every revolute joint i = 1..=N, exerted
 /// by gravity on everything distal to joint i; 0 for prismatic joints and beyond N.
 ///
@@ -113,6 +155,19 @@ pub fn gravity_torques(
 ) -> [f64; MAX_JOINTS] {
     let n_links = links.len().min(MAX_JOINTS);
     let mut tau = [0.0; MAX_JOINTS];
+    // the common chains on fixed-size arrays
+    if let (Ok(l), Some(Ok(k))) =
+        (<&[Frame; 7]>::try_from(links), kinds.get(..7).map(<&[JointKind; 7]>::try_from))
+    {
+        tau[..7].copy_from_slice(&gravity_torques_n(l, k, base_rotation, masses, gravity_world));
+        return tau;
+    }
+    if let (Ok(l), Some(Ok(k))) =
+        (<&[Frame; 6]>::try_from(links), kinds.get(..6).map(<&[JointKind; 6]>::try_from))
+    {
+        tau[..6].copy_from_slice(&gravity_torques_n(l, k, base_rotation, masses, gravity_world));
+        return tau;
+    }
     // the recursion only needs to go down to the first revolute joint
     let Some(first) = (0..n_links).find(|k| kinds.get(*k).is_none_or(|k| k.is_revolute())) else {
         return tau;

@@ -196,7 +196,8 @@ impl Table {
     }
 
     fn read_checked(path: &Path, required: &[&str], joints: Option<usize>) -> Result<Table, IoError> {
-        let text = std::fs::read(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
+        let text =
+            std::fs::read(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
         // the header is the first line that is neither blank nor a comment
         let header_line = text
             .split(|b| *b == b'\n')

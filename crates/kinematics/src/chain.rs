@@ -226,8 +226,59 @@ impl Model {
 
     /// Lean FK of a point in the tool frame when no effect is switched on: no Jacobian axes,
     /// and the deflected angles reuse the trigonometry of the torque pass.
-    #[allow(clippy::needless_range_loop)] // several parallel per-row arrays
+    #[inline]
     fn fast_tool_point(&self, q: &JointVector, t: &Vector3<f64>) -> Vector3<f64> {
+        match self.n {
+            7 => self.fast_tool_point_n::<7>(q.as_slice(), t),
+            6 => self.fast_tool_point_n::<6>(q.as_slice(), t),
+            _ => self.fast_tool_point_any(q, t),
+        }
+    }
+
+    /// [`Model::fast_tool_point`] on fixed-size arrays for a chain of exactly `N` joints.
+    #[allow(clippy::needless_range_loop)] // several parallel per-row arrays
+    fn fast_tool_point_n<const N: usize>(&self, q: &[f64], t: &Vector3<f64>) -> Vector3<f64> {
+        let (Ok(kinds), Ok(q)) = (<&[JointKind; N]>::try_from(&self.kinds[..N]), <&[f64; N]>::try_from(q))
+        else {
+            return Vector3::repeat(f64::NAN); // unreachable: callers dispatch on self.n == N == q.len()
+        };
+        let mut trig = [(0.0, 1.0); N];
+        for k in 0..N {
+            let th = if kinds[k].is_revolute() { q[k] } else { 0.0 };
+            trig[k] = (th + self.rows[k].theta_offset).sin_cos();
+        }
+        let d = |k: usize| if kinds[k].is_revolute() { self.rows[k].d } else { q[k] + self.rows[k].d };
+        let mut w = self.base_frame;
+        if self.any_compliance {
+            let mut links = [Frame::identity(); N];
+            for k in 0..N {
+                links[k] = rz_tz_trig(&self.row_fixed[k], trig[k], d(k));
+            }
+            let tau = vatcal_gravity_torque::gravity_torques_n(
+                &links,
+                kinds,
+                &self.base_frame.r,
+                &self.masses,
+                &self.gravity,
+            );
+            for k in 0..N {
+                let tr = if kinds[k].is_revolute() {
+                    add_small_angle(trig[k], self.compliance[k] * tau[k])
+                } else {
+                    trig[k]
+                };
+                w = w.compose(&rz_tz_trig(&self.row_fixed[k], tr, d(k)));
+            }
+        } else {
+            for k in 0..N {
+                w = w.compose(&rz_tz_trig(&self.row_fixed[k], trig[k], d(k)));
+            }
+        }
+        w.transform_point(t)
+    }
+
+    #[allow(clippy::needless_range_loop)] // several parallel per-row arrays
+    fn fast_tool_point_any(&self, q: &JointVector, t: &Vector3<f64>) -> Vector3<f64> {
         let trig = self.undeflected_trig(q);
         let qs = q.as_slice();
         let mut w = self.base_frame;
