@@ -11,15 +11,18 @@
 //! cargo run -p vatcal-campaign --example run_campaign
 //! ```
 
-use vatcal_hardware_traits::{TriCal, VirtualClock};
-use vatcal_campaign::{Campaign, CampaignConfig, CampaignPlan, CellDevices, PlanOptions, export_measurements};
+use vatcal_campaign::{
+    Campaign, CampaignConfig, CampaignPlan, CellDevices, PlanOptions, export_measurements,
+};
 use vatcal_core::{CellFile, JointVector, Measurement};
+use vatcal_hardware_traits::{TriCal, VirtualClock};
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::probe_start_poses;
 use vatcal_sim::{SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell, translation_joint_gain};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let cell_file = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?;
+    let cell_file =
+        CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?;
     let nominal = Model::from_cell(&cell_file)?;
     let cell = VirtualCell::paper(nominal.clone(), 2024);
 
@@ -61,7 +64,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     // the same plan on the same journal: a resume with nothing left to do
     let again = Campaign::new(devices.lend(), &nominal, config).run(&plan, &journal)?;
-    println!("second run resumed at step {:?}, {} measurements (none repeated)", again.resumed_at_step, again.measurements.len());
+    println!(
+        "second run resumed at step {:?}, {} measurements (none repeated)",
+        again.resumed_at_step,
+        again.measurements.len()
+    );
     if again.measurements != report.measurements {
         return Err("a resumed campaign must return the journaled measurements unchanged".into());
     }

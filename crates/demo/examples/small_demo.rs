@@ -26,7 +26,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("{}", outcome.comparison_table());
     let nominal = outcome.validation("nominal").ok_or("nominal validation")?.random.stats.mean;
     let calibrated = outcome.validation("calibrated").ok_or("calibrated validation")?.random.stats.mean;
-    println!("random poses: nominal {nominal:.4} mm -> calibrated {calibrated:.4} mm; report in {}", out.display());
+    println!(
+        "random poses: nominal {nominal:.4} mm -> calibrated {calibrated:.4} mm; report in {}",
+        out.display()
+    );
     if calibrated > 0.1 * nominal {
         return Err("the calibration must cut the mean error by at least 10×".into());
     }

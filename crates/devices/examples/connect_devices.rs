@@ -19,11 +19,12 @@ use vatcal_drivers_zaber::sim::{SimConfig as ZaberSimConfig, ZaberSim};
 use vatcal_hardware_traits::{ArmJoints, MotionOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let example = DevicesFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/devices-example.toml"))?;
+    let example =
+        DevicesFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/devices-example.toml"))?;
     println!("{}: {example:#?}", example.source().display());
 
     match DevicesFile::parse("arm = { kind = \"meca500\", address = \"192.168.0.100\" }\n", "typo.toml") {
-        Ok(_) => return Err("an address without a port must be refused".into()),
+        Ok(_) => return Err("a file without a guide and gauges must be refused".into()),
         Err(e) => println!("refused as expected: {e}"),
     }
 

@@ -30,8 +30,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let hidden = EffectSpec::JointCyclic { joint: 5, harmonic: 1 };
     truth.enable_effect(hidden)?;
     let amplitude_rad = 0.02f64.to_radians();
-    truth.set_param(ParamId::Effect(EffectParam::CyclicSin { joint: 5, harmonic: 1 }), amplitude_rad * 0.6)?;
-    truth.set_param(ParamId::Effect(EffectParam::CyclicCos { joint: 5, harmonic: 1 }), amplitude_rad * 0.8)?;
+    truth
+        .set_param(ParamId::Effect(EffectParam::CyclicSin { joint: 5, harmonic: 1 }), amplitude_rad * 0.6)?;
+    truth
+        .set_param(ParamId::Effect(EffectParam::CyclicCos { joint: 5, harmonic: 1 }), amplitude_rad * 0.8)?;
 
     let starts = probe_start_poses(&nominal, 180, 132);
     let probe = synthetic_probe_measurements(&truth, &starts, ProbeNoise::default(), 233);

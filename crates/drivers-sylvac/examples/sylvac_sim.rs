@@ -15,7 +15,11 @@ use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
 use vatcal_hardware_traits::{Gauge, Probe3d, TriCal, TriCalConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let sims = [SylvacSim::start(SimConfig::default())?, SylvacSim::start(SimConfig::default())?, SylvacSim::start(SimConfig::default())?];
+    let sims = [
+        SylvacSim::start(SimConfig::default())?,
+        SylvacSim::start(SimConfig::default())?,
+        SylvacSim::start(SimConfig::default())?,
+    ];
     let mut gauge = SylvacGauge::connect_tcp(sims[0].addr(), SylvacConfig::default())?;
     println!("gauge on {}: id {}, unit {:?}", sims[0].addr(), gauge.id(), gauge.unit());
     for mm in [0.0, 1.2345, 6.35] {
@@ -38,7 +42,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         s.set_plunger_mm(p - 6.35 + ci); // plunger_i = master_i - 6.35 + c_i
     }
     let reading = probe.read()?;
-    println!("gauges read {:?} mm -> ball offset {:.4?} mm (set: {c:?})", reading.gauges_mm, reading.offset_mm.as_slice());
+    println!(
+        "gauges read {:?} mm -> ball offset {:.4?} mm (set: {c:?})",
+        reading.gauges_mm,
+        reading.offset_mm.as_slice()
+    );
     let err = reading.offset_mm.iter().zip(c).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     if err > 1e-9 {
         return Err(format!("TriCal offset off by {err} mm").into());

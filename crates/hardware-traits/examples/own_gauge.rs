@@ -22,7 +22,11 @@ struct HandGauge {
 impl Gauge for HandGauge {
     fn read_mm(&mut self) -> Result<f64> {
         if !(0.0..=12.5).contains(&self.plunger_mm) {
-            return Err(Error::new(ErrorKind::OutOfRange, "hand gauge", format!("plunger at {} mm", self.plunger_mm)));
+            return Err(Error::new(
+                ErrorKind::OutOfRange,
+                "hand gauge",
+                format!("plunger at {} mm", self.plunger_mm),
+            ));
         }
         Ok(self.plunger_mm + self.preset_offset_mm)
     }

@@ -48,7 +48,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // the TCP coordinates?
     let mut wider = params.clone();
     wider.0.extend([ParamId::A(2), ParamId::D(2)]);
-    wider.0.extend(ParamSet::all_builtin(&model.tcp_ids(), &[]).iter().filter(|p| matches!(p, ParamId::Tcp { .. })));
+    wider.0.extend(
+        ParamSet::all_builtin(&model.tcp_ids(), &[]).iter().filter(|p| matches!(p, ParamId::Tcp { .. })),
+    );
     let report = analyze(&model, &chosen, &wider)?;
     println!("{} parameters, rank {}; redundant:", report.parameter_count, report.rank);
     for r in report.redundant.iter().take(6) {

@@ -30,7 +30,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &series,
         &HistogramOptions::default(),
     )?;
-    let line = line_plot_svg(&PlotSpec::new("Error along the path", "slice", "error [mm]"), &slices, &series)?;
+    let line =
+        line_plot_svg(&PlotSpec::new("Error along the path", "slice", "error [mm]"), &slices, &series)?;
 
     let dir = std::env::temp_dir().join(format!("vatcal-report-example-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
@@ -38,10 +39,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut page = HtmlReport::new("vatcal report example");
     page.heading("Errors")
         .paragraph("Two series of position errors, **nominal** and **calibrated**.")
-        .table(&["model", "mean [mm]"], &[
-            vec!["nominal".into(), format!("{:.4}", nominal.iter().sum::<f64>() / n as f64)],
-            vec!["calibrated".into(), format!("{:.4}", calibrated.iter().sum::<f64>() / n as f64)],
-        ])
+        .table(
+            &["model", "mean [mm]"],
+            &[
+                vec!["nominal".into(), format!("{:.4}", nominal.iter().sum::<f64>() / n as f64)],
+                vec!["calibrated".into(), format!("{:.4}", calibrated.iter().sum::<f64>() / n as f64)],
+            ],
+        )
         .svg(hist, "histogram of the errors")
         .svg(line, "error along the path");
     let html = dir.join("report.html");

@@ -22,8 +22,12 @@ use vatcal_hardware_traits::{ArmJoints, Gauge, LinearAxis, MotionOptions, RobotA
 use vatcal_sim_cell::{Ports, SimCell, SimCellOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let options =
-        SimCellOptions { ports: Ports::ephemeral(), noise: false, time_scale: 1000.0, ..SimCellOptions::paper(3)? };
+    let options = SimCellOptions {
+        ports: Ports::ephemeral(),
+        noise: false,
+        time_scale: 1000.0,
+        ..SimCellOptions::paper(3)?
+    };
     let sim = SimCell::start(options)?;
     let addrs = sim.addrs();
     for (name, addr) in addrs.named() {
@@ -63,9 +67,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     guide.move_absolute_and_wait(pose.q.guide_mm(), &fast)?;
     arm.move_joints_and_wait(&ArmJoints::from_joint_vector(&pose.q), &fast)?;
     let readings: Vec<f64> = gauges.iter_mut().map(|g| g.read_mm()).collect::<Result<_, _>>()?;
-    println!(
-        "TCP {} at calibration position {position}: raw gauge readings {readings:?} mm",
-        pose.tcp
-    );
+    println!("TCP {} at calibration position {position}: raw gauge readings {readings:?} mm", pose.tcp);
     Ok(())
 }

@@ -15,11 +15,14 @@ use std::time::Duration;
 use vatcal_core::{CellFile, JointVector};
 use vatcal_hardware_traits::{ArmJoints, Clock, LinearAxis, MotionOptions, PositionTracker, RobotArm};
 use vatcal_kinematics::Model;
-use vatcal_sim::truth::{ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements};
+use vatcal_sim::truth::{
+    ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
+};
 use vatcal_sim::{SimConfig, VirtualCell};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let cell_file = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?;
+    let cell_file =
+        CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?;
     let nominal = Model::from_cell(&cell_file)?;
     let truth = perturbed_truth(&nominal, 5, &ErrorBudget::realistic());
     let cell = VirtualCell::new(nominal.clone(), truth.clone(), SimConfig::default(), 5);
@@ -38,8 +41,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let true_p = truth.tcp_position(&q, tcp)?;
     println!("virtual time after homing and moving: {:?}", cell.clock().now());
     println!("tracker reads TCP {tcp} at {:.4?} mm", measured.as_slice());
-    println!("nominal model predicts  {:.4?} mm: {:.4} mm off", believed.as_slice(), (believed - measured).norm());
-    println!("hidden truth gives      {:.4?} mm: {:.4} mm off (tracker noise)", true_p.as_slice(), (true_p - measured).norm());
+    println!(
+        "nominal model predicts  {:.4?} mm: {:.4} mm off",
+        believed.as_slice(),
+        (believed - measured).norm()
+    );
+    println!(
+        "hidden truth gives      {:.4?} mm: {:.4} mm off (tracker noise)",
+        true_p.as_slice(),
+        (true_p - measured).norm()
+    );
 
     // synthetic probe measurements straight from the truth (no device simulation)
     let starts = probe_start_poses(&nominal, 6, 1);
