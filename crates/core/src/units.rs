@@ -34,6 +34,16 @@ impl JointVector {
     }
 
     /// Builds a joint vector from file units: q1 in mm and q2..q7 in degrees.
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::JointVector;
+    ///
+    /// let q = JointVector::from_mm_deg(150.0, [90.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    /// assert_eq!(q.guide_mm(), 150.0);
+    /// assert!((q.get(2) - std::f64::consts::FRAC_PI_2).abs() < 1e-15); // joint 2 in radians
+    /// assert!((q.to_mm_deg()[1] - 90.0).abs() < 1e-12);
+    /// ```
     pub fn from_mm_deg(q1_mm: f64, arm_deg: [f64; 6]) -> Self {
         let mut q = [0.0; JOINT_COUNT];
         q[0] = q1_mm;
