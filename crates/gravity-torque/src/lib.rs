@@ -77,6 +77,25 @@ pub fn combine(a: Body, b: Body) -> Body {
 /// * `gravity_world` = gravity vector in the world frame [m/s²].
 ///
 /// Cost: ~0.1 µs (no allocation).
+///
+/// # Examples
+/// A 2 kg body 100 mm out on a horizontal link (frame 3's z axis is world +y) feels
+/// `m g L = 1.962 N·m` about joint 3; the vertical joint 2 and the distal joints feel nothing:
+/// ```
+/// use nalgebra::{Matrix3, Vector3};
+/// use vatcal_core::Frame;
+/// use vatcal_gravity_torque::{Body, MassModel, gravity_torques};
+///
+/// let rx_m90 = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0);
+/// let mut links = [Frame::identity(); 7];
+/// links[2] = Frame { r: rx_m90, p: Vector3::zeros() };
+/// links[3] = Frame { r: rx_m90.transpose(), p: Vector3::zeros() };
+/// let mut masses = MassModel { links: [Body::default(); 6] };
+/// masses.links[1] = Body { mass_kg: 2.0, com_mm: Vector3::new(100.0, 0.0, 0.0) }; // frame 3
+/// let tau = gravity_torques(&links, &Matrix3::identity(), &masses, &Vector3::new(0.0, 0.0, -9.81));
+/// assert!((tau[1] - 2.0 * 9.81 * 0.1).abs() < 1e-12);
+/// assert!(tau[0].abs() < 1e-12 && tau[2..].iter().all(|t| t.abs() < 1e-12));
+/// ```
 pub fn gravity_torques(
     links: &[Frame; 7],
     base_rotation: &Matrix3<f64>,
