@@ -27,8 +27,8 @@ fn bench_compensation(c: &mut Criterion) {
         .map(|k| {
             let t = k as f64 / (POSES - 1) as f64;
             let s = 0.5 - 0.5 * (std::f64::consts::PI * t).cos();
-            let q = JointVector(std::array::from_fn(|i| a.0[i] + s * (b.0[i] - a.0[i])));
-            ToolTarget::new(q.0[0], calibrated.chain(&q).tool)
+            let q = JointVector::new::<7>(std::array::from_fn(|i| a[i] + s * (b[i] - a[i])));
+            ToolTarget::new(q[0], calibrated.chain(&q).tool)
         })
         .collect();
     let comp = Compensator::new(&calibrated, &nominal).expect("compensator");

@@ -23,7 +23,7 @@ fn bench_ik(c: &mut Criterion) {
     let model = Model::from_cell(&cell()).expect("model");
     let q = JointVector::from_mm_deg(120.0, [30.0, 20.0, -40.0, 50.0, 60.0, -70.0]);
     let target = model.chain(&q).tool;
-    let base = robot_base_frame(&model, q.0[0]);
+    let base = robot_base_frame(&model, q[0]);
     let local = base.inverse().compose(&target);
     let arm = ArmGeometry::from_model(&model).expect("arm");
     let ik = ToolPoseIk::new(&model, RefineOptions::default()).expect("ik");

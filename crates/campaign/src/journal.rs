@@ -140,8 +140,11 @@ pub struct StepRecord {
 impl StepRecord {
     /// The measurement this record holds, if any (probe or tracker), with `dir` and `time_s`.
     pub fn measurement(&self) -> Option<Measurement> {
-        let context =
-            MeasurementContext { dir: Some(self.state.dir), time_s: Some(self.time_s), temperature_c: None };
+        let context = MeasurementContext {
+            dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(self.state.dir)),
+            time_s: Some(self.time_s),
+            temperature_c: None,
+        };
         let (tcp, target) = match &self.outcome {
             StepOutcome::Measured { position, tcp, .. } => (*tcp, Target::Probe { position: *position }),
             StepOutcome::Tracked { tcp, xyz_mm } => (*tcp, Target::Tracker { xyz_mm: (*xyz_mm).into() }),
@@ -471,7 +474,7 @@ mod tests {
             step,
             time_s: 1.5 * step as f64,
             state: CellState {
-                joints: JointVector([x, 0.1, -0.2, x / 3.0, 0.4, 1e-300, -0.6]),
+                joints: JointVector::new([x, 0.1, -0.2, x / 3.0, 0.4, 1e-300, -0.6]),
                 arm_from: [x; 6],
                 guide_from_mm: x * 7.0,
                 dir: [1, -1, 0, 1, 1, -1],
@@ -512,7 +515,7 @@ mod tests {
             prop_assert_eq!(back.header(), &header());
             prop_assert_eq!(back.records(), &recs[..]);
             for (a, b) in back.records().iter().zip(&recs) {
-                for (u, v) in a.state.joints.0.iter().zip(b.state.joints.0.iter()) {
+                for (u, v) in a.state.joints.as_slice().iter().zip(b.state.joints.as_slice().iter()) {
                     prop_assert_eq!(u.to_bits(), v.to_bits());
                 }
             }
@@ -621,7 +624,10 @@ mod tests {
         let m = r.measurement().expect("measurement");
         assert_eq!(m.position(), Some(2));
         assert_eq!(m.tcp, 3);
-        assert_eq!(m.context.dir, Some([1, -1, 0, 1, 1, -1]));
+        assert_eq!(
+            m.context.dir,
+            Some(vatcal_core::measurement::dirs_from_meca500_arm([1, -1, 0, 1, 1, -1]))
+        );
         assert_eq!(m.context.time_s, Some(6.0));
         let moved = StepRecord { outcome: StepOutcome::Moved, ..r };
         assert!(moved.measurement().is_none());

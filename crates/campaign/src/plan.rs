@@ -56,6 +56,9 @@ pub enum PlanError {
     /// The plan has no steps.
     #[error("the plan has no steps")]
     Empty,
+    /// The campaign runs the Meca500-on-guide cell only (the message says why).
+    #[error("{0}")]
+    UnsupportedChain(String),
     /// A waypoint is outside the joint limits or not finite.
     #[error("step {step}: waypoint {waypoint}: joint q{joint} = {value} is outside its limits")]
     Limits {
@@ -265,6 +268,9 @@ impl CampaignPlan {
         if self.steps.is_empty() {
             return Err(PlanError::Empty);
         }
+        model
+            .require_meca500_on_guide("a measurement campaign on the cell's devices")
+            .map_err(|e| PlanError::UnsupportedChain(e.to_string()))?;
         let (tcps, positions) = (model.tcp_ids(), model.position_ids());
         let known = |step: usize, what: &'static str, id: u32, ids: &[u32]| {
             if ids.contains(&id) { Ok(()) } else { Err(PlanError::UnknownId { step, what, id }) }
@@ -290,10 +296,10 @@ impl CampaignPlan {
                         return Err(PlanError::EmptyMove { step });
                     }
                     for (waypoint, q) in path.iter().enumerate() {
-                        let bad = model
-                            .limit_violation(q)
-                            .map(|(joint, value, ..)| (joint, value))
-                            .or_else(|| q.0.iter().position(|v| !v.is_finite()).map(|k| (k + 1, q.0[k])));
+                        let bad =
+                            model.limit_violation(q).map(|(joint, value, ..)| (joint, value)).or_else(|| {
+                                q.as_slice().iter().position(|v| !v.is_finite()).map(|k| (k + 1, q[k]))
+                            });
                         if let Some((joint, value)) = bad {
                             return Err(PlanError::Limits { step, waypoint, joint, value });
                         }

@@ -570,7 +570,7 @@ impl<'a> Campaign<'a> {
 
 /// Signs of the arm joints that changed between `before` and `after`.
 fn update_dir(dir: &mut [i8; 6], before: &JointVector, after: &JointVector) {
-    for (d, (a, b)) in dir.iter_mut().zip(before.0[1..].iter().zip(&after.0[1..])) {
+    for (d, (a, b)) in dir.iter_mut().zip(before[1..].iter().zip(&after[1..])) {
         if b != a {
             *d = if b > a { 1 } else { -1 };
         }

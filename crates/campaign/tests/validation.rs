@@ -70,8 +70,8 @@ fn random_poses_are_seeded_inside_the_margins_and_collision_free() {
     // the whole workspace: every arm joint spans most of its range
     for k in 1..7 {
         let (lo, hi) = bounds.bounds[k];
-        let min = poses.iter().map(|p| p.q.0[k]).fold(f64::INFINITY, f64::min);
-        let max = poses.iter().map(|p| p.q.0[k]).fold(f64::NEG_INFINITY, f64::max);
+        let min = poses.iter().map(|p| p.q[k]).fold(f64::INFINITY, f64::min);
+        let max = poses.iter().map(|p| p.q[k]).fold(f64::NEG_INFINITY, f64::max);
         assert!(max - min > 0.6 * (hi - lo), "joint {} spans {min}..{max}", k + 1);
     }
 }
@@ -102,7 +102,7 @@ fn the_plan_measures_every_pose_and_slice_along_verified_paths() {
         .joints
         .iter()
         .zip(&plan.path_runs[1].joints)
-        .map(|(a, b)| (1..7).map(|k| (a.0[k] - b.0[k]).abs()).fold(0.0, f64::max));
+        .map(|(a, b)| (1..7).map(|k| (a[k] - b[k]).abs()).fold(0.0, f64::max));
     let dq_max = dq.fold(0.0, f64::max);
     assert!(dq_max > 1e-5 && dq_max < 0.05, "{dq_max} rad");
     // every move ends on the planned pose of the following track steps, and consecutive

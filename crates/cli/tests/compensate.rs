@@ -39,9 +39,9 @@ fn setup() -> Setup {
     let requests = (0..6)
         .map(|k| {
             let t = k as f64 / 5.0;
-            let q = JointVector(std::array::from_fn(|i| a.0[i] + t * (b.0[i] - a.0[i])));
+            let q = JointVector::new::<7>(std::array::from_fn(|i| a[i] + t * (b[i] - a[i])));
             let tool = calibrated.chain(&q).tool;
-            PoseRequest::from_tool_frame(&calibrated, 2, q.0[0], &tool, MeasurementContext::default())
+            PoseRequest::from_tool_frame(&calibrated, 2, q[0], &tool, MeasurementContext::default())
                 .expect("request")
         })
         .collect();

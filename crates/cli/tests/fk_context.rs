@@ -5,6 +5,7 @@
 use std::process::Command;
 
 use vatcal_core::effects::{EffectSpec, ThermalDriver};
+use vatcal_core::measurement::dirs_from_meca500_arm;
 use vatcal_core::params::EffectParam;
 use vatcal_core::{CellFile, JointVector, MeasurementContext, ParamId};
 use vatcal_kinematics::Model;
@@ -69,7 +70,11 @@ fn fk_applies_backlash_and_thermal_drift_from_the_context_columns() {
     let q = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 40.0, 50.0, 60.0]);
     let contexts = [(20.0, [1, 1, 1, 1, 1, 1]), (20.0, [1, -1, 1, 1, 1, 1]), (25.0, [1, 1, 1, 1, 1, 1])];
     for (row, (t, dir)) in got.iter().zip(contexts) {
-        let ctx = MeasurementContext { dir: Some(dir), time_s: Some(0.0), temperature_c: Some(t) };
+        let ctx = MeasurementContext {
+            dir: Some(dirs_from_meca500_arm(dir)),
+            time_s: Some(0.0),
+            temperature_c: Some(t),
+        };
         let p = model.tcp_position_ctx(&q, &ctx, 1).expect("fk");
         for k in 0..3 {
             assert!((row[k] - p[k]).abs() < 1e-9, "{row:?} vs {p:?}");
@@ -135,8 +140,11 @@ fn validate_uses_the_context_columns_of_the_tracker_file() {
         String::from("tcp,q1,q2,q3,q4,q5,q6,q7,x,y,z,temperature_c,dir2,dir3,dir4,dir5,dir6,dir7\n");
     for (k, (t, d3)) in [(20.0, 1i8), (24.0, -1), (22.0, 1), (26.0, -1)].iter().enumerate() {
         let q = JointVector::from_mm_deg(50.0 * k as f64, [10.0, 20.0 + k as f64, -30.0, 40.0, 50.0, 60.0]);
-        let ctx =
-            MeasurementContext { dir: Some([1, *d3, 1, 1, 1, 1]), time_s: None, temperature_c: Some(*t) };
+        let ctx = MeasurementContext {
+            dir: Some(dirs_from_meca500_arm([1, *d3, 1, 1, 1, 1])),
+            time_s: None,
+            temperature_c: Some(*t),
+        };
         let p = model.tcp_position_ctx(&q, &ctx, 1).expect("fk");
         let v = q.to_mm_deg();
         csv.push_str(&format!(

@@ -124,13 +124,13 @@ fn predicted_seed(
     let Some(b) = before else { return *prev };
     let mut seed = *prev;
     for k in 1..7 {
-        let d = prev.0[k] - b.0[k];
+        let d = prev[k] - b[k];
         if d.abs() > 0.5 * max_step_rad {
             return *prev;
         }
-        seed.0[k] += match before2 {
+        seed[k] += match before2 {
             // q(t+1) = 3 q(t) - 3 q(t-1) + q(t-2)
-            Some(b2) => 2.0 * d - (b.0[k] - b2.0[k]),
+            Some(b2) => 2.0 * d - (b[k] - b2[k]),
             None => d,
         };
     }
@@ -165,6 +165,7 @@ impl<'a> Compensator<'a> {
     /// # Errors
     /// The calibrated arm is not Meca500-like (the closed-form seeds need its structure).
     pub fn new(calibrated: &'a Model, nominal: &'a Model) -> Result<Self, CompensationError> {
+        nominal.require_meca500_on_guide("compensation's Meca500 output")?;
         let ik = ToolPoseIk::new(calibrated, RefineOptions::default())?;
         let arm = *ik.arm();
         Ok(Self { calibrated, nominal, ik, arm })
@@ -195,7 +196,9 @@ impl<'a> Compensator<'a> {
             let Ok(s) = newton(self.calibrated, target, &seed.q, opts) else { continue };
             let Ok(s) = self.wrapped(target, s, opts) else { continue };
             let branch = self.branch_of(&s.q);
-            let same = |o: &(Branch, Solved)| o.1.q.0.iter().zip(&s.q.0).all(|(a, b)| (a - b).abs() < 1e-7);
+            let same = |o: &(Branch, Solved)| {
+                o.1.q.as_slice().iter().zip(s.q.as_slice()).all(|(a, b)| (a - b).abs() < 1e-7)
+            };
             if !out.iter().any(same) {
                 out.push((branch, s));
             }
@@ -208,7 +211,7 @@ impl<'a> Compensator<'a> {
     fn wrapped(&self, target: &ToolTarget, s: Solved, opts: &SolveOptions) -> Result<Solved, NotConverged> {
         let mut q = s.q;
         let mut moved = false;
-        for v in q.0.iter_mut().skip(1) {
+        for v in q.as_mut_slice().iter_mut().skip(1) {
             let w = vatcal_planning::ik::wrap_angle(*v);
             moved |= w != *v;
             *v = w;
@@ -407,7 +410,7 @@ impl<'a> Compensator<'a> {
     /// Smallest distance of an arm joint to its limits \[rad\].
     fn clearance(&self, q: &JointVector) -> f64 {
         let limits = self.calibrated.joint_limits();
-        (1..7).map(|k| (q.0[k] - limits[k].0).min(limits[k].1 - q.0[k])).fold(f64::INFINITY, f64::min)
+        (1..7).map(|k| (q[k] - limits[k].0).min(limits[k].1 - q[k])).fold(f64::INFINITY, f64::min)
     }
 
     fn next_row(
@@ -435,14 +438,13 @@ impl<'a> Compensator<'a> {
             Err(e) => self.accept(self.reseed(row, target, prev, branch, &opts.solve, Some(e))?),
         };
         let max_step = opts.max_joint_step_deg.to_radians();
-        if let Some(k) =
-            (1..7).max_by(|&a, &b| (c.q.0[a] - prev.0[a]).abs().total_cmp(&(c.q.0[b] - prev.0[b]).abs()))
-            && (c.q.0[k] - prev.0[k]).abs() > max_step
+        if let Some(k) = (1..7).max_by(|&a, &b| (c.q[a] - prev[a]).abs().total_cmp(&(c.q[b] - prev[b]).abs()))
+            && (c.q[k] - prev[k]).abs() > max_step
         {
             return Err(CompensationError::JointJump {
                 row,
                 joint: k + 1,
-                step_deg: rad_to_deg((c.q.0[k] - prev.0[k]).abs()),
+                step_deg: rad_to_deg((c.q[k] - prev[k]).abs()),
                 max_deg: opts.max_joint_step_deg,
             });
         }
@@ -465,7 +467,7 @@ impl<'a> Compensator<'a> {
         if let Some((_, s)) = solutions.iter().find(|(b, _)| *b == branch) {
             let mut q = s.q;
             for k in 1..7 {
-                q.0[k] += TAU * ((prev.0[k] - q.0[k]) / TAU).round();
+                q[k] += TAU * ((prev[k] - q[k]) / TAU).round();
             }
             if let Ok(s) = newton(self.calibrated, target, &q, opts)
                 && self.branch_of(&s.q) == branch
@@ -494,10 +496,10 @@ impl<'a> Compensator<'a> {
         context: MeasurementContext,
     ) -> Result<CorrectedPose, CompensationError> {
         let chain = self.nominal.chain_full(q, &context, false, None);
-        let world = PoseRequest::from_tool_frame(self.nominal, tcp, q.0[0], &chain.tool, context)?;
-        let base = robot_base_frame(self.nominal, q.0[0]);
+        let world = PoseRequest::from_tool_frame(self.nominal, tcp, q[0], &chain.tool, context)?;
+        let base = robot_base_frame(self.nominal, q[0]);
         let controller_pose = frame_to_meca_pose(&base.inverse().compose(&chain.frames[7]));
-        let controller_joints_deg: [f64; 6] = std::array::from_fn(|k| rad_to_deg(q.0[k + 1]));
+        let controller_joints_deg: [f64; 6] = std::array::from_fn(|k| rad_to_deg(q[k + 1]));
         Ok(CorrectedPose { world, controller_pose, controller_joints_deg })
     }
 }

@@ -122,7 +122,7 @@ pub fn newton(
     opts: &SolveOptions,
 ) -> Result<Solved, NotConverged> {
     let mut q = *seed;
-    q.0[0] = target.q1_mm;
+    q[0] = target.q1_mm;
     let fk = |q: &JointVector| model.chain_full(q, &target.context, false, None);
     let mut chain = fk(&q);
     let mut e = tool_error(&chain, &target.tool);
@@ -148,7 +148,7 @@ pub fn newton(
         for _ in 0..=MAX_HALVINGS {
             let mut trial = q;
             for k in 0..6 {
-                trial.0[k + 1] += scale * step[k];
+                trial[k + 1] += scale * step[k];
             }
             let trial_chain = fk(&trial);
             let trial_e = tool_error(&trial_chain, &target.tool);
@@ -191,7 +191,7 @@ impl Branch {
     /// arm is close enough: branches differ by sign changes far from its small errors, except
     /// right at a singularity).
     pub fn of(arm: &ArmGeometry, q: &JointVector) -> Self {
-        let q_arm: [f64; 6] = std::array::from_fn(|k| q.0[k + 1]);
+        let q_arm: [f64; 6] = std::array::from_fn(|k| q[k + 1]);
         let theta: [f64; 6] = std::array::from_fn(|k| q_arm[k] + arm.theta_offset_rad[k]);
         let tool = arm.forward(&q_arm);
         let w = tool.p - tool.z_axis() * arm.flange_mm;
@@ -253,8 +253,8 @@ mod tests {
         let h = 1e-6;
         for k in 0..6 {
             let (mut qp, mut qm) = (q, q);
-            qp.0[k + 1] += h;
-            qm.0[k + 1] -= h;
+            qp[k + 1] += h;
+            qm[k + 1] -= h;
             let (cp, cm) = (m.chain(&qp), m.chain(&qm));
             let dp = (cp.tool.p - cm.tool.p) / (2.0 * h);
             let dr = rotation_vector(&(cp.tool.r * cm.tool.r.transpose())) / (2.0 * h);
@@ -278,7 +278,7 @@ mod tests {
             let mut qq = [0.0; 7];
             qq[0] = 100.0;
             qq[1..].copy_from_slice(s);
-            assert_eq!(Branch::of(&arm, &JointVector(qq)), Branch(*b), "{s:?}");
+            assert_eq!(Branch::of(&arm, &JointVector::new(qq)), Branch(*b), "{s:?}");
         }
     }
 }

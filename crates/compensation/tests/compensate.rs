@@ -50,7 +50,11 @@ fn calibrated_with_effects() -> Model {
 }
 
 fn context() -> MeasurementContext {
-    MeasurementContext { dir: Some([1, -1, 1, -1, 1, -1]), time_s: Some(1800.0), temperature_c: None }
+    MeasurementContext {
+        dir: Some(vatcal_core::measurement::dirs_from_meca500_arm([1, -1, 1, -1, 1, -1])),
+        time_s: Some(1800.0),
+        temperature_c: None,
+    }
 }
 
 /// Position [mm] and orientation [rad] error of the calibrated model at `q` for `req`.
@@ -93,7 +97,7 @@ proptest! {
         let q = reachable_joints(&cal, seed);
         let ctx = context();
         let tool = cal.chain_full(&q, &ctx, false, None).tool;
-        let req = PoseRequest::from_tool_frame(&cal, tcp, q.0[0], &tool, ctx).expect("request");
+        let req = PoseRequest::from_tool_frame(&cal, tcp, q[0], &tool, ctx).expect("request");
         let c = comp.compensate_pose(&req, None, &SolveOptions::default());
         prop_assert!(c.is_ok(), "{:?}", c.err());
         let Ok(c) = c else { return Ok(()) };
@@ -101,7 +105,7 @@ proptest! {
         prop_assert!(dp < 1e-6 && dr < 1e-9, "FK error {dp:e} mm, {dr:e} rad");
         prop_assert!(c.position_residual_mm < 1e-6 && c.rotation_residual_rad < 1e-9);
         prop_assert!(cal.limit_violation(&c.q).is_none());
-        prop_assert_eq!(c.q.0[0], q.0[0]);
+        prop_assert_eq!(c.q[0], q[0]);
     }
 }
 
@@ -114,7 +118,7 @@ fn corrected_pose_is_nominal_fk_and_the_controller_pose() {
     let comp = Compensator::new(&cal, &nom).expect("compensator");
     let q = reachable_joints(&cal, 3);
     let tool = cal.chain_full(&q, &context(), false, None).tool;
-    let req = PoseRequest::from_tool_frame(&cal, 2, q.0[0], &tool, context()).expect("request");
+    let req = PoseRequest::from_tool_frame(&cal, 2, q[0], &tool, context()).expect("request");
     let c = comp.compensate_pose(&req, Some(&q), &SolveOptions::default()).expect("solve");
     let corrected = comp.corrected_pose(&c.q, 2, context()).expect("corrected");
     let nominal_tcp = nom.tcp_position_ctx(&c.q, &context(), 2).expect("fk");
@@ -127,7 +131,12 @@ fn corrected_pose_is_nominal_fk_and_the_controller_pose() {
         .expect("nominal")
         .compensate_pose(&corrected.world, Some(&c.q), &SolveOptions::default())
         .expect("nominal IK");
-    assert!(back.q.0.iter().zip(&c.q.0).all(|(a, b)| (a - b).abs() < 1e-9), "{:?} vs {:?}", back.q, c.q);
+    assert!(
+        back.q.as_slice().iter().zip(c.q.as_slice()).all(|(a, b)| (a - b).abs() < 1e-9),
+        "{:?} vs {:?}",
+        back.q,
+        c.q
+    );
     // the controller's own kinematics (drivers-meca500 simulator) at the joints
     let sim = vatcal_drivers_meca500::sim::forward_kinematics(&corrected.controller_joints_deg);
     let expect = vatcal_drivers_meca500::sim::to_xyzabc(&sim);
@@ -141,8 +150,8 @@ fn path_targets(model: &Model, a: &JointVector, b: &JointVector, n: usize) -> Ve
     (0..n)
         .map(|k| {
             let t = k as f64 / (n - 1) as f64;
-            let q = JointVector(std::array::from_fn(|i| a.0[i] + t * (b.0[i] - a.0[i])));
-            ToolTarget::new(q.0[0], model.chain(&q).tool)
+            let q = JointVector::new::<7>(std::array::from_fn(|i| a[i] + t * (b[i] - a[i])));
+            ToolTarget::new(q[0], model.chain(&q).tool)
         })
         .collect()
 }
@@ -162,12 +171,12 @@ fn a_path_keeps_its_branch_and_moves_continuously() {
     let branch = result.branch.expect("branch");
     assert!(solved.iter().all(|c| c.branch == branch));
     for w in solved.windows(2) {
-        let step = (1..7).map(|k| (w[1].q.0[k] - w[0].q.0[k]).abs()).fold(0.0, f64::max);
+        let step = (1..7).map(|k| (w[1].q[k] - w[0].q[k]).abs()).fold(0.0, f64::max);
         assert!(step < 2f64.to_radians(), "joint step {} deg", step.to_degrees());
     }
     // the path's joints are those of the joint line (same branch as the start)
     let end = solved.last().expect("end").q;
-    assert!(end.0.iter().zip(&b.0).all(|(x, y)| (x - y).abs() < 1e-8), "{end:?}");
+    assert!(end.as_slice().iter().zip(b.as_slice()).all(|(x, y)| (x - y).abs() < 1e-8), "{end:?}");
     for (t, c) in targets.iter().zip(&solved) {
         let tool = cal.chain_full(&c.q, &t.context, false, None).tool;
         assert!((tool.p - t.tool.p).norm() < 1e-6 && rotation_angle_between(&tool.r, &t.tool.r) < 1e-9);

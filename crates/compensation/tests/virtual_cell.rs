@@ -50,7 +50,7 @@ fn printing_path_lands_with_the_calibrated_error_when_compensated() {
     let reference = plan_printing_joints(&nominal, &slices, &rules).expect("reference joints");
 
     let targets: Vec<ToolTarget> =
-        slices.iter().zip(&reference).map(|(s, q)| ToolTarget::new(q.0[0], s.tool_pose)).collect();
+        slices.iter().zip(&reference).map(|(s, q)| ToolTarget::new(q[0], s.tool_pose)).collect();
     let tips: Vec<_> = slices.iter().map(|s| s.tip_in_tool_mm).collect();
     let opts = PathOptions { start: Some(reference[0]), ..PathOptions::default() };
     let acc = path_accuracy(&truth, &calibrated, &nominal, &targets, &tips, &opts).expect("accuracy");
@@ -81,7 +81,7 @@ fn printing_path_lands_with_the_calibrated_error_when_compensated() {
     let gap = |a: &[vatcal_core::JointVector], b: &[vatcal_core::JointVector]| {
         a.iter()
             .zip(b)
-            .flat_map(|(x, y)| x.0.iter().zip(&y.0).map(|(u, v)| (u - v).abs()))
+            .flat_map(|(x, y)| x.as_slice().iter().zip(y.as_slice()).map(|(u, v)| (u - v).abs()))
             .fold(0.0, f64::max)
     };
     assert!(gap(&acc.compensated_joints, &demo_cal) < 1e-8, "{}", gap(&acc.compensated_joints, &demo_cal));
@@ -94,7 +94,7 @@ fn printing_path_lands_with_the_calibrated_error_when_compensated() {
     let steps = acc
         .compensated_joints
         .windows(2)
-        .map(|w| (1..7).map(|k| (w[1].0[k] - w[0].0[k]).abs()).fold(0.0, f64::max))
+        .map(|w| (1..7).map(|k| (w[1][k] - w[0][k]).abs()).fold(0.0, f64::max))
         .fold(0.0, f64::max);
     assert!(steps < 1f64.to_radians(), "largest joint step {} deg", steps.to_degrees());
 }

@@ -1,7 +1,8 @@
 //! Reading a cell file and the core types every other crate uses.
 //!
-//! Loads the canonical cell (`fixtures/meca500-zaber.toml`), prints its MDH rows, converts a
-//! joint vector between file units (mm, degrees) and internal units (mm, radians), lists the
+//! Loads the canonical cell (`fixtures/meca500-zaber.toml`), prints its MDH rows, loads a
+//! version-2 cell of another robot (`fixtures/ur5e.toml`), converts joint vectors between file
+//! units (mm, degrees) and internal units (mm, radians), lists the
 //! paper's 34 parameters by name, and shows the error a broken file gives.
 //!
 //! ```text
@@ -27,6 +28,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     println!("TCP ids {:?}, calibration positions {:?}", cell.tcp_ids(), cell.position_ids());
+
+    // version 2: any serial chain (here a 6R arm without a guide)
+    let ur5e = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))?;
+    println!("ur5e.toml: format {} v{}, joint kinds {:?}", ur5e.format, ur5e.version, ur5e.joint_kinds());
+    let q6 = JointVector::from_file_units(&[0.0, -90.0, 90.0, -90.0, -90.0, 0.0], &ur5e.joint_kinds())?;
+    println!("a UR5e joint vector: {} values, q2 = {:.6} rad", q6.len(), q6.get(2));
 
     // file units (q1 mm, q2..q7 deg) <-> internal units (mm, rad)
     let q = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 40.0, 50.0, 60.0]);

@@ -1,9 +1,20 @@
-//! The cell model file (`format = "meca500-zaber-cell"`, `version = 1`).
+//! The cell model file.
 //!
-//! [`CellFile`] mirrors the canonical TOML exactly, in **file units** (mm, degrees, kg,
-//! rad/(N·m), m/s²). [`CellFile::from_toml_str`] parses *and validates*; every validation error
-//! names the file and the field. Unknown tables are kept in [`CellFile::extra`] and written
-//! back unchanged, so optional tables added by other tools survive a round trip.
+//! * Version 1 (`format = "meca500-zaber-cell"`, `version = 1`): the canonical Meca500 on its
+//!   linear guide — exactly 7 `[[joints]]` rows, row 1 prismatic (the guide), rows 2..7
+//!   revolute.
+//! * Version 2 (`format = "serial-robot-cell"`, `version = 2`): any serial chain of
+//!   1..=[`MAX_JOINTS`] rows, each `kind = "revolute" | "prismatic"` in any order, with optional
+//!   limits on revolute rows (absent = continuous joint), an optional `[robot]` table, and the
+//!   same other tables as version 1. Frame N (the last row) is the flange in which the TCPs are
+//!   given.
+//!
+//! [`CellFile`] mirrors the TOML exactly, in **file units** (mm, degrees, kg, rad/(N·m), m/s²).
+//! [`CellFile::from_toml_str`] parses *and validates*; every validation error names the file,
+//! the line (when it can be found) and the field. Unknown tables are kept in
+//! [`CellFile::extra`] and written back unchanged, so optional tables added by other tools
+//! survive a round trip. Saving writes version 1 for a cell loaded as version 1 whose chain is
+//! still the Meca500-on-guide shape, version 2 otherwise.
 //!
 //! Conversion to the internal model (radians, cached transforms) is done by
 //! `vatcal_kinematics::Model::from_cell`.
@@ -13,10 +24,16 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-/// The value of the `format` key.
+use crate::units::{JointKind, MAX_JOINTS};
+
+/// The value of the `format` key of version 1 (the Meca500-on-guide cell).
 pub const FORMAT_NAME: &str = "meca500-zaber-cell";
-/// The supported `version`.
+/// The version of [`FORMAT_NAME`].
 pub const FORMAT_VERSION: i64 = 1;
+/// The value of the `format` key of version 2 (any serial chain).
+pub const FORMAT_NAME_V2: &str = "serial-robot-cell";
+/// The version of [`FORMAT_NAME_V2`].
+pub const FORMAT_VERSION_V2: i64 = 2;
 
 /// Errors while reading or validating a cell file.
 #[derive(Debug, thiserror::Error)]
@@ -38,10 +55,12 @@ pub enum CellError {
         message: String,
     },
     /// A field has an invalid value.
-    #[error("{origin}: field `{field}`: {reason}")]
+    #[error("{origin}{}: field `{field}`: {reason}", .line.map(|l| format!(":{l}")).unwrap_or_default())]
     Invalid {
         /// file path or `<string>`
         origin: String,
+        /// 1-based line of the field in the file, when it could be located
+        line: Option<usize>,
         /// field path, e.g. `joints[index=3].q_min`
         field: String,
         /// what is wrong
@@ -79,14 +98,26 @@ impl Default for Units {
     }
 }
 
+/// `[robot]` (version 2, optional): informational.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct RobotInfo {
+    /// robot name, e.g. `"UR5e"`
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// other keys, kept verbatim
+    #[serde(flatten)]
+    pub extra: toml::Table,
+}
+
 /// One `[[joints]]` row: MDH row `index` (transform from frame index-1 to frame index).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JointRow {
-    /// row / cell joint index 1..=7
+    /// row / joint index 1..=N
     pub index: u8,
-    /// joint name (e.g. `guide`, `J1`)
+    /// joint name (e.g. `guide`, `J1`; required in version 1, optional in version 2)
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub name: String,
-    /// `"prismatic"` (row 1) or `"revolute"` (rows 2..7)
+    /// `"prismatic"` or `"revolute"` (version 1: row 1 prismatic, rows 2..7 revolute)
     pub kind: String,
     /// alpha_{i-1} [deg]
     pub alpha_deg: f64,
@@ -99,13 +130,29 @@ pub struct JointRow {
     pub theta_deg: f64,
     /// d offset of joint i [mm]
     pub d_mm: f64,
-    /// lower joint limit (mm for the guide, deg otherwise)
-    pub q_min: f64,
-    /// upper joint limit
-    pub q_max: f64,
-    /// joint compliance c_i [rad/(N·m)] (optional, default 0; unused on the guide)
+    /// lower joint limit (mm for prismatic, deg for revolute joints); required except on
+    /// revolute rows of version 2, where absent limits mean a continuous joint
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_min: Option<f64>,
+    /// upper joint limit (see `q_min`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_max: Option<f64>,
+    /// joint compliance c_i [rad/(N·m)] (optional, default 0; must be 0 on prismatic rows of
+    /// version 2, unused on the guide of version 1)
     #[serde(default)]
     pub compliance_rad_per_n_m: f64,
+}
+
+impl JointRow {
+    /// The joint kind, `None` for an unknown `kind` string (rejected by validation).
+    pub fn joint_kind(&self) -> Option<JointKind> {
+        JointKind::from_name(&self.kind)
+    }
+
+    /// `(q_min, q_max)` in file units when both are given (`None` = continuous joint).
+    pub fn limits(&self) -> Option<(f64, f64)> {
+        self.q_min.zip(self.q_max)
+    }
 }
 
 /// `[base_in_world]`: `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`.
@@ -148,7 +195,7 @@ pub struct Gravity {
 /// `[[inertials.links]]`: mass and COM of link `frame` in its own MDH frame.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LinkInertial {
-    /// MDH frame 2..=7
+    /// MDH frame: 2..=7 in version 1 (the Meca500 links), 1..=N in version 2
     pub frame: u8,
     /// informational URDF link name
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -159,21 +206,22 @@ pub struct LinkInertial {
     pub com_mm: [f64; 3],
 }
 
-/// `[inertials.tool]`: the tool (tool changer + end-effector), rigidly attached to frame 7.
+/// `[inertials.tool]`: the tool (tool changer + end-effector), rigidly attached to the last
+/// frame N (7 on the canonical cell).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ToolInertial {
-    /// must be 7
+    /// must be N, the last frame
     pub frame: u8,
     /// mass [kg]
     pub mass_kg: f64,
-    /// COM in frame 7 [mm]
+    /// COM in frame N [mm]
     pub com_mm: [f64; 3],
 }
 
 /// `[inertials]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Inertials {
-    /// moving links 2..7
+    /// moving links (a link without an entry has no mass)
     pub links: Vec<LinkInertial>,
     /// tool
     pub tool: ToolInertial,
@@ -319,17 +367,20 @@ impl Default for MotionLimits {
 /// The whole cell file, in file units. See the module docs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellFile {
-    /// must be `"meca500-zaber-cell"`
+    /// `"meca500-zaber-cell"` (version 1) or `"serial-robot-cell"` (version 2)
     pub format: String,
-    /// must be 1
+    /// 1 or 2
     pub version: i64,
     /// unit declaration
     pub units: Units,
-    /// the seven MDH rows
+    /// version 2: informational robot description (optional)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot: Option<RobotInfo>,
+    /// the MDH rows 1..=N (7 in version 1)
     pub joints: Vec<JointRow>,
     /// base pose in the world
     pub base_in_world: BaseInWorld,
-    /// calibration TCPs in frame 7
+    /// calibration TCPs in the last frame N
     pub tcps: Vec<PointEntry>,
     /// calibration positions in the world
     pub calibration_positions: Vec<PointEntry>,
@@ -398,30 +449,82 @@ impl CellFile {
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, CellError> {
         let cell: CellFile = toml::from_str(text)
             .map_err(|e| CellError::Parse { origin: origin.to_string(), message: e.to_string() })?;
-        cell.validate(origin)?;
+        cell.validate(origin).map_err(|e| match e {
+            CellError::Invalid { origin, line: None, field, reason } => {
+                CellError::Invalid { origin, line: locate_field(text, &field), field, reason }
+            }
+            other => other,
+        })?;
         Ok(cell)
     }
 
-    /// Serialises to TOML (file units). The output loads back to an equal `CellFile`.
+    /// True when the chain has the shape of a version-1 file: 7 rows, row 1 prismatic with
+    /// limits, rows 2..7 revolute with limits, links in frames 2..=7 and the tool on frame 7.
+    pub fn is_meca500_on_guide_shape(&self) -> bool {
+        self.joints.len() == 7
+            && self.joints.iter().all(|j| {
+                let want = if j.index == 1 { JointKind::Prismatic } else { JointKind::Revolute };
+                (1..=7).contains(&j.index) && j.joint_kind() == Some(want) && j.limits().is_some()
+            })
+            && self.inertials.links.iter().all(|l| (2..=7).contains(&l.frame))
+            && self.inertials.tool.frame == 7
+    }
+
+    /// The file as it will be written: version 1 stays version 1 while its chain has the
+    /// Meca500-on-guide shape, anything else becomes version 2.
+    fn for_writing(&self) -> std::borrow::Cow<'_, Self> {
+        if self.version == FORMAT_VERSION && self.format == FORMAT_NAME && !self.is_meca500_on_guide_shape() {
+            let mut c = self.clone();
+            c.format = FORMAT_NAME_V2.to_string();
+            c.version = FORMAT_VERSION_V2;
+            std::borrow::Cow::Owned(c)
+        } else {
+            std::borrow::Cow::Borrowed(self)
+        }
+    }
+
+    /// Serialises to TOML (file units). The output loads back to an equal `CellFile` (a
+    /// version-1 file whose chain is no longer the Meca500-on-guide shape is written as
+    /// version 2).
     pub fn to_toml_string(&self) -> Result<String, CellError> {
-        let body = toml::to_string_pretty(self).map_err(|e| CellError::Write(e.to_string()))?;
+        let cell = self.for_writing();
+        let body = toml::to_string_pretty(cell.as_ref()).map_err(|e| CellError::Write(e.to_string()))?;
         Ok(format!(
-            "# vatcal cell model (format {FORMAT_NAME} v{FORMAT_VERSION}).\n\
-             # UNITS: mm, deg, kg, rad/(N*m), m/s^2. See docs/formats.md and docs/conventions.md.\n\n{body}"
+            "# vatcal cell model (format {} v{}).\n\
+             # UNITS: mm, deg, kg, rad/(N*m), m/s^2. See docs/formats.md and docs/conventions.md.\n\n{body}",
+            cell.format, cell.version
         ))
     }
 
     /// Writes the file (validating first).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), CellError> {
         let path = path.as_ref();
-        self.validate(&path.display().to_string())?;
+        self.for_writing().validate(&path.display().to_string())?;
         let text = self.to_toml_string()?;
         std::fs::write(path, text).map_err(|source| CellError::Io { path: path.to_path_buf(), cause: source })
     }
 
-    /// The row of cell joint `index` (1..=7). Valid files have all seven.
+    /// The row of joint `index` (1..=N). Valid files have all N.
     pub fn joint(&self, index: u8) -> Option<&JointRow> {
         self.joints.iter().find(|j| j.index == index)
+    }
+
+    /// Number of joints N.
+    pub fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Kinds of joints 1..=N in index order (valid files only; an unknown kind reads as
+    /// revolute).
+    pub fn joint_kinds(&self) -> Vec<JointKind> {
+        let mut rows: Vec<&JointRow> = self.joints.iter().collect();
+        rows.sort_by_key(|j| j.index);
+        rows.iter().map(|j| j.joint_kind().unwrap_or(JointKind::Revolute)).collect()
+    }
+
+    /// True for a version-2 (`serial-robot-cell`) file.
+    pub fn is_v2(&self) -> bool {
+        self.version == FORMAT_VERSION_V2
     }
 
     /// TCP ids in file order.
@@ -441,19 +544,39 @@ impl CellFile {
 
     /// Checks every field. Errors name the field.
     pub fn validate(&self, origin: &str) -> Result<(), CellError> {
-        let bad =
-            |field: String, reason: String| CellError::Invalid { origin: origin.to_string(), field, reason };
+        let bad = |field: String, reason: String| CellError::Invalid {
+            origin: origin.to_string(),
+            line: None,
+            field,
+            reason,
+        };
         let finite = |field: String, v: f64| -> Result<(), CellError> {
             if v.is_finite() { Ok(()) } else { Err(bad(field, format!("must be a finite number, got {v}"))) }
         };
-        if self.format != FORMAT_NAME {
-            return Err(bad("format".into(), format!("expected \"{FORMAT_NAME}\", got \"{}\"", self.format)));
-        }
-        if self.version != FORMAT_VERSION {
+        let v2 = match self.format.as_str() {
+            FORMAT_NAME => false,
+            FORMAT_NAME_V2 => true,
+            other => {
+                return Err(bad(
+                    "format".into(),
+                    format!(
+                        "expected \"{FORMAT_NAME}\" (version 1) or \"{FORMAT_NAME_V2}\" (version 2), got \"{other}\""
+                    ),
+                ));
+            }
+        };
+        let want_version = if v2 { FORMAT_VERSION_V2 } else { FORMAT_VERSION };
+        if self.version != want_version {
             return Err(bad(
                 "version".into(),
-                format!("unsupported version {} (this vatcal reads version {FORMAT_VERSION})", self.version),
+                format!(
+                    "unsupported version {} for format \"{}\" (this vatcal reads \"{FORMAT_NAME}\" version {FORMAT_VERSION} and \"{FORMAT_NAME_V2}\" version {FORMAT_VERSION_V2})",
+                    self.version, self.format
+                ),
             ));
+        }
+        if !v2 && self.robot.is_some() {
+            return Err(bad("robot".into(), "the [robot] table needs format version 2".into()));
         }
         let u = Units::default();
         for (name, got, want) in [
@@ -467,41 +590,55 @@ impl CellFile {
                 return Err(bad(name.into(), format!("expected \"{want}\", got \"{got}\"")));
             }
         }
-        // joints: exactly indices 1..=7, each once
+        // joints: indices 1..=N, each once (N = 7 in version 1, 1..=MAX_JOINTS in version 2)
+        let n = self.joints.len();
+        if v2 && !(1..=MAX_JOINTS).contains(&n) {
+            return Err(bad(
+                "joints".into(),
+                format!("a serial chain has 1..={MAX_JOINTS} [[joints]] rows, got {n}"),
+            ));
+        }
+        let n_expected = if v2 { n } else { 7 };
         let mut seen = BTreeSet::new();
         for (k, j) in self.joints.iter().enumerate() {
-            if !(1..=7).contains(&j.index) {
-                return Err(bad(format!("joints[{k}].index"), format!("must be 1..=7, got {}", j.index)));
+            if !(1..=n_expected).contains(&(j.index as usize)) {
+                let why = if v2 {
+                    format!("must be 1..={n} (rows are numbered contiguously from 1), got {}", j.index)
+                } else {
+                    format!("must be 1..=7, got {}", j.index)
+                };
+                return Err(bad(format!("joints[{k}].index"), why));
             }
             if !seen.insert(j.index) {
                 return Err(bad(format!("joints[{k}].index"), format!("duplicate joint row {}", j.index)));
             }
         }
-        for i in 1..=7u8 {
+        for i in 1..=n_expected as u8 {
             if !seen.contains(&i) {
                 return Err(bad("joints".into(), format!("missing [[joints]] row with index = {i}")));
             }
         }
         for j in &self.joints {
             let f = |name: &str| format!("joints[index={}].{name}", j.index);
-            let expected = if j.index == 1 { "prismatic" } else { "revolute" };
-            match j.kind.as_str() {
-                "prismatic" | "revolute" => {
-                    if j.kind != expected {
-                        return Err(bad(
-                            f("kind"),
-                            format!(
-                                "joint {} must be {expected} in this cell (joint 1 is the linear guide, 2..7 the Meca500), got \"{}\"",
-                                j.index, j.kind
-                            ),
-                        ));
-                    }
-                }
-                other => {
+            let Some(kind) = j.joint_kind() else {
+                return Err(bad(
+                    f("kind"),
+                    format!("unknown joint kind \"{}\" (expected \"prismatic\" or \"revolute\")", j.kind),
+                ));
+            };
+            if !v2 {
+                let expected = if j.index == 1 { JointKind::Prismatic } else { JointKind::Revolute };
+                if kind != expected {
                     return Err(bad(
                         f("kind"),
-                        format!("unknown joint kind \"{other}\" (expected \"prismatic\" or \"revolute\")"),
+                        format!(
+                            "joint {} must be {expected} in this cell (joint 1 is the linear guide, 2..7 the Meca500), got \"{}\"; use format \"{FORMAT_NAME_V2}\" version 2 for other chains",
+                            j.index, j.kind
+                        ),
                     ));
+                }
+                if j.name.is_empty() {
+                    return Err(bad(f("name"), "missing joint name (required in version 1)".into()));
                 }
             }
             for (name, v) in [
@@ -510,14 +647,39 @@ impl CellFile {
                 ("beta_deg", j.beta_deg),
                 ("theta_deg", j.theta_deg),
                 ("d_mm", j.d_mm),
-                ("q_min", j.q_min),
-                ("q_max", j.q_max),
+                ("q_min", j.q_min.unwrap_or(0.0)),
+                ("q_max", j.q_max.unwrap_or(0.0)),
                 ("compliance_rad_per_n_m", j.compliance_rad_per_n_m),
             ] {
                 finite(f(name), v)?;
             }
-            if j.q_min > j.q_max {
-                return Err(bad(f("q_min"), format!("q_min ({}) > q_max ({})", j.q_min, j.q_max)));
+            let limits_optional = v2 && kind == JointKind::Revolute;
+            match (j.q_min, j.q_max) {
+                (Some(lo), Some(hi)) if lo > hi => {
+                    return Err(bad(f("q_min"), format!("q_min ({lo}) > q_max ({hi}): limits inverted")));
+                }
+                (Some(_), Some(_)) => {}
+                (None, None) if limits_optional => {}
+                (lo, _) => {
+                    let missing = if lo.is_none() { "q_min" } else { "q_max" };
+                    let why = if limits_optional {
+                        "give both q_min and q_max, or neither for a continuous joint".to_string()
+                    } else if v2 {
+                        "a prismatic joint needs q_min and q_max (mm)".to_string()
+                    } else {
+                        "required in version 1".to_string()
+                    };
+                    return Err(bad(f(missing), format!("missing joint limit: {why}")));
+                }
+            }
+            if v2 && kind == JointKind::Prismatic && j.compliance_rad_per_n_m != 0.0 {
+                return Err(bad(
+                    f("compliance_rad_per_n_m"),
+                    format!(
+                        "joint compliance applies to revolute joints only; prismatic joint {} has {}",
+                        j.index, j.compliance_rad_per_n_m
+                    ),
+                ));
             }
         }
         let b = &self.base_in_world;
@@ -559,7 +721,13 @@ impl CellFile {
         }
         let mut frames = BTreeSet::new();
         for (k, l) in self.inertials.links.iter().enumerate() {
-            if !(2..=7).contains(&l.frame) {
+            if v2 && !(1..=n).contains(&(l.frame as usize)) {
+                return Err(bad(
+                    format!("inertials.links[{k}].frame"),
+                    format!("must be a moving frame 1..={n} of this chain, got {}", l.frame),
+                ));
+            }
+            if !v2 && !(2..=7).contains(&l.frame) {
                 return Err(bad(
                     format!("inertials.links[{k}].frame"),
                     format!("must be 2..=7 (moving Meca500 links), got {}", l.frame),
@@ -583,10 +751,10 @@ impl CellFile {
             }
         }
         let t = &self.inertials.tool;
-        if t.frame != 7 {
+        if t.frame as usize != n_expected {
             return Err(bad(
                 "inertials.tool.frame".into(),
-                format!("the tool is attached to frame 7, got {}", t.frame),
+                format!("the tool is attached to the last frame {n_expected}, got {}", t.frame),
             ));
         }
         finite("inertials.tool.mass_kg".into(), t.mass_kg)?;
@@ -645,6 +813,84 @@ impl CellFile {
     }
 }
 
+/// The 1-based line of a validation field path (`joints[index=3].q_min`, `tcps[1].id`,
+/// `inertials.tool.frame`, `format`) in TOML text, found by scanning table headers and keys.
+fn locate_field(text: &str, field: &str) -> Option<usize> {
+    // split "a.b[sel].key[3]" into table segments and the final key
+    let mut segs: Vec<&str> = field.split('.').collect();
+    let strip = |s: &str| -> (String, Option<String>) {
+        match s.split_once('[') {
+            Some((name, rest)) => (name.to_string(), Some(rest.trim_end_matches(']').to_string())),
+            None => (s.to_string(), None),
+        }
+    };
+    let key = if segs.len() > 1 { segs.pop().map(|k| strip(k).0) } else { None };
+    let (last_table, selector) = strip(segs.pop()?);
+    let mut table_path: Vec<String> = segs.iter().map(|s| s.to_string()).collect();
+    table_path.push(last_table);
+    let table = table_path.join(".");
+    let lines: Vec<&str> = text.lines().collect();
+    let key_of = |line: &str| -> Option<(String, String)> {
+        let l = line.trim();
+        if l.starts_with('#') || l.starts_with('[') {
+            return None;
+        }
+        let (k, v) = l.split_once('=')?;
+        let v = v.split('#').next().unwrap_or("").trim().trim_matches('"');
+        Some((k.trim().to_string(), v.to_string()))
+    };
+    let header = |line: &str| -> Option<String> {
+        let l = line.trim();
+        let l = l.split('#').next().unwrap_or("").trim();
+        l.strip_prefix('[').map(|h| h.trim_start_matches('[').trim_end_matches(']').trim().to_string())
+    };
+    // top-level key without a table ("format", "version")
+    if key.is_none() && selector.is_none() {
+        for (i, line) in lines.iter().enumerate() {
+            if header(line).is_some() {
+                break;
+            }
+            if key_of(line).is_some_and(|(k, _)| k == table) {
+                return Some(i + 1);
+            }
+        }
+    }
+    // candidate table bodies: (header line, body lines)
+    let mut bodies: Vec<(usize, usize, usize)> = Vec::new(); // (header idx, start, end)
+    let mut current: Option<usize> = None;
+    for (i, line) in lines.iter().enumerate() {
+        if let Some(h) = header(line) {
+            if let Some(c) = current.take() {
+                bodies.push((c, c + 1, i));
+            }
+            if h == table {
+                current = Some(i);
+            }
+        }
+    }
+    if let Some(c) = current {
+        bodies.push((c, c + 1, lines.len()));
+    }
+    let chosen = match selector.as_deref() {
+        None => bodies.first().copied(),
+        Some(sel) => match sel.split_once('=') {
+            Some((sk, sv)) => bodies.iter().copied().find(|(_, a, b)| {
+                lines[*a..*b].iter().any(|l| key_of(l).is_some_and(|(k, v)| k == sk && v == sv))
+            }),
+            None => sel.parse::<usize>().ok().and_then(|k| bodies.get(k).copied()),
+        },
+    };
+    let (h, a, b) = chosen?;
+    if let Some(key) = key {
+        for (i, line) in lines.iter().enumerate().take(b).skip(a) {
+            if key_of(line).is_some_and(|(k, _)| k == key) {
+                return Some(i + 1);
+            }
+        }
+    }
+    Some(h + 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -697,6 +943,128 @@ mod tests {
         expect_invalid(&t.replace("id = 2\nx_mm = 0.214", "id = 1\nx_mm = 0.214"), "tcps");
         expect_invalid(&t.replace("a_mm = 135.0", "a_mm = nan"), "a_mm");
         expect_invalid(&t.replace("mass_kg = 0.45", "mass_kg = -0.45"), "inertials.tool.mass_kg");
+    }
+
+    fn v2_text() -> String {
+        canonical_text()
+            .replace("format = \"meca500-zaber-cell\"", "format = \"serial-robot-cell\"")
+            .replace("version = 1", "version = 2")
+    }
+
+    /// The error for `text` must be Invalid, name `field_part`, and carry the line of a text
+    /// line that contains `line_part`.
+    fn expect_invalid_at(text: &str, field_part: &str, line_part: &str) {
+        match CellFile::from_toml_str(text, "test.toml") {
+            Err(e @ CellError::Invalid { .. }) => {
+                let CellError::Invalid { ref field, line, .. } = e else { unreachable!() };
+                assert!(field.contains(field_part), "field `{field}` should mention `{field_part}`");
+                let line = line.unwrap_or_else(|| panic!("no line for {e}"));
+                let src = text.lines().nth(line - 1).expect("line in the file");
+                assert!(src.contains(line_part), "{e}: line {line} is `{src}`, expected `{line_part}`");
+                assert!(e.to_string().starts_with(&format!("test.toml:{line}: field `")), "{e}");
+            }
+            Err(e) => panic!("expected Invalid({field_part}), got {e}"),
+            Ok(_) => panic!("expected an error for {field_part}"),
+        }
+    }
+
+    /// A version-2 chain of `n` revolute rows (continuous joints), tool on frame n.
+    fn chain_text(n: usize) -> String {
+        let mut t = String::from(
+            "format = \"serial-robot-cell\"\nversion = 2\n[units]\nlength = \"mm\"\nangle = \"deg\"\nmass = \"kg\"\ncompliance = \"rad/(N*m)\"\ngravity = \"m/s^2\"\n",
+        );
+        for i in 1..=n {
+            t += &format!(
+                "[[joints]]\nindex = {i}\nkind = \"revolute\"\nalpha_deg = 90.0\na_mm = 10.0\ntheta_deg = 0.0\nd_mm = 5.0\n"
+            );
+        }
+        t += "[base_in_world]\nx_mm = 0.0\ny_mm = 0.0\nz_mm = 0.0\nalpha_deg = 0.0\nbeta_deg = 0.0\ngamma_deg = 0.0\n";
+        t += "[[tcps]]\nid = 1\nx_mm = 0.0\ny_mm = 0.0\nz_mm = 10.0\n";
+        t += "[[calibration_positions]]\nid = 1\nx_mm = 0.0\ny_mm = 0.0\nz_mm = 0.0\n";
+        t += "[gravity]\nvector_m_per_s2 = [0.0, 0.0, -9.81]\n";
+        t += &format!(
+            "[inertials]\nlinks = []\n[inertials.tool]\nframe = {n}\nmass_kg = 0.1\ncom_mm = [0.0, 0.0, 0.0]\n"
+        );
+        t
+    }
+
+    #[test]
+    fn v2_any_chain_loads_and_writes_v2() {
+        for n in [1, 6, 12] {
+            let cell = CellFile::from_toml_str(&chain_text(n), "chain").expect("valid");
+            assert_eq!(cell.joint_count(), n);
+            assert_eq!(cell.joint_kinds(), vec![JointKind::Revolute; n]);
+            assert!(cell.joints.iter().all(|j| j.limits().is_none()));
+            let text = cell.to_toml_string().expect("write");
+            assert!(text.starts_with("# vatcal cell model (format serial-robot-cell v2)"), "{text}");
+            assert_eq!(CellFile::from_toml_str(&text, "back").expect("reload"), cell);
+        }
+        // the canonical file as version 2 is valid too, and stays version 2
+        let v2 = CellFile::from_toml_str(&v2_text(), "v2").expect("valid");
+        assert!(v2.to_toml_string().expect("w").contains("version = 2"));
+        // a version-1 file stays version 1 while it has the Meca500-on-guide shape ...
+        let v1 = CellFile::from_toml_str(&canonical_text(), "v1").expect("valid");
+        assert!(v1.is_meca500_on_guide_shape());
+        assert!(v1.to_toml_string().expect("w").contains("format = \"meca500-zaber-cell\""));
+        // ... and is written as version 2 once it does not
+        let mut other = v1.clone();
+        other.joints[0].kind = "revolute".into();
+        let text = other.to_toml_string().expect("w");
+        assert!(text.contains("format = \"serial-robot-cell\"") && text.contains("version = 2"), "{text}");
+        assert_eq!(
+            CellFile::from_toml_str(&text, "x").expect("valid v2").joint_kinds()[0],
+            JointKind::Revolute
+        );
+    }
+
+    #[test]
+    fn v2_bad_chains_name_file_line_and_field() {
+        // 0 and 13 rows
+        let none = "joints = []\n".to_string()
+            + &chain_text(1).replace(
+                "[[joints]]\nindex = 1\nkind = \"revolute\"\nalpha_deg = 90.0\na_mm = 10.0\ntheta_deg = 0.0\nd_mm = 5.0\n",
+                "",
+            );
+        expect_invalid(&none, "joints");
+        expect_invalid(&chain_text(13), "joints");
+        let t = v2_text();
+        // non-contiguous index
+        expect_invalid_at(&t.replace("index = 4", "index = 9"), "joints[3].index", "index = 9");
+        // unknown kind
+        expect_invalid_at(&t.replacen("kind = \"revolute\"", "kind = \"spherical\"", 1), "kind", "spherical");
+        // compliance on the prismatic row
+        expect_invalid_at(
+            &t.replace("compliance_rad_per_n_m = 0.0    # unused", "compliance_rad_per_n_m = 1e-3    # bad"),
+            "joints[index=1].compliance_rad_per_n_m",
+            "compliance_rad_per_n_m = 1e-3",
+        );
+        // inverted limits
+        expect_invalid_at(
+            &t.replace("q_min = -70.0", "q_min = 100.0"),
+            "joints[index=3].q_min",
+            "q_min = 100.0",
+        );
+        // tool on another frame than N
+        expect_invalid_at(
+            &t.replace("[inertials.tool]\nframe = 7", "[inertials.tool]\nframe = 6"),
+            "inertials.tool.frame",
+            "frame = 6",
+        );
+        // link inertial frame outside 1..=N
+        expect_invalid_at(&t.replace("frame = 2\n", "frame = 8\n"), "inertials.links[0].frame", "frame = 8");
+        // a prismatic joint needs limits, a revolute one both or none
+        expect_invalid_at(&t.replace("q_min = 0.0    # mm", ""), "joints[index=1].q_min", "[[joints]]");
+        expect_invalid_at(&t.replace("q_max = 90.0    # deg\n", ""), "joints[index=3].q_max", "[[joints]]");
+        let continuous = t.replace("q_min = -70.0    # deg\n", "").replace("q_max = 90.0    # deg\n", "");
+        let cell = CellFile::from_toml_str(&continuous, "c").expect("continuous joint 3");
+        assert_eq!(cell.joint(3).and_then(|j| j.limits()), None);
+        // ... but version 1 needs every limit
+        let v1 =
+            canonical_text().replace("q_min = -70.0    # deg\n", "").replace("q_max = 90.0    # deg\n", "");
+        expect_invalid(&v1, "joints[index=3].q_");
+        // version / format mismatch and [robot] in version 1
+        expect_invalid_at(&t.replace("version = 2", "version = 1"), "version", "version = 1");
+        expect_invalid(&(canonical_text() + "\n[robot]\nname = \"x\"\n"), "robot");
     }
 
     #[test]

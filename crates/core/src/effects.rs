@@ -114,26 +114,26 @@ pub enum ThermalDriver {
 /// One instance of a catalog effect (e.g. "joint-cyclic on joint 4, harmonic 1").
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum EffectSpec {
-    /// `joint-compliance` on cell joint 2..=7
+    /// `joint-compliance` on a revolute joint
     JointCompliance {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
     },
-    /// `joint-cyclic` harmonic `harmonic` on cell joint 2..=7 (two parameters: sin, cos)
+    /// `joint-cyclic` harmonic `harmonic` on a revolute joint (two parameters: sin, cos)
     JointCyclic {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
         /// harmonic k >= 1
         harmonic: u8,
     },
-    /// `joint-scale` on cell joint 2..=7
+    /// `joint-scale` on a revolute joint
     JointScale {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
     },
-    /// `joint-backlash` on cell joint 2..=7 (needs `dir` data)
+    /// `joint-backlash` on a revolute joint (needs `dir` data)
     JointBacklash {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
     },
     /// `guide-angular`: rotations about the three carriage axes, Legendre orders 1..=`order`
@@ -168,7 +168,7 @@ pub enum EffectSpec {
         /// driving variable
         driver: ThermalDriver,
     },
-    /// `hayati-beta` on MDH row `row` (1..=7)
+    /// `hayati-beta` on MDH row `row` (1..=N)
     HayatiBeta {
         /// MDH row
         row: u8,
@@ -195,7 +195,7 @@ impl EffectSpec {
         }
     }
 
-    /// Cell joint index (1..=7) for per-joint effects, `None` otherwise.
+    /// Joint index (1..=N) for per-joint effects, `None` otherwise.
     pub fn joint(&self) -> Option<u8> {
         match *self {
             EffectSpec::JointCompliance { joint }

@@ -2,9 +2,11 @@
 //!
 //! The small crate every other vatcal crate depends on. It holds *types only*:
 //!
-//! * [`units`] — degree/radian conversions and the [`JointVector`] (q1 in mm, q2..q7 in rad);
-//! * [`cell`] — serde types for the canonical cell file (`format = "meca500-zaber-cell"`),
-//!   with validation that names the offending field;
+//! * [`units`] — degree/radian conversions, [`JointKind`] and the [`JointVector`] of a serial
+//!   chain of 1..=[`MAX_JOINTS`] joints (mm for prismatic, rad for revolute joints);
+//! * [`cell`] — serde types for the cell file (version 1 `format = "meca500-zaber-cell"`, the
+//!   Meca500 on its guide; version 2 `format = "serial-robot-cell"`, any serial chain), with
+//!   validation that names the offending field;
 //! * [`params`] — stable, human-readable parameter identifiers ([`ParamId`]) and the named
 //!   parameter sets (`paper34`, `geometric`, ...);
 //! * [`frame`] — a small rigid transform ([`Frame`]);
@@ -26,8 +28,9 @@ pub use effects::{EffectKind, EffectSpec, ThermalDriver};
 pub use frame::Frame;
 pub use measurement::{Measurement, MeasurementContext, Target};
 pub use params::{Axis, BaseParam, ParamId, ParamSet, ToolFrameDof};
-pub use units::{JointVector, deg_to_rad, rad_to_deg};
+pub use units::{JointKind, JointVector, JointVectorError, MAX_JOINTS, deg_to_rad, rad_to_deg};
 
-/// Number of joints of the cell: the linear guide (joint 1, prismatic) and the six Meca500
-/// joints (2..7, revolute).
+/// Number of joints of the canonical Meca500-on-guide cell (cell file version 1): the linear
+/// guide (joint 1, prismatic) and the six Meca500 joints (2..7, revolute). Other chains have
+/// 1..=[`MAX_JOINTS`] joints (`vatcal_kinematics::Model::joint_count`).
 pub const JOINT_COUNT: usize = 7;

@@ -3,18 +3,38 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use crate::units::JointVector;
+use crate::units::{JointVector, MAX_JOINTS};
+
+/// Joint-motion directions of the canonical 7-joint Meca500-on-guide cell from the six arm
+/// directions (J1..J6 = cell joints 2..7): index `i - 1` holds joint i, the guide (joint 1)
+/// gets 0.
+pub fn dirs_from_meca500_arm(arm: [i8; 6]) -> [i8; MAX_JOINTS] {
+    let mut d = [0; MAX_JOINTS];
+    d[1..7].copy_from_slice(&arm);
+    d
+}
 
 /// Optional per-sample data that some effects need.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct MeasurementContext {
-    /// sign (+1/-1) of the last motion of joints 2..7 before the record (`dir2`..`dir7`);
-    /// index 0 is joint 2
-    pub dir: Option<[i8; 6]>,
+    /// sign (+1/-1, 0 = unknown) of the last motion of each joint before the record
+    /// (`dir{i}` columns, revolute joints only); index `i - 1` is joint i, unused entries 0
+    pub dir: Option<[i8; MAX_JOINTS]>,
     /// seconds since the campaign start
     pub time_s: Option<f64>,
     /// temperature [°C]
     pub temperature_c: Option<f64>,
+}
+
+impl MeasurementContext {
+    /// Motion direction of joint `joint` (1-based): +1, -1, or 0 when unknown / not recorded.
+    #[inline]
+    pub fn dir_of(&self, joint: u8) -> i8 {
+        match (self.dir, (joint as usize).checked_sub(1)) {
+            (Some(d), Some(k)) if k < MAX_JOINTS => d[k],
+            _ => 0,
+        }
+    }
 }
 
 /// What a measurement observed.

@@ -1,7 +1,7 @@
 //! Stable, human-readable parameter identifiers and named parameter sets.
 //!
-//! Naming follows the paper's subscripts. MDH row `i` (1..=7, the transform from frame i-1 to
-//! frame i) carries `alpha_{i-1}`, `a_{i-1}`, `beta_{i-1}`, `theta_offset_i` and `d_i`:
+//! Naming follows the paper's subscripts. MDH row `i` (1..=N, N <= [`MAX_JOINTS`]; the
+//! transform from frame i-1 to frame i) carries `alpha_{i-1}`, `a_{i-1}`, `beta_{i-1}`, `theta_offset_i` and `d_i`:
 //!
 //! | identifier | name | unit inside vatcal |
 //! |---|---|---|
@@ -10,7 +10,7 @@
 //! | `ParamId::Beta(i)` | `beta_{i-1}` | rad |
 //! | `ParamId::ThetaOffset(i)` | `theta_offset_i` | rad |
 //! | `ParamId::D(i)` | `d_i` (row 1: the guide offset `d_OFS,1`) | mm |
-//! | `ParamId::Compliance(i)` | `c_i`, i = 2..7 | rad/(N·m) |
+//! | `ParamId::Compliance(i)` | `c_i` of a revolute joint i (2..7 on the canonical cell) | rad/(N·m) |
 //! | `ParamId::Base(..)` | `base_x`, `base_y`, `base_z` (mm), `base_alpha`, `base_beta`, `base_gamma` (rad) | |
 //! | `ParamId::Tcp{id, axis}` | `tcp{id}_{x,y,z}` | mm |
 //! | `ParamId::Position{id, axis}` | `position{id}_{x,y,z}` | mm |
@@ -21,6 +21,8 @@
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
+
+use crate::units::{JointKind, MAX_JOINTS};
 
 /// A Cartesian axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -130,32 +132,33 @@ impl ToolFrameDof {
 
 /// Parameters of the optional effect blocks (see the `effects` catalog in vatcal-kinematics).
 ///
-/// `joint` is always the **cell joint index 1..=7** (2..=7 for the Meca500 joints).
+/// `joint` is always the **joint index 1..=N** of the chain (a revolute joint; 2..=7 for the
+/// Meca500 joints of the canonical cell).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum EffectParam {
     /// `joint-cyclic`: sine amplitude [rad] of harmonic `harmonic` of joint `joint`
     /// (`theta_i += s sin(k q_i) + c cos(k q_i)`). Name `cyclic{joint}_h{k}_sin`.
     CyclicSin {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
         /// harmonic k >= 1
         harmonic: u8,
     },
     /// `joint-cyclic`: cosine amplitude [rad]. Name `cyclic{joint}_h{k}_cos`.
     CyclicCos {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
         /// harmonic k >= 1
         harmonic: u8,
     },
     /// `joint-scale`: `theta_i += g_i q_i` [rad/rad]. Name `scale{joint}`.
     JointScale {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
     },
     /// `joint-backlash`: `theta_i += b_i dir_i` [rad]. Name `backlash{joint}`.
     Backlash {
-        /// cell joint 2..=7
+        /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
     },
     /// `guide-angular`: rotation of the carriage about its `axis` [rad], coefficient of the
@@ -199,7 +202,7 @@ pub enum EffectParam {
 /// A stable identifier of one model parameter. See the module docs for names and units.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum ParamId {
-    /// `alpha_{i-1}` of MDH row i (1..=7) [rad]
+    /// `alpha_{i-1}` of MDH row i (1..=N) [rad]
     Alpha(u8),
     /// `a_{i-1}` of MDH row i [mm]
     A(u8),
@@ -209,11 +212,11 @@ pub enum ParamId {
     ThetaOffset(u8),
     /// `d_i` of row i [mm] (row 1: the guide offset)
     D(u8),
-    /// joint compliance `c_i`, i = 2..=7 [rad/(N·m)]
+    /// joint compliance `c_i` of revolute joint i [rad/(N·m)]
     Compliance(u8),
     /// base pose in the world
     Base(BaseParam),
-    /// TCP coordinate in frame 7 [mm]
+    /// TCP coordinate in the flange frame N (7 on the canonical cell) [mm]
     Tcp {
         /// TCP id
         id: u32,
@@ -304,7 +307,7 @@ impl ParamId {
         let row = |s: &str, shift: u8| -> Option<u8> {
             let v: u8 = s.parse().ok()?;
             let r = v.checked_add(shift)?;
-            (1..=7).contains(&r).then_some(r)
+            (1..=MAX_JOINTS as u8).contains(&r).then_some(r)
         };
         if let Some(s) = name.strip_prefix("alpha_") {
             return row(s, 1).map(ParamId::Alpha);
@@ -322,7 +325,7 @@ impl ParamId {
             return row(s, 0).map(ParamId::D);
         }
         if let Some(s) = name.strip_prefix("c_") {
-            return row(s, 0).filter(|j| *j >= 2).map(ParamId::Compliance);
+            return row(s, 0).map(ParamId::Compliance);
         }
         if let Some(s) = name.strip_prefix("base_") {
             return BaseParam::ALL.iter().find(|b| b.suffix() == s).map(|b| ParamId::Base(*b));
@@ -335,7 +338,7 @@ impl ParamId {
             let (id, ax) = s.split_once('_')?;
             return Some(ParamId::Position { id: id.parse().ok()?, axis: Axis::from_letter(ax)? });
         }
-        let joint = |s: &str| -> Option<u8> { s.parse().ok().filter(|j| (2..=7).contains(j)) };
+        let joint = |s: &str| -> Option<u8> { s.parse().ok().filter(|j| (1..=MAX_JOINTS as u8).contains(j)) };
         if let Some(s) = name.strip_prefix("cyclic") {
             let mut it = s.split('_');
             let j = joint(it.next()?)?;
@@ -482,11 +485,24 @@ impl ParamSet {
         Self(Self::paper34().0.into_iter().filter(|p| !matches!(p, ParamId::Compliance(_))).collect())
     }
 
-    /// Every built-in parameter of the model: the 5 MDH values of all 7 rows, c_2..c_7, the
-    /// base pose, and the coordinates of the given TCPs and calibration positions.
+    /// Every built-in parameter of the canonical Meca500-on-guide cell: the 5 MDH values of
+    /// all 7 rows, c_2..c_7, the base pose, and the coordinates of the given TCPs and
+    /// calibration positions. [`ParamSet::all_builtin_chain`] does the same for any chain.
     pub fn all_builtin(tcp_ids: &[u32], position_ids: &[u32]) -> Self {
+        use JointKind::{Prismatic, Revolute};
+        Self::all_builtin_chain(
+            &[Prismatic, Revolute, Revolute, Revolute, Revolute, Revolute, Revolute],
+            tcp_ids,
+            position_ids,
+        )
+    }
+
+    /// Every built-in parameter of a chain with joints `kinds` (1..=N): the 5 MDH values of
+    /// every row, `c_i` of every revolute joint, the base pose, and the coordinates of the
+    /// given TCPs and calibration positions.
+    pub fn all_builtin_chain(kinds: &[JointKind], tcp_ids: &[u32], position_ids: &[u32]) -> Self {
         let mut v = Vec::new();
-        for i in 1..=7u8 {
+        for i in 1..=kinds.len().min(MAX_JOINTS) as u8 {
             v.extend([
                 ParamId::Alpha(i),
                 ParamId::A(i),
@@ -495,7 +511,14 @@ impl ParamSet {
                 ParamId::D(i),
             ]);
         }
-        v.extend((2..=7).map(ParamId::Compliance));
+        v.extend(
+            kinds
+                .iter()
+                .take(MAX_JOINTS)
+                .enumerate()
+                .filter(|(_, k)| k.is_revolute())
+                .map(|(k, _)| ParamId::Compliance(k as u8 + 1)),
+        );
         v.extend(BaseParam::ALL.iter().map(|b| ParamId::Base(*b)));
         for id in tcp_ids {
             v.extend(Axis::ALL.iter().map(|a| ParamId::Tcp { id: *id, axis: *a }));
@@ -604,6 +627,16 @@ mod tests {
     }
 
     #[test]
+    fn all_builtin_follows_the_joint_kinds() {
+        use JointKind::{Prismatic as P, Revolute as R};
+        let s = ParamSet::all_builtin_chain(&[R, R, P, R], &[1], &[]);
+        assert_eq!(s.len(), 4 * 5 + 3 + 6 + 3);
+        assert!(s.index_of(ParamId::Compliance(1)).is_some());
+        assert!(s.index_of(ParamId::Compliance(3)).is_none(), "no compliance on a prismatic joint");
+        assert_eq!(ParamSet::all_builtin(&[1], &[2]).len(), 7 * 5 + 6 + 6 + 3 + 3);
+    }
+
+    #[test]
     fn names_round_trip() {
         let mut all = ParamSet::all_builtin(&[1, 2, 3], &[1, 2, 3]).0;
         for j in 2..=7 {
@@ -631,9 +664,12 @@ mod tests {
     fn parse_lists_and_errors() {
         assert_eq!(ParamSet::parse("paper34").map(|s| s.len()), Ok(34));
         assert_eq!(ParamSet::parse("alpha_1, d_4").map(|s| s.len()), Ok(2));
-        assert!(matches!(ParamSet::parse("alpha_9"), Err(ParamSetError::UnknownName(_))));
+        assert!(matches!(ParamSet::parse("alpha_12"), Err(ParamSetError::UnknownName(_))));
+        assert_eq!(ParamSet::parse("alpha_11").map(|s| s.0), Ok(vec![ParamId::Alpha(12)]));
         assert!(matches!(ParamSet::parse("d_4,d_4"), Err(ParamSetError::Duplicate(_))));
         assert!(matches!(ParamSet::parse(" , "), Err(ParamSetError::Empty)));
-        assert_eq!(ParamId::from_name("c_1"), None);
+        assert_eq!(ParamId::from_name("c_1"), Some(ParamId::Compliance(1)));
+        assert_eq!(ParamId::from_name("c_13"), None);
+        assert_eq!(ParamId::from_name("c_0"), None);
     }
 }

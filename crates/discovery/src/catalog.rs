@@ -8,23 +8,30 @@ use vatcal_core::params::{EffectParam, ToolFrameDof};
 
 use crate::location::Driver;
 
-/// The variable whose residual plot shows the effect best.
+/// The variable whose residual plot shows the effect best, on the canonical cell.
 pub fn driver_of(spec: &EffectSpec) -> Driver {
+    driver_of_in(spec, 1, 7)
+}
+
+/// The variable whose residual plot shows the effect best on a chain of `n` joints whose guide
+/// effects act on joint `guide` (its first prismatic joint).
+pub fn driver_of_in(spec: &EffectSpec, guide: u8, n: u8) -> Driver {
     match *spec {
         EffectSpec::JointCompliance { joint } => Driver::Torque(joint),
         EffectSpec::JointCyclic { joint, .. } | EffectSpec::JointScale { joint } => Driver::Joint(joint),
         EffectSpec::JointBacklash { joint } => Driver::Direction(joint),
         EffectSpec::GuideAngular { .. } | EffectSpec::GuideStraightness { .. } | EffectSpec::GuideScale => {
-            Driver::Joint(1)
+            Driver::Joint(guide)
         }
-        // the moment about the carriage is dominated by the shoulder (J2) load
-        EffectSpec::GuideCarriageTilt => Driver::Torque(3),
-        EffectSpec::ToolFrame => Driver::Joint(7),
+        // the moment about the carriage is dominated by the shoulder load (J2 of the Meca500
+        // on the canonical cell: the second joint after the guide)
+        EffectSpec::GuideCarriageTilt => Driver::Torque((guide + 2).min(n)),
+        EffectSpec::ToolFrame => Driver::Joint(n),
         EffectSpec::TcpOffset { .. } => Driver::Tcp,
         EffectSpec::PositionOffset { .. } => Driver::Position,
         EffectSpec::ThermalDrift { driver: ThermalDriver::Time } => Driver::Time,
         EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature } => Driver::Temperature,
-        EffectSpec::HayatiBeta { row } => Driver::Joint(row.clamp(2, 7)),
+        EffectSpec::HayatiBeta { row } => Driver::Joint(row.clamp(2.min(n), n)),
     }
 }
 

@@ -12,7 +12,7 @@
 
 use nalgebra::Vector3;
 use serde::Serialize;
-use vatcal_core::{Measurement, ParamId, Target, deg_to_rad};
+use vatcal_core::{JointKind, MAX_JOINTS, Measurement, ParamId, Target, deg_to_rad};
 use vatcal_kinematics::Model;
 
 use crate::DiscoveryError;
@@ -22,9 +22,10 @@ use crate::linear::ColumnSpace;
 /// A variable the residuals can be plotted against.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 pub enum Driver {
-    /// cell joint 1..=7 (q1 in mm, the others in degrees)
+    /// joint 1..=N (mm for prismatic, degrees for revolute joints; canonical cell: q1 in mm,
+    /// the others in degrees)
     Joint(u8),
-    /// gravity torque of cell joint 2..=7 [N·m] (on the fitted model)
+    /// gravity torque of revolute joint j [N·m] (on the fitted model)
     Torque(u8),
     /// the TCP id
     Tcp,
@@ -34,7 +35,7 @@ pub enum Driver {
     Time,
     /// `temperature_c`
     Temperature,
-    /// sign of the last motion of cell joint 2..=7
+    /// sign of the last motion of revolute joint j
     Direction(u8),
     /// index of the measurement in the file (a proxy for time when no time stamps exist)
     Order,
@@ -51,11 +52,33 @@ pub enum DriverKind {
     Categorical,
 }
 
+/// Joint kinds of the canonical Meca500-on-guide cell.
+const CANONICAL: [JointKind; 7] = [
+    JointKind::Prismatic,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+];
+
+/// True when joint `j` (1-based) is prismatic in `kinds`.
+fn prismatic(kinds: &[JointKind], j: u8) -> bool {
+    kinds.get((j as usize).wrapping_sub(1)) == Some(&JointKind::Prismatic)
+}
+
 impl Driver {
-    /// Axis label with unit, e.g. `q4 [deg]`, `tau3 [N*m]`.
+    /// Axis label with unit on the canonical cell, e.g. `q4 [deg]`, `tau3 [N*m]`.
     pub fn label(&self) -> String {
+        self.label_for(&CANONICAL)
+    }
+
+    /// Axis label with unit on a chain with joints `kinds`.
+    pub fn label_for(&self, kinds: &[JointKind]) -> String {
         match self {
-            Driver::Joint(1) => "q1 (guide) [mm]".to_string(),
+            Driver::Joint(1) if prismatic(kinds, 1) && kinds == CANONICAL => "q1 (guide) [mm]".to_string(),
+            Driver::Joint(j) if prismatic(kinds, *j) => format!("q{j} [mm]"),
             Driver::Joint(j) => format!("q{j} [deg]"),
             Driver::Torque(j) => format!("tau{j} [N*m]"),
             Driver::Tcp => "TCP id".to_string(),
@@ -67,22 +90,29 @@ impl Driver {
         }
     }
 
-    /// How the values are treated.
+    /// How the values are treated on the canonical cell.
     pub fn kind(&self) -> DriverKind {
+        self.kind_for(&CANONICAL)
+    }
+
+    /// How the values are treated on a chain with joints `kinds`.
+    pub fn kind_for(&self, kinds: &[JointKind]) -> DriverKind {
         match self {
-            Driver::Joint(j) if *j >= 2 => DriverKind::Angle,
+            Driver::Joint(j) if !prismatic(kinds, *j) => DriverKind::Angle,
             Driver::Tcp | Driver::Position | Driver::Direction(_) => DriverKind::Categorical,
             _ => DriverKind::Continuous,
         }
     }
 
     /// The value of this variable for measurement `index` (None when the data lacks it), in
-    /// the units of [`Driver::label`]. `torques` are the gravity torques of that measurement.
-    pub fn value(&self, index: usize, m: &Measurement, torques: &[f64; 6]) -> Option<f64> {
+    /// the units of [`Driver::label_for`]. `pose` holds the joint kinds and the gravity torques
+    /// of the measurements.
+    pub fn value(&self, index: usize, m: &Measurement, pose: &PoseData) -> Option<f64> {
+        let torques = pose.torques.get(index)?;
         match *self {
-            Driver::Joint(1) => Some(m.q.get(1)),
-            Driver::Joint(j) => Some(m.q.get(j as usize).to_degrees()),
-            Driver::Torque(j) => Some(torques[j as usize - 2]),
+            Driver::Joint(j) if prismatic(pose.kinds(), j) => m.q.as_slice().get(j as usize - 1).copied(),
+            Driver::Joint(j) => m.q.as_slice().get((j as usize).wrapping_sub(1)).map(|v| v.to_degrees()),
+            Driver::Torque(j) => torques.get((j as usize).wrapping_sub(1)).copied(),
             Driver::Tcp => Some(f64::from(m.tcp)),
             Driver::Position => Some(match m.target {
                 Target::Probe { position } => f64::from(position),
@@ -90,17 +120,25 @@ impl Driver {
             }),
             Driver::Time => m.context.time_s,
             Driver::Temperature => m.context.temperature_c,
-            Driver::Direction(j) => m.context.dir.map(|d| f64::from(d[j as usize - 2])),
+            Driver::Direction(j) => m.context.dir.map(|_| f64::from(m.context.dir_of(j))),
             Driver::Order => Some(index as f64),
         }
     }
 
-    /// Every driver, in a fixed order.
+    /// Every driver of the canonical cell, in a fixed order.
     pub fn all() -> Vec<Driver> {
-        let mut v: Vec<Driver> = (1..=7).map(Driver::Joint).collect();
-        v.extend((2..=7).map(Driver::Torque));
+        Self::all_for(&CANONICAL)
+    }
+
+    /// Every driver of a chain with joints `kinds`, in a fixed order: every joint, the torques
+    /// and directions of the revolute joints, TCP, position, time, temperature, order.
+    pub fn all_for(kinds: &[JointKind]) -> Vec<Driver> {
+        let n = kinds.len().min(MAX_JOINTS) as u8;
+        let revolute: Vec<u8> = (1..=n).filter(|j| !prismatic(kinds, *j)).collect();
+        let mut v: Vec<Driver> = (1..=n).map(Driver::Joint).collect();
+        v.extend(revolute.iter().map(|j| Driver::Torque(*j)));
         v.extend([Driver::Tcp, Driver::Position, Driver::Time, Driver::Temperature]);
-        v.extend((2..=7).map(Driver::Direction));
+        v.extend(revolute.iter().map(|j| Driver::Direction(*j)));
         v.push(Driver::Order);
         v
     }
@@ -220,41 +258,57 @@ fn bins(kind: DriverKind, v: &[f64], norms: &[f64]) -> Vec<Bin> {
 /// Per-measurement quantities the drivers need besides the measurement itself.
 #[derive(Debug, Clone, Default)]
 pub struct PoseData {
-    /// gravity torques tau2..tau7 [N·m]
-    pub torques: Vec<[f64; 6]>,
-    /// `∂p/∂θ_j` of joints 2..7 [mm/rad] (the direction an angle error of joint j moves the
-    /// TCP), when known
-    pub joint_directions: Option<Vec<[Vector3<f64>; 6]>>,
+    /// gravity torques [N·m], `[i - 1]` for joint i
+    pub torques: Vec<[f64; MAX_JOINTS]>,
+    /// `∂p/∂θ_j` of every joint, `[j - 1]` for revolute joint j (zero for prismatic joints)
+    /// [mm/rad] (the direction an angle error of joint j moves the TCP), when known
+    pub joint_directions: Option<Vec<[Vector3<f64>; MAX_JOINTS]>>,
+    /// joint kinds of the chain (empty = the canonical Meca500-on-guide cell)
+    pub joint_kinds: Vec<JointKind>,
 }
 
 impl PoseData {
     /// Torques and joint directions of every measurement under `model`.
     pub fn of(model: &Model, measurements: &[Measurement]) -> Result<Self, DiscoveryError> {
-        let joints: Vec<ParamId> = (2..=7).map(ParamId::ThetaOffset).collect();
-        let mut buf = [0.0; 18];
+        let revolute: Vec<usize> = (1..=model.joint_count()).filter(|j| model.is_revolute(*j)).collect();
+        let joints: Vec<ParamId> = revolute.iter().map(|j| ParamId::ThetaOffset(*j as u8)).collect();
+        let mut buf = vec![0.0; 3 * joints.len()];
         let mut dirs = Vec::with_capacity(measurements.len());
         for (index, m) in measurements.iter().enumerate() {
             model
                 .jacobian_into(&m.q, &m.context, m.tcp, &joints, &mut buf)
                 .map_err(|e| DiscoveryError::Measurement { index, message: e.to_string() })?;
-            dirs.push(std::array::from_fn(|j| Vector3::new(buf[3 * j], buf[3 * j + 1], buf[3 * j + 2])));
+            let mut d = [Vector3::zeros(); MAX_JOINTS];
+            for (k, j) in revolute.iter().enumerate() {
+                d[j - 1] = Vector3::new(buf[3 * k], buf[3 * k + 1], buf[3 * k + 2]);
+            }
+            dirs.push(d);
         }
         Ok(Self {
             torques: measurements.iter().map(|m| model.gravity_torques(&m.q)).collect(),
             joint_directions: Some(dirs),
+            joint_kinds: model.joint_kinds().to_vec(),
         })
     }
 
-    /// Torques only (no joint directions: every driver uses the world residual components).
-    pub fn torques_only(torques: Vec<[f64; 6]>) -> Self {
-        Self { torques, joint_directions: None }
+    /// Torques only (no joint directions: every driver uses the world residual components), on
+    /// the canonical cell.
+    pub fn torques_only(torques: Vec<[f64; MAX_JOINTS]>) -> Self {
+        Self { torques, joint_directions: None, joint_kinds: Vec::new() }
+    }
+
+    /// The joint kinds (the canonical cell's when none were recorded).
+    pub fn kinds(&self) -> &[JointKind] {
+        if self.joint_kinds.is_empty() { &CANONICAL } else { &self.joint_kinds }
     }
 }
 
-/// The joint whose angle error a driver is about (q_j, tau_j, dir_j for j = 2..7).
-fn joint_of(driver: Driver) -> Option<usize> {
+/// The revolute joint whose angle error a driver is about (q_j, tau_j, dir_j).
+fn joint_of(driver: Driver, kinds: &[JointKind]) -> Option<usize> {
     match driver {
-        Driver::Joint(j) | Driver::Torque(j) | Driver::Direction(j) if j >= 2 => Some(j as usize),
+        Driver::Joint(j) | Driver::Torque(j) | Driver::Direction(j) if !prismatic(kinds, j) && j >= 1 => {
+            Some(j as usize)
+        }
         _ => None,
     }
 }
@@ -283,9 +337,9 @@ pub fn summarize_driver(
     pose: &PoseData,
 ) -> Result<Option<DriverSummary>, DiscoveryError> {
     let values: Option<Vec<f64>> =
-        measurements.iter().enumerate().map(|(i, m)| driver.value(i, m, &pose.torques[i])).collect();
+        measurements.iter().enumerate().map(|(i, m)| driver.value(i, m, pose)).collect();
     let Some(v) = values else { return Ok(None) };
-    let kind = driver.kind();
+    let kind = driver.kind_for(pose.kinds());
     let regs = regressors(kind, &v);
     let n = v.len();
     if regs.is_empty() || n <= regs.len() + 2 {
@@ -294,14 +348,14 @@ pub fn summarize_driver(
     let b = regs.len() + 1;
     let basis = |k: usize, j: usize| if j == 0 { 1.0 } else { regs[j - 1][k] };
     let rss: f64 = residuals.iter().map(|x| x.norm_squared()).sum();
-    let (explained, left, q, rows) = match (joint_of(driver), pose.joint_directions.as_ref()) {
+    let (explained, left, q, rows) = match (joint_of(driver, pose.kinds()), pose.joint_directions.as_ref()) {
         (Some(j), Some(dirs)) => {
-            let lever: Vec<f64> = dirs.iter().map(|d| d[j - 2].norm()).collect();
+            let lever: Vec<f64> = dirs.iter().map(|d| d[j - 1].norm()).collect();
             let response: Vec<f64> = residuals
                 .iter()
                 .zip(dirs)
                 .zip(&lever)
-                .map(|((r, d), l)| if *l > 0.0 { r.dot(&d[j - 2]) / l } else { 0.0 })
+                .map(|((r, d), l)| if *l > 0.0 { r.dot(&d[j - 1]) / l } else { 0.0 })
                 .collect();
             let design = faer::Mat::from_fn(n, b, |k, c| lever[k] * basis(k, c));
             let (e, l, q) = regress(design, &response)?;
@@ -326,7 +380,7 @@ pub fn summarize_driver(
     let norms: Vec<f64> = residuals.iter().map(|x| x.norm()).collect();
     Ok(Some(DriverSummary {
         driver,
-        label: driver.label(),
+        label: driver.label_for(pose.kinds()),
         explained_fraction: if rss > 0.0 { (explained / rss).clamp(0.0, 1.0) } else { 0.0 },
         chance_fraction: q as f64 / (3 * n) as f64,
         ln_p_value,
@@ -342,7 +396,7 @@ pub fn locate(
 ) -> Result<Vec<DriverSummary>, DiscoveryError> {
     let pose = PoseData::of(model, measurements)?;
     let mut out = Vec::new();
-    for d in Driver::all() {
+    for d in Driver::all_for(model.joint_kinds()) {
         if let Some(s) = summarize_driver(d, measurements, residuals, &pose)? {
             out.push(s);
         }
@@ -369,7 +423,7 @@ mod tests {
             for v in q.iter_mut().skip(1) {
                 *v = rng.random_range(-2.5..2.5);
             }
-            let m = Measurement::probe(1 + (i % 3) as u32, 1 + (i % 3) as u32, JointVector(q));
+            let m = Measurement::probe(1 + (i % 3) as u32, 1 + (i % 3) as u32, JointVector::new(q));
             let noise = Vector3::new(
                 rng.random_range(-1.0..1.0),
                 rng.random_range(-1.0..1.0),
@@ -378,7 +432,7 @@ mod tests {
             res.push(Vector3::new(0.02 * q[3].sin(), -0.01 * q[3].sin(), 0.0) + noise);
             ms.push(m);
         }
-        let pose = PoseData::torques_only(vec![[0.0; 6]; ms.len()]);
+        let pose = PoseData::torques_only(vec![[0.0; MAX_JOINTS]; ms.len()]);
         let all: Vec<DriverSummary> = Driver::all()
             .into_iter()
             .filter_map(|d| summarize_driver(d, &ms, &res, &pose).expect("ok"))

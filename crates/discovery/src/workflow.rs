@@ -36,7 +36,7 @@ use vatcal_kinematics::effects::{DataAvailability, candidate_effects, missing_da
 use vatcal_observability::assemble_jacobian;
 
 use crate::DiscoveryError;
-use crate::catalog::{driver_of, meaning, plausibility};
+use crate::catalog::{driver_of_in, meaning, plausibility};
 use crate::criteria::{HeldOutComparison, NestedComparison};
 use crate::distributions::{chi2_ln_sf, normal_upper_quantile};
 use crate::fit::{Fit, fit, residuals};
@@ -796,20 +796,26 @@ fn driver_plot(
     before: &[Vector3<f64>],
     after: &[Vector3<f64>],
 ) -> Result<DriverPlot, DiscoveryError> {
-    let driver = driver_of(spec);
+    let n = model.joint_count() as u8;
+    let driver = driver_of_in(spec, model.guide_joint().unwrap_or(1) as u8, n);
     let pose = PoseData::of(model, ms)?;
-    let joint = spec.joint().filter(|j| *j >= 2).map(usize::from);
+    let joint = spec.joint().map(usize::from).filter(|j| model.is_revolute(*j));
     let y_label = match joint {
         Some(j) => format!("residual as joint-{j} angle error [urad]"),
         None => "residual norm [um]".to_string(),
     };
-    let mut plot =
-        DriverPlot { x_label: driver.label(), y_label, x: Vec::new(), before: Vec::new(), after: Vec::new() };
+    let mut plot = DriverPlot {
+        x_label: driver.label_for(model.joint_kinds()),
+        y_label,
+        x: Vec::new(),
+        before: Vec::new(),
+        after: Vec::new(),
+    };
     for (i, m) in ms.iter().enumerate() {
-        let Some(x) = driver.value(i, m, &pose.torques[i]) else { continue };
+        let Some(x) = driver.value(i, m, &pose) else { continue };
         let y = |r: &Vector3<f64>| match (joint, pose.joint_directions.as_ref()) {
             (Some(j), Some(dirs)) => {
-                let d = dirs[i][j - 2];
+                let d = dirs[i][j - 1];
                 let l2 = d.norm_squared();
                 if l2 > 0.0 { 1e6 * r.dot(&d) / l2 } else { 0.0 }
             }

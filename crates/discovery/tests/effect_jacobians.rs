@@ -42,7 +42,7 @@ fn random_q(model: &Model, rng: &mut ChaCha8Rng) -> JointVector {
         let (lo, hi) = limits[k];
         *v = rng.random_range(lo..hi);
     }
-    JointVector(q)
+    JointVector::new(q)
 }
 
 fn random_context(rng: &mut ChaCha8Rng) -> MeasurementContext {
@@ -51,7 +51,7 @@ fn random_context(rng: &mut ChaCha8Rng) -> MeasurementContext {
         *d = if rng.random::<bool>() { 1 } else { -1 };
     }
     MeasurementContext {
-        dir: Some(dir),
+        dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(dir)),
         time_s: Some(rng.random_range(0.0..7200.0)),
         temperature_c: Some(rng.random_range(15.0..30.0)),
     }
@@ -64,7 +64,11 @@ fn all_specs(model: &Model) -> Vec<EffectSpec> {
     let mut ms = Vec::new();
     for (k, tcp) in tcps.iter().enumerate() {
         let mut m = Measurement::probe(ids[k % ids.len()], *tcp, JointVector::default());
-        m.context = MeasurementContext { dir: Some([1; 6]), time_s: Some(0.0), temperature_c: Some(20.0) };
+        m.context = MeasurementContext {
+            dir: Some(vatcal_core::measurement::dirs_from_meca500_arm([1; 6])),
+            time_s: Some(0.0),
+            temperature_c: Some(20.0),
+        };
         ms.push(m);
     }
     for p in &ids {
@@ -285,7 +289,7 @@ fn several_harmonics_on_one_joint_add_up_and_match_finite_differences() {
         check_columns(&model, &model, &m, &params, "harmonics 1, 2, 3, 50 on joint 4");
         // the angle change is the sum of the four harmonics: compare with a model having
         // only the explicit sum as a theta offset
-        let q4 = m.q.0[3];
+        let q4 = m.q[3];
         let mut sum = 0.0;
         for spec in &specs {
             let EffectSpec::JointCyclic { harmonic, .. } = *spec else { unreachable!() };
@@ -314,7 +318,7 @@ fn carriage_moment_about_the_j1_axis_is_the_j1_gravity_torque() {
         let q = random_q(&model, &mut rng);
         let m = model.carriage_moment(&q);
         let tau = model.gravity_torques(&q);
-        assert!((m[1] - tau[0]).abs() < 1e-9, "M_y {} vs tau_2 {}", m[1], tau[0]);
+        assert!((m[1] - tau[1]).abs() < 1e-9, "M_y {} vs tau_2 {}", m[1], tau[1]);
         largest = largest.max(m[0].abs());
     }
     // the 4.5 kg arm's centre of mass moves by ~0.1 m: moments of a few N·m about x

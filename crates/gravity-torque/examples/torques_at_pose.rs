@@ -1,6 +1,7 @@
 //! Gravity torques of the canonical cell at a pose, from the cell file alone.
 //!
-//! This crate takes the link transforms `H_i^{i-1}` and the masses, so a user without
+//! This crate takes the link transforms `H_i^{i-1}`, the joint kinds and the masses of any
+//! serial chain (1..=12 joints), so a user without
 //! `vatcal-kinematics` builds the transforms from the cell file's MDH rows
 //! (`Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d)`) and calls [`gravity_torques`]. (With
 //! `vatcal-kinematics`, `Model::gravity_torques(&q)` does all of this.) Then a hand check: a
@@ -12,7 +13,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 use vatcal_core::frame::{rot_x, rot_y, rot_z};
-use vatcal_core::{CellFile, Frame, deg_to_rad};
+use vatcal_core::{CellFile, Frame, JointKind, MAX_JOINTS, deg_to_rad};
 use vatcal_gravity_torque::{Body, MassModel, gravity_torques};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -20,48 +21,50 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let masses = MassModel::from_inertials(&cell.inertials);
     println!("moving mass (links 2..7 and the tool): {:.3} kg", masses.total_mass_kg());
 
-    // q1 = 150 mm (guide), arm joints in degrees
-    let q1_mm = 150.0;
-    let arm_deg = [10.0, 20.0, -30.0, 40.0, 50.0, 60.0];
-    let mut links = [Frame::identity(); 7];
-    for row in &cell.joints {
-        let i = usize::from(row.index);
-        let (theta, d) = if i == 1 {
-            (deg_to_rad(row.theta_deg), row.d_mm + q1_mm)
-        } else {
-            (deg_to_rad(row.theta_deg + arm_deg[i - 2]), row.d_mm)
-        };
+    // one value per joint in file units: mm for the prismatic guide, degrees for the arm
+    let q_file = [150.0, 10.0, 20.0, -30.0, 40.0, 50.0, 60.0];
+    let kinds = cell.joint_kinds();
+    let mut links = Vec::with_capacity(cell.joints.len());
+    for (row, (kind, q)) in cell.joints.iter().zip(kinds.iter().zip(q_file)) {
+        let (theta_deg, d) =
+            if kind.is_revolute() { (row.theta_deg + q, row.d_mm) } else { (row.theta_deg, row.d_mm + q) };
         let fixed = Frame {
             r: rot_x(deg_to_rad(row.alpha_deg)) * rot_y(deg_to_rad(row.beta_deg)),
             p: Vector3::new(row.a_mm, 0.0, 0.0),
         };
-        let moving = Frame { r: rot_z(theta), p: Vector3::new(0.0, 0.0, d) };
-        links[i - 1] = fixed.compose(&moving);
+        let moving = Frame { r: rot_z(deg_to_rad(theta_deg)), p: Vector3::new(0.0, 0.0, d) };
+        links.push(fixed.compose(&moving));
     }
     let b = &cell.base_in_world;
     let base_rotation =
         rot_x(deg_to_rad(b.alpha_deg)) * rot_y(deg_to_rad(b.beta_deg)) * rot_z(deg_to_rad(b.gamma_deg));
     let gravity = Vector3::from(cell.gravity.vector_m_per_s2);
-    let tau = gravity_torques(&links, &base_rotation, &masses, &gravity);
-    println!("q = {q1_mm} mm, {arm_deg:?} deg");
-    for (k, t) in tau.iter().enumerate() {
-        println!("  tau_{} = {t:+.4} N·m (moment of gravity about +z_{})", k + 2, k + 2);
+    let tau = gravity_torques(&links, &kinds, &base_rotation, &masses, &gravity);
+    println!("q = {q_file:?} (mm for prismatic, deg for revolute joints)");
+    for (k, kind) in kinds.iter().enumerate() {
+        if kind.is_revolute() {
+            println!("  tau_{} = {:+.4} N·m (moment of gravity about +z_{})", k + 1, tau[k], k + 1);
+        } else {
+            println!("  joint {} is prismatic: no torque", k + 1);
+        }
     }
 
     // hand check: frame 3's z axis is world +y, a 2 kg body at x = 100 mm in frame 3
     let rx_m90 = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0);
-    let mut flat = [Frame::identity(); 7];
+    let mut flat = [Frame::identity(); 4];
     flat[2] = Frame { r: rx_m90, p: Vector3::zeros() };
     flat[3] = Frame { r: rx_m90.transpose(), p: Vector3::zeros() };
-    let mut one_body = MassModel { links: [Body::default(); 6] };
-    one_body.links[1] = Body { mass_kg: 2.0, com_mm: Vector3::new(100.0, 0.0, 0.0) };
-    let tau = gravity_torques(&flat, &Matrix3::identity(), &one_body, &Vector3::new(0.0, 0.0, -9.81));
+    let mut one_body = MassModel { links: [Body::default(); MAX_JOINTS], n: 4 };
+    one_body.links[2] = Body { mass_kg: 2.0, com_mm: Vector3::new(100.0, 0.0, 0.0) };
+    let flat_kinds = [JointKind::Revolute; 4];
+    let tau =
+        gravity_torques(&flat, &flat_kinds, &Matrix3::identity(), &one_body, &Vector3::new(0.0, 0.0, -9.81));
     println!(
         "2 kg at 100 mm on a horizontal link: tau_3 = {:.4} N·m (m g L = {:.4})",
-        tau[1],
+        tau[2],
         2.0 * 9.81 * 0.1
     );
-    if (tau[1] - 2.0 * 9.81 * 0.1).abs() > 1e-12 {
+    if (tau[2] - 2.0 * 9.81 * 0.1).abs() > 1e-12 {
         return Err("the hand check failed".into());
     }
     Ok(())

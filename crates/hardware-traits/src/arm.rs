@@ -23,11 +23,10 @@ impl ArmJoints {
         self.0.map(rad_to_deg)
     }
 
-    /// The arm part (q2..q7) of a cell joint vector.
+    /// The arm part (q2..q7) of a joint vector of the 7-joint Meca500-on-guide cell (joints
+    /// missing from a shorter vector read as 0).
     pub fn from_joint_vector(q: &JointVector) -> Self {
-        let mut a = [0.0; 6];
-        a.copy_from_slice(&q.0[1..]);
-        Self(a)
+        Self(std::array::from_fn(|k| q.as_slice().get(k + 1).copied().unwrap_or(0.0)))
     }
 
     /// The cell joint vector with the guide at `guide_mm`.
@@ -35,7 +34,7 @@ impl ArmJoints {
         let mut q = [0.0; 7];
         q[0] = guide_mm;
         q[1..].copy_from_slice(&self.0);
-        JointVector(q)
+        JointVector::new(q)
     }
 
     /// Largest absolute joint difference [rad].

@@ -4,22 +4,28 @@
 //!
 //! | file | columns | reader | writer |
 //! |---|---|---|---|
-//! | joint rows | `tcp,q1..q7` | [`read_joint_rows`] | [`write_joint_rows`] |
-//! | probe measurements | `position,tcp,q1..q7` (+ `time_s`, `temperature_c`, `dir2..dir7`, `offset_x_mm,offset_y_mm,offset_z_mm`) | [`read_probe_measurements`] | [`write_measurements`] |
-//! | tracker measurements | `tcp,q1..q7,x,y,z` | [`read_tracker_measurements`] | [`write_measurements`] |
-//! | candidate poses | `position,tcp,q1..q7` | [`read_candidates`] | [`CandidateTable::write_subset`] |
-//! | pose requests | `tcp,q1,x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir2..dir7`) | [`read_pose_rows`] | (`vatcal compensate`) |
+//! | joint rows | `tcp,q1..qN` | [`read_joint_rows`] | [`write_joint_rows_for`] |
+//! | probe measurements | `position,tcp,q1..qN` (+ `time_s`, `temperature_c`, `dir{i}`, `offset_x_mm,offset_y_mm,offset_z_mm`) | [`read_probe_measurements`] | [`write_measurements_for`] |
+//! | tracker measurements | `tcp,q1..qN,x,y,z` | [`read_tracker_measurements`] | [`write_measurements_for`] |
+//! | candidate poses | `position,tcp,q1..qN` | [`read_candidates`] | [`CandidateTable::write_subset`] |
+//! | pose requests (Meca500-on-guide cell) | `tcp,q1,x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir2..dir7`) | [`read_pose_rows`] | (`vatcal compensate`) |
 //!
 //! Rules: a header line, columns found by name in any order, unknown columns ignored, `#`
-//! comment lines and blank lines skipped, `q1` in mm and `q2..q7` in degrees. A bad row is an
-//! error naming the file, the line, the column and the reason ([`IoError::Row`]); nothing is
-//! silently dropped. Numbers are written with Rust's shortest round-trip formatting.
+//! comment lines and blank lines skipped. An N-joint model reads and writes the joint columns
+//! `q1..qN`, in mm for prismatic and degrees for revolute joints (the canonical cell: `q1` in
+//! mm, `q2..q7` in degrees), and the context columns `dir{i}` of its revolute joints i
+//! (`dir2..dir7` on the canonical cell). A file whose q-columns do not match the model's joint
+//! count is an error naming the file, the header line and the expected columns
+//! ([`IoError::JointColumns`]). A bad row is an error naming the file, the line, the column and
+//! the reason ([`IoError::Row`]); nothing is silently dropped. Numbers are written with Rust's
+//! shortest round-trip formatting.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
-use vatcal_core::{JointVector, Measurement, MeasurementContext, Target};
+use vatcal_core::effects::EffectSpec;
+use vatcal_core::{JointKind, JointVector, MAX_JOINTS, Measurement, MeasurementContext, Target};
 use vatcal_kinematics::Model;
 
 /// Errors of the CSV layer.
@@ -81,6 +87,30 @@ pub enum IoError {
         /// file
         path: PathBuf,
     },
+    /// The file kind needs another chain than the model's.
+    #[error("{path}: {reason}")]
+    UnsupportedChain {
+        /// file
+        path: PathBuf,
+        /// why
+        reason: String,
+    },
+    /// The joint columns of the header do not match the model's joint count.
+    #[error(
+        "{path}:{line}: the model has {joints} joints: expected the joint columns {expected}, the header has {found}"
+    )]
+    JointColumns {
+        /// file
+        path: PathBuf,
+        /// 1-based line of the header
+        line: u64,
+        /// joints of the model
+        joints: usize,
+        /// the expected columns, e.g. `q1..q6`
+        expected: String,
+        /// the joint columns found
+        found: String,
+    },
 }
 
 /// One row of a joint-row file.
@@ -92,11 +122,53 @@ pub struct JointRow {
     pub tcp: u32,
     /// joints (internal units)
     pub q: JointVector,
-    /// the optional `time_s`, `temperature_c`, `dir2..dir7` columns of the row
+    /// the optional `time_s`, `temperature_c`, `dir{i}` columns of the row
     pub context: MeasurementContext,
 }
 
-const JOINT_COLUMNS: [&str; 7] = ["q1", "q2", "q3", "q4", "q5", "q6", "q7"];
+/// The joint kinds of the canonical 7-joint Meca500-on-guide cell (prismatic guide, six
+/// revolute joints).
+pub const MECA500_ON_GUIDE_KINDS: [JointKind; 7] = [
+    JointKind::Prismatic,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+];
+
+/// The joint columns `q1..qN` of an N-joint chain.
+pub fn joint_columns(n: usize) -> Vec<String> {
+    (1..=n).map(|i| format!("q{i}")).collect()
+}
+
+/// The direction columns `dir{i}` of the revolute joints i of a chain with joints `kinds`.
+pub fn dir_columns(kinds: &[JointKind]) -> Vec<(usize, String)> {
+    kinds
+        .iter()
+        .enumerate()
+        .filter(|(_, k)| k.is_revolute())
+        .map(|(k, _)| (k + 1, format!("dir{}", k + 1)))
+        .collect()
+}
+
+/// `first..last` (or the single name) for messages.
+fn span(columns: &[String]) -> String {
+    match columns {
+        [] => String::new(),
+        [one] => one.clone(),
+        [first, .., last] => format!("{first}..{last}"),
+    }
+}
+
+/// The column names a reader needs: `prefix`, then `q1..qN`, then `suffix`.
+fn required_columns(prefix: &[&str], model: &Model, suffix: &[&str]) -> Vec<String> {
+    let mut v: Vec<String> = prefix.iter().map(|s| s.to_string()).collect();
+    v.extend(joint_columns(model.joint_count()));
+    v.extend(suffix.iter().map(|s| s.to_string()));
+    v
+}
 
 /// A parsed CSV table with a name → index header map.
 struct Table {
@@ -104,10 +176,24 @@ struct Table {
     headers: csv::StringRecord,
     index: HashMap<String, usize>,
     rows: Vec<(u64, csv::StringRecord)>,
+    /// joint kinds of the model the rows are read for (empty: no joint columns)
+    kinds: Vec<JointKind>,
 }
 
 impl Table {
+    /// Reads a table whose joint columns must be exactly `q1..qN` of `model`.
+    fn read_for(path: &Path, model: &Model, required: &[String]) -> Result<Table, IoError> {
+        let refs: Vec<&str> = required.iter().map(String::as_str).collect();
+        let mut t = Self::read_checked(path, &refs, Some(model.joint_count()))?;
+        t.kinds = model.joint_kinds().to_vec();
+        Ok(t)
+    }
+
     fn read(path: &Path, required: &[&str]) -> Result<Table, IoError> {
+        Self::read_checked(path, required, None)
+    }
+
+    fn read_checked(path: &Path, required: &[&str], joints: Option<usize>) -> Result<Table, IoError> {
         let file =
             std::fs::File::open(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
         let mut rdr = csv::ReaderBuilder::new()
@@ -116,8 +202,26 @@ impl Table {
             .flexible(false)
             .from_reader(file);
         let headers = rdr.headers().map_err(|e| csv_error(path, &e))?.clone();
+        let header_line = headers.position().map_or(1, |p| p.line());
         let index: HashMap<String, usize> =
             headers.iter().enumerate().map(|(i, h)| (h.to_string(), i)).collect();
+        if let Some(n) = joints {
+            let mut found: Vec<usize> = headers
+                .iter()
+                .filter_map(|h| h.strip_prefix('q').and_then(|k| k.parse::<usize>().ok()))
+                .collect();
+            found.sort_unstable();
+            if found != (1..=n).collect::<Vec<_>>() {
+                let found = found.iter().map(|k| format!("q{k}")).collect::<Vec<_>>().join(",");
+                return Err(IoError::JointColumns {
+                    path: path.into(),
+                    line: header_line,
+                    joints: n,
+                    expected: span(&joint_columns(n)),
+                    found: if found.is_empty() { "none".into() } else { found },
+                });
+            }
+        }
         for col in required {
             if !index.contains_key(*col) {
                 return Err(IoError::MissingColumn {
@@ -139,25 +243,28 @@ impl Table {
         if rows.is_empty() {
             return Err(IoError::Empty { path: path.into() });
         }
-        Ok(Table { path: path.into(), headers, index, rows })
+        Ok(Table { path: path.into(), headers, index, rows, kinds: Vec::new() })
     }
 
-    /// Fails when an effect of `model` depends on a context column (`dir2..dir7`, `time_s`,
-    /// `temperature_c`) that the file lacks, or that is empty on some row: predictions there
-    /// would silently use 0.
+    /// Fails when an effect of `model` depends on a context column (`dir{i}` of every revolute
+    /// joint, `time_s`, `temperature_c`) that the file lacks, or that is empty on some row:
+    /// predictions there would silently use 0.
     fn check_model_columns(&self, model: &Model) -> Result<(), IoError> {
         for spec in model.effects() {
-            let columns = vatcal_kinematics::effects::context_columns(spec);
+            let columns: Vec<String> = match spec {
+                EffectSpec::JointBacklash { .. } => {
+                    dir_columns(model.joint_kinds()).into_iter().map(|(_, c)| c).collect()
+                }
+                _ => {
+                    vatcal_kinematics::effects::context_columns(spec).iter().map(|c| c.to_string()).collect()
+                }
+            };
             if columns.is_empty() {
                 continue;
             }
             let missing = columns.iter().any(|c| !self.has(c));
             if missing {
-                let columns = if columns.len() > 1 {
-                    format!("{}..{}", columns[0], columns[columns.len() - 1])
-                } else {
-                    columns[0].to_string()
-                };
+                let columns = span(&columns);
                 return Err(IoError::ModelNeedsColumn {
                     path: self.path.clone(),
                     columns,
@@ -218,21 +325,24 @@ impl Table {
         Ok(v)
     }
 
+    /// The joints `q1..qN` of a row (file units → internal units), checked against the
+    /// model's limits.
     fn joints(&self, line: u64, rec: &csv::StringRecord, model: &Model) -> Result<JointVector, IoError> {
-        let mut arm = [0.0; 6];
-        let q1 = self.float(line, rec, "q1")?;
-        for (k, col) in JOINT_COLUMNS[1..].iter().enumerate() {
-            arm[k] = self.float(line, rec, col)?;
+        let kinds = model.joint_kinds();
+        let mut values = [0.0; MAX_JOINTS];
+        for (k, v) in values.iter_mut().enumerate().take(kinds.len()) {
+            *v = self.float(line, rec, &format!("q{}", k + 1))?;
         }
-        let q = JointVector::from_mm_deg(q1, arm);
+        let q = JointVector::from_file_units(&values[..kinds.len()], kinds)
+            .map_err(|e| self.err(line, "q1", e.to_string()))?;
         if let Some((joint, _, lo, hi)) = model.limit_violation(&q) {
-            let file_units = q.to_mm_deg();
-            let (lo, hi) = if joint == 1 { (lo, hi) } else { (lo.to_degrees(), hi.to_degrees()) };
-            let unit = if joint == 1 { "mm" } else { "deg" };
+            let kind = kinds[joint - 1];
+            let (lo, hi) = (kind.to_file_unit(lo), kind.to_file_unit(hi));
+            let unit = kind.file_unit();
             return Err(self.err(
                 line,
-                JOINT_COLUMNS[joint - 1],
-                format!("{} {unit} is outside the joint limits [{lo}, {hi}] {unit}", file_units[joint - 1]),
+                &format!("q{joint}"),
+                format!("{} {unit} is outside the joint limits [{lo}, {hi}] {unit}", values[joint - 1]),
             ));
         }
         Ok(q)
@@ -241,12 +351,14 @@ impl Table {
     fn context(&self, line: u64, rec: &csv::StringRecord) -> Result<MeasurementContext, IoError> {
         let time_s = self.optional_float(line, rec, "time_s")?;
         let temperature_c = self.optional_float(line, rec, "temperature_c")?;
-        let dir_cols = ["dir2", "dir3", "dir4", "dir5", "dir6", "dir7"];
-        let dir = if dir_cols.iter().all(|c| self.has(c)) {
-            let mut d = [0i8; 6];
-            for (k, col) in dir_cols.iter().enumerate() {
+        // the canonical cell's columns for tables read without a model (pose requests)
+        let kinds: &[JointKind] = if self.kinds.is_empty() { &MECA500_ON_GUIDE_KINDS } else { &self.kinds };
+        let dir_cols = dir_columns(kinds);
+        let dir = if !dir_cols.is_empty() && dir_cols.iter().all(|(_, c)| self.has(c)) {
+            let mut d = [0i8; MAX_JOINTS];
+            for (joint, col) in &dir_cols {
                 let v = self.float(line, rec, col)?;
-                d[k] = match v {
+                d[joint - 1] = match v {
                     1.0 => 1,
                     -1.0 => -1,
                     0.0 => 0,
@@ -288,8 +400,8 @@ fn csv_error(path: &Path, e: &csv::Error) -> IoError {
     IoError::Csv { path: path.into(), line, message: e.to_string() }
 }
 
-/// Reads `tcp,q1..q7` rows (input of `vatcal fk` / `vatcal torque`) with the optional
-/// `time_s`, `temperature_c`, `dir2..dir7` columns; TCP ids are checked against the model,
+/// Reads `tcp,q1..qN` rows (input of `vatcal fk` / `vatcal torque`) with the optional
+/// `time_s`, `temperature_c`, `dir{i}` columns; TCP ids are checked against the model,
 /// joints against its limits, and the context columns its effects need must be present
 /// ([`IoError::ModelNeedsColumn`]).
 ///
@@ -310,13 +422,13 @@ fn csv_error(path: &Path, e: &csv::Error) -> IoError {
 ///
 /// # Errors
 /// [`IoError::File`] (cannot read), [`IoError::Csv`] (broken CSV), [`IoError::MissingColumn`],
+/// [`IoError::JointColumns`] (the `q` columns do not match the model's joint count),
 /// [`IoError::Empty`] (no data rows), [`IoError::Row`] naming the line and column of a bad value
 /// (not a number, an unknown TCP id, a joint outside its limits, a bad context value), and
 /// [`IoError::ModelNeedsColumn`] when the model's effects need context columns the file lacks.
 pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<JointRow>, IoError> {
     let path = path.as_ref();
-    let required = ["tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"];
-    let t = Table::read(path, &required)?;
+    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
     t.check_model_columns(model)?;
     let tcps = model.tcp_ids();
     t.rows
@@ -332,15 +444,14 @@ pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Join
         .collect()
 }
 
-/// Reads probe measurements `position,tcp,q1..q7` with the optional `time_s`,
-/// `temperature_c`, `dir2..dir7` columns.
+/// Reads probe measurements `position,tcp,q1..qN` with the optional `time_s`,
+/// `temperature_c`, `dir{i}` columns.
 ///
 /// # Errors
 /// As [`read_joint_rows`]; the `position` id is checked against the model too.
 pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
     let path = path.as_ref();
-    let required = ["position", "tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"];
-    let t = Table::read(path, &required)?;
+    let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
     t.check_model_columns(model)?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     t.rows
@@ -358,14 +469,13 @@ pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<
         .collect()
 }
 
-/// Reads tracker measurements `tcp,q1..q7,x,y,z` (world, mm), with the same optional columns.
+/// Reads tracker measurements `tcp,q1..qN,x,y,z` (world, mm), with the same optional columns.
 ///
 /// # Errors
 /// As [`read_joint_rows`]; `x,y,z` must be finite numbers.
 pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
     let path = path.as_ref();
-    let required = ["tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7", "x", "y", "z"];
-    let t = Table::read(path, &required)?;
+    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]))?;
     t.check_model_columns(model)?;
     let tcps = model.tcp_ids();
     t.rows
@@ -388,7 +498,7 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
 /// both kinds mixed (a row with an empty `position` and filled `x,y,z` is a tracker row).
 pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
     let path = path.as_ref();
-    let t = Table::read(path, &["tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"])?;
+    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
     t.check_model_columns(model)?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
@@ -396,7 +506,7 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
         return Err(IoError::MissingColumn {
             path: path.into(),
             column: "position (probe rows) or x,y,z (tracker rows)".into(),
-            required: "tcp,q1..q7 and position or x,y,z".into(),
+            required: format!("tcp,{} and position or x,y,z", span(&joint_columns(model.joint_count()))),
         });
     }
     t.rows
@@ -440,11 +550,10 @@ pub struct CandidateTable {
     pub measurements: Vec<Measurement>,
 }
 
-/// Reads candidate poses `position,tcp,q1..q7` (other columns kept verbatim).
+/// Reads candidate poses `position,tcp,q1..qN` (other columns kept verbatim).
 pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<CandidateTable, IoError> {
     let path = path.as_ref();
-    let required = ["position", "tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"];
-    let t = Table::read(path, &required)?;
+    let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let mut measurements = Vec::with_capacity(t.rows.len());
     for (line, rec) in &t.rows {
@@ -486,27 +595,50 @@ fn writer(path: &Path) -> Result<csv::Writer<std::fs::File>, IoError> {
     Ok(csv::Writer::from_writer(f))
 }
 
-fn joint_fields(q: &JointVector) -> Vec<String> {
-    q.to_mm_deg().iter().map(|v| v.to_string()).collect()
+/// The joint values of `q` in file units, `kinds.len()` fields (a missing value is empty).
+fn joint_fields(q: &JointVector, kinds: &[JointKind]) -> Vec<String> {
+    let file = q.to_file_units(kinds);
+    (0..kinds.len()).map(|k| file.get(k).map(|v| v.to_string()).unwrap_or_default()).collect()
 }
 
-/// Writes `tcp,q1..q7` rows.
+/// Writes `tcp,q1..q7` rows of the canonical 7-joint Meca500-on-guide cell (q1 in mm, q2..q7
+/// in degrees); [`write_joint_rows_for`] writes any chain.
 pub fn write_joint_rows(path: impl AsRef<Path>, rows: &[(u32, JointVector)]) -> Result<(), IoError> {
+    write_joint_rows_for(path, rows, &MECA500_ON_GUIDE_KINDS)
+}
+
+/// Writes `tcp,q1..qN` rows of a chain with joints `kinds` (mm for prismatic, degrees for
+/// revolute joints).
+pub fn write_joint_rows_for(
+    path: impl AsRef<Path>,
+    rows: &[(u32, JointVector)],
+    kinds: &[JointKind],
+) -> Result<(), IoError> {
     let path = path.as_ref();
     let mut w = writer(path)?;
     let mut header = vec!["tcp".to_string()];
-    header.extend(JOINT_COLUMNS.iter().map(|s| s.to_string()));
+    header.extend(joint_columns(kinds.len()));
     w.write_record(&header).map_err(|e| csv_error(path, &e))?;
     for (tcp, q) in rows {
         let mut rec = vec![tcp.to_string()];
-        rec.extend(joint_fields(q));
+        rec.extend(joint_fields(q, kinds));
         w.write_record(&rec).map_err(|e| csv_error(path, &e))?;
     }
     w.flush().map_err(|source| IoError::File { path: path.into(), cause: source })
 }
 
-/// Renders measurements as CSV text (see [`write_measurements`]).
+/// Renders measurements of the canonical 7-joint Meca500-on-guide cell as CSV text (see
+/// [`write_measurements`]); [`measurements_to_csv_for`] renders any chain.
 pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
+    measurements_to_csv_for(measurements, &MECA500_ON_GUIDE_KINDS)
+}
+
+/// Renders measurements of a chain with joints `kinds` as CSV text: `q1..qN` in mm
+/// (prismatic) / degrees (revolute), `dir{i}` for the revolute joints (see
+/// [`write_measurements_for`]).
+pub fn measurements_to_csv_for(measurements: &[Measurement], kinds: &[JointKind]) -> String {
+    let joint_cols = joint_columns(kinds.len());
+    let dir_cols = dir_columns(kinds);
     let any_probe = measurements.iter().any(|m| matches!(m.target, Target::Probe { .. }));
     let any_tracker = measurements.iter().any(|m| matches!(m.target, Target::Tracker { .. }));
     let time = measurements.iter().any(|m| m.context.time_s.is_some());
@@ -518,7 +650,7 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
         header.push("position");
     }
     header.push("tcp");
-    header.extend(JOINT_COLUMNS);
+    header.extend(joint_cols.iter().map(String::as_str));
     if any_tracker {
         header.extend(["x", "y", "z"]);
     }
@@ -529,7 +661,7 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
         header.push("temperature_c");
     }
     if dir {
-        header.extend(["dir2", "dir3", "dir4", "dir5", "dir6", "dir7"]);
+        header.extend(dir_cols.iter().map(|(_, c)| c.as_str()));
     }
     if offset {
         header.extend(OFFSET_COLUMNS);
@@ -542,7 +674,7 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
             rec.push(m.position().map(|p| p.to_string()).unwrap_or_default());
         }
         rec.push(m.tcp.to_string());
-        rec.extend(joint_fields(&m.q));
+        rec.extend(joint_fields(&m.q, kinds));
         if any_tracker {
             match m.target {
                 Target::Tracker { xyz_mm } => rec.extend(xyz_mm.iter().map(|v| v.to_string())),
@@ -557,8 +689,8 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
         }
         if dir {
             match m.context.dir {
-                Some(d) => rec.extend(d.iter().map(|v| v.to_string())),
-                None => rec.extend(std::iter::repeat_n(String::new(), 6)),
+                Some(d) => rec.extend(dir_cols.iter().map(|(joint, _)| d[joint - 1].to_string())),
+                None => rec.extend(std::iter::repeat_n(String::new(), dir_cols.len())),
             }
         }
         if offset {
@@ -573,8 +705,10 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
     out
 }
 
-/// Writes probe and/or tracker measurements with every column they use: `position` (probe),
-/// `tcp`, `q1..q7` (mm/deg), `x,y,z` (tracker), `time_s`, `temperature_c`, `dir2..dir7`.
+/// Writes probe and/or tracker measurements of the canonical 7-joint Meca500-on-guide cell
+/// with every column they use: `position` (probe), `tcp`, `q1..q7` (mm/deg), `x,y,z`
+/// (tracker), `time_s`, `temperature_c`, `dir2..dir7`; [`write_measurements_for`] writes any
+/// chain.
 ///
 /// # Examples
 /// A measurement written and read back is bit-identical (shortest round-trip formatting):
@@ -596,8 +730,20 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
 /// # Errors
 /// [`IoError::File`] when the file cannot be written.
 pub fn write_measurements(path: impl AsRef<Path>, measurements: &[Measurement]) -> Result<(), IoError> {
+    write_measurements_for(path, measurements, &MECA500_ON_GUIDE_KINDS)
+}
+
+/// Writes probe and/or tracker measurements of a chain with joints `kinds` (e.g.
+/// `model.joint_kinds()`): `position` (probe), `tcp`, `q1..qN` (mm for prismatic, degrees for
+/// revolute joints), `x,y,z` (tracker), `time_s`, `temperature_c`, `dir{i}` of the revolute
+/// joints, the centring offsets.
+pub fn write_measurements_for(
+    path: impl AsRef<Path>,
+    measurements: &[Measurement],
+    kinds: &[JointKind],
+) -> Result<(), IoError> {
     let path = path.as_ref();
-    std::fs::write(path, measurements_to_csv(measurements))
+    std::fs::write(path, measurements_to_csv_for(measurements, kinds))
         .map_err(|source| IoError::File { path: path.into(), cause: source })
 }
 
@@ -620,11 +766,20 @@ pub struct PoseRow {
     pub context: MeasurementContext,
 }
 
-/// Reads pose requests `tcp,q1,x,y,z,alpha,beta,gamma` with the optional `time_s`,
-/// `temperature_c`, `dir2..dir7` columns; TCP ids are checked against the model and `q1`
-/// against the guide limits.
+/// Reads pose requests `tcp,q1,x,y,z,alpha,beta,gamma` of the canonical Meca500-on-guide cell
+/// with the optional `time_s`, `temperature_c`, `dir2..dir7` columns; TCP ids are checked
+/// against the model and `q1` against the guide limits. Another chain is an error.
 pub fn read_pose_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<PoseRow>, IoError> {
     let path = path.as_ref();
+    if !model.is_meca500_on_guide() {
+        return Err(IoError::UnsupportedChain {
+            path: path.into(),
+            reason: format!(
+                "pose requests (tcp,q1,x,y,z,alpha,beta,gamma) are for the 7-joint Meca500-on-guide cell; this model has {}",
+                model.describe_chain()
+            ),
+        });
+    }
     let required = ["tcp", "q1", "x", "y", "z", "alpha", "beta", "gamma"];
     let t = Table::read(path, &required)?;
     let tcps = model.tcp_ids();
@@ -763,10 +918,67 @@ mod tests {
         }
         let f = file("position,tcp,q1,q2,q3,q4,q5,q6\n1,1,100,0,0,0,0,0\n");
         let e = read_probe_measurements(f.path(), &m).expect_err("must fail").to_string();
-        assert!(e.contains("missing column `q7`"), "{e}");
+        assert!(e.contains(":1: the model has 7 joints: expected the joint columns q1..q7"), "{e}");
+        let f = file("position,q1,q2,q3,q4,q5,q6,q7\n1,100,0,0,0,0,0,0\n");
+        let e = read_probe_measurements(f.path(), &m).expect_err("must fail").to_string();
+        assert!(e.contains("missing column `tcp`"), "{e}");
         let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,0,0,0,0\n");
         let e = read_probe_measurements(f.path(), &m).expect_err("must fail").to_string();
         assert!(e.contains("malformed CSV"), "{e}");
+    }
+
+    fn fixture_model(name: &str) -> Model {
+        let cell =
+            CellFile::load(format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).expect("fixture");
+        Model::from_cell(&cell).expect("model")
+    }
+
+    #[test]
+    fn n_joint_models_read_and_write_q1_to_qn_and_their_dir_columns() {
+        let ur = fixture_model("ur5e.toml");
+        let f = file(
+            "tcp,q1,q2,q3,q4,q5,q6,dir1,dir2,dir3,dir4,dir5,dir6,x,y,z\n2,10,-20,30,-40,50,-60,1,-1,1,-1,1,-1,1,2,3\n",
+        );
+        let ms = read_tracker_measurements(f.path(), &ur).expect("ok");
+        assert_eq!(ms[0].q.len(), 6);
+        assert!((ms[0].q[5].to_degrees() + 60.0).abs() < 1e-12);
+        assert_eq!(ms[0].context.dir_of(1), 1);
+        assert_eq!(ms[0].context.dir_of(6), -1);
+        let text = measurements_to_csv_for(&ms, ur.joint_kinds());
+        assert!(text.starts_with("tcp,q1,q2,q3,q4,q5,q6,x,y,z,dir1,dir2,dir3,dir4,dir5,dir6\n"), "{text}");
+        let out = tempfile::NamedTempFile::new().expect("tmp");
+        write_measurements_for(out.path(), &ms, ur.joint_kinds()).expect("write");
+        assert_eq!(read_tracker_measurements(out.path(), &ur).expect("reread"), ms);
+        // the canonical cell's 7 columns on a 6-joint model: file, header line and the
+        // expected columns are named
+        let f = file("# seven\ntcp,q1,q2,q3,q4,q5,q6,q7\n1,0,0,0,0,0,0,0\n");
+        let e = read_joint_rows(f.path(), &ur).expect_err("7 columns for 6 joints").to_string();
+        assert!(
+            e.contains(&format!(
+                "{}:2: the model has 6 joints: expected the joint columns q1..q6",
+                f.path().display()
+            )),
+            "{e}"
+        );
+        // and six columns on the 7-joint cell
+        let f = file("tcp,q1,q2,q3,q4,q5,q6\n1,0,0,0,0,0,0\n");
+        let e = read_joint_rows(f.path(), &model()).expect_err("6 columns for 7 joints").to_string();
+        assert!(e.contains("expected the joint columns q1..q7, the header has q1,q2,q3,q4,q5,q6"), "{e}");
+        // joint rows of any chain round-trip, in degrees for revolute joints
+        let rows = vec![(3, ms[0].q)];
+        let out = tempfile::NamedTempFile::new().expect("tmp");
+        write_joint_rows_for(out.path(), &rows, ur.joint_kinds()).expect("write");
+        let back = read_joint_rows(out.path(), &ur).expect("reread");
+        assert_eq!((back[0].tcp, back[0].q), (3, ms[0].q));
+        // limits of the Meca500 alone, in degrees
+        let meca = fixture_model("meca500-table.toml");
+        let f = file("tcp,q1,q2,q3,q4,q5,q6\n1,0,95,0,0,0,0\n");
+        let e = read_joint_rows(f.path(), &meca).expect_err("J2 limit").to_string();
+        assert!(e.contains(":2: column `q2`: 95 deg is outside the joint limits"), "{e}");
+        // pose requests are for the Meca500-on-guide cell only
+        let f = file("tcp,q1,x,y,z,alpha,beta,gamma\n1,0,0,0,0,0,0,0\n");
+        let e = read_pose_rows(f.path(), &ur).expect_err("not the guide cell").to_string();
+        assert!(e.contains("Meca500-on-guide"), "{e}");
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //!
 //! Loads `fixtures/meca500-zaber.toml`, prints the world position of every TCP at one pose,
 //! the origins of the MDH frames, and the 3 × 34 Jacobian of TCP 1 with respect to the paper's
-//! 34 parameters; one column is checked against a central finite difference.
+//! 34 parameters; one column is checked against a central finite difference. Then the same FK
+//! on another chain: the UR5e-class arm of `fixtures/ur5e.toml` (six revolute joints, no guide).
 //!
 //! ```text
 //! cargo run -p vatcal-kinematics --example fk_jacobian
@@ -22,10 +23,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("TCP {tcp}: world position ({:9.4}, {:9.4}, {:9.4}) mm", p.x, p.y, p.z);
     }
     let chain = model.chain(&q);
-    for (i, f) in chain.frames.iter().enumerate() {
+    for (i, f) in chain.frames.iter().take(model.joint_count() + 1).enumerate() {
         println!("  MDH frame {i} origin ({:9.3}, {:9.3}, {:9.3}) mm", f.p.x, f.p.y, f.p.z);
     }
-    println!("gravity torques tau2..tau7 [N·m]: {:.4?}", model.gravity_torques(&q));
+    let tau = model.gravity_torques(&q);
+    println!(
+        "gravity torques tau1..tau{} [N·m] (0 on the prismatic guide): {:.4?}",
+        model.joint_count(),
+        &tau[..model.joint_count()]
+    );
 
     // analytic Jacobian of TCP 1 with respect to the paper's 34 parameters
     let params = ParamSet::paper34();
@@ -50,5 +56,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if diff > 1e-5 {
         return Err(format!("Jacobian column `{}` disagrees with the finite difference", id.name()).into());
     }
+
+    // any serial chain: the UR5e-class 6R arm of fixtures/ur5e.toml (cell file version 2)
+    let ur5e =
+        Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))?)?;
+    let q6 = JointVector::from_file_units(&[0.0, -90.0, 90.0, -90.0, -90.0, 0.0], ur5e.joint_kinds())?;
+    let p = ur5e.tcp_position(&q6, 1)?;
+    println!("UR5e, {}: TCP 1 at ({:.4}, {:.4}, {:.4}) mm", ur5e.describe_chain(), p.x, p.y, p.z);
     Ok(())
 }

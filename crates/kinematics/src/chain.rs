@@ -3,7 +3,7 @@
 use nalgebra::{Matrix3, Vector3};
 use vatcal_core::effects::{EffectSpec, ThermalDriver};
 use vatcal_core::params::{Axis, EffectParam};
-use vatcal_core::{Frame, JointVector, MeasurementContext};
+use vatcal_core::{Frame, JointKind, JointVector, MAX_JOINTS, MeasurementContext};
 use vatcal_gravity_torque::gravity_torques;
 
 use vatcal_core::frame::{rot_x as rx, rot_y as ry, rot_z as rz};
@@ -39,23 +39,27 @@ pub(crate) struct InsertAxes {
 /// All frames of the chain for one joint vector, in the world (tank) frame.
 #[derive(Debug, Clone)]
 pub struct Chain {
-    /// World poses of MDH frames 0..=7. Frame 1 is the carriage, including the guide effects
-    /// when they are switched on; frame 7 is the last-joint (flange) frame.
-    pub frames: [Frame; 8],
-    /// The tool-changer frame in which TCPs are given: frame 7, times the `tool-frame` effect
+    /// World poses of MDH frames 0..=N (`frames[..=n]`; later entries are identity). The frame
+    /// of the guide joint (frame 1 on the canonical cell, the carriage) includes the guide
+    /// effects when they are switched on; frame N is the last-joint (flange) frame.
+    pub frames: [Frame; MAX_JOINTS + 1],
+    /// Number of joints N.
+    pub n: usize,
+    /// The tool-changer frame in which TCPs are given: frame N, times the `tool-frame` effect
     /// transform when that effect is on.
     pub tool: Frame,
-    /// Gravity torques tau_2..tau_7 [N·m] used for the compliance (zeros when not evaluated).
-    pub torques: [f64; 6],
+    /// Gravity torques [N·m] used for the compliance, `torques[i - 1]` for joint i (0 for
+    /// prismatic joints; all zeros when not evaluated).
+    pub torques: [f64; MAX_JOINTS],
     /// Whether `torques` were evaluated.
     pub torques_evaluated: bool,
     /// Gravity moment [N·m] of the arm and its load about the carriage origin, components
     /// along the carriage x and y axes (evaluated when `guide-carriage-tilt` is on or when
     /// given; `None` otherwise).
     pub carriage_moment: Option<[f64; 2]>,
-    /// Joint angles theta_1..theta_7 [rad] that entered Eq. (1).
-    pub theta: [f64; 7],
-    pub(crate) axes: [RowAxes; 7],
+    /// Joint angles theta_1..theta_N [rad] that entered Eq. (1), `theta[i - 1]` for row i.
+    pub theta: [f64; MAX_JOINTS],
+    pub(crate) axes: [RowAxes; MAX_JOINTS],
     pub(crate) guide: Option<InsertAxes>,
     pub(crate) tool_axes: Option<InsertAxes>,
     pub(crate) thermal_factor: f64,
@@ -66,6 +70,16 @@ impl Chain {
     pub fn tool_point(&self, t: &Vector3<f64>) -> Vector3<f64> {
         self.tool.transform_point(t)
     }
+
+    /// The flange frame N in the world.
+    pub fn flange(&self) -> Frame {
+        self.frames[self.n]
+    }
+
+    /// World poses of frames 0..=N.
+    pub fn frames(&self) -> &[Frame] {
+        &self.frames[..=self.n]
+    }
 }
 
 /// Gravity loads evaluated on a model's undeflected geometry: what the compliance-type effects
@@ -73,8 +87,8 @@ impl Chain {
 /// derivatives the analytic Jacobian computes (second-order terms dropped).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GravityLoads {
-    /// gravity torques tau_2..tau_7 [N·m]
-    pub torques: [f64; 6],
+    /// gravity torques [N·m], `torques[i - 1]` for joint i (0 for prismatic joints)
+    pub torques: [f64; MAX_JOINTS],
     /// gravity moment about the carriage origin along the carriage x and y axes [N·m]
     pub carriage_moment: [f64; 2],
 }
@@ -117,48 +131,87 @@ fn rz_tz_trig(fixed: &Frame, (s, c): (f64, f64), d: f64) -> Frame {
 }
 
 impl Model {
-    /// Gravity torques `[tau_2..tau_7]` [N·m] at `q`, on this model's own geometry (its MDH rows
-    /// incl. beta, its base orientation), with all compliances zero and no iteration.
-    pub fn gravity_torques(&self, q: &JointVector) -> [f64; 6] {
+    /// Gravity torques [N·m] at `q`, `tau[i - 1]` for joint i (0 for prismatic joints and
+    /// beyond N), on this model's own geometry (its MDH rows incl. beta, its base
+    /// orientation), with all compliances zero and no iteration.
+    ///
+    /// # Panics
+    /// If `q` does not have [`Model::joint_count`] values (a programming error).
+    #[track_caller]
+    pub fn gravity_torques(&self, q: &JointVector) -> [f64; MAX_JOINTS] {
+        self.assert_len(q);
         let trig = self.undeflected_trig(q);
         self.gravity_torques_trig(q, &trig)
     }
 
-    /// `(sin, cos)` of the undeflected joint angles `q_i + theta_offset_i` (row 1: constant).
-    fn undeflected_trig(&self, q: &JointVector) -> [(f64, f64); 7] {
-        let mut trig = [(0.0, 1.0); 7];
-        for (k, t) in trig.iter_mut().enumerate() {
-            let th = if k == 0 { 0.0 } else { q.0[k] };
-            *t = (th + self.rows[k].theta_offset).sin_cos();
+    #[inline]
+    #[track_caller]
+    pub(crate) fn assert_len(&self, q: &JointVector) {
+        assert!(q.len() == self.n, "joint vector of {} values for a chain of {} joints", q.len(), self.n);
+    }
+
+    /// `(sin, cos)` of the undeflected joint angles `q_i + theta_offset_i` (prismatic rows:
+    /// constant `theta_offset_i`).
+    #[inline]
+    fn undeflected_trig(&self, q: &JointVector) -> [(f64, f64); MAX_JOINTS] {
+        let mut trig = [(0.0, 1.0); MAX_JOINTS];
+        let q = q.as_slice();
+        for k in 0..self.n {
+            let th = if self.kinds[k].is_revolute() { q[k] } else { 0.0 };
+            trig[k] = (th + self.rows[k].theta_offset).sin_cos();
         }
         trig
     }
 
-    fn gravity_torques_trig(&self, q: &JointVector, trig: &[(f64, f64); 7]) -> [f64; 6] {
-        let mut links = [Frame::identity(); 7];
-        for (k, link) in links.iter_mut().enumerate() {
-            let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
-            *link = rz_tz_trig(&self.row_fixed[k], trig[k], d);
+    /// `d_i` of row k (0-based) on the undeflected geometry.
+    #[inline(always)]
+    fn row_d(&self, k: usize, q: &[f64]) -> f64 {
+        match self.kinds[k] {
+            JointKind::Revolute => self.rows[k].d,
+            JointKind::Prismatic => q[k] + self.rows[k].d,
         }
-        gravity_torques(&links, &self.base_frame.r, &self.masses, &self.gravity)
     }
 
-    /// Gravity moment [N·m] of the moving arm (links 2..7 and the tool) about the origin of the
-    /// carriage frame 1, as components along the carriage x and y axes, on this model's own
-    /// undeflected geometry (no effect, no compliance). With a vertical guide the moment about
-    /// the guide axis (z) is zero, so only x and y are returned.
+    #[inline]
+    fn gravity_torques_trig(&self, q: &JointVector, trig: &[(f64, f64); MAX_JOINTS]) -> [f64; MAX_JOINTS] {
+        let mut links = [Frame::identity(); MAX_JOINTS];
+        let qs = q.as_slice();
+        for k in 0..self.n {
+            links[k] = rz_tz_trig(&self.row_fixed[k], trig[k], self.row_d(k, qs));
+        }
+        gravity_torques(
+            &links[..self.n],
+            &self.kinds[..self.n],
+            &self.base_frame.r,
+            &self.masses,
+            &self.gravity,
+        )
+    }
+
+    /// Gravity moment [N·m] of everything distal to the guide joint g ([`Model::guide_joint`];
+    /// on the canonical cell: links 2..7 and the tool) about the origin of the carriage frame
+    /// g, as components along the carriage x and y axes, on this model's own undeflected
+    /// geometry (no effect, no compliance). With a vertical guide the moment about the guide
+    /// axis (z) is zero, so only x and y are returned. Zero when the chain has no guide.
+    ///
+    /// # Panics
+    /// If `q` does not have [`Model::joint_count`] values (a programming error).
+    #[track_caller]
+    #[allow(clippy::needless_range_loop)] // several parallel per-row arrays
     pub fn carriage_moment(&self, q: &JointVector) -> [f64; 2] {
+        self.assert_len(q);
+        let Some(g) = self.guide else { return [0.0; 2] };
         let trig = self.undeflected_trig(q);
+        let qs = q.as_slice();
         let mut w = self.base_frame;
         let mut carriage = w;
         let mut moment = Vector3::zeros();
-        for (k, tr) in trig.iter().enumerate() {
-            let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
-            w = w.compose(&rz_tz_trig(&self.row_fixed[k], *tr, d));
-            if k == 0 {
+        for k in 0..self.n {
+            w = w.compose(&rz_tz_trig(&self.row_fixed[k], trig[k], self.row_d(k, qs)));
+            if k == g {
                 carriage = w;
-            } else {
-                let body = self.masses.links[k - 1];
+            } else if k > g {
+                let body = self.masses.body(k + 1);
                 let arm_m = (w.transform_point(&body.com_mm) - carriage.p) * 1e-3;
                 moment += arm_m.cross(&(self.gravity * body.mass_kg));
             }
@@ -173,17 +226,25 @@ impl Model {
 
     /// Lean FK of a point in the tool frame when no effect is switched on: no Jacobian axes,
     /// and the deflected angles reuse the trigonometry of the torque pass.
+    #[allow(clippy::needless_range_loop)] // several parallel per-row arrays
     fn fast_tool_point(&self, q: &JointVector, t: &Vector3<f64>) -> Vector3<f64> {
         let trig = self.undeflected_trig(q);
-        let tau = if self.any_compliance { Some(self.gravity_torques_trig(q, &trig)) } else { None };
+        let qs = q.as_slice();
         let mut w = self.base_frame;
-        for (k, &(s, c)) in trig.iter().enumerate() {
-            let d = if k == 0 { q.0[0] + self.rows[0].d } else { self.rows[k].d };
-            let tr = match tau {
-                Some(tau) if k > 0 => add_small_angle((s, c), self.compliance[k] * tau[k - 1]),
-                _ => (s, c),
-            };
-            w = w.compose(&rz_tz_trig(&self.row_fixed[k], tr, d));
+        if self.any_compliance {
+            let tau = self.gravity_torques_trig(q, &trig);
+            for k in 0..self.n {
+                let tr = if self.kinds[k].is_revolute() {
+                    add_small_angle(trig[k], self.compliance[k] * tau[k])
+                } else {
+                    trig[k]
+                };
+                w = w.compose(&rz_tz_trig(&self.row_fixed[k], tr, self.row_d(k, qs)));
+            }
+        } else {
+            for k in 0..self.n {
+                w = w.compose(&rz_tz_trig(&self.row_fixed[k], trig[k], self.row_d(k, qs)));
+            }
         }
         w.transform_point(t)
     }
@@ -206,9 +267,9 @@ impl Model {
         f
     }
 
-    /// Additive joint-angle effects (cyclic, scale, backlash) on cell joint `j` (2..=7) [rad].
+    /// Additive joint-angle effects (cyclic, scale, backlash) on revolute joint `j` [rad].
     pub(crate) fn joint_effect_angle(&self, j: u8, q: &JointVector, ctx: &MeasurementContext) -> f64 {
-        let qj = q.0[j as usize - 1];
+        let qj = q[j as usize - 1];
         let mut dtheta = 0.0;
         for e in &self.effects {
             match *e {
@@ -221,7 +282,7 @@ impl Model {
                     dtheta += self.effect_value(EffectParam::JointScale { joint }) * qj;
                 }
                 EffectSpec::JointBacklash { joint } if joint == j => {
-                    let dir = ctx.dir.map_or(0.0, |d| f64::from(d[j as usize - 2]));
+                    let dir = f64::from(ctx.dir_of(j));
                     dtheta += self.effect_value(EffectParam::Backlash { joint }) * dir;
                 }
                 _ => {}
@@ -279,12 +340,16 @@ impl Model {
     /// Computes every frame at `q`. Torques are evaluated when a compliance is non-zero or
     /// `with_torques` is set; `fixed_torques` overrides them (used to check the Jacobian,
     /// which holds tau fixed).
+    ///
+    /// # Panics
+    /// If `q` does not have [`Model::joint_count`] values (a programming error).
+    #[track_caller]
     pub fn chain_full(
         &self,
         q: &JointVector,
         ctx: &MeasurementContext,
         with_torques: bool,
-        fixed_torques: Option<&[f64; 6]>,
+        fixed_torques: Option<&[f64; MAX_JOINTS]>,
     ) -> Chain {
         self.chain_inner(q, ctx, with_torques, fixed_torques, None)
     }
@@ -292,22 +357,28 @@ impl Model {
     /// Every frame at `q` with all gravity loads held at `loads` (torques for the compliances,
     /// carriage moment for `guide-carriage-tilt`): the function whose derivatives the analytic
     /// Jacobian gives.
+    ///
+    /// # Panics
+    /// If `q` does not have [`Model::joint_count`] values (a programming error).
+    #[track_caller]
     pub fn chain_with_loads(&self, q: &JointVector, ctx: &MeasurementContext, loads: &GravityLoads) -> Chain {
         self.chain_inner(q, ctx, true, Some(&loads.torques), Some(loads.carriage_moment))
     }
 
+    #[track_caller]
     fn chain_inner(
         &self,
         q: &JointVector,
         ctx: &MeasurementContext,
         with_torques: bool,
-        fixed_torques: Option<&[f64; 6]>,
+        fixed_torques: Option<&[f64; MAX_JOINTS]>,
         fixed_moment: Option<[f64; 2]>,
     ) -> Chain {
+        self.assert_len(q);
         let (torques, torques_evaluated) = match fixed_torques {
             Some(t) => (*t, true),
             None if with_torques || self.any_compliance => (self.gravity_torques(q), true),
-            None => ([0.0; 6], false),
+            None => ([0.0; MAX_JOINTS], false),
         };
         let carriage_moment = match fixed_moment {
             Some(m) => Some(m),
@@ -320,19 +391,20 @@ impl Model {
         } else {
             0.0
         };
-        let mut frames = [Frame::identity(); 8];
-        let mut axes = [RowAxes::default(); 7];
-        let mut theta = [0.0; 7];
+        let mut frames = [Frame::identity(); MAX_JOINTS + 1];
+        let mut axes = [RowAxes::default(); MAX_JOINTS];
+        let mut theta = [0.0; MAX_JOINTS];
         let mut guide = None;
         let mut w = self.base_frame;
         frames[0] = w;
-        for k in 0..7 {
+        for k in 0..self.n {
             let row = &self.rows[k];
             let mut fixed = self.row_fixed[k];
-            let (th, d) = if k == 0 {
-                (row.theta_offset, q.0[0] * (1.0 + guide_scale) + row.d)
+            let (th, d) = if self.kinds[k] == JointKind::Prismatic {
+                let scale = if self.guide == Some(k) { 1.0 + guide_scale } else { 1.0 };
+                (row.theta_offset, q[k] * scale + row.d)
             } else {
-                let mut th = q.0[k] + row.theta_offset + self.compliance[k] * torques[k - 1];
+                let mut th = q[k] + row.theta_offset + self.compliance[k] * torques[k];
                 if self.has_joint_effects {
                     th += self.joint_effect_angle(k as u8 + 1, q, ctx);
                 }
@@ -353,9 +425,9 @@ impl Model {
             w = w.compose(&rz_tz(&fixed, th, d));
             axes[k].z = w.z_axis();
             axes[k].o = w.p;
-            if k == 0
+            if self.guide == Some(k)
                 && !self.effects.is_empty()
-                && let Some((sx, sy, e)) = self.guide_insert(self.guide_u(q.0[0]), carriage_moment)
+                && let Some((sx, sy, e)) = self.guide_insert(self.guide_u(q[k]), carriage_moment)
             {
                 let (ins, ax) = insert_transform(&w, sx, sy, e[0], e[1], Some(e[2]));
                 guide = Some(ax);
@@ -372,6 +444,7 @@ impl Model {
         }
         Chain {
             frames,
+            n: self.n,
             tool,
             torques,
             torques_evaluated,
@@ -385,6 +458,11 @@ impl Model {
     }
 
     /// Every frame at `q` (no per-sample context).
+    ///
+    /// # Panics
+    /// If `q` does not have [`Model::joint_count`] values (a programming error; the
+    /// `Result`-returning functions such as [`Model::tcp_position`] check it).
+    #[track_caller]
     pub fn chain(&self, q: &JointVector) -> Chain {
         self.chain_full(q, &MeasurementContext::default(), false, None)
     }
@@ -397,6 +475,7 @@ impl Model {
         tcp: u32,
     ) -> Result<Vector3<f64>, ModelError> {
         let t = self.tcp_or_err(tcp)?;
+        self.check_joint_count(q)?;
         if self.effects.is_empty() {
             return Ok(self.fast_tool_point(q, &t));
         }

@@ -43,12 +43,12 @@ impl Model {
         id: ParamId,
     ) -> Result<Vector3<f64>, ModelError> {
         let rot = |w: Vector3<f64>, o: Vector3<f64>| w.cross(&(p - o));
-        let thermal = |i: u8| if i >= 2 { chain.thermal_factor } else { 1.0 };
+        let thermal = |i: u8| if self.is_revolute(i as usize) { chain.thermal_factor } else { 1.0 };
         let dtheta = |j: u8| {
             let a = &chain.axes[j as usize - 1];
             rot(a.z, a.o)
         };
-        let row_ok = |i: u8| (1..=7).contains(&i);
+        let row_ok = |i: u8| (1..=self.n).contains(&(i as usize));
         if !self.has_param(id) && !matches!(id, ParamId::Effect(_)) {
             return Err(ModelError::ParamNotInModel(id.name()));
         }
@@ -64,11 +64,11 @@ impl Model {
             }
             ParamId::ThetaOffset(i) if row_ok(i) => dtheta(i),
             ParamId::D(i) if row_ok(i) => chain.axes[i as usize - 1].z * thermal(i),
-            ParamId::Compliance(j) => {
+            ParamId::Compliance(j) if self.is_revolute(j as usize) => {
                 let tau = if chain.torques_evaluated {
-                    chain.torques[j as usize - 2]
+                    chain.torques[j as usize - 1]
                 } else {
-                    self.gravity_torques(q)[j as usize - 2]
+                    self.gravity_torques(q)[j as usize - 1]
                 };
                 dtheta(j) * tau
             }
@@ -106,18 +106,15 @@ impl Model {
         e: EffectParam,
     ) -> Result<Vector3<f64>, ModelError> {
         let rot = |w: Vector3<f64>, o: Vector3<f64>| w.cross(&(p - o));
-        let joint_ok = |j: u8| {
-            if (2..=7).contains(&j) {
-                Ok(())
-            } else {
-                Err(ModelError::ParamNotInModel(ParamId::Effect(e).name()))
-            }
-        };
+        let missing = || ModelError::ParamNotInModel(ParamId::Effect(e).name());
+        let joint_ok = |j: u8| if self.is_revolute(j as usize) { Ok(()) } else { Err(missing()) };
         let dtheta = |j: u8| {
             let a = &chain.axes[j as usize - 1];
             rot(a.z, a.o)
         };
-        let u = self.guide_u(q.0[0]);
+        let u = self.guide_u(self.guide_q(q));
+        // the guide effects act after the guide joint's frame g (1-based)
+        let guide_frame = || self.guide.map(|g| g + 1).ok_or_else(missing);
         Ok(match e {
             EffectParam::CyclicSin { joint, harmonic } => {
                 joint_ok(joint)?;
@@ -133,14 +130,16 @@ impl Model {
             }
             EffectParam::Backlash { joint } => {
                 joint_ok(joint)?;
-                dtheta(joint) * ctx.dir.map_or(0.0, |d| f64::from(d[joint as usize - 2]))
+                dtheta(joint) * f64::from(ctx.dir_of(joint))
             }
             EffectParam::GuideAngular { axis, order } => {
-                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[1]));
+                let g = guide_frame()?;
+                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[g]));
                 rot(ax.rot[axis.index()], ax.o) * legendre(order, u)
             }
             EffectParam::GuideStraightness { axis, order } => {
-                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[1]));
+                let g = guide_frame()?;
+                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[g]));
                 let dir = match axis {
                     Axis::X => ax.tx,
                     Axis::Y => ax.ty,
@@ -148,19 +147,23 @@ impl Model {
                 };
                 dir * legendre(order, u)
             }
-            EffectParam::GuideScale => chain.axes[0].z * q.0[0],
+            EffectParam::GuideScale => {
+                let g = guide_frame()?;
+                chain.axes[g - 1].z * q[g - 1]
+            }
             EffectParam::CarriageTilt { axis } => {
                 let k = match axis {
                     Axis::X => 0,
                     Axis::Y => 1,
                     Axis::Z => return Err(ModelError::ParamNotInModel(ParamId::Effect(e).name())),
                 };
-                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[1]));
+                let g = guide_frame()?;
+                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[g]));
                 let moment = chain.carriage_moment.unwrap_or_else(|| self.carriage_moment(q));
                 rot(ax.rot[k], ax.o) * moment[k]
             }
             EffectParam::ToolFrame(dof) => {
-                let ax = chain.tool_axes.unwrap_or_else(|| Self::zero_insert(&chain.frames[7]));
+                let ax = chain.tool_axes.unwrap_or_else(|| Self::zero_insert(&chain.frames[self.n]));
                 match dof {
                     ToolFrameDof::Tx => ax.tx,
                     ToolFrameDof::Ty => ax.ty,
@@ -175,7 +178,7 @@ impl Model {
                     ctx.temperature_c.map_or(0.0, |t| t - self.thermal_reference_c)
                 };
                 let mut col = Vector3::zeros();
-                for k in 1..7 {
+                for k in (0..self.n).filter(|k| self.kinds[*k].is_revolute()) {
                     let a = &chain.axes[k];
                     col += a.x_prev * self.rows[k].a + a.z * self.rows[k].d;
                 }
@@ -201,6 +204,7 @@ impl Model {
     ) -> Result<Vector3<f64>, ModelError> {
         assert_eq!(out.len(), 3 * params.len(), "jacobian_into: out has the wrong length");
         let t = self.tcp_or_err(tcp)?;
+        self.check_joint_count(q)?;
         let needs_tau = params.iter().any(|p| matches!(p, ParamId::Compliance(_)));
         let chain = self.chain_full(q, ctx, needs_tau, None);
         let p = chain.tool_point(&t);

@@ -1,14 +1,15 @@
 //! # vatcal-kinematics
 //!
-//! The cell's geometric model (paper Section 3) with joint compliance and a catalog of further
-//! error effects, in internal units (mm, rad):
+//! The geometric model of a serial chain of 1..=12 joints (paper Section 3, generalised) with
+//! joint compliance and a catalog of further error effects, in internal units (mm, rad):
 //!
 //! * MDH rows exactly as Eq. (1): `H_i^{i-1} = Rx(alpha_{i-1}) Tx(a_{i-1}) Ry(beta_{i-1})
 //!   Rz(theta_i) Tz(d_i)`, beta accepted on every row;
-//! * joint 1 prismatic (`d_1 = q1 + d_offset`), joints 2..7 revolute
-//!   (`theta_i = q_i + theta_offset_i + c_i tau_i + effects`);
+//! * each joint prismatic (`d_i = q_i + d_offset_i`) or revolute
+//!   (`theta_i = q_i + theta_offset_i + c_i tau_i + effects`), in any order — on the canonical
+//!   cell joint 1 is the prismatic guide and joints 2..7 the revolute Meca500 joints;
 //! * base pose `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`;
-//! * TCP k at `t_k` in the tool-changer frame.
+//! * TCP k at `t_k` in the tool-changer frame (frame N).
 //!
 //! [`Model`] holds the parameters, [`Model::chain`] computes every frame, [`Model::tcp_position`]
 //! the TCP, and [`Model::jacobian`] the analytic derivative of a TCP position with respect to

@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use vatcal_core::cell::{CellFile, EffectEntry};
 use vatcal_core::effects::{EffectKind, EffectSpec, ThermalDriver};
 use vatcal_core::params::{BaseParam, EffectParam, ParamUnit};
-use vatcal_core::{JointVector, ParamId, ParamSet, deg_to_rad, rad_to_deg};
+use vatcal_core::{JointKind, JointVector, MAX_JOINTS, ParamId, ParamSet, deg_to_rad, rad_to_deg};
 use vatcal_gravity_torque::MassModel;
 
 use vatcal_core::Frame;
@@ -53,28 +53,55 @@ pub enum ModelError {
         /// given count
         got: usize,
     },
+    /// A joint vector does not have one value per joint of the chain.
+    #[error("the chain has {expected} joints, the joint vector has {got} values")]
+    JointCount {
+        /// joints of the chain
+        expected: usize,
+        /// values given
+        got: usize,
+    },
+    /// The cell's chain cannot be modelled (e.g. an unknown joint kind in an unvalidated file).
+    #[error("invalid chain: {0}")]
+    InvalidChain(String),
+    /// The operation needs the canonical Meca500-on-guide chain (7 joints: a prismatic guide,
+    /// then six revolute joints).
+    #[error(
+        "{0} needs the 7-joint Meca500-on-guide chain (prismatic guide + 6 revolute joints); this chain is {1}"
+    )]
+    NotMeca500OnGuide(String, String),
 }
 
-/// The cell model: MDH rows, compliances, base pose, TCPs, calibration positions, masses and
-/// switched-on effects. Internal units (mm, rad). Cheap to clone.
+/// The cell model of a serial chain of N = 1..=[`MAX_JOINTS`] joints: MDH rows, joint kinds,
+/// compliances, base pose, TCPs, calibration positions, masses and switched-on effects.
+/// Internal units (mm, rad). Cheap to clone.
 #[derive(Debug, Clone)]
 pub struct Model {
-    pub(crate) rows: [MdhRow; 7],
-    /// c_i for cell joint i at index i-1 (index 0 unused)
-    pub(crate) compliance: [f64; 7],
+    /// number of joints N
+    pub(crate) n: usize,
+    /// kinds of joints 1..=N at index i-1 (entries from N on unused)
+    pub(crate) kinds: [JointKind; MAX_JOINTS],
+    pub(crate) rows: [MdhRow; MAX_JOINTS],
+    /// c_i for joint i at index i-1 (0 for prismatic joints)
+    pub(crate) compliance: [f64; MAX_JOINTS],
     /// x, y, z [mm], alpha, beta, gamma [rad]
     pub(crate) base: [f64; 6],
     pub(crate) tcps: Vec<(u32, Vector3<f64>)>,
     pub(crate) positions: Vec<(u32, Vector3<f64>)>,
-    pub(crate) limits: [(f64, f64); 7],
+    /// joint limits (None = continuous revolute joint)
+    pub(crate) limits: [Option<(f64, f64)>; MAX_JOINTS],
+    /// limits with continuous joints as (-pi, pi), for [`Model::joint_limits`]
+    pub(crate) ranges: [(f64, f64); MAX_JOINTS],
+    /// 0-based index of the joint the guide effects act on (the first prismatic joint)
+    pub(crate) guide: Option<usize>,
     pub(crate) masses: MassModel,
     pub(crate) gravity: Vector3<f64>,
     pub(crate) effects: Vec<EffectSpec>,
     pub(crate) effect_values: BTreeMap<ParamId, f64>,
     pub(crate) thermal_reference_c: f64,
     // caches (kept in sync by `refresh_caches`)
-    pub(crate) row_fixed: [Frame; 7],
-    pub(crate) row_trig: [(f64, f64); 7],
+    pub(crate) row_fixed: [Frame; MAX_JOINTS],
+    pub(crate) row_trig: [(f64, f64); MAX_JOINTS],
     pub(crate) base_frame: Frame,
     pub(crate) any_compliance: bool,
     pub(crate) has_joint_effects: bool,
@@ -127,11 +154,13 @@ impl Model {
     /// effect (unknown name, missing joint / order, an unknown value key), and the errors of
     /// [`Model::enable_effect`] and [`Model::set_param`] for its values.
     pub fn from_cell(cell: &CellFile) -> Result<Self, ModelError> {
-        let mut rows = [MdhRow { alpha: 0.0, a: 0.0, beta: 0.0, theta_offset: 0.0, d: 0.0 }; 7];
-        let mut compliance = [0.0; 7];
-        let mut limits = [(0.0, 0.0); 7];
+        let n = cell.joints.len().clamp(1, MAX_JOINTS);
+        let mut rows = [MdhRow { alpha: 0.0, a: 0.0, beta: 0.0, theta_offset: 0.0, d: 0.0 }; MAX_JOINTS];
+        let mut compliance = [0.0; MAX_JOINTS];
+        let mut limits = [None; MAX_JOINTS];
+        let mut kinds = [JointKind::Revolute; MAX_JOINTS];
         for j in &cell.joints {
-            let k = (j.index as usize).saturating_sub(1).min(6);
+            let k = (j.index as usize).saturating_sub(1).min(n - 1);
             rows[k] = MdhRow {
                 alpha: deg_to_rad(j.alpha_deg),
                 a: j.a_mm,
@@ -139,13 +168,25 @@ impl Model {
                 theta_offset: deg_to_rad(j.theta_deg),
                 d: j.d_mm,
             };
-            if j.index >= 2 {
+            let kind = j.joint_kind().ok_or_else(|| {
+                ModelError::InvalidChain(format!(
+                    "joints[index={}].kind: unknown joint kind `{}`",
+                    j.index, j.kind
+                ))
+            })?;
+            kinds[k] = kind;
+            limits[k] = j.limits().map(|(lo, hi)| (kind.from_file_unit(lo), kind.from_file_unit(hi)));
+            if kind.is_revolute() {
                 compliance[k] = j.compliance_rad_per_n_m;
-                limits[k] = (deg_to_rad(j.q_min), deg_to_rad(j.q_max));
-            } else {
-                limits[k] = (j.q_min, j.q_max);
             }
         }
+        let mut ranges = [(-std::f64::consts::PI, std::f64::consts::PI); MAX_JOINTS];
+        for (r, l) in ranges.iter_mut().zip(&limits) {
+            if let Some(l) = l {
+                *r = *l;
+            }
+        }
+        let guide = kinds[..n].iter().position(|k| *k == JointKind::Prismatic);
         let b = &cell.base_in_world;
         let base = [
             b.x_mm,
@@ -157,19 +198,23 @@ impl Model {
         ];
         let point = |p: &vatcal_core::cell::PointEntry| (p.id, Vector3::new(p.x_mm, p.y_mm, p.z_mm));
         let mut model = Self {
+            n,
+            kinds,
             rows,
             compliance,
             base,
             tcps: cell.tcps.iter().map(point).collect(),
             positions: cell.calibration_positions.iter().map(point).collect(),
             limits,
+            ranges,
+            guide,
             masses: MassModel::from_inertials(&cell.inertials),
             gravity: Vector3::from(cell.gravity.vector_m_per_s2),
             effects: Vec::new(),
             effect_values: BTreeMap::new(),
             thermal_reference_c: 20.0,
-            row_fixed: [Frame::identity(); 7],
-            row_trig: [(0.0, 1.0); 7],
+            row_fixed: [Frame::identity(); MAX_JOINTS],
+            row_trig: [(0.0, 1.0); MAX_JOINTS],
             base_frame: Frame::identity(),
             any_compliance: false,
             has_joint_effects: false,
@@ -210,14 +255,14 @@ impl Model {
     pub fn to_cell(&self) -> CellFile {
         let mut cell = self.template.clone();
         for j in cell.joints.iter_mut() {
-            let k = (j.index as usize).saturating_sub(1).min(6);
+            let k = (j.index as usize).saturating_sub(1).min(self.n - 1);
             let r = &self.rows[k];
             j.alpha_deg = rad_to_deg(r.alpha);
             j.a_mm = r.a;
             j.beta_deg = rad_to_deg(r.beta);
             j.theta_deg = rad_to_deg(r.theta_offset);
             j.d_mm = r.d;
-            if j.index >= 2 {
+            if self.kinds[k].is_revolute() {
                 j.compliance_rad_per_n_m = self.compliance[k];
             }
         }
@@ -292,13 +337,79 @@ impl Model {
         e
     }
 
-    /// MDH row `i` (1..=7).
+    /// Number of joints N of the chain.
+    #[inline]
+    pub fn joint_count(&self) -> usize {
+        self.n
+    }
+
+    /// Kinds of joints 1..=N.
+    #[inline]
+    pub fn joint_kinds(&self) -> &[JointKind] {
+        &self.kinds[..self.n]
+    }
+
+    /// Kind of joint `i` (1..=N).
     ///
     /// # Panics
-    /// If `i` is not in 1..=7.
+    /// If `i` is not in 1..=N.
+    #[track_caller]
+    pub fn joint_kind(&self, i: usize) -> JointKind {
+        self.joint_kinds()[i - 1]
+    }
+
+    /// True when joint `i` (1-based) exists and is revolute.
+    #[inline]
+    pub fn is_revolute(&self, i: usize) -> bool {
+        (1..=self.n).contains(&i) && self.kinds[i - 1].is_revolute()
+    }
+
+    /// The joint the guide effects act on (1-based): the first prismatic joint, if any.
+    pub fn guide_joint(&self) -> Option<usize> {
+        self.guide.map(|g| g + 1)
+    }
+
+    /// True for the canonical chain of cell file version 1: 7 joints, a prismatic guide
+    /// followed by the six revolute Meca500 joints.
+    pub fn is_meca500_on_guide(&self) -> bool {
+        self.n == 7
+            && self.kinds[0] == JointKind::Prismatic
+            && self.kinds[1..7].iter().all(|k| k.is_revolute())
+    }
+
+    /// `Ok` on the canonical Meca500-on-guide chain; otherwise the error
+    /// [`ModelError::NotMeca500OnGuide`] naming `what` needs it.
+    pub fn require_meca500_on_guide(&self, what: &str) -> Result<(), ModelError> {
+        if self.is_meca500_on_guide() {
+            Ok(())
+        } else {
+            Err(ModelError::NotMeca500OnGuide(what.to_string(), self.describe_chain()))
+        }
+    }
+
+    /// A short description of the chain, e.g. `6 joints (RRRRRR)` (R revolute, P prismatic).
+    pub fn describe_chain(&self) -> String {
+        let letters: String =
+            self.joint_kinds().iter().map(|k| if k.is_revolute() { 'R' } else { 'P' }).collect();
+        format!("{} joints ({letters})", self.n)
+    }
+
+    /// `Ok` when `q` has one value per joint.
+    pub fn check_joint_count(&self, q: &JointVector) -> Result<(), ModelError> {
+        if q.len() == self.n {
+            Ok(())
+        } else {
+            Err(ModelError::JointCount { expected: self.n, got: q.len() })
+        }
+    }
+
+    /// MDH row `i` (1..=N).
+    ///
+    /// # Panics
+    /// If `i` is not in 1..=N.
     #[track_caller]
     pub fn row(&self, i: usize) -> &MdhRow {
-        &self.rows[i - 1]
+        &self.rows[..self.n][i - 1]
     }
 
     /// Base pose `[x, y, z] mm, [alpha, beta, gamma] rad`.
@@ -311,22 +422,38 @@ impl Model {
         self.base_frame
     }
 
-    /// Compliance `c_i` of cell joint `i` (2..=7) [rad/(N·m)].
+    /// Compliance `c_i` of joint `i` (1..=N; 0 for prismatic joints) [rad/(N·m)].
+    ///
+    /// # Panics
+    /// If `i` is not in 1..=N.
+    #[track_caller]
     pub fn compliance(&self, i: usize) -> f64 {
-        self.compliance[i - 1]
+        self.compliance[..self.n][i - 1]
     }
 
-    /// Joint limits in internal units (mm for joint 1, rad otherwise), index = cell joint - 1.
-    pub fn joint_limits(&self) -> [(f64, f64); 7] {
-        self.limits
+    /// Joint ranges in internal units (mm for prismatic, rad for revolute joints), index =
+    /// joint - 1, one per joint. A continuous joint (no limits) reports one turn
+    /// `(-pi, pi)`; see [`Model::joint_limit`] for the limits as given.
+    pub fn joint_limits(&self) -> &[(f64, f64)] {
+        &self.ranges[..self.n]
     }
 
-    /// Returns the first joint outside its limits as `(cell joint, value, min, max)`.
+    /// Limits of joint `i` (1..=N) in internal units, `None` for a continuous joint (or an
+    /// index outside the chain).
+    pub fn joint_limit(&self, i: usize) -> Option<(f64, f64)> {
+        if (1..=self.n).contains(&i) { self.limits[i - 1] } else { None }
+    }
+
+    /// Returns the first joint outside its limits as `(joint, value, min, max)`; continuous
+    /// joints are never outside. A joint vector of the wrong length reports the first
+    /// missing joint (value NaN).
     pub fn limit_violation(&self, q: &JointVector) -> Option<(usize, f64, f64, f64)> {
-        (0..7).find_map(|k| {
-            let (lo, hi) = self.limits[k];
-            let v = q.0[k];
-            (!(lo..=hi).contains(&v)).then_some((k + 1, v, lo, hi))
+        (0..self.n).find_map(|k| {
+            let v = q.as_slice().get(k).copied().unwrap_or(f64::NAN);
+            match self.limits[k] {
+                Some((lo, hi)) => (!(lo..=hi).contains(&v)).then_some((k + 1, v, lo, hi)),
+                None => (!v.is_finite()).then_some((k + 1, v, f64::NEG_INFINITY, f64::INFINITY)),
+            }
         })
     }
 
@@ -398,16 +525,31 @@ impl Model {
     /// index out of range or an effect that needs a joint the chain lacks).
     pub fn enable_effect(&mut self, spec: EffectSpec) -> Result<(), ModelError> {
         let invalid = |m: &str| Err(ModelError::InvalidEffect(spec.label(), m.to_string()));
+        let chain = self.describe_chain();
         match spec {
             EffectSpec::JointCompliance { joint }
             | EffectSpec::JointScale { joint }
             | EffectSpec::JointBacklash { joint }
-                if !(2..=7).contains(&joint) =>
+                if !self.is_revolute(joint as usize) =>
             {
-                return invalid("joint must be a revolute joint 2..=7");
+                return invalid(&format!("joint must be a revolute joint of this chain of {chain}"));
             }
-            EffectSpec::JointCyclic { joint, harmonic } if !(2..=7).contains(&joint) || harmonic == 0 => {
-                return invalid("joint must be 2..=7 and harmonic >= 1");
+            EffectSpec::JointCyclic { joint, harmonic }
+                if !self.is_revolute(joint as usize) || harmonic == 0 =>
+            {
+                return invalid(&format!(
+                    "joint must be a revolute joint of this chain of {chain}, and harmonic >= 1"
+                ));
+            }
+            EffectSpec::GuideAngular { .. }
+            | EffectSpec::GuideStraightness { .. }
+            | EffectSpec::GuideScale
+            | EffectSpec::GuideCarriageTilt
+                if self.guide.is_none() =>
+            {
+                return invalid(&format!(
+                    "guide effects act on a prismatic joint, and this chain of {chain} has none"
+                ));
             }
             EffectSpec::GuideAngular { order } if !(1..=4).contains(&order) => {
                 return invalid("order must be 1..=4");
@@ -421,8 +563,8 @@ impl Model {
             EffectSpec::PositionOffset { position } if self.position(position).is_none() => {
                 return invalid("unknown calibration position id");
             }
-            EffectSpec::HayatiBeta { row } if !(1..=7).contains(&row) => {
-                return invalid("row must be 1..=7");
+            EffectSpec::HayatiBeta { row } if !(1..=self.n).contains(&(row as usize)) => {
+                return invalid(&format!("row must be 1..={}", self.n));
             }
             _ => {}
         }
@@ -453,8 +595,8 @@ impl Model {
             | ParamId::A(i)
             | ParamId::Beta(i)
             | ParamId::ThetaOffset(i)
-            | ParamId::D(i) => (1..=7).contains(&i),
-            ParamId::Compliance(i) => (2..=7).contains(&i),
+            | ParamId::D(i) => (1..=self.n).contains(&(i as usize)),
+            ParamId::Compliance(i) => self.is_revolute(i as usize),
             ParamId::Base(_) => true,
             ParamId::Tcp { id, .. } => self.tcp(id).is_some(),
             ParamId::Position { id, .. } => self.position(id).is_some(),
@@ -466,7 +608,7 @@ impl Model {
     pub fn param(&self, id: ParamId) -> Result<f64, ModelError> {
         let missing = || ModelError::ParamNotInModel(id.name());
         let row = |i: u8| -> Result<&MdhRow, ModelError> {
-            self.rows.get((i as usize).wrapping_sub(1)).ok_or_else(missing)
+            self.rows[..self.n].get((i as usize).wrapping_sub(1)).ok_or_else(missing)
         };
         Ok(match id {
             ParamId::Alpha(i) => row(i)?.alpha,
@@ -474,7 +616,7 @@ impl Model {
             ParamId::Beta(i) => row(i)?.beta,
             ParamId::ThetaOffset(i) => row(i)?.theta_offset,
             ParamId::D(i) => row(i)?.d,
-            ParamId::Compliance(i) if (2..=7).contains(&i) => self.compliance[i as usize - 1],
+            ParamId::Compliance(i) if self.is_revolute(i as usize) => self.compliance[i as usize - 1],
             ParamId::Compliance(_) => return Err(missing()),
             ParamId::Base(b) => self.base[base_index(b)],
             ParamId::Tcp { id: t, axis } => self.tcp(t).ok_or_else(missing)?[axis.index()],
@@ -546,7 +688,7 @@ impl Model {
 
     /// Every parameter this model has: the built-ins and those of switched-on effects.
     pub fn all_params(&self) -> ParamSet {
-        let mut s = ParamSet::all_builtin(&self.tcp_ids(), &self.position_ids());
+        let mut s = ParamSet::all_builtin_chain(self.joint_kinds(), &self.tcp_ids(), &self.position_ids());
         s.0.extend(self.effect_values.keys().copied());
         s
     }
@@ -556,12 +698,13 @@ impl Model {
     }
 
     pub(crate) fn refresh_caches(&mut self) {
-        for (k, row) in self.rows.iter().enumerate() {
+        for (k, row) in self.rows[..self.n].iter().enumerate() {
             self.row_fixed[k] = row_fixed_frame(row);
             self.row_trig[k] = row.alpha.sin_cos();
         }
         self.base_frame = base_frame(&self.base);
-        self.any_compliance = self.compliance[1..].iter().any(|c| *c != 0.0);
+        self.any_compliance =
+            self.compliance[..self.n].iter().zip(&self.kinds).any(|(c, k)| k.is_revolute() && *c != 0.0);
         self.has_joint_effects = self.effects.iter().any(|e| {
             matches!(
                 e,
@@ -572,11 +715,18 @@ impl Model {
         });
     }
 
-    /// Normalised guide coordinate `u = (q1 - mid) / half_stroke` in [-1, 1] over the stroke.
-    pub fn guide_u(&self, q1_mm: f64) -> f64 {
-        let (lo, hi) = self.limits[0];
+    /// Normalised guide coordinate `u = (q_g - mid) / half_stroke` in [-1, 1] over the stroke
+    /// of the guide joint g ([`Model::guide_joint`]); 0 when the chain has no guide.
+    pub fn guide_u(&self, q_guide_mm: f64) -> f64 {
+        let Some((lo, hi)) = self.guide.and_then(|g| self.limits[g]) else { return 0.0 };
         let half = 0.5 * (hi - lo);
-        if half > 0.0 { (q1_mm - 0.5 * (hi + lo)) / half } else { 0.0 }
+        if half > 0.0 { (q_guide_mm - 0.5 * (hi + lo)) / half } else { 0.0 }
+    }
+
+    /// Value of the guide joint in `q` [mm] (0 when the chain has no guide).
+    #[inline]
+    pub(crate) fn guide_q(&self, q: &JointVector) -> f64 {
+        self.guide.and_then(|g| q.as_slice().get(g).copied()).unwrap_or(0.0)
     }
 }
 

@@ -622,13 +622,28 @@ pub fn rank_deficient_error(report: &IdentifiabilityReport) -> ObservabilityErro
     }
 }
 
-/// The preference order used by [`all_identifiable`]: the paper's 34 parameters first (Eq. 7
-/// order), then every other parameter of the model (MDH rows 1..7, compliances, base, then
-/// the parameters of switched-on effects). TCP and calibration-position coordinates are left
-/// out: they are measured on a CMM and kept fixed, and leaving them free would make the world
-/// frame and the tool frame trade places with them.
+/// The preference order used by [`all_identifiable`]. On the canonical Meca500-on-guide cell:
+/// the paper's 34 parameters first (Eq. 7 order), then every other parameter of the model (MDH
+/// rows 1..7, compliances, base, then the parameters of switched-on effects). On any other
+/// chain: `alpha`, `a`, `theta_offset`, `d` of rows 1..N (the four classical MDH values), then
+/// the Hayati `beta` of every row (so that beta enters the basis only where the classical
+/// values cannot describe the chain, i.e. at parallel axes), the compliances of the revolute
+/// joints, the base pose, then the parameters of switched-on effects. TCP and
+/// calibration-position coordinates are left out: they are measured on a CMM and kept fixed,
+/// and leaving them free would make the world frame and the tool frame trade places with them.
 pub fn preference_order(model: &Model) -> ParamSet {
-    let mut v: Vec<ParamId> = ParamSet::paper34().0.into_iter().filter(|p| model.has_param(*p)).collect();
+    let mut v: Vec<ParamId> = if model.is_meca500_on_guide() {
+        ParamSet::paper34().0.into_iter().filter(|p| model.has_param(*p)).collect()
+    } else {
+        let rows = 1..=model.joint_count() as u8;
+        let mut v: Vec<ParamId> = rows
+            .clone()
+            .flat_map(|i| [ParamId::Alpha(i), ParamId::A(i), ParamId::ThetaOffset(i), ParamId::D(i)])
+            .collect();
+        v.extend(rows.clone().map(ParamId::Beta));
+        v.extend(rows.map(ParamId::Compliance).filter(|p| model.has_param(*p)));
+        v
+    };
     for p in model.all_params().0 {
         if !matches!(p, ParamId::Tcp { .. } | ParamId::Position { .. }) && !v.contains(&p) {
             v.push(p);
@@ -638,14 +653,22 @@ pub fn preference_order(model: &Model) -> ParamSet {
 }
 
 /// The identifiable basis of all the model's parameters ([`preference_order`]) for these
-/// measurements — what `--params all-identifiable` means. With poses at all three calibration
-/// positions of the canonical cell this is exactly the paper's 34.
+/// measurements — what `--params all-identifiable` means, and the default parameter set of any
+/// chain other than the canonical cell. With poses at all three calibration positions of the
+/// canonical cell this is exactly the paper's 34.
 pub fn all_identifiable(model: &Model, measurements: &[Measurement]) -> Result<ParamSet, ObservabilityError> {
     Ok(analyze(model, measurements, &preference_order(model))?.identifiable_set())
 }
 
+/// The default parameter set of `model`: the paper's 34 on the canonical Meca500-on-guide
+/// cell, the [`all_identifiable`] basis for these measurements on any other chain.
+pub fn default_params(model: &Model, measurements: &[Measurement]) -> Result<ParamSet, ObservabilityError> {
+    if model.is_meca500_on_guide() { Ok(ParamSet::paper34()) } else { all_identifiable(model, measurements) }
+}
+
 /// Resolves a `--params` specification: `paper34`, `geometric`, a comma-separated list of
-/// names, or `all-identifiable` (the [`all_identifiable`] basis for these measurements).
+/// names, `all-identifiable` (the [`all_identifiable`] basis for these measurements) or
+/// `default` ([`default_params`]).
 pub fn param_set_from_spec(
     spec: &str,
     model: &Model,
@@ -653,6 +676,9 @@ pub fn param_set_from_spec(
 ) -> Result<ParamSet, ObservabilityError> {
     if spec.trim() == "all-identifiable" {
         return all_identifiable(model, measurements);
+    }
+    if spec.trim() == "default" {
+        return default_params(model, measurements);
     }
     let set = ParamSet::parse(spec)
         .map_err(|e| ObservabilityError::InvalidInput(format!("parameter set `{spec}`: {e}")))?;

@@ -121,7 +121,10 @@ fn joints(result: &PathResult) -> Vec<JointVector> {
 }
 
 fn largest_difference(a: &[JointVector], b: &[JointVector]) -> f64 {
-    a.iter().zip(b).flat_map(|(x, y)| x.0.iter().zip(&y.0).map(|(u, v)| (u - v).abs())).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .flat_map(|(x, y)| x.as_slice().iter().zip(y.as_slice()).map(|(u, v)| (u - v).abs()))
+        .fold(0.0, f64::max)
 }
 
 /// Solves the printing path of `plan` with `vatcal-compensation` — the slices' tool poses at
@@ -274,7 +277,7 @@ mod tests {
         assert!(t.correction_mm.iter().all(|d| *d < 1e-6), "{:?}", t.correction_mm);
         // a commanded joint off by 1e-4 rad is caught, naming the run
         let mut bad = plan.clone();
-        bad.path_runs[1].joints[7].0[3] += 1e-4;
+        bad.path_runs[1].joints[7][3] += 1e-4;
         let e = check_printing_path(&nominal, &nominal, &bad).expect_err("mismatch");
         assert!(e.to_string().contains("`calibrated`") && e.to_string().contains("1.000e-4"), "{e}");
         // a missing run is an error, not a silent skip

@@ -166,6 +166,7 @@ pub struct CandidateSet {
 
 /// Evenly spaced guide positions over the stroke shrunk by `margin_mm` (the middle for one step).
 pub fn guide_positions(model: &Model, steps: usize, margin_mm: f64) -> Result<Vec<f64>, PlanError> {
+    model.require_meca500_on_guide("guide positions for planning")?;
     if steps == 0 {
         return Err(PlanError::Option { option: "guide_steps".into(), reason: "must be at least 1".into() });
     }
@@ -267,7 +268,7 @@ impl Pipeline<'_> {
                     counts.ik_solutions += 1;
                 }
                 let mut q = refined.q;
-                for v in q.0.iter_mut().skip(1) {
+                for v in q.as_mut_slice().iter_mut().skip(1) {
                     *v = wrap_angle(*v);
                 }
                 if found.iter().any(|p| max_abs_diff(p, &q) < 1e-9) || !self.bounds.contains(&q) {
@@ -319,7 +320,7 @@ impl Pipeline<'_> {
         target.p.z += self.opts.retreat_height_mm;
         let refined = refine_tool_pose(self.model, q, &target, &self.opts.refine).ok()?;
         let mut a = refined.q;
-        for (v, q0) in a.0.iter_mut().zip(&q.0).skip(1) {
+        for (v, q0) in a.as_mut_slice().iter_mut().zip(q.as_slice()).skip(1) {
             // stay on the same side of the +-pi cut as the measurement pose
             *v = q0 + wrap_angle(*v - q0);
         }

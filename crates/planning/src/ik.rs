@@ -114,7 +114,7 @@ pub fn rotation_angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
 /// Includes the model's base pose, guide effects and the fixed part of row 2.
 pub fn robot_base_frame(model: &Model, q1_mm: f64) -> Frame {
     let mut q = JointVector::default();
-    q.0[0] = q1_mm;
+    q[0] = q1_mm;
     let chain = model.chain(&q);
     let row = model.row(2);
     let fixed = Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) };
@@ -197,6 +197,12 @@ impl ArmGeometry {
     /// is accepted: its small deviations are removed by the refinement).
     pub fn from_model(model: &Model) -> Result<Self, PlanError> {
         use std::f64::consts::FRAC_PI_2;
+        if !model.is_meca500_on_guide() {
+            return Err(PlanError::UnsupportedArm(format!(
+                "the closed-form IK needs the 7-joint Meca500-on-guide chain (prismatic guide + 6 revolute joints); this chain has {}",
+                model.describe_chain()
+            )));
+        }
         let angle = |row: usize, want: f64| {
             let got = model.row(row).alpha;
             if (wrap_angle(got - want)).abs() > STRUCTURE_ANGLE_TOL_RAD {
@@ -470,7 +476,7 @@ pub fn refine_tool_pose(
             };
             let mut trial = q;
             for k in 0..6 {
-                trial.0[k + 1] += step[k];
+                trial[k + 1] += step[k];
             }
             let (e, ch) = tool_error(model, &trial, target);
             if cost(&e) < c0 || done(&e) {
@@ -530,8 +536,8 @@ fn closed_form_is_exact(model: &Model, arm: &ArmGeometry) -> bool {
     ];
     tests.iter().all(|t| {
         let q = JointVector::from_mm_deg(t[0], [t[1], t[2], t[3], t[4], t[5], t[6]]);
-        let arm_q: [f64; 6] = std::array::from_fn(|k| q.0[k + 1]);
-        let nominal = robot_base_frame(model, q.0[0]).compose(&arm.forward(&arm_q));
+        let arm_q: [f64; 6] = std::array::from_fn(|k| q[k + 1]);
+        let nominal = robot_base_frame(model, q[0]).compose(&arm.forward(&arm_q));
         let actual = model.chain(&q).tool;
         (nominal.p - actual.p).norm() < 1e-9 && rotation_angle_between(&nominal.r, &actual.r) < 1e-12
     })
@@ -591,7 +597,7 @@ impl<'a> ToolPoseIk<'a> {
             let mut q = [0.0; 7];
             q[0] = q1_mm;
             q[1..].copy_from_slice(arm);
-            JointVector(q)
+            JointVector::new(q)
         };
         let mut out = Vec::with_capacity(solutions.len());
         for ((arm, beyond), branch) in
@@ -625,7 +631,7 @@ impl<'a> ToolPoseIk<'a> {
         for seed in self.seeds(q1_mm, &base, target) {
             if let Ok(r) = self.refine(&seed.q, target) {
                 let mut q = r.q;
-                for v in q.0.iter_mut().skip(1) {
+                for v in q.as_mut_slice().iter_mut().skip(1) {
                     *v = wrap_angle(*v);
                 }
                 if !out.iter().any(|p| max_abs_diff(p, &q) < 1e-9) {
@@ -644,7 +650,7 @@ impl<'a> ToolPoseIk<'a> {
 
 /// Largest absolute componentwise difference of two joint vectors (internal units).
 pub(crate) fn max_abs_diff(a: &JointVector, b: &JointVector) -> f64 {
-    a.0.iter().zip(&b.0).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.as_slice().iter().zip(b.as_slice()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
 /// World tool-changer-frame pose that puts TCP offset `tcp_in_tool` at `point_world` with tool

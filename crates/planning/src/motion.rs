@@ -60,7 +60,7 @@ impl MotionTimer {
 
     /// Time (s) of the synchronised joint move from `a` to `b`.
     pub fn move_time_s(&self, a: &JointVector, b: &JointVector) -> f64 {
-        (0..7).map(|k| (b.0[k] - a.0[k]).abs() / self.speed[k]).fold(0.0, f64::max)
+        (0..7).map(|k| (b[k] - a[k]).abs() / self.speed[k]).fold(0.0, f64::max)
     }
 
     /// Time (s) along a polyline of joint vectors.
@@ -90,9 +90,9 @@ impl Resolution {
     /// Number of intervals needed to go from `a` to `b` at this resolution (>= 1).
     pub fn intervals(&self, a: &JointVector, b: &JointVector) -> usize {
         let step_rad = deg_to_rad(self.max_joint_step_deg);
-        let mut n = (b.0[0] - a.0[0]).abs() / self.max_guide_step_mm;
+        let mut n = (b[0] - a[0]).abs() / self.max_guide_step_mm;
         for k in 1..7 {
-            n = n.max((b.0[k] - a.0[k]).abs() / step_rad);
+            n = n.max((b[k] - a[k]).abs() / step_rad);
         }
         (n.ceil() as usize).max(1)
     }
@@ -117,7 +117,7 @@ impl Resolution {
 pub fn interpolate(a: &JointVector, b: &JointVector, t: f64) -> JointVector {
     let mut q = *a;
     for k in 0..7 {
-        q.0[k] = a.0[k] + t * (b.0[k] - a.0[k]);
+        q[k] = a[k] + t * (b[k] - a[k]);
     }
     q
 }
@@ -138,7 +138,9 @@ impl JointBounds {
     /// The model's limits shrunk by `joint_margin_deg` on the arm joints and `guide_margin_mm`
     /// on the guide.
     pub fn new(model: &Model, joint_margin_deg: f64, guide_margin_mm: f64) -> Result<Self, PlanError> {
-        let mut bounds = model.joint_limits();
+        model.require_meca500_on_guide("joint bounds for planning")?;
+        let mut bounds = [(0.0, 0.0); 7];
+        bounds.copy_from_slice(model.joint_limits());
         for (k, b) in bounds.iter_mut().enumerate() {
             let m = if k == 0 { guide_margin_mm } else { deg_to_rad(joint_margin_deg) };
             *b = (b.0 + m, b.1 - m);
@@ -154,12 +156,12 @@ impl JointBounds {
 
     /// True when every joint is within its shrunk range.
     pub fn contains(&self, q: &JointVector) -> bool {
-        q.0.iter().zip(&self.bounds).all(|(v, (lo, hi))| *v >= *lo && *v <= *hi)
+        q.as_slice().iter().zip(&self.bounds).all(|(v, (lo, hi))| *v >= *lo && *v <= *hi)
     }
 
     /// True when every joint is within its range widened by `slack` (mm / rad).
     pub fn contains_with_slack(&self, q: &JointVector, slack_mm: f64, slack_rad: f64) -> bool {
-        q.0.iter().zip(&self.bounds).enumerate().all(|(k, (v, (lo, hi)))| {
+        q.as_slice().iter().zip(&self.bounds).enumerate().all(|(k, (v, (lo, hi)))| {
             let s = if k == 0 { slack_mm } else { slack_rad };
             *v >= *lo - s && *v <= *hi + s
         })

@@ -197,13 +197,13 @@ enum Extend {
 
 impl Rrt<'_, '_> {
     fn distance(&self, a: &JointVector, b: &JointVector) -> f64 {
-        (0..7).map(|k| ((b.0[k] - a.0[k]) / self.timer.speed[k]).powi(2)).sum::<f64>().sqrt()
+        (0..7).map(|k| ((b[k] - a[k]) / self.timer.speed[k]).powi(2)).sum::<f64>().sqrt()
     }
 
     fn sample(&self, rng: &mut ChaCha8Rng) -> JointVector {
         let mut q = JointVector::default();
         for (k, (lo, hi)) in self.bounds.bounds.iter().enumerate() {
-            q.0[k] = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
+            q[k] = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
         }
         q
     }

@@ -36,12 +36,12 @@ fn verify_every_candidate(model: &Model, set: &CandidateSet, opts: &CandidateOpt
         assert!(err < 1e-6, "candidate {c:?}: TCP {err} mm from the calibration position");
         for (k, (lo, hi)) in limits.iter().enumerate().skip(1) {
             assert!(
-                c.q.0[k] >= lo + margin - 1e-12 && c.q.0[k] <= hi - margin + 1e-12,
+                c.q[k] >= lo + margin - 1e-12 && c.q[k] <= hi - margin + 1e-12,
                 "joint {} of {c:?}",
                 k + 1
             );
         }
-        assert!((limits[0].0..=limits[0].1).contains(&c.q.0[0]));
+        assert!((limits[0].0..=limits[0].1).contains(&c.q[0]));
         assert!(opts.singularity.clear(model, &model.chain(&c.q)));
         let measuring = ProbeState::Measuring { position: c.position, tcp: c.tcp };
         assert!(checker.is_free(&c.q, measuring), "{c:?} collides: {:?}", checker.check(&c.q, measuring));

@@ -38,7 +38,7 @@ fn regular(model: &Model, q: &JointVector) -> bool {
 }
 
 fn max_diff(a: &JointVector, b: &JointVector) -> f64 {
-    a.0.iter().zip(&b.0).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.as_slice().iter().zip(b.as_slice()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
 fn pose_errors(model: &Model, q: &JointVector, target: &Frame) -> (f64, f64) {
@@ -52,12 +52,12 @@ fn closed_form_gives_eight_exact_branches_for_a_generic_pose() {
     let arm = ArmGeometry::from_model(&model).expect("meca500 structure");
     let q = JointVector::from_mm_deg(120.0, [30.0, 20.0, -40.0, 50.0, 60.0, -70.0]);
     let target = model.chain(&q).tool;
-    let base = robot_base_frame(&model, q.0[0]);
+    let base = robot_base_frame(&model, q[0]);
     let solutions = arm.solve(&base.inverse().compose(&target));
     assert_eq!(solutions.len(), 8);
     for s in solutions.as_slice() {
         let mut qs = q;
-        qs.0[1..].copy_from_slice(s);
+        qs[1..].copy_from_slice(s);
         let (dp, dr) = pose_errors(&model, &qs, &target);
         assert!(dp < 1e-9 && dr < 1e-12, "branch {s:?}: {dp} mm, {dr} rad");
     }
@@ -123,13 +123,13 @@ proptest! {
         prop_assume!(regular(&model, &q));
         let target = model.chain(&q).tool;
         let ik = ToolPoseIk::new(&model, RefineOptions::default()).expect("ik");
-        let base = robot_base_frame(&model, q.0[0]);
-        let seeds = ik.seeds(q.0[0], &base, &target);
+        let base = robot_base_frame(&model, q[0]);
+        let seeds = ik.seeds(q[0], &base, &target);
         prop_assert!(seeds.len() >= 2);
         prop_assert!(seeds.iter().all(|s| !s.beyond_reach));
         let nearest = seeds.iter().map(|s| max_diff(&s.q, &q)).fold(f64::INFINITY, f64::min);
         prop_assert!(nearest < 1e-9, "original not among the closed-form solutions (nearest {nearest})");
-        for s in ik.solve_at_guide(q.0[0], &target) {
+        for s in ik.solve_at_guide(q[0], &target) {
             let (dp, dr) = pose_errors(&model, &s, &target);
             prop_assert!(dp < 1e-9 && dr < 1e-12, "{dp} mm, {dr} rad");
         }
@@ -143,7 +143,7 @@ proptest! {
         prop_assume!(regular(&model, &q));
         let target = model.chain(&q).tool;
         let ik = ToolPoseIk::new(&model, RefineOptions::default()).expect("ik");
-        let solutions = ik.solve_at_guide(q.0[0], &target);
+        let solutions = ik.solve_at_guide(q[0], &target);
         let nearest = solutions.iter().map(|s| max_diff(s, &q)).fold(f64::INFINITY, f64::min);
         prop_assert!(nearest < 1e-8, "original not found (nearest {nearest}, {} solutions)", solutions.len());
         for s in &solutions {

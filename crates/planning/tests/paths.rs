@@ -81,7 +81,7 @@ fn free_straight_moves_stay_straight_and_bad_ends_are_reported() {
     let planner = PathPlanner { checker: &checker, bounds: &bounds, timer: &timer, opts: &opts };
     let a = poses[0].retreat;
     let mut b = a;
-    b.0[6] += 0.2; // turn the last joint a little
+    b[6] += 0.2; // turn the last joint a little
     let path = planner.plan(&a, &b, probe, 0).expect("path");
     assert_eq!(path.method, PathMethod::Straight);
     assert_eq!(path.waypoints, vec![a, b]);

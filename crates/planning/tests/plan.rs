@@ -138,7 +138,7 @@ fn files_round_trip_through_the_io_readers() {
     assert_eq!(table.measurements.len(), plan.candidates.candidates.len());
     for (m, c) in table.measurements.iter().zip(&plan.candidates.candidates) {
         assert_eq!((m.tcp, m.position()), (c.tcp, Some(c.position)));
-        let diff = m.q.0.iter().zip(&c.q.0).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        let diff = m.q.as_slice().iter().zip(c.q.as_slice()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         assert!(diff < 1e-12, "round trip changed the joints by {diff}");
     }
     let selected = vatcal_io::read_candidates(dir.join("selected.csv"), &model).expect("selected");

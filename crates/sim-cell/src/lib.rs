@@ -131,6 +131,9 @@ impl SimCellOptions {
         let cell = CellFile::from_toml_str(BUILT_IN_CELL, "fixtures/meca500-zaber.toml (built in)")
             .map_err(|e| SimCellError::Model(e.to_string()))?;
         let nominal = Model::from_cell(&cell).map_err(|e| SimCellError::Model(e.to_string()))?;
+        nominal
+            .require_meca500_on_guide("the simulated cell")
+            .map_err(|e| SimCellError::Model(e.to_string()))?;
         let truth = perturbed_truth(&nominal, seed, &ErrorBudget::realistic());
         Ok(Self {
             bind: IpAddr::V4(Ipv4Addr::LOCALHOST),

@@ -114,7 +114,7 @@ fn the_gauges_read_the_true_ball_where_the_robot_and_guide_put_it() {
     assert_eq!(d.operator.ask(&format!("PLACE {position}")), format!("OK PLACE {position}"));
     assert_eq!(sim.cell().plate_position(), Some(position));
 
-    ok(d.guide.move_absolute_mm(pose.q.0[0], &fast()));
+    ok(d.guide.move_absolute_mm(pose.q[0], &fast()));
     ok(d.guide.wait_idle(TIMEOUT));
     let arm_target = ArmJoints::from_joint_vector(&pose.q);
     ok(d.arm.move_joints_and_wait(&arm_target, &fast()));
@@ -217,7 +217,7 @@ fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
         .into_iter()
         .filter(|m| {
             let limits = nominal.joint_limits();
-            (1..7).all(|k| m.q.0[k] > limits[k].0 + 0.15 && m.q.0[k] < limits[k].1 - 0.15)
+            (1..7).all(|k| m.q[k] > limits[k].0 + 0.15 && m.q[k] < limits[k].1 - 0.15)
                 && vatcal_sim::translation_joint_gain(&nominal, &m.q).is_some_and(|g| g < 0.03)
         })
         .take(8)
@@ -274,9 +274,9 @@ fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
     let mut worst_guide_mm: f64 = 0.0;
     for (a, b) in tcp.measurements.iter().zip(&inproc.measurements) {
         assert_eq!((a.tcp, a.target, a.context.dir), (b.tcp, b.target, b.context.dir));
-        worst_guide_mm = worst_guide_mm.max((a.q.0[0] - b.q.0[0]).abs());
+        worst_guide_mm = worst_guide_mm.max((a.q[0] - b.q[0]).abs());
         for j in 1..7 {
-            worst_deg = worst_deg.max((a.q.0[j] - b.q.0[j]).abs().to_degrees());
+            worst_deg = worst_deg.max((a.q[j] - b.q[j]).abs().to_degrees());
         }
     }
     eprintln!("largest difference TCP vs in-process: arm {worst_deg:.3e} deg, guide {worst_guide_mm:.3e} mm");

@@ -102,7 +102,7 @@ pub(crate) fn translate_flange(
             return Err(LinearMoveError::Singular);
         }
         for k in 0..6 {
-            x.0[k + 1] += dq[k];
+            x[k + 1] += dq[k];
         }
     }
     Err(LinearMoveError::Singular)
@@ -128,7 +128,7 @@ mod tests {
             let delta = world_displacement(&m, &q, &d, frame);
             assert!((delta.norm() - d.norm()).abs() < 1e-12);
             let q2 = translate_flange(&m, &q, &delta).expect("ik");
-            assert_eq!(q2.0[0], q.0[0], "guide untouched");
+            assert_eq!(q2[0], q[0], "guide untouched");
             let (a, b) = (m.chain(&q), m.chain(&q2));
             assert!((b.frames[7].p - a.frames[7].p - delta).norm() < 1e-9);
             assert!((b.frames[7].r - a.frames[7].r).norm() < 1e-12);

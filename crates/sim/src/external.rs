@@ -124,7 +124,7 @@ impl VirtualCell {
 
     /// The arm's joint limits J1..J6 in the controller's (nominal) model [rad].
     pub fn arm_joint_limits(&self) -> [(f64, f64); 6] {
-        let limits = self.shared.lock().nominal.joint_limits();
+        let limits = self.shared.lock().nominal.joint_limits().to_vec();
         let mut out = [(0.0, 0.0); 6];
         for (o, l) in out.iter_mut().zip(limits.iter().skip(1)) {
             *o = *l;
@@ -169,7 +169,7 @@ mod tests {
         let (mut arm, mut guide, mut op) = (inproc.arm(), inproc.guide(), inproc.operator());
         arm.activate_and_home(Duration::from_secs(60)).expect("home");
         guide.home(Duration::from_secs(60)).expect("home guide");
-        guide.move_absolute_mm(target.0[0], &options).expect("guide");
+        guide.move_absolute_mm(target[0], &options).expect("guide");
         guide.wait_idle(Duration::from_secs(60)).expect("guide idle");
         let arm_target = ArmJoints::from_joint_vector(&target);
         arm.move_joints_and_wait(&arm_target, &options).expect("arm");
@@ -181,13 +181,13 @@ mod tests {
 
         // external
         ext.external_guide_motion_started(0.0, 0.0);
-        ext.external_guide_motion_started(0.0, target.0[0]);
+        ext.external_guide_motion_started(0.0, target[0]);
         ext.external_motion_started(&ArmJoints([0.0; 6]), &arm_target);
         ext.operator().perform(&OperatorInstruction::PlaceProbe { position }).expect("place");
         let after = ext.external_linear_target(&arm_target, &d, LinearFrame::Tool).expect("ik");
         assert_eq!(after, arm.joints().expect("joints"), "same controller solution");
         ext.external_motion_started(&arm_target, &after);
-        ext.external_sync(&after, target.0[0], Duration::from_secs(1));
+        ext.external_sync(&after, target[0], Duration::from_secs(1));
         for (i, r) in inproc_readings.iter().enumerate() {
             let p = ext.external_plunger_mm(i).expect("touching");
             assert!((p - r).abs() < 1e-12, "gauge {i}: {p} vs {r}");

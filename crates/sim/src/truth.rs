@@ -308,7 +308,8 @@ pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) 
     );
     truth.set_thermal_reference_c(physics.reference_c);
     let mut masses = truth.masses().clone();
-    for body in masses.links.iter_mut() {
+    // the moving Meca500 links, frames 2..7 (the carriage, frame 1, carries no modelled mass)
+    for body in masses.bodies_mut().iter_mut().skip(1) {
         body.mass_kg *= (1.0 + gauss(&mut rng, physics.mass_relative)).max(0.2);
         for k in 0..3 {
             body.com_mm[k] += gauss(&mut rng, physics.com_mm);
@@ -527,7 +528,7 @@ pub fn reach(
             dq *= 0.2 / m;
         }
         for k in 0..6 {
-            q.0[k + 1] += dq[k];
+            q[k + 1] += dq[k];
         }
     }
     Err(ReachError::NoConvergence { residual_mm: f64::NAN, iterations: max_iter })
@@ -538,7 +539,7 @@ pub fn random_joints(model: &Model, rng: &mut ChaCha8Rng, margin: f64) -> JointV
     let mut q = JointVector::default();
     for (k, (lo, hi)) in model.joint_limits().iter().enumerate() {
         let pad = (hi - lo) * margin;
-        q.0[k] = if hi - lo > 2.0 * pad { rng.random_range(lo + pad..hi - pad) } else { *lo };
+        q[k] = if hi - lo > 2.0 * pad { rng.random_range(lo + pad..hi - pad) } else { *lo };
     }
     q
 }
@@ -763,7 +764,11 @@ mod tests {
         for k in 0..200 {
             let q = random_joints(&m, &mut rng, 0.1);
             let ctx = MeasurementContext {
-                dir: Some(if k % 2 == 0 { [1; 6] } else { [-1; 6] }),
+                dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(if k % 2 == 0 {
+                    [1; 6]
+                } else {
+                    [-1; 6]
+                })),
                 time_s: Some(600.0),
                 temperature_c: Some(21.5),
             };

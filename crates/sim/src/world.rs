@@ -300,7 +300,7 @@ impl World {
         let mut q = [0.0; 7];
         q[0] = self.guide_mm() + self.guide.offset_mm;
         q[1..].copy_from_slice(&arm);
-        JointVector(q)
+        JointVector::new(q)
     }
 
     /// Per-sample context the true model sees (backlash direction, time, temperature when the
@@ -308,7 +308,7 @@ impl World {
     pub fn context(&self) -> MeasurementContext {
         let t = self.now().as_secs_f64();
         MeasurementContext {
-            dir: Some(self.arm.dir),
+            dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(self.arm.dir)),
             time_s: Some(t),
             temperature_c: self.config.physics.thermal.map(|p| p.at(t)),
         }

@@ -193,7 +193,7 @@ fn motions_take_virtual_time_and_waits_time_out() {
 fn noise_is_deterministic_and_history_free() {
     let (_, q) = start_pose(1);
     let mut other = q;
-    other.0[3] += 0.05;
+    other[3] += 0.05;
     let read = |history: &[JointVector]| -> [f64; 3] {
         let cell = ready_cell(SimConfig::default(), 9, 1);
         for h in history {

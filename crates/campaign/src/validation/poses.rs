@@ -69,7 +69,7 @@ pub fn random_validation_poses(
         }
         draws += 1;
         let mut q = JointVector::default();
-        for (v, (lo, hi)) in q.0.iter_mut().zip(&bounds.bounds) {
+        for (v, (lo, hi)) in q.as_mut_slice().iter_mut().zip(&bounds.bounds) {
             *v = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
         }
         let tcp = tcps[rng.random_range(0..tcps.len())];

@@ -240,15 +240,15 @@ fn follow_path(
     q0: JointVector,
     rules: &PrintingJointRules<'_>,
 ) -> Option<Vec<JointVector>> {
-    let guide = guide_schedule(slices, q0.0[0]);
+    let guide = guide_schedule(slices, q0[0]);
     let mut out = Vec::with_capacity(slices.len());
     out.push(q0);
     let mut prev = q0;
     for (slice, q1) in slices.iter().zip(&guide).skip(1) {
         let mut seed = prev;
-        seed.0[0] = *q1;
+        seed[0] = *q1;
         let q = refine_tool_pose(model, &seed, &slice.tool_pose, &RefineOptions::default()).ok()?.q;
-        let step = (1..7).map(|k| (q.0[k] - prev.0[k]).abs()).fold(0.0, f64::max);
+        let step = (1..7).map(|k| (q[k] - prev[k]).abs()).fold(0.0, f64::max);
         if step > rules.max_joint_step_rad || !slice_is_feasible(model, &q, rules) {
             return None;
         }
@@ -266,9 +266,7 @@ fn slice_is_feasible(model: &Model, q: &JointVector, rules: &PrintingJointRules<
 
 /// Smallest distance of an arm joint to its (shrunk) limits [rad].
 fn limit_clearance(bounds: &JointBounds, q: &JointVector) -> f64 {
-    (1..7)
-        .map(|k| (q.0[k] - bounds.bounds[k].0).min(bounds.bounds[k].1 - q.0[k]))
-        .fold(f64::INFINITY, f64::min)
+    (1..7).map(|k| (q[k] - bounds.bounds[k].0).min(bounds.bounds[k].1 - q[k])).fold(f64::INFINITY, f64::min)
 }
 
 /// The joints that command the printing path on `model`: every slice is solved by the full-pose

@@ -63,7 +63,7 @@ pub fn clear_pose() -> JointVector {
 /// would accept for centering.
 pub fn well_conditioned(model: &Model, q: &JointVector) -> bool {
     let limits = model.joint_limits();
-    let inside = (1..7).all(|k| q.0[k] > limits[k].0 + 0.15 && q.0[k] < limits[k].1 - 0.15);
+    let inside = (1..7).all(|k| q[k] > limits[k].0 + 0.15 && q[k] < limits[k].1 - 0.15);
     inside && translation_joint_gain(model, q).is_some_and(|g| g < 0.03)
 }
 
@@ -101,7 +101,7 @@ pub fn assert_close_measurements(a: &[Measurement], b: &[Measurement]) {
             (y.tcp, y.target, y.context.dir, y.context.time_s)
         );
         for j in 0..7 {
-            assert!((x.q.0[j] - y.q.0[j]).abs() <= 1e-12 * x.q.0[j].abs().max(1.0));
+            assert!((x.q[j] - y.q[j]).abs() <= 1e-12 * x.q[j].abs().max(1.0));
         }
     }
 }
@@ -116,12 +116,12 @@ pub fn assert_same_measurements(a: &[Measurement], b: &[Measurement]) {
         assert_eq!(x.context.dir, y.context.dir, "measurement {k}: dir");
         for j in 0..7 {
             assert_eq!(
-                x.q.0[j].to_bits(),
-                y.q.0[j].to_bits(),
+                x.q[j].to_bits(),
+                y.q[j].to_bits(),
                 "measurement {k}: q{} {} vs {}",
                 j + 1,
-                x.q.0[j],
-                y.q.0[j]
+                x.q[j],
+                y.q[j]
             );
         }
     }

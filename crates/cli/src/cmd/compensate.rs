@@ -208,7 +208,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 }
                 if dir {
                     match r.context.dir {
-                        Some(d) => d.iter().for_each(|v| {
+                        Some(d) => d[1..7].iter().for_each(|v| {
                             let _ = write!(out, ",{v}");
                         }),
                         None => out.push_str(",,,,,,"),
@@ -236,7 +236,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             for (row, c) in result.solved() {
                 let r = &requests[row];
                 let corrected = compensator.corrected_pose(&c.q, r.tcp, r.context).map_err(name_row)?;
-                let _ = writeln!(out, "# guide q1_mm={} (line {})", format_number(c.q.0[0]), line_of(row));
+                let _ = writeln!(out, "# guide q1_mm={} (line {})", format_number(c.q[0]), line_of(row));
                 let cmd = match args.emit {
                     Emit::Meca500 => MecaCommand::MoveJoints(corrected.controller_joints_deg),
                     _ => MecaCommand::MovePose(corrected.controller_pose),

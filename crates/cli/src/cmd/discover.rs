@@ -23,9 +23,10 @@ pub struct Args {
     /// Independent validation measurements (e.g. tracker rows), used only to report the gap.
     #[arg(long)]
     pub validation: Option<PathBuf>,
-    /// Starting parameter set: `paper34`, `geometric`, `all-identifiable`, or a comma-separated
-    /// list of parameter names.
-    #[arg(long, default_value = "paper34")]
+    /// Starting parameter set: `default` (`paper34` on the canonical Meca500-on-guide cell,
+    /// `all-identifiable` on any other chain), `paper34`, `geometric`, `all-identifiable`, or a
+    /// comma-separated list of parameter names.
+    #[arg(long, default_value = "default")]
     pub params: String,
     /// Write the final model (with the added effects) here.
     #[arg(long)]
@@ -65,6 +66,10 @@ fn parameter_set(spec: &str, model: &Model, measurements: &[Measurement]) -> any
     if spec.trim() == "all-identifiable" {
         return vatcal_observability::all_identifiable(model, measurements)
             .context("--params all-identifiable: identifiability analysis failed");
+    }
+    if spec.trim() == "default" {
+        return vatcal_observability::identifiability::default_params(model, measurements)
+            .context("--params default: identifiability analysis failed");
     }
     ParamSet::parse(spec).with_context(|| format!("--params `{spec}`"))
 }

@@ -8,12 +8,13 @@ use anyhow::Context;
 /// Arguments of `vatcal fk` and `vatcal torque`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Cell model file (TOML, format meca500-zaber-cell).
+    /// Cell model file (TOML, format meca500-zaber-cell v1 or serial-robot-cell v2).
     #[arg(long)]
     pub model: PathBuf,
-    /// Joint rows: CSV with columns tcp,q1..q7 (q1 in mm, q2..q7 in degrees), and the optional
-    /// context columns time_s, temperature_c, dir2..dir7 (required when the model has an effect
-    /// that depends on them: backlash, thermal drift).
+    /// Joint rows: CSV with columns tcp,q1..qN for the model's N joints (mm for prismatic,
+    /// degrees for revolute joints; canonical cell: q1 in mm, q2..q7 in degrees), and the
+    /// optional context columns time_s, temperature_c, dir{i} of the revolute joints (required
+    /// when the model has an effect that depends on them: backlash, thermal drift).
     #[arg(long)]
     pub input: PathBuf,
 }

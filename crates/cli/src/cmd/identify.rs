@@ -23,10 +23,11 @@ pub struct Args {
     /// Where to write the calibrated cell file (same format as --model).
     #[arg(long)]
     pub out: PathBuf,
-    /// Parameters to identify: `paper34`, `geometric`, `all-identifiable` (every model
-    /// parameter these measurements can identify) or a comma-separated list of names
+    /// Parameters to identify: `default` (`paper34` on the canonical Meca500-on-guide cell,
+    /// `all-identifiable` on any other chain), `paper34`, `geometric`, `all-identifiable` (every
+    /// model parameter these measurements can identify) or a comma-separated list of names
     /// (e.g. `d_4,theta_offset_2,c_3`).
-    #[arg(long, default_value = "paper34")]
+    #[arg(long, default_value = "default")]
     pub params: String,
     /// Estimation method: `lm` (Levenberg-Marquardt), `gn` (Gauss-Newton) or `paper` (the
     /// paper's Table 7 taken literally, for comparison: it diverges on realistic data).
@@ -107,6 +108,10 @@ fn resolve_params(spec: &str, model: &Model, measurements: &[Measurement]) -> an
             .context("--params all-identifiable: identifiability analysis failed")?;
         println!("all-identifiable: {}", set.names().join(","));
         return Ok(set);
+    }
+    if spec.trim() == "default" {
+        return vatcal_observability::identifiability::default_params(model, measurements)
+            .context("--params default: identifiability analysis failed");
     }
     ParamSet::parse(spec).with_context(|| format!("--params `{spec}`"))
 }

@@ -35,9 +35,10 @@ pub struct Args {
     /// Number of random restarts (run in parallel; the best is kept).
     #[arg(long, default_value_t = 8)]
     pub restarts: usize,
-    /// Parameters the poses must identify: `paper34`, `geometric`, `all-identifiable`, or a
-    /// comma-separated list of parameter names.
-    #[arg(long, default_value = "paper34")]
+    /// Parameters the poses must identify: `default` (`paper34` on the canonical
+    /// Meca500-on-guide cell, `all-identifiable` on any other chain), `paper34`, `geometric`,
+    /// `all-identifiable`, or a comma-separated list of parameter names.
+    #[arg(long, default_value = "default")]
     pub params: String,
     /// Maximum depth of Mitchell-style excursions after each exchange converges (0 = plain
     /// Wynn–Mitchell exchange).

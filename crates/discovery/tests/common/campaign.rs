@@ -139,7 +139,7 @@ pub fn campaign(seed: u64, hidden: &[Hidden], n: usize) -> Scenario {
             }
             let t = SECONDS_PER_MEASUREMENT * probe.len() as f64;
             let ctx = MeasurementContext {
-                dir: Some(dir),
+                dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(dir)),
                 time_s: Some(t),
                 temperature_c: Some(temperature_at(t, total_s)),
             };

@@ -49,7 +49,7 @@ pub fn reach(model: &Model, q0: JointVector, tcp: u32, target: Vector3<f64>) -> 
             dq *= 0.2 / m;
         }
         for k in 0..6 {
-            q.0[k + 1] += dq[k];
+            q[k + 1] += dq[k];
         }
     }
     None
@@ -70,7 +70,7 @@ pub fn probe_poses(model: &Model, positions: &[u32], count: usize, seed: u64) ->
         let mut q = JointVector::default();
         for (k, (lo, hi)) in limits.iter().enumerate() {
             let pad = 0.05 * (hi - lo);
-            q.0[k] = rng.random_range(lo + pad..hi - pad);
+            q[k] = rng.random_range(lo + pad..hi - pad);
         }
         let target = model.position(position).expect("position exists");
         if let Some(q) = reach(model, q, tcp, target) {
