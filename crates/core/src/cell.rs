@@ -438,7 +438,8 @@ impl CellFile {
     /// assert!(CellFile::from_toml_str(&text, "cell.toml").is_ok());
     /// let bad = text.replacen("version = 1", "version = 99", 1);
     /// let e = CellFile::from_toml_str(&bad, "bad.toml").expect_err("unsupported version");
-    /// assert!(e.to_string().starts_with("bad.toml: field `version`"), "{e}");
+    /// let message = e.to_string(); // e.g. "bad.toml:30: field `version`: unsupported version 99 ..."
+    /// assert!(message.starts_with("bad.toml:") && message.contains("field `version`"), "{message}");
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     ///
