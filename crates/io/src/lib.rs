@@ -194,15 +194,21 @@ impl Table {
     }
 
     fn read_checked(path: &Path, required: &[&str], joints: Option<usize>) -> Result<Table, IoError> {
-        let file =
-            std::fs::File::open(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
+        let text = std::fs::read(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
+        // the header is the first line that is neither blank nor a comment
+        let header_line = text
+            .split(|b| *b == b'\n')
+            .position(|l| {
+                let l = l.trim_ascii();
+                !l.is_empty() && !l.starts_with(b"#")
+            })
+            .map_or(1, |k| k as u64 + 1);
         let mut rdr = csv::ReaderBuilder::new()
             .comment(Some(b'#'))
             .trim(csv::Trim::All)
             .flexible(false)
-            .from_reader(file);
+            .from_reader(text.as_slice());
         let headers = rdr.headers().map_err(|e| csv_error(path, &e))?.clone();
-        let header_line = headers.position().map_or(1, |p| p.line());
         let index: HashMap<String, usize> =
             headers.iter().enumerate().map(|(i, h)| (h.to_string(), i)).collect();
         if let Some(n) = joints {
