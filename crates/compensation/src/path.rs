@@ -222,6 +222,37 @@ impl<'a> Compensator<'a> {
     /// Compensates one pose. With `seed`, Newton from it (the solution nearest the seed, e.g.
     /// the previous pose of a path); without, the solution inside the joint limits with the
     /// largest clearance among all branches. The result is inside the joint limits.
+    ///
+    /// # Examples
+    /// The joints that put TCP 2 on a world point under a calibrated model (here a stand-in: the
+    /// nominal cell with realistic errors), checked by forward kinematics of that model:
+    /// ```
+    /// use vatcal_compensation::{Compensator, PoseRequest, SolveOptions};
+    /// use vatcal_core::{CellFile, MeasurementContext};
+    /// use vatcal_kinematics::Model;
+    /// use vatcal_sim::truth::{ErrorBudget, perturbed_truth};
+    ///
+    /// let nominal = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+    /// let calibrated = perturbed_truth(&nominal, 4, &ErrorBudget::realistic());
+    /// let request = PoseRequest {
+    ///     tcp: 2,
+    ///     q1_mm: 100.0,
+    ///     xyz_mm: [60.0, -40.0, 40.0],
+    ///     abc_deg: [180.0, 0.0, 0.0],
+    ///     context: MeasurementContext::default(),
+    /// };
+    /// let compensator = Compensator::new(&calibrated, &nominal)?;
+    /// let c = compensator.compensate_pose(&request, None, &SolveOptions::default())?;
+    /// let p = calibrated.tcp_position(&c.q, 2)?;
+    /// assert!((p - nalgebra::Vector3::from(request.xyz_mm)).norm() < 1e-6);
+    /// assert!(calibrated.limit_violation(&c.q).is_none());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`CompensationError::NonFinite`] or [`CompensationError::Model`] for a bad request (a value
+    /// that is not finite, an unknown TCP); [`CompensationError::Unreachable`] when no branch reaches
+    /// the pose; [`CompensationError::JointLimit`] when every solution leaves the joint limits.
     pub fn compensate_pose(
         &self,
         request: &PoseRequest,

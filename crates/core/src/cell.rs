@@ -404,6 +404,22 @@ pub struct CellFile {
 
 impl CellFile {
     /// Reads, parses and validates a cell file.
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::CellFile;
+    ///
+    /// let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?;
+    /// assert_eq!(cell.joints.len(), 7);
+    /// assert_eq!(cell.tcp_ids(), vec![1, 2, 3]);
+    /// // a missing file is an error naming it
+    /// let e = CellFile::load("no-such-cell.toml").expect_err("missing file");
+    /// assert!(e.to_string().contains("no-such-cell.toml"));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`CellError::Io`] when the file cannot be read; otherwise as [`CellFile::from_toml_str`].
     pub fn load(path: impl AsRef<Path>) -> Result<Self, CellError> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path)
@@ -412,6 +428,25 @@ impl CellFile {
     }
 
     /// Parses and validates TOML text. `origin` names the source in error messages.
+    ///
+    /// # Examples
+    /// A bad value is refused with the origin and the field:
+    /// ```
+    /// use vatcal_core::CellFile;
+    ///
+    /// let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?;
+    /// assert!(CellFile::from_toml_str(&text, "cell.toml").is_ok());
+    /// let bad = text.replacen("version = 1", "version = 99", 1);
+    /// let e = CellFile::from_toml_str(&bad, "bad.toml").expect_err("unsupported version");
+    /// let message = e.to_string(); // e.g. "bad.toml:30: field `version`: unsupported version 99 ..."
+    /// assert!(message.starts_with("bad.toml:") && message.contains("field `version`"), "{message}");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`CellError::Parse`] for TOML syntax errors, missing fields or fields of the wrong type (the
+    /// message carries line and column); [`CellError::Invalid`] for a value
+    /// [`CellFile::validate`] refuses, naming the field.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, CellError> {
         let cell: CellFile = toml::from_str(text)
             .map_err(|e| CellError::Parse { origin: origin.to_string(), message: e.to_string() })?;

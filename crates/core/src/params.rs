@@ -531,6 +531,20 @@ impl ParamSet {
 
     /// Parses `paper34`, `geometric`, or a comma-separated list of parameter names.
     /// (`all-identifiable` needs data and is resolved by the observability crate.)
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::{ParamId, ParamSet};
+    ///
+    /// assert_eq!(ParamSet::parse("paper34")?.len(), 34);
+    /// let set = ParamSet::parse("a_2, theta_offset_3, base_x")?;
+    /// assert_eq!(set.0[1], ParamId::ThetaOffset(3));
+    /// assert!(ParamSet::parse("a_2, a_2").is_err());
+    /// # Ok::<(), vatcal_core::params::ParamSetError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ParamSetError::UnknownName`], [`ParamSetError::Duplicate`], [`ParamSetError::Empty`].
     pub fn parse(spec: &str) -> Result<Self, ParamSetError> {
         match spec.trim() {
             "paper34" => return Ok(Self::paper34()),

@@ -183,6 +183,25 @@ impl JointVector {
     ///
     /// # Errors
     /// When the lengths differ or are not in 1..=[`MAX_JOINTS`].
+    ///
+    /// # Examples
+    /// A UR5e-like arm (six revolute joints) and a chain with a prismatic axis first:
+    /// ```
+    /// use vatcal_core::{JointKind, JointVector};
+    ///
+    /// let arm = [JointKind::Revolute; 6];
+    /// let q = JointVector::from_file_units(&[90.0, -45.0, 0.0, 0.0, 30.0, 0.0], &arm)?;
+    /// assert_eq!(q.len(), 6);
+    /// assert!((q[0] - std::f64::consts::FRAC_PI_2).abs() < 1e-15); // 0-based index, radians
+    /// assert!((q.get(2) + std::f64::consts::FRAC_PI_4).abs() < 1e-15); // 1-based joint number
+    /// assert!((q.to_file_units(&arm)[4] - 30.0).abs() < 1e-12);
+    ///
+    /// let kinds = [JointKind::Prismatic, JointKind::Revolute];
+    /// let q = JointVector::from_file_units(&[150.0, 90.0], &kinds)?;
+    /// assert_eq!(q[0], 150.0); // mm stay mm
+    /// assert!(JointVector::from_file_units(&[1.0], &kinds).is_err()); // one value for two joints
+    /// # Ok::<(), vatcal_core::JointVectorError>(())
+    /// ```
     pub fn from_file_units(values: &[f64], kinds: &[JointKind]) -> Result<Self, JointVectorError> {
         if values.len() != kinds.len() {
             return Err(JointVectorError::Mismatch { values: values.len(), joints: kinds.len() });
@@ -231,6 +250,16 @@ impl JointVector {
 
     /// Builds a joint vector from file units on the canonical 7-joint Meca500-on-guide cell
     /// only: q1 in mm and the six Meca500 joints in degrees.
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::JointVector;
+    ///
+    /// let q = JointVector::from_mm_deg(150.0, [90.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    /// assert_eq!((q.len(), q.guide_mm()), (7, 150.0));
+    /// assert!((q.get(2) - std::f64::consts::FRAC_PI_2).abs() < 1e-15); // joint 2 in radians
+    /// assert!((q.to_mm_deg()[1] - 90.0).abs() < 1e-12);
+    /// ```
     pub fn from_mm_deg(q1_mm: f64, arm_deg: [f64; 6]) -> Self {
         let mut q = [0.0; JOINT_COUNT];
         q[0] = q1_mm;

@@ -1237,6 +1237,42 @@ fn predicted_uncertainty(
 
 /// Runs the discovery loop from `start` with the fitted parameter set `params` on
 /// `measurements`; `validation` (e.g. tracker measurements) is used only to report the gap.
+///
+/// # Examples
+/// A hidden once-per-revolution error of joint 5 (0.02°) that the paper's 34 parameters cannot
+/// describe is found and named:
+/// ```
+/// use vatcal_core::effects::EffectSpec;
+/// use vatcal_core::params::EffectParam;
+/// use vatcal_core::{CellFile, ParamId, ParamSet};
+/// use vatcal_discovery::{DiscoverOptions, discover};
+/// use vatcal_kinematics::Model;
+/// use vatcal_sim::truth::{ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses};
+/// use vatcal_sim::truth::{synthetic_probe_measurements, synthetic_tracker_measurements};
+///
+/// let nominal = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+/// let mut truth = perturbed_truth(&nominal, 31, &ErrorBudget::realistic());
+/// let hidden = EffectSpec::JointCyclic { joint: 5, harmonic: 1 };
+/// truth.enable_effect(hidden)?;
+/// let a = 0.02f64.to_radians();
+/// truth.set_param(ParamId::Effect(EffectParam::CyclicSin { joint: 5, harmonic: 1 }), 0.6 * a)?;
+/// truth.set_param(ParamId::Effect(EffectParam::CyclicCos { joint: 5, harmonic: 1 }), 0.8 * a)?;
+/// let starts = probe_start_poses(&nominal, 180, 132);
+/// let probe = synthetic_probe_measurements(&truth, &starts, ProbeNoise::default(), 233);
+/// let validation = synthetic_tracker_measurements(&truth, 250, 0.005, 334);
+/// let d = discover(&nominal, &probe, &ParamSet::paper34(), Some(&validation), &DiscoverOptions::default())?;
+/// assert_eq!(d.added_effects.len(), 1);
+/// assert_eq!(d.added_effects[0].spec, hidden);
+/// assert!(d.final_gap_mm < 0.5 * d.initial_gap_mm);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// [`DiscoveryError::NoMeasurements`]; [`DiscoveryError::Measurement`] when the model rejects a
+/// measurement (unknown TCP or calibration position, naming its index);
+/// [`DiscoveryError::Fit`] when the starting fit fails (e.g. data that cannot identify `params`);
+/// [`DiscoveryError::Jacobian`] / [`DiscoveryError::Numerical`] for a Jacobian that cannot be
+/// assembled or a failed factorisation.
 pub fn discover(
     start: &Model,
     measurements: &[Measurement],

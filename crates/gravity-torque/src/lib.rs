@@ -146,6 +146,27 @@ pub fn gravity_torques_n<const N: usize>(
 /// * `gravity_world` = gravity vector in the world frame [m/s²].
 ///
 /// Cost: ~0.1 µs for 7 joints (no allocation).
+///
+/// # Examples
+/// A 2 kg body 100 mm out on a horizontal link (frame 3's z axis is world +y) feels
+/// `m g L = 1.962 N·m` about joint 3; the vertical joint 2, the prismatic joint 1 and the distal
+/// joints feel nothing:
+/// ```
+/// use nalgebra::{Matrix3, Vector3};
+/// use vatcal_core::{Frame, JointKind, MAX_JOINTS};
+/// use vatcal_gravity_torque::{Body, MassModel, gravity_torques};
+///
+/// let rx_m90 = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0);
+/// let mut links = [Frame::identity(); 4];
+/// links[2] = Frame { r: rx_m90, p: Vector3::zeros() };
+/// links[3] = Frame { r: rx_m90.transpose(), p: Vector3::zeros() };
+/// let kinds = [JointKind::Prismatic, JointKind::Revolute, JointKind::Revolute, JointKind::Revolute];
+/// let mut masses = MassModel { links: [Body::default(); MAX_JOINTS], n: 4 };
+/// masses.links[2] = Body { mass_kg: 2.0, com_mm: Vector3::new(100.0, 0.0, 0.0) }; // frame 3
+/// let tau = gravity_torques(&links, &kinds, &Matrix3::identity(), &masses, &Vector3::new(0.0, 0.0, -9.81));
+/// assert!((tau[2] - 2.0 * 9.81 * 0.1).abs() < 1e-12);
+/// assert!(tau.iter().enumerate().all(|(k, t)| k == 2 || t.abs() < 1e-12));
+/// ```
 pub fn gravity_torques(
     links: &[Frame],
     kinds: &[JointKind],

@@ -30,6 +30,24 @@ impl ValidationReport {
 /// # Errors
 /// No measurements; a measurement the model rejects (unknown TCP / position; the error names
 /// its index).
+///
+/// # Examples
+/// ```
+/// use vatcal_core::{CellFile, JointVector, Measurement};
+/// use vatcal_identification::validate;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+/// let q = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 40.0, 50.0, 60.0]);
+/// let p = model.tcp_position(&q, 1)?;
+/// // a tracker that saw TCP 1 0.1 mm above where the model puts it
+/// let seen = Measurement::tracker(1, q, p + nalgebra::Vector3::new(0.0, 0.0, 0.1));
+/// let report = validate(&model, &[seen])?;
+/// assert!((report.stats.mean - 0.1).abs() < 1e-9);
+/// // an unknown TCP is an error naming the measurement
+/// assert!(validate(&model, &[Measurement::tracker(9, q, p)]).is_err());
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn validate(model: &Model, measurements: &[Measurement]) -> Result<ValidationReport, IdentifyError> {
     if measurements.is_empty() {
         return Err(IdentifyError::NoMeasurements);
@@ -59,6 +77,9 @@ pub struct ModelComparison {
 }
 
 /// Validates `baseline` and `candidate` on `measurements`.
+///
+/// # Errors
+/// As [`validate`], for either model.
 pub fn compare_models(
     baseline: &Model,
     candidate: &Model,

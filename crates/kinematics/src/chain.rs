@@ -534,6 +534,9 @@ impl Model {
     }
 
     /// World position [mm] of TCP `tcp` at `q`.
+    ///
+    /// # Errors
+    /// [`ModelError::UnknownTcp`] when the model has no TCP `tcp`.
     pub fn tcp_position(&self, q: &JointVector, tcp: u32) -> Result<Vector3<f64>, ModelError> {
         self.tcp_position_ctx(q, &MeasurementContext::default(), tcp)
     }

@@ -216,6 +216,28 @@ impl Model {
     }
 
     /// Analytic Jacobian (3 × n) of TCP `tcp`'s world position at `q` (no per-sample context).
+    ///
+    /// # Examples
+    /// The column of `d_4` against a central difference of the forward kinematics:
+    /// ```
+    /// use vatcal_core::{CellFile, ParamId};
+    /// use vatcal_kinematics::{JointVector, Model};
+    ///
+    /// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+    /// let q = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 40.0, 50.0, 60.0]);
+    /// let params = [ParamId::D(4), ParamId::ThetaOffset(3)];
+    /// let j = model.jacobian(&q, 1, &params)?;
+    /// let h = 1e-6;
+    /// let (mut plus, mut minus) = (model.clone(), model.clone());
+    /// plus.set_param(ParamId::D(4), model.param(ParamId::D(4))? + h)?;
+    /// minus.set_param(ParamId::D(4), model.param(ParamId::D(4))? - h)?;
+    /// let fd = (plus.tcp_position(&q, 1)? - minus.tcp_position(&q, 1)?) / (2.0 * h);
+    /// assert!((fd - j.column(0)).norm() < 1e-6);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ModelError::UnknownTcp`]; [`ModelError::ParamNotInModel`] for a parameter the model lacks.
     pub fn jacobian(
         &self,
         q: &JointVector,

@@ -136,6 +136,23 @@ fn from_file_units(id: ParamId, v: f64) -> f64 {
 
 impl Model {
     /// Builds the model from a validated cell file (degrees → radians).
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::CellFile;
+    /// use vatcal_kinematics::{JointVector, Model};
+    ///
+    /// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+    /// // at the guide's zero with every arm joint at 0 the TCPs are where the canonical cell puts them
+    /// let p = model.tcp_position(&JointVector::from_mm_deg(0.0, [0.0; 6]), 1)?;
+    /// assert!((p - nalgebra::Vector3::new(64.78, -257.113, 49.485)).norm() < 1e-9);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidEffect`] for an `[[effects]]` entry that does not describe a catalog
+    /// effect (unknown name, missing joint / order, an unknown value key), and the errors of
+    /// [`Model::enable_effect`] and [`Model::set_param`] for its values.
     pub fn from_cell(cell: &CellFile) -> Result<Self, ModelError> {
         let n = cell.joints.len().clamp(1, MAX_JOINTS);
         let mut rows = [MdhRow { alpha: 0.0, a: 0.0, beta: 0.0, theta_offset: 0.0, d: 0.0 }; MAX_JOINTS];
@@ -502,6 +519,10 @@ impl Model {
     /// Switches an effect on (its parameters start at zero, i.e. the model's predictions do not
     /// change). Built-in effects only record that they belong to the model. Adding an effect
     /// twice is a no-op.
+    ///
+    /// # Errors
+    /// [`ModelError::InvalidEffect`] when the instance does not exist on this model (e.g. a joint
+    /// index out of range or an effect that needs a joint the chain lacks).
     pub fn enable_effect(&mut self, spec: EffectSpec) -> Result<(), ModelError> {
         let invalid = |m: &str| Err(ModelError::InvalidEffect(spec.label(), m.to_string()));
         let chain = self.describe_chain();
@@ -605,6 +626,11 @@ impl Model {
     }
 
     /// Sets one parameter (internal units).
+    ///
+    /// # Errors
+    /// [`ModelError::ParamNotInModel`] for a parameter the model lacks (an effect that is not
+    /// switched on, an unknown TCP or position id); [`ModelError::NonFinite`] for a value that is not
+    /// finite.
     pub fn set_param(&mut self, id: ParamId, value: f64) -> Result<(), ModelError> {
         self.assign_param(id, value)?;
         self.refresh_caches();

@@ -350,6 +350,33 @@ impl Default for AnalysisOptions {
 }
 
 /// Identifiability of `params` from `measurements` with the default tolerance.
+///
+/// # Examples
+/// The paper's 34 parameters plus `a_1` (row 2's `a`), which the base's y translation absorbs:
+/// ```
+/// use vatcal_core::{CellFile, ParamId, ParamSet};
+/// use vatcal_kinematics::Model;
+/// use vatcal_observability::analyze;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+/// let poses = vatcal_sim::truth::probe_start_poses(&model, 40, 1);
+/// let mut params = ParamSet::paper34();
+/// params.0.push(ParamId::A(2));
+/// let report = analyze(&model, &poses, &params)?;
+/// assert_eq!((report.rank, report.parameter_count), (34, 35));
+/// assert_eq!(report.redundant.len(), 1);
+/// assert_eq!(report.redundant[0].param, ParamId::A(2));
+/// assert_eq!(report.redundant[0].confounded_with[0].0.name(), "base_y");
+/// println!("{}", report.redundant[0].sentence()); // a_1 is absorbed by base_y (-1.0000)
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// [`ObservabilityError::NoMeasurements`], [`ObservabilityError::NoParameters`];
+/// [`ObservabilityError::Model`] when the model lacks a measurement's TCP or calibration position
+/// or one of `params` (e.g. an effect that is not switched on), naming the measurement;
+/// [`ObservabilityError::NonFinite`] for a non-finite Jacobian entry;
+/// [`ObservabilityError::Numerical`] when the SVD does not converge.
 pub fn analyze(
     model: &Model,
     measurements: &[Measurement],

@@ -577,6 +577,32 @@ fn closed_form_is_exact(model: &Model, arm: &ArmGeometry) -> bool {
 
 impl<'a> ToolPoseIk<'a> {
     /// IK for `model` (its arm must have the Meca500 structure, see [`ArmGeometry::from_model`]).
+    ///
+    /// # Examples
+    /// Every solution that puts the tool-changer frame at a target pose with the guide at 150 mm,
+    /// each checked by forward kinematics:
+    /// ```
+    /// use vatcal_core::{CellFile, JointVector};
+    /// use vatcal_kinematics::Model;
+    /// use vatcal_planning::ik::{RefineOptions, ToolPoseIk};
+    ///
+    /// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+    /// // a reachable target: the tool frame at a known configuration
+    /// let known = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 40.0, 50.0, 60.0]);
+    /// let target = model.chain(&known).tool;
+    /// let ik = ToolPoseIk::new(&model, RefineOptions::default())?;
+    /// let solutions = ik.solve_at_guide(150.0, &target);
+    /// assert!(solutions.len() >= 2, "several branches reach this pose");
+    /// for q in &solutions {
+    ///     assert!((model.chain(q).tool.p - target.p).norm() < 1e-8);
+    /// }
+    /// assert!(solutions.iter().any(|q| (1..=7).all(|j| (q.get(j) - known.get(j)).abs() < 1e-7)));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`PlanError::UnsupportedArm`] when the model's arm does not have the Meca500 structure the
+    /// closed-form seeds need (intersecting wrist axes, the row layout of the canonical cell).
     pub fn new(model: &'a Model, refine: RefineOptions) -> Result<Self, PlanError> {
         let arm = ArmGeometry::from_model(model)?;
         let corrections = if closed_form_is_exact(model, &arm) { 0 } else { SEED_CORRECTIONS };

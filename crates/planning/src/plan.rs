@@ -181,6 +181,13 @@ impl Plan {
 /// Plans a measurement campaign: candidate poses (IK, limits, singularities, collisions),
 /// Detmax selection of `count` of them, the time-optimal visiting order, and a verified
 /// collision-free path for every leg.
+///
+/// # Errors
+/// [`PlanError::Option`] for an invalid option (naming it); [`PlanError::UnsupportedArm`] for an
+/// arm the closed-form IK does not support; [`PlanError::Empty`] when no candidate survives the
+/// screening; [`PlanError::Selection`] when Detmax fails (e.g. too few candidates, or candidates
+/// that cannot identify the parameters); [`PlanError::NoPath`] for a leg with no collision-free
+/// path; [`PlanError::Model`] for a model error.
 pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions) -> Result<Plan, PlanError> {
     if opts.count == 0 {
         return Err(PlanError::Option { option: "count".into(), reason: "must be at least 1".into() });
