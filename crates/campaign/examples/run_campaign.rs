@@ -12,7 +12,7 @@
 //! ```
 
 use vatcal_campaign::{
-    Campaign, CampaignConfig, CampaignPlan, CellDevices, PlanOptions, export_measurements,
+    Campaign, CampaignConfig, CampaignPlan, CampaignPlanOptions, CellDevices, export_measurements,
 };
 use vatcal_core::{CellFile, JointVector, Measurement};
 use vatcal_hardware_traits::{TriCal, VirtualClock};
@@ -34,7 +34,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     poses.sort_by_key(|m| m.position());
     let clear = JointVector::from_mm_deg(150.0, [0.0, -30.0, 30.0, 0.0, 0.0, 0.0]);
-    let plan = CampaignPlan::from_poses(&poses, &PlanOptions { clear_pose: Some(clear), zero_probe: false });
+    let plan =
+        CampaignPlan::from_poses(&poses, &CampaignPlanOptions { clear_pose: Some(clear), zero_probe: false });
     println!("plan: {} steps, {} measurements", plan.steps.len(), plan.measurement_count());
 
     let dir = std::env::temp_dir().join(format!("vatcal-campaign-example-{}", std::process::id()));

@@ -162,7 +162,8 @@ impl StepRecord {
 #[serde(tag = "record", rename_all = "snake_case")]
 enum Line {
     Header(JournalHeader),
-    Step(StepRecord),
+    /// boxed: a step record is much larger than the header (12-joint vectors)
+    Step(Box<StepRecord>),
 }
 
 /// Errors of the journal.
@@ -359,7 +360,7 @@ impl Journal {
                     reason: format!("step {} beyond the plan's {} steps", r.step, header.plan_steps),
                 });
             }
-            records.push(r);
+            records.push(*r);
         }
         let file = OpenOptions::new().append(true).open(path).map_err(io(path))?;
         if scan.torn_bytes > 0 {
@@ -424,7 +425,7 @@ impl Journal {
                 reason: format!("refusing to append step {} after step {}", record.step, prev.step),
             });
         }
-        let line = encode(&Line::Step(record.clone()));
+        let line = encode(&Line::Step(Box::new(record.clone())));
         self.file.write_all(line.as_bytes()).map_err(io(&self.path))?;
         if self.sync_each_record {
             self.file.sync_data().map_err(io(&self.path))?;
@@ -591,7 +592,7 @@ mod tests {
         assert!(j.append(record(5, 0.5)).is_err(), "duplicate step");
         assert!(matches!(Journal::create(&path, header()), Err(JournalError::Exists { .. })));
         let other = dir.path().join("other.log");
-        std::fs::write(&other, encode(&Line::Step(record(0, 0.1)))).expect("write");
+        std::fs::write(&other, encode(&Line::Step(Box::new(record(0, 0.1))))).expect("write");
         assert!(matches!(Journal::open(&other), Err(JournalError::BadHeader { .. })));
         // a header torn at creation: nothing recorded, open_or_create starts afresh
         let torn = dir.path().join("torn.log");
