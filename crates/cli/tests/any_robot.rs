@@ -81,7 +81,10 @@ fn solve_ik(model: &Model, tcp: u32, target: &Vector3<f64>, rng: &mut ChaCha8Rng
             let p = model.tcp_position(&q, tcp).ok()?;
             let e = target - p;
             if e.norm() < 1e-10 {
-                return model.limit_violation(&q).is_none().then_some(q);
+                if model.limit_violation(&q).is_none() {
+                    return Some(q);
+                }
+                break; // converged outside the joint limits: try the next start
             }
             let mut j = DMatrix::zeros(3, n);
             for k in 0..n {
@@ -229,13 +232,13 @@ fn check_fixture(name: &str, seed: u64) {
 }
 
 #[test]
-#[ignore = "not yet run to completion on wip/chain (written at the deadline); run with --ignored"]
+#[ignore = "open (issue 12): fk, torque and observability pass, but `identify` with the default set stalls (Levenberg-Marquardt: no cost reduction) on this chain; run with --include-ignored"]
 fn ur5e_commands_end_to_end() {
     check_fixture("ur5e.toml", 11);
 }
 
 #[test]
-#[ignore = "not yet run to completion on wip/chain (written at the deadline); run with --ignored"]
+#[ignore = "open (issue 12): fk, torque and observability pass, but `identify` with the default set stalls (Levenberg-Marquardt: no cost reduction) on this chain; run with --include-ignored"]
 fn meca500_on_a_table_commands_end_to_end() {
     check_fixture("meca500-table.toml", 12);
 }
