@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use vatcal_drivers_meca500::codec::{Deframer, code};
 use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig};
 use vatcal_drivers_meca500::{Meca500, Meca500Config};
-use vatcal_hardware_traits::{ArmJoints, Error, ErrorKind, MotionOptions, RobotArm};
+use vatcal_hardware_traits::{ArmJoints, ErrorKind, MotionOptions, RobotArm};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
 const BANNER: &[u8] = b"[3000][Connected to Meca500 R3 v9.3.0]\0";
@@ -27,15 +27,7 @@ fn config() -> Meca500Config {
 
 /// Checks kind, one line, and the `meca500 at ADDR: ` prefix; returns the line.
 fn one_line(r: vatcal_hardware_traits::Result<()>, addr: SocketAddr, kind: ErrorKind) -> String {
-    let e: Error = match r {
-        Ok(()) => panic!("expected a {kind} error"),
-        Err(e) => e,
-    };
-    let line = e.to_string();
-    assert_eq!(e.kind(), kind, "{line}");
-    assert!(line.starts_with(&format!("meca500 at {addr}: ")), "{line}");
-    assert!(!line.contains('\n'), "{line}");
-    line
+    vatcal_hardware_traits::testing::expect_one_line_error(r, &format!("meca500 at {addr}: "), kind)
 }
 
 /// A homed robot on a simulator running `scale` times faster than real time, and a slow J1

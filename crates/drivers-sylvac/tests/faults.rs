@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use vatcal_drivers_sylvac::codec::LineDeframer;
 use vatcal_drivers_sylvac::sim::{SimConfig, SylvacSim};
 use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
-use vatcal_hardware_traits::{Error, ErrorKind, Gauge};
+use vatcal_hardware_traits::{ErrorKind, Gauge};
 
 fn ok<T, E: std::fmt::Display>(r: Result<T, E>) -> T {
     r.unwrap_or_else(|e| panic!("{e}"))
@@ -29,15 +29,7 @@ fn one_line<T: std::fmt::Debug>(
     addr: SocketAddr,
     kind: ErrorKind,
 ) -> String {
-    let e: Error = match r {
-        Ok(v) => panic!("expected a {kind} error, got {v:?}"),
-        Err(e) => e,
-    };
-    let line = e.to_string();
-    assert_eq!(e.kind(), kind, "{line}");
-    assert!(line.starts_with(&format!("gauge 1 at {addr}: ")), "{line}");
-    assert!(!line.contains('\n'), "{line}");
-    line
+    vatcal_hardware_traits::testing::expect_one_line_error(r, &format!("gauge 1 at {addr}: "), kind)
 }
 
 fn sim_gauge() -> (SylvacSim, SylvacGauge) {

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use vatcal_drivers_zaber::codec::{Command, LineDeframer, Warning};
 use vatcal_drivers_zaber::sim::{SimConfig, SimDevice, ZaberSim};
 use vatcal_drivers_zaber::{ZaberAxis, ZaberConfig};
-use vatcal_hardware_traits::{Error, ErrorKind, LinearAxis, MotionOptions};
+use vatcal_hardware_traits::{ErrorKind, LinearAxis, MotionOptions};
 
 const TIMEOUT: Duration = Duration::from_secs(5);
 
@@ -38,15 +38,7 @@ fn one_line<T: std::fmt::Debug>(
     addr: SocketAddr,
     kind: ErrorKind,
 ) -> String {
-    let e: Error = match r {
-        Ok(v) => panic!("expected a {kind} error, got {v:?}"),
-        Err(e) => e,
-    };
-    let line = e.to_string();
-    assert_eq!(e.kind(), kind, "{line}");
-    assert!(line.starts_with(&format!("zaber guide at {addr}: ")), "{line}");
-    assert!(!line.contains('\n'), "{line}");
-    line
+    vatcal_hardware_traits::testing::expect_one_line_error(r, &format!("zaber guide at {addr}: "), kind)
 }
 
 /// A homed guide in real time (20 mm/s), a 200 mm move already started (10 s).

@@ -42,6 +42,7 @@ mod gauge;
 mod operator;
 mod probe;
 pub mod sim_server;
+pub mod testing;
 mod tracker;
 pub mod transport;
 
