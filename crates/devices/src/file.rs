@@ -570,7 +570,7 @@ fn connect_guide(link: &Link, config: ZaberConfig) -> Result<GuideAndInfo, vatca
             Ok((Box::new(g), info))
         }
         #[cfg(not(feature = "serial"))]
-        Link::Serial { path, .. } => Err(vatcal_drivers_zaber::ZaberError::Io(std::io::Error::other(
+        Link::Serial { path, .. } => Err(vatcal_drivers_zaber::ZaberError::from(std::io::Error::other(
             format!("{path}: built without the `serial` feature"),
         ))),
     }
@@ -593,7 +593,7 @@ fn connect_gauge(
             Ok((Box::new(g), id))
         }
         #[cfg(not(feature = "serial"))]
-        Link::Serial { path, .. } => Err(vatcal_drivers_sylvac::SylvacError::Io(std::io::Error::other(
+        Link::Serial { path, .. } => Err(vatcal_drivers_sylvac::SylvacError::from(std::io::Error::other(
             format!("{path}: built without the `serial` feature"),
         ))),
     }

@@ -11,9 +11,9 @@ use vatcal_hardware_traits::{
 
 use crate::codec::{Banner, Command, Deframer, Reply, Six, StatusWord, code};
 use crate::error::Meca500Error;
-use crate::transport::{Transport, is_timeout};
+use crate::transport::Transport;
 use vatcal_hardware_traits::transport::Deadline as Wait;
-use vatcal_hardware_traits::transport::is_disconnect;
+use vatcal_hardware_traits::transport::{LinkError, recv_some};
 
 /// Factory control port of the robot.
 pub const CONTROL_PORT: u16 = 10000;
@@ -177,13 +177,9 @@ impl<T: Transport> Meca500<T> {
 
     /// Sends one command without waiting for anything.
     pub fn send(&mut self, command: &Command) -> Result<(), Meca500Error> {
-        self.transport.send(&command.encode()).map_err(|e| {
-            if is_disconnect(&e) {
-                Meca500Error::Disconnected { during: format!("sending {}", command.name()) }
-            } else {
-                Meca500Error::Io(e)
-            }
-        })
+        self.transport
+            .send(&command.encode())
+            .map_err(|e| LinkError::from_send(e, || format!("sending {}", command.name())).into())
     }
 
     /// Sends a request and returns the first reply whose code is in `answers`; an error
@@ -338,7 +334,12 @@ impl<T: Transport> Meca500<T> {
     /// `stop` resumes the queue later). Robot errors need nothing (error mode stops the arm),
     /// and a closed link cannot carry a command.
     fn stop_on_link_fault<R>(&mut self, r: &Result<R, Meca500Error>) {
-        if let Err(Meca500Error::Timeout { .. } | Meca500Error::Malformed(_) | Meca500Error::Frame(_)) = r {
+        if let Err(
+            Meca500Error::Link(LinkError::Timeout { .. })
+            | Meca500Error::Malformed(_)
+            | Meca500Error::Frame(_),
+        ) = r
+        {
             let _ = self.send(&Command::ClearMotion);
         }
     }
@@ -423,7 +424,7 @@ impl<T: Transport> Meca500<T> {
     }
 
     fn timeout_error(&self, wait: &Wait, what: &str) -> Meca500Error {
-        Meca500Error::Timeout { waiting_for: what.to_owned(), after: wait.timeout() }
+        LinkError::Timeout { waiting_for: what.to_owned(), after: wait.timeout() }.into()
     }
 
     /// Next message from the robot, routed through [`Self::observe`].
@@ -441,14 +442,10 @@ impl<T: Transport> Meca500<T> {
             let Some(remaining) = wait.remaining() else {
                 return Err(self.timeout_error(wait, what));
             };
-            match self.transport.recv(&mut buf, remaining) {
-                Ok(0) => return Err(Meca500Error::Disconnected { during: format!("waiting for {what}") }),
-                Ok(n) => self.deframer.push(&buf[..n]),
-                Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) if is_disconnect(&e) => {
-                    return Err(Meca500Error::Disconnected { during: format!("waiting for {what}") });
-                }
-                Err(e) => return Err(Meca500Error::Io(e)),
+            if let Some(n) =
+                recv_some(&mut self.transport, &mut buf, remaining, || format!("waiting for {what}"))?
+            {
+                self.deframer.push(&buf[..n]);
             }
         }
     }

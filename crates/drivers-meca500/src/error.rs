@@ -1,9 +1,7 @@
 //! The driver's own error type and its mapping onto the portable
 //! [`vatcal_hardware_traits::ErrorKind`].
 
-use std::time::Duration;
-
-use vatcal_hardware_traits::{Error as HwError, ErrorKind};
+use vatcal_hardware_traits::{Error as HwError, ErrorKind, LinkError};
 
 use crate::codec::{BannerError, FrameError, ReplyError, code};
 
@@ -11,23 +9,9 @@ use crate::codec::{BannerError, FrameError, ReplyError, code};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Meca500Error {
-    /// Socket error.
-    #[error("I/O error: {0}")]
-    Io(#[from] std::io::Error),
-    /// The connection is gone (closed or reset by the robot, or the network).
-    #[error("connection closed while {during}")]
-    Disconnected {
-        /// what the driver was doing (`waiting for the end of the motion`, `sending MoveJoints`)
-        during: String,
-    },
-    /// No answer in time.
-    #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
-    Timeout {
-        /// what the driver was waiting for
-        waiting_for: String,
-        /// the timeout that expired
-        after: Duration,
-    },
+    /// The link failed: an I/O error, the connection closed, or no answer in time.
+    #[error(transparent)]
+    Link(#[from] LinkError),
     /// The robot refused a command or reported an error (codes 1000–1999, 3005, 3070, …).
     #[error("robot error [{code}]: {text}")]
     Robot {
@@ -53,15 +37,19 @@ pub enum Meca500Error {
     InvalidArgument(String),
 }
 
+impl From<std::io::Error> for Meca500Error {
+    fn from(e: std::io::Error) -> Self {
+        Meca500Error::Link(LinkError::Io(e))
+    }
+}
+
 impl Meca500Error {
     /// The portable kind: 1005/1006 → [`ErrorKind::NotHomed`], 1000 (buffer full) and 3001
     /// (another client) → [`ErrorKind::Busy`], every other robot code →
     /// [`ErrorKind::DeviceFault`] with that code.
     pub fn kind(&self) -> ErrorKind {
         match self {
-            Meca500Error::Io(e) => io_kind(e),
-            Meca500Error::Disconnected { .. } => ErrorKind::Disconnected,
-            Meca500Error::Timeout { .. } => ErrorKind::Timeout,
+            Meca500Error::Link(e) => e.kind(),
             Meca500Error::Robot { code, .. } => robot_code_kind(*code),
             Meca500Error::Banner(BannerError::Refused(r)) => robot_code_kind(r.code),
             Meca500Error::Banner(_) | Meca500Error::Malformed(_) | Meca500Error::Frame(_) => {
@@ -75,7 +63,7 @@ impl Meca500Error {
     /// Converts into the trait-level error of device `device`, keeping `self` as source.
     pub fn into_hw(self, device: &str) -> HwError {
         match self {
-            Meca500Error::Io(e) => HwError::from_io(device, e),
+            Meca500Error::Link(e) => e.into_hw(device),
             other => HwError::new(other.kind(), device, other.to_string()).with_source(other),
         }
     }
@@ -88,11 +76,6 @@ pub fn robot_code_kind(c: u16) -> ErrorKind {
         code::BUFFER_FULL | code::ANOTHER_USER => ErrorKind::Busy,
         other => ErrorKind::DeviceFault { code: i32::from(other) },
     }
-}
-
-fn io_kind(e: &std::io::Error) -> ErrorKind {
-    // same mapping as `vatcal_hardware_traits::Error::from_io`, which owns the io::Error
-    HwError::from_io("", std::io::Error::new(e.kind(), "")).kind()
 }
 
 #[cfg(test)]
@@ -109,10 +92,12 @@ mod tests {
         assert_eq!(robot(1006).kind(), ErrorKind::NotHomed);
         assert_eq!(robot(1000).kind(), ErrorKind::Busy);
         assert_eq!(Meca500Error::Banner(BannerError::Refused(Reply::new(3001, "x"))).kind(), ErrorKind::Busy);
-        let closed = Meca500Error::Disconnected { during: "waiting for the end of the motion".into() };
+        let closed = Meca500Error::from(LinkError::Disconnected {
+            during: "waiting for the end of the motion".into(),
+        });
         assert_eq!(closed.kind(), ErrorKind::Disconnected);
         assert_eq!(closed.to_string(), "connection closed while waiting for the end of the motion");
-        let io = Meca500Error::Io(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "x"));
+        let io = Meca500Error::from(std::io::Error::new(std::io::ErrorKind::BrokenPipe, "x"));
         assert_eq!(io.kind(), ErrorKind::Disconnected);
         let hw = robot(1007).into_hw("meca500");
         assert_eq!(hw.kind(), ErrorKind::DeviceFault { code: 1007 });

@@ -21,6 +21,7 @@ use btleplug::api::{Central as _, Characteristic, Manager as _, Peripheral as _,
 use btleplug::platform::{Manager, Peripheral};
 use futures::StreamExt;
 use uuid::Uuid;
+use vatcal_hardware_traits::LinkError;
 use vatcal_hardware_traits::transport::Transport;
 
 use crate::ble::{
@@ -126,7 +127,7 @@ impl BleTransport {
             .worker_threads(1)
             .enable_all()
             .build()
-            .map_err(SylvacError::Io)?;
+            .map_err(SylvacError::from)?;
         let (peripheral, label) = runtime.block_on(find(config))?;
         let opened = runtime.block_on(open(&peripheral, config.connect_timeout));
         let (request, stream, response_uuid, measurement_uuid, exponent) = match opened {
@@ -202,10 +203,11 @@ async fn find(config: &BleConfig) -> Result<(Peripheral, String), SylvacError> {
         }
         if started.elapsed() >= config.scan_timeout {
             let _ = adapter.stop_scan().await;
-            return Err(SylvacError::Timeout {
+            return Err(LinkError::Timeout {
                 waiting_for: format!("a BLE gauge {}", config.target),
                 after: config.scan_timeout,
-            });
+            }
+            .into());
         }
         tokio::time::sleep(Duration::from_millis(200)).await;
     }
@@ -217,7 +219,9 @@ async fn open(
     p: &Peripheral,
     timeout: Duration,
 ) -> Result<(Characteristic, Notifications, Uuid, Uuid, i8), SylvacError> {
-    let timed_out = || SylvacError::Timeout { waiting_for: "the BLE connection".to_owned(), after: timeout };
+    let timed_out = || {
+        SylvacError::from(LinkError::Timeout { waiting_for: "the BLE connection".to_owned(), after: timeout })
+    };
     tokio::time::timeout(timeout, p.connect())
         .await
         .map_err(|_| timed_out())?

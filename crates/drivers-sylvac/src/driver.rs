@@ -7,9 +7,9 @@ use vatcal_hardware_traits::{Gauge, Result as HwResult};
 
 use crate::codec::{Answer, Command, LineDeframer, MAX_PRESET_MM, Unit};
 use crate::error::SylvacError;
-use crate::transport::{Transport, is_timeout};
+use crate::transport::Transport;
 use vatcal_hardware_traits::transport::Deadline as Wait;
-use vatcal_hardware_traits::transport::is_disconnect;
+use vatcal_hardware_traits::transport::{LinkError, recv_some};
 
 /// Connection settings and timeouts.
 #[derive(Debug, Clone, PartialEq)]
@@ -161,7 +161,7 @@ impl<T: Transport> SylvacGauge<T> {
         loop {
             let line = match self.read_line(&wait, command) {
                 Ok(line) => line,
-                Err(SylvacError::Timeout { .. }) if skipped.is_some() => {
+                Err(SylvacError::Link(LinkError::Timeout { .. })) if skipped.is_some() => {
                     let answer = skipped.unwrap_or_default();
                     return Err(SylvacError::UnexpectedAnswer { command: command.to_text(), answer });
                 }
@@ -189,7 +189,7 @@ impl<T: Transport> SylvacGauge<T> {
                 Answer::Error(e) => Err(SylvacError::Gauge { command: command.to_text(), error: e }),
                 _ => Ok(()),
             },
-            Err(SylvacError::Timeout { .. }) => Ok(()),
+            Err(SylvacError::Link(LinkError::Timeout { .. })) => Ok(()),
             Err(e) => Err(e),
         }
     }
@@ -222,29 +222,21 @@ impl<T: Transport> SylvacGauge<T> {
     }
 
     fn send_command(&mut self, command: &Command) -> Result<(), SylvacError> {
-        self.transport.send(&command.encode()).map_err(|e| {
-            if is_disconnect(&e) {
-                SylvacError::Disconnected { during: format!("sending '{command}'") }
-            } else {
-                SylvacError::Io(e)
-            }
-        })
+        self.transport
+            .send(&command.encode())
+            .map_err(|e| LinkError::from_send(e, || format!("sending '{command}'")).into())
     }
 
     /// Drops whatever arrived unasked (late acknowledgements, continuous output).
     fn discard_pending(&mut self) -> Result<(), SylvacError> {
         let mut buf = [0u8; 512];
         loop {
-            match self.transport.recv(&mut buf, Duration::ZERO) {
-                Ok(0) => {
-                    return Err(SylvacError::Disconnected { during: "idle (before a request)".to_owned() });
-                }
-                Ok(_) => {}
-                Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => break,
-                Err(e) if is_disconnect(&e) => {
-                    return Err(SylvacError::Disconnected { during: "idle (before a request)".to_owned() });
-                }
-                Err(e) => return Err(SylvacError::Io(e)),
+            if recv_some(&mut self.transport, &mut buf, Duration::ZERO, || {
+                "idle (before a request)".to_owned()
+            })?
+            .is_none()
+            {
+                break;
             }
         }
         self.deframer.clear();
@@ -258,25 +250,16 @@ impl<T: Transport> SylvacGauge<T> {
                 return Ok(line);
             }
             let Some(remaining) = wait.remaining() else {
-                return Err(SylvacError::Timeout {
+                return Err(LinkError::Timeout {
                     waiting_for: format!("answer to '{command}'"),
                     after: wait.timeout(),
-                });
+                }
+                .into());
             };
-            match self.transport.recv(&mut buf, remaining) {
-                Ok(0) => {
-                    return Err(SylvacError::Disconnected {
-                        during: format!("waiting for the answer to '{command}'"),
-                    });
-                }
-                Ok(n) => self.deframer.push(&buf[..n]),
-                Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) if is_disconnect(&e) => {
-                    return Err(SylvacError::Disconnected {
-                        during: format!("waiting for the answer to '{command}'"),
-                    });
-                }
-                Err(e) => return Err(SylvacError::Io(e)),
+            if let Some(n) = recv_some(&mut self.transport, &mut buf, remaining, || {
+                format!("waiting for the answer to '{command}'")
+            })? {
+                self.deframer.push(&buf[..n]);
             }
         }
     }

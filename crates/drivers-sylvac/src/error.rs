@@ -1,9 +1,7 @@
 //! The driver's own error type and its mapping onto the portable
 //! [`vatcal_hardware_traits::ErrorKind`].
 
-use std::time::Duration;
-
-use vatcal_hardware_traits::{Error as HwError, ErrorKind};
+use vatcal_hardware_traits::{Error as HwError, ErrorKind, LinkError};
 
 use crate::codec::{GaugeError, LineTooLong, MAX_PRESET_MM};
 
@@ -11,23 +9,9 @@ use crate::codec::{GaugeError, LineTooLong, MAX_PRESET_MM};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum SylvacError {
-    /// Transport error.
-    #[error("I/O error: {0}")]
-    Io(#[from] std::io::Error),
-    /// The connection is gone (closed or reset by the gauge or the network, port hung up).
-    #[error("connection closed while {during}")]
-    Disconnected {
-        /// what the driver was doing (`waiting for the answer to '?'`, …)
-        during: String,
-    },
-    /// No answer in time.
-    #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
-    Timeout {
-        /// what the driver was waiting for
-        waiting_for: String,
-        /// the timeout that expired
-        after: Duration,
-    },
+    /// The link failed: an I/O error, the connection closed, or no answer in time.
+    #[error(transparent)]
+    Link(#[from] LinkError),
     /// The gauge answered `ERRn`.
     #[error("'{command}' answered {error}")]
     Gauge {
@@ -66,14 +50,18 @@ pub enum SylvacError {
     },
 }
 
+impl From<std::io::Error> for SylvacError {
+    fn from(e: std::io::Error) -> Self {
+        SylvacError::Link(LinkError::Io(e))
+    }
+}
+
 impl SylvacError {
     /// The portable kind: `ERR3` → `OutOfRange`, `ERR0` → `DeviceFault { code: 0 }`, `ERR1`/
     /// `ERR2` and odd answers → `Protocol`.
     pub fn kind(&self) -> ErrorKind {
         match self {
-            SylvacError::Io(e) => HwError::from_io("", std::io::Error::new(e.kind(), "")).kind(),
-            SylvacError::Disconnected { .. } => ErrorKind::Disconnected,
-            SylvacError::Timeout { .. } => ErrorKind::Timeout,
+            SylvacError::Link(e) => e.kind(),
             SylvacError::Gauge { error: GaugeError::RangeExceeded, .. } => ErrorKind::OutOfRange,
             SylvacError::Gauge { error: GaugeError::Sensor, .. } => ErrorKind::DeviceFault { code: 0 },
             SylvacError::Gauge { .. } | SylvacError::UnexpectedAnswer { .. } | SylvacError::Frame(_) => {
@@ -88,7 +76,7 @@ impl SylvacError {
     /// Converts into the trait-level error of device `device`, keeping `self` as source.
     pub fn into_hw(self, device: &str) -> HwError {
         match self {
-            SylvacError::Io(e) => HwError::from_io(device, e),
+            SylvacError::Link(e) => e.into_hw(device),
             other => HwError::new(other.kind(), device, other.to_string()).with_source(other),
         }
     }

@@ -7,9 +7,9 @@ use vatcal_hardware_traits::{LinearAxis, MotionOptions, Result as HwResult};
 
 use crate::codec::{Command, LineDeframer, LineEnding, Message, Reply, Status, Warning, parse_warning_list};
 use crate::error::ZaberError;
-use crate::transport::{Transport, is_timeout};
+use crate::transport::Transport;
 use vatcal_hardware_traits::transport::Deadline as Wait;
-use vatcal_hardware_traits::transport::is_disconnect;
+use vatcal_hardware_traits::transport::{LinkError, recv_some};
 
 /// TCP port forwarding to the whole daisy chain.
 pub const TCP_PORT_CHAIN: u16 = 55550;
@@ -250,15 +250,9 @@ impl<T: Transport> ZaberAxis<T> {
             command = command.with_id(self.next_id);
             self.next_id = (self.next_id + 1) % 100;
         }
-        self.transport.send(&command.encode(self.config.checksums, self.config.line_ending)).map_err(
-            |e| {
-                if is_disconnect(&e) {
-                    ZaberError::Disconnected { during: format!("sending '{text}'") }
-                } else {
-                    ZaberError::Io(e)
-                }
-            },
-        )?;
+        self.transport
+            .send(&command.encode(self.config.checksums, self.config.line_ending))
+            .map_err(|e| LinkError::from_send(e, || format!("sending '{text}'")))?;
         let wait = Wait::new(self.config.io_timeout);
         loop {
             match self.read_message(&wait, text)? {
@@ -344,7 +338,7 @@ impl<T: Transport> ZaberAxis<T> {
     /// by message id). A closed link cannot carry a command.
     fn stop_on_link_fault<R>(&mut self, r: &Result<R, ZaberError>) {
         if let Err(
-            ZaberError::Timeout { .. }
+            ZaberError::Link(LinkError::Timeout { .. })
             | ZaberError::Malformed(_)
             | ZaberError::Frame(_)
             | ZaberError::Protocol(_),
@@ -424,10 +418,9 @@ impl<T: Transport> ZaberAxis<T> {
             match wait.remaining() {
                 Some(r) => std::thread::sleep(r.min(self.config.poll_interval)),
                 None => {
-                    return Err(ZaberError::Timeout {
-                        waiting_for: "IDLE".to_owned(),
-                        after: wait.timeout(),
-                    });
+                    return Err(
+                        LinkError::Timeout { waiting_for: "IDLE".to_owned(), after: wait.timeout() }.into()
+                    );
                 }
             }
         }
@@ -453,10 +446,11 @@ impl<T: Transport> ZaberAxis<T> {
             match wait.remaining() {
                 Some(r) => std::thread::sleep(r.min(self.config.poll_interval)),
                 None => {
-                    return Err(ZaberError::Timeout {
+                    return Err(LinkError::Timeout {
                         waiting_for: "IDLE after stop".to_owned(),
                         after: wait.timeout(),
-                    });
+                    }
+                    .into());
                 }
             }
         }
@@ -474,18 +468,12 @@ impl<T: Transport> ZaberAxis<T> {
                 return Ok(Message::parse(&line)?);
             }
             let Some(remaining) = wait.remaining() else {
-                return Err(ZaberError::Timeout { waiting_for: what, after: wait.timeout() });
+                return Err(LinkError::Timeout { waiting_for: what, after: wait.timeout() }.into());
             };
-            match self.transport.recv(&mut buf, remaining) {
-                Ok(0) => {
-                    return Err(ZaberError::Disconnected { during: format!("waiting for the {what}") });
-                }
-                Ok(n) => self.deframer.push(&buf[..n]),
-                Err(e) if is_timeout(&e) || e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) if is_disconnect(&e) => {
-                    return Err(ZaberError::Disconnected { during: format!("waiting for the {what}") });
-                }
-                Err(e) => return Err(ZaberError::Io(e)),
+            if let Some(n) =
+                recv_some(&mut self.transport, &mut buf, remaining, || format!("waiting for the {what}"))?
+            {
+                self.deframer.push(&buf[..n]);
             }
         }
     }

@@ -1,9 +1,7 @@
 //! The driver's own error type and its mapping onto the portable
 //! [`vatcal_hardware_traits::ErrorKind`].
 
-use std::time::Duration;
-
-use vatcal_hardware_traits::{Error as HwError, ErrorKind};
+use vatcal_hardware_traits::{Error as HwError, ErrorKind, LinkError};
 
 use crate::codec::{LineTooLong, ParseError, Warning};
 
@@ -11,23 +9,9 @@ use crate::codec::{LineTooLong, ParseError, Warning};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ZaberError {
-    /// Transport error.
-    #[error("I/O error: {0}")]
-    Io(#[from] std::io::Error),
-    /// The connection is gone (closed or reset by the device or the network, port hung up).
-    #[error("connection closed while {during}")]
-    Disconnected {
-        /// what the driver was doing (`waiting for the reply to 'move abs 100'`, …)
-        during: String,
-    },
-    /// No answer in time.
-    #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
-    Timeout {
-        /// what the driver was waiting for
-        waiting_for: String,
-        /// the timeout that expired
-        after: Duration,
-    },
+    /// The link failed: an I/O error, the connection closed, or no answer in time.
+    #[error(transparent)]
+    Link(#[from] LinkError),
     /// The device rejected a command (`RJ`) with this reason (`BADDATA`, `BADCOMMAND`, …).
     #[error("command '{command}' rejected: {reason} (flag {})", warning.map(|w| w.to_string()).unwrap_or_else(|| "--".to_owned()))]
     Rejected {
@@ -74,6 +58,12 @@ pub enum ZaberError {
     InvalidArgument(String),
 }
 
+impl From<std::io::Error> for ZaberError {
+    fn from(e: std::io::Error) -> Self {
+        ZaberError::Link(LinkError::Io(e))
+    }
+}
+
 impl ZaberError {
     /// The portable kind. Rejections: `BADDATA` → `OutOfRange`; `BADCOMMAND`, `BADAXIS`,
     /// `BADMESSAGEID`, `DEVICEONLY` → `Protocol`; `AGAIN`, `FULL`, `STATUSBUSY` → `Busy`;
@@ -81,9 +71,7 @@ impl ZaberError {
     /// → `DeviceFault` with the most important flag's code ([`Warning::code`]).
     pub fn kind(&self) -> ErrorKind {
         match self {
-            ZaberError::Io(e) => HwError::from_io("", std::io::Error::new(e.kind(), "")).kind(),
-            ZaberError::Disconnected { .. } => ErrorKind::Disconnected,
-            ZaberError::Timeout { .. } => ErrorKind::Timeout,
+            ZaberError::Link(e) => e.kind(),
             ZaberError::Rejected { reason, .. } => rejection_kind(reason),
             ZaberError::MotionFailed { flags } => match flags.first() {
                 Some(f) => ErrorKind::DeviceFault { code: f.code() },
@@ -99,7 +87,7 @@ impl ZaberError {
     /// Converts into the trait-level error of device `device`, keeping `self` as source.
     pub fn into_hw(self, device: &str) -> HwError {
         match self {
-            ZaberError::Io(e) => HwError::from_io(device, e),
+            ZaberError::Link(e) => e.into_hw(device),
             other => HwError::new(other.kind(), device, other.to_string()).with_source(other),
         }
     }

@@ -41,6 +41,24 @@ pub enum ErrorKind {
     Other,
 }
 
+impl ErrorKind {
+    /// The portable kind of an OS I/O error: timeouts → [`ErrorKind::Timeout`], closed, refused
+    /// or reset connections → [`ErrorKind::Disconnected`], everything else → [`ErrorKind::Io`].
+    pub fn of_io(e: &std::io::Error) -> Self {
+        use std::io::ErrorKind as K;
+        match e.kind() {
+            K::TimedOut | K::WouldBlock => ErrorKind::Timeout,
+            K::ConnectionReset
+            | K::ConnectionAborted
+            | K::ConnectionRefused
+            | K::NotConnected
+            | K::BrokenPipe
+            | K::UnexpectedEof => ErrorKind::Disconnected,
+            _ => ErrorKind::Io,
+        }
+    }
+}
+
 impl fmt::Display for ErrorKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -103,18 +121,7 @@ impl Error {
     /// Wraps an OS I/O error, mapping its kind: timeouts → [`ErrorKind::Timeout`], closed or
     /// reset connections → [`ErrorKind::Disconnected`], everything else → [`ErrorKind::Io`].
     pub fn from_io(device: impl Into<String>, e: std::io::Error) -> Self {
-        use std::io::ErrorKind as K;
-        let kind = match e.kind() {
-            K::TimedOut | K::WouldBlock => ErrorKind::Timeout,
-            K::ConnectionReset
-            | K::ConnectionAborted
-            | K::ConnectionRefused
-            | K::NotConnected
-            | K::BrokenPipe
-            | K::UnexpectedEof => ErrorKind::Disconnected,
-            _ => ErrorKind::Io,
-        };
-        Self::new(kind, device, e.to_string()).with_source(e)
+        Self::new(ErrorKind::of_io(&e), device, e.to_string()).with_source(e)
     }
 
     /// The portable category.

@@ -54,4 +54,4 @@ pub use gauge::Gauge;
 pub use operator::{Operator, OperatorInstruction};
 pub use probe::{Probe3d, ProbePlacement, ProbeReading, TRICAL_MASTER_PRESET_MM, TriCal, TriCalConfig};
 pub use tracker::PositionTracker;
-pub use transport::{Deadline, Transport};
+pub use transport::{Deadline, LinkError, Transport};

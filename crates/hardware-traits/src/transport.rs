@@ -13,6 +13,8 @@ use std::io::{self, Read, Write};
 use std::net::{TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 
+use crate::error::{Error, ErrorKind};
+
 /// Smallest read timeout handed to the OS (a zero timeout means "block forever" for sockets).
 pub const MIN_READ_TIMEOUT: Duration = Duration::from_millis(1);
 
@@ -126,6 +128,80 @@ pub fn is_disconnect(e: &io::Error) -> bool {
             | io::ErrorKind::BrokenPipe
             | io::ErrorKind::UnexpectedEof
     )
+}
+
+/// What can go wrong on the link itself, the same for every driver. Each driver's error type
+/// wraps it (`Meca500Error::Link`, `ZaberError::Link`, `SylvacError::Link`), so the three
+/// link failures are written, displayed and mapped to an [`ErrorKind`] in one place.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LinkError {
+    /// An OS I/O error that is neither a timeout nor a gone link.
+    #[error("I/O error: {0}")]
+    Io(#[from] io::Error),
+    /// The connection is gone (closed or reset by the device or the network, port hung up).
+    #[error("connection closed while {during}")]
+    Disconnected {
+        /// what the driver was doing (`sending MoveJoints`, `waiting for the answer to '?'`)
+        during: String,
+    },
+    /// No answer in time.
+    #[error("no {waiting_for} within {:.3} s", after.as_secs_f64())]
+    Timeout {
+        /// what the driver was waiting for
+        waiting_for: String,
+        /// the timeout that expired
+        after: Duration,
+    },
+}
+
+impl LinkError {
+    /// The portable kind: [`ErrorKind::Disconnected`], [`ErrorKind::Timeout`], or the kind of
+    /// the I/O error ([`ErrorKind::of_io`]).
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            LinkError::Io(e) => ErrorKind::of_io(e),
+            LinkError::Disconnected { .. } => ErrorKind::Disconnected,
+            LinkError::Timeout { .. } => ErrorKind::Timeout,
+        }
+    }
+
+    /// Converts into the trait-level error of device `device`, keeping `self` (or the I/O
+    /// error) as source.
+    pub fn into_hw(self, device: &str) -> Error {
+        match self {
+            LinkError::Io(e) => Error::from_io(device, e),
+            other => Error::new(other.kind(), device, other.to_string()).with_source(other),
+        }
+    }
+
+    /// A failed [`Transport::send`]: a gone link ([`is_disconnect`]) is
+    /// [`LinkError::Disconnected`] with `during()`, anything else [`LinkError::Io`].
+    pub fn from_send(e: io::Error, during: impl FnOnce() -> String) -> Self {
+        if is_disconnect(&e) { LinkError::Disconnected { during: during() } } else { LinkError::Io(e) }
+    }
+}
+
+/// One timed read for a driver's receive loop: `Ok(Some(n))` when `n > 0` bytes arrived,
+/// `Ok(None)` when nothing arrived within `timeout` or the read was interrupted (the caller
+/// checks its [`Deadline`] and reads again), [`LinkError::Disconnected`] with `during()` when
+/// the peer closed the stream or the link is gone, [`LinkError::Io`] for any other error.
+///
+/// # Errors
+/// [`LinkError::Disconnected`] or [`LinkError::Io`] as above.
+pub fn recv_some<T: Transport + ?Sized>(
+    transport: &mut T,
+    buf: &mut [u8],
+    timeout: Duration,
+    during: impl FnOnce() -> String,
+) -> Result<Option<usize>, LinkError> {
+    match transport.recv(buf, timeout) {
+        Ok(0) => Err(LinkError::Disconnected { during: during() }),
+        Ok(n) => Ok(Some(n)),
+        Err(e) if is_timeout(&e) || e.kind() == io::ErrorKind::Interrupted => Ok(None),
+        Err(e) if is_disconnect(&e) => Err(LinkError::Disconnected { during: during() }),
+        Err(e) => Err(LinkError::Io(e)),
+    }
 }
 
 /// Connects to the first address of `addr` that accepts within `timeout` each, with Nagle's
@@ -453,6 +529,36 @@ mod tests {
                 Err(e) => out.push(Err(e)),
             }
         }
+    }
+
+    #[test]
+    fn recv_some_sorts_data_silence_and_a_closed_link() {
+        let mut t = ScriptedTransport::new([b"abc".to_vec()]).silent_at_end();
+        let mut buf = [0u8; 8];
+        let during = || "waiting for the reply".to_owned();
+        assert_eq!(recv_some(&mut t, &mut buf, Duration::from_millis(1), during).ok(), Some(Some(3)));
+        assert_eq!(recv_some(&mut t, &mut buf, Duration::from_millis(1), during).ok(), Some(None));
+        let mut closed = ScriptedTransport::new(Vec::<Vec<u8>>::new());
+        let Err(e) = recv_some(&mut closed, &mut buf, Duration::from_millis(1), during) else {
+            panic!("a closed stream must be an error")
+        };
+        assert_eq!(e.kind(), ErrorKind::Disconnected);
+        assert_eq!(e.to_string(), "connection closed while waiting for the reply");
+        let hw = e.into_hw("gauge 1");
+        assert_eq!((hw.kind(), hw.device()), (ErrorKind::Disconnected, "gauge 1"));
+    }
+
+    #[test]
+    fn send_errors_split_into_gone_links_and_other_io_errors() {
+        let gone = LinkError::from_send(io::Error::from(io::ErrorKind::BrokenPipe), || "sending '?'".into());
+        assert_eq!(gone.to_string(), "connection closed while sending '?'");
+        let other = LinkError::from_send(io::Error::from(io::ErrorKind::PermissionDenied), || unreachable!());
+        assert_eq!(other.kind(), ErrorKind::Io);
+        let late = LinkError::Timeout { waiting_for: "IDLE".into(), after: Duration::from_millis(1500) };
+        assert_eq!(
+            (late.kind(), late.to_string()),
+            (ErrorKind::Timeout, "no IDLE within 1.500 s".to_owned())
+        );
     }
 
     #[test]
