@@ -76,10 +76,10 @@ def rewrite(path: Path, text: str, helpers: list[str]) -> str:
 
 def main_rs(crate: str, fold: str, helpers: list[str], modules: list[str]) -> str:
     lines = [
-        f"//! All integration tests of `{crate}` in one test binary (one build and one link instead",
-        "//! of one per file): each `NAME.rs` beside this file is a module, so a test runs as",
-        f"//! `cargo test -p {crate} --test {fold} NAME::`. {GENERATED}",
-        "//! (it moves new `tests/*.rs` files here); do not edit by hand.",
+        f"//! All integration tests of `{crate}` in one test binary (one build and one",
+        "//! link instead of one per file). Each `NAME.rs` beside this file is a module; run one with",
+        f"//! `cargo test -p {crate} --test {fold} NAME::`.",
+        f"//! {GENERATED} (it moves new `tests/*.rs` files here): do not edit.",
         "",
     ]
     for h in helpers:
