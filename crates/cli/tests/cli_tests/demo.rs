@@ -24,7 +24,7 @@ fn run_demo(out: &Path, extra: &[&str]) -> std::process::Output {
         "100",
         "--truth",
         "ideal",
-        // the discovery stage is tested in crates/demo/tests/discovery.rs
+        // the discovery stage is tested in crates/demo/tests/demo_tests/discovery.rs
         "--no-discovery",
     ];
     args.extend_from_slice(extra);

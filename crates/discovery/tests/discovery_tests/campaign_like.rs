@@ -7,7 +7,7 @@
 //! * every catalog effect hidden alone at a realistic size is named, with the right joint.
 //!
 //! The seed sweep (detection and false-positive rates) is `sweep_campaign` below, ignored by
-//! default: `cargo test -p vatcal-discovery --release --test campaign_like -- --ignored --nocapture`.
+//! default: `cargo test -p vatcal-discovery --release --test discovery_tests campaign_like:: -- --ignored --nocapture`.
 
 use crate::common;
 
@@ -227,7 +227,7 @@ fn every_catalog_effect_hidden_alone_is_named() {
 /// Detection rate (every catalog case, several seeds) and false-positive rate (null data, many
 /// seeds) on campaign-like data. Prints one line per data set and the two rates; fails only if
 /// the data cannot be generated. Run in release:
-/// `cargo test -p vatcal-discovery --release --test campaign_like -- --ignored --nocapture`
+/// `cargo test -p vatcal-discovery --release --test discovery_tests campaign_like:: -- --ignored --nocapture`
 /// (`SWEEP_SEEDS` = seeds per catalog case, default 3; `SWEEP_NULL` = null data sets, default 60;
 /// `SWEEP_N` = probe measurements per data set, default 120).
 #[test]

@@ -1,6 +1,6 @@
 //! Robustness sweep over many hidden-effect data sets (seeds, joints, magnitudes at the low end
 //! of the brief's ranges, two tracker noise levels). Slow (a few minutes): run with
-//! `cargo test -p vatcal-discovery --release --test sweep -- --ignored --nocapture`.
+//! `cargo test -p vatcal-discovery --release --test discovery_tests sweep:: -- --ignored --nocapture`.
 //! Prints one line per data set and fails if any is misnamed or the gap is not closed.
 
 use crate::common;

@@ -1,6 +1,6 @@
 //! The BLE gauge (feature `ble`) without a reachable gauge: connecting fails with one clear
 //! error value (no D-Bus / no adapter / not found within the scan timeout), never a panic or
-//! a hang. Run with `cargo test -p vatcal-drivers-sylvac --features ble --test ble_link`.
+//! a hang. Run with `cargo test -p vatcal-drivers-sylvac --features ble --test drivers_sylvac_tests ble_link::`.
 #![cfg(feature = "ble")]
 
 use std::time::{Duration, Instant};
