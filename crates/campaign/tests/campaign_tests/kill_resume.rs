@@ -3,7 +3,7 @@
 //! left behind. The final measurement set must equal that of an uninterrupted run with the
 //! same seed: nothing lost, nothing measured twice.
 //!
-//! The child is this very test binary, started with `--exact child_campaign` and an
+//! The child is this very test binary, started with `--exact kill_resume::child_campaign` and an
 //! environment variable naming the journal; without the variable that test does nothing.
 
 use crate::common;
@@ -95,8 +95,14 @@ fn killed_campaign_resumes_without_losing_or_repeating_a_measurement() {
 
     let journal: PathBuf = dir.path().join("killed.journal");
     let exe = std::env::current_exe().expect("test binary");
+    // the child test's name in the harness: its module path without the crate's name
+    // (`kill_resume::child_campaign` in the crate's one test binary)
+    let child_test = match module_path!().split_once("::") {
+        Some((_, module)) => format!("{module}::child_campaign"),
+        None => "child_campaign".to_string(),
+    };
     let mut child = Command::new(exe)
-        .args(["--exact", "child_campaign", "--test-threads=1", "--nocapture"])
+        .args(["--exact", child_test.as_str(), "--test-threads=1", "--nocapture"])
         .env(CHILD_JOURNAL, &journal)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
