@@ -1,0 +1,41 @@
+//! The discovery stage of the demo on the paper-like truth: four validated models (nominal,
+//! the paper's 34 parameters, discovered, true structure), the `discovery` object of
+//! `report.json`, `summary.html`; the discovered model's mean error on the held-out tracker
+//! validation is at most 40 % of the 34-parameter one (issue 11's goal). The run is the
+//! default demo shared with `paper_like.rs` and `compensation.rs` (`common::default_demo`,
+//! seed 1, the paper's validation sizes).
+
+use crate::common;
+
+#[test]
+fn the_demo_discovers_on_the_paper_like_truth_and_validates_four_models() {
+    let demo = common::default_demo();
+    assert!(demo.opts.discovery, "discovery is on by default");
+    let out = &demo.out;
+    let mean = |label: &str| out.validation(label).map(|v| v.random.stats.mean).expect(label);
+    let labels: Vec<&str> = out.report.validation.models.iter().map(|m| m.label.as_str()).collect();
+    assert_eq!(labels, ["nominal", "calibrated", "discovered", "true-structure"]);
+    for label in labels {
+        let v = out.validation(label).expect(label);
+        assert!(v.path.is_some(), "{label} has no printing-path run");
+    }
+    let (calibrated, discovered, truth) = (mean("calibrated"), mean("discovered"), mean("true-structure"));
+    assert!(
+        discovered <= calibrated,
+        "discovered {discovered} mm worse than the 34 parameters {calibrated} mm"
+    );
+    assert!(truth < calibrated, "the true-structure floor {truth} mm is not below {calibrated} mm");
+    // issue 11's goal on this seed (measured with 573 poses: 0.049 / 0.243 mm = 20 %)
+    assert!(
+        discovered <= 0.4 * calibrated,
+        "discovered {discovered} mm is more than 40 % of the 34 parameters' {calibrated} mm"
+    );
+    let json = &demo.report_json;
+    assert!(json["discovery"]["added_effects"].is_array());
+    assert!(json["validation"]["models"][2]["random"]["stats"]["mean_mm"].is_number());
+    let d = out.discovery.as_ref().expect("discovery outcome");
+    assert_eq!(d.plots.len(), d.discovery.added_effects.len());
+    assert!(demo.summary_md.contains("| true structure (floor) |"));
+    let html = &demo.summary_html;
+    assert!(html.contains("<svg") && html.contains("true structure (floor)"));
+}

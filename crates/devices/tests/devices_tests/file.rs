@@ -1,0 +1,99 @@
+//! The devices file: the two fixtures parse, and every kind of mistake is one clear error
+//! naming the file, the line and the field — before anything connects.
+
+use std::time::Duration;
+
+use vatcal_devices::{DevicesError, DevicesFile, Link};
+
+const EXAMPLE: &str = include_str!("../../../../fixtures/devices-example.toml");
+const SIM: &str = include_str!("../../../../fixtures/sim-cell-devices.toml");
+
+fn parse(text: &str) -> Result<DevicesFile, DevicesError> {
+    DevicesFile::parse(text, "devices.toml")
+}
+
+fn error(text: &str) -> String {
+    parse(text).expect_err("must be rejected").to_string()
+}
+
+const ARM: &str = "arm = { kind = \"meca500\", address = \"10.0.0.1:10000\" }\n";
+const GUIDE: &str = "guide = { kind = \"zaber\", tcp = \"10.0.0.2:55550\" }\n";
+const GAUGES: &str = "gauges = [\n  { kind = \"sylvac\", tcp = \"10.0.0.3:1\" },\n  { kind = \"sylvac\", tcp = \"10.0.0.3:2\" },\n  { kind = \"sylvac\", tcp = \"10.0.0.3:3\" },\n]\n";
+
+#[test]
+fn the_fixtures_parse_with_their_addresses_and_timeouts() {
+    let real = parse(EXAMPLE).expect("example");
+    assert_eq!(real.arm.address.get_ref(), "192.168.0.100:10000");
+    assert_eq!(real.guide_link(), Link::Tcp("192.168.0.50:55550".into()));
+    assert_eq!(real.gauge_link(2), Some(Link::Tcp("192.168.0.60:4003".into())));
+    assert_eq!(real.arm_config().io_timeout, Duration::from_millis(2000));
+    assert_eq!(real.guide_config().io_timeout, Duration::from_millis(1000));
+    assert_eq!(real.gauge_config(1).name, "gauge 2");
+    assert!(real.sim_control.is_none());
+    let sim = parse(SIM).expect("sim");
+    assert_eq!(sim.sim_control.as_ref().map(|c| c.tcp.get_ref().as_str()), Some("127.0.0.1:55570"));
+    assert!(sim.gauges.iter().all(|g| g.tcp.as_ref().is_some_and(|t| t.get_ref().starts_with("127.0.0.1:"))));
+}
+
+#[test]
+fn unknown_keys_are_rejected_with_their_name_and_line() {
+    let e = error(&format!("{ARM}{GUIDE}{GAUGES}speed = 3\n"));
+    assert!(e.starts_with("devices.toml: ") && e.contains("speed") && e.contains("line 8"), "{e}");
+    let e = error(&format!("arm = {{ kind = \"meca500\", adress = \"10.0.0.1:10000\" }}\n{GUIDE}{GAUGES}"));
+    assert!(e.contains("adress") && e.contains("line 1"), "{e}");
+}
+
+#[test]
+fn missing_devices_are_named() {
+    let e = error(&format!("{ARM}{GAUGES}"));
+    assert!(e.contains("guide"), "{e}");
+    let e = error(&format!("{GUIDE}{GAUGES}"));
+    assert!(e.contains("arm"), "{e}");
+    let e = error(&format!("{ARM}{GUIDE}gauges = [ {{ kind = \"sylvac\", tcp = \"1.2.3.4:5\" }} ]\n"));
+    assert!(e.contains("`gauges`") && e.contains("exactly 3 gauges") && e.contains("lists 1"), "{e}");
+}
+
+#[test]
+fn bad_addresses_kinds_links_and_timeouts_name_the_field_and_line() {
+    let e = error(&format!("arm = {{ kind = \"meca500\", address = \"10.0.0.1\" }}\n{GUIDE}{GAUGES}"));
+    assert_eq!(e, "devices.toml:1: `arm.address`: `10.0.0.1` is not `host:port`");
+    let e = error(&format!("{ARM}{GUIDE}{}", GAUGES.replace("10.0.0.3:2", "10.0.0.3:99999")));
+    assert!(e.starts_with("devices.toml:5: `gauges[1].tcp`: ") && e.contains("port"), "{e}");
+    let e = error(&format!("{ARM}guide = {{ kind = \"thorlabs\", tcp = \"1.2.3.4:5\" }}\n{GAUGES}"));
+    assert!(e.contains("`guide.kind`") && e.contains("`thorlabs`") && e.contains("`zaber`"), "{e}");
+    let e = error(&format!("{ARM}guide = {{ kind = \"zaber\" }}\n{GAUGES}"));
+    assert!(e.contains("`guide`") && e.contains("`tcp") && e.contains("`serial"), "{e}");
+    let e = error(&format!(
+        "{ARM}guide = {{ kind = \"zaber\", tcp = \"1.2.3.4:5\", serial = \"/dev/ttyUSB0\" }}\n{GAUGES}"
+    ));
+    assert!(e.contains("not both"), "{e}");
+    let e = error(&format!(
+        "arm = {{ kind = \"meca500\", address = \"10.0.0.1:10000\", io_timeout_ms = 0 }}\n{GUIDE}{GAUGES}"
+    ));
+    assert!(e.contains("`arm.io_timeout_ms`") && e.contains("0 ms"), "{e}");
+    let e = error(&format!("{ARM}{GUIDE}{GAUGES}tracker = {{ kind = \"faro\", tcp = \"1.2.3.4:5\" }}\n"));
+    assert!(e.contains("`tracker.kind`") && e.contains("no laser-tracker driver"), "{e}");
+    let e = error(&format!("{ARM}{GUIDE}{GAUGES}sim_control = {{ tcp = \"localhost\" }}\n"));
+    assert!(e.contains("`sim_control.tcp`"), "{e}");
+}
+
+#[cfg(not(feature = "serial"))]
+#[test]
+fn a_serial_link_without_the_feature_is_refused_before_connecting() {
+    let e = error(&format!("{ARM}guide = {{ kind = \"zaber\", serial = \"/dev/ttyUSB0\" }}\n{GAUGES}"));
+    assert!(e.contains("`guide.serial`") && e.contains("`serial` feature"), "{e}");
+}
+
+#[test]
+fn connecting_to_nothing_names_the_device() {
+    // a port nobody listens on: bind, note the address, close
+    let addr = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+        l.local_addr().expect("addr").to_string()
+    };
+    let text = format!(
+        "arm = {{ kind = \"meca500\", address = \"{addr}\", connect_timeout_ms = 500 }}\n{GUIDE}{GAUGES}"
+    );
+    let e = parse(&text).expect("valid file").connect().expect_err("nobody listens").to_string();
+    assert!(e.starts_with(&format!("connecting the arm (meca500 at {addr}): meca500: ")), "{e}");
+}

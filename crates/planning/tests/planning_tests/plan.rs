@@ -1,0 +1,168 @@
+//! The whole pipeline on a small candidate set, with the tour verified independently.
+
+use crate::common;
+
+use vatcal_core::JointVector;
+use vatcal_kinematics::Model;
+use vatcal_planning::candidates::{CandidateOptions, generate_candidates};
+use vatcal_planning::collision::{CollisionChecker, ProbeState};
+use vatcal_planning::geometry::CellGeometry;
+use vatcal_planning::motion::{Resolution, interpolate};
+use vatcal_planning::output::{PlanSummary, write_plan};
+use vatcal_planning::plan::{Plan, PlanOptions, StepKind, plan_campaign};
+
+fn small(seed: u64, start: Option<JointVector>) -> PlanOptions {
+    PlanOptions {
+        candidates: CandidateOptions { orientations: 40, guide_steps: 6, ..CandidateOptions::default() },
+        detmax_restarts: 2,
+        tour_restarts: 4,
+        start,
+        seed,
+        ..PlanOptions::default()
+    }
+}
+
+fn free_segment(checker: &CollisionChecker<'_>, a: &JointVector, b: &JointVector, probe: ProbeState) -> bool {
+    let res = Resolution::default();
+    let n = res.intervals(a, b);
+    (0..=n).all(|i| checker.is_free(&interpolate(a, b, i as f64 / n as f64), probe))
+}
+
+/// Replays the tour: every move and measurement is collision-free with the probe where the
+/// tour says it is, every measurement puts its TCP on its position.
+fn replay(model: &Model, geometry: &CellGeometry, plan: &Plan, start: Option<JointVector>) {
+    let checker = CollisionChecker::new(model, geometry, 2.0).expect("checker");
+    let mut current: Option<JointVector> = start;
+    let mut probe_at: Option<u32> = None;
+    let mut previous_kind: Option<StepKind> = None;
+    let mut measured = Vec::new();
+    for (k, s) in plan.steps.iter().enumerate() {
+        match s.kind {
+            StepKind::ReplaceProbe => {
+                assert!(probe_at != Some(s.position), "step {k}: re-placement to the same position");
+                probe_at = Some(s.position);
+            }
+            StepKind::Move => {
+                assert_eq!(probe_at, Some(s.position), "step {k}");
+                // the move right after a measurement is the retreat: the ball leaves the probe
+                let probe = if previous_kind == Some(StepKind::Measure) {
+                    ProbeState::Measuring { position: s.position, tcp: s.tcp }
+                } else {
+                    ProbeState::At { position: s.position }
+                };
+                if let Some(c) = current {
+                    assert!(free_segment(&checker, &c, &s.q, probe), "step {k}: move collides");
+                } else {
+                    assert!(checker.is_free(&s.q, probe));
+                }
+                current = Some(s.q);
+            }
+            StepKind::Measure => {
+                let probe = ProbeState::Measuring { position: s.position, tcp: s.tcp };
+                let from = current.expect("a move precedes every measurement");
+                assert!(free_segment(&checker, &from, &s.q, probe), "step {k}: descent collides");
+                let err = (model.tcp_position(&s.q, s.tcp).expect("fk")
+                    - model.position(s.position).expect("p"))
+                .norm();
+                assert!(err < 1e-6, "step {k}: TCP {err} mm off");
+                assert!(model.limit_violation(&s.q).is_none());
+                measured.push(s.q);
+                current = Some(s.q);
+            }
+        }
+        previous_kind = Some(s.kind);
+        if k > 0 {
+            assert!(s.time_s >= plan.steps[k - 1].time_s, "time goes backwards at step {k}");
+        }
+    }
+    let expected: Vec<JointVector> = plan.order.iter().map(|&i| plan.candidates.candidates[i].q).collect();
+    assert_eq!(measured, expected);
+}
+
+#[test]
+fn small_campaign_is_planned_and_every_step_verified() {
+    let cell = common::cell();
+    let model = common::nominal();
+    let geometry = CellGeometry::from_cell(&cell).expect("geometry");
+    let checker = CollisionChecker::new(&model, &geometry, 2.0).expect("checker");
+    // start from the retreat pose of some other measurement at position 3
+    let other = CandidateOptions {
+        orientations: 3,
+        positions: Some(vec![3]),
+        seed: 77,
+        ..CandidateOptions::default()
+    };
+    let start = generate_candidates(&model, &checker, &other).expect("c").candidates[0].retreat;
+    let opts = small(5, Some(start));
+    let plan = plan_campaign(&model, &geometry, &opts).expect("plan");
+    // selection
+    assert_eq!(plan.selected.len(), 40);
+    assert_eq!(plan.quality.raw.rank, opts.params.len());
+    assert!(plan.quality.raw.o1 > plan.quality.candidates_o1, "Detmax should beat the whole set's O1");
+    // the tour visits exactly the selection, each position in one block
+    let mut order = plan.order.clone();
+    order.sort_unstable();
+    assert_eq!(order, plan.selected);
+    let positions: Vec<u32> = plan.order.iter().map(|&i| plan.candidates.candidates[i].position).collect();
+    let changes = positions.windows(2).filter(|w| w[0] != w[1]).count();
+    let mut distinct = positions.clone();
+    distinct.sort_unstable();
+    distinct.dedup();
+    assert_eq!(changes, distinct.len() - 1);
+    assert_eq!(plan.timing.replacements, changes);
+    // time
+    assert!(plan.timing.ordered_s <= plan.timing.selection_order_s + 1e-9);
+    assert!(plan.timing.ordered_s < plan.timing.shuffled_order_s);
+    assert!(plan.timing.planned_paths_s >= plan.timing.ordered_s - 1e-6);
+    let last = plan.steps.last().expect("steps");
+    assert!(
+        (last.time_s - plan.timing.planned_paths_s).abs() < 0.01,
+        "{} vs {}",
+        last.time_s,
+        plan.timing.planned_paths_s
+    );
+    replay(&model, &geometry, &plan, Some(start));
+}
+
+#[test]
+fn files_round_trip_through_the_io_readers() {
+    let cell = common::cell();
+    let model = common::nominal();
+    let geometry = CellGeometry::from_cell(&cell).expect("geometry");
+    let plan = plan_campaign(&model, &geometry, &small(9, None)).expect("plan");
+    replay(&model, &geometry, &plan, None);
+    let dir = std::env::temp_dir().join(format!("vatcal-plan-test-{}", std::process::id()));
+    let summary = write_plan(&plan, &dir).expect("write");
+    assert_eq!(summary, PlanSummary::of(&plan));
+    let table = vatcal_io::read_candidates(dir.join("candidates.csv"), &model).expect("read back");
+    assert_eq!(table.measurements.len(), plan.candidates.candidates.len());
+    for (m, c) in table.measurements.iter().zip(&plan.candidates.candidates) {
+        assert_eq!((m.tcp, m.position()), (c.tcp, Some(c.position)));
+        let diff = m.q.as_slice().iter().zip(c.q.as_slice()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(diff < 1e-12, "round trip changed the joints by {diff}");
+    }
+    let selected = vatcal_io::read_candidates(dir.join("selected.csv"), &model).expect("selected");
+    assert_eq!(selected.measurements.len(), 40);
+    let tour = std::fs::read_to_string(dir.join("tour.csv")).expect("tour");
+    assert!(tour.starts_with("step,kind,position,tcp,q1,q2,q3,q4,q5,q6,q7,time_s\n"));
+    assert_eq!(tour.lines().count(), plan.steps.len() + 1);
+    assert_eq!(tour.matches(",measure,").count(), 40);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("json"))
+            .expect("valid json");
+    assert_eq!(json["selected"], 40);
+    assert!(json["counts"]["retreat_clear"].as_u64().expect("count") >= 40);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn too_few_candidates_is_a_clear_error() {
+    let model = common::nominal();
+    let geometry = CellGeometry::from_cell(&common::cell()).expect("geometry");
+    let opts = PlanOptions {
+        candidates: CandidateOptions { orientations: 1, guide_steps: 1, ..CandidateOptions::default() },
+        ..PlanOptions::default()
+    };
+    let err = plan_campaign(&model, &geometry, &opts).expect_err("too few");
+    assert!(err.to_string().contains("requested measurements"), "{err}");
+}
