@@ -102,6 +102,8 @@ pub struct Model {
     // caches (kept in sync by `refresh_caches`)
     pub(crate) row_fixed: [Frame; MAX_JOINTS],
     pub(crate) row_trig: [(f64, f64); MAX_JOINTS],
+    /// `(sin, cos)` of `theta_offset_i` (the constant angle of a prismatic row)
+    pub(crate) theta_trig: [(f64, f64); MAX_JOINTS],
     pub(crate) base_frame: Frame,
     pub(crate) any_compliance: bool,
     pub(crate) has_joint_effects: bool,
@@ -215,6 +217,7 @@ impl Model {
             thermal_reference_c: 20.0,
             row_fixed: [Frame::identity(); MAX_JOINTS],
             row_trig: [(0.0, 1.0); MAX_JOINTS],
+            theta_trig: [(0.0, 1.0); MAX_JOINTS],
             base_frame: Frame::identity(),
             any_compliance: false,
             has_joint_effects: false,
@@ -701,6 +704,7 @@ impl Model {
         for (k, row) in self.rows[..self.n].iter().enumerate() {
             self.row_fixed[k] = row_fixed_frame(row);
             self.row_trig[k] = row.alpha.sin_cos();
+            self.theta_trig[k] = row.theta_offset.sin_cos();
         }
         self.base_frame = base_frame(&self.base);
         self.any_compliance =
