@@ -1,6 +1,7 @@
 //! # vatcal-core
 //!
-//! The small crate every other vatcal crate depends on. It holds *types only*:
+//! The small crate every other vatcal crate depends on. It holds types (and the effect
+//! catalog's scalar definitions):
 //!
 //! * [`units`] — degree/radian conversions, [`JointKind`] and the [`JointVector`] of a serial
 //!   chain of 1..=[`MAX_JOINTS`] joints (mm for prismatic, rad for revolute joints);
@@ -10,7 +11,9 @@
 //! * [`params`] — stable, human-readable parameter identifiers ([`ParamId`]) and the named
 //!   parameter sets (`paper34`, `geometric`, ...);
 //! * [`frame`] — a small rigid transform ([`Frame`]);
-//! * [`effects`] — the names of the error-effect catalog ([`EffectKind`]);
+//! * [`effects`] — the error-effect catalog, one module per effect behind the
+//!   [`effects::ErrorEffect`] trait (names, parameters, bounds, candidates and the
+//!   kinematic hooks `vatcal-kinematics` applies);
 //! * [`measurement`] — probe / tracker measurements and their per-sample context.
 //!
 //! Units: every public Rust API uses **mm, rad, N·m, rad/(N·m), kg**. Degrees appear only at the

@@ -22,6 +22,7 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use crate::effects::{EffectKind, catalog};
 use crate::units::{JointKind, MAX_JOINTS};
 
 /// A Cartesian axis.
@@ -120,7 +121,7 @@ impl ToolFrameDof {
     pub const ALL: [ToolFrameDof; 4] =
         [ToolFrameDof::Tx, ToolFrameDof::Ty, ToolFrameDof::Rx, ToolFrameDof::Ry];
 
-    fn suffix(self) -> &'static str {
+    pub(crate) fn suffix(self) -> &'static str {
         match self {
             ToolFrameDof::Tx => "tx",
             ToolFrameDof::Ty => "ty",
@@ -197,6 +198,36 @@ pub enum EffectParam {
     /// `thermal-drift` driven by temperature: arm lengths scale by `1 + k (T - T_ref)` [1/K].
     /// Name `thermal_per_k`.
     ThermalPerKelvin,
+    /// a parameter of an effect added after the original catalog (name and unit come from
+    /// the effect's module)
+    Extension {
+        /// the effect ([`EffectKind::Extension`])
+        kind: EffectKind,
+        /// joint (or row) of the instance, 0 when none
+        joint: u8,
+        /// second instance index (harmonic, order, ...), 0 when none
+        index: u8,
+        /// which of the instance's parameters
+        slot: u8,
+    },
+}
+
+impl EffectParam {
+    /// The catalog effect the parameter belongs to.
+    pub fn kind(&self) -> EffectKind {
+        match self {
+            EffectParam::CyclicSin { .. } | EffectParam::CyclicCos { .. } => EffectKind::JointCyclic,
+            EffectParam::JointScale { .. } => EffectKind::JointScale,
+            EffectParam::Backlash { .. } => EffectKind::JointBacklash,
+            EffectParam::GuideAngular { .. } => EffectKind::GuideAngular,
+            EffectParam::GuideStraightness { .. } => EffectKind::GuideStraightness,
+            EffectParam::GuideScale => EffectKind::GuideScale,
+            EffectParam::CarriageTilt { .. } => EffectKind::GuideCarriageTilt,
+            EffectParam::ToolFrame(_) => EffectKind::ToolFrame,
+            EffectParam::ThermalPerSecond | EffectParam::ThermalPerKelvin => EffectKind::ThermalDrift,
+            EffectParam::Extension { kind, .. } => *kind,
+        }
+    }
 }
 
 /// A stable identifier of one model parameter. See the module docs for names and units.
@@ -278,26 +309,9 @@ impl ParamId {
             ParamId::Base(b) => format!("base_{}", b.suffix()),
             ParamId::Tcp { id, axis } => format!("tcp{id}_{}", axis.letter()),
             ParamId::Position { id, axis } => format!("position{id}_{}", axis.letter()),
-            ParamId::Effect(e) => match e {
-                EffectParam::CyclicSin { joint, harmonic } => {
-                    format!("cyclic{joint}_h{harmonic}_sin")
-                }
-                EffectParam::CyclicCos { joint, harmonic } => {
-                    format!("cyclic{joint}_h{harmonic}_cos")
-                }
-                EffectParam::JointScale { joint } => format!("scale{joint}"),
-                EffectParam::Backlash { joint } => format!("backlash{joint}"),
-                EffectParam::GuideAngular { axis, order } => {
-                    format!("guide_angular_{}_p{order}", axis.letter())
-                }
-                EffectParam::GuideStraightness { axis, order } => {
-                    format!("guide_straightness_{}_p{order}", axis.letter())
-                }
-                EffectParam::GuideScale => "guide_scale".to_string(),
-                EffectParam::CarriageTilt { axis } => format!("carriage_tilt_{}", axis.letter()),
-                EffectParam::ToolFrame(d) => format!("tool_{}", d.suffix()),
-                EffectParam::ThermalPerSecond => "thermal_per_s".to_string(),
-                EffectParam::ThermalPerKelvin => "thermal_per_k".to_string(),
+            ParamId::Effect(e) => match e.kind().effect() {
+                Some(effect) => effect.param_name(&e),
+                None => format!("{e:?}"),
             },
         }
     }
@@ -338,59 +352,7 @@ impl ParamId {
             let (id, ax) = s.split_once('_')?;
             return Some(ParamId::Position { id: id.parse().ok()?, axis: Axis::from_letter(ax)? });
         }
-        let joint = |s: &str| -> Option<u8> { s.parse().ok().filter(|j| (1..=MAX_JOINTS as u8).contains(j)) };
-        if let Some(s) = name.strip_prefix("cyclic") {
-            let mut it = s.split('_');
-            let j = joint(it.next()?)?;
-            let h: u8 = it.next()?.strip_prefix('h')?.parse().ok().filter(|h| *h >= 1)?;
-            let kind = it.next()?;
-            if it.next().is_some() {
-                return None;
-            }
-            return match kind {
-                "sin" => Some(ParamId::Effect(EffectParam::CyclicSin { joint: j, harmonic: h })),
-                "cos" => Some(ParamId::Effect(EffectParam::CyclicCos { joint: j, harmonic: h })),
-                _ => None,
-            };
-        }
-        if let Some(s) = name.strip_prefix("scale") {
-            return joint(s).map(|j| ParamId::Effect(EffectParam::JointScale { joint: j }));
-        }
-        if let Some(s) = name.strip_prefix("backlash") {
-            return joint(s).map(|j| ParamId::Effect(EffectParam::Backlash { joint: j }));
-        }
-        let axis_order = |s: &str| -> Option<(Axis, u8)> {
-            let (ax, p) = s.split_once("_p")?;
-            Some((Axis::from_letter(ax)?, p.parse().ok().filter(|o| *o >= 1)?))
-        };
-        if let Some(s) = name.strip_prefix("guide_angular_") {
-            let (axis, order) = axis_order(s)?;
-            return Some(ParamId::Effect(EffectParam::GuideAngular { axis, order }));
-        }
-        if let Some(s) = name.strip_prefix("guide_straightness_") {
-            let (axis, order) = axis_order(s)?;
-            if axis == Axis::Z {
-                return None;
-            }
-            return Some(ParamId::Effect(EffectParam::GuideStraightness { axis, order }));
-        }
-        if let Some(s) = name.strip_prefix("carriage_tilt_") {
-            return Axis::from_letter(s)
-                .filter(|a| *a != Axis::Z)
-                .map(|axis| ParamId::Effect(EffectParam::CarriageTilt { axis }));
-        }
-        if let Some(s) = name.strip_prefix("tool_") {
-            return ToolFrameDof::ALL
-                .iter()
-                .find(|d| d.suffix() == s)
-                .map(|d| ParamId::Effect(EffectParam::ToolFrame(*d)));
-        }
-        match name {
-            "guide_scale" => Some(ParamId::Effect(EffectParam::GuideScale)),
-            "thermal_per_s" => Some(ParamId::Effect(EffectParam::ThermalPerSecond)),
-            "thermal_per_k" => Some(ParamId::Effect(EffectParam::ThermalPerKelvin)),
-            _ => None,
-        }
+        catalog().iter().find_map(|e| e.parse_param(name)).map(ParamId::Effect)
     }
 
     /// The physical unit of the parameter inside vatcal.
@@ -404,18 +366,7 @@ impl ParamId {
                 _ => ParamUnit::Rad,
             },
             ParamId::Tcp { .. } | ParamId::Position { .. } => ParamUnit::Mm,
-            ParamId::Effect(e) => match e {
-                EffectParam::CyclicSin { .. }
-                | EffectParam::CyclicCos { .. }
-                | EffectParam::Backlash { .. }
-                | EffectParam::GuideAngular { .. } => ParamUnit::Rad,
-                EffectParam::ToolFrame(ToolFrameDof::Rx | ToolFrameDof::Ry) => ParamUnit::Rad,
-                EffectParam::ToolFrame(_) | EffectParam::GuideStraightness { .. } => ParamUnit::Mm,
-                EffectParam::JointScale { .. } | EffectParam::GuideScale => ParamUnit::Ratio,
-                EffectParam::ThermalPerSecond => ParamUnit::PerSecond,
-                EffectParam::ThermalPerKelvin => ParamUnit::PerKelvin,
-                EffectParam::CarriageTilt { .. } => ParamUnit::RadPerNm,
-            },
+            ParamId::Effect(e) => e.kind().effect().map_or(ParamUnit::Ratio, |effect| effect.param_unit(e)),
         }
     }
 

@@ -638,22 +638,22 @@ fn identifiable_subset(
 }
 
 /// Highest gear harmonic [`candidates`] proposes.
-pub const MAX_PROPOSED_HARMONIC: u8 = 4;
+pub const MAX_PROPOSED_HARMONIC: u8 = vatcal_core::effects::joint_cyclic::MAX_PROPOSED_HARMONIC;
 
-/// The catalog's candidates plus the lower orders of the guide-angular polynomial (order 1 =
-/// a linear pitch/yaw/roll, 3 parameters, is tested on its own so that a linear error does not
+/// The catalog's candidates plus what each effect's module adds: further candidates once an
+/// instance is in the model (`ErrorEffect::follow_ups`: the next gear harmonic of a joint
+/// once the model has its harmonic h ≥ 2, harmonics entering in order up to
+/// [`MAX_PROPOSED_HARMONIC`]: a strain-wave gear whose error curve has a second harmonic has
+/// higher ones too, and proposing them only then keeps the number of scored candidates, and
+/// so the Bonferroni price, small), then candidates tested beside another
+/// (`ErrorEffect::also_try`: the lower orders of the guide-angular polynomial; order 1 = a
+/// linear pitch/yaw/roll, 3 parameters, is tested on its own so that a linear error does not
 /// have to pay for the 3 quadratic parameters too; the order-2 candidate is then the test of
-/// the quadratic terms), plus the next gear harmonic of a joint once the model has its
-/// harmonic h ≥ 2 (harmonics enter in order, up to [`MAX_PROPOSED_HARMONIC`]: a strain-wave
-/// gear whose error curve has a second harmonic has higher ones too, and proposing them only
-/// then keeps the number of scored candidates, and so the Bonferroni price, small).
+/// the quadratic terms).
 pub fn candidates(model: &Model, measurements: &[Measurement]) -> Vec<EffectSpec> {
     let mut v = candidate_effects(model, measurements);
     for spec in model.effects() {
-        if let EffectSpec::JointCyclic { joint, harmonic } = *spec
-            && (2..MAX_PROPOSED_HARMONIC).contains(&harmonic)
-        {
-            let next = EffectSpec::JointCyclic { joint, harmonic: harmonic + 1 };
+        for next in spec.effect().map(|e| e.follow_ups(spec)).unwrap_or_default() {
             if !v.contains(&next) {
                 v.push(next);
             }
@@ -661,9 +661,7 @@ pub fn candidates(model: &Model, measurements: &[Measurement]) -> Vec<EffectSpec
     }
     let mut lower = Vec::new();
     for spec in &v {
-        if let EffectSpec::GuideAngular { order } = *spec {
-            lower.extend((1..order).map(|o| EffectSpec::GuideAngular { order: o }));
-        }
+        lower.extend(spec.effect().map(|e| e.also_try(spec)).unwrap_or_default());
     }
     for spec in lower {
         if !v.contains(&spec) {

@@ -1,8 +1,8 @@
 //! Forward kinematics: every frame of the chain in the world.
 
 use nalgebra::{Matrix3, Vector3};
-use vatcal_core::effects::{EffectSpec, ThermalDriver};
-use vatcal_core::params::{Axis, EffectParam};
+use vatcal_core::effects::{EffectInputs, Hook};
+use vatcal_core::params::Axis;
 use vatcal_core::{Frame, JointKind, JointVector, MAX_JOINTS, MeasurementContext};
 use vatcal_gravity_torque::gravity_torques;
 
@@ -34,6 +34,23 @@ pub(crate) struct InsertAxes {
     pub ty: Vector3<f64>,
     pub rot: [Vector3<f64>; 3],
     pub o: Vector3<f64>,
+}
+
+/// The summed hooks of the switched-on effects at one sample.
+#[derive(Debug, Clone, Copy, Default)]
+struct EffectState {
+    /// joint-space offsets, `joint[i - 1]` for joint i
+    joint: [f64; MAX_JOINTS],
+    /// a guide-carriage correction is switched on
+    guide_active: bool,
+    guide_shift: [f64; 2],
+    guide_rot: [f64; 3],
+    /// a tool-frame correction is switched on
+    tool_active: bool,
+    /// tx, ty, rx, ry
+    tool: [f64; 4],
+    /// relative length change of the revolute rows
+    length: f64,
 }
 
 /// All frames of the chain for one joint vector, in the world (tank) frame.
@@ -91,27 +108,6 @@ pub struct GravityLoads {
     pub torques: [f64; MAX_JOINTS],
     /// gravity moment about the carriage origin along the carriage x and y axes [N·m]
     pub carriage_moment: [f64; 2],
-}
-
-/// Legendre polynomial P_n(u).
-pub(crate) fn legendre(n: u8, u: f64) -> f64 {
-    match n {
-        0 => 1.0,
-        1 => u,
-        2 => 0.5 * (3.0 * u * u - 1.0),
-        3 => 0.5 * (5.0 * u * u * u - 3.0 * u),
-        4 => (35.0 * u.powi(4) - 30.0 * u * u + 3.0) / 8.0,
-        _ => {
-            let (mut p0, mut p1) = (1.0, u);
-            for k in 1..n {
-                let kf = f64::from(k);
-                let p2 = ((2.0 * kf + 1.0) * u * p1 - kf * p0) / (kf + 1.0);
-                p0 = p1;
-                p1 = p2;
-            }
-            p1
-        }
-    }
 }
 
 #[inline]
@@ -236,6 +232,11 @@ impl Model {
     }
 
     /// [`Model::fast_tool_point`] on fixed-size arrays for a chain of exactly `N` joints.
+    ///
+    /// The point is carried backwards through the rows (`v <- H_k v`, a 3×3 matrix times a
+    /// vector per row) instead of composing N frames forwards; with compliance the links of
+    /// the torque pass are reused, the deflection entering as `Rz(c_k tau_k)` before link k's
+    /// rotation (`Rz` commutes with `Tz(d_k)`).
     #[allow(clippy::needless_range_loop)] // several parallel per-row arrays
     fn fast_tool_point_n<const N: usize>(&self, q: &[f64], t: &Vector3<f64>) -> Vector3<f64> {
         let (Ok(kinds), Ok(q)) = (<&[JointKind; N]>::try_from(&self.kinds[..N]), <&[f64; N]>::try_from(q))
@@ -244,11 +245,14 @@ impl Model {
         };
         let mut trig = [(0.0, 1.0); N];
         for k in 0..N {
-            let th = if kinds[k].is_revolute() { q[k] } else { 0.0 };
-            trig[k] = (th + self.rows[k].theta_offset).sin_cos();
+            trig[k] = if kinds[k].is_revolute() {
+                (q[k] + self.rows[k].theta_offset).sin_cos()
+            } else {
+                self.theta_trig[k]
+            };
         }
         let d = |k: usize| if kinds[k].is_revolute() { self.rows[k].d } else { q[k] + self.rows[k].d };
-        let mut w = self.base_frame;
+        let mut v = *t;
         if self.any_compliance {
             let mut links = [Frame::identity(); N];
             for k in 0..N {
@@ -261,20 +265,22 @@ impl Model {
                 &self.masses,
                 &self.gravity,
             );
-            for k in 0..N {
-                let tr = if kinds[k].is_revolute() {
-                    add_small_angle(trig[k], self.compliance[k] * tau[k])
-                } else {
-                    trig[k]
-                };
-                w = w.compose(&rz_tz_trig(&self.row_fixed[k], tr, d(k)));
+            for k in (0..N).rev() {
+                let delta = self.compliance[k] * tau[k];
+                if kinds[k].is_revolute() && delta != 0.0 {
+                    let (s, c) = small_angle_sin_cos(delta);
+                    v = Vector3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z);
+                }
+                v = links[k].transform_point(&v);
             }
         } else {
-            for k in 0..N {
-                w = w.compose(&rz_tz_trig(&self.row_fixed[k], trig[k], d(k)));
+            for k in (0..N).rev() {
+                let (s, c) = trig[k];
+                let local = Vector3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z + d(k));
+                v = self.row_fixed[k].transform_point(&local);
             }
         }
-        w.transform_point(t)
+        self.base_frame.transform_point(&v)
     }
 
     #[allow(clippy::needless_range_loop)] // several parallel per-row arrays
@@ -300,92 +306,63 @@ impl Model {
         w.transform_point(t)
     }
 
-    fn thermal(&self, ctx: &MeasurementContext) -> f64 {
-        let mut f = 1.0;
-        for e in &self.effects {
-            if let EffectSpec::ThermalDrift { driver } = e {
-                match driver {
-                    ThermalDriver::Time => {
-                        f += self.effect_value(EffectParam::ThermalPerSecond) * ctx.time_s.unwrap_or(0.0)
-                    }
-                    ThermalDriver::Temperature => {
-                        f += self.effect_value(EffectParam::ThermalPerKelvin)
-                            * ctx.temperature_c.map_or(0.0, |t| t - self.thermal_reference_c)
-                    }
-                }
-            }
+    /// The inputs of the effects' hook coefficients at one sample.
+    pub(crate) fn effect_inputs<'a>(
+        &self,
+        q: &'a JointVector,
+        ctx: &'a MeasurementContext,
+        carriage_moment: Option<[f64; 2]>,
+    ) -> EffectInputs<'a> {
+        EffectInputs {
+            q: q.as_slice(),
+            ctx,
+            guide: self.guide_joint().map(|g| g as u8),
+            guide_u: self.guide_u(self.guide_q(q)),
+            carriage_moment: carriage_moment.unwrap_or([0.0; 2]),
+            thermal_reference_c: self.thermal_reference_c,
         }
-        f
     }
 
-    /// Additive joint-angle effects (cyclic, scale, backlash) on revolute joint `j` [rad].
-    pub(crate) fn joint_effect_angle(&self, j: u8, q: &JointVector, ctx: &MeasurementContext) -> f64 {
-        let qj = q[j as usize - 1];
-        let mut dtheta = 0.0;
-        for e in &self.effects {
-            match *e {
-                EffectSpec::JointCyclic { joint, harmonic } if joint == j => {
-                    let (s, c) = (f64::from(harmonic) * qj).sin_cos();
-                    dtheta += self.effect_value(EffectParam::CyclicSin { joint, harmonic }) * s
-                        + self.effect_value(EffectParam::CyclicCos { joint, harmonic }) * c;
-                }
-                EffectSpec::JointScale { joint } if joint == j => {
-                    dtheta += self.effect_value(EffectParam::JointScale { joint }) * qj;
-                }
-                EffectSpec::JointBacklash { joint } if joint == j => {
-                    let dir = f64::from(ctx.dir_of(j));
-                    dtheta += self.effect_value(EffectParam::Backlash { joint }) * dir;
-                }
-                _ => {}
-            }
-        }
-        dtheta
-    }
-
-    /// The inserted guide transform `T(sx, sy, 0) Rx(ex) Ry(ey) Rz(ez)` at guide coordinate u,
-    /// if a guide effect is on: returns `(sx, sy, [ex, ey, ez])`.
-    fn guide_insert(&self, u: f64, moment: Option<[f64; 2]>) -> Option<(f64, f64, [f64; 3])> {
-        let mut any = false;
-        let (mut sx, mut sy, mut e) = (0.0, 0.0, [0.0; 3]);
-        for spec in &self.effects {
-            match *spec {
-                EffectSpec::GuideCarriageTilt => {
-                    any = true;
-                    let m = moment.unwrap_or([0.0; 2]);
-                    e[0] += self.effect_value(EffectParam::CarriageTilt { axis: Axis::X }) * m[0];
-                    e[1] += self.effect_value(EffectParam::CarriageTilt { axis: Axis::Y }) * m[1];
-                }
-                EffectSpec::GuideAngular { order } => {
-                    any = true;
-                    for o in 1..=order {
-                        let p = legendre(o, u);
-                        for axis in Axis::ALL {
-                            e[axis.index()] +=
-                                self.effect_value(EffectParam::GuideAngular { axis, order: o }) * p;
+    /// Sums the hooks of every switched-on effect at one sample (the effect layer: called
+    /// only when an effect is on). One dynamic call per effect, none per joint.
+    fn effect_state(&self, x: &EffectInputs<'_>) -> EffectState {
+        let mut st = EffectState::default();
+        for (spec, effect) in self.effects.iter().zip(&self.effect_impls) {
+            effect.contributions(spec, x, &mut |param, hook, coefficient| {
+                let v = self.effect_value(param) * coefficient;
+                match hook {
+                    Hook::Joint(j) => {
+                        if let Some(o) = st.joint.get_mut((j as usize).wrapping_sub(1)) {
+                            *o += v;
                         }
                     }
-                }
-                EffectSpec::GuideStraightness { order } => {
-                    any = true;
-                    for o in 2..=order {
-                        let p = legendre(o, u);
-                        sx +=
-                            self.effect_value(EffectParam::GuideStraightness { axis: Axis::X, order: o }) * p;
-                        sy +=
-                            self.effect_value(EffectParam::GuideStraightness { axis: Axis::Y, order: o }) * p;
+                    Hook::GuideShift(a) => {
+                        st.guide_active = true;
+                        if a != Axis::Z {
+                            st.guide_shift[a.index()] += v;
+                        }
                     }
+                    Hook::GuideRotation(a) => {
+                        st.guide_active = true;
+                        st.guide_rot[a.index()] += v;
+                    }
+                    Hook::ToolShift(a) => {
+                        st.tool_active = true;
+                        if a != Axis::Z {
+                            st.tool[a.index()] += v;
+                        }
+                    }
+                    Hook::ToolRotation(a) => {
+                        st.tool_active = true;
+                        if a != Axis::Z {
+                            st.tool[2 + a.index()] += v;
+                        }
+                    }
+                    Hook::LengthScale => st.length += v,
                 }
-                _ => {}
-            }
+            });
         }
-        any.then_some((sx, sy, e))
-    }
-
-    fn tool_insert(&self) -> Option<[f64; 4]> {
-        use vatcal_core::ToolFrameDof as T;
-        self.effects
-            .contains(&EffectSpec::ToolFrame)
-            .then(|| [T::Tx, T::Ty, T::Rx, T::Ry].map(|d| self.effect_value(EffectParam::ToolFrame(d))))
+        st
     }
 
     /// Computes every frame at `q`. Torques are evaluated when a compliance is non-zero or
@@ -433,15 +410,15 @@ impl Model {
         };
         let carriage_moment = match fixed_moment {
             Some(m) => Some(m),
-            None if self.effects.contains(&EffectSpec::GuideCarriageTilt) => Some(self.carriage_moment(q)),
+            None if self.effects_need_moment => Some(self.carriage_moment(q)),
             None => None,
         };
-        let thermal_factor = if self.effects.is_empty() { 1.0 } else { self.thermal(ctx) };
-        let guide_scale = if self.effects.contains(&EffectSpec::GuideScale) {
-            self.effect_value(EffectParam::GuideScale)
+        let st = if self.effects.is_empty() {
+            EffectState::default()
         } else {
-            0.0
+            self.effect_state(&self.effect_inputs(q, ctx, carriage_moment))
         };
+        let thermal_factor = 1.0 + st.length;
         let mut frames = [Frame::identity(); MAX_JOINTS + 1];
         let mut axes = [RowAxes::default(); MAX_JOINTS];
         let mut theta = [0.0; MAX_JOINTS];
@@ -452,13 +429,9 @@ impl Model {
             let row = &self.rows[k];
             let mut fixed = self.row_fixed[k];
             let (th, d) = if self.kinds[k] == JointKind::Prismatic {
-                let scale = if self.guide == Some(k) { 1.0 + guide_scale } else { 1.0 };
-                (row.theta_offset, q[k] * scale + row.d)
+                (row.theta_offset, q[k] + st.joint[k] + row.d)
             } else {
-                let mut th = q[k] + row.theta_offset + self.compliance[k] * torques[k];
-                if self.has_joint_effects {
-                    th += self.joint_effect_angle(k as u8 + 1, q, ctx);
-                }
+                let th = q[k] + row.theta_offset + self.compliance[k] * torques[k] + st.joint[k];
                 let mut d = row.d;
                 if thermal_factor != 1.0 {
                     fixed.p *= thermal_factor;
@@ -476,10 +449,8 @@ impl Model {
             w = w.compose(&rz_tz(&fixed, th, d));
             axes[k].z = w.z_axis();
             axes[k].o = w.p;
-            if self.guide == Some(k)
-                && !self.effects.is_empty()
-                && let Some((sx, sy, e)) = self.guide_insert(self.guide_u(q[k]), carriage_moment)
-            {
+            if self.guide == Some(k) && st.guide_active {
+                let ([sx, sy], e) = (st.guide_shift, st.guide_rot);
                 let (ins, ax) = insert_transform(&w, sx, sy, e[0], e[1], Some(e[2]));
                 guide = Some(ax);
                 w = w.compose(&ins);
@@ -488,7 +459,8 @@ impl Model {
         }
         let mut tool = w;
         let mut tool_axes = None;
-        if let Some([tx, ty, rx_, ry_]) = self.tool_insert() {
+        if st.tool_active {
+            let [tx, ty, rx_, ry_] = st.tool;
             let (ins, ax) = insert_transform(&w, tx, ty, rx_, ry_, None);
             tool_axes = Some(ax);
             tool = w.compose(&ins);
@@ -546,7 +518,15 @@ impl Model {
 /// (a Taylor series for the small compliance deflections, `sin_cos` otherwise).
 #[inline]
 fn add_small_angle((s, c): (f64, f64), delta: f64) -> (f64, f64) {
-    let (sd, cd) = if delta.abs() < 1e-2 {
+    let (sd, cd) = small_angle_sin_cos(delta);
+    (s * cd + c * sd, c * cd - s * sd)
+}
+
+/// `(sin, cos)` of an angle, by a Taylor series when it is small (compliance deflections)
+/// and `sin_cos` otherwise; exact to rounding either way.
+#[inline]
+fn small_angle_sin_cos(delta: f64) -> (f64, f64) {
+    if delta.abs() < 1e-2 {
         let d2 = delta * delta;
         (
             delta * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0))),
@@ -554,8 +534,7 @@ fn add_small_angle((s, c): (f64, f64), delta: f64) -> (f64, f64) {
         )
     } else {
         delta.sin_cos()
-    };
-    (s * cd + c * sd, c * cd - s * sd)
+    }
 }
 
 /// `T(tx, ty, 0) Rx(ex) Ry(ey) [Rz(ez)]` relative to `w`, and its world axes for the Jacobian.
@@ -575,4 +554,51 @@ fn insert_transform(w: &Frame, tx: f64, ty: f64, ex: f64, ey: f64, ez: Option<f6
         o,
     };
     (local, ax)
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::rngs::ChaCha8Rng;
+    use rand::{RngExt, SeedableRng};
+    use vatcal_core::{CellFile, ParamId};
+
+    use super::*;
+
+    fn fixture(name: &str) -> Model {
+        let path = format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"));
+        Model::from_cell(&CellFile::load(&path).expect("fixture loads")).expect("model")
+    }
+
+    /// The lean FK (backward point pass, links reused for the compliance) equals the full
+    /// chain (frames composed forwards) to rounding, on every fixture, with and without
+    /// compliance.
+    #[test]
+    fn fast_tool_point_equals_the_full_chain() {
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let mut worst: f64 = 0.0;
+        for name in ["meca500-zaber.toml", "ur5e.toml", "meca500-table.toml"] {
+            let nominal = fixture(name);
+            let mut compliant = nominal.clone();
+            for j in 1..=compliant.joint_count() {
+                if compliant.is_revolute(j) {
+                    compliant.set_param(ParamId::Compliance(j as u8), 3e-4).expect("c");
+                }
+            }
+            for model in [&nominal, &compliant] {
+                let t = model.tcp(model.tcp_ids()[0]).expect("a TCP");
+                for _ in 0..200 {
+                    let q: Vec<f64> = model
+                        .joint_limits()
+                        .iter()
+                        .map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>())
+                        .collect();
+                    let q = JointVector::from_slice(&q).expect("q");
+                    let fast = model.fast_tool_point(&q, &t);
+                    let full = model.chain(&q).tool_point(&t);
+                    worst = worst.max((fast - full).norm());
+                }
+            }
+        }
+        assert!(worst < 1e-12, "fast FK differs from the full chain by {worst:e} mm");
+    }
 }

@@ -1,5 +1,12 @@
 //! The effect catalog: what each effect does to the chain.
 //!
+//! Each effect is defined in one module of [`vatcal_core::effects`] (one file per effect,
+//! registered by one line in its `catalog.rs`): its names, parameters, bounds, candidates and
+//! its linear contributions to the kinematic [`Hook`]s. This crate applies the hooks in one
+//! place: `chain.rs` (forward kinematics: joint offsets before FK, guide-carriage and tool
+//! frame corrections, length scale) and `jacobian.rs` (the hook's column times the
+//! parameter's coefficient). A model without effects skips the effect layer entirely.
+//!
 //! Joint effects act on revolute joints i; guide effects act on the guide joint g, the first
 //! prismatic joint of the chain (joint 1 on the canonical cell; a chain without a prismatic
 //! joint cannot switch them on).
@@ -24,91 +31,40 @@
 //! and `P_o` the Legendre polynomials. Gravity torques are evaluated on the MDH geometry
 //! without any effect (second-order difference).
 
-use vatcal_core::effects::{EffectSpec, ThermalDriver};
+use vatcal_core::effects::{DataUse, EffectSpec};
 use vatcal_core::{Measurement, Target};
 
 use crate::Model;
 
-/// What a set of measurements provides for data-hungry effects.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct DataAvailability {
-    /// every measurement has the `dir{i}` columns
-    pub dir: bool,
-    /// every measurement has `time_s`
-    pub time: bool,
-    /// every measurement has `temperature_c`
-    pub temperature: bool,
-}
-
-impl DataAvailability {
-    /// Inspects a measurement set.
-    pub fn of(measurements: &[Measurement]) -> Self {
-        let all = |f: &dyn Fn(&Measurement) -> bool| !measurements.is_empty() && measurements.iter().all(f);
-        Self {
-            dir: all(&|m| m.context.dir.is_some()),
-            time: all(&|m| m.context.time_s.is_some()),
-            temperature: all(&|m| m.context.temperature_c.is_some()),
-        }
-    }
-}
+pub use vatcal_core::effects::{
+    DataAvailability, EffectInputs, ErrorEffect, Hook, catalog, hook_of, kind_of_param, legendre,
+    plausibility,
+};
 
 /// The per-measurement context columns (file names) an effect's predictions depend on:
 /// `dir2..dir7` for backlash (the canonical cell's columns; a backlash on joint i reads
 /// `dir{i}`), `time_s` / `temperature_c` for thermal drift, none otherwise.
 pub fn context_columns(spec: &EffectSpec) -> &'static [&'static str] {
-    match spec {
-        EffectSpec::JointBacklash { .. } => &["dir2", "dir3", "dir4", "dir5", "dir6", "dir7"],
-        EffectSpec::ThermalDrift { driver: ThermalDriver::Time } => &["time_s"],
-        EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature } => &["temperature_c"],
-        _ => &[],
-    }
+    spec.effect().map_or(&[], |e| e.data_columns(spec))
 }
 
 /// Why a catalog effect cannot be a candidate with this data, if it cannot.
 pub fn missing_data(spec: &EffectSpec, data: &DataAvailability) -> Option<&'static str> {
-    match spec {
-        EffectSpec::JointBacklash { .. } if !data.dir => {
-            Some("needs the dir{i} columns (sign of the last motion of each revolute joint)")
-        }
-        EffectSpec::ThermalDrift { driver: ThermalDriver::Time } if !data.time => {
-            Some("needs the time_s column")
-        }
-        EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature } if !data.temperature => {
-            Some("needs the temperature_c column")
-        }
-        _ => None,
-    }
+    spec.effect().and_then(|e| e.missing_data(spec, data))
 }
 
 /// Every catalog effect instance that could be added to `model`: per-joint effects on the
 /// revolute joints (cyclic harmonics 1 and 2), guide effects (orders 2) when the chain has a
 /// prismatic joint, tool frame, TCP and position offsets for the TCPs/positions used by
 /// `measurements`, thermal drift, beta on rows 2..N (other than 4 on the canonical cell, where
-/// beta_3 belongs to the paper's set). Instances whose parameters are all already in `fitted`
+/// beta_3 belongs to the paper's set): what each effect's module proposes
+/// ([`ErrorEffect::candidates`]). Instances whose parameters are all already in `fitted`
 /// are left out by the caller.
 pub fn candidate_effects(model: &Model, measurements: &[Measurement]) -> Vec<EffectSpec> {
-    let mut v = Vec::new();
-    for joint in (1..=model.joint_count() as u8).filter(|j| model.is_revolute(*j as usize)) {
-        v.push(EffectSpec::JointCompliance { joint });
-        for harmonic in 1..=2u8 {
-            v.push(EffectSpec::JointCyclic { joint, harmonic });
-        }
-        v.push(EffectSpec::JointScale { joint });
-        v.push(EffectSpec::JointBacklash { joint });
-    }
-    if model.guide_joint().is_some() {
-        v.push(EffectSpec::GuideAngular { order: 2 });
-        v.push(EffectSpec::GuideStraightness { order: 2 });
-        v.push(EffectSpec::GuideScale);
-        v.push(EffectSpec::GuideCarriageTilt);
-    }
-    v.push(EffectSpec::ToolFrame);
     let mut tcps: Vec<u32> = measurements.iter().map(|m| m.tcp).collect();
     tcps.sort_unstable();
     tcps.dedup();
-    for tcp in tcps.into_iter().filter(|t| model.tcp(*t).is_some()) {
-        v.push(EffectSpec::TcpOffset { tcp });
-    }
+    tcps.retain(|t| model.tcp(*t).is_some());
     let mut positions: Vec<u32> = measurements
         .iter()
         .filter_map(|m| match m.target {
@@ -118,14 +74,10 @@ pub fn candidate_effects(model: &Model, measurements: &[Measurement]) -> Vec<Eff
         .collect();
     positions.sort_unstable();
     positions.dedup();
-    for position in positions.into_iter().filter(|p| model.position(*p).is_some()) {
-        v.push(EffectSpec::PositionOffset { position });
-    }
-    v.push(EffectSpec::ThermalDrift { driver: ThermalDriver::Time });
-    v.push(EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature });
-    let canonical = model.is_meca500_on_guide();
-    for row in (2..=model.joint_count() as u8).filter(|r| !(canonical && *r == 4)) {
-        v.push(EffectSpec::HayatiBeta { row });
-    }
-    v
+    positions.retain(|p| model.position(*p).is_some());
+    let (model_tcps, model_positions) = (model.tcp_ids(), model.position_ids());
+    vatcal_core::effects::candidates(
+        &model.chain_info(&model_tcps, &model_positions),
+        &DataUse { tcps, positions },
+    )
 }

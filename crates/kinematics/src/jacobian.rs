@@ -10,10 +10,11 @@
 //! value of that effect — exactly what a score test for adding the effect needs.
 
 use nalgebra::{Matrix3xX, Vector3};
-use vatcal_core::params::{Axis, BaseParam, EffectParam, ToolFrameDof};
+use vatcal_core::effects::{Hook, hook_of};
+use vatcal_core::params::{Axis, BaseParam, EffectParam};
 use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, Target};
 
-use crate::chain::{Chain, InsertAxes, legendre};
+use crate::chain::{Chain, InsertAxes};
 use crate::model::{Model, ModelError};
 
 fn unit(axis: Axis) -> Vector3<f64> {
@@ -97,6 +98,8 @@ impl Model {
         })
     }
 
+    /// Column of an effect parameter: the parameter's coefficient on its [`Hook`] (from the
+    /// effect's module) times the hook's column.
     fn effect_column(
         &self,
         chain: &Chain,
@@ -105,84 +108,59 @@ impl Model {
         p: &Vector3<f64>,
         e: EffectParam,
     ) -> Result<Vector3<f64>, ModelError> {
-        let rot = |w: Vector3<f64>, o: Vector3<f64>| w.cross(&(p - o));
         let missing = || ModelError::ParamNotInModel(ParamId::Effect(e).name());
-        let joint_ok = |j: u8| if self.is_revolute(j as usize) { Ok(()) } else { Err(missing()) };
-        let dtheta = |j: u8| {
-            let a = &chain.axes[j as usize - 1];
-            rot(a.z, a.o)
+        let effect = e.kind().effect().ok_or_else(missing)?;
+        if !self.effect_values.contains_key(&ParamId::Effect(e)) {
+            // an effect that is not switched on: its column exists where the effect could be
+            let owner = effect.owner(&e).ok_or_else(missing)?;
+            effect.check(&owner, &self.chain_info(&[], &[])).map_err(|_| missing())?;
+        }
+        let needs_moment = effect.needs_carriage_moment();
+        let moment = match chain.carriage_moment {
+            Some(m) => Some(m),
+            None if needs_moment => Some(self.carriage_moment(q)),
+            None => None,
         };
-        let u = self.guide_u(self.guide_q(q));
-        // the guide effects act after the guide joint's frame g (1-based)
-        let guide_frame = || self.guide.map(|g| g + 1).ok_or_else(missing);
-        Ok(match e {
-            EffectParam::CyclicSin { joint, harmonic } => {
-                joint_ok(joint)?;
-                dtheta(joint) * (f64::from(harmonic) * q.get(joint as usize)).sin()
+        let (hook, coefficient) = hook_of(e, &self.effect_inputs(q, ctx, moment)).ok_or_else(missing)?;
+        Ok(self.hook_column(chain, p, hook).ok_or_else(missing)? * coefficient)
+    }
+
+    /// ∂p/∂h of the world point `p` for a unit change of hook `h` at the chain's state; `None`
+    /// when the chain lacks what the hook acts on (a revolute/prismatic joint, a guide).
+    fn hook_column(&self, chain: &Chain, p: &Vector3<f64>, hook: Hook) -> Option<Vector3<f64>> {
+        let rot = |w: Vector3<f64>, o: Vector3<f64>| w.cross(&(p - o));
+        // the guide corrections act after the guide joint's frame g (1-based)
+        let guide = || {
+            let g = self.guide? + 1;
+            Some(chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[g])))
+        };
+        let tool = || chain.tool_axes.unwrap_or_else(|| Self::zero_insert(&chain.frames[self.n]));
+        Some(match hook {
+            Hook::Joint(j) => {
+                let a = chain.axes[..self.n].get((j as usize).wrapping_sub(1))?;
+                if self.is_revolute(j as usize) { rot(a.z, a.o) } else { a.z }
             }
-            EffectParam::CyclicCos { joint, harmonic } => {
-                joint_ok(joint)?;
-                dtheta(joint) * (f64::from(harmonic) * q.get(joint as usize)).cos()
+            Hook::GuideShift(Axis::X) => guide()?.tx,
+            Hook::GuideShift(Axis::Y) => guide()?.ty,
+            Hook::GuideShift(Axis::Z) => return None,
+            Hook::GuideRotation(axis) => {
+                let ax = guide()?;
+                rot(ax.rot[axis.index()], ax.o)
             }
-            EffectParam::JointScale { joint } => {
-                joint_ok(joint)?;
-                dtheta(joint) * q.get(joint as usize)
+            Hook::ToolShift(Axis::X) => tool().tx,
+            Hook::ToolShift(Axis::Y) => tool().ty,
+            Hook::ToolRotation(axis @ (Axis::X | Axis::Y)) => {
+                let ax = tool();
+                rot(ax.rot[axis.index()], ax.o)
             }
-            EffectParam::Backlash { joint } => {
-                joint_ok(joint)?;
-                dtheta(joint) * f64::from(ctx.dir_of(joint))
-            }
-            EffectParam::GuideAngular { axis, order } => {
-                let g = guide_frame()?;
-                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[g]));
-                rot(ax.rot[axis.index()], ax.o) * legendre(order, u)
-            }
-            EffectParam::GuideStraightness { axis, order } => {
-                let g = guide_frame()?;
-                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[g]));
-                let dir = match axis {
-                    Axis::X => ax.tx,
-                    Axis::Y => ax.ty,
-                    Axis::Z => return Err(ModelError::ParamNotInModel(ParamId::Effect(e).name())),
-                };
-                dir * legendre(order, u)
-            }
-            EffectParam::GuideScale => {
-                let g = guide_frame()?;
-                chain.axes[g - 1].z * q[g - 1]
-            }
-            EffectParam::CarriageTilt { axis } => {
-                let k = match axis {
-                    Axis::X => 0,
-                    Axis::Y => 1,
-                    Axis::Z => return Err(ModelError::ParamNotInModel(ParamId::Effect(e).name())),
-                };
-                let g = guide_frame()?;
-                let ax = chain.guide.unwrap_or_else(|| Self::zero_insert(&chain.frames[g]));
-                let moment = chain.carriage_moment.unwrap_or_else(|| self.carriage_moment(q));
-                rot(ax.rot[k], ax.o) * moment[k]
-            }
-            EffectParam::ToolFrame(dof) => {
-                let ax = chain.tool_axes.unwrap_or_else(|| Self::zero_insert(&chain.frames[self.n]));
-                match dof {
-                    ToolFrameDof::Tx => ax.tx,
-                    ToolFrameDof::Ty => ax.ty,
-                    ToolFrameDof::Rx => rot(ax.rot[0], ax.o),
-                    ToolFrameDof::Ry => rot(ax.rot[1], ax.o),
-                }
-            }
-            EffectParam::ThermalPerSecond | EffectParam::ThermalPerKelvin => {
-                let v = if e == EffectParam::ThermalPerSecond {
-                    ctx.time_s.unwrap_or(0.0)
-                } else {
-                    ctx.temperature_c.map_or(0.0, |t| t - self.thermal_reference_c)
-                };
+            Hook::ToolShift(Axis::Z) | Hook::ToolRotation(Axis::Z) => return None,
+            Hook::LengthScale => {
                 let mut col = Vector3::zeros();
                 for k in (0..self.n).filter(|k| self.kinds[*k].is_revolute()) {
                     let a = &chain.axes[k];
                     col += a.x_prev * self.rows[k].a + a.z * self.rows[k].d;
                 }
-                col * v
+                col
             }
         })
     }

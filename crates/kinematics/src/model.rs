@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::Vector3;
 use vatcal_core::cell::{CellFile, EffectEntry};
-use vatcal_core::effects::{EffectKind, EffectSpec, ThermalDriver};
+use vatcal_core::effects::{ChainInfo, EffectKind, EffectSpec, ErrorEffect};
 use vatcal_core::params::{BaseParam, EffectParam, ParamUnit};
 use vatcal_core::{JointKind, JointVector, MAX_JOINTS, ParamId, ParamSet, deg_to_rad, rad_to_deg};
 use vatcal_gravity_torque::MassModel;
@@ -102,9 +102,15 @@ pub struct Model {
     // caches (kept in sync by `refresh_caches`)
     pub(crate) row_fixed: [Frame; MAX_JOINTS],
     pub(crate) row_trig: [(f64, f64); MAX_JOINTS],
+    /// `(sin, cos)` of `theta_offset_i` (the constant angle of a prismatic row)
+    pub(crate) theta_trig: [(f64, f64); MAX_JOINTS],
     pub(crate) base_frame: Frame,
     pub(crate) any_compliance: bool,
-    pub(crate) has_joint_effects: bool,
+    /// a switched-on effect needs the carriage moment
+    pub(crate) effects_need_moment: bool,
+    /// the registered implementation of each switched-on effect, `effect_impls[k]` for
+    /// `effects[k]` (looked up once, not per sample)
+    pub(crate) effect_impls: Vec<&'static dyn ErrorEffect>,
     template: CellFile,
 }
 
@@ -215,9 +221,11 @@ impl Model {
             thermal_reference_c: 20.0,
             row_fixed: [Frame::identity(); MAX_JOINTS],
             row_trig: [(0.0, 1.0); MAX_JOINTS],
+            theta_trig: [(0.0, 1.0); MAX_JOINTS],
             base_frame: Frame::identity(),
             any_compliance: false,
-            has_joint_effects: false,
+            effects_need_moment: false,
+            effect_impls: Vec::new(),
             template: cell.clone(),
         };
         for (k, e) in cell.effects.iter().enumerate() {
@@ -300,33 +308,8 @@ impl Model {
             row: None,
             values: toml::Table::new(),
         };
-        match *spec {
-            EffectSpec::JointCompliance { joint }
-            | EffectSpec::JointScale { joint }
-            | EffectSpec::JointBacklash { joint } => e.joint = Some(joint),
-            EffectSpec::JointCyclic { joint, harmonic } => {
-                e.joint = Some(joint);
-                e.harmonic = Some(harmonic);
-            }
-            EffectSpec::GuideAngular { order } | EffectSpec::GuideStraightness { order } => {
-                e.order = Some(order)
-            }
-            EffectSpec::ThermalDrift { driver } => {
-                e.driver = Some(
-                    match driver {
-                        ThermalDriver::Time => "time",
-                        ThermalDriver::Temperature => "temperature",
-                    }
-                    .to_string(),
-                );
-                if driver == ThermalDriver::Temperature {
-                    e.reference_temperature_c = Some(self.thermal_reference_c);
-                }
-            }
-            EffectSpec::TcpOffset { tcp } => e.tcp = Some(tcp),
-            EffectSpec::PositionOffset { position } => e.position = Some(position),
-            EffectSpec::HayatiBeta { row } => e.row = Some(row),
-            EffectSpec::GuideScale | EffectSpec::GuideCarriageTilt | EffectSpec::ToolFrame => {}
+        if let Some(effect) = spec.effect() {
+            effect.write_entry(spec, &mut e, self.thermal_reference_c);
         }
         if !spec.kind().is_builtin() {
             for id in spec.params() {
@@ -524,68 +507,43 @@ impl Model {
     /// [`ModelError::InvalidEffect`] when the instance does not exist on this model (e.g. a joint
     /// index out of range or an effect that needs a joint the chain lacks).
     pub fn enable_effect(&mut self, spec: EffectSpec) -> Result<(), ModelError> {
-        let invalid = |m: &str| Err(ModelError::InvalidEffect(spec.label(), m.to_string()));
-        let chain = self.describe_chain();
-        match spec {
-            EffectSpec::JointCompliance { joint }
-            | EffectSpec::JointScale { joint }
-            | EffectSpec::JointBacklash { joint }
-                if !self.is_revolute(joint as usize) =>
-            {
-                return invalid(&format!("joint must be a revolute joint of this chain of {chain}"));
-            }
-            EffectSpec::JointCyclic { joint, harmonic }
-                if !self.is_revolute(joint as usize) || harmonic == 0 =>
-            {
-                return invalid(&format!(
-                    "joint must be a revolute joint of this chain of {chain}, and harmonic >= 1"
-                ));
-            }
-            EffectSpec::GuideAngular { .. }
-            | EffectSpec::GuideStraightness { .. }
-            | EffectSpec::GuideScale
-            | EffectSpec::GuideCarriageTilt
-                if self.guide.is_none() =>
-            {
-                return invalid(&format!(
-                    "guide effects act on a prismatic joint, and this chain of {chain} has none"
-                ));
-            }
-            EffectSpec::GuideAngular { order } if !(1..=4).contains(&order) => {
-                return invalid("order must be 1..=4");
-            }
-            EffectSpec::GuideStraightness { order } if !(2..=4).contains(&order) => {
-                return invalid("order must be 2..=4 (order 1 is a tilted guide, absorbed by the base pose)");
-            }
-            EffectSpec::TcpOffset { tcp } if self.tcp(tcp).is_none() => {
-                return invalid("unknown TCP id");
-            }
-            EffectSpec::PositionOffset { position } if self.position(position).is_none() => {
-                return invalid("unknown calibration position id");
-            }
-            EffectSpec::HayatiBeta { row } if !(1..=self.n).contains(&(row as usize)) => {
-                return invalid(&format!("row must be 1..={}", self.n));
-            }
-            _ => {}
-        }
+        let invalid = |m: String| ModelError::InvalidEffect(spec.label(), m);
+        let effect = spec.effect().ok_or_else(|| invalid("no such effect is registered".to_string()))?;
+        let (tcps, positions) = (self.tcp_ids(), self.position_ids());
+        effect.check(&spec, &self.chain_info(&tcps, &positions)).map_err(invalid)?;
         if self.effects.contains(&spec) {
             return Ok(());
         }
-        // guide polynomials: a higher order replaces a lower one of the same kind
-        if let EffectSpec::GuideAngular { .. } | EffectSpec::GuideStraightness { .. } = spec
+        // polynomial effects: a higher order replaces a lower one of the same kind
+        if effect.single_instance()
             && let Some(k) = self.effects.iter().position(|e| e.kind() == spec.kind())
         {
             self.effects[k] = spec;
         } else {
             self.effects.push(spec);
         }
-        if !spec.kind().is_builtin() {
+        if !effect.is_builtin() {
             for id in spec.params() {
                 self.effect_values.entry(id).or_insert(0.0);
             }
         }
+        // every effect in `effects` passed this function, so it is registered
+        self.effect_impls = self.effects.iter().filter_map(|e| e.effect()).collect();
+        self.effects_need_moment = self.effect_impls.iter().any(|e| e.needs_carriage_moment());
         self.refresh_caches();
         Ok(())
+    }
+
+    /// What the effect catalog may ask about this chain (`tcps`, `positions`: the model's
+    /// TCP and calibration-position ids).
+    pub fn chain_info<'a>(&'a self, tcps: &'a [u32], positions: &'a [u32]) -> ChainInfo<'a> {
+        ChainInfo {
+            kinds: self.joint_kinds(),
+            guide: self.guide_joint().map(|g| g as u8),
+            tcps,
+            positions,
+            canonical: self.is_meca500_on_guide(),
+        }
     }
 
     /// True when `id` exists in this model (built-in, or belonging to a switched-on effect).
@@ -701,18 +659,11 @@ impl Model {
         for (k, row) in self.rows[..self.n].iter().enumerate() {
             self.row_fixed[k] = row_fixed_frame(row);
             self.row_trig[k] = row.alpha.sin_cos();
+            self.theta_trig[k] = row.theta_offset.sin_cos();
         }
         self.base_frame = base_frame(&self.base);
         self.any_compliance =
             self.compliance[..self.n].iter().zip(&self.kinds).any(|(c, k)| k.is_revolute() && *c != 0.0);
-        self.has_joint_effects = self.effects.iter().any(|e| {
-            matches!(
-                e,
-                EffectSpec::JointCyclic { .. }
-                    | EffectSpec::JointScale { .. }
-                    | EffectSpec::JointBacklash { .. }
-            )
-        });
     }
 
     /// Normalised guide coordinate `u = (q_g - mid) / half_stroke` in [-1, 1] over the stroke
@@ -742,31 +693,8 @@ pub(crate) fn base_index(b: BaseParam) -> usize {
 }
 
 fn spec_from_entry(e: &EffectEntry) -> Result<EffectSpec, String> {
-    let kind = EffectKind::from_name(&e.effect).ok_or_else(|| format!("unknown effect `{}`", e.effect))?;
-    let joint = || e.joint.ok_or_else(|| "needs `joint`".to_string());
-    Ok(match kind {
-        EffectKind::JointCompliance => EffectSpec::JointCompliance { joint: joint()? },
-        EffectKind::JointCyclic => {
-            EffectSpec::JointCyclic { joint: joint()?, harmonic: e.harmonic.ok_or("needs `harmonic`")? }
-        }
-        EffectKind::JointScale => EffectSpec::JointScale { joint: joint()? },
-        EffectKind::JointBacklash => EffectSpec::JointBacklash { joint: joint()? },
-        EffectKind::GuideAngular => EffectSpec::GuideAngular { order: e.order.unwrap_or(2) },
-        EffectKind::GuideStraightness => EffectSpec::GuideStraightness { order: e.order.unwrap_or(2) },
-        EffectKind::GuideScale => EffectSpec::GuideScale,
-        EffectKind::GuideCarriageTilt => EffectSpec::GuideCarriageTilt,
-        EffectKind::ToolFrame => EffectSpec::ToolFrame,
-        EffectKind::TcpOffset => EffectSpec::TcpOffset { tcp: e.tcp.ok_or("needs `tcp`")? },
-        EffectKind::PositionOffset => {
-            EffectSpec::PositionOffset { position: e.position.ok_or("needs `position`")? }
-        }
-        EffectKind::ThermalDrift => EffectSpec::ThermalDrift {
-            driver: match e.driver.as_deref() {
-                Some("time") | None => ThermalDriver::Time,
-                Some("temperature") => ThermalDriver::Temperature,
-                Some(o) => return Err(format!("driver must be `time` or `temperature`, got `{o}`")),
-            },
-        },
-        EffectKind::HayatiBeta => EffectSpec::HayatiBeta { row: e.row.ok_or("needs `row`")? },
-    })
+    let effect = EffectKind::from_name(&e.effect)
+        .and_then(EffectKind::effect)
+        .ok_or_else(|| format!("unknown effect `{}`", e.effect))?;
+    effect.read_entry(e)
 }

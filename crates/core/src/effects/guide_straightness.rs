@@ -1,0 +1,110 @@
+//! `guide-straightness`: the carriage path bows sideways along the guide. After the guide
+//! joint's frame g: `T(s_x(u), s_y(u), 0)`, `s(u) = Σ_o s_o P_o(u)` for orders 2..=`order`
+//! (order 1 is a tilted guide, absorbed by the base pose; parameters
+//! `guide_straightness_{x,y}_p{o}` [mm]).
+
+use super::guide_angular::{axis_order, check_guide};
+use super::{
+    ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect, Hook, legendre,
+};
+use crate::cell::EffectEntry;
+use crate::params::{Axis, EffectParam, ParamId, ParamUnit};
+
+/// The `guide-straightness` effect.
+#[derive(Debug, Clone, Copy)]
+pub struct GuideStraightness;
+
+fn order_of(spec: &EffectSpec) -> u8 {
+    match *spec {
+        EffectSpec::GuideStraightness { order } => order,
+        _ => 0,
+    }
+}
+
+impl ErrorEffect for GuideStraightness {
+    fn kind(&self) -> EffectKind {
+        EffectKind::GuideStraightness
+    }
+    fn name(&self) -> &'static str {
+        "guide-straightness"
+    }
+    fn meaning(&self) -> &'static str {
+        "the carriage path bows sideways along the guide"
+    }
+    fn single_instance(&self) -> bool {
+        true
+    }
+    fn params(&self, spec: &EffectSpec) -> Vec<ParamId> {
+        (2..=order_of(spec).max(2))
+            .flat_map(|o| {
+                [Axis::X, Axis::Y]
+                    .map(|axis| ParamId::Effect(EffectParam::GuideStraightness { axis, order: o }))
+            })
+            .collect()
+    }
+    fn label(&self, spec: &EffectSpec) -> String {
+        format!("{} (orders up to {})", self.name(), order_of(spec))
+    }
+    fn joint(&self, _spec: &EffectSpec) -> Option<u8> {
+        Some(1)
+    }
+    fn owner(&self, param: &EffectParam) -> Option<EffectSpec> {
+        match *param {
+            EffectParam::GuideStraightness { axis: Axis::X | Axis::Y, order } => {
+                Some(EffectSpec::GuideStraightness { order })
+            }
+            _ => None,
+        }
+    }
+    fn param_name(&self, param: &EffectParam) -> String {
+        match param {
+            EffectParam::GuideStraightness { axis, order } => {
+                format!("guide_straightness_{}_p{order}", axis.letter())
+            }
+            _ => String::new(),
+        }
+    }
+    fn parse_param(&self, name: &str) -> Option<EffectParam> {
+        let (axis, order) = axis_order(name.strip_prefix("guide_straightness_")?)?;
+        (axis != Axis::Z).then_some(EffectParam::GuideStraightness { axis, order })
+    }
+    fn param_unit(&self, _param: &EffectParam) -> ParamUnit {
+        ParamUnit::Mm
+    }
+    fn bound(&self, _param: &ParamId) -> Option<(f64, &'static str)> {
+        Some((0.5, "0.5 mm"))
+    }
+    fn read_entry(&self, entry: &EffectEntry) -> Result<EffectSpec, String> {
+        Ok(EffectSpec::GuideStraightness { order: entry.order.unwrap_or(2) })
+    }
+    fn write_entry(&self, spec: &EffectSpec, entry: &mut EffectEntry, _t: f64) {
+        entry.order = Some(order_of(spec));
+    }
+    fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
+        check_guide(chain)?;
+        if (2..=4).contains(&order_of(spec)) {
+            Ok(())
+        } else {
+            Err("order must be 2..=4 (order 1 is a tilted guide, absorbed by the base pose)".to_string())
+        }
+    }
+    fn candidates(&self, chain: &ChainInfo<'_>, _data: &DataUse, _joint: Option<u8>) -> Vec<EffectSpec> {
+        chain.guide.map(|_| EffectSpec::GuideStraightness { order: 2 }).into_iter().collect()
+    }
+    fn driver(&self, _spec: &EffectSpec, guide: u8, _n: u8) -> EffectDriver {
+        EffectDriver::Joint(guide)
+    }
+    fn contributions(
+        &self,
+        spec: &EffectSpec,
+        x: &EffectInputs<'_>,
+        add: &mut dyn FnMut(EffectParam, Hook, f64),
+    ) {
+        for o in 2..=order_of(spec) {
+            let p = legendre(o, x.guide_u);
+            for axis in [Axis::X, Axis::Y] {
+                add(EffectParam::GuideStraightness { axis, order: o }, Hook::GuideShift(axis), p);
+            }
+        }
+    }
+}
