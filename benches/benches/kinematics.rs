@@ -7,7 +7,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use vatcal_core::{CellFile, JointVector, MeasurementContext, ParamSet};
+use vatcal_core::{CellFile, Frame, JointKind, JointVector, MeasurementContext, ParamSet};
+use vatcal_gravity_torque::{GravityModel, gravity_torques_n};
 use vatcal_kinematics::Model;
 
 fn calibrated_like_model() -> Model {
@@ -42,6 +43,20 @@ fn bench_kinematics(c: &mut Criterion) {
         b.iter(|| model.jacobian_into(black_box(&q), &ctx, 2, &params.0, &mut out).expect("jacobian"))
     });
     c.bench_function("kinematics/gravity_torques", |b| b.iter(|| model.gravity_torques(black_box(&q))));
+
+    // the torque recursion alone (vatcal-gravity-torque), on the link transforms H_i^{i-1} of
+    // the same pose (taken from the world frames, outside the timed loop)
+    let frames = nominal.chain_full(&q, &ctx, false, None).frames;
+    let links: [Frame; 7] = std::array::from_fn(|k| frames[k].inverse().compose(&frames[k + 1]));
+    let kinds: [JointKind; 7] = nominal.joint_kinds().try_into().expect("7 joints");
+    let (base, masses, g) = (nominal.base_frame().r, nominal.masses().clone(), nominal.gravity());
+    c.bench_function("gravity_torque/recursion_7", |b| {
+        b.iter(|| gravity_torques_n(black_box(&links), &kinds, &base, &masses, &g))
+    });
+    let constants = GravityModel::new(&masses, &base, &g);
+    c.bench_function("gravity_torque/precomputed_7", |b| {
+        b.iter(|| constants.torques_n(black_box(&links), &kinds))
+    });
 }
 
 criterion_group!(benches, bench_kinematics);

@@ -91,9 +91,141 @@ pub fn combine(a: Body, b: Body) -> Body {
     Body { mass_kg: m, com_mm: (a.com_mm * a.mass_kg + b.com_mm * b.mass_kg) / m }
 }
 
+/// The per-model constants of the torque recursion, computed once by [`GravityModel::new`]:
+/// gravity in frame 0, the first moments `m_i c_i` of the bodies and the masses distal to each
+/// frame. [`GravityModel::torques_n`] then costs one rotation of a first-moment vector and one
+/// of the gravity vector per joint (no allocation).
+///
+/// The recursion is the static one of the crate documentation written with the first moment
+/// `s_i = Σ_{j ≥ i} m_j (c_j − o_i)` (frame i, kg·mm) of everything distal to joint i:
+/// `s_i = m_i c_i + R s_{i+1} + M_{i+1} p` with `R`, `p` of `H_{i+1}^i` and `M_{i+1}` the mass
+/// distal to frame i+1. The moment of the weights about `o_i` is `s_i × g_i` (the force
+/// recursion's `-n_i`), so `tau_i = (s_i × g_i) · z = s_x g_y − s_y g_x` (×10⁻³ for mm → m).
+///
+/// # Examples
+/// The same numbers as [`gravity_torques`], with the constants computed once:
+/// ```
+/// use nalgebra::{Matrix3, Vector3};
+/// use vatcal_core::{Frame, JointKind, MAX_JOINTS};
+/// use vatcal_gravity_torque::{Body, GravityModel, MassModel, gravity_torques};
+///
+/// let rx_m90 = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0);
+/// let mut links = [Frame::identity(); 4];
+/// links[2] = Frame { r: rx_m90, p: Vector3::new(0.0, 0.0, 50.0) };
+/// let kinds = [JointKind::Prismatic, JointKind::Revolute, JointKind::Revolute, JointKind::Revolute];
+/// let mut masses = MassModel { links: [Body::default(); MAX_JOINTS], n: 4 };
+/// masses.links[2] = Body { mass_kg: 2.0, com_mm: Vector3::new(100.0, 0.0, 0.0) };
+/// masses.links[3] = Body { mass_kg: 0.5, com_mm: Vector3::new(0.0, 30.0, 0.0) };
+/// let g = Vector3::new(0.0, 0.0, -9.81);
+/// let model = GravityModel::new(&masses, &Matrix3::identity(), &g);
+/// let tau = model.torques_n(&links, &kinds);
+/// let reference = gravity_torques(&links, &kinds, &Matrix3::identity(), &masses, &g);
+/// assert!(tau.iter().zip(&reference).all(|(a, b)| (a - b).abs() < 1e-12));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GravityModel {
+    /// gravity in frame 0, `R_0^Wᵀ g^W` [m/s²]
+    pub gravity_frame0: Vector3<f64>,
+    /// `first_moment_kg_mm[i - 1] = m_i c_i` of the body of frame i [kg·mm]; zero from `n` on
+    pub first_moment_kg_mm: [Vector3<f64>; MAX_JOINTS],
+    /// `mass_kg[i - 1]` = mass of the body of frame i [kg]; zero from `n` on
+    pub mass_kg: [f64; MAX_JOINTS],
+}
+
+impl GravityModel {
+    /// The constants of `masses` (frames 1..=`masses.n`; later links are massless) under
+    /// `gravity_world` [m/s²] for a chain whose frame 0 has the world orientation
+    /// `base_rotation` (`R_0^W`).
+    pub fn new(masses: &MassModel, base_rotation: &Matrix3<f64>, gravity_world: &Vector3<f64>) -> Self {
+        let mut first_moment_kg_mm = [Vector3::zeros(); MAX_JOINTS];
+        let mut mass_kg = [0.0; MAX_JOINTS];
+        for (k, body) in masses.bodies().iter().enumerate() {
+            first_moment_kg_mm[k] = body.com_mm * body.mass_kg;
+            mass_kg[k] = body.mass_kg;
+        }
+        Self { gravity_frame0: base_rotation.tr_mul(gravity_world), first_moment_kg_mm, mass_kg }
+    }
+
+    /// Gravity torques `tau[i - 1]` [N·m] about `+z_i` of the chain of exactly `N` joints with
+    /// link transforms `links[i - 1] = H_i^{i-1}` (mm) and joint kinds `kinds`; 0 for
+    /// prismatic joints. Bodies of frames beyond N are ignored. The same quantity as
+    /// [`gravity_torques_n`] (equal to round-off).
+    #[inline]
+    pub fn torques_n<const N: usize>(&self, links: &[Frame; N], kinds: &[JointKind; N]) -> [f64; N] {
+        let mut tau = [0.0; N];
+        recursion(
+            links,
+            |k| kinds[k].is_revolute(),
+            self.gravity_frame0,
+            |k| self.first_moment_kg_mm[k],
+            |k| self.mass_kg[k],
+            &mut tau,
+        );
+        tau
+    }
+
+    /// [`GravityModel::torques_n`] for a chain of `links.len()` joints (at most
+    /// [`MAX_JOINTS`]; extra links are ignored); a missing kind counts as revolute.
+    pub fn torques(&self, links: &[Frame], kinds: &[JointKind]) -> [f64; MAX_JOINTS] {
+        let n = links.len().min(MAX_JOINTS);
+        let mut tau = [0.0; MAX_JOINTS];
+        recursion(
+            &links[..n],
+            |k| kinds.get(k).is_none_or(|k| k.is_revolute()),
+            self.gravity_frame0,
+            |k| self.first_moment_kg_mm[k],
+            |k| self.mass_kg[k],
+            &mut tau[..n],
+        );
+        tau
+    }
+}
+
+/// The first-moment recursion (see [`GravityModel`]) on `links.len() == tau.len()` joints:
+/// `revolute(k)`, `first_moment(k)` [kg·mm] and `mass(k)` [kg] describe row / body k + 1,
+/// `g0` is gravity in frame 0.
+#[inline(always)]
+fn recursion(
+    links: &[Frame],
+    revolute: impl Fn(usize) -> bool,
+    g0: Vector3<f64>,
+    first_moment: impl Fn(usize) -> Vector3<f64>,
+    mass: impl Fn(usize) -> f64,
+    tau: &mut [f64],
+) {
+    let n = links.len().min(tau.len());
+    // the recursion only needs to go down to the first revolute joint
+    let Some(first) = (0..n).find(|k| revolute(*k)) else { return };
+    // outward: g[k] = gravity in frame k + 1
+    let mut g = [Vector3::zeros(); MAX_JOINTS];
+    let mut prev = g0;
+    for (gk, link) in g.iter_mut().zip(&links[..n]) {
+        *gk = link.r.tr_mul(&prev);
+        prev = *gk;
+    }
+    // inward: s = first moment of bodies k+1..=n about the origin of frame k+1, in frame k+1
+    // [kg·mm]; distal = their mass [kg]
+    let mut s = first_moment(n - 1);
+    let mut distal = mass(n - 1);
+    for k in (first..n).rev() {
+        if k + 1 < n {
+            let next = &links[k + 1]; // H_{k+2}^{k+1}
+            s = next.r * s + next.p * distal + first_moment(k);
+            distal += mass(k);
+        }
+        if revolute(k) {
+            let gk = &g[k];
+            tau[k] = (s.x * gk.y - s.y * gk.x) * 1e-3;
+        }
+    }
+}
+
 /// [`gravity_torques`] for a chain of exactly `N` joints with fixed-size arrays (no length
 /// checks in the loops; the FK hot path uses it for the common 6- and 7-joint chains).
 /// `tau[i - 1]` is the torque of joint i, 0 for prismatic joints.
+///
+/// A caller that evaluates many joint vectors of one model can keep a [`GravityModel`] and
+/// call [`GravityModel::torques_n`] (the same numbers, the per-model constants computed once).
 #[inline]
 pub fn gravity_torques_n<const N: usize>(
     links: &[Frame; N],
@@ -103,33 +235,14 @@ pub fn gravity_torques_n<const N: usize>(
     gravity_world: &Vector3<f64>,
 ) -> [f64; N] {
     let mut tau = [0.0; N];
-    let Some(first) = kinds.iter().position(|k| k.is_revolute()) else { return tau };
-    // outward: g[i - 1] = gravity in frame i
-    let mut g = [Vector3::zeros(); N];
-    let mut prev = base_rotation.tr_mul(gravity_world);
-    for (gi, link) in g.iter_mut().zip(links) {
-        *gi = link.r.tr_mul(&prev);
-        prev = *gi;
-    }
-    // inward
-    let mut f = Vector3::zeros();
-    let mut n = Vector3::zeros();
-    for i in (first + 1..=N).rev() {
-        let body = masses.links[i - 1];
-        let weight = -body.mass_kg * g[i - 1];
-        let (rf, rn) = if i < N {
-            let next = &links[i];
-            let rf = next.r * f;
-            (rf, next.r * n + (next.p * 1e-3).cross(&rf))
-        } else {
-            (Vector3::zeros(), Vector3::zeros())
-        };
-        f = rf + weight;
-        n = rn + (body.com_mm * 1e-3).cross(&weight);
-        if kinds[i - 1].is_revolute() {
-            tau[i - 1] = -n.z;
-        }
-    }
+    recursion(
+        links,
+        |k| kinds[k].is_revolute(),
+        base_rotation.tr_mul(gravity_world),
+        |k| masses.links[k].com_mm * masses.links[k].mass_kg,
+        |k| masses.links[k].mass_kg,
+        &mut tau,
+    );
     tau
 }
 
@@ -145,7 +258,8 @@ pub fn gravity_torques_n<const N: usize>(
 ///   massless);
 /// * `gravity_world` = gravity vector in the world frame [m/s²].
 ///
-/// Cost: ~0.1 µs for 7 joints (no allocation).
+/// Cost: well under 0.1 µs for 7 joints (no allocation); [`GravityModel`] keeps the
+/// per-model constants for repeated calls.
 ///
 /// # Examples
 /// A 2 kg body 100 mm out on a horizontal link (frame 3's z axis is world +y) feels
@@ -189,28 +303,46 @@ pub fn gravity_torques(
         tau[..6].copy_from_slice(&gravity_torques_n(l, k, base_rotation, masses, gravity_world));
         return tau;
     }
-    // the recursion only needs to go down to the first revolute joint
+    recursion(
+        &links[..n_links],
+        |k| kinds.get(k).is_none_or(|k| k.is_revolute()),
+        base_rotation.tr_mul(gravity_world),
+        |k| masses.links[k].com_mm * masses.links[k].mass_kg,
+        |k| masses.links[k].mass_kg,
+        &mut tau[..n_links],
+    );
+    tau
+}
+
+/// The force/moment form of the recursion (the crate documentation's equations, as the crate
+/// computed them before [`GravityModel`]), kept as the reference the tests compare against.
+#[cfg(test)]
+fn reference_torques(
+    links: &[Frame],
+    kinds: &[JointKind],
+    base_rotation: &Matrix3<f64>,
+    masses: &MassModel,
+    gravity_world: &Vector3<f64>,
+) -> [f64; MAX_JOINTS] {
+    let n_links = links.len().min(MAX_JOINTS);
+    let mut tau = [0.0; MAX_JOINTS];
     let Some(first) = (0..n_links).find(|k| kinds.get(*k).is_none_or(|k| k.is_revolute())) else {
         return tau;
     };
-    // outward: gravity expressed in frames 0..N, g_i = (R_i^{i-1})^T g_{i-1}
     let mut g_frame = [Vector3::zeros(); MAX_JOINTS + 1];
     g_frame[0] = base_rotation.tr_mul(gravity_world);
     for (i, link) in links[..n_links].iter().enumerate() {
         g_frame[i + 1] = link.r.tr_mul(&g_frame[i]);
     }
-    // inward
-    let mut f = Vector3::zeros(); // force of link i on link i+1, in frame i+1 [N]
-    let mut n = Vector3::zeros(); // moment [N m]
+    let mut f = Vector3::zeros();
+    let mut n = Vector3::zeros();
     for i in (first + 1..=n_links).rev() {
         let body = masses.links[i - 1];
-        let weight = -body.mass_kg * g_frame[i]; // -m g in frame i, i.e. the "inertial" force
+        let weight = -body.mass_kg * g_frame[i];
         let (rf, rn) = if i < n_links {
-            let next = &links[i]; // H_{i+1}^i
-            let r = next.r;
-            let p_m = next.p * 1e-3;
-            let rf = r * f;
-            (rf, r * n + p_m.cross(&rf))
+            let next = &links[i];
+            let rf = next.r * f;
+            (rf, next.r * n + (next.p * 1e-3).cross(&rf))
         } else {
             (Vector3::zeros(), Vector3::zeros())
         };
@@ -226,6 +358,7 @@ pub fn gravity_torques(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     use JointKind::{Prismatic, Revolute};
 
@@ -300,5 +433,77 @@ mod tests {
         assert_eq!(m.total_mass_kg(), 2.0);
         assert_eq!(m.body(7).mass_kg, 2.0);
         assert_eq!(m.body(8).mass_kg, 0.0);
+    }
+
+    fn chain_strategy() -> impl Strategy<Value = (Vec<Frame>, Vec<JointKind>, MassModel, Vector3<f64>)> {
+        (1..=MAX_JOINTS).prop_flat_map(|n| {
+            (
+                proptest::collection::vec(
+                    (proptest::array::uniform3(-3.2..3.2f64), proptest::array::uniform3(-300.0..300.0f64)),
+                    n,
+                ),
+                proptest::collection::vec(proptest::bool::weighted(0.8), n),
+                proptest::collection::vec((0.0..5.0f64, proptest::array::uniform3(-150.0..150.0f64)), n),
+                proptest::array::uniform3(-10.0..10.0f64),
+            )
+                .prop_map(move |(frames, revolute, bodies, g)| {
+                    let links = frames
+                        .iter()
+                        .map(|(e, p)| Frame {
+                            r: *nalgebra::Rotation3::from_euler_angles(e[0], e[1], e[2]).matrix(),
+                            p: Vector3::from(*p),
+                        })
+                        .collect();
+                    let kinds = revolute.iter().map(|r| if *r { Revolute } else { Prismatic }).collect();
+                    let mut masses = MassModel { links: [Body::default(); MAX_JOINTS], n };
+                    for (k, (m, c)) in bodies.iter().enumerate() {
+                        masses.links[k] = Body { mass_kg: *m, com_mm: Vector3::from(*c) };
+                    }
+                    (links, kinds, masses, Vector3::from(g))
+                })
+        })
+    }
+
+    proptest! {
+        /// The first-moment recursion (plain, fixed-size and precomputed forms) equals the
+        /// force/moment recursion on random chains of 1..=12 joints of either kind.
+        #[test]
+        fn first_moment_recursion_equals_the_force_recursion(
+            (links, kinds, masses, g) in chain_strategy(),
+            base in proptest::array::uniform3(-3.2..3.2f64),
+        ) {
+            let base = *nalgebra::Rotation3::from_euler_angles(base[0], base[1], base[2]).matrix();
+            let reference = reference_torques(&links, &kinds, &base, &masses, &g);
+            let scale = 1e-3 * masses.total_mass_kg() * g.norm() * 1000.0 * links.len() as f64 + 1e-9;
+            let plain = gravity_torques(&links, &kinds, &base, &masses, &g);
+            let model = GravityModel::new(&masses, &base, &g);
+            let pre = model.torques(&links, &kinds);
+            for k in 0..MAX_JOINTS {
+                prop_assert!((plain[k] - reference[k]).abs() <= 1e-12 * scale, "joint {}: {} vs {}", k + 1, plain[k], reference[k]);
+                prop_assert_eq!(pre[k].to_bits(), plain[k].to_bits());
+            }
+            if let (Ok(l), Ok(kd)) = (<&[Frame; 7]>::try_from(&links[..]), <&[JointKind; 7]>::try_from(&kinds[..])) {
+                let n7 = model.torques_n(l, kd);
+                prop_assert!(n7.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
+        }
+    }
+
+    #[test]
+    fn bodies_beyond_the_chain_are_ignored() {
+        // a mass model of 5 links evaluated on a 3-link chain: links 4 and 5 do not count
+        let rx_m90 = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0);
+        let links = [Frame { r: rx_m90, p: Vector3::zeros() }, Frame::identity(), Frame::identity()];
+        let mut masses = single_body(1.0, [40.0, 0.0, 0.0], 3, 5);
+        masses.links[4] = Body { mass_kg: 7.0, com_mm: Vector3::new(500.0, 0.0, 0.0) };
+        let g = Vector3::new(0.0, 0.0, -9.81);
+        let kinds = [Revolute; 3];
+        let plain = gravity_torques(&links, &kinds, &Matrix3::identity(), &masses, &g);
+        let model = GravityModel::new(&masses, &Matrix3::identity(), &g);
+        let pre = model.torques_n(&links, &kinds);
+        assert!((plain[0] - 9.81 * 0.04).abs() < 1e-12, "{plain:?}");
+        assert_eq!(&plain[..3], &pre[..]);
+        let reference = reference_torques(&links, &kinds, &Matrix3::identity(), &masses, &g);
+        assert!(plain.iter().zip(&reference).all(|(a, b)| (a - b).abs() < 1e-14), "{reference:?}");
     }
 }

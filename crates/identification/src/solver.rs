@@ -158,7 +158,7 @@ impl<'p, 'a> Iteration<'p, 'a> {
                 Scaling::None => 1.0,
                 Scaling::APriori => self.typical[j],
                 Scaling::ColumnNorms => {
-                    let norm = self.jac.col(j).norm_l2();
+                    let norm = crate::dense::norm(self.jac.col_as_slice(j));
                     self.col_norm_max[j] = self.col_norm_max[j].max(norm);
                     if self.col_norm_max[j] > 0.0 { 1.0 / self.col_norm_max[j] } else { self.typical[j] }
                 }
@@ -171,13 +171,11 @@ impl<'p, 'a> Iteration<'p, 'a> {
         let (m, l) = (self.problem.rows(), self.problem.cols());
         for j in 0..l {
             let s = self.scale[j];
-            for i in 0..m {
-                self.qr.a[(i, j)] = self.jac[(i, j)] * s;
+            for (a, x) in self.qr.a.col_as_slice_mut(j).iter_mut().zip(self.jac.col_as_slice(j)) {
+                *a = x * s;
             }
         }
-        for i in 0..m {
-            self.qr.rhs[(i, 0)] = self.r[i];
-        }
+        self.qr.rhs.col_as_slice_mut(0)[..m].copy_from_slice(&self.r[..m]);
         self.qr.factor_and_apply();
     }
 
@@ -230,19 +228,14 @@ impl<'p, 'a> Iteration<'p, 'a> {
         let l = self.problem.cols();
         let sqrt_lambda = lambda.sqrt();
         for j in 0..l {
-            for i in 0..2 * l {
-                self.aug.a[(i, j)] = if i <= j {
-                    self.qr.a[(i, j)]
-                } else if i == l + j {
-                    sqrt_lambda
-                } else {
-                    0.0
-                };
-            }
+            let col = self.aug.a.col_as_slice_mut(j);
+            col.fill(0.0);
+            col[..=j].copy_from_slice(&self.qr.a.col_as_slice(j)[..=j]);
+            col[l + j] = sqrt_lambda;
         }
-        for i in 0..2 * l {
-            self.aug.rhs[(i, 0)] = if i < l { self.qr.rhs[(i, 0)] } else { 0.0 };
-        }
+        let rhs = self.aug.rhs.col_as_slice_mut(0);
+        rhs[..l].copy_from_slice(&self.qr.rhs.col_as_slice(0)[..l]);
+        rhs[l..].fill(0.0);
         self.aug.factor_and_apply();
         self.aug.solve_in_place();
         for j in 0..l {

@@ -178,8 +178,10 @@ struct Table {
     /// columns: cheaper than hashing the name at every field lookup of every row)
     index: Vec<(String, usize)>,
     rows: Vec<(u64, csv::StringRecord)>,
-    /// joint kinds of the model the rows are read for (empty: no joint columns)
-    kinds: Vec<JointKind>,
+    /// `q1..qN` of the model the rows are read for (empty: no joint columns), built once
+    joint_names: Vec<String>,
+    /// the `dir{i}` columns of that model (the canonical cell's without a model), built once
+    dir_cols: Vec<(usize, String)>,
 }
 
 impl Table {
@@ -187,7 +189,8 @@ impl Table {
     fn read_for(path: &Path, model: &Model, required: &[String]) -> Result<Table, IoError> {
         let refs: Vec<&str> = required.iter().map(String::as_str).collect();
         let mut t = Self::read_checked(path, &refs, Some(model.joint_count()))?;
-        t.kinds = model.joint_kinds().to_vec();
+        t.joint_names = joint_columns(model.joint_count());
+        t.dir_cols = dir_columns(model.joint_kinds());
         Ok(t)
     }
 
@@ -256,7 +259,15 @@ impl Table {
         if rows.is_empty() {
             return Err(IoError::Empty { path: path.into() });
         }
-        Ok(Table { path: path.into(), headers, index, rows, kinds: Vec::new() })
+        Ok(Table {
+            path: path.into(),
+            headers,
+            index,
+            rows,
+            joint_names: Vec::new(),
+            // the canonical cell's columns for tables read without a model (pose requests)
+            dir_cols: dir_columns(&MECA500_ON_GUIDE_KINDS),
+        })
     }
 
     /// Fails when an effect of `model` depends on a context column (`dir{i}` of every revolute
@@ -359,7 +370,10 @@ impl Table {
         let kinds = model.joint_kinds();
         let mut values = [0.0; MAX_JOINTS];
         for (k, v) in values.iter_mut().enumerate().take(kinds.len()) {
-            *v = self.float(line, rec, &format!("q{}", k + 1))?;
+            *v = match self.joint_names.get(k) {
+                Some(name) => self.float(line, rec, name)?,
+                None => self.float(line, rec, &format!("q{}", k + 1))?,
+            };
         }
         let q = JointVector::from_file_units(&values[..kinds.len()], kinds)
             .map_err(|e| self.err(line, "q1", e.to_string()))?;
@@ -379,12 +393,10 @@ impl Table {
     fn context(&self, line: u64, rec: &csv::StringRecord) -> Result<MeasurementContext, IoError> {
         let time_s = self.optional_float(line, rec, "time_s")?;
         let temperature_c = self.optional_float(line, rec, "temperature_c")?;
-        // the canonical cell's columns for tables read without a model (pose requests)
-        let kinds: &[JointKind] = if self.kinds.is_empty() { &MECA500_ON_GUIDE_KINDS } else { &self.kinds };
-        let dir_cols = dir_columns(kinds);
+        let dir_cols = &self.dir_cols;
         let dir = if !dir_cols.is_empty() && dir_cols.iter().all(|(_, c)| self.has(c)) {
             let mut d = [0i8; MAX_JOINTS];
-            for (joint, col) in &dir_cols {
+            for (joint, col) in dir_cols {
                 let v = self.float(line, rec, col)?;
                 d[joint - 1] = match v {
                     1.0 => 1,
@@ -403,8 +415,10 @@ impl Table {
     /// The optional final centring offset `offset_x_mm,offset_y_mm,offset_z_mm` (world axes) of
     /// a probe row: all three present or all three empty/absent.
     fn probe_offset(&self, line: u64, rec: &csv::StringRecord) -> Result<Option<Vector3<f64>>, IoError> {
-        let v: Vec<Option<f64>> =
-            OFFSET_COLUMNS.iter().map(|c| self.optional_float(line, rec, c)).collect::<Result<_, _>>()?;
+        let mut v = [None; 3];
+        for (value, c) in v.iter_mut().zip(OFFSET_COLUMNS) {
+            *value = self.optional_float(line, rec, c)?;
+        }
         match (v[0], v[1], v[2]) {
             (Some(x), Some(y), Some(z)) => Ok(Some(Vector3::new(x, y, z))),
             (None, None, None) => Ok(None),
