@@ -564,6 +564,7 @@ fn probe_zeroing_with_the_auto_operator_seats_the_master_ball_through_the_contro
         tracker: None,
         operator: &mut operator,
         clock: &clock,
+        thermometer: None,
     };
     let config = CampaignConfig { show_progress: false, ..CampaignConfig::default() };
     let report = Campaign::new(cell_devices, &nominal, config)
