@@ -479,7 +479,7 @@ mod tests {
         StepRecord {
             step,
             time_s: 1.5 * step as f64,
-            temperature_c: (step % 2 == 0).then_some(20.0 + 0.01 * step as f64),
+            temperature_c: step.is_multiple_of(2).then_some(20.0 + 0.01 * step as f64),
             state: CellState {
                 joints: JointVector::new([x, 0.1, -0.2, x / 3.0, 0.4, 1e-300, -0.6]),
                 arm_from: [x; 6],

@@ -70,7 +70,8 @@ mod tests {
     #[test]
     fn boxed_and_borrowed_thermometers_forward() {
         let mut t = Fixed(21.5);
-        assert_eq!((&mut t).read_c().expect("read"), 21.5);
+        let mut borrowed: &mut dyn Thermometer = &mut t;
+        assert_eq!(Thermometer::read_c(&mut borrowed).expect("read"), 21.5);
         let mut b: Box<dyn Thermometer> = Box::new(Fixed(19.0));
         assert_eq!(b.read_c().expect("read"), 19.0);
     }
