@@ -78,7 +78,7 @@ fn bad_addresses_kinds_links_and_timeouts_name_the_field_and_line() {
 }
 
 #[test]
-fn thermometer_entries_are_checked_and_a_file_sensor_connects() {
+fn thermometer_entries_are_checked() {
     let base = format!("{ARM}{GUIDE}{GAUGES}");
     for (entry, expected) in [
         ("{ kind = \"sim-cell\" }", "`thermometer.kind`: `sim-cell` reads `TEMP?`"),

@@ -285,3 +285,67 @@ fn sweep_campaign() {
         started.elapsed().as_secs_f64()
     );
 }
+
+/// The paper-like cell's temperature (`vatcal_sim`'s `PaperLikePhysics::paper`): a 1.5 K
+/// warm-up with a 20 min time constant and a ±0.3 K air-conditioning cycle of one hour.
+fn paper_temperature(t: f64, _total_s: f64) -> f64 {
+    vatcal_sim::truth::PaperLikePhysics::paper().temperature.at(t)
+}
+
+/// The demo's discovery campaign as the virtual cell records it: each Detmax pose once, 12
+/// two-sided repeats, the paper-like temperature read by the simulated thermometer (σ 0.02 K,
+/// 0.01 K resolution).
+fn demo_style() -> common::campaign::Style {
+    let t = vatcal_sim::ThermometerSpec::default();
+    common::campaign::Style {
+        two_sided_repeats: Some(12),
+        temperature: paper_temperature,
+        thermometer: (t.sigma_k, t.resolution_k),
+    }
+}
+
+/// Thermal growth of the paper-like truth's size (aluminium, 23e-6 /K, over the paper-like
+/// warm-up of 1.5 K: ≈ 15 µm at 400 mm) hidden alone, recorded through the thermometer: named
+/// as the temperature-driven drift (not the time-driven one), with its coefficient.
+#[test]
+fn realistic_thermal_growth_is_named_from_the_temperature_channel() {
+    let k = vatcal_sim::truth::PaperLikePhysics::paper().thermal_per_k;
+    let hidden = Hidden {
+        spec: EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature },
+        values: vec![(p(EffectParam::ThermalPerKelvin), k)],
+    };
+    for seed in [61u64, 62] {
+        let s = common::campaign::campaign_with(seed, std::slice::from_ref(&hidden), 120, demo_style());
+        let temps: Vec<f64> = s.probe.iter().filter_map(|m| m.context.temperature_c).collect();
+        assert_eq!(temps.len(), s.probe.len());
+        let d = run(&s);
+        eprintln!("thermal seed {seed}: found {:?}\n{}", names(&d), describe(&d));
+        let first = d.added_effects.first().expect("an effect is added");
+        assert_eq!(first.spec, hidden.spec, "seed {seed}: {:?}", names(&d));
+        let fitted = d.model.param(p(EffectParam::ThermalPerKelvin)).expect("coefficient");
+        assert!((fitted / k - 1.0).abs() < 0.3, "seed {seed}: fitted {fitted:e} /K, true {k:e} /K");
+        assert!(d.final_gap_mm < d.initial_gap_mm);
+    }
+}
+
+/// Backlash of one joint hidden alone, with the demo's campaign (each pose once, 12 two-sided
+/// repeats): named with the right joint at 0.06 arcmin, the top of the paper-like range.
+#[test]
+fn backlash_is_named_with_two_sided_repeats() {
+    let b = (0.06f64 / 60.0).to_radians();
+    for (seed, joint) in [(71u64, 3u8), (72, 5)] {
+        let hidden = Hidden {
+            spec: EffectSpec::JointBacklash { joint },
+            values: vec![(p(EffectParam::Backlash { joint }), b)],
+        };
+        let s = common::campaign::campaign_with(seed, std::slice::from_ref(&hidden), 120, demo_style());
+        let d = run(&s);
+        eprintln!("backlash j{joint} seed {seed}: found {:?}\n{}", names(&d), describe(&d));
+        assert_eq!(
+            names(&d).first(),
+            Some(&("joint-backlash".to_string(), Some(joint))),
+            "seed {seed}: {:?}",
+            names(&d)
+        );
+    }
+}
