@@ -98,7 +98,7 @@ fn discover_reports_bad_arguments_clearly() {
     assert!(String::from_utf8_lossy(&run.stderr).contains("missing.csv"));
     // the instruments' known noise: positive, and the probe's when the data has probe rows
     for (flags, expected) in [
-        (vec!["--probe-sigma-mm", "-0.002"], "--probe-sigma-mm must be a positive number"),
+        (vec!["--probe-sigma-mm=-0.002"], "--probe-sigma-mm must be a positive number"),
         (vec!["--tracker-sigma-mm", "0.007"], "give --probe-sigma-mm too"),
     ] {
         let run = vatcal()
