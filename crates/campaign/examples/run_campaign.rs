@@ -49,6 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         tracker: cell.tracker(),
         operator: cell.operator(),
         clock: cell.clock(),
+        thermometer: cell.thermometer(),
     };
     let report = Campaign::new(devices.lend(), &nominal, config.clone()).run(&plan, &journal)?;
     let truth = cell.truth();
@@ -87,6 +88,7 @@ struct SimDevices {
     tracker: SimTracker,
     operator: SimOperator,
     clock: VirtualClock,
+    thermometer: Option<vatcal_sim::SimThermometer>,
 }
 
 impl SimDevices {
@@ -98,6 +100,7 @@ impl SimDevices {
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,
             clock: &self.clock,
+            thermometer: self.thermometer.as_mut().map(|t| t as &mut dyn vatcal_hardware_traits::Thermometer),
         }
     }
 }

@@ -131,6 +131,10 @@ pub struct StepRecord {
     pub step: usize,
     /// seconds since the campaign start when the step completed
     pub time_s: f64,
+    /// cell temperature read by the thermometer when the step completed [°C] (measuring steps
+    /// of a cell with a thermometer; absent in journals written without one)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature_c: Option<f64>,
     /// cell state after the step
     pub state: CellState,
     /// what the step produced
@@ -138,12 +142,13 @@ pub struct StepRecord {
 }
 
 impl StepRecord {
-    /// The measurement this record holds, if any (probe or tracker), with `dir` and `time_s`.
+    /// The measurement this record holds, if any (probe or tracker), with `dir`, `time_s` and
+    /// `temperature_c` (when recorded).
     pub fn measurement(&self) -> Option<Measurement> {
         let context = MeasurementContext {
             dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(self.state.dir)),
             time_s: Some(self.time_s),
-            temperature_c: None,
+            temperature_c: self.temperature_c,
         };
         let (tcp, target) = match &self.outcome {
             StepOutcome::Measured { position, tcp, .. } => (*tcp, Target::Probe { position: *position }),
@@ -474,6 +479,7 @@ mod tests {
         StepRecord {
             step,
             time_s: 1.5 * step as f64,
+            temperature_c: step.is_multiple_of(2).then_some(20.0 + 0.01 * step as f64),
             state: CellState {
                 joints: JointVector::new([x, 0.1, -0.2, x / 3.0, 0.4, 1e-300, -0.6]),
                 arm_from: [x; 6],
@@ -630,7 +636,20 @@ mod tests {
             Some(vatcal_core::measurement::dirs_from_meca500_arm([1, -1, 0, 1, 1, -1]))
         );
         assert_eq!(m.context.time_s, Some(6.0));
+        assert_eq!(m.context.temperature_c, Some(20.04));
+        assert_eq!(record(3, 0.5).measurement().expect("measurement").context.temperature_c, None);
         let moved = StepRecord { outcome: StepOutcome::Moved, ..r };
         assert!(moved.measurement().is_none());
+    }
+
+    #[test]
+    fn journals_without_a_temperature_still_read() {
+        // a record written before the thermometer existed: no `temperature_c` key
+        let mut r = record(1, 0.5);
+        r.temperature_c = None;
+        let json = serde_json::to_string(&Line::Step(Box::new(r.clone()))).expect("json");
+        assert!(!json.contains("temperature_c"), "{json}");
+        let back: Line = serde_json::from_str(&json).expect("read");
+        assert_eq!(back, Line::Step(Box::new(r)));
     }
 }

@@ -13,7 +13,7 @@
 //! * [`Campaign`] — executes a plan, journals every step, resumes after a crash exactly where it
 //!   stopped (nothing lost, nothing repeated), asks the [`Operator`](vatcal_hardware_traits::Operator)
 //!   to re-place the plate, shows a progress bar with ETA, returns the measurements
-//!   (`position,tcp,q1..q7,time_s,dir2..dir7` once written with `vatcal_io::write_measurements`).
+//!   (`position,tcp,q1..q7,time_s[,temperature_c],dir2..dir7` once written with `vatcal_io::write_measurements`).
 //! * [`validation`] — the laser-tracker validation campaign of the paper's §5: random poses
 //!   over the workspace and a six-dimensional printing path commanded by each model under test,
 //!   planned as campaign steps, run by the same [`Campaign`] runner, evaluated (errors,

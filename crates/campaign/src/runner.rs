@@ -8,7 +8,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use vatcal_core::{JointVector, Measurement};
 use vatcal_hardware_traits::{
     ArmJoints, Clock, LinearAxis, MotionOptions, Operator, OperatorInstruction, PositionTracker, Probe3d,
-    RobotArm,
+    RobotArm, Thermometer,
 };
 use vatcal_kinematics::Model;
 
@@ -30,6 +30,9 @@ pub struct CellDevices<'a> {
     pub operator: &'a mut dyn Operator,
     /// the clock time stamps come from
     pub clock: &'a dyn Clock,
+    /// a thermometer: when present, every measurement records the cell temperature
+    /// (`temperature_c`) read when its step completed
+    pub thermometer: Option<&'a mut dyn Thermometer>,
 }
 
 impl std::fmt::Debug for CellDevices<'_> {
@@ -37,6 +40,7 @@ impl std::fmt::Debug for CellDevices<'_> {
         f.debug_struct("CellDevices")
             .field("tracker", &self.tracker.is_some())
             .field("clock", &self.clock)
+            .field("thermometer", &self.thermometer.is_some())
             .finish_non_exhaustive()
     }
 }
@@ -72,7 +76,7 @@ pub struct CampaignConfig {
     /// free text stored in the journal header
     pub note: String,
     /// keep this measurements CSV up to date after every measurement (`position,tcp,q1..q7,
-    /// time_s,dir2..dir7`, mm/deg; replaced atomically)
+    /// time_s[,temperature_c],dir2..dir7`, mm/deg; replaced atomically)
     pub measurements_csv: Option<PathBuf>,
     /// `fsync` the journal after every step (default `true`). Set it to `false` only for
     /// simulated cells, whose steps take microseconds: the records are still written one by
@@ -255,10 +259,29 @@ impl<'a> Campaign<'a> {
         let progress = self.progress_bar(plan.steps.len(), journal.next_step());
         for step in journal.next_step()..plan.steps.len() {
             progress.set_message(describe(&plan.steps[step]));
+            let measuring =
+                matches!(plan.steps[step], CampaignStep::Measure { .. } | CampaignStep::Track { .. });
+            // read before the step too: a faulty thermometer stops the campaign before it moves
+            let before_c = if measuring { self.read_temperature(StepLabel::Step(step))? } else { None };
             let outcome = self.execute(step, &plan.steps[step], &mut state)?;
             let time_s = self.elapsed_s(journal.header()) + time_offset_s;
-            let record = StepRecord { step, time_s, state: state.clone(), outcome };
+            // the temperature when the measurement was taken; if the thermometer fails now, the
+            // measurement is journaled with the reading from before the step, then the
+            // campaign stops (nothing measured is lost)
+            let after = if measuring { self.read_temperature(StepLabel::Step(step)) } else { Ok(None) };
+            let (temperature_c, fault) = match after {
+                Ok(t) => (t, None),
+                Err(e) => (before_c, Some(e)),
+            };
+            let record = StepRecord { step, time_s, temperature_c, state: state.clone(), outcome };
             journal.append(record.clone())?;
+            if let Some(e) = fault {
+                journal.sync()?;
+                if let Some(csv) = &self.config.measurements_csv {
+                    write_csv_atomically(csv, &journal.measurements())?;
+                }
+                return Err(e);
+            }
             if record.measurement().is_some()
                 && let Some(csv) = &self.config.measurements_csv
             {
@@ -334,6 +357,14 @@ impl<'a> Campaign<'a> {
         // backwards in the journal
         let time_offset_s = (last.time_s - self.elapsed_s(journal.header())).max(0.0);
         Ok((last.state.clone(), time_offset_s, Some(journal.next_step())))
+    }
+
+    /// The thermometer's reading [°C], `None` without a thermometer.
+    fn read_temperature(&mut self, step: StepLabel) -> Result<Option<f64>, CampaignError> {
+        match self.devices.thermometer.as_mut() {
+            Some(t) => t.read_c().map(Some).map_err(device_err(step, "reading the thermometer")),
+            None => Ok(None),
+        }
     }
 
     fn elapsed_s(&self, header: &JournalHeader) -> f64 {
@@ -597,7 +628,7 @@ fn write_csv_atomically(path: &Path, measurements: &[Measurement]) -> Result<(),
 }
 
 /// Writes the measurements of a (possibly unfinished) journal as a measurements CSV
-/// (`position,tcp,q1..q7,time_s,dir2..dir7`, mm/deg; tracker rows with `x,y,z`). Returns the
+/// (`position,tcp,q1..q7,time_s[,temperature_c],dir2..dir7`, mm/deg; tracker rows with `x,y,z`). Returns the
 /// number of measurements written.
 pub fn export_measurements(journal: impl AsRef<Path>, csv: impl AsRef<Path>) -> Result<usize, CampaignError> {
     let j = Journal::open(journal)?;

@@ -311,6 +311,8 @@ pub struct SimDevices {
     tracker: SimTracker,
     operator: SimOperator,
     clock: VirtualClock,
+    /// the cell's thermometer when it has a temperature channel (paper-like truth)
+    thermometer: Option<vatcal_sim::SimThermometer>,
 }
 
 impl SimDevices {
@@ -326,6 +328,7 @@ impl SimDevices {
             tracker: cell.tracker(),
             operator: cell.operator(),
             clock: cell.clock(),
+            thermometer: cell.thermometer(),
         })
     }
 }
@@ -339,6 +342,7 @@ impl DeviceSet for SimDevices {
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,
             clock: &self.clock,
+            thermometer: self.thermometer.as_mut().map(|t| t as &mut dyn vatcal_hardware_traits::Thermometer),
         }
     }
 }

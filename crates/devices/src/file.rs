@@ -8,9 +8,12 @@ use toml::Spanned;
 use vatcal_drivers_meca500::driver::{Meca500, Meca500Config};
 use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
 use vatcal_drivers_zaber::driver::{AxisInfo, MicrostepSize, ZaberAxis, ZaberConfig};
-use vatcal_hardware_traits::{Gauge, LinearAxis, PositionTracker, ProbePlacement, RobotArm, TriCalConfig};
+use vatcal_hardware_traits::{
+    Gauge, LinearAxis, PositionTracker, ProbePlacement, RobotArm, Thermometer, TriCalConfig,
+};
 
 use crate::sim_control::SimControl;
+use crate::thermometer::{CommandThermometer, FileThermometer, SimCellThermometer};
 
 /// Why a devices file was rejected or a device could not be connected.
 #[derive(Debug, thiserror::Error)]
@@ -158,6 +161,25 @@ pub struct SimControlSpec {
     pub io_timeout_ms: Option<Spanned<u64>>,
 }
 
+/// `thermometer = { kind = "sim-cell" | "file" | "command", … }` (optional): the cell
+/// temperature recorded as `temperature_c` beside every measurement (see
+/// [`crate::thermometer`]).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermometerSpec {
+    /// `sim-cell` (`TEMP?` on the `sim_control` port), `file` or `command`
+    pub kind: Spanned<String>,
+    /// `file`: the file whose first line is the reading
+    pub path: Option<Spanned<String>>,
+    /// `command`: the program and its arguments; its first output line is the reading
+    pub command: Option<Spanned<Vec<String>>>,
+    /// reading × scale = °C (default 1; 0.001 for a file in m°C)
+    pub scale: Option<Spanned<f64>>,
+    /// `command`: longest run [ms] (default 5000); `sim-cell`: answer timeout (default the
+    /// `sim_control` one)
+    pub io_timeout_ms: Option<Spanned<u64>>,
+}
+
 /// `probe = { range_mm = 6.0 }` (optional): the TriCal built from the three gauges.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -182,6 +204,8 @@ pub struct DevicesFile {
     pub sim_control: Option<SimControlSpec>,
     /// the probe
     pub probe: Option<ProbeSpec>,
+    /// a thermometer (optional)
+    pub thermometer: Option<ThermometerSpec>,
     #[serde(skip)]
     source: PathBuf,
 }
@@ -198,6 +222,8 @@ pub struct ConnectedDevices {
     pub tracker: Option<Box<dyn PositionTracker>>,
     /// the simulator's cell-control connection, if the file names one
     pub sim_control: Option<SimControl>,
+    /// the thermometer, if the file names one
+    pub thermometer: Option<Box<dyn Thermometer>>,
     /// one line per device: role, driver, link and what it reported at connection
     pub found: Vec<String>,
 }
@@ -352,6 +378,9 @@ impl DevicesFile {
             address(&c.tcp, "sim_control.tcp")?;
             timeout(&c.io_timeout_ms, "sim_control.io_timeout_ms")?;
         }
+        if let Some(t) = &self.thermometer {
+            self.check_thermometer(text, t)?;
+        }
         if let Some(p) = &self.probe
             && let Some(r) = &p.range_mm
             && !(r.get_ref().is_finite() && *r.get_ref() > 0.0)
@@ -359,6 +388,138 @@ impl DevicesFile {
             return Err(err(r.span(), "probe.range_mm", format!("{} must be > 0", r.get_ref())));
         }
         Ok(())
+    }
+
+    fn check_thermometer(&self, text: &str, t: &ThermometerSpec) -> Result<(), DevicesError> {
+        let err = |span: std::ops::Range<usize>, field: &str, reason: String| {
+            self.field_error(text, span, field, reason)
+        };
+        let kind = t.kind.get_ref().as_str();
+        let (needs_path, needs_command) = match kind {
+            "sim-cell" => {
+                if self.sim_control.is_none() {
+                    return Err(err(
+                        t.kind.span(),
+                        "thermometer.kind",
+                        "`sim-cell` reads `TEMP?` on the simulator's cell-control port: add \
+                         `sim_control = { tcp = \"host:port\" }`"
+                            .into(),
+                    ));
+                }
+                (false, false)
+            }
+            "file" => (true, false),
+            "command" => (false, true),
+            other => {
+                return Err(err(
+                    t.kind.span(),
+                    "thermometer.kind",
+                    format!("unknown kind `{other}` (supported: `sim-cell`, `file`, `command`)"),
+                ));
+            }
+        };
+        match (&t.path, needs_path) {
+            (None, true) => {
+                return Err(err(
+                    t.kind.span(),
+                    "thermometer.path",
+                    "a `file` thermometer needs `path`".into(),
+                ));
+            }
+            (Some(p), false) => {
+                return Err(err(p.span(), "thermometer.path", format!("not used by a `{kind}` thermometer")));
+            }
+            (Some(p), true) if p.get_ref().trim().is_empty() => {
+                return Err(err(p.span(), "thermometer.path", "is empty".into()));
+            }
+            _ => {}
+        }
+        match (&t.command, needs_command) {
+            (None, true) => {
+                return Err(err(
+                    t.kind.span(),
+                    "thermometer.command",
+                    "a `command` thermometer needs `command = [\"program\", \"arg\", …]`".into(),
+                ));
+            }
+            (Some(c), false) => {
+                return Err(err(
+                    c.span(),
+                    "thermometer.command",
+                    format!("not used by a `{kind}` thermometer"),
+                ));
+            }
+            (Some(c), true) if c.get_ref().first().is_none_or(|p| p.trim().is_empty()) => {
+                return Err(err(c.span(), "thermometer.command", "names no program".into()));
+            }
+            _ => {}
+        }
+        if let Some(sc) = &t.scale
+            && !(sc.get_ref().is_finite() && *sc.get_ref() != 0.0)
+        {
+            return Err(err(
+                sc.span(),
+                "thermometer.scale",
+                format!("{} must be finite and non-zero", sc.get_ref()),
+            ));
+        }
+        match &t.io_timeout_ms {
+            Some(v) if *v.get_ref() == 0 || *v.get_ref() > 3_600_000 => Err(err(
+                v.span(),
+                "thermometer.io_timeout_ms",
+                format!("{} ms is not in 1..=3600000", v.get_ref()),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// Connects the thermometer of the file (after `sim_control`, which `sim-cell` uses) and
+    /// takes one reading, so a wrong sensor is found before anything moves.
+    fn connect_thermometer(
+        &self,
+        sim_control: Option<&SimControl>,
+        found: &mut Vec<String>,
+    ) -> Result<Option<Box<dyn Thermometer>>, DevicesError> {
+        let Some(t) = &self.thermometer else { return Ok(None) };
+        let scale = t.scale.as_ref().map_or(1.0, |s| *s.get_ref());
+        let (mut thermometer, what): (Box<dyn Thermometer>, String) = match t.kind.get_ref().as_str() {
+            "sim-cell" => {
+                let control = sim_control.ok_or_else(|| DevicesError::Field {
+                    path: self.source.clone(),
+                    line: 0,
+                    field: "thermometer.kind".into(),
+                    reason: "`sim-cell` needs `sim_control`".into(),
+                })?;
+                let control = control.reconnect().map_err(|cause| DevicesError::Connect {
+                    role: "thermometer".into(),
+                    what: "sim-cell".into(),
+                    cause,
+                })?;
+                (Box::new(SimCellThermometer::new(control)), "sim-cell TEMP?".into())
+            }
+            "file" => {
+                let path = t.path.as_ref().map(|p| p.get_ref().clone()).unwrap_or_default();
+                (Box::new(FileThermometer::new(&path, scale)), format!("file {path}"))
+            }
+            _ => {
+                let command = t.command.as_ref().map(|c| c.get_ref().clone()).unwrap_or_default();
+                let timeout = ms(&t.io_timeout_ms, Duration::from_secs(5));
+                let (program, args) = command
+                    .split_first()
+                    .map_or((String::new(), Vec::new()), |(p, a)| (p.clone(), a.to_vec()));
+                (
+                    Box::new(CommandThermometer::new(program, args, scale, timeout)),
+                    format!("command {}", command.join(" ")),
+                )
+            }
+        };
+        let first = thermometer.read_c().map_err(|cause| DevicesError::Connect {
+            role: "thermometer".into(),
+            what: what.clone(),
+            cause,
+        })?;
+        found.push(format!("thermometer: {what}: {first:.2} °C"));
+        Ok(Some(thermometer))
     }
 
     fn check_link(
@@ -541,7 +702,16 @@ impl DevicesFile {
                 Some(control)
             }
         };
-        Ok(ConnectedDevices { arm: Box::new(arm), guide, gauges, tracker: None, sim_control, found })
+        let thermometer = self.connect_thermometer(sim_control.as_ref(), &mut found)?;
+        Ok(ConnectedDevices {
+            arm: Box::new(arm),
+            guide,
+            gauges,
+            tracker: None,
+            sim_control,
+            thermometer,
+            found,
+        })
     }
 }
 

@@ -25,12 +25,23 @@
 //! the operator of `vatcal campaign --operator auto`, who re-places the probe plate by telling
 //! the simulator; [`SimCellClock`] is that campaign's clock, the simulated cell's virtual time
 //! (`TIME?` → `TIME <s>`).
+//!
+//! An optional `thermometer` records the cell temperature (`temperature_c`) beside every
+//! measurement ([`thermometer`]):
+//!
+//! ```toml
+//! thermometer = { kind = "sim-cell" }                                   # `TEMP?` of `vatcal sim-cell` (needs sim_control)
+//! thermometer = { kind = "file", path = "/sys/bus/w1/devices/28-0123/temperature", scale = 0.001 }
+//! thermometer = { kind = "command", command = ["pt100-read", "--channel", "1"], io_timeout_ms = 3000 }
+//! ```
 
 mod file;
 mod sim_control;
+pub mod thermometer;
 
 pub use file::{
     ArmSpec, ConnectedDevices, DevicesError, DevicesFile, GaugeSpec, GuideSpec, Link, ProbeSpec,
-    SimControlSpec, TrackerSpec,
+    SimControlSpec, ThermometerSpec, TrackerSpec,
 };
 pub use sim_control::{SimCellClock, SimControl, SimControlOperator};
+pub use thermometer::{CommandThermometer, FileThermometer, SimCellThermometer};

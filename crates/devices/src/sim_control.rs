@@ -52,6 +52,34 @@ impl SimControl {
             .ok_or_else(|| Error::new(ErrorKind::Protocol, DEVICE, format!("`TIME?` answered `{answer}`")))
     }
 
+    /// The simulated cell's temperature as its thermometer reads it (`TEMP?` → `TEMP <°C>`;
+    /// `TEMP NONE` when the cell has no temperature channel) [°C].
+    ///
+    /// # Errors
+    /// `TEMP NONE` ([`ErrorKind::Disconnected`]: no thermometer), or an answer that is not
+    /// `TEMP <plausible temperature>` ([`ErrorKind::Protocol`] / [`ErrorKind::OutOfRange`]).
+    pub fn temperature_c(&mut self) -> Result<f64> {
+        let answer = self.request("TEMP?")?;
+        match answer.strip_prefix("TEMP ").map(str::trim) {
+            Some("NONE") => Err(Error::new(
+                ErrorKind::Disconnected,
+                DEVICE,
+                "the simulated cell has no temperature channel (`TEMP?` answered `TEMP NONE`)",
+            )),
+            Some(t) => vatcal_hardware_traits::parse_temperature_c(DEVICE, t),
+            None => Err(Error::new(ErrorKind::Protocol, DEVICE, format!("`TEMP?` answered `{answer}`"))),
+        }
+    }
+
+    /// A second connection to the same port (same timeouts), e.g. for a thermometer beside the
+    /// operator.
+    ///
+    /// # Errors
+    /// The connection fails.
+    pub fn reconnect(&self) -> Result<Self> {
+        Self::connect(&self.address, self.timeouts.0, self.timeouts.1)
+    }
+
     /// A [`SimCellClock`] on a second connection to the same port.
     ///
     /// # Errors
@@ -273,6 +301,24 @@ mod tests {
         let e = connect(&addr).time_s().expect_err("garbled");
         assert_eq!(e.kind(), ErrorKind::Protocol);
         assert!(e.to_string().contains("TIME soon"), "{e}");
+    }
+
+    #[test]
+    fn the_temperature_is_read_with_temp() {
+        let addr = fake(|l| match l {
+            "TEMP?" => "TEMP 21.37".into(),
+            l => format!("ERR unexpected `{l}`"),
+        });
+        let control = connect(&addr);
+        let mut t = crate::SimCellThermometer::new(control.reconnect().expect("second connection"));
+        use vatcal_hardware_traits::Thermometer;
+        assert_eq!(t.read_c().expect("temperature"), 21.37);
+        let addr = fake(|_| "TEMP NONE".into());
+        let e = connect(&addr).temperature_c().expect_err("no channel");
+        assert_eq!(e.kind(), ErrorKind::Disconnected);
+        assert!(e.to_string().contains("no temperature channel"), "{e}");
+        let addr = fake(|_| "TIME 3".into());
+        assert_eq!(connect(&addr).temperature_c().expect_err("garbled").kind(), ErrorKind::Protocol);
     }
 
     #[test]

@@ -9,6 +9,7 @@
 //! | [`Gauge`] | Sylvac S_Dial WORK Nano Smart indicator (mm) |
 //! | [`Probe3d`] | TriCal: three gauges → ball-centre offset ([`TriCal`] builds it from gauges) |
 //! | [`PositionTracker`] | laser tracker for validation (world mm) |
+//! | [`Thermometer`] | the cell's temperature (°C), recorded as `temperature_c` |
 //! | [`Operator`] | the person who re-places the probe plate |
 //!
 //! plus a [`Clock`] ([`SystemClock`] on hardware, [`VirtualClock`] in simulation), and one
@@ -43,6 +44,7 @@ mod operator;
 mod probe;
 pub mod sim_server;
 pub mod testing;
+mod thermometer;
 mod tracker;
 pub mod transport;
 
@@ -53,5 +55,6 @@ pub use error::{Error, ErrorKind, Result, Source};
 pub use gauge::Gauge;
 pub use operator::{Operator, OperatorInstruction};
 pub use probe::{Probe3d, ProbePlacement, ProbeReading, TRICAL_MASTER_PRESET_MM, TriCal, TriCalConfig};
+pub use thermometer::{PLAUSIBLE_TEMPERATURE_C, Thermometer, parse_temperature_c};
 pub use tracker::PositionTracker;
 pub use transport::{Deadline, LinkError, Transport};

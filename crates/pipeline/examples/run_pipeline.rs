@@ -29,6 +29,7 @@ struct Devices {
     tracker: SimTracker,
     operator: SimOperator,
     clock: VirtualClock,
+    thermometer: Option<vatcal_sim::SimThermometer>,
 }
 
 impl DeviceSet for Devices {
@@ -40,6 +41,7 @@ impl DeviceSet for Devices {
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,
             clock: &self.clock,
+            thermometer: self.thermometer.as_mut().map(|t| t as &mut dyn vatcal_hardware_traits::Thermometer),
         }
     }
 }
@@ -85,6 +87,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         tracker: cell.tracker(),
         operator: cell.operator(),
         clock: cell.clock(),
+        thermometer: cell.thermometer(),
     };
     let options = RunOptions {
         seed: 5,

@@ -10,6 +10,7 @@
 //! | `MASTER <n>` | `OK MASTER <n>` | the operator seats the master ball in the probe (plate at `n`) |
 //! | `MASTER OFF` | `OK MASTER OFF` | the operator removes the master ball |
 //! | `TIME?` | `TIME <s>` | the cell's virtual time in seconds (motions, readings and re-placements so far, as the in-process cell counts them; independent of the time scale) |
+//! | `TEMP?` | `TEMP <°C>` or `TEMP NONE` | what the cell's thermometer reads now (the temperature the truth's thermal drift sees at this virtual time, with the sensor's noise and 0.01 K resolution); `TEMP NONE` when the truth has no temperature channel (`--truth ideal`) |
 //! | anything else, or a refused action | `ERR <reason>` | nothing |
 //!
 //! Several clients may be connected; each gets the answers to its own commands.
@@ -19,7 +20,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use vatcal_hardware_traits::sim_server::{Admission, Audience, ClientId, SimService};
-use vatcal_hardware_traits::{Clock, Operator, OperatorInstruction};
+use vatcal_hardware_traits::{Clock, Operator, OperatorInstruction, Thermometer};
 use vatcal_sim::VirtualCell;
 
 /// Longest accepted line; a longer one is answered `ERR` and discarded.
@@ -81,6 +82,16 @@ impl ControlService {
                 }
                 format!("TIME {:.6}", self.cell.clock().now().as_secs_f64())
             }
+            ["TEMP?"] => {
+                if let Some(sync) = &self.sync {
+                    sync();
+                }
+                match self.cell.thermometer().map(|mut t| t.read_c()) {
+                    None => "TEMP NONE".to_owned(),
+                    Some(Ok(c)) => format!("TEMP {c:.3}"),
+                    Some(Err(e)) => format!("ERR {}", e.message()),
+                }
+            }
             ["PLACEMENT?"] => match self.cell.plate_position() {
                 Some(n) => format!("PLACEMENT {n}"),
                 None => "PLACEMENT NONE".to_owned(),
@@ -100,7 +111,7 @@ impl ControlService {
             },
             [] => "ERR empty command".to_owned(),
             _ => format!(
-                "ERR unknown command '{}' (PLACE <n>, PLACEMENT?, MASTER <n>, MASTER OFF, TIME?)",
+                "ERR unknown command '{}' (PLACE <n>, PLACEMENT?, MASTER <n>, MASTER OFF, TIME?, TEMP?)",
                 line.trim()
             ),
         }
@@ -172,6 +183,24 @@ mod tests {
         // one re-placement's worth of virtual time (the operator's), whatever the time scale
         let operator_s = s.cell.config().timing.operator_s;
         assert_eq!(s.answer("TIME?"), format!("TIME {:.6}", operator_s));
+    }
+
+    #[test]
+    fn temp_reads_the_cells_thermometer() {
+        // the built-in ideal truth has no temperature channel
+        let mut s = service();
+        assert_eq!(s.answer("TEMP?"), "TEMP NONE");
+        let cell = CellFile::from_toml_str(crate::BUILT_IN_CELL, "built-in").expect("cell");
+        let nominal = Model::from_cell(&cell).expect("model");
+        let cell = vatcal_sim::truth::TruthSpec::PaperLike.virtual_cell(nominal, 1).expect("paper-like");
+        let profile = cell.config().physics.thermal.expect("temperature channel");
+        let mut s = ControlService::new(cell, 1e6);
+        let first = s.cell.nominal().position_ids()[0];
+        s.answer(&format!("PLACE {first}"));
+        let answer = s.answer("temp?");
+        let t: f64 = answer.strip_prefix("TEMP ").and_then(|t| t.parse().ok()).expect(&answer);
+        let truth = profile.at(s.cell.clock().now().as_secs_f64());
+        assert!((t - truth).abs() < 0.1, "{answer} vs the cell's {truth} °C");
     }
 
     #[test]

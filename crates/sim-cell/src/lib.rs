@@ -21,7 +21,7 @@
 //!   the Meca500 and Zaber simulators report, and the **true** ball is read against the
 //!   **true** probe plate at the current placement, along the gauge's true (tilted) axis, with
 //!   the noise budget of the in-process gauges;
-//! * the cell-control port moves the plate (the operator) and tells the cell's time (`TIME?`).
+//! * the cell-control port moves the plate (the operator) and tells the cell's time (`TIME?`) and temperature (`TEMP?`).
 //!
 //! The world's physics (thermal drift, the time of its context) follows the cell's **virtual
 //! clock**, advanced by the durations the in-process devices would take for the same motions,

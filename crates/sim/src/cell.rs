@@ -9,7 +9,7 @@ use vatcal_hardware_traits::{TriCal, TriCalConfig, VirtualClock};
 use vatcal_kinematics::Model;
 
 use crate::config::{SimConfig, SimFaults};
-use crate::devices::{Shared, SimArm, SimGauge, SimGuide, SimOperator, SimTracker};
+use crate::devices::{Shared, SimArm, SimGauge, SimGuide, SimOperator, SimThermometer, SimTracker};
 use crate::truth::{ErrorBudget, perturbed_truth};
 use crate::world::World;
 
@@ -94,6 +94,14 @@ impl VirtualCell {
         SimTracker { shared: self.shared.clone() }
     }
 
+    /// The simulated thermometer, when the cell has a temperature channel
+    /// ([`CellPhysics::thermal`](crate::CellPhysics::thermal)); `None` otherwise (a cell
+    /// without a thermometer records no `temperature_c`).
+    pub fn thermometer(&self) -> Option<SimThermometer> {
+        let has_channel = self.shared.lock().config.physics.thermal.is_some();
+        has_channel.then(|| SimThermometer { shared: self.shared.clone() })
+    }
+
     /// The simulated operator.
     pub fn operator(&self) -> SimOperator {
         SimOperator { shared: self.shared.clone() }
@@ -122,6 +130,12 @@ impl VirtualCell {
     /// Oracle: the hidden true model.
     pub fn truth(&self) -> Model {
         self.shared.lock().truth.clone()
+    }
+
+    /// Oracle: the context the true model sees now (approach directions, virtual time, the
+    /// true cell temperature when the cell has a temperature channel).
+    pub fn context(&self) -> vatcal_core::MeasurementContext {
+        self.shared.lock().context()
     }
 
     /// Oracle: the true world position of ball `tcp` now (with all physical errors) [mm].

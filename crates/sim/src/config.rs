@@ -165,6 +165,35 @@ impl ThermalProfile {
     }
 }
 
+/// The simulated thermometer of a cell with a temperature channel: it reads the cell's
+/// temperature ([`ThermalProfile::at`] of the virtual time, the same temperature the truth's
+/// thermal drift sees) plus Gaussian noise, rounded to its resolution (a PT100 with a 0.01 K
+/// display: σ 0.02 K). The noise is keyed on the seed and the reading's virtual time, so a
+/// resumed campaign reads the same values and the other devices' noise is unaffected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThermometerSpec {
+    /// σ of the reading noise [K]
+    pub sigma_k: f64,
+    /// display resolution [K] (0: none)
+    pub resolution_k: f64,
+}
+
+impl Default for ThermometerSpec {
+    /// σ 0.02 K, resolution 0.01 K.
+    fn default() -> Self {
+        Self { sigma_k: 0.02, resolution_k: 0.01 }
+    }
+}
+
+impl ThermometerSpec {
+    /// What the sensor shows for the true temperature `true_c` with the standard normal draw
+    /// `z`: `true_c + σ z`, rounded to the resolution.
+    pub fn reading_c(&self, true_c: f64, z: f64) -> f64 {
+        let v = true_c + self.sigma_k * z;
+        if self.resolution_k > 0.0 { (v / self.resolution_k).round() * self.resolution_k } else { v }
+    }
+}
+
 /// Physics of the cell that is not a parameter of the true model: the temperature the clock
 /// drives (seen by a temperature-driven `thermal-drift` of the truth and recorded as
 /// `temperature_c`), and the systematic errors of the laser tracker. All zero / `None` =
@@ -210,6 +239,8 @@ pub struct SimConfig {
     pub ball_radius_mm: f64,
     /// temperature and tracker systematics ([`CellPhysics::none`] by default)
     pub physics: CellPhysics,
+    /// the thermometer of a cell with a temperature channel (`physics.thermal`)
+    pub thermometer: ThermometerSpec,
 }
 
 impl Default for SimConfig {
@@ -225,6 +256,7 @@ impl Default for SimConfig {
             master_ball_radius_mm: 19.05,
             ball_radius_mm: 12.7,
             physics: CellPhysics::none(),
+            thermometer: ThermometerSpec::default(),
         }
     }
 }

@@ -7,7 +7,7 @@ use std::time::Duration;
 use nalgebra::Vector3;
 use vatcal_hardware_traits::{
     ArmJoints, ArmStatus, Clock, Error, ErrorKind, Gauge, LinearAxis, LinearFrame, MotionOptions, Operator,
-    OperatorInstruction, PositionTracker, Result, RobotArm, VirtualClock,
+    OperatorInstruction, PositionTracker, Result, RobotArm, Thermometer, VirtualClock,
 };
 
 use crate::controller::{LinearMoveError, translate_flange, world_displacement};
@@ -322,6 +322,27 @@ impl PositionTracker for SimTracker {
         let read_s = self.shared.lock().config.timing.tracker_read_s;
         self.shared.clock.sleep(Duration::from_secs_f64(read_s));
         self.shared.lock().track(target)
+    }
+}
+
+/// The simulated thermometer of a cell with a temperature channel
+/// ([`CellPhysics::thermal`](crate::CellPhysics::thermal)): the cell's temperature at the
+/// virtual time — the one the truth's thermal drift sees — with the noise and resolution of
+/// [`ThermometerSpec`](crate::ThermometerSpec). A reading takes no virtual time.
+#[derive(Debug, Clone)]
+pub struct SimThermometer {
+    pub(crate) shared: Shared,
+}
+
+impl Thermometer for SimThermometer {
+    fn read_c(&mut self) -> Result<f64> {
+        self.shared.lock().thermometer_c().ok_or_else(|| {
+            Error::new(
+                ErrorKind::Disconnected,
+                "sim thermometer",
+                "the virtual cell has no temperature channel",
+            )
+        })
     }
 }
 

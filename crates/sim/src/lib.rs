@@ -9,7 +9,8 @@
 //! `vatcal-hardware-traits`: a robot arm whose controller believes the nominal model
 //! ([`SimArm`]: relative linear moves are solved on the nominal geometry, the physics is the
 //! truth), the guide ([`SimGuide`]), the three TriCal gauges with slightly tilted true axes
-//! ([`SimGauge`]), a laser tracker ([`SimTracker`]) and an operator ([`SimOperator`]), with the
+//! ([`SimGauge`]), a laser tracker ([`SimTracker`]), a thermometer when the cell has a
+//! temperature channel ([`SimThermometer`]) and an operator ([`SimOperator`]), with the
 //! paper's error budget ([`NoiseBudget`]), virtual time, and noise derived from
 //! `(seed, command, state)` so that a resumed campaign sees exactly the same noise.
 
@@ -27,6 +28,7 @@ mod world;
 pub use cell::VirtualCell;
 pub use config::{
     CellPhysics, NoiseBudget, ProbeImperfections, SimConfig, SimFaults, SimTiming, ThermalProfile,
+    ThermometerSpec,
 };
 pub use controller::{flange_jacobian, translation_joint_gain};
-pub use devices::{SIM_IO_TIMEOUT, SimArm, SimGauge, SimGuide, SimOperator, SimTracker};
+pub use devices::{SIM_IO_TIMEOUT, SimArm, SimGauge, SimGuide, SimOperator, SimThermometer, SimTracker};

@@ -334,6 +334,17 @@ impl World {
         }
     }
 
+    /// What the cell's thermometer reads now [°C]: the temperature the truth sees
+    /// ([`World::context`]) with the sensor's noise (keyed on the seed and the virtual time,
+    /// drawing nothing from the other devices' streams) and resolution; `None` without a
+    /// temperature channel.
+    pub fn thermometer_c(&self) -> Option<f64> {
+        let t = self.now().as_secs_f64();
+        let true_c = self.config.physics.thermal?.at(t);
+        let mut rng = noise::rng(key(self.seed, "thermometer", &[t.to_bits()]));
+        Some(self.config.thermometer.reading_c(true_c, gauss(&mut rng, 1.0)))
+    }
+
     /// True world position of the centre of ball (TCP) `tcp` [mm].
     pub fn ball_world(&self, tcp: u32) -> Option<Vector3<f64>> {
         self.tool_point_world(tcp, &Vector3::zeros())

@@ -16,7 +16,7 @@ use vatcal_campaign::{
 use vatcal_core::{JointVector, Measurement};
 use vatcal_hardware_traits::{
     ArmJoints, ArmStatus, Clock, Error, ErrorKind, LinearFrame, MotionOptions, Operator, OperatorInstruction,
-    Result as HwResult, RobotArm,
+    Result as HwResult, RobotArm, Thermometer,
 };
 use vatcal_sim::VirtualCell;
 
@@ -366,4 +366,71 @@ fn recovery_restores_the_backlash_side_of_joints_that_did_not_move() {
     let resumed = run(&cell(), &plan, &journal, quiet_config()).expect("resumed");
     assert_eq!(resumed.resumed_at_step, Some(3));
     assert_same_measurements(&resumed.measurements, &reference.measurements);
+}
+
+/// A thermometer that fails from its `n`-th reading on.
+struct FailingThermometer<T> {
+    inner: T,
+    remaining: usize,
+}
+
+impl<T: Thermometer> Thermometer for FailingThermometer<T> {
+    fn read_c(&mut self) -> HwResult<f64> {
+        if self.remaining == 0 {
+            return Err(Error::new(ErrorKind::Timeout, "test thermometer", "no answer"));
+        }
+        self.remaining -= 1;
+        self.inner.read_c()
+    }
+}
+
+#[test]
+fn a_cell_with_a_thermometer_records_the_temperature_of_each_measurement() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let plan = plan(9, 1);
+    let cell = vatcal_sim::truth::TruthSpec::PaperLike.virtual_cell(nominal(), SEED).expect("cell");
+    let profile = cell.config().physics.thermal.expect("temperature channel");
+    let start_s = cell.clock().now_s();
+    let journal = dir.path().join("j");
+    let report = run(&cell, &plan, &journal, quiet_config()).expect("campaign");
+    assert_eq!(report.measurements.len(), plan.measurement_count());
+    for m in &report.measurements {
+        let t = m.context.temperature_c.expect("temperature_c on every measurement");
+        // the reading is the cell's temperature at the measurement, within the sensor's noise
+        let truth = profile.at(start_s + m.context.time_s.expect("time"));
+        assert!((t - truth).abs() < 0.1, "read {t} °C, the cell had {truth} °C");
+    }
+    let temps: Vec<f64> = report.measurements.iter().filter_map(|m| m.context.temperature_c).collect();
+    let spread =
+        temps.iter().copied().fold(f64::MIN, f64::max) - temps.iter().copied().fold(f64::MAX, f64::min);
+    assert!(spread > 0.05, "the campaign sees the warm-up: {spread} K");
+    // the CSV carries the column and reads back
+    let csv = dir.path().join("m.csv");
+    export_measurements(&journal, &csv).expect("export");
+    let header = std::fs::read_to_string(&csv).expect("csv").lines().next().expect("header").to_string();
+    assert!(header.contains(",time_s,temperature_c,"), "{header}");
+    let back = vatcal_io::read_probe_measurements(&csv, &nominal()).expect("read csv");
+    assert_close_measurements(&back, &report.measurements);
+    for (b, m) in back.iter().zip(&report.measurements) {
+        assert_eq!(b.context.temperature_c, m.context.temperature_c);
+    }
+
+    // a thermometer failing after the second measurement's first reading: that measurement is
+    // journaled (with the reading from before its step), the campaign stops with an error
+    // naming the thermometer, and resuming with a working thermometer completes it
+    let model = nominal();
+    let cell = vatcal_sim::truth::TruthSpec::PaperLike.virtual_cell(nominal(), SEED).expect("cell");
+    let mut d = SimDevices::of(&cell);
+    let mut failing = FailingThermometer { inner: cell.thermometer().expect("thermometer"), remaining: 3 };
+    let journal = dir.path().join("k");
+    let devices = CellDevices { thermometer: Some(&mut failing), ..d.devices() };
+    let e =
+        Campaign::new(devices, &model, quiet_config()).run(&plan, &journal).expect_err("thermometer fault");
+    assert!(matches!(&e, CampaignError::Device { action, .. } if action == "reading the thermometer"), "{e}");
+    let kept = Journal::open(&journal).expect("journal").measurements();
+    assert_eq!(kept.len(), 2, "the measurement in progress is kept");
+    assert!(kept.iter().all(|m| m.context.temperature_c.is_some()));
+    let resumed = Campaign::new(d.devices(), &model, quiet_config()).run(&plan, &journal).expect("resume");
+    assert_eq!(resumed.measurements.len(), plan.measurement_count());
+    assert!(resumed.measurements.iter().all(|m| m.context.temperature_c.is_some()));
 }

@@ -3,10 +3,12 @@
 
 use vatcal_campaign::{CampaignConfig, CampaignPlan, CampaignPlanOptions, CellDevices};
 use vatcal_core::{CellFile, JointVector, Measurement};
-use vatcal_hardware_traits::{TriCal, VirtualClock};
+use vatcal_hardware_traits::{Thermometer, TriCal, VirtualClock};
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::probe_start_poses;
-use vatcal_sim::{SimArm, SimGauge, SimGuide, SimOperator, SimTracker, VirtualCell, translation_joint_gain};
+use vatcal_sim::{
+    SimArm, SimGauge, SimGuide, SimOperator, SimThermometer, SimTracker, VirtualCell, translation_joint_gain,
+};
 
 pub fn nominal() -> Model {
     let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
@@ -27,6 +29,8 @@ pub struct SimDevices {
     pub tracker: SimTracker,
     pub operator: SimOperator,
     pub clock: VirtualClock,
+    /// the cell's thermometer, when it has a temperature channel
+    pub thermometer: Option<SimThermometer>,
 }
 
 impl SimDevices {
@@ -38,6 +42,7 @@ impl SimDevices {
             tracker: cell.tracker(),
             operator: cell.operator(),
             clock: cell.clock(),
+            thermometer: cell.thermometer(),
         }
     }
 
@@ -49,6 +54,7 @@ impl SimDevices {
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,
             clock: &self.clock,
+            thermometer: self.thermometer.as_mut().map(|t| t as &mut dyn Thermometer),
         }
     }
 }

@@ -17,7 +17,7 @@ use vatcal_core::CellFile;
 use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
 use vatcal_hardware_traits::{
     Clock, ErrorKind, Gauge, LinearAxis, MotionOptions, Operator, ProbePlacement, RobotArm, SystemClock,
-    TriCal,
+    Thermometer, TriCal,
 };
 use vatcal_kinematics::Model;
 use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};
@@ -79,6 +79,8 @@ struct RealCell {
     operator: Box<dyn Operator>,
     /// the wall clock, or the simulated cell's virtual time with `--operator auto`
     clock: Box<dyn Clock>,
+    /// the devices file's thermometer: every measurement records `temperature_c`
+    thermometer: Option<Box<dyn Thermometer>>,
 }
 
 impl DeviceSet for RealCell {
@@ -90,6 +92,7 @@ impl DeviceSet for RealCell {
             tracker: None,
             operator: &mut self.operator,
             clock: &*self.clock,
+            thermometer: self.thermometer.as_mut().map(|t| t as &mut dyn Thermometer),
         }
     }
 }
@@ -233,7 +236,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.out.display()
     );
     println!("connecting:");
-    let ConnectedDevices { arm, guide, gauges, sim_control, found, .. } = devices_file.connect()?;
+    let ConnectedDevices { arm, guide, gauges, sim_control, thermometer, found, .. } =
+        devices_file.connect()?;
     for line in &found {
         println!("  {line}");
     }
@@ -258,6 +262,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         probe,
         operator,
         clock,
+        thermometer,
     };
     let timeout = Duration::from_secs_f64(args.motion_timeout_s);
     println!("checking:");

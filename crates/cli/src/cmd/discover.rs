@@ -41,7 +41,9 @@ pub struct Args {
     /// Seed of the cross-validation folds.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Family-wise false-alarm probability per round (Bonferroni over the candidates).
+    /// Family-wise false-alarm probability of the screening over all rounds: round r spends
+    /// `alpha·6/(π² r²)`, shared by its candidates (Bonferroni), so the total over every round
+    /// stays below alpha.
     #[arg(long, default_value_t = 0.01)]
     pub alpha: f64,
     /// Number of cross-validation folds.
@@ -50,6 +52,16 @@ pub struct Args {
     /// Known measurement noise per axis [mm]; by default it is estimated from each fit.
     #[arg(long)]
     pub noise_mm: Option<f64>,
+    /// The probe's known measurement noise, σ per axis of a probe row [mm] (device
+    /// specifications: robot and guide repeatability and gauge error). With
+    /// `--tracker-sigma-mm` (or alone, on probe-only data) the size rule compares an effect's
+    /// prediction change with it instead of the fit's σ̂, which unmodelled effects inflate.
+    #[arg(long)]
+    pub probe_sigma_mm: Option<f64>,
+    /// The tracker's known measurement noise, σ per axis of a tracker row [mm]; with both
+    /// sigmas the probe and tracker rows are weighted by them.
+    #[arg(long)]
+    pub tracker_sigma_mm: Option<f64>,
     /// Standard deviation of the CMM coordinates of the TCPs and calibration positions [mm],
     /// included in the reported prediction uncertainty.
     #[arg(long, default_value_t = 0.002)]
@@ -82,10 +94,44 @@ fn check_options(args: &Args) -> anyhow::Result<()> {
         "--cmm-sigma-mm must be >= 0, got {}",
         args.cmm_sigma_mm
     );
-    if let Some(s) = args.noise_mm {
-        anyhow::ensure!(s.is_finite() && s > 0.0, "--noise-mm must be a positive number, got {s}");
+    for (option, value) in [
+        ("--noise-mm", args.noise_mm),
+        ("--probe-sigma-mm", args.probe_sigma_mm),
+        ("--tracker-sigma-mm", args.tracker_sigma_mm),
+    ] {
+        if let Some(s) = value {
+            anyhow::ensure!(s.is_finite() && s > 0.0, "{option} must be a positive number, got {s}");
+        }
     }
     Ok(())
+}
+
+/// The instruments' known noise from `--probe-sigma-mm` / `--tracker-sigma-mm`; the sigma of
+/// a kind the data holds must be given when the other one is (else the size rule would mix a
+/// known σ with an estimated one).
+fn instrument_sigmas(
+    args: &Args,
+    measurements: &[Measurement],
+) -> anyhow::Result<Option<vatcal_identification::KindSigmas>> {
+    if args.probe_sigma_mm.is_none() && args.tracker_sigma_mm.is_none() {
+        return Ok(None);
+    }
+    let has_probe = measurements.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
+    let has_tracker = measurements.iter().any(|m| matches!(m.target, vatcal_core::Target::Tracker { .. }));
+    anyhow::ensure!(
+        !has_probe || args.probe_sigma_mm.is_some(),
+        "--tracker-sigma-mm given but {} holds probe rows: give --probe-sigma-mm too",
+        args.measurements.display()
+    );
+    anyhow::ensure!(
+        !has_tracker || args.tracker_sigma_mm.is_some(),
+        "--probe-sigma-mm given but {} holds tracker rows: give --tracker-sigma-mm too",
+        args.measurements.display()
+    );
+    Ok(Some(vatcal_identification::KindSigmas {
+        probe_mm: args.probe_sigma_mm,
+        tracker_mm: args.tracker_sigma_mm,
+    }))
 }
 
 fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
@@ -153,6 +199,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
         known_sigma_mm: args.noise_mm,
         cmm_sigma_mm: args.cmm_sigma_mm,
+        instrument_sigmas: instrument_sigmas(&args, &measurements)?,
         ..DiscoverOptions::default()
     };
     let d = discover(&model, &measurements, &params, validation.as_deref(), &options)?;

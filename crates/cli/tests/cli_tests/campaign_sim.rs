@@ -223,6 +223,15 @@ fn measurement_rows(csv: &Path) -> Vec<(String, String, Vec<f64>, f64, String)> 
         .collect()
 }
 
+/// The `temperature_c` column of a measurements CSV.
+fn temperatures(csv: &Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(csv).unwrap_or_else(|e| panic!("{}: {e}", csv.display()));
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let t = header.iter().position(|h| *h == "temperature_c").expect("temperature_c column");
+    lines.map(|l| l.split(',').nth(t).and_then(|v| v.parse().ok()).expect("temperature")).collect()
+}
+
 /// Measurement records in a journal so far.
 fn journaled_measurements(journal: &Path) -> usize {
     std::fs::read_to_string(journal).map_or(0, |t| t.matches("\"outcome\":\"measured\"").count())
@@ -235,6 +244,10 @@ fn done_means_plan_sim_cell_campaign_identify_agree_with_the_demo() {
     // the default (paper-like) truth: backlash, thermal drift on the cell's virtual clock, …
     let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
     let devices = cell.devices_file(dir.path());
+    // with the simulator's thermometer (`TEMP?`): every measurement records `temperature_c`
+    let mut text = std::fs::read_to_string(&devices).expect("devices file");
+    text.push_str("thermometer = { kind = \"sim-cell\" }\n");
+    std::fs::write(&devices, text).expect("devices file");
     let run = dir.path().join("run");
     let t0 = Instant::now();
     let stdout = ok(&vatcal(&campaign_args(&devices, &plan, &run)));
@@ -242,6 +255,7 @@ fn done_means_plan_sim_cell_campaign_identify_agree_with_the_demo() {
     eprintln!("{stdout}campaign wall time {campaign_s:.1} s");
     assert!(stdout.contains("arm: meca500 at") && stdout.contains("gauge 3: sylvac over tcp"), "{stdout}");
     assert!(stdout.contains("guide: homed"), "{stdout}");
+    assert!(stdout.contains("thermometer: sim-cell TEMP?: "), "{stdout}");
     let planned = planned_measurements(&plan);
     assert_eq!(rows_without_time(&run.join("measurements.csv")).len(), planned, "every planned measurement");
     assert!(campaign_s < 60.0, "the campaign took {campaign_s:.1} s");
@@ -287,6 +301,14 @@ fn done_means_plan_sim_cell_campaign_identify_agree_with_the_demo() {
     // campaign's) and by the number of corrective moves each centring takes (its noise draws
     // differ with the wire's rounding): measured ≤ 18 s over ~10 min (wall clock: 600 s)
     assert!(dt_max_s < 60.0, "time_s differs by {dt_max_s:.1} s");
+    // the same temperature channel: over TCP read with `TEMP?`, in process by the simulated
+    // thermometer; within the warm-up's change over those seconds plus the sensor's noise
+    let (ta, tb) =
+        (temperatures(&run.join("measurements.csv")), temperatures(&demo_dir.join("measurements.csv")));
+    assert_eq!(ta.len(), a.len(), "every measurement over TCP has temperature_c");
+    let dtemp_max = ta.iter().zip(&tb).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    eprintln!("temperature_c over TCP vs in process: at most {dtemp_max:.3} K apart");
+    assert!(dtemp_max < 0.2, "temperatures differ by {dtemp_max} K");
     let in_process = &demo.identification.model;
     // predictions over the workspace: the demo's random validation poses, every TCP
     let poses = vatcal_io::read_tracker_measurements(demo_dir.join("validation_random.csv"), in_process)
@@ -564,6 +586,7 @@ fn probe_zeroing_with_the_auto_operator_seats_the_master_ball_through_the_contro
         tracker: None,
         operator: &mut operator,
         clock: &clock,
+        thermometer: None,
     };
     let config = CampaignConfig { show_progress: false, ..CampaignConfig::default() };
     let report = Campaign::new(cell_devices, &nominal, config)

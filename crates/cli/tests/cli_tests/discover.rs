@@ -96,4 +96,23 @@ fn discover_reports_bad_arguments_clearly() {
         .expect("runs");
     assert!(!run.status.success());
     assert!(String::from_utf8_lossy(&run.stderr).contains("missing.csv"));
+    // the instruments' known noise: positive, and the probe's when the data has probe rows
+    for (flags, expected) in [
+        (vec!["--probe-sigma-mm=-0.002"], "--probe-sigma-mm must be a positive number"),
+        (vec!["--tracker-sigma-mm", "0.007"], "give --probe-sigma-mm too"),
+    ] {
+        let run = vatcal()
+            .args(["discover", "--model", FIXTURE])
+            .args(&flags)
+            .arg("--measurements")
+            .arg(&m)
+            .output()
+            .expect("runs");
+        assert!(!run.status.success());
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert!(stderr.contains(expected), "{flags:?}: {stderr}");
+    }
+    let help = vatcal().args(["discover", "--help"]).output().expect("runs");
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(help.contains("over all rounds") && !help.contains("per round"), "{help}");
 }

@@ -77,6 +77,29 @@ fn bad_addresses_kinds_links_and_timeouts_name_the_field_and_line() {
     assert!(e.contains("`sim_control.tcp`"), "{e}");
 }
 
+#[test]
+fn thermometer_entries_are_checked() {
+    let base = format!("{ARM}{GUIDE}{GAUGES}");
+    for (entry, expected) in [
+        ("{ kind = \"sim-cell\" }", "`thermometer.kind`: `sim-cell` reads `TEMP?`"),
+        ("{ kind = \"pt1000\" }", "unknown kind `pt1000`"),
+        ("{ kind = \"file\" }", "`thermometer.path`: a `file` thermometer needs `path`"),
+        ("{ kind = \"command\", command = [] }", "`thermometer.command`: names no program"),
+        ("{ kind = \"command\", path = \"/tmp/t\" }", "`thermometer.path`: not used by a `command`"),
+        ("{ kind = \"file\", path = \"/tmp/t\", scale = 0.0 }", "`thermometer.scale`"),
+        ("{ kind = \"file\", path = \"/tmp/t\", unit = \"F\" }", "unit"),
+    ] {
+        let e = error(&format!("{base}thermometer = {entry}\n"));
+        assert!(e.starts_with("devices.toml:") && e.contains(expected), "{entry}: {e}");
+    }
+    let ok = parse(&format!("{base}thermometer = {{ kind = \"file\", path = \"/tmp/t\", scale = 0.001 }}\n"))
+        .expect("valid");
+    assert_eq!(ok.thermometer.as_ref().map(|t| t.kind.get_ref().as_str()), Some("file"));
+    let sim =
+        parse(&format!("{SIM}thermometer = {{ kind = \"sim-cell\" }}\n")).expect("sim-cell thermometer");
+    assert!(sim.thermometer.is_some());
+}
+
 #[cfg(not(feature = "serial"))]
 #[test]
 fn a_serial_link_without_the_feature_is_refused_before_connecting() {

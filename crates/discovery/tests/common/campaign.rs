@@ -123,25 +123,61 @@ pub fn truth_with(seed: u64, hidden: &[Hidden]) -> Model {
     truth
 }
 
+/// How the campaign is run: every pose measured from both sides (the default), or the demo's
+/// discovery campaign (each pose once, a few two-sided repeats); the cell's temperature and how
+/// the thermometer records it.
+#[derive(Debug, Clone, Copy)]
+pub struct Style {
+    /// `None`: every pose twice, from `d` then `−d`; `Some(k)`: each pose once (random `d`) and
+    /// `k` of them, evenly spread, again right after from `−d`
+    pub two_sided_repeats: Option<usize>,
+    /// true cell temperature [°C] at time `t` of a campaign lasting `total_s`
+    pub temperature: fn(f64, f64) -> f64,
+    /// thermometer noise σ [K] and resolution [K] of the recorded `temperature_c` (0, 0: the
+    /// true temperature is recorded)
+    pub thermometer: (f64, f64),
+}
+
+impl Default for Style {
+    fn default() -> Self {
+        Self { two_sided_repeats: None, temperature: temperature_at, thermometer: (0.0, 0.0) }
+    }
+}
+
 /// A campaign-like data set of `n` probe measurements (module docs).
 pub fn campaign(seed: u64, hidden: &[Hidden], n: usize) -> Scenario {
+    campaign_with(seed, hidden, n, Style::default())
+}
+
+/// [`campaign`] run the way `style` says.
+pub fn campaign_with(seed: u64, hidden: &[Hidden], n: usize, style: Style) -> Scenario {
     let nominal = nominal();
     let truth = truth_with(seed, hidden);
-    let poses = detmax_poses(&nominal, n.div_ceil(2), seed);
+    let (pose_count, repeats) = match style.two_sided_repeats {
+        None => (n.div_ceil(2), None),
+        Some(k) => (n - k.min(n / 2), Some(k.min(n / 2))),
+    };
+    let poses = detmax_poses(&nominal, pose_count, seed);
+    let repeated = |i: usize| match repeats {
+        None => true,
+        Some(k) => k > 0 && (0..k).any(|r| r * pose_count / k == i),
+    };
     let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(202));
     let total_s = SECONDS_PER_MEASUREMENT * n as f64;
     let mut probe = Vec::with_capacity(n);
-    for pose in &poses {
+    for (i, pose) in poses.iter().enumerate() {
         let d: [i8; 6] = std::array::from_fn(|_| if rng.random::<bool>() { 1 } else { -1 });
-        for dir in [d, d.map(|x| -x)] {
+        let sides: &[[i8; 6]] = if repeated(i) { &[d, d.map(|x| -x)] } else { &[d] };
+        for dir in sides.iter().copied() {
             if probe.len() >= n {
                 break;
             }
             let t = SECONDS_PER_MEASUREMENT * probe.len() as f64;
+            let true_c = (style.temperature)(t, total_s);
             let ctx = MeasurementContext {
                 dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(dir)),
                 time_s: Some(t),
-                temperature_c: Some(temperature_at(t, total_s)),
+                temperature_c: Some(true_c),
             };
             let Target::Probe { position } = pose.target else { continue };
             let Some(origin) = truth.position(position) else { continue };
@@ -158,8 +194,16 @@ pub fn campaign(seed: u64, hidden: &[Hidden], n: usize) -> Scenario {
             };
             let unrecorded = Vector3::from_fn(|_, _| UNMODELLED_SIGMA_MM * gaussian(&mut rng));
             let read = offset + Vector3::from_fn(|_, _| GAUGE_SIGMA_MM * gaussian(&mut rng));
+            let (sigma_k, resolution_k) = style.thermometer;
+            let recorded_c = if sigma_k > 0.0 || resolution_k > 0.0 {
+                let v = true_c + sigma_k * gaussian(&mut rng);
+                if resolution_k > 0.0 { (v / resolution_k).round() * resolution_k } else { v }
+            } else {
+                true_c
+            };
             if let Some(m) = reach_ctx(&truth, pose, &ctx, &(origin + offset + unrecorded)) {
-                probe.push(m.with_probe_offset(read));
+                let context = MeasurementContext { temperature_c: Some(recorded_c), ..m.context };
+                probe.push(Measurement { context, ..m }.with_probe_offset(read));
             }
         }
     }

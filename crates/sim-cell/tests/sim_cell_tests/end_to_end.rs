@@ -248,6 +248,7 @@ fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
             tracker: None,
             operator: &mut operator,
             clock: &clock,
+            thermometer: None,
         };
         ok(Campaign::new(devices, &nominal, config.clone()).run(&plan, dir.join("tcp.journal")))
     };
@@ -265,6 +266,7 @@ fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
             tracker: None,
             operator: &mut operator,
             clock: &clock,
+            thermometer: None,
         };
         ok(Campaign::new(devices, &nominal, config).run(&plan, dir.join("inproc.journal")))
     };

@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 use vatcal_core::{CellFile, JointVector};
 use vatcal_hardware_traits::{
     ArmJoints, Clock, ErrorKind, Gauge, LinearAxis, LinearFrame, MotionOptions, Operator,
-    OperatorInstruction, PositionTracker, Probe3d, RobotArm,
+    OperatorInstruction, PositionTracker, Probe3d, RobotArm, Thermometer,
 };
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::{ErrorBudget, perturbed_truth, probe_start_poses, reach};
@@ -229,4 +229,42 @@ fn injected_gauge_timeouts_are_typed() {
     cell.set_faults(SimFaults { gauge_timeouts: true, ..SimFaults::default() });
     let e = cell.gauges()[2].read_mm().expect_err("timeout");
     assert!(e.is_timeout() && e.device() == "sim gauge 3", "{e}");
+}
+
+#[test]
+fn the_thermometer_reads_the_temperature_the_truth_sees() {
+    let m = nominal();
+    // no temperature channel, no thermometer
+    assert!(VirtualCell::paper(m.clone(), 3).thermometer().is_none());
+    let cell = vatcal_sim::truth::TruthSpec::PaperLike.virtual_cell(m, 3).expect("cell");
+    let profile = cell.config().physics.thermal.expect("temperature channel");
+    let spec = cell.config().thermometer;
+    let mut thermometer = cell.thermometer().expect("thermometer");
+    let clock = cell.clock();
+    let (mut sum, mut sum2, n) = (0.0, 0.0, 400);
+    for i in 0..n {
+        clock.sleep(Duration::from_secs(10));
+        let before = clock.now();
+        let read = thermometer.read_c().expect("reading");
+        // takes no virtual time, shows the resolution, follows the truth's context
+        assert_eq!(clock.now(), before);
+        let steps = read / spec.resolution_k;
+        assert!((steps - steps.round()).abs() < 1e-6, "{read} is not a multiple of the resolution");
+        let t = clock.now().as_secs_f64();
+        let truth_c = cell.context().temperature_c.expect("truth sees the temperature");
+        assert_eq!(truth_c, profile.at(t));
+        let e = read - truth_c;
+        sum += e;
+        sum2 += e * e;
+        // deterministic: the same instant reads the same value
+        assert_eq!(thermometer.read_c().expect("again"), read, "reading {i}");
+    }
+    let mean = sum / f64::from(n);
+    let sd = (sum2 / f64::from(n) - mean * mean).sqrt();
+    // σ² + resolution²/12
+    let expected = (spec.sigma_k.powi(2) + spec.resolution_k.powi(2) / 12.0).sqrt();
+    assert!(mean.abs() < 4.0 * expected / f64::from(n).sqrt(), "bias {mean} K");
+    assert!((sd / expected - 1.0).abs() < 0.15, "σ {sd} K, expected {expected} K");
+    // the warm-up is visible over the 4000 s: the channel carries the drift's information
+    assert!(profile.at(4000.0) - profile.at(0.0) > 1.0);
 }
