@@ -116,7 +116,11 @@ pub struct DemoSetup {
     pub nominal_cell: String,
     /// how the hidden truth was made
     pub hidden_truth: String,
-    /// standard deviation of the MDH length errors of the truth [mm]
+    /// whether the truth's geometric errors are exactly ± the sizes below with random signs
+    /// (`paper-like`, [`vatcal_sim::truth::signed_truth`]) instead of Gaussian with these σ
+    pub truth_errors_fixed_size: bool,
+    /// standard deviation (or, with `truth_errors_fixed_size`, the fixed size) of the MDH
+    /// length errors of the truth [mm]
     pub truth_length_sigma_mm: f64,
     /// standard deviation of the MDH angle errors of the truth [deg]
     pub truth_angle_sigma_deg: f64,
@@ -153,7 +157,8 @@ pub struct DemoSetup {
 impl DemoSetup {
     /// The setup of a demo with `opts` that identified `fit`.
     pub fn of(opts: &DemoOptions, fit: &Identification) -> Self {
-        let e = ErrorBudget::realistic();
+        let fixed = opts.truth == TruthSpec::PaperLike;
+        let e = if fixed { ErrorBudget::paper_like() } else { ErrorBudget::realistic() };
         let n = NoiseBudget::paper();
         let p = ProbeImperfections::default();
         Self {
@@ -169,6 +174,7 @@ impl DemoSetup {
                 ),
                 TruthSpec::File(p) => format!("truth cell file {}", p.display()),
             },
+            truth_errors_fixed_size: fixed,
             truth_length_sigma_mm: e.length_mm,
             truth_angle_sigma_deg: e.angle_rad.to_degrees(),
             truth_base_translation_sigma_mm: e.base_translation_mm,
@@ -214,9 +220,10 @@ impl ReportSetup for DemoSetup {
         );
         let _ = writeln!(
             m,
-            "* hidden truth: `{}` — nominal + random errors with σ {:.2} mm on the MDH lengths, {:.3}° on the \
+            "* hidden truth: `{}` — nominal + random errors {} {:.2} mm on the MDH lengths, {:.3}° on the \
              MDH angles, {:.2} mm / {:.3}° on the base pose, joint compliances drawn in {:.1e}..{:.1e} rad/(N·m)",
             s.hidden_truth,
+            if s.truth_errors_fixed_size { "of exactly ± (random signs)" } else { "with σ" },
             s.truth_length_sigma_mm,
             s.truth_angle_sigma_deg,
             s.truth_base_translation_sigma_mm,

@@ -28,6 +28,7 @@
 use std::collections::BTreeMap;
 
 use nalgebra::Vector3;
+use rayon::prelude::*;
 use serde::Serialize;
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::params::ParamUnit;
@@ -492,23 +493,32 @@ impl Context<'_> {
     fn cross_validate(&self, start: &Model, params: &ParamSet, folds: &[Option<usize>]) -> CrossValidation {
         let k = folds.iter().flatten().copied().max().map_or(0, |m| m + 1);
         let mut cv = CrossValidation { errors: vec![None; self.measurements.len()], skipped: Vec::new() };
-        for f in 0..k {
-            let test: Vec<usize> = (0..folds.len()).filter(|i| folds[*i] == Some(f)).collect();
-            if test.is_empty() {
-                continue;
-            }
-            let train: Vec<Measurement> =
-                (0..folds.len()).filter(|i| folds[*i] != Some(f)).map(|i| self.measurements[i]).collect();
-            let test_ms: Vec<Measurement> = test.iter().map(|i| self.measurements[*i]).collect();
-            let predicted = fit(start, &train, params, &self.options.identify)
-                .and_then(|trained| residuals(&trained.model, &test_ms));
+        // the folds' fits are independent: run them in parallel, collect in fold order (the
+        // result does not depend on the thread count)
+        let per_fold: Vec<_> = (0..k)
+            .into_par_iter()
+            .map(|f| {
+                let test: Vec<usize> = (0..folds.len()).filter(|i| folds[*i] == Some(f)).collect();
+                if test.is_empty() {
+                    return (test, None);
+                }
+                let train: Vec<Measurement> =
+                    (0..folds.len()).filter(|i| folds[*i] != Some(f)).map(|i| self.measurements[i]).collect();
+                let test_ms: Vec<Measurement> = test.iter().map(|i| self.measurements[*i]).collect();
+                let predicted = fit(start, &train, params, &self.options.identify)
+                    .and_then(|trained| residuals(&trained.model, &test_ms));
+                (test, Some(predicted))
+            })
+            .collect();
+        for (f, (test, predicted)) in per_fold.into_iter().enumerate() {
             match predicted {
-                Ok(r) => {
+                None => {}
+                Some(Ok(r)) => {
                     for (i, e) in test.iter().zip(r) {
                         cv.errors[*i] = Some(e);
                     }
                 }
-                Err(e) => {
+                Some(Err(e)) => {
                     cv.skipped.push(format!("fold {} of {k} ({} measurements): {e}", f + 1, test.len()))
                 }
             }
@@ -937,18 +947,31 @@ fn confirm_screened(
     ctx: &Context<'_>,
     notes: &mut Vec<String>,
 ) {
-    let mut refits = 0;
-    for c in candidates.iter_mut() {
+    let mut chosen = Vec::new();
+    for (i, c) in candidates.iter_mut().enumerate() {
         let Some(score) = c.score else { continue };
         if score.ln_p_value.is_nan() || score.ln_p_value >= th.ln_screen {
             continue;
         }
-        if refits >= ctx.options.max_refits {
+        if chosen.len() >= ctx.options.max_refits {
             c.status = CandidateStatus::NotRefitted;
             continue;
         }
-        refits += 1;
-        match refit_candidate(current, j0, rank0, held0, c, th, ctx, notes) {
+        chosen.push(i);
+    }
+    // the refits are independent: in parallel, applied in candidate order
+    let results: Vec<_> = chosen
+        .par_iter()
+        .map(|&i| {
+            let mut own_notes = Vec::new();
+            let r = refit_candidate(current, j0, rank0, held0, &candidates[i], th, ctx, &mut own_notes);
+            (own_notes, r)
+        })
+        .collect();
+    for (&i, (own_notes, r)) in chosen.iter().zip(results) {
+        notes.extend(own_notes);
+        let c = &mut candidates[i];
+        match r {
             Ok((evidence, fit1, held1)) => {
                 c.status = decide(&evidence, &fit1);
                 c.refit = Some((evidence, fit1, held1));
@@ -1152,31 +1175,49 @@ fn backward_check(
         let with = recomputed.as_ref().unwrap_or(with_current);
         let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
         // the newest effect was just confirmed; check the earlier ones
-        for k in 0..added.len() - exempt.min(added.len()) {
-            let own: Vec<ParamId> = added[k].spec.params();
-            let own_idx: Vec<usize> = own.iter().filter_map(|p| current.params.index_of(*p)).collect();
-            let linked = recomputed.is_some()
-                || own_idx.iter().any(|a| {
-                    newest.iter().any(|b| {
-                        current
-                            .correlation(*a, *b)
-                            .is_none_or(|c| c.abs() >= ctx.options.redundancy_correlation)
+        let checked: Vec<usize> = (0..added.len() - exempt.min(added.len()))
+            .filter(|&k| {
+                let own_idx: Vec<usize> =
+                    added[k].spec.params().iter().filter_map(|p| current.params.index_of(*p)).collect();
+                recomputed.is_some()
+                    || own_idx.iter().any(|a| {
+                        newest.iter().any(|b| {
+                            current
+                                .correlation(*a, *b)
+                                .is_none_or(|c| c.abs() >= ctx.options.redundancy_correlation)
+                        })
                     })
-                });
-            if !linked {
-                continue;
-            }
-            let params = ParamSet(current.params.iter().copied().filter(|p| !own.contains(p)).collect());
-            let specs: Vec<EffectSpec> =
-                added.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, a)| a.spec).collect();
-            let Ok(base) = rebuild(start, &specs, &current.model, &params) else { continue };
-            let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
-            let h = HeldOutComparison::new(&without.errors, &with.errors);
+            })
+            .collect();
+        // each check (a cross-validation without one effect, and its refit) is independent:
+        // in parallel, the weakest chosen in effect order as before
+        let current_ref: &Fit = current;
+        let added_ref: &[AddedEffect] = added;
+        let outcomes: Vec<Option<(HeldOutComparison, Option<Fit>)>> = checked
+            .par_iter()
+            .map(|&k| {
+                let own: Vec<ParamId> = added_ref[k].spec.params();
+                let params =
+                    ParamSet(current_ref.params.iter().copied().filter(|p| !own.contains(p)).collect());
+                let specs: Vec<EffectSpec> =
+                    added_ref.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, a)| a.spec).collect();
+                let base = rebuild(start, &specs, &current_ref.model, &params).ok()?;
+                let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
+                let h = HeldOutComparison::new(&without.errors, &with.errors);
+                let keep = h.z > 1.0 && h.change_rms_mm >= negligible_below_mm;
+                if keep {
+                    return Some((h, None));
+                }
+                Some((h, fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()))
+            })
+            .collect();
+        for (&k, outcome) in checked.iter().zip(outcomes) {
+            let Some((h, refit)) = outcome else { continue };
             let keep = h.z > 1.0 && h.change_rms_mm >= negligible_below_mm;
             if keep {
                 continue;
             }
-            let Ok(refit) = fit(&base, ctx.measurements, &params, &ctx.options.identify) else {
+            let Some(refit) = refit else {
                 notes.push(format!("backward check: refit without {} failed; kept", added[k].label));
                 continue;
             };
