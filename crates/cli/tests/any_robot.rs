@@ -232,13 +232,11 @@ fn check_fixture(name: &str, seed: u64) {
 }
 
 #[test]
-#[ignore = "open (issue 12): fk, torque and observability pass, but `identify` with the default set stalls (Levenberg-Marquardt: no cost reduction) on this chain; run with --include-ignored"]
 fn ur5e_commands_end_to_end() {
     check_fixture("ur5e.toml", 11);
 }
 
 #[test]
-#[ignore = "open (issue 12): fk, torque and observability pass, but `identify` with the default set stalls (Levenberg-Marquardt: no cost reduction) on this chain; run with --include-ignored"]
 fn meca500_on_a_table_commands_end_to_end() {
     check_fixture("meca500-table.toml", 12);
 }
