@@ -15,9 +15,9 @@ pub struct Args {
     /// Cell model file (TOML) to start from (usually the nominal cell).
     #[arg(long)]
     pub model: PathBuf,
-    /// Measurements to fit: probe rows (`position,tcp,q1..q7`) and/or tracker rows
-    /// (`tcp,q1..q7,x,y,z`); optional `time_s`, `temperature_c`, `dir2..dir7` columns enable the
-    /// drift and backlash candidates.
+    /// Measurements to fit: probe rows (`position,tcp,q1..qN`) and/or tracker rows
+    /// (`tcp,q1..qN,x,y,z`), N = the model's joints; optional `time_s`, `temperature_c`, `dir{i}`
+    /// (revolute joints i) columns enable the drift and backlash candidates.
     #[arg(long)]
     pub measurements: PathBuf,
     /// Independent validation measurements (e.g. tracker rows), used only to report the gap.

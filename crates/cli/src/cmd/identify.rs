@@ -14,10 +14,11 @@ use vatcal_kinematics::Model;
 /// Arguments of `vatcal identify`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Starting (nominal) cell model file (TOML, format meca500-zaber-cell).
+    /// Starting (nominal) cell model file (TOML, `meca500-zaber-cell` or `serial-robot-cell`).
     #[arg(long)]
     pub model: PathBuf,
-    /// Probe measurements: CSV with columns position,tcp,q1..q7 (q1 mm, q2..q7 degrees).
+    /// Probe measurements: CSV with columns position,tcp,q1..qN for the model's N joints (mm for
+    /// prismatic, degrees for revolute joints; the canonical cell: q1 mm, q2..q7 degrees).
     #[arg(long)]
     pub measurements: PathBuf,
     /// Where to write the calibrated cell file (same format as --model).
@@ -36,7 +37,7 @@ pub struct Args {
     /// Write the JSON report (parameters in file units, iteration log, statistics) here.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Additional tracker measurements: CSV with columns tcp,q1..q7,x,y,z (world, mm).
+    /// Additional tracker measurements: CSV with columns tcp,q1..qN,x,y,z (world, mm).
     #[arg(long)]
     pub tracker: Option<PathBuf>,
     /// Weight of tracker rows relative to probe rows (inverse-variance ratio,
