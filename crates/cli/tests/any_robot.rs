@@ -223,6 +223,20 @@ fn check_fixture(name: &str, seed: u64) {
     let text = run(&["identify", "--model", &model_path, "--measurements", &selected, "--out", &out_path]);
     assert!(text.contains("identifying") && text.contains("converged"), "{name}: {text}");
     assert!(!text.contains("\nc_1 "), "{name}: the vertical joint's compliance was fitted:\n{text}");
+    assert!(text.contains("all-identifiable: "), "{name}: the chosen set is not printed:\n{text}");
+    // asking for the vertical joint's compliance explicitly is a clear error naming it (not a
+    // stalled fit)
+    let bad = d.dir.path().join("bad.toml").display().to_string();
+    let out = vatcal()
+        .args(["identify", "--model", &model_path, "--measurements", &selected, "--out", &bad])
+        .args(["--params", "d_2,c_1,c_2"])
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("c_1 has no effect on these measurements"),
+        "{name}: {err}"
+    );
     let calibrated = load(&out_path);
     assert!(std::fs::read_to_string(&out_path).expect("read").contains("serial-robot-cell"));
     // predicted positions against the truth at held-out poses at the calibration positions

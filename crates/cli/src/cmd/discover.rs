@@ -63,15 +63,8 @@ fn read_all(path: &PathBuf, model: &Model) -> anyhow::Result<Vec<Measurement>> {
 }
 
 fn parameter_set(spec: &str, model: &Model, measurements: &[Measurement]) -> anyhow::Result<ParamSet> {
-    if spec.trim() == "all-identifiable" {
-        return vatcal_observability::all_identifiable(model, measurements)
-            .context("--params all-identifiable: identifiability analysis failed");
-    }
-    if spec.trim() == "default" {
-        return vatcal_observability::identifiability::default_params(model, measurements)
-            .context("--params default: identifiability analysis failed");
-    }
-    ParamSet::parse(spec).with_context(|| format!("--params `{spec}`"))
+    vatcal_observability::identifiability::param_set_from_spec(spec, model, measurements)
+        .with_context(|| format!("--params `{spec}`"))
 }
 
 fn check_options(args: &Args) -> anyhow::Result<()> {

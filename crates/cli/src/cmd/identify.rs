@@ -102,19 +102,15 @@ fn read_all(args: &Args, model: &Model) -> anyhow::Result<Vec<Measurement>> {
     Ok(measurements)
 }
 
-/// `paper34`, `geometric`, a name list, or `all-identifiable` (resolved on the data).
+/// `default`, `paper34`, `geometric`, a name list, or `all-identifiable` (resolved on the data
+/// by the identifiability analysis, which is printed).
 fn resolve_params(spec: &str, model: &Model, measurements: &[Measurement]) -> anyhow::Result<ParamSet> {
-    if spec.trim() == "all-identifiable" {
-        let set = vatcal_observability::all_identifiable(model, measurements)
-            .context("--params all-identifiable: identifiability analysis failed")?;
+    let set = vatcal_observability::identifiability::param_set_from_spec(spec, model, measurements)
+        .with_context(|| format!("--params `{spec}`"))?;
+    if spec.trim() == "all-identifiable" || (spec.trim() == "default" && !model.is_meca500_on_guide()) {
         println!("all-identifiable: {}", set.names().join(","));
-        return Ok(set);
     }
-    if spec.trim() == "default" {
-        return vatcal_observability::identifiability::default_params(model, measurements)
-            .context("--params default: identifiability analysis failed");
-    }
-    ParamSet::parse(spec).with_context(|| format!("--params `{spec}`"))
+    Ok(set)
 }
 
 fn print_log(log: &[IterationLog]) {
