@@ -39,8 +39,8 @@
 //! a-priori standard deviation of the parameter, [`ParamId::typical_scale`]) is compared with
 //! the largest one; a column below [`NEGLIGIBLE_RELATIVE_EFFECT`] of it is treated as zero
 //! (see [`negligible_columns`]) and reported as a parameter without effect. Real weak
-//! parameters (the flange compliance c_7 of the canonical cell, 7.5e-5 of the strongest on 40 probe poses) stay far
-//! above this floor.
+//! parameters stay far above this floor: the flange compliance c_7 of the canonical cell sits
+//! at 7.5e-5 of the strongest on 40 probe poses.
 //!
 //! # Which parameters are kept
 //! A column-pivoted Householder QR whose pivot rule is *preference order*: the columns are
