@@ -388,7 +388,11 @@ pub fn summarize_driver(
     }))
 }
 
-/// Summaries of every available driver, most significant first.
+/// A gravity torque below this on every measurement is round-off (no load on the joint) [N·m].
+const NO_LOAD_N_M: f64 = 1e-9;
+
+/// Summaries of every available driver, most significant first (torques of joints that carry
+/// no gravity load on any measurement are left out).
 pub fn locate(
     model: &Model,
     measurements: &[Measurement],
@@ -397,6 +401,16 @@ pub fn locate(
     let pose = PoseData::of(model, measurements)?;
     let mut out = Vec::new();
     for d in Driver::all_for(model.joint_kinds()) {
+        // a joint that never carries a gravity load (a vertical first axis) has a torque of
+        // round-off size: it drives nothing, although its values correlate with the pose
+        if let Driver::Torque(j) = d
+            && pose
+                .torques
+                .iter()
+                .all(|t| t.get(usize::from(j).wrapping_sub(1)).is_none_or(|v| v.abs() < NO_LOAD_N_M))
+        {
+            continue;
+        }
         if let Some(s) = summarize_driver(d, measurements, residuals, &pose)? {
             out.push(s);
         }
@@ -447,5 +461,24 @@ mod tests {
         assert!(q2.ln_p_value > (1e-4f64).ln(), "{}", q2.sentence());
         assert_eq!(q2.bins.len(), BINS);
         assert_eq!(q2.bins.iter().map(|b| b.count).sum::<usize>(), 150);
+    }
+
+    #[test]
+    fn the_torque_of_a_vertical_first_joint_is_no_driver() {
+        let cell =
+            vatcal_core::CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
+                .expect("fixture");
+        let model = Model::from_cell(&cell).expect("model");
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let (mut ms, mut res) = (Vec::new(), Vec::new());
+        for _ in 0..60 {
+            let q: Vec<f64> = (0..6).map(|_| rng.random_range(-2.5..2.5)).collect();
+            let q = JointVector::from_slice(&q).expect("q");
+            ms.push(Measurement::tracker(1, q, Vector3::zeros()));
+            res.push(Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), 0.0) * 0.002);
+        }
+        let all = locate(&model, &ms, &res).expect("locate");
+        assert!(!all.iter().any(|s| s.driver == Driver::Torque(1)), "tau1 (round-off) offered as a driver");
+        assert!(all.iter().any(|s| s.driver == Driver::Torque(2)));
     }
 }

@@ -186,7 +186,8 @@ pub enum CandidateStatus {
     MissingData(String),
     /// all its parameters are already fitted
     AlreadyInModel,
-    /// its columns are absorbed by the current parameters (novelty ≈ 0)
+    /// its columns are absorbed by the current parameters (novelty ≈ 0), or are of round-off
+    /// size (no effect at all: e.g. the compliance of a joint without gravity load)
     NotDiscoverable,
     /// the score test on the screening data did not pass the threshold
     NotSignificant,
@@ -730,8 +731,16 @@ fn score_candidates(
     weigh_rows(&mut zall, &ctx.screen, &w);
     let r = weighted_residual(screen_fit, &ctx.screen, &w);
     let sigma = ctx.sigma_hat(screen_fit, &ctx.screen, space.rank());
+    // columns at round-off size (e.g. the compliance of a vertical joint: no gravity torque)
+    // are no direction at all, however they look after unit normalisation
+    let norms: Vec<f64> = (0..zall.ncols()).map(|c| zall.col(c).norm_l2()).collect();
+    let negligible = vatcal_observability::identifiability::negligible_columns(&norms, &all);
     for c in out.iter_mut().filter(|c| c.status == CandidateStatus::NotSignificant) {
         let cols: Vec<usize> = c.new_params.iter().filter_map(|p| all.iter().position(|q| q == p)).collect();
+        if cols.iter().all(|k| negligible.contains(k)) {
+            c.status = CandidateStatus::NotDiscoverable;
+            continue;
+        }
         let z = columns(&zall, &cols);
         let d = EffectDirections::new(space, z.as_ref(), ctx.options.novelty_floor)?;
         if d.dof == 0 {

@@ -299,7 +299,8 @@ impl<'p, 'a> Iteration<'p, 'a> {
 ///
 /// `rank_check`: when given, the numerical rank of the first factor `R` (whose singular values
 /// are those of the stacked Jacobian at the start) is computed with
-/// `vatcal_observability::indices::normalized_rank`; only if it is deficient is `rank_check`
+/// `vatcal_observability::indices::normalized_rank`; only if it is deficient, or a column has
+/// no effect (`vatcal_observability::identifiability::negligible_columns`), is `rank_check`
 /// called, which runs the full identifiability analysis and returns the error naming the
 /// parameters. (Only valid without prior rows.)
 pub(crate) fn least_squares(
@@ -328,7 +329,12 @@ pub(crate) fn least_squares(
         {
             let r = it.qr.r_owned();
             let rank = vatcal_observability::indices::normalized_rank(r.as_ref())?;
-            if rank < problem.cols() {
+            // a column that is round-off (e.g. the compliance of a vertical joint) passes the
+            // unit-normalised rank test but has no effect: the full analysis names it
+            let norms: Vec<f64> = (0..problem.cols()).map(|j| it.jac.col(j).norm_l2()).collect();
+            let negligible =
+                vatcal_observability::identifiability::negligible_columns(&norms, &problem.params.0);
+            if rank < problem.cols() || !negligible.is_empty() {
                 check()?;
             }
         }

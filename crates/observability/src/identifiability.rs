@@ -29,6 +29,19 @@
 //! Finite-difference Jacobians would need ~1e-6 (background.md §5.1) — pass it through
 //! [`AnalysisOptions`].
 //!
+//! # Columns without effect
+//! Normalising makes every non-zero column count, however small it is physically. A column
+//! that is zero up to round-off would then look like an independent direction: the compliance
+//! of a vertical first joint (UR5e, Meca500 on a table) has a gravity torque of ~1e-15 N·m, so
+//! its column is round-off noise, and after normalisation that noise is "identifiable" — a
+//! least-squares fit then takes huge steps along it and stalls. So before the rank test every
+//! column's *a-priori effect* `‖J_j‖ · typical_scale_j` (mm of stacked residual per one
+//! a-priori standard deviation of the parameter, [`ParamId::typical_scale`]) is compared with
+//! the largest one; a column below [`NEGLIGIBLE_RELATIVE_EFFECT`] of it is treated as zero
+//! (see [`negligible_columns`]) and reported as a parameter without effect. Real weak
+//! parameters stay far above this floor: the flange compliance c_7 of the canonical cell sits
+//! at 7.5e-5 of the strongest on 40 probe poses.
+//!
 //! # Which parameters are kept
 //! A column-pivoted Householder QR whose pivot rule is *preference order*: the columns are
 //! visited in the order of the given [`ParamSet`], and column j becomes the next pivot when
@@ -50,6 +63,11 @@ use crate::error::ObservabilityError;
 
 /// Default relative rank tolerance for analytic Jacobians (see the module docs).
 pub const DEFAULT_RELATIVE_TOLERANCE: f64 = 1e-8;
+
+/// A column whose a-priori effect (`‖J_j‖ · typical_scale_j`) is at most this fraction of the
+/// largest column's is zero to round-off: the parameter has no effect on the measurements
+/// (module docs, "Columns without effect").
+pub const NEGLIGIBLE_RELATIVE_EFFECT: f64 = 1e-8;
 
 /// A partner is named in a [`Redundancy`] when its normalised weight is at least this fraction
 /// of the largest normalised weight.
@@ -106,6 +124,27 @@ pub fn scale_columns(j: &mut Mat<f64>, factors: &[f64]) {
             *x *= f;
         }
     }
+}
+
+/// Indices of the columns without effect: natural-unit column norm × the parameter's
+/// a-priori standard deviation ([`ParamId::typical_scale`]) at most
+/// [`NEGLIGIBLE_RELATIVE_EFFECT`] times the largest such product (zero columns included).
+/// `column_norms[j]` is the Euclidean norm of the natural-unit column of `params[j]`.
+///
+/// # Examples
+/// ```
+/// use vatcal_core::ParamId;
+/// use vatcal_observability::identifiability::negligible_columns;
+///
+/// // d_2 moves the TCP by ~10 mm per mm; c_1 (a vertical joint) by round-off only
+/// let params = [ParamId::D(2), ParamId::Compliance(1)];
+/// assert_eq!(negligible_columns(&[10.0, 1e-12], &params), vec![1]);
+/// ```
+pub fn negligible_columns(column_norms: &[f64], params: &[ParamId]) -> Vec<usize> {
+    let effects: Vec<f64> =
+        column_norms.iter().zip(params).map(|(n, p)| n.abs() * p.typical_scale()).collect();
+    let largest = effects.iter().fold(0.0_f64, |a, e| a.max(*e));
+    (0..effects.len()).filter(|&j| effects[j] <= NEGLIGIBLE_RELATIVE_EFFECT * largest).collect()
 }
 
 /// Applies `scaling` to `j` in place and returns the factors used (`J ← J · diag(factors)`).
@@ -182,8 +221,14 @@ impl Redundancy {
     /// A sentence such as "a_1 is absorbed by base_y (-1)".
     pub fn sentence(&self) -> String {
         if self.confounded_with.is_empty() {
+            let why = match self.param {
+                ParamId::Compliance(_) => {
+                    ": no gravity torque about this joint's axis (a vertical axis, or a massless chain beyond it)"
+                }
+                _ => "",
+            };
             return format!(
-                "{} has no effect on these measurements (its Jacobian column is zero)",
+                "{} has no effect on these measurements (its Jacobian column is zero to round-off{why})",
                 self.param
             );
         }
@@ -422,6 +467,13 @@ pub fn analyze_jacobian(
     let column_norms: Vec<f64> = (0..l).map(|c| j.col(c).norm_l2()).collect();
     let mut jn = j.to_owned();
     scale_columns(&mut jn, &column_scale_factors(j, &params.0, ColumnScaling::UnitNorm));
+    // columns without effect are zero (round-off must not pass for an independent direction)
+    let negligible = negligible_columns(&column_norms, &params.0);
+    for &c in &negligible {
+        for x in jn.col_mut(c).iter_mut() {
+            *x = 0.0;
+        }
+    }
 
     let (singular_values, v) = full_right_svd(jn.as_ref())?;
     let tolerance = options.relative_tolerance.max(j.nrows().max(l) as f64 * f64::EPSILON);
@@ -430,7 +482,7 @@ pub fn analyze_jacobian(
 
     let kept = preference_ordered_basis(jn.as_ref(), threshold);
     let dropped: Vec<usize> = (0..l).filter(|c| !kept.contains(c)).collect();
-    let redundant = explain_dropped(jn.as_ref(), &kept, &dropped, params, &column_norms);
+    let redundant = explain_dropped(jn.as_ref(), &kept, &dropped, params, &column_norms, &negligible);
     let lost_directions = (rank..l).map(|i| lost_direction(singular_values[i], v.col(i), params)).collect();
 
     Ok(IdentifiabilityReport {
@@ -509,6 +561,7 @@ fn explain_dropped(
     dropped: &[usize],
     params: &ParamSet,
     column_norms: &[f64],
+    negligible: &[usize],
 ) -> Vec<Redundancy> {
     if dropped.is_empty() {
         return Vec::new();
@@ -524,7 +577,7 @@ fn explain_dropped(
         .enumerate()
         .map(|(d, &col)| {
             let param = params.0[col];
-            if column_norms[col] == 0.0 || kept.is_empty() {
+            if column_norms[col] == 0.0 || negligible.contains(&col) || kept.is_empty() {
                 return Redundancy {
                     param,
                     confounded_with: Vec::new(),
@@ -706,4 +759,64 @@ pub fn select_columns(
         })
         .collect::<Result<Vec<usize>, _>>()?;
     Ok(Mat::from_fn(j.nrows(), columns.len(), |r, c| j[(r, columns[c])]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A column at round-off level (the compliance of a vertical joint) must not count as an
+    /// independent direction although its unit-normalised version is as long as any other.
+    #[test]
+    fn a_round_off_column_has_no_effect_and_is_named() {
+        let params = ParamSet(vec![ParamId::D(2), ParamId::A(3), ParamId::Compliance(1)]);
+        let j = Mat::from_fn(9, 3, |r, c| match c {
+            0 => 1.0 + r as f64,
+            1 => ((r * r) % 5) as f64 - 2.0,
+            // 1e-15 N·m torque times a lever of ~500 mm, with a pattern of its own
+            _ => 5e-13 * ((r * 7) % 3) as f64,
+        });
+        let report = analyze_jacobian(j.as_ref(), &params, &AnalysisOptions::default()).expect("analysis");
+        assert_eq!(report.rank, 2);
+        assert_eq!(report.identifiable, vec![ParamId::D(2), ParamId::A(3)]);
+        assert_eq!(report.redundant.len(), 1);
+        let r = &report.redundant[0];
+        assert_eq!(r.param, ParamId::Compliance(1));
+        assert!(r.confounded_with.is_empty() && r.fit_residual == 1.0);
+        assert!(r.sentence().contains("has no effect"), "{}", r.sentence());
+        // the same column at a physical size (c ~ 1e-4 rad/(N·m) moving the TCP by 0.1 mm) stays
+        let j = Mat::from_fn(9, 3, |r, c| if c == 2 { 1e3 * ((r * 7) % 3) as f64 } else { j[(r, c)] });
+        let report = analyze_jacobian(j.as_ref(), &params, &AnalysisOptions::default()).expect("analysis");
+        assert_eq!(report.rank, 3);
+        assert!(report.redundant.is_empty());
+    }
+
+    /// The floor is far below every real parameter of the canonical cell: the weakest of the
+    /// paper's 34 (a flange compliance) still has an a-priori effect well above 1e-8 of the
+    /// strongest on probe data.
+    #[test]
+    fn no_parameter_of_the_paper34_is_negligible_on_the_canonical_cell() {
+        let cell = vatcal_core::CellFile::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../fixtures/meca500-zaber.toml"
+        ))
+        .expect("fixture");
+        let model = Model::from_cell(&cell).expect("model");
+        let poses = vatcal_sim::truth::probe_start_poses(&model, 40, 1);
+        let params = ParamSet::paper34();
+        let j = assemble_jacobian(&model, &poses, &params).expect("jacobian");
+        let norms: Vec<f64> = (0..j.ncols()).map(|c| j.col(c).norm_l2()).collect();
+        let effects: Vec<f64> = norms.iter().zip(&params.0).map(|(n, p)| n * p.typical_scale()).collect();
+        let largest = effects.iter().fold(0.0_f64, |a, e| a.max(*e));
+        let (weakest, ratio) = params
+            .0
+            .iter()
+            .zip(&effects)
+            .map(|(p, e)| (*p, e / largest))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("params");
+        eprintln!("weakest a-priori effect: {weakest} at {ratio:.2e} of the strongest");
+        assert!(ratio > 1e3 * NEGLIGIBLE_RELATIVE_EFFECT, "{weakest}: {ratio:e}");
+        assert!(negligible_columns(&norms, &params.0).is_empty());
+    }
 }

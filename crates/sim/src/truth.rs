@@ -114,7 +114,13 @@ fn gauss(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
 /// Every error is Gaussian with the budget's σ: the size of the cell's error scatters from
 /// seed to seed (the nominal mean error over the workspace is 0.8–1.7 mm on seeds 1–8). For a
 /// cell of consistent size use [`signed_truth`].
+///
+/// Any other chain than the canonical Meca500-on-guide cell (a UR5e-class arm, a Meca500 on a
+/// table, an imported URDF) gets [`perturbed_truth_any_chain`] instead.
 pub fn perturbed_truth(nominal: &Model, seed: u64, budget: &ErrorBudget) -> Model {
+    if !nominal.is_meca500_on_guide() {
+        return perturbed_truth_any_chain(nominal, seed, budget);
+    }
     perturb(nominal, seed, budget, gauss)
 }
 
@@ -173,6 +179,74 @@ fn perturb(
         add(&mut truth, &mut rng, ParamId::D(1), budget.length_mm);
         add(&mut truth, &mut rng, ParamId::D(2), budget.length_mm);
         add(&mut truth, &mut rng, ParamId::D(3), budget.length_mm);
+    }
+    for id in nominal.tcp_ids() {
+        for axis in vatcal_core::Axis::ALL {
+            add(&mut truth, &mut rng, ParamId::Tcp { id, axis }, budget.tcp_mm);
+        }
+    }
+    for id in nominal.position_ids() {
+        for axis in vatcal_core::Axis::ALL {
+            add(&mut truth, &mut rng, ParamId::Position { id, axis }, budget.position_mm);
+        }
+    }
+    truth
+}
+
+/// The "true" cell of any serial chain (what [`perturbed_truth`] does on every chain but the
+/// canonical Meca500-on-guide cell): errors on every row's MDH + Hayati values (`alpha`,
+/// `theta_offset`, `beta` with σ `budget.angle_rad`; `a`, `d` with σ `budget.length_mm`; the
+/// rows of the chain in order, each in the order alpha, a, beta, theta_offset, d), the base pose
+/// (`budget.base_translation_mm`, `budget.base_angle_rad`), compliances drawn uniformly in
+/// `budget.compliance_range` on every revolute joint, then the TCP and calibration-position
+/// errors (`budget.tcp_mm`, `budget.position_mm`). Which of these a fit can identify depends on
+/// the chain; the others (e.g. `d` on parallel axes, the first row against the base) are
+/// absorbed by equivalent parameters, so the errors are those of a physical arm whatever the
+/// parametrisation (`budget.perturb_redundant` is not consulted). Seeded, deterministic;
+/// effects switched on in `nominal` keep their values.
+///
+/// # Examples
+/// ```
+/// use vatcal_core::{CellFile, JointVector, ParamId};
+/// use vatcal_kinematics::Model;
+/// use vatcal_sim::truth::{ErrorBudget, perturbed_truth};
+///
+/// let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))?;
+/// let nominal = Model::from_cell(&cell)?;
+/// let truth = perturbed_truth(&nominal, 7, &ErrorBudget::realistic());
+/// assert_ne!(truth.param(ParamId::D(4))?, nominal.param(ParamId::D(4))?);
+/// assert!(truth.param(ParamId::Compliance(3))? > 0.0);
+/// let q = JointVector::new([0.1, -1.2, 1.0, 0.3, 0.5, 0.2]);
+/// let error = (truth.tcp_position(&q, 1)? - nominal.tcp_position(&q, 1)?).norm();
+/// assert!(error > 0.1 && error < 20.0, "{error} mm");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn perturbed_truth_any_chain(nominal: &Model, seed: u64, budget: &ErrorBudget) -> Model {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut truth = nominal.clone();
+    let add = |truth: &mut Model, rng: &mut ChaCha8Rng, id: ParamId, sigma: f64| {
+        if let Ok(v) = truth.param(id) {
+            let _ = truth.set_param(id, v + gauss(rng, sigma));
+        }
+    };
+    let n = nominal.joint_count() as u8;
+    for i in 1..=n {
+        add(&mut truth, &mut rng, ParamId::Alpha(i), budget.angle_rad);
+        add(&mut truth, &mut rng, ParamId::A(i), budget.length_mm);
+        add(&mut truth, &mut rng, ParamId::Beta(i), budget.angle_rad);
+        add(&mut truth, &mut rng, ParamId::ThetaOffset(i), budget.angle_rad);
+        add(&mut truth, &mut rng, ParamId::D(i), budget.length_mm);
+    }
+    for b in [BaseParam::X, BaseParam::Y, BaseParam::Z] {
+        add(&mut truth, &mut rng, ParamId::Base(b), budget.base_translation_mm);
+    }
+    for b in [BaseParam::Alpha, BaseParam::Beta, BaseParam::Gamma] {
+        add(&mut truth, &mut rng, ParamId::Base(b), budget.base_angle_rad);
+    }
+    let (lo, hi) = budget.compliance_range;
+    for j in (1..=n).filter(|j| nominal.has_param(ParamId::Compliance(*j))) {
+        let c = if hi > lo { rng.random_range(lo..hi) } else { lo };
+        let _ = truth.set_param(ParamId::Compliance(j), c);
     }
     for id in nominal.tcp_ids() {
         for axis in vatcal_core::Axis::ALL {
@@ -571,7 +645,7 @@ pub fn reach(
 
 /// Joint values drawn uniformly inside the limits shrunk by `margin` (fraction of each range).
 pub fn random_joints(model: &Model, rng: &mut ChaCha8Rng, margin: f64) -> JointVector {
-    let mut q = JointVector::default();
+    let mut q = JointVector::zeros(model.joint_count());
     for (k, (lo, hi)) in model.joint_limits().iter().enumerate() {
         let pad = (hi - lo) * margin;
         q[k] = if hi - lo > 2.0 * pad { rng.random_range(lo + pad..hi - pad) } else { *lo };

@@ -15,9 +15,9 @@ pub struct Args {
     /// Cell model file (TOML) to start from (usually the nominal cell).
     #[arg(long)]
     pub model: PathBuf,
-    /// Measurements to fit: probe rows (`position,tcp,q1..q7`) and/or tracker rows
-    /// (`tcp,q1..q7,x,y,z`); optional `time_s`, `temperature_c`, `dir2..dir7` columns enable the
-    /// drift and backlash candidates.
+    /// Measurements to fit: probe rows (`position,tcp,q1..qN`) and/or tracker rows
+    /// (`tcp,q1..qN,x,y,z`), N = the model's joints; optional `time_s`, `temperature_c`, `dir{i}`
+    /// (revolute joints i) columns enable the drift and backlash candidates.
     #[arg(long)]
     pub measurements: PathBuf,
     /// Independent validation measurements (e.g. tracker rows), used only to report the gap.
@@ -75,15 +75,8 @@ fn read_all(path: &PathBuf, model: &Model) -> anyhow::Result<Vec<Measurement>> {
 }
 
 fn parameter_set(spec: &str, model: &Model, measurements: &[Measurement]) -> anyhow::Result<ParamSet> {
-    if spec.trim() == "all-identifiable" {
-        return vatcal_observability::all_identifiable(model, measurements)
-            .context("--params all-identifiable: identifiability analysis failed");
-    }
-    if spec.trim() == "default" {
-        return vatcal_observability::identifiability::default_params(model, measurements)
-            .context("--params default: identifiability analysis failed");
-    }
-    ParamSet::parse(spec).with_context(|| format!("--params `{spec}`"))
+    vatcal_observability::identifiability::param_set_from_spec(spec, model, measurements)
+        .with_context(|| format!("--params `{spec}`"))
 }
 
 fn check_options(args: &Args) -> anyhow::Result<()> {

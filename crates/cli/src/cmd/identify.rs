@@ -14,10 +14,11 @@ use vatcal_kinematics::Model;
 /// Arguments of `vatcal identify`.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Starting (nominal) cell model file (TOML, format meca500-zaber-cell).
+    /// Starting (nominal) cell model file (TOML, `meca500-zaber-cell` or `serial-robot-cell`).
     #[arg(long)]
     pub model: PathBuf,
-    /// Probe measurements: CSV with columns position,tcp,q1..q7 (q1 mm, q2..q7 degrees).
+    /// Probe measurements: CSV with columns position,tcp,q1..qN for the model's N joints (mm for
+    /// prismatic, degrees for revolute joints; the canonical cell: q1 mm, q2..q7 degrees).
     #[arg(long)]
     pub measurements: PathBuf,
     /// Where to write the calibrated cell file (same format as --model).
@@ -36,7 +37,7 @@ pub struct Args {
     /// Write the JSON report (parameters in file units, iteration log, statistics) here.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Additional tracker measurements: CSV with columns tcp,q1..q7,x,y,z (world, mm).
+    /// Additional tracker measurements: CSV with columns tcp,q1..qN,x,y,z (world, mm).
     #[arg(long)]
     pub tracker: Option<PathBuf>,
     /// Weight of tracker rows relative to probe rows (inverse-variance ratio,
@@ -101,19 +102,15 @@ fn read_all(args: &Args, model: &Model) -> anyhow::Result<Vec<Measurement>> {
     Ok(measurements)
 }
 
-/// `paper34`, `geometric`, a name list, or `all-identifiable` (resolved on the data).
+/// `default`, `paper34`, `geometric`, a name list, or `all-identifiable` (resolved on the data
+/// by the identifiability analysis, which is printed).
 fn resolve_params(spec: &str, model: &Model, measurements: &[Measurement]) -> anyhow::Result<ParamSet> {
-    if spec.trim() == "all-identifiable" {
-        let set = vatcal_observability::all_identifiable(model, measurements)
-            .context("--params all-identifiable: identifiability analysis failed")?;
+    let set = vatcal_observability::identifiability::param_set_from_spec(spec, model, measurements)
+        .with_context(|| format!("--params `{spec}`"))?;
+    if spec.trim() == "all-identifiable" || (spec.trim() == "default" && !model.is_meca500_on_guide()) {
         println!("all-identifiable: {}", set.names().join(","));
-        return Ok(set);
     }
-    if spec.trim() == "default" {
-        return vatcal_observability::identifiability::default_params(model, measurements)
-            .context("--params default: identifiability analysis failed");
-    }
-    ParamSet::parse(spec).with_context(|| format!("--params `{spec}`"))
+    Ok(set)
 }
 
 fn print_log(log: &[IterationLog]) {

@@ -22,8 +22,8 @@ pub struct Args {
     /// Cell model file (TOML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Candidate poses (`position,tcp,q1..q7`; q1 in mm, q2..q7 in degrees; other columns are
-    /// copied to the output unchanged).
+    /// Candidate poses (`position,tcp,q1..qN` for the model's N joints; mm for prismatic, degrees
+    /// for revolute joints; other columns are copied to the output unchanged).
     #[arg(long)]
     pub candidates: PathBuf,
     /// Number of poses to select.

@@ -17,9 +17,9 @@ pub struct Args {
     /// Optional baseline model to compare with (e.g. the nominal cell file).
     #[arg(long)]
     pub baseline: Option<PathBuf>,
-    /// Validation measurements: CSV with columns tcp,q1..q7,x,y,z (world, mm), and the optional
-    /// context columns time_s, temperature_c, dir2..dir7 (applied to the models' effects;
-    /// required when a model has backlash or thermal drift).
+    /// Validation measurements: CSV with columns tcp,q1..qN,x,y,z (N = the model's joints; world,
+    /// mm), and the optional context columns time_s, temperature_c, dir{i} for revolute joints i
+    /// (applied to the models' effects; required when a model has backlash or thermal drift).
     #[arg(long)]
     pub tracker: PathBuf,
     /// Write a histogram of the error magnitudes (baseline and model) as SVG.
