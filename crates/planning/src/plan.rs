@@ -26,7 +26,10 @@ pub struct PlanOptions {
     pub candidates: CandidateOptions,
     /// number of measurements to select (paper: 40)
     pub count: usize,
-    /// parameters the selection must identify (default: the paper's 34)
+    /// parameters the selection must identify (default: the paper's 34); an empty set means
+    /// the model's default set for the candidates
+    /// (`vatcal_observability::identifiability::default_params`: the paper's 34 on the
+    /// canonical cell, the identifiable basis of all parameters on any other chain)
     pub params: ParamSet,
     /// Detmax restarts
     pub detmax_restarts: usize,
@@ -157,6 +160,9 @@ pub struct Plan {
     pub steps: Vec<TourStep>,
     /// durations
     pub timing: Timing,
+    /// the parameters the selection identifies ([`PlanOptions::params`], or the model's
+    /// default set when that was empty)
+    pub params: ParamSet,
 }
 
 impl Plan {
@@ -192,7 +198,7 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
     if opts.count == 0 {
         return Err(PlanError::Option { option: "count".into(), reason: "must be at least 1".into() });
     }
-    let timer = MotionTimer::from_limits(&opts.motion)?;
+    let timer = MotionTimer::for_model(&opts.motion, model)?;
     let checker = CollisionChecker::new(model, geometry, opts.candidates.collision_margin_mm)?;
     let cand_opts = CandidateOptions { seed: opts.seed, ..opts.candidates.clone() };
     let candidates = generate_candidates(model, &checker, &cand_opts)?;
@@ -204,13 +210,24 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
             candidates.counts
         )));
     }
+    let resolved;
+    let opts = if opts.params.is_empty() {
+        let measurements: Vec<Measurement> =
+            candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+        let params = vatcal_observability::identifiability::default_params(model, &measurements)
+            .map_err(PlanError::Selection)?;
+        resolved = PlanOptions { params, ..opts.clone() };
+        &resolved
+    } else {
+        opts
+    };
     let (selected, quality) = select(model, &candidates, opts)?;
     let order = order_tour(&candidates, &selected, &timer, opts);
     let bounds = JointBounds::new(model, MOVE_MARGIN_DEG.min(opts.candidates.joint_margin_deg), 0.0)?;
     let legs = plan_legs(&checker, &bounds, &timer, &candidates, &order, opts)?;
     let steps = build_steps(&candidates, &order, &legs, &timer, opts.start.is_some());
     let timing = timing(&candidates, &selected, &order, &legs, &timer, opts);
-    Ok(Plan { candidates, selected, quality, order, legs, steps, timing })
+    Ok(Plan { candidates, selected, quality, order, legs, steps, timing, params: opts.params.clone() })
 }
 
 fn select(
