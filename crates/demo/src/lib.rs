@@ -15,6 +15,12 @@
 //!
 //! Everything is seeded: the same options give the same numbers (`report.json` is identical
 //! byte for byte; only the wall-clock times in `summary.md` change).
+//!
+//! Any other serial chain (a cell file that is not the canonical Meca500-on-guide cell) runs
+//! the model-level demo of [`any_chain`] instead: the same plan → measure → identify →
+//! validate sequence with each measurement simulated on the hidden true model.
+
+pub mod any_chain;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -21,6 +21,16 @@
 //!
 //! Only candidates that pass all stages are returned; the count after each stage is reported.
 //!
+//! # Any serial chain
+//! The above is the canonical Meca500-on-guide cell. On any other chain
+//! ([`vatcal_kinematics::Model::is_meca500_on_guide`] false) stage 1 uses
+//! [`ModelIk`]: the multi-start numerical IK ([`crate::numeric_ik`]) with the first prismatic
+//! joint, if the chain has one, held at each of the `guide_steps` positions over its stroke
+//! (one pass when the chain has no prismatic joint); every distinct converged branch counts as
+//! an IK solution. Stage 3 uses the chain-agnostic singularity test of [`SingularityMargins`],
+//! and the retreat pose is a local solve from the measurement joints
+//! ([`ModelIk::refine_from`]). The other stages are the same.
+//!
 //! # Orientation distribution
 //! The ball must enter the probe from above: the TriCal's three gauges hold the ball from below
 //! and the sides, so the rest of the end-effector has to be above it. Let `u_k = -t_k / |t_k|`
@@ -46,10 +56,11 @@ use vatcal_kinematics::Model;
 use crate::collision::{CollisionChecker, ProbeState};
 use crate::error::PlanError;
 use crate::ik::{
-    RefineOptions, ToolPoseIk, max_abs_diff, refine_tool_pose, robot_base_frame, tool_pose_for_tcp,
+    ModelIk, RefineOptions, ToolPoseIk, max_abs_diff, refine_tool_pose, robot_base_frame, tool_pose_for_tcp,
     wrap_angle,
 };
 use crate::motion::{JointBounds, MOVE_MARGIN_DEG, Resolution, SingularityMargins};
+use crate::numeric_ik::MultiStartOptions;
 use crate::paths::segment_is_free;
 
 /// Options of candidate generation.
@@ -75,6 +86,9 @@ pub struct CandidateOptions {
     pub resolution: Resolution,
     /// IK refinement options
     pub refine: RefineOptions,
+    /// multi-start numerical IK of a chain without a closed form (any chain other than the
+    /// canonical cell)
+    pub numeric: MultiStartOptions,
     /// calibration positions to use (`None`: all of the model's)
     pub positions: Option<Vec<u32>>,
     /// TCPs to use (`None`: all of the model's)
@@ -98,6 +112,7 @@ impl Default for CandidateOptions {
             collision_margin_mm: 2.0,
             resolution: Resolution::default(),
             refine: RefineOptions::default(),
+            numeric: MultiStartOptions::default(),
             positions: None,
             tcps: None,
             seed: 1,
@@ -120,7 +135,7 @@ pub struct Candidate {
     pub retreat: JointVector,
     /// index of the sampled orientation (per position × TCP)
     pub orientation: usize,
-    /// index of the guide step
+    /// index of the guide step (0 on a chain without a prismatic joint)
     pub guide_step: usize,
 }
 
@@ -160,17 +175,23 @@ pub struct CandidateSet {
     pub candidates: Vec<Candidate>,
     /// counts per stage
     pub counts: StageCounts,
-    /// the guide positions used (mm)
+    /// the guide positions used (mm; empty for a chain without a prismatic joint)
     pub guide_positions_mm: Vec<f64>,
+    /// kinds of the model's joints (the units of the joint columns in the output files)
+    pub joint_kinds: Vec<vatcal_core::JointKind>,
 }
 
-/// Evenly spaced guide positions over the stroke shrunk by `margin_mm` (the middle for one step).
+/// Evenly spaced guide positions over the stroke shrunk by `margin_mm` (the middle for one
+/// step). The guide is joint 1 on the canonical cell, the first prismatic joint on any other
+/// chain; a chain without a prismatic joint has no guide positions (empty).
 pub fn guide_positions(model: &Model, steps: usize, margin_mm: f64) -> Result<Vec<f64>, PlanError> {
-    model.require_meca500_on_guide("guide positions for planning")?;
     if steps == 0 {
         return Err(PlanError::Option { option: "guide_steps".into(), reason: "must be at least 1".into() });
     }
-    let (lo, hi) = model.joint_limits()[0];
+    let Some(guide) = model.joint_kinds().iter().position(|k| !k.is_revolute()) else {
+        return Ok(Vec::new());
+    };
+    let (lo, hi) = model.joint_limits()[guide];
     let (a, b) = (lo + margin_mm, hi - margin_mm);
     if a > b || a.is_nan() || b.is_nan() {
         return Err(PlanError::Option {
@@ -216,16 +237,26 @@ pub fn sample_orientation(
     spin.matrix() * align(&u, &a)
 }
 
+/// How the pipeline solves a TCP pose.
+enum Solver<'a> {
+    /// canonical cell: closed-form seeds at every guide step, refined on the model
+    Canonical {
+        ik: ToolPoseIk<'a>,
+        /// (guide position, robot base frame) per guide step
+        bases: Vec<(f64, Frame)>,
+    },
+    /// any other chain: [`ModelIk`] at every guide step (one pass without a guide)
+    Any { ik: ModelIk<'a>, guide: Vec<f64> },
+}
+
 /// Everything needed to evaluate one TCP pose.
 struct Pipeline<'a> {
     model: &'a Model,
-    ik: ToolPoseIk<'a>,
+    solver: Solver<'a>,
     checker: &'a CollisionChecker<'a>,
     bounds: JointBounds,
     move_bounds: JointBounds,
     opts: &'a CandidateOptions,
-    /// (guide position, robot base frame) per guide step
-    bases: Vec<(f64, Frame)>,
 }
 
 /// Outcome of stages 3..5 for one solution.
@@ -247,20 +278,83 @@ struct PoseTask {
 
 impl Pipeline<'_> {
     fn run(&self, task: &PoseTask) -> (Vec<Candidate>, StageCounts) {
+        match &self.solver {
+            Solver::Canonical { ik, bases } => self.run_canonical(ik, bases, task),
+            Solver::Any { ik, guide } => self.run_any(ik, guide, task),
+        }
+    }
+
+    /// Stages 1..5 on any chain (see the module docs).
+    fn run_any(&self, ik: &ModelIk<'_>, guide: &[f64], task: &PoseTask) -> (Vec<Candidate>, StageCounts) {
+        let mut counts = StageCounts { poses: 1, ..StageCounts::default() };
+        let mut out = Vec::new();
+        let steps: Vec<f64> = if guide.is_empty() { vec![0.0] } else { guide.to_vec() };
+        for (step, g) in steps.iter().enumerate() {
+            for q in ik.solve_at_guide(*g, &task.target) {
+                counts.ik_solutions += 1;
+                if !self.bounds.contains(&q) {
+                    continue;
+                }
+                counts.within_limits += 1;
+                self.screen_and_count(task, q, step, &mut counts, &mut out);
+            }
+        }
+        (out, counts)
+    }
+
+    /// Stages 3..5 of one solution within the limits: counts it and keeps it when measurable.
+    fn screen_and_count(
+        &self,
+        task: &PoseTask,
+        q: JointVector,
+        step: usize,
+        counts: &mut StageCounts,
+        out: &mut Vec<Candidate>,
+    ) {
+        match self.screen(task, q) {
+            Screen::Singular => {}
+            Screen::Colliding => counts.clear_of_singularities += 1,
+            Screen::NoRetreat => {
+                counts.clear_of_singularities += 1;
+                counts.collision_free += 1;
+            }
+            Screen::Measurable(retreat) => {
+                counts.clear_of_singularities += 1;
+                counts.collision_free += 1;
+                counts.retreat_clear += 1;
+                out.push(Candidate {
+                    position: task.position,
+                    tcp: task.tcp,
+                    q,
+                    retreat,
+                    orientation: task.orientation,
+                    guide_step: step,
+                });
+            }
+        }
+    }
+
+    /// Stages 1..5 on the canonical cell (closed-form seeds).
+    fn run_canonical(
+        &self,
+        ik: &ToolPoseIk<'_>,
+        bases: &[(f64, Frame)],
+        task: &PoseTask,
+    ) -> (Vec<Candidate>, StageCounts) {
         let mut counts = StageCounts { poses: 1, ..StageCounts::default() };
         let mut out = Vec::new();
         // refinement moves a calibrated model's joints by well under a degree
         let slack_rad = deg_to_rad(2.0);
-        for (step, (q1, base)) in self.bases.iter().enumerate() {
+        for (step, (q1, base)) in bases.iter().enumerate() {
             let mut found: Vec<JointVector> = Vec::with_capacity(8);
-            for seed in self.ik.seeds(*q1, base, &task.target) {
+            for seed in ik.seeds(*q1, base, &task.target) {
                 if !seed.beyond_reach {
                     counts.ik_solutions += 1;
                 }
                 if !self.bounds.contains_with_slack(&seed.q, 0.0, slack_rad) {
                     continue;
                 }
-                let Ok(refined) = self.ik.refine(&seed.q, &task.target) else {
+                let Ok(refined) = ik.refine(&seed.q, &task.target) else {
                     continue;
                 };
                 if seed.beyond_reach {
@@ -276,27 +370,7 @@ impl Pipeline<'_> {
                 }
                 found.push(q);
                 counts.within_limits += 1;
-                match self.screen(task, q) {
-                    Screen::Singular => continue,
-                    Screen::Colliding => counts.clear_of_singularities += 1,
-                    Screen::NoRetreat => {
-                        counts.clear_of_singularities += 1;
-                        counts.collision_free += 1;
-                    }
-                    Screen::Measurable(retreat) => {
-                        counts.clear_of_singularities += 1;
-                        counts.collision_free += 1;
-                        counts.retreat_clear += 1;
-                        out.push(Candidate {
-                            position: task.position,
-                            tcp: task.tcp,
-                            q,
-                            retreat,
-                            orientation: task.orientation,
-                            guide_step: step,
-                        });
-                    }
-                }
+                self.screen_and_count(task, q, step, &mut counts, &mut out);
             }
         }
         (out, counts)
@@ -318,12 +392,18 @@ impl Pipeline<'_> {
     fn retreat_pose(&self, task: &PoseTask, q: &JointVector) -> Option<JointVector> {
         let mut target = task.target;
         target.p.z += self.opts.retreat_height_mm;
-        let refined = refine_tool_pose(self.model, q, &target, &self.opts.refine).ok()?;
-        let mut a = refined.q;
-        for (v, q0) in a.as_mut_slice().iter_mut().zip(q.as_slice()).skip(1) {
-            // stay on the same side of the +-pi cut as the measurement pose
-            *v = q0 + wrap_angle(*v - q0);
-        }
+        let a = match &self.solver {
+            Solver::Canonical { .. } => {
+                let refined = refine_tool_pose(self.model, q, &target, &self.opts.refine).ok()?;
+                let mut a = refined.q;
+                for (v, q0) in a.as_mut_slice().iter_mut().zip(q.as_slice()).skip(1) {
+                    // stay on the same side of the +-pi cut as the measurement pose
+                    *v = q0 + wrap_angle(*v - q0);
+                }
+                a
+            }
+            Solver::Any { ik, .. } => ik.refine_from(q, &target, &self.opts.refine).ok()?,
+        };
         if !self.move_bounds.contains(&a) || !self.checker.is_free(&a, ProbeState::Everywhere) {
             return None;
         }
@@ -343,15 +423,19 @@ pub fn generate_candidates(
     let positions = select_ids(&model.position_ids(), opts.positions.as_deref(), "positions")?;
     let tcps = select_ids(&model.tcp_ids(), opts.tcps.as_deref(), "tcps")?;
     let guide = guide_positions(model, opts.guide_steps, opts.guide_margin_mm)?;
-    let bases: Vec<(f64, Frame)> = guide.iter().map(|q1| (*q1, robot_base_frame(model, *q1))).collect();
+    let solver = if model.is_meca500_on_guide() {
+        let bases: Vec<(f64, Frame)> = guide.iter().map(|q1| (*q1, robot_base_frame(model, *q1))).collect();
+        Solver::Canonical { ik: ToolPoseIk::new(model, opts.refine)?, bases }
+    } else {
+        Solver::Any { ik: ModelIk::new(model, opts.refine, opts.numeric)?, guide: guide.clone() }
+    };
     let pipeline = Pipeline {
         model,
-        ik: ToolPoseIk::new(model, opts.refine)?,
+        solver,
         checker,
         bounds: JointBounds::new(model, opts.joint_margin_deg, 0.0)?,
         move_bounds: JointBounds::new(model, MOVE_MARGIN_DEG.min(opts.joint_margin_deg), 0.0)?,
         opts,
-        bases,
     };
     let tasks = sample_tasks(model, &positions, &tcps, opts)?;
     let bar = progress_bar(tasks.len() as u64, opts.progress);
@@ -370,7 +454,12 @@ pub fn generate_candidates(
         counts.add(&n);
         candidates.extend(c);
     }
-    Ok(CandidateSet { candidates, counts, guide_positions_mm: guide })
+    Ok(CandidateSet {
+        candidates,
+        counts,
+        guide_positions_mm: guide,
+        joint_kinds: model.joint_kinds().to_vec(),
+    })
 }
 
 fn validate(opts: &CandidateOptions) -> Result<(), PlanError> {

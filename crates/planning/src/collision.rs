@@ -13,6 +13,20 @@
 //! The ball whose centre is being placed on the probe origin touches the probe by design; a
 //! [`ProbeState::Measuring`] state exempts exactly that ball from the TriCal test.
 //!
+//! # Any serial chain
+//! On any chain other than the canonical cell the robot is a set of capsules built from the MDH
+//! rows (radius `[obstacles.robot_links] chain_link_radius_mm`, default 30 mm): row i
+//! (`Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d)`) gives a capsule along its `a` offset (from the
+//! origin of frame i-1 along x_{i-1}, moving with link i-1) and, on a revolute row, one along
+//! its `d` offset (ending at the origin of frame i along z_i, moving with link i); offsets
+//! under 1 mm give no capsule, and a prismatic row's `d` (its travel) none either (a guide
+//! body is the cell's `[obstacles.guide]` box). The end-effector bodies are as on the canonical
+//! cell, on link N. Bodies of links 0 and 1 sit on the mounting surface and are not tested
+//! against the floor and the guide box. Self-collision is tested between bodies whose links
+//! differ by at least 2, except pairs that touch in every one of [`ALWAYS_TOUCHING_SAMPLES`]
+//! seeded random configurations (they touch by construction, like the elbow corner of the
+//! canonical arm; the same rule as MoveIt's "always in collision" matrix).
+//!
 //! Each pair is first screened with bounding spheres / boxes; only overlapping candidates reach
 //! parry's `intersection_test`. Shapes are built directly in world coordinates (capsules,
 //! balls) or with a world pose converted from nalgebra through glamx (cylinders, boxes).
@@ -35,6 +49,56 @@ pub const BODY_NAMES: [&str; 9] =
 
 /// MDH link each named body moves with (B = 1: the carriage).
 const BODY_LINKS: [u8; 9] = [1, 2, 3, 4, 5, 6, 7, 7, 7];
+
+/// Random configurations in which a self-collision pair of a generic chain must touch to be
+/// treated as touching by construction (and not tested).
+pub const ALWAYS_TOUCHING_SAMPLES: usize = 24;
+
+/// A body of a generic chain's link capsules (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ChainSegment {
+    /// along the `a` offset of row `row` (moves with link `row - 1`)
+    A { row: usize },
+    /// along the `d` offset of revolute row `row` (moves with link `row`)
+    D { row: usize },
+}
+
+/// Body layout of a generic chain.
+#[derive(Debug, Clone)]
+struct ChainLayout {
+    segments: Vec<ChainSegment>,
+    /// names of the segments, then the tool changer and the plate
+    names: Vec<String>,
+    /// link of every body (segments, tool changer, plate, then balls)
+    links: Vec<usize>,
+}
+
+impl ChainLayout {
+    fn new(model: &Model, tcps: usize) -> Self {
+        let n = model.joint_count();
+        let mut segments = Vec::new();
+        let mut names = Vec::new();
+        let mut links = Vec::new();
+        for row in 1..=n {
+            let r = model.row(row);
+            if r.a.abs() >= 1.0 {
+                segments.push(ChainSegment::A { row });
+                names.push(format!("link {} (a_{})", row - 1, row - 1));
+                links.push(row - 1);
+            }
+            if model.is_revolute(row) && r.d.abs() >= 1.0 {
+                segments.push(ChainSegment::D { row });
+                names.push(format!("link {row} (d_{row})"));
+                links.push(row);
+            }
+        }
+        names.push("tool changer".into());
+        names.push("plate".into());
+        links.extend([n, n]);
+        links.extend(std::iter::repeat_n(n, tcps));
+        Self { segments, names, links }
+    }
+}
 
 /// Where the probe plate is while a joint vector is checked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -174,6 +238,8 @@ pub struct CollisionChecker<'a> {
     obstacles: Vec<Obstacle>,
     self_pairs: Vec<(usize, usize)>,
     tcps: Vec<(u32, Vector3<f64>)>,
+    /// body layout of a chain other than the canonical cell
+    layout: Option<ChainLayout>,
 }
 
 impl<'a> CollisionChecker<'a> {
@@ -190,6 +256,9 @@ impl<'a> CollisionChecker<'a> {
         let tcps: Vec<(u32, Vector3<f64>)> =
             model.tcp_ids().into_iter().filter_map(|id| model.tcp(id).map(|t| (id, t))).collect();
         let obstacles = build_obstacles(model, geometry);
+        if !model.is_meca500_on_guide() {
+            return Ok(Self::for_any_chain(model, geometry, margin_mm, obstacles, tcps));
+        }
         let n_bodies = BODY_NAMES.len() + tcps.len();
         let link = |i: usize| if i < BODY_LINKS.len() { BODY_LINKS[i] } else { 7 };
         let mut self_pairs = Vec::new();
@@ -202,7 +271,54 @@ impl<'a> CollisionChecker<'a> {
                 }
             }
         }
-        Ok(Self { model, geometry: geometry.clone(), margin_mm, obstacles, self_pairs, tcps })
+        Ok(Self { model, geometry: geometry.clone(), margin_mm, obstacles, self_pairs, tcps, layout: None })
+    }
+
+    /// The checker of a chain other than the canonical cell (see the module docs).
+    fn for_any_chain(
+        model: &'a Model,
+        geometry: &CellGeometry,
+        margin_mm: f64,
+        obstacles: Vec<Obstacle>,
+        tcps: Vec<(u32, Vector3<f64>)>,
+    ) -> Self {
+        use rand::{RngExt, SeedableRng};
+        let layout = ChainLayout::new(model, tcps.len());
+        let mut me = Self {
+            model,
+            geometry: geometry.clone(),
+            margin_mm,
+            obstacles,
+            self_pairs: Vec::new(),
+            tcps,
+            layout: Some(layout.clone()),
+        };
+        let n_bodies = layout.links.len();
+        let mut pairs: Vec<(usize, usize)> = Vec::new();
+        for i in 0..n_bodies {
+            for j in i + 1..n_bodies {
+                if layout.links[i].abs_diff(layout.links[j]) >= 2 {
+                    pairs.push((i, j));
+                }
+            }
+        }
+        // drop the pairs that touch in every sampled configuration (touching by construction)
+        let mut always = vec![true; pairs.len()];
+        let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(0x5eed);
+        for _ in 0..ALWAYS_TOUCHING_SAMPLES {
+            let mut q = JointVector::zeros(model.joint_count());
+            for (k, (lo, hi)) in model.joint_limits().iter().enumerate() {
+                q[k] = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
+            }
+            let bodies = me.bodies(&model.chain(&q));
+            for (a, &(i, j)) in always.iter_mut().zip(&pairs) {
+                if *a && !bodies_intersect(&bodies[i], &bodies[j]) {
+                    *a = false;
+                }
+            }
+        }
+        me.self_pairs = pairs.into_iter().zip(always).filter(|(_, a)| !a).map(|(p, _)| p).collect();
+        me
     }
 
     /// The model whose chain places the bodies.
@@ -217,6 +333,12 @@ impl<'a> CollisionChecker<'a> {
 
     /// Name of body `i`.
     fn body_name(&self, i: usize) -> String {
+        if let Some(layout) = &self.layout {
+            return match layout.names.get(i) {
+                Some(n) => n.clone(),
+                None => format!("ball{}", self.tcps.get(i - layout.names.len()).map_or(0, |t| t.0)),
+            };
+        }
         match BODY_NAMES.get(i) {
             Some(n) => (*n).to_string(),
             None => format!("ball{}", self.tcps.get(i - BODY_NAMES.len()).map_or(0, |t| t.0)),
@@ -225,9 +347,11 @@ impl<'a> CollisionChecker<'a> {
 
     /// Places every body for `chain`.
     fn bodies(&self, chain: &Chain) -> Vec<Body> {
+        if let Some(layout) = &self.layout {
+            return self.chain_bodies(layout, chain);
+        }
         let m = self.margin_mm;
         let r = &self.geometry.robot;
-        let e = &self.geometry.end_effector;
         let f = &chain.frames;
         let row2 = self.model.row(2);
         let base = f[1]
@@ -239,22 +363,8 @@ impl<'a> CollisionChecker<'a> {
             radius: 0.5 * (b - a).norm() + radius + m,
             tcp: None,
         };
-        let cylinder = |frame: &Frame, from: f64, length: f64, radius: f64| {
-            let center = frame.p + frame.z_axis() * (from + 0.5 * length);
-            let half = 0.5 * length + m;
-            let rr = radius + m;
-            Body {
-                shape: Placed::Cylinder(
-                    Cylinder::new(half, rr),
-                    pose(&Frame { r: y_along_z(&frame.r), p: center }),
-                ),
-                center,
-                radius: half.hypot(rr),
-                tcp: None,
-            }
-        };
         // base: cylinder on z_B from the mounting face
-        out.push(cylinder(&base, 0.0, r.base_height_mm, r.base_radius_mm));
+        out.push(placed_cylinder(&base, 0.0, r.base_height_mm, r.base_radius_mm, m));
         // shoulder: capsule on the J2 axis (z_3) through the shoulder
         let (o3, z3) = (f[3].p, f[3].z_axis());
         let sh = r.shoulder_half_length_mm;
@@ -271,9 +381,15 @@ impl<'a> CollisionChecker<'a> {
         out.push(capsule(o6 - z6 * wh, o6 + z6 * wh, r.wrist_radius_mm));
         // flange: wrist centre to the flange face
         out.push(capsule(o6, f[7].p, r.flange_radius_mm));
-        // tool changer, plate, balls (tool frame)
-        let tool = &chain.tool;
-        out.push(cylinder(tool, 0.0, e.tool_changer_length_mm, e.tool_changer_radius_mm));
+        self.end_effector_bodies(&chain.tool, &mut out);
+        out
+    }
+
+    /// The tool changer, the plate and the balls (tool frame), appended to `out`.
+    fn end_effector_bodies(&self, tool: &Frame, out: &mut Vec<Body>) {
+        let m = self.margin_mm;
+        let e = &self.geometry.end_effector;
+        out.push(placed_cylinder(tool, 0.0, e.tool_changer_length_mm, e.tool_changer_radius_mm, m));
         let half = Vector3::from(e.plate_half_extents_mm).add_scalar(m);
         let plate_center = tool.transform_point(&self.geometry.plate_center());
         out.push(Body {
@@ -292,7 +408,42 @@ impl<'a> CollisionChecker<'a> {
                 tcp: Some(*id),
             });
         }
+    }
+
+    /// The bodies of a generic chain (see the module docs).
+    fn chain_bodies(&self, layout: &ChainLayout, chain: &Chain) -> Vec<Body> {
+        let radius = self.geometry.robot.chain_link_radius_mm + self.margin_mm;
+        let f = &chain.frames;
+        let mut out = Vec::with_capacity(layout.links.len());
+        for seg in &layout.segments {
+            let (a, b) = match *seg {
+                ChainSegment::A { row } => {
+                    let o = f[row - 1].p;
+                    (o, o + f[row - 1].r.column(0) * self.model.row(row).a)
+                }
+                ChainSegment::D { row } => {
+                    let o = f[row].p;
+                    (o - f[row].z_axis() * self.model.row(row).d, o)
+                }
+            };
+            out.push(Body {
+                shape: Placed::Capsule(Capsule::new(v(&a), v(&b), radius)),
+                center: 0.5 * (a + b),
+                radius: 0.5 * (b - a).norm() + radius,
+                tcp: None,
+            });
+        }
+        self.end_effector_bodies(&chain.tool, &mut out);
         out
+    }
+
+    /// True when body `i` sits on the mounting surface (not tested against the floor and the
+    /// guide box): the canonical base, or a body of link 0 or 1 of a generic chain.
+    fn mounted(&self, i: usize) -> bool {
+        match &self.layout {
+            Some(layout) => layout.links.get(i).is_some_and(|l| *l <= 1),
+            None => i == 0,
+        }
     }
 
     /// The first contact at `q` with the probe in state `probe`, or `None` when collision-free.
@@ -322,8 +473,10 @@ impl<'a> CollisionChecker<'a> {
             }
             let (shape_o, pose_o) = obstacle.shape.parts();
             for (i, b) in bodies.iter().enumerate() {
-                if i == 0 && obstacle.name == "guide" {
-                    // the base is bolted to the carriage, which is part of the guide box
+                if self.mounted(i)
+                    && (obstacle.name == "guide" || (self.layout.is_some() && obstacle.name == "floor"))
+                {
+                    // the base is bolted to the carriage (part of the guide box) / the table
                     continue;
                 }
                 if obstacle.probe_position.is_some()
@@ -342,17 +495,34 @@ impl<'a> CollisionChecker<'a> {
             }
         }
         for &(i, j) in &self.self_pairs {
-            let (a, b) = (&bodies[i], &bodies[j]);
-            if (a.center - b.center).norm() > a.radius + b.radius {
-                continue;
-            }
-            let (sa, pa) = a.shape.parts();
-            let (sb, pb) = b.shape.parts();
-            if intersects(&pa, sa, &pb, sb) {
+            if bodies_intersect(&bodies[i], &bodies[j]) {
                 return Some(Contact { body: self.body_name(i), other: self.body_name(j) });
             }
         }
         None
+    }
+}
+
+/// Bounding-sphere screen, then parry's intersection test.
+fn bodies_intersect(a: &Body, b: &Body) -> bool {
+    if (a.center - b.center).norm() > a.radius + b.radius {
+        return false;
+    }
+    let (sa, pa) = a.shape.parts();
+    let (sb, pb) = b.shape.parts();
+    intersects(&pa, sa, &pb, sb)
+}
+
+/// A cylinder on `frame`'s z axis from `from` over `length`, inflated by `margin`.
+fn placed_cylinder(frame: &Frame, from: f64, length: f64, radius: f64, margin: f64) -> Body {
+    let center = frame.p + frame.z_axis() * (from + 0.5 * length);
+    let half = 0.5 * length + margin;
+    let rr = radius + margin;
+    Body {
+        shape: Placed::Cylinder(Cylinder::new(half, rr), pose(&Frame { r: y_along_z(&frame.r), p: center })),
+        center,
+        radius: half.hypot(rr),
+        tcp: None,
     }
 }
 

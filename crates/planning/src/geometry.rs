@@ -55,6 +55,9 @@ pub struct RobotLinkGeometry {
     pub wrist_half_length_mm: f64,
     /// flange capsule radius (wrist centre to flange face)
     pub flange_radius_mm: f64,
+    /// any chain other than the canonical cell: radius of the capsules along the MDH `a` and
+    /// `d` offsets of every row (see `crate::collision`)
+    pub chain_link_radius_mm: f64,
 }
 
 impl Default for RobotLinkGeometry {
@@ -70,6 +73,7 @@ impl Default for RobotLinkGeometry {
             wrist_radius_mm: 22.0,
             wrist_half_length_mm: 25.0,
             flange_radius_mm: 20.0,
+            chain_link_radius_mm: 30.0,
         }
     }
 }
@@ -166,7 +170,8 @@ impl CellGeometry {
     pub fn validate(&self) -> Result<(), PlanError> {
         let r = &self.robot;
         let e = &self.end_effector;
-        let positive: [(&str, f64); 15] = [
+        let positive: [(&str, f64); 16] = [
+            ("robot_links.chain_link_radius_mm", r.chain_link_radius_mm),
             ("robot_links.base_radius_mm", r.base_radius_mm),
             ("robot_links.base_height_mm", r.base_height_mm),
             ("robot_links.shoulder_radius_mm", r.shoulder_radius_mm),

@@ -801,6 +801,41 @@ impl<'a> ModelIk<'a> {
         }
         guide_positions_mm.iter().flat_map(|g| self.solve_at_guide(*g, target)).collect()
     }
+
+    /// One local solve ([`solve_local`]) from `q` so that the tool-changer frame reaches
+    /// `target`, with the guide joint (the first prismatic joint, if any) held at its value in
+    /// `q` and the other joints kept inside their limits; each revolute value of the result is
+    /// then moved by whole turns to the representative nearest its value in `q` (a short move
+    /// from `q`, e.g. to a retreat pose). Works on any chain, closed form or not.
+    ///
+    /// # Errors
+    /// [`PlanError::IkNotConverged`] when the local solve misses the tolerances of `refine`.
+    pub fn refine_from(
+        &self,
+        q: &JointVector,
+        target: &Frame,
+        refine: &RefineOptions,
+    ) -> Result<JointVector, PlanError> {
+        let revolute = revolute_joints(self.model);
+        let guide = revolute.iter().position(|r| !r).map(|k| k + 1);
+        let free: Vec<usize> = (1..=revolute.len()).filter(|i| Some(*i) != guide).collect();
+        let specs: Vec<JointSpec> =
+            free.iter().map(|i| joint_spec(self.model, *i, revolute[i - 1])).collect();
+        let tool = ChainTool {
+            model: self.model,
+            fixed: *q,
+            free: free.clone(),
+            revolute: free.iter().map(|i| revolute[i - 1]).collect(),
+        };
+        let start: Vec<f64> = free.iter().map(|i| q.get(*i)).collect();
+        let r = solve_local(&tool, &specs, &start, &IkTarget::Pose(*target), refine)?;
+        let mut out = tool.joints(&r.q);
+        for i in free.into_iter().filter(|i| revolute[i - 1]) {
+            let q0 = q.get(i);
+            out.set(i, q0 + wrap_angle(out.get(i) - q0));
+        }
+        Ok(out)
+    }
 }
 
 /// Largest absolute componentwise difference of two joint vectors (internal units).

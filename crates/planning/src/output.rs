@@ -1,37 +1,62 @@
 //! Files written by `vatcal plan` (see `docs/planning.md`).
 //!
-//! * `candidates.csv`, `selected.csv`: `position,tcp,q1..q7` (mm, deg) — the candidate-pose
-//!   format of `docs/formats.md`;
-//! * `tour.csv`: `step,kind,position,tcp,q1..q7,time_s` — the executable tour;
+//! * `candidates.csv`, `selected.csv`: `position,tcp,q1..qN` (mm for prismatic, deg for
+//!   revolute joints; N = 7 on the canonical cell) — the candidate-pose format of
+//!   `docs/formats.md`;
+//! * `tour.csv`: `step,kind,position,tcp,q1..qN,time_s` — the executable tour;
 //! * `summary.json`: counts, observability indices, times ([`PlanSummary`]).
 
 use std::path::Path;
 
 use serde::Serialize;
-use vatcal_core::JointVector;
+use vatcal_core::{JointKind, JointVector};
 
 use crate::candidates::{Candidate, StageCounts};
 use crate::error::PlanError;
 use crate::plan::{Plan, Timing, TourStep, rrt_legs};
 
-const JOINT_COLUMNS: [&str; 7] = ["q1", "q2", "q3", "q4", "q5", "q6", "q7"];
+/// The canonical cell's joint kinds (guide + six revolute joints).
+const CANONICAL_KINDS: [JointKind; 7] = [
+    JointKind::Prismatic,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+];
+
+/// Column names `q1..qN`.
+fn joint_columns(n: usize) -> Vec<String> {
+    (1..=n).map(|i| format!("q{i}")).collect()
+}
 
 fn write_error(path: &Path, e: impl std::fmt::Display) -> PlanError {
     PlanError::Write { path: path.to_path_buf(), reason: e.to_string() }
 }
 
-fn joint_fields(q: &JointVector) -> impl Iterator<Item = String> {
-    q.to_mm_deg().into_iter().map(|v| v.to_string())
+fn joint_fields(q: &JointVector, kinds: &[JointKind]) -> impl Iterator<Item = String> {
+    q.to_file_units(kinds).into_iter().map(|v| v.to_string())
 }
 
-/// CSV text `position,tcp,q1..q7` of candidates (mm, deg, round-trip precision).
+/// CSV text `position,tcp,q1..q7` of candidates of the canonical cell (mm, deg, round-trip
+/// precision).
 pub fn candidates_csv<'a>(candidates: impl IntoIterator<Item = &'a Candidate>) -> Result<String, PlanError> {
+    candidates_csv_for(candidates, &CANONICAL_KINDS)
+}
+
+/// CSV text `position,tcp,q1..qN` of candidates of a chain with joints `kinds` (mm for
+/// prismatic, deg for revolute joints, round-trip precision).
+pub fn candidates_csv_for<'a>(
+    candidates: impl IntoIterator<Item = &'a Candidate>,
+    kinds: &[JointKind],
+) -> Result<String, PlanError> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    let header = ["position", "tcp"].into_iter().chain(JOINT_COLUMNS);
+    let header = ["position".to_string(), "tcp".to_string()].into_iter().chain(joint_columns(kinds.len()));
     let e = |e: csv::Error| PlanError::Write { path: "<memory>".into(), reason: e.to_string() };
     w.write_record(header).map_err(e)?;
     for c in candidates {
-        let rec = [c.position.to_string(), c.tcp.to_string()].into_iter().chain(joint_fields(&c.q));
+        let rec = [c.position.to_string(), c.tcp.to_string()].into_iter().chain(joint_fields(&c.q, kinds));
         w.write_record(rec).map_err(e)?;
     }
     let bytes =
@@ -39,16 +64,25 @@ pub fn candidates_csv<'a>(candidates: impl IntoIterator<Item = &'a Candidate>) -
     String::from_utf8(bytes).map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })
 }
 
-/// CSV text of the tour: `step,kind,position,tcp,q1..q7,time_s`.
+/// CSV text of the tour of the canonical cell: `step,kind,position,tcp,q1..q7,time_s`.
 pub fn tour_csv(steps: &[TourStep]) -> Result<String, PlanError> {
+    tour_csv_for(steps, &CANONICAL_KINDS)
+}
+
+/// CSV text of the tour of a chain with joints `kinds`: `step,kind,position,tcp,q1..qN,time_s`.
+pub fn tour_csv_for(steps: &[TourStep], kinds: &[JointKind]) -> Result<String, PlanError> {
     let mut w = csv::Writer::from_writer(Vec::new());
     let e = |e: csv::Error| PlanError::Write { path: "<memory>".into(), reason: e.to_string() };
-    let header = ["step", "kind", "position", "tcp"].into_iter().chain(JOINT_COLUMNS).chain(["time_s"]);
+    let header = ["step", "kind", "position", "tcp"]
+        .into_iter()
+        .map(String::from)
+        .chain(joint_columns(kinds.len()))
+        .chain(["time_s".to_string()]);
     w.write_record(header).map_err(e)?;
     for (k, s) in steps.iter().enumerate() {
         let rec = [k.to_string(), s.kind.name().to_string(), s.position.to_string(), s.tcp.to_string()]
             .into_iter()
-            .chain(joint_fields(&s.q))
+            .chain(joint_fields(&s.q, kinds))
             .chain([format!("{:.3}", s.time_s)]);
         w.write_record(rec).map_err(e)?;
     }
@@ -206,10 +240,11 @@ fn write_text(path: &Path, text: &str) -> Result<(), PlanError> {
 /// into `dir` (created if missing). Returns the summary.
 pub fn write_plan(plan: &Plan, dir: &Path) -> Result<PlanSummary, PlanError> {
     std::fs::create_dir_all(dir).map_err(|e| write_error(dir, e))?;
-    write_text(&dir.join("candidates.csv"), &candidates_csv(&plan.candidates.candidates)?)?;
+    let kinds = &plan.candidates.joint_kinds;
+    write_text(&dir.join("candidates.csv"), &candidates_csv_for(&plan.candidates.candidates, kinds)?)?;
     let selected = plan.order.iter().map(|&i| &plan.candidates.candidates[i]);
-    write_text(&dir.join("selected.csv"), &candidates_csv(selected)?)?;
-    write_text(&dir.join("tour.csv"), &tour_csv(&plan.steps)?)?;
+    write_text(&dir.join("selected.csv"), &candidates_csv_for(selected, kinds)?)?;
+    write_text(&dir.join("tour.csv"), &tour_csv_for(&plan.steps, kinds)?)?;
     let summary = PlanSummary::of(plan);
     let json =
         serde_json::to_string_pretty(&summary).map_err(|e| write_error(&dir.join("summary.json"), e))?;

@@ -99,7 +99,7 @@ pub fn segment_contact(
     probe: ProbeState,
     resolution: &Resolution,
 ) -> Option<Contact> {
-    let n = resolution.intervals(a, b);
+    let n = resolution.intervals_for(a, b, checker.model().joint_kinds());
     (0..=n).find_map(|i| checker.check(&interpolate(a, b, i as f64 / n as f64), probe))
 }
 
@@ -197,12 +197,13 @@ enum Extend {
 
 impl Rrt<'_, '_> {
     fn distance(&self, a: &JointVector, b: &JointVector) -> f64 {
-        (0..7).map(|k| ((b[k] - a[k]) / self.timer.speed[k]).powi(2)).sum::<f64>().sqrt()
+        let n = self.timer.joints.min(a.len()).min(b.len());
+        (0..n).map(|k| ((b[k] - a[k]) / self.timer.speed[k]).powi(2)).sum::<f64>().sqrt()
     }
 
     fn sample(&self, rng: &mut ChaCha8Rng) -> JointVector {
-        let mut q = JointVector::default();
-        for (k, (lo, hi)) in self.bounds.bounds.iter().enumerate() {
+        let mut q = JointVector::zeros(self.bounds.len);
+        for (k, (lo, hi)) in self.bounds.as_slice().iter().enumerate() {
             q[k] = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
         }
         q

@@ -26,7 +26,10 @@ pub struct PlanOptions {
     pub candidates: CandidateOptions,
     /// number of measurements to select (paper: 40)
     pub count: usize,
-    /// parameters the selection must identify (default: the paper's 34)
+    /// parameters the selection must identify (default: the paper's 34); an empty set means
+    /// the model's default set for the candidates
+    /// (`vatcal_observability::identifiability::default_params`: the paper's 34 on the
+    /// canonical cell, the identifiable basis of all parameters on any other chain)
     pub params: ParamSet,
     /// Detmax restarts
     pub detmax_restarts: usize,
@@ -157,6 +160,9 @@ pub struct Plan {
     pub steps: Vec<TourStep>,
     /// durations
     pub timing: Timing,
+    /// the parameters the selection identifies ([`PlanOptions::params`], or the model's
+    /// default set when that was empty)
+    pub params: ParamSet,
 }
 
 impl Plan {
@@ -192,7 +198,7 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
     if opts.count == 0 {
         return Err(PlanError::Option { option: "count".into(), reason: "must be at least 1".into() });
     }
-    let timer = MotionTimer::from_limits(&opts.motion)?;
+    let timer = MotionTimer::for_model(&opts.motion, model)?;
     let checker = CollisionChecker::new(model, geometry, opts.candidates.collision_margin_mm)?;
     let cand_opts = CandidateOptions { seed: opts.seed, ..opts.candidates.clone() };
     let candidates = generate_candidates(model, &checker, &cand_opts)?;
@@ -204,13 +210,57 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
             candidates.counts
         )));
     }
+    let resolved;
+    let opts = if opts.params.is_empty() {
+        let measurements: Vec<Measurement> =
+            candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+        let params = vatcal_observability::identifiability::default_params(model, &measurements)
+            .map_err(PlanError::Selection)?;
+        let params = drop_unloaded_compliances(model, &measurements, &params);
+        resolved = PlanOptions { params, ..opts.clone() };
+        &resolved
+    } else {
+        opts
+    };
     let (selected, quality) = select(model, &candidates, opts)?;
     let order = order_tour(&candidates, &selected, &timer, opts);
     let bounds = JointBounds::new(model, MOVE_MARGIN_DEG.min(opts.candidates.joint_margin_deg), 0.0)?;
     let legs = plan_legs(&checker, &bounds, &timer, &candidates, &order, opts)?;
     let steps = build_steps(&candidates, &order, &legs, &timer, opts.start.is_some());
     let timing = timing(&candidates, &selected, &order, &legs, &timer, opts);
-    Ok(Plan { candidates, selected, quality, order, legs, steps, timing })
+    Ok(Plan { candidates, selected, quality, order, legs, steps, timing, params: opts.params.clone() })
+}
+
+/// Smallest gravity torque (N·m) a joint must carry at some measurement for its compliance to
+/// stay in a default parameter set (see [`drop_unloaded_compliances`]).
+pub const MIN_COMPLIANCE_TORQUE_N_M: f64 = 1e-6;
+
+/// `params` without the compliances `c_i` of joints whose gravity torque stays below
+/// [`MIN_COMPLIANCE_TORQUE_N_M`] at every measurement (e.g. a vertical first axis: its column
+/// is rounding noise, which a unit-norm rank test mistakes for an identifiable parameter and
+/// which stalls the identification). The order of the others is kept.
+pub fn drop_unloaded_compliances(model: &Model, measurements: &[Measurement], params: &ParamSet) -> ParamSet {
+    let mut max_torque = [0.0f64; vatcal_core::MAX_JOINTS];
+    for m in measurements {
+        if model.check_joint_count(&m.q).is_err() {
+            continue;
+        }
+        for (t, v) in max_torque.iter_mut().zip(model.gravity_torques(&m.q)) {
+            *t = t.max(v.abs());
+        }
+    }
+    ParamSet(
+        params
+            .iter()
+            .copied()
+            .filter(|p| match p {
+                vatcal_core::ParamId::Compliance(i) => max_torque
+                    .get(usize::from(*i).wrapping_sub(1))
+                    .is_some_and(|t| *t >= MIN_COMPLIANCE_TORQUE_N_M),
+                _ => true,
+            })
+            .collect(),
+    )
 }
 
 fn select(

@@ -5,6 +5,9 @@
 //! in-process virtual cell); this module parses the arguments, draws the progress bars
 //! ([`BarProgress`], also used by `vatcal campaign`), prints one line per stage and the
 //! before/after table. See `docs/campaign.md`.
+//!
+//! A cell file that is not the canonical Meca500-on-guide cell (`--cell fixtures/ur5e.toml`)
+//! runs the model-level demo of `vatcal_demo::any_chain` (`docs/virtual-cell.md`).
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -92,9 +95,14 @@ pub struct Args {
     /// Report folder (created if missing; the demo's files in it are replaced).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Nominal cell file (default: the built-in fixtures/meca500-zaber.toml).
-    #[arg(long, value_name = "CELL.toml")]
+    /// Nominal cell file (default: the built-in fixtures/meca500-zaber.toml); any serial chain
+    /// other than the canonical cell runs the model-level demo.
+    #[arg(long, visible_alias = "cell", value_name = "CELL.toml")]
     pub model: Option<PathBuf>,
+    /// Small sizes for a quick look (any chain other than the canonical cell: 20 orientations,
+    /// 3 guide steps, 200 validation poses; the canonical cell: ignored, give the sizes).
+    #[arg(long)]
+    pub quick: bool,
     /// Random tool orientations per TCP × calibration position for the candidates.
     #[arg(long, default_value_t = 500)]
     pub orientations: usize,
@@ -129,6 +137,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.model {
         opts.nominal = CellFile::load(path)?;
         opts.nominal_source = path.display().to_string();
+        let model = vatcal_kinematics::Model::from_cell(&opts.nominal)
+            .with_context(|| format!("{}: cannot build the model", path.display()))?;
+        if !model.is_meca500_on_guide() {
+            return run_any_chain(&args, opts.nominal, path.display().to_string(), &model);
+        }
     }
     opts.sizes.orientations = args.orientations;
     opts.sizes.guide_steps = args.guide_steps;
@@ -152,6 +165,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let total: f64 = outcome.stage_seconds.iter().map(|(_, s)| s).sum();
     println!(
         "\ndone in {total:.1} s; see {} (summary.md, report.json, plots, calibrated.toml)",
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// The model-level demo of a chain other than the canonical cell.
+fn run_any_chain(
+    args: &Args,
+    nominal: CellFile,
+    source: String,
+    model: &vatcal_kinematics::Model,
+) -> anyhow::Result<()> {
+    use vatcal_demo::any_chain::{AnyChainDemoOptions, comparison_table, run_any_chain_demo};
+    let mut opts = AnyChainDemoOptions::new(args.seed, nominal, source);
+    opts.orientations = args.orientations;
+    opts.guide_steps = args.guide_steps;
+    opts.count = args.count;
+    opts.validation_poses = args.random_poses;
+    if args.quick {
+        opts = opts.quick();
+    }
+    println!(
+        "vatcal demo: model-level simulated calibration of {} ({}, seed {}), report in {}",
+        opts.nominal_source,
+        model.describe_chain(),
+        args.seed,
+        args.out.display()
+    );
+    let outcome = run_any_chain_demo(&opts, &args.out, &mut |line| println!("  {line}"))
+        .with_context(|| format!("demo (seed {}, report folder {})", args.seed, args.out.display()))?;
+    println!();
+    print!("{}", comparison_table(&outcome.report));
+    let total: f64 = outcome.report.stage_seconds.iter().map(|(_, s)| s).sum();
+    println!(
+        "\ndone in {total:.1} s; see {} (summary.md, report.json, plan/, calibrated.toml)",
         args.out.display()
     );
     Ok(())

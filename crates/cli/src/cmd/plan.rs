@@ -1,7 +1,8 @@
 //! `vatcal plan`: plan a measurement campaign (candidates, Detmax, tour, paths).
 //!
 //! Writes `candidates.csv`, `selected.csv`, `tour.csv` and `summary.json` into `--out` and
-//! prints the summary. See `docs/planning.md`.
+//! prints the summary. Works on any serial chain of the cell file (joint columns `q1..qN`).
+//! See `docs/planning.md`.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -23,7 +24,7 @@ pub struct Args {
     /// Random tool orientations per TCP × calibration position.
     #[arg(long, default_value_t = 500)]
     pub orientations: usize,
-    /// Guide positions over the stroke.
+    /// Guide positions over the stroke (of the first prismatic joint; ignored without one).
     #[arg(long, default_value_t = 10)]
     pub guide_steps: usize,
     /// Number of measurements to select.
@@ -47,12 +48,14 @@ pub struct Args {
     /// Safety distance added around every robot body in collision checks [mm].
     #[arg(long, default_value_t = 2.0)]
     pub collision_margin_mm: f64,
-    /// Parameters the selection must identify: `paper34`, `geometric` or a comma list of names.
-    #[arg(long, default_value = "paper34")]
+    /// Parameters the selection must identify: `default` (`paper34` on the canonical
+    /// Meca500-on-guide cell, the identifiable basis of all parameters for the candidates on any
+    /// other chain), `paper34`, `geometric` or a comma list of names.
+    #[arg(long, default_value = "default")]
     pub params: String,
-    /// Robot joints at the start of the campaign, `q1,...,q7` in mm / deg (default: start at
-    /// the first measurement).
-    #[arg(long, value_name = "Q1,..,Q7")]
+    /// Robot joints at the start of the campaign, `q1,...,qN` in mm (prismatic) / deg (revolute)
+    /// (default: start at the first measurement).
+    #[arg(long, value_name = "Q1,..,QN")]
     pub start: Option<String>,
     /// Output directory.
     #[arg(long, value_name = "DIR")]
@@ -72,15 +75,18 @@ fn parse_start(text: &str, model: &Model) -> anyhow::Result<JointVector> {
                 .with_context(|| format!("--start: q{} = `{}` is not a number", k + 1, s.trim()))
         })
         .collect::<anyhow::Result<_>>()?;
-    let [q1, arm @ ..] = values.as_slice() else {
-        anyhow::bail!("--start needs 7 values q1..q7 (mm, deg), got none");
-    };
-    let arm: [f64; 6] = arm
-        .try_into()
-        .map_err(|_| anyhow::anyhow!("--start needs 7 values q1..q7 (mm, deg), got {}", values.len()))?;
-    let q = JointVector::from_mm_deg(*q1, arm);
+    let n = model.joint_count();
+    if values.len() != n {
+        anyhow::bail!(
+            "--start needs {n} values q1..q{n} (mm for prismatic, deg for revolute joints), got {}",
+            values.len()
+        );
+    }
+    let q = JointVector::from_file_units(&values, model.joint_kinds())
+        .map_err(|e| anyhow::anyhow!("--start: {e}"))?;
     if let Some((j, v, lo, hi)) = model.limit_violation(&q) {
-        let unit = |x: f64| if j == 1 { format!("{x} mm") } else { format!("{} deg", x.to_degrees()) };
+        let revolute = model.is_revolute(j);
+        let unit = |x: f64| if revolute { format!("{} deg", x.to_degrees()) } else { format!("{x} mm") };
         anyhow::bail!("--start: q{j} = {} is outside its limits {}..{}", unit(v), unit(lo), unit(hi));
     }
     Ok(q)
@@ -92,7 +98,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let model = Model::from_cell(&cell)
         .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let geometry = CellGeometry::from_cell(&cell).with_context(|| format!("{}", args.model.display()))?;
-    let params = ParamSet::parse(&args.params).map_err(|e| anyhow::anyhow!("--params: {e}"))?;
+    let params = match args.params.trim() {
+        // resolved on the candidates by plan_campaign (paper34 on the canonical cell)
+        "default" if model.is_meca500_on_guide() => ParamSet::paper34(),
+        "default" => ParamSet(Vec::new()),
+        spec => ParamSet::parse(spec).map_err(|e| anyhow::anyhow!("--params: {e}"))?,
+    };
     let start = args.start.as_deref().map(|s| parse_start(s, &model)).transpose()?;
     let opts = PlanOptions {
         candidates: CandidateOptions {

@@ -112,3 +112,65 @@ fn demo_reports_bad_arguments() {
     assert!(stderr.contains("`count`: must be at least 1"), "{stderr}");
     assert!(!dir.path().join("demo").join("plan").exists(), "nothing was planned");
 }
+
+fn fixture(name: &str) -> String {
+    format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `vatcal plan` on a version-2 fixture (the Meca500 on a table: no guide, numerical IK) writes
+/// a plan whose files have the chain's `q1..q6` columns; `vatcal demo --cell` on the UR5e
+/// fixture runs the model-level demo (`--quick`) and calibrates to the tracker's noise level.
+#[test]
+fn plan_and_demo_run_on_any_chain() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let plan = dir.path().join("plan");
+    let o = Command::new(env!("CARGO_BIN_EXE_vatcal"))
+        .args(["plan", "--model", &fixture("meca500-table.toml"), "--orientations", "12", "--count", "40"])
+        .args([
+            "--detmax-restarts",
+            "1",
+            "--restarts",
+            "2",
+            "--quiet",
+            "--out",
+            plan.to_str().expect("utf-8"),
+        ])
+        .output()
+        .expect("run vatcal");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "stdout:\n{stdout}\nstderr:\n{}", String::from_utf8_lossy(&o.stderr));
+    let selected = std::fs::read_to_string(plan.join("selected.csv")).expect("selected.csv");
+    assert!(selected.starts_with("position,tcp,q1,q2,q3,q4,q5,q6\n"), "{selected:.60}");
+    assert_eq!(selected.lines().count(), 41);
+    let cell = CellFile::load(fixture("meca500-table.toml")).expect("fixture");
+    let model = Model::from_cell(&cell).expect("model");
+    let table = vatcal_io::read_candidates(plan.join("selected.csv"), &model).expect("read back");
+    for m in &table.measurements {
+        let p = m.position().expect("probe row");
+        let err =
+            (model.tcp_position(&m.q, m.tcp).expect("fk") - model.position(p).expect("position")).norm();
+        assert!(err < 1e-6, "selected pose {err} mm off its position");
+    }
+
+    let demo = dir.path().join("demo");
+    let o = Command::new(env!("CARGO_BIN_EXE_vatcal"))
+        .args(["demo", "--cell", &fixture("ur5e.toml"), "--quick", "--quiet", "--seed", "2"])
+        .args(["--out", demo.to_str().expect("utf-8")])
+        .output()
+        .expect("run vatcal");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "stdout:\n{stdout}\nstderr:\n{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("model-level"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(demo.join("report.json")).expect("report.json"))
+            .expect("json");
+    assert_eq!(json["format"], "vatcal-demo-any-chain-report/1");
+    assert_eq!(json["measurements"], 40);
+    let before = json["nominal"]["mean_mm"].as_f64().expect("nominal");
+    let after = json["calibrated"]["mean_mm"].as_f64().expect("calibrated");
+    eprintln!("ur5e demo (seed 2, quick): {before} mm -> {after} mm");
+    assert!(before > 0.3 && after < 0.04, "{before} mm -> {after} mm");
+    for f in ["summary.md", "calibrated.toml", "truth.toml", "plan/tour.csv"] {
+        assert!(demo.join(f).is_file(), "{f} missing");
+    }
+}

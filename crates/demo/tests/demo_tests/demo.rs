@@ -115,3 +115,56 @@ fn the_same_seed_gives_the_same_report() {
         first.report.validation.models[0].random.stats
     );
 }
+
+/// The model-level demo of any chain (`vatcal_demo::any_chain`, `--quick` sizes) on a
+/// version-2 fixture: the calibrated model predicts the held-out tracker poses of the hidden
+/// truth at the noise level, far better than the nominal model.
+fn any_chain_demo(fixture: &str, seed: u64) {
+    use vatcal_demo::any_chain::{AnyChainDemoOptions, run_any_chain_demo};
+    let path = format!("{}/../../fixtures/{fixture}", env!("CARGO_MANIFEST_DIR"));
+    let cell = CellFile::load(&path).expect("fixture");
+    let opts = AnyChainDemoOptions::new(seed, cell, fixture).quick();
+    let dir = tempfile::tempdir().expect("tmp");
+    let out =
+        run_any_chain_demo(&opts, dir.path(), &mut |line| eprintln!("{fixture}: {line}")).expect("demo");
+    let r = &out.report;
+    eprintln!("{fixture}: {}", vatcal_demo::any_chain::comparison_table(r));
+    assert!(r.converged);
+    assert_eq!(r.measurements, r.measurements_planned, "every planned pose measured");
+    assert_eq!(r.measurements, 40);
+    // the recorded joints put the truth's ball on the probe origin up to the noise
+    for m in &out.measurements {
+        let residual = out.truth.residual(m).expect("residual").norm();
+        assert!(residual < 0.02, "{fixture}: truth residual {residual} mm");
+    }
+    // tracker noise 10 µm per axis: a perfect model has a mean error of about 16 µm
+    let floor = 0.01 * (8.0 / std::f64::consts::PI).sqrt();
+    assert!(r.nominal.mean_mm > 0.3, "{fixture}: nominal {} mm", r.nominal.mean_mm);
+    assert!(
+        r.calibrated.mean_mm < 2.0 * floor,
+        "{fixture}: calibrated {} mm (floor {floor})",
+        r.calibrated.mean_mm
+    );
+    assert!(r.calibrated.mean_mm > 0.5 * floor, "{fixture}: below the tracker noise?");
+    for f in &out.files {
+        assert!(dir.path().join(f).is_file(), "{} missing", f.display());
+    }
+    // same seed, same numbers
+    let dir2 = tempfile::tempdir().expect("tmp");
+    let again = run_any_chain_demo(&opts, dir2.path(), &mut |_| {}).expect("demo");
+    assert_eq!(again.report.calibrated, r.calibrated);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("report.json")).expect("json"),
+        std::fs::read_to_string(dir2.path().join("report.json")).expect("json")
+    );
+}
+
+#[test]
+fn any_chain_demo_calibrates_the_ur5e_fixture() {
+    any_chain_demo("ur5e.toml", 1);
+}
+
+#[test]
+fn any_chain_demo_calibrates_the_meca500_table_fixture() {
+    any_chain_demo("meca500-table.toml", 1);
+}

@@ -33,7 +33,12 @@ fn joints() -> impl Strategy<Value = JointVector> {
 /// the eight solutions of the spherical wrist, so "the original is among the 8 branches" only
 /// holds outside that band (candidates keep 10° from it).
 fn regular(model: &Model, q: &JointVector) -> bool {
-    let margins = SingularityMargins { wrist_deg: 5.0, elbow_deg: 2.0, shoulder_mm: 5.0 };
+    let margins = SingularityMargins {
+        wrist_deg: 5.0,
+        elbow_deg: 2.0,
+        shoulder_mm: 5.0,
+        ..SingularityMargins::default()
+    };
     margins.clear(model, &model.chain(q))
 }
 

@@ -24,7 +24,7 @@ fn small(seed: u64, start: Option<JointVector>) -> PlanOptions {
 
 fn free_segment(checker: &CollisionChecker<'_>, a: &JointVector, b: &JointVector, probe: ProbeState) -> bool {
     let res = Resolution::default();
-    let n = res.intervals(a, b);
+    let n = res.intervals_for(a, b, checker.model().joint_kinds());
     (0..=n).all(|i| checker.is_free(&interpolate(a, b, i as f64 / n as f64), probe))
 }
 
@@ -165,4 +165,73 @@ fn too_few_candidates_is_a_clear_error() {
     };
     let err = plan_campaign(&model, &geometry, &opts).expect_err("too few");
     assert!(err.to_string().contains("requested measurements"), "{err}");
+}
+
+/// A small plan on a version-2 fixture (any chain: numerical IK, generic collision bodies,
+/// default parameter set), every candidate checked by forward kinematics, the tour replayed and
+/// the files read back with the fixture's `q1..qN` columns.
+fn any_chain_plan(fixture: &str, seed: u64) {
+    let path = format!("{}/../../fixtures/{fixture}", env!("CARGO_MANIFEST_DIR"));
+    let cell = vatcal_core::CellFile::load(&path).expect("fixture");
+    let model = Model::from_cell(&cell).expect("model");
+    assert!(!model.is_meca500_on_guide());
+    let geometry = CellGeometry::from_cell(&cell).expect("geometry");
+    let opts = PlanOptions {
+        candidates: CandidateOptions { orientations: 12, guide_steps: 3, ..CandidateOptions::default() },
+        params: vatcal_core::ParamSet(Vec::new()),
+        detmax_restarts: 1,
+        tour_restarts: 2,
+        motion: cell.motion_limits(),
+        seed,
+        ..PlanOptions::default()
+    };
+    let plan = plan_campaign(&model, &geometry, &opts).expect("plan");
+    eprintln!(
+        "{fixture}: {:?}, {} parameters: {}",
+        plan.candidates.counts,
+        plan.params.len(),
+        plan.params.names().join(",")
+    );
+    assert!(plan.candidates.guide_positions_mm.is_empty());
+    assert!(plan.params.len() >= 20, "default set of {} parameters", plan.params.len());
+    assert_eq!(plan.selected.len(), 40);
+    assert_eq!(plan.quality.raw.rank, plan.params.len(), "the selection identifies the default set");
+    let counts = plan.candidates.counts;
+    assert!(counts.ik_solutions > counts.retreat_clear && counts.retreat_clear >= 40, "{counts:?}");
+    let checker = CollisionChecker::new(&model, &geometry, 2.0).expect("checker");
+    for c in &plan.candidates.candidates {
+        // IK vs FK: the TCP on its calibration position, joints inside the limits
+        let err =
+            (model.tcp_position(&c.q, c.tcp).expect("fk") - model.position(c.position).expect("p")).norm();
+        assert!(err < 1e-6, "candidate TCP {err} mm off its position");
+        assert!(model.limit_violation(&c.q).is_none() && model.limit_violation(&c.retreat).is_none());
+        let up = model.tcp_position(&c.retreat, c.tcp).expect("fk") - model.position(c.position).expect("p");
+        assert!((up - nalgebra::Vector3::new(0.0, 0.0, 30.0)).norm() < 1e-6, "retreat {up}");
+        assert!(checker.is_free(&c.q, ProbeState::Measuring { position: c.position, tcp: c.tcp }));
+    }
+    replay(&model, &geometry, &plan, None);
+    let dir = std::env::temp_dir().join(format!("vatcal-plan-{fixture}-{}", std::process::id()));
+    write_plan(&plan, &dir).expect("write");
+    let n = model.joint_count();
+    let header: Vec<String> = (1..=n).map(|i| format!("q{i}")).collect();
+    let tour = std::fs::read_to_string(dir.join("tour.csv")).expect("tour");
+    assert!(tour.starts_with(&format!("step,kind,position,tcp,{},time_s\n", header.join(","))), "{tour:.80}");
+    let table = vatcal_io::read_candidates(dir.join("selected.csv"), &model).expect("read back");
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(table.measurements.len(), 40);
+    for (m, &i) in table.measurements.iter().zip(&plan.order) {
+        let c = &plan.candidates.candidates[i];
+        let diff = m.q.as_slice().iter().zip(c.q.as_slice()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(diff < 1e-12, "round trip changed the joints by {diff}");
+    }
+}
+
+#[test]
+fn any_chain_plans_on_the_ur5e_fixture() {
+    any_chain_plan("ur5e.toml", 3);
+}
+
+#[test]
+fn any_chain_plans_on_the_meca500_table_fixture() {
+    any_chain_plan("meca500-table.toml", 4);
 }
