@@ -12,7 +12,9 @@ use vatcal_kinematics::Model;
 #[test]
 fn the_printing_path_lands_with_the_calibrated_error_when_compensated() {
     let dir = tempfile::tempdir().expect("tmp");
-    let opts = DemoOptions::new(3).expect("built-in cell");
+    let mut opts = DemoOptions::new(3).expect("built-in cell");
+    // the compensation uses the 34-parameter model; the discovery stage is tested in discovery.rs
+    opts.discovery = false;
     let out = run_demo(&opts, dir.path(), &mut |_| {}).expect("demo");
     let c = &out.report.compensation;
     eprintln!("{c:#?}");
