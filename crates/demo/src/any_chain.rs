@@ -8,9 +8,9 @@
 //!
 //! 1. **plan**: [`vatcal_planning::plan_campaign`] on the nominal model (candidates with the
 //!    numerical IK, Detmax on the chain's default parameter set, tour, collision-free paths);
-//! 2. **hidden truth**: [`perturbed_chain_truth`] — the nominal model with seeded random errors
-//!    of the [`ErrorBudget`] size on every MDH row (this module's own generic version of
-//!    `vatcal_sim::truth::perturbed_truth`, which perturbs the canonical cell's rows);
+//! 2. **hidden truth**: [`vatcal_sim::truth::perturbed_truth`] — the nominal model with seeded
+//!    random errors of the [`ErrorBudget`] size on every MDH + beta row, the base pose, the
+//!    compliances, TCPs and calibration positions (its any-chain branch);
 //! 3. **measure** (model-level auto-centring): for every planned measurement, the true joints
 //!    that put the ball on the probe origin plus a gauge residual (Gaussian,
 //!    [`ModelLevelNoise::centring_sigma_mm`] per axis) with the tool orientation of the
@@ -35,7 +35,7 @@ use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use serde::Serialize;
-use vatcal_core::{CellFile, JointVector, Measurement, ParamId, deg_to_rad};
+use vatcal_core::{CellFile, JointVector, Measurement, deg_to_rad};
 use vatcal_identification::{IdentifyOptions, identify, validate};
 use vatcal_kinematics::Model;
 use vatcal_planning::candidates::CandidateOptions;
@@ -208,60 +208,6 @@ fn gauss(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
     Normal::new(0.0, sigma).map_or(0.0, |n| n.sample(rng))
 }
 
-/// The hidden truth of any chain: `nominal` with seeded Gaussian errors of `budget`'s size on
-/// `alpha`, `theta_offset` (angles) and `a`, `d` (lengths) of every MDH row, on `beta` of every
-/// row whose axis is parallel to the previous one (`|alpha| < 1°`, where beta is the Hayati
-/// parameter that makes the chain identifiable), on the base pose, and compliances drawn
-/// uniformly in `budget.compliance_range` on every revolute joint. TCPs and calibration
-/// positions get `budget.tcp_mm` / `budget.position_mm`. Deterministic for a seed.
-///
-/// A generic stand-in written for this demo: `vatcal_sim::truth::perturbed_truth` perturbs the
-/// canonical cell's rows 2..7.
-pub fn perturbed_chain_truth(nominal: &Model, seed: u64, budget: &ErrorBudget) -> Model {
-    use vatcal_core::params::BaseParam;
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut truth = nominal.clone();
-    let add = |truth: &mut Model, rng: &mut ChaCha8Rng, id: ParamId, sigma: f64| {
-        let noise = gauss(rng, sigma);
-        if let Ok(v) = truth.param(id) {
-            let _ = truth.set_param(id, v + noise);
-        }
-    };
-    for i in 1..=nominal.joint_count() as u8 {
-        add(&mut truth, &mut rng, ParamId::Alpha(i), budget.angle_rad);
-        add(&mut truth, &mut rng, ParamId::ThetaOffset(i), budget.angle_rad);
-        add(&mut truth, &mut rng, ParamId::A(i), budget.length_mm);
-        add(&mut truth, &mut rng, ParamId::D(i), budget.length_mm);
-        if i >= 2 && nominal.row(i as usize).alpha.abs() < deg_to_rad(1.0) {
-            add(&mut truth, &mut rng, ParamId::Beta(i), budget.angle_rad);
-        }
-    }
-    for b in [BaseParam::X, BaseParam::Y, BaseParam::Z] {
-        add(&mut truth, &mut rng, ParamId::Base(b), budget.base_translation_mm);
-    }
-    for b in [BaseParam::Alpha, BaseParam::Beta, BaseParam::Gamma] {
-        add(&mut truth, &mut rng, ParamId::Base(b), budget.base_angle_rad);
-    }
-    let (lo, hi) = budget.compliance_range;
-    for i in 1..=nominal.joint_count() {
-        if nominal.is_revolute(i) {
-            let c = if hi > lo { rng.random_range(lo..hi) } else { lo };
-            let _ = truth.set_param(ParamId::Compliance(i as u8), c);
-        }
-    }
-    for id in nominal.tcp_ids() {
-        for axis in vatcal_core::Axis::ALL {
-            add(&mut truth, &mut rng, ParamId::Tcp { id, axis }, budget.tcp_mm);
-        }
-    }
-    for id in nominal.position_ids() {
-        for axis in vatcal_core::Axis::ALL {
-            add(&mut truth, &mut rng, ParamId::Position { id, axis }, budget.position_mm);
-        }
-    }
-    truth
-}
-
 /// Model-level probe measurements (see the module docs, step 3): for each planned
 /// `(position, tcp, commanded joints)`, the truth's joints that put the ball centre on the
 /// probe origin plus the centring residual, with the commanded pose's tool orientation, then
@@ -402,7 +348,7 @@ pub fn run_any_chain_demo(
     ));
 
     // 2. truth, 3. measure
-    let truth = perturbed_chain_truth(&nominal, opts.seed, &opts.budget);
+    let truth = vatcal_sim::truth::perturbed_truth(&nominal, opts.seed, &opts.budget);
     let planned = plan.measurements();
     let measurements =
         model_level_probe_measurements(&truth, &planned, &opts.noise, opts.seed.wrapping_add(0x6d65_6173));
@@ -506,7 +452,7 @@ fn summary_markdown(r: &AnyChainReport) -> String {
     let _ = writeln!(m, "* nominal cell: {} → `nominal.toml`; hidden truth → `truth.toml`", r.nominal_cell);
     let _ = writeln!(
         m,
-        "* hidden truth: `perturbed_chain_truth` — σ {:.2} mm on MDH lengths, {:.3}° on MDH angles, {:.2} mm / \
+        "* hidden truth: `vatcal_sim::truth::perturbed_truth` — σ {:.2} mm on MDH lengths, {:.3}° on MDH angles, {:.2} mm / \
          {:.3}° on the base pose",
         r.truth_sigmas[0], r.truth_sigmas[1], r.truth_sigmas[2], r.truth_sigmas[3]
     );

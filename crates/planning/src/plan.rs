@@ -216,7 +216,6 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
             candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
         let params = vatcal_observability::identifiability::default_params(model, &measurements)
             .map_err(PlanError::Selection)?;
-        let params = drop_unloaded_compliances(model, &measurements, &params);
         resolved = PlanOptions { params, ..opts.clone() };
         &resolved
     } else {
@@ -229,38 +228,6 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
     let steps = build_steps(&candidates, &order, &legs, &timer, opts.start.is_some());
     let timing = timing(&candidates, &selected, &order, &legs, &timer, opts);
     Ok(Plan { candidates, selected, quality, order, legs, steps, timing, params: opts.params.clone() })
-}
-
-/// Smallest gravity torque (N·m) a joint must carry at some measurement for its compliance to
-/// stay in a default parameter set (see [`drop_unloaded_compliances`]).
-pub const MIN_COMPLIANCE_TORQUE_N_M: f64 = 1e-6;
-
-/// `params` without the compliances `c_i` of joints whose gravity torque stays below
-/// [`MIN_COMPLIANCE_TORQUE_N_M`] at every measurement (e.g. a vertical first axis: its column
-/// is rounding noise, which a unit-norm rank test mistakes for an identifiable parameter and
-/// which stalls the identification). The order of the others is kept.
-pub fn drop_unloaded_compliances(model: &Model, measurements: &[Measurement], params: &ParamSet) -> ParamSet {
-    let mut max_torque = [0.0f64; vatcal_core::MAX_JOINTS];
-    for m in measurements {
-        if model.check_joint_count(&m.q).is_err() {
-            continue;
-        }
-        for (t, v) in max_torque.iter_mut().zip(model.gravity_torques(&m.q)) {
-            *t = t.max(v.abs());
-        }
-    }
-    ParamSet(
-        params
-            .iter()
-            .copied()
-            .filter(|p| match p {
-                vatcal_core::ParamId::Compliance(i) => max_torque
-                    .get(usize::from(*i).wrapping_sub(1))
-                    .is_some_and(|t| *t >= MIN_COMPLIANCE_TORQUE_N_M),
-                _ => true,
-            })
-            .collect(),
-    )
 }
 
 fn select(
