@@ -149,7 +149,8 @@ fn gauss_newton_and_levenberg_marquardt_agree() {
     assert_eq!(gn.method, Method::GaussNewton);
     let gap = max_prediction_gap(&lm.model, &gn.model, &c.validation);
     assert!(gap < 1e-5, "noisy: LM and GN predictions differ by {gap:e} mm (noise 3e-3 mm)");
-    assert!(lm.rss <= gn.rss * (1.0 + 1e-12), "LM cost {} must not exceed GN's {}", lm.rss, gn.rss);
+    // (to round-off: here both end at the same point, 2.6e-12 apart relative on one build)
+    assert!(lm.rss <= gn.rss * (1.0 + 1e-10), "LM cost {} must not exceed GN's {}", lm.rss, gn.rss);
     assert!((lm.rss - gn.rss).abs() <= 1e-6 * lm.rss, "rss {} vs {}", lm.rss, gn.rss);
     for k in 0..params.len() {
         assert!((lm.sigma[k] - gn.sigma[k]).abs() <= 1e-3 * lm.sigma[k], "{}", params.0[k]);
