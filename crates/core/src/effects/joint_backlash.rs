@@ -4,11 +4,10 @@
 
 use super::{
     CandidateScope, ChainInfo, DataAvailability, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec,
-    ErrorEffect, Hook, entry_joint,
+    ErrorEffect, Hook, entry_joint, joint_param, revolute_joint,
 };
 use crate::cell::EffectEntry;
 use crate::params::{EffectParam, ParamId, ParamUnit};
-use crate::units::MAX_JOINTS;
 
 /// The `joint-backlash` effect.
 #[derive(Debug, Clone, Copy)]
@@ -53,8 +52,7 @@ impl ErrorEffect for JointBacklash {
         }
     }
     fn parse_param(&self, name: &str) -> Option<EffectParam> {
-        let j: u8 = name.strip_prefix("backlash")?.parse().ok()?;
-        (1..=MAX_JOINTS as u8).contains(&j).then_some(EffectParam::Backlash { joint: j })
+        joint_param(name, "backlash").map(|j| EffectParam::Backlash { joint: j })
     }
     fn param_unit(&self, _param: &EffectParam) -> ParamUnit {
         ParamUnit::Rad
@@ -69,11 +67,7 @@ impl ErrorEffect for JointBacklash {
         entry.joint = Some(joint_of(spec));
     }
     fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
-        if chain.is_revolute(joint_of(spec)) {
-            Ok(())
-        } else {
-            Err(format!("joint must be a revolute joint of this chain of {}", chain.describe()))
-        }
+        revolute_joint(joint_of(spec), chain)
     }
     fn scope(&self) -> CandidateScope {
         CandidateScope::PerRevoluteJoint

@@ -4,6 +4,7 @@
 
 use super::{
     CandidateScope, ChainInfo, DataUse, EffectDriver, EffectKind, EffectSpec, ErrorEffect, entry_joint,
+    revolute_joint,
 };
 use crate::cell::EffectEntry;
 use crate::params::ParamId;
@@ -65,11 +66,7 @@ impl ErrorEffect for JointCompliance {
         entry.joint = Some(joint_of(spec));
     }
     fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
-        if chain.is_revolute(joint_of(spec)) {
-            Ok(())
-        } else {
-            Err(format!("joint must be a revolute joint of this chain of {}", chain.describe()))
-        }
+        revolute_joint(joint_of(spec), chain)
     }
     fn scope(&self) -> CandidateScope {
         CandidateScope::PerRevoluteJoint

@@ -3,11 +3,10 @@
 
 use super::{
     CandidateScope, ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect,
-    Hook, entry_joint,
+    Hook, entry_joint, joint_param, revolute_joint,
 };
 use crate::cell::EffectEntry;
 use crate::params::{EffectParam, ParamId, ParamUnit};
-use crate::units::MAX_JOINTS;
 
 /// The `joint-scale` effect.
 #[derive(Debug, Clone, Copy)]
@@ -52,8 +51,7 @@ impl ErrorEffect for JointScale {
         }
     }
     fn parse_param(&self, name: &str) -> Option<EffectParam> {
-        let j: u8 = name.strip_prefix("scale")?.parse().ok()?;
-        (1..=MAX_JOINTS as u8).contains(&j).then_some(EffectParam::JointScale { joint: j })
+        joint_param(name, "scale").map(|j| EffectParam::JointScale { joint: j })
     }
     fn param_unit(&self, _param: &EffectParam) -> ParamUnit {
         ParamUnit::Ratio
@@ -68,11 +66,7 @@ impl ErrorEffect for JointScale {
         entry.joint = Some(joint_of(spec));
     }
     fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
-        if chain.is_revolute(joint_of(spec)) {
-            Ok(())
-        } else {
-            Err(format!("joint must be a revolute joint of this chain of {}", chain.describe()))
-        }
+        revolute_joint(joint_of(spec), chain)
     }
     fn scope(&self) -> CandidateScope {
         CandidateScope::PerRevoluteJoint

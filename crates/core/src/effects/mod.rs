@@ -24,6 +24,7 @@ use crate::cell::EffectEntry;
 use crate::measurement::{Measurement, MeasurementContext};
 use crate::params::{Axis, EffectParam, ParamId, ParamUnit};
 use crate::units::JointKind;
+use crate::units::MAX_JOINTS;
 
 /// Declares each effect's module and lists it in the registry: one line per effect,
 /// `module::Struct`, in catalog order (the order of the catalog table and of discovery's
@@ -626,6 +627,22 @@ pub fn candidates(chain: &ChainInfo<'_>, data: &DataUse) -> Vec<EffectSpec> {
 /// A joint number from an `[[effects]]` entry.
 pub(crate) fn entry_joint(e: &EffectEntry) -> Result<u8, String> {
     e.joint.ok_or_else(|| "needs `joint`".to_string())
+}
+
+/// The check of a per-joint effect that acts on a revolute joint: `Ok` when `joint` is one of
+/// `chain`'s revolute joints, the cell-file error otherwise.
+pub(crate) fn revolute_joint(joint: u8, chain: &ChainInfo<'_>) -> Result<(), String> {
+    if chain.is_revolute(joint) {
+        Ok(())
+    } else {
+        Err(format!("joint must be a revolute joint of this chain of {}", chain.describe()))
+    }
+}
+
+/// The joint of a per-joint parameter name `<prefix><joint>` (e.g. `scale3`), 1..=[`MAX_JOINTS`].
+pub(crate) fn joint_param(name: &str, prefix: &str) -> Option<u8> {
+    let j: u8 = name.strip_prefix(prefix)?.parse().ok()?;
+    (1..=MAX_JOINTS as u8).contains(&j).then_some(j)
 }
 
 #[cfg(test)]

@@ -6,11 +6,10 @@
 
 use super::{
     CandidateScope, ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect,
-    Hook, entry_joint,
+    Hook, entry_joint, joint_param, revolute_joint,
 };
 use crate::cell::EffectEntry;
 use crate::params::{EffectParam, ParamId, ParamUnit};
-use crate::units::MAX_JOINTS;
 
 /// This effect's id (unique among the extensions).
 pub const ID: u8 = 0;
@@ -65,8 +64,7 @@ impl ErrorEffect for JointQuadratic {
         }
     }
     fn parse_param(&self, name: &str) -> Option<EffectParam> {
-        let j: u8 = name.strip_prefix("quadratic")?.parse().ok()?;
-        (1..=MAX_JOINTS as u8).contains(&j).then_some(param(j))
+        joint_param(name, "quadratic").map(param)
     }
     fn param_unit(&self, _p: &EffectParam) -> ParamUnit {
         ParamUnit::Ratio
@@ -81,11 +79,7 @@ impl ErrorEffect for JointQuadratic {
         entry.joint = Some(joint_of(spec));
     }
     fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
-        if chain.is_revolute(joint_of(spec)) {
-            Ok(())
-        } else {
-            Err(format!("joint must be a revolute joint of this chain of {}", chain.describe()))
-        }
+        revolute_joint(joint_of(spec), chain)
     }
     fn scope(&self) -> CandidateScope {
         CandidateScope::PerRevoluteJoint
