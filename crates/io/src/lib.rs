@@ -24,7 +24,6 @@ use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
-use vatcal_core::effects::EffectSpec;
 use vatcal_core::{JointKind, JointVector, MAX_JOINTS, Measurement, MeasurementContext, Target};
 use vatcal_kinematics::Model;
 
@@ -275,14 +274,8 @@ impl Table {
     /// predictions there would silently use 0.
     fn check_model_columns(&self, model: &Model) -> Result<(), IoError> {
         for spec in model.effects() {
-            let columns: Vec<String> = match spec {
-                EffectSpec::JointBacklash { .. } => {
-                    dir_columns(model.joint_kinds()).into_iter().map(|(_, c)| c).collect()
-                }
-                _ => {
-                    vatcal_kinematics::effects::context_columns(spec).iter().map(|c| c.to_string()).collect()
-                }
-            };
+            let columns: Vec<String> =
+                vatcal_kinematics::effects::context_columns(spec).iter().map(|c| c.to_string()).collect();
             if columns.is_empty() {
                 continue;
             }
@@ -393,10 +386,12 @@ impl Table {
     fn context(&self, line: u64, rec: &csv::StringRecord) -> Result<MeasurementContext, IoError> {
         let time_s = self.optional_float(line, rec, "time_s")?;
         let temperature_c = self.optional_float(line, rec, "temperature_c")?;
+        // every `dir{i}` column of a revolute joint i the file has; a joint without one is 0
+        // (unknown); no direction data when the file has none of them
         let dir_cols = &self.dir_cols;
-        let dir = if !dir_cols.is_empty() && dir_cols.iter().all(|(_, c)| self.has(c)) {
+        let dir = if dir_cols.iter().any(|(_, c)| self.has(c)) {
             let mut d = [0i8; MAX_JOINTS];
-            for (joint, col) in dir_cols {
+            for (joint, col) in dir_cols.iter().filter(|(_, c)| self.has(c)) {
                 let v = self.float(line, rec, col)?;
                 d[joint - 1] = match v {
                     1.0 => 1,
@@ -999,6 +994,57 @@ mod tests {
         let f = file("tcp,q1,x,y,z,alpha,beta,gamma\n1,0,0,0,0,0,0,0\n");
         let e = read_pose_rows(f.path(), &ur).expect_err("not the guide cell").to_string();
         assert!(e.contains("Meca500-on-guide"), "{e}");
+    }
+
+    /// A backlash on joint i needs exactly the column `dir{i}`, on any chain: the error names
+    /// that column, and a file with only that direction column is read (the other revolute
+    /// joints' directions are then unknown, 0).
+    #[test]
+    fn a_backlash_needs_its_joints_dir_column_on_any_chain() {
+        use vatcal_core::effects::EffectSpec;
+        let mut ur = fixture_model("ur5e.toml");
+        ur.enable_effect(EffectSpec::JointBacklash { joint: 4 }).expect("backlash on joint 4");
+        let f = file("tcp,q1,q2,q3,q4,q5,q6,dir1,dir2,dir3,dir5,dir6\n1,10,-20,30,-40,50,-60,1,1,1,1,1\n");
+        let e = read_joint_rows(f.path(), &ur).expect_err("no dir4").to_string();
+        assert!(
+            e.contains(&format!(
+                "{}: the model's joint-backlash (joint 4) needs the column(s) dir4,",
+                f.path().display()
+            )),
+            "{e}"
+        );
+        let f = file("tcp,q1,q2,q3,q4,q5,q6,dir4,x,y,z\n1,10,-20,30,-40,50,-60,-1,1,2,3\n");
+        let ms = read_tracker_measurements(f.path(), &ur).expect("dir4 alone");
+        assert_eq!((ms[0].context.dir_of(4), ms[0].context.dir_of(3)), (-1, 0));
+        let f = file("tcp,q1,q2,q3,q4,q5,q6,dir4\n1,10,-20,30,-40,50,-60,\n");
+        let e = read_joint_rows(f.path(), &ur).expect_err("empty dir4").to_string();
+        assert!(
+            e.contains(":2: column `dir4`: empty, but the model's joint-backlash (joint 4) needs it"),
+            "{e}"
+        );
+        // a 12-joint chain: the column of joint 11
+        let cell = twelve_joint_cell();
+        let mut m = Model::from_cell(&cell).expect("12 joints");
+        m.enable_effect(EffectSpec::JointBacklash { joint: 11 }).expect("backlash on joint 11");
+        let header = (1..=12).map(|i| format!("q{i}")).collect::<Vec<_>>().join(",");
+        let f = file(&format!("tcp,{header}\n1{}\n", ",0".repeat(12)));
+        let e = read_joint_rows(f.path(), &m).expect_err("no dir11").to_string();
+        assert!(e.contains("needs the column(s) dir11,"), "{e}");
+        let f = file(&format!("tcp,{header},dir11\n1{},1\n", ",0".repeat(12)));
+        let rows = read_joint_rows(f.path(), &m).expect("dir11");
+        assert_eq!(rows[0].context.dir_of(11), 1);
+    }
+
+    /// The UR5e fixture with its six revolute rows repeated: 12 revolute joints.
+    fn twelve_joint_cell() -> CellFile {
+        let mut cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
+            .expect("fixture");
+        let mut more = cell.joints.clone();
+        for (k, j) in more.iter_mut().enumerate() {
+            j.index = 7 + k as u8;
+        }
+        cell.joints.extend(more);
+        cell
     }
 
     /// Rows are converted in parallel: the order is kept, and with several bad rows the error

@@ -42,8 +42,8 @@ pub use vatcal_core::effects::{
 };
 
 /// The per-measurement context columns (file names) an effect's predictions depend on:
-/// `dir2..dir7` for backlash (the canonical cell's columns; a backlash on joint i reads
-/// `dir{i}`), `time_s` / `temperature_c` for thermal drift, none otherwise.
+/// `dir{i}` for a backlash on joint i, `time_s` / `temperature_c` for thermal drift, none
+/// otherwise.
 pub fn context_columns(spec: &EffectSpec) -> &'static [&'static str] {
     spec.effect().map_or(&[], |e| e.data_columns(spec))
 }

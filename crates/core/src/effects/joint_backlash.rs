@@ -4,7 +4,7 @@
 
 use super::{
     CandidateScope, ChainInfo, DataAvailability, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec,
-    ErrorEffect, Hook, entry_joint, joint_param, revolute_joint,
+    DIR_COLUMNS, ErrorEffect, Hook, entry_joint, joint_param, revolute_joint,
 };
 use crate::cell::EffectEntry;
 use crate::params::{EffectParam, ParamId, ParamUnit};
@@ -75,11 +75,14 @@ impl ErrorEffect for JointBacklash {
     fn candidates(&self, _chain: &ChainInfo<'_>, _data: &DataUse, joint: Option<u8>) -> Vec<EffectSpec> {
         joint.map(|joint| EffectSpec::JointBacklash { joint }).into_iter().collect()
     }
-    fn data_columns(&self, _spec: &EffectSpec) -> &'static [&'static str] {
-        &["dir2", "dir3", "dir4", "dir5", "dir6", "dir7"]
+    fn data_columns(&self, spec: &EffectSpec) -> &'static [&'static str] {
+        let k = usize::from(joint_of(spec)).wrapping_sub(1);
+        DIR_COLUMNS.get(k).map_or(&[], std::slice::from_ref)
     }
-    fn missing_data(&self, _spec: &EffectSpec, data: &DataAvailability) -> Option<&'static str> {
-        (!data.dir).then_some("needs the dir{i} columns (sign of the last motion of each revolute joint)")
+    fn missing_data(&self, spec: &EffectSpec, data: &DataAvailability) -> Option<&'static str> {
+        let k = usize::from(joint_of(spec)).wrapping_sub(1);
+        (!data.dir_known.get(k).copied().unwrap_or(false))
+            .then_some("needs the dir{i} column of the joint (sign of its last motion, not all 0)")
     }
     fn driver(&self, spec: &EffectSpec, _guide: u8, _n: u8) -> EffectDriver {
         EffectDriver::Direction(joint_of(spec))

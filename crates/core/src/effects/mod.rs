@@ -368,11 +368,19 @@ pub struct DataUse {
     pub positions: Vec<u32>,
 }
 
+/// The direction column of each joint: `DIR_COLUMNS[i - 1]` is `dir{i}`, the sign of the last
+/// motion of joint i (read for the revolute joints of a chain).
+pub const DIR_COLUMNS: [&str; MAX_JOINTS] =
+    ["dir1", "dir2", "dir3", "dir4", "dir5", "dir6", "dir7", "dir8", "dir9", "dir10", "dir11", "dir12"];
+
 /// What a set of measurements provides for data-hungry effects.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct DataAvailability {
-    /// every measurement has the `dir{i}` columns
+    /// every measurement has direction data (some `dir{i}` column)
     pub dir: bool,
+    /// per joint (index `i - 1` is joint i): every measurement has direction data and some
+    /// measurement knows the direction of joint i (a `dir{i}` column that is not all 0)
+    pub dir_known: [bool; MAX_JOINTS],
     /// every measurement has `time_s`
     pub time: bool,
     /// every measurement has `temperature_c`
@@ -383,8 +391,14 @@ impl DataAvailability {
     /// Inspects a measurement set.
     pub fn of(measurements: &[Measurement]) -> Self {
         let all = |f: &dyn Fn(&Measurement) -> bool| !measurements.is_empty() && measurements.iter().all(f);
+        let dir = all(&|m| m.context.dir.is_some());
+        let mut dir_known = [false; MAX_JOINTS];
+        for (k, known) in dir_known.iter_mut().enumerate() {
+            *known = dir && measurements.iter().any(|m| m.context.dir_of(k as u8 + 1) != 0);
+        }
         Self {
-            dir: all(&|m| m.context.dir.is_some()),
+            dir,
+            dir_known,
             time: all(&|m| m.context.time_s.is_some()),
             temperature: all(&|m| m.context.temperature_c.is_some()),
         }
@@ -506,7 +520,7 @@ pub trait ErrorEffect: Sync + fmt::Debug {
         Vec::new()
     }
     /// The per-measurement context columns (file names) the instance's predictions depend
-    /// on, for the canonical cell.
+    /// on (e.g. `dir3` for a backlash of joint 3, `time_s`).
     fn data_columns(&self, _spec: &EffectSpec) -> &'static [&'static str] {
         &[]
     }
@@ -729,6 +743,33 @@ mod tests {
         };
         let ParamId::Effect(p) = params[0] else { panic!("an effect parameter") };
         assert_eq!(hook_of(p, &x), Some((Hook::Joint(3), 0.7 * 0.7)));
+    }
+
+    /// A backlash needs its own joint's `dir{i}` column, on any chain, and is a candidate only
+    /// when that joint's directions are known in the data.
+    #[test]
+    fn a_backlash_needs_the_dir_column_of_its_joint() {
+        use crate::measurement::Target;
+        use crate::units::JointVector;
+        let effect = EffectKind::JointBacklash.effect().expect("registered");
+        for joint in [1, 3, 11, 12] {
+            let spec = EffectSpec::JointBacklash { joint };
+            assert_eq!(effect.data_columns(&spec), [format!("dir{joint}").as_str()]);
+        }
+        let measurement = |dir: Option<[i8; MAX_JOINTS]>| Measurement {
+            tcp: 1,
+            q: JointVector::new([0.0; 12]),
+            target: Target::Probe { position: 1 },
+            context: MeasurementContext { dir, ..Default::default() },
+            probe_offset_mm: None,
+        };
+        let mut d = [0; MAX_JOINTS];
+        d[10] = -1;
+        let data = DataAvailability::of(&[measurement(Some(d)), measurement(Some([0; MAX_JOINTS]))]);
+        let on = |joint| effect.missing_data(&EffectSpec::JointBacklash { joint }, &data);
+        assert_eq!((on(11), on(10).is_some()), (None, true));
+        let none = DataAvailability::of(&[measurement(Some(d)), measurement(None)]);
+        assert!(effect.missing_data(&EffectSpec::JointBacklash { joint: 11 }, &none).is_some());
     }
 
     #[test]
