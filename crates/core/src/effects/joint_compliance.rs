@@ -2,25 +2,25 @@
 //! built-in parameter of every model (the kinematics apply it with the gravity torques), so
 //! this module only names it, bounds it and proposes it.
 
-use super::{
-    CandidateScope, ChainInfo, DataUse, EffectDriver, EffectKind, EffectSpec, ErrorEffect, entry_joint,
-    revolute_joint,
-};
-use crate::cell::EffectEntry;
+use super::{EffectDriver, EffectKind, EffectSpec, ErrorEffect, PerJoint};
 use crate::params::ParamId;
 
 /// The `joint-compliance` effect.
 #[derive(Debug, Clone, Copy)]
 pub struct JointCompliance;
 
-fn joint_of(spec: &EffectSpec) -> u8 {
-    match *spec {
+/// Its instances: one per revolute joint.
+const INSTANCES: PerJoint = PerJoint {
+    spec: |joint| EffectSpec::JointCompliance { joint },
+    joint_of: |spec| match *spec {
         EffectSpec::JointCompliance { joint } => joint,
         _ => 0,
-    }
-}
+    },
+};
 
 impl ErrorEffect for JointCompliance {
+    per_joint!(instances: INSTANCES);
+
     fn kind(&self) -> EffectKind {
         EffectKind::JointCompliance
     }
@@ -34,13 +34,7 @@ impl ErrorEffect for JointCompliance {
         true
     }
     fn params(&self, spec: &EffectSpec) -> Vec<ParamId> {
-        vec![ParamId::Compliance(joint_of(spec))]
-    }
-    fn label(&self, spec: &EffectSpec) -> String {
-        format!("{} (joint {})", self.name(), joint_of(spec))
-    }
-    fn joint(&self, spec: &EffectSpec) -> Option<u8> {
-        Some(joint_of(spec))
+        vec![ParamId::Compliance(INSTANCES.joint(spec))]
     }
     fn bound(&self, param: &ParamId) -> Option<(f64, &'static str)> {
         matches!(param, ParamId::Compliance(_)).then_some((1e-2, "1e-2 rad/(N*m)"))
@@ -59,22 +53,7 @@ impl ErrorEffect for JointCompliance {
         }
         Ok(())
     }
-    fn read_entry(&self, entry: &EffectEntry) -> Result<EffectSpec, String> {
-        Ok(EffectSpec::JointCompliance { joint: entry_joint(entry)? })
-    }
-    fn write_entry(&self, spec: &EffectSpec, entry: &mut EffectEntry, _t: f64) {
-        entry.joint = Some(joint_of(spec));
-    }
-    fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
-        revolute_joint(joint_of(spec), chain)
-    }
-    fn scope(&self) -> CandidateScope {
-        CandidateScope::PerRevoluteJoint
-    }
-    fn candidates(&self, _chain: &ChainInfo<'_>, _data: &DataUse, joint: Option<u8>) -> Vec<EffectSpec> {
-        joint.map(|joint| EffectSpec::JointCompliance { joint }).into_iter().collect()
-    }
     fn driver(&self, spec: &EffectSpec, _guide: u8, _n: u8) -> EffectDriver {
-        EffectDriver::Torque(joint_of(spec))
+        EffectDriver::Torque(INSTANCES.joint(spec))
     }
 }

@@ -26,6 +26,65 @@ use crate::params::{Axis, EffectParam, ParamId, ParamUnit};
 use crate::units::JointKind;
 use crate::units::MAX_JOINTS;
 
+/// Writes the `ErrorEffect` methods of a per-joint effect that follow from its [`PerJoint`]
+/// (`per_joint!(instances: X)`), and from its [`JointParam`] too
+/// (`per_joint!(instances: X, param: P)`); the effect's file writes the rest.
+macro_rules! per_joint {
+    (instances: $instances:expr) => {
+        fn label(&self, spec: &$crate::effects::EffectSpec) -> String {
+            $instances.label(self.name(), spec)
+        }
+        fn joint(&self, spec: &$crate::effects::EffectSpec) -> Option<u8> {
+            Some($instances.joint(spec))
+        }
+        fn read_entry(
+            &self,
+            entry: &$crate::cell::EffectEntry,
+        ) -> Result<$crate::effects::EffectSpec, String> {
+            $instances.read_entry(entry)
+        }
+        fn write_entry(&self, spec: &$crate::effects::EffectSpec, entry: &mut $crate::cell::EffectEntry, _t: f64) {
+            $instances.write_entry(spec, entry)
+        }
+        fn check(
+            &self,
+            spec: &$crate::effects::EffectSpec,
+            chain: &$crate::effects::ChainInfo<'_>,
+        ) -> Result<(), String> {
+            $instances.check(spec, chain)
+        }
+        fn scope(&self) -> $crate::effects::CandidateScope {
+            $crate::effects::CandidateScope::PerRevoluteJoint
+        }
+        fn candidates(
+            &self,
+            _chain: &$crate::effects::ChainInfo<'_>,
+            _data: &$crate::effects::DataUse,
+            joint: Option<u8>,
+        ) -> Vec<$crate::effects::EffectSpec> {
+            joint.map($instances.spec).into_iter().collect()
+        }
+    };
+    (instances: $instances:expr, param: $param:expr) => {
+        per_joint!(instances: $instances);
+        fn params(&self, spec: &$crate::effects::EffectSpec) -> Vec<$crate::params::ParamId> {
+            vec![$crate::params::ParamId::Effect(($param.param)($instances.joint(spec)))]
+        }
+        fn owner(&self, param: &$crate::params::EffectParam) -> Option<$crate::effects::EffectSpec> {
+            ($param.joint_of)(param).map($instances.spec)
+        }
+        fn param_name(&self, param: &$crate::params::EffectParam) -> String {
+            $param.name(param)
+        }
+        fn parse_param(&self, name: &str) -> Option<$crate::params::EffectParam> {
+            $param.parse(name)
+        }
+        fn param_unit(&self, _param: &$crate::params::EffectParam) -> $crate::params::ParamUnit {
+            $param.unit
+        }
+    };
+}
+
 /// Declares each effect's module and lists it in the registry: one line per effect,
 /// `module::Struct`, in catalog order (the order of the catalog table and of discovery's
 /// candidates).
@@ -657,6 +716,61 @@ pub(crate) fn revolute_joint(joint: u8, chain: &ChainInfo<'_>) -> Result<(), Str
 pub(crate) fn joint_param(name: &str, prefix: &str) -> Option<u8> {
     let j: u8 = name.strip_prefix(prefix)?.parse().ok()?;
     (1..=MAX_JOINTS as u8).contains(&j).then_some(j)
+}
+
+/// The instances of a per-joint effect: one on each revolute joint, written to the cell file
+/// as `joint = j` (`joint-compliance`, `joint-scale`, `joint-backlash`). `per_joint!` turns
+/// it into the effect's `label` (`<name> (joint j)`), `joint`, `read_entry`, `write_entry`,
+/// `check` (a revolute joint of the chain), `scope` (per revolute joint) and `candidates`.
+#[derive(Clone, Copy)]
+pub(crate) struct PerJoint {
+    /// the instance on joint j
+    pub spec: fn(u8) -> EffectSpec,
+    /// the joint of an instance (only asked for the effect's own instances)
+    pub joint_of: fn(&EffectSpec) -> u8,
+}
+
+impl PerJoint {
+    /// The joint of one of the effect's instances.
+    pub(crate) fn joint(&self, spec: &EffectSpec) -> u8 {
+        (self.joint_of)(spec)
+    }
+    pub(crate) fn label(&self, name: &str, spec: &EffectSpec) -> String {
+        format!("{name} (joint {})", self.joint(spec))
+    }
+    pub(crate) fn read_entry(&self, entry: &EffectEntry) -> Result<EffectSpec, String> {
+        entry_joint(entry).map(self.spec)
+    }
+    pub(crate) fn write_entry(&self, spec: &EffectSpec, entry: &mut EffectEntry) {
+        entry.joint = Some(self.joint(spec));
+    }
+    pub(crate) fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
+        revolute_joint(self.joint(spec), chain)
+    }
+}
+
+/// The one effect parameter of each instance of a per-joint effect, named `<prefix><joint>`
+/// (e.g. `scale3`). `per_joint!` turns it into the effect's `params`, `owner`, `param_name`,
+/// `parse_param` and `param_unit`.
+#[derive(Clone, Copy)]
+pub(crate) struct JointParam {
+    /// the name prefix (`scale` for `scale3`)
+    pub prefix: &'static str,
+    /// the unit of every instance's parameter
+    pub unit: ParamUnit,
+    /// the parameter of the instance on joint j
+    pub param: fn(u8) -> EffectParam,
+    /// the joint of a parameter, `None` for another effect's parameter
+    pub joint_of: fn(&EffectParam) -> Option<u8>,
+}
+
+impl JointParam {
+    pub(crate) fn name(&self, param: &EffectParam) -> String {
+        (self.joint_of)(param).map_or_else(String::new, |j| format!("{}{j}", self.prefix))
+    }
+    pub(crate) fn parse(&self, name: &str) -> Option<EffectParam> {
+        joint_param(name, self.prefix).map(self.param)
+    }
 }
 
 #[cfg(test)]
