@@ -88,7 +88,7 @@ pub enum IdentifyError {
     },
     /// The identifiability analysis itself failed.
     #[error("identifiability check failed: {0}")]
-    Observability(ObservabilityError),
+    Observability(#[source] ObservabilityError),
     /// An option is invalid; the message names it.
     #[error("invalid identification options: {0}")]
     InvalidOptions(String),
@@ -105,12 +105,12 @@ pub enum IdentifyError {
     #[error("numerical failure: {0}")]
     Numerical(String),
     /// A report file could not be read or written.
-    #[error("{path}: {message}")]
+    #[error("{path}: {source}")]
     File {
         /// file
         path: PathBuf,
-        /// what went wrong
-        message: String,
+        /// the I/O or JSON error (a JSON error names the line and column)
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
 }
 

@@ -148,24 +148,21 @@ impl IdentificationReport {
 
     /// Parses a report.
     pub fn from_json(text: &str, origin: &str) -> Result<Self, IdentifyError> {
-        serde_json::from_str(text).map_err(|e| IdentifyError::File {
-            path: origin.into(),
-            message: format!("line {}, column {}: {e}", e.line(), e.column()),
-        })
+        serde_json::from_str(text).map_err(|e| IdentifyError::File { path: origin.into(), source: e.into() })
     }
 
     /// Writes the report as JSON.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), IdentifyError> {
         let path = path.as_ref();
         std::fs::write(path, self.to_json()?)
-            .map_err(|e| IdentifyError::File { path: path.to_path_buf(), message: e.to_string() })
+            .map_err(|e| IdentifyError::File { path: path.to_path_buf(), source: e.into() })
     }
 
     /// Reads a report written by [`Self::save`].
     pub fn load(path: impl AsRef<Path>) -> Result<Self, IdentifyError> {
         let path = path.as_ref();
         let text = std::fs::read_to_string(path)
-            .map_err(|e| IdentifyError::File { path: path.to_path_buf(), message: e.to_string() })?;
+            .map_err(|e| IdentifyError::File { path: path.to_path_buf(), source: e.into() })?;
         Self::from_json(&text, &path.display().to_string())
     }
 

@@ -55,11 +55,11 @@ pub enum PlanError {
         reason: String,
     },
     /// A file could not be written.
-    #[error("cannot write {path}: {reason}")]
+    #[error("cannot write {path}: {source}")]
     Write {
-        /// file path
+        /// file path (`<memory>` for CSV text built in memory)
         path: PathBuf,
-        /// cause
-        reason: String,
+        /// the I/O, CSV or JSON error
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
 }

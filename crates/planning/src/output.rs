@@ -31,8 +31,11 @@ fn joint_columns(n: usize) -> Vec<String> {
     (1..=n).map(|i| format!("q{i}")).collect()
 }
 
-fn write_error(path: &Path, e: impl std::fmt::Display) -> PlanError {
-    PlanError::Write { path: path.to_path_buf(), reason: e.to_string() }
+/// The path named by errors of CSV text built in memory.
+const MEMORY: &str = "<memory>";
+
+fn write_error(path: &Path, e: impl Into<Box<dyn std::error::Error + Send + Sync>>) -> PlanError {
+    PlanError::Write { path: path.to_path_buf(), source: e.into() }
 }
 
 fn joint_fields(q: &JointVector, kinds: &[JointKind]) -> impl Iterator<Item = String> {
@@ -53,15 +56,14 @@ pub fn candidates_csv_for<'a>(
 ) -> Result<String, PlanError> {
     let mut w = csv::Writer::from_writer(Vec::new());
     let header = ["position".to_string(), "tcp".to_string()].into_iter().chain(joint_columns(kinds.len()));
-    let e = |e: csv::Error| PlanError::Write { path: "<memory>".into(), reason: e.to_string() };
+    let e = |e: csv::Error| write_error(Path::new(MEMORY), e);
     w.write_record(header).map_err(e)?;
     for c in candidates {
         let rec = [c.position.to_string(), c.tcp.to_string()].into_iter().chain(joint_fields(&c.q, kinds));
         w.write_record(rec).map_err(e)?;
     }
-    let bytes =
-        w.into_inner().map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })?;
-    String::from_utf8(bytes).map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })
+    let bytes = w.into_inner().map_err(|e| write_error(Path::new(MEMORY), e.into_error()))?;
+    String::from_utf8(bytes).map_err(|e| write_error(Path::new(MEMORY), e))
 }
 
 /// CSV text of the tour of the canonical cell: `step,kind,position,tcp,q1..q7,time_s`.
@@ -72,7 +74,7 @@ pub fn tour_csv(steps: &[TourStep]) -> Result<String, PlanError> {
 /// CSV text of the tour of a chain with joints `kinds`: `step,kind,position,tcp,q1..qN,time_s`.
 pub fn tour_csv_for(steps: &[TourStep], kinds: &[JointKind]) -> Result<String, PlanError> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    let e = |e: csv::Error| PlanError::Write { path: "<memory>".into(), reason: e.to_string() };
+    let e = |e: csv::Error| write_error(Path::new(MEMORY), e);
     let header = ["step", "kind", "position", "tcp"]
         .into_iter()
         .map(String::from)
@@ -86,9 +88,8 @@ pub fn tour_csv_for(steps: &[TourStep], kinds: &[JointKind]) -> Result<String, P
             .chain([format!("{:.3}", s.time_s)]);
         w.write_record(rec).map_err(e)?;
     }
-    let bytes =
-        w.into_inner().map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })?;
-    String::from_utf8(bytes).map_err(|e| PlanError::Write { path: "<memory>".into(), reason: e.to_string() })
+    let bytes = w.into_inner().map_err(|e| write_error(Path::new(MEMORY), e.into_error()))?;
+    String::from_utf8(bytes).map_err(|e| write_error(Path::new(MEMORY), e))
 }
 
 /// Observability indices as written to `summary.json`.

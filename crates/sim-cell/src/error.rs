@@ -13,9 +13,16 @@ pub enum SimCellError {
         /// what is wrong
         reason: String,
     },
-    /// The nominal or true model cannot be built.
+    /// The built-in cell file does not parse (a build defect).
     #[error("cell model: {0}")]
-    Model(String),
+    Cell(#[from] vatcal_core::cell::CellError),
+    /// The nominal model cannot be built, or is not the canonical Meca500-on-guide cell.
+    #[error("cell model: {0}")]
+    Model(#[from] vatcal_kinematics::ModelError),
+    /// The hidden truth cannot be built (a truth file that cannot be read or does not fit the
+    /// nominal cell).
+    #[error("cell model: {0}")]
+    Truth(#[from] vatcal_sim::truth::TruthError),
     /// A port cannot be bound.
     #[error("{device}: cannot listen on {address}: {source}")]
     Bind {

@@ -133,12 +133,9 @@ impl SimCellOptions {
     /// # Errors
     /// Only if the built-in cell does not parse (a build defect).
     pub fn paper(seed: u64) -> Result<Self, SimCellError> {
-        let cell = CellFile::from_toml_str(BUILT_IN_CELL, "fixtures/meca500-zaber.toml (built in)")
-            .map_err(|e| SimCellError::Model(e.to_string()))?;
-        let nominal = Model::from_cell(&cell).map_err(|e| SimCellError::Model(e.to_string()))?;
-        nominal
-            .require_meca500_on_guide("the simulated cell")
-            .map_err(|e| SimCellError::Model(e.to_string()))?;
+        let cell = CellFile::from_toml_str(BUILT_IN_CELL, "fixtures/meca500-zaber.toml (built in)")?;
+        let nominal = Model::from_cell(&cell)?;
+        nominal.require_meca500_on_guide("the simulated cell")?;
         let truth = perturbed_truth(&nominal, seed, &ErrorBudget::realistic());
         Ok(Self {
             bind: IpAddr::V4(Ipv4Addr::LOCALHOST),
@@ -170,7 +167,7 @@ impl SimCellOptions {
     /// # Errors
     /// A truth file that cannot be read or does not fit the nominal cell.
     pub fn set_truth(&mut self, spec: &TruthSpec) -> Result<(), SimCellError> {
-        let built = spec.build(&self.nominal, self.seed).map_err(|e| SimCellError::Model(e.to_string()))?;
+        let built = spec.build(&self.nominal, self.seed)?;
         self.truth = built.model;
         self.physics = built.physics;
         Ok(())

@@ -17,8 +17,8 @@ pub struct Args {
     /// Cell model file (TOML).
     #[arg(long)]
     pub model: PathBuf,
-    /// Measurements or candidate poses: probe rows (`position,tcp,q1..q7`) and/or tracker rows
-    /// (`tcp,q1..q7,x,y,z`).
+    /// Measurements or candidate poses: probe rows (`position,tcp,q1..qN`) and/or tracker rows
+    /// (`tcp,q1..qN,x,y,z`), N = the model's joints (`q1..q7` on the canonical cell).
     #[arg(long)]
     pub measurements: PathBuf,
     /// Parameters to analyse: `paper34`, `geometric`, `all-identifiable`, `all` (every model
