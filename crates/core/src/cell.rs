@@ -498,6 +498,25 @@ impl CellFile {
     }
 
     /// Writes the file (validating first).
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::CellFile;
+    ///
+    /// let mut cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))?;
+    /// cell.joints[2].a_mm += 0.05; // e.g. a calibrated length
+    /// let path = std::env::temp_dir().join(format!("vatcal-doc-save-{}.toml", std::process::id()));
+    /// cell.save(&path)?;
+    /// let back = CellFile::load(&path)?;
+    /// std::fs::remove_file(&path)?;
+    /// assert_eq!(back.joints[2].a_mm, cell.joints[2].a_mm);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`CellError::Invalid`] when [`CellFile::validate`] refuses a value (nothing is written),
+    /// [`CellError::Write`] when the TOML cannot be produced, [`CellError::Io`] when the file
+    /// cannot be written.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), CellError> {
         let path = path.as_ref();
         self.for_writing().validate(&path.display().to_string())?;
@@ -544,6 +563,22 @@ impl CellFile {
     }
 
     /// Checks every field. Errors name the field.
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::CellFile;
+    ///
+    /// let mut cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-table.toml"))?;
+    /// cell.joints[0].q_max = Some(-500.0); // below q_min
+    /// let e = cell.validate("edited.toml").expect_err("empty joint range");
+    /// assert!(e.to_string().starts_with("edited.toml"), "{e}");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`CellError::Invalid`] naming `origin` and the first field that is wrong (a wrong format
+    /// or version, joint rows that are not 1..N, limits, TCP and position ids, inertials,
+    /// effects that do not fit the chain, ...).
     pub fn validate(&self, origin: &str) -> Result<(), CellError> {
         let bad = |field: String, reason: String| CellError::Invalid {
             origin: origin.to_string(),

@@ -481,6 +481,26 @@ pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Join
 /// Reads probe measurements `position,tcp,q1..qN` with the optional `time_s`,
 /// `temperature_c`, `dir{i}` columns.
 ///
+/// # Examples
+/// Probe rows of the UR5e fixture (six revolute joints in degrees), with the direction of
+/// joint 4 only:
+/// ```
+/// use vatcal_core::{CellFile, Target};
+/// use vatcal_io::read_probe_measurements;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))?)?;
+/// let path = std::env::temp_dir().join(format!("vatcal-doc-probe-{}.csv", std::process::id()));
+/// std::fs::write(&path, "position,tcp,q1,q2,q3,q4,q5,q6,dir4\n1,1,10,-80,90,-100,-90,0,-1\n")?;
+/// let ms = read_probe_measurements(&path, &model);
+/// std::fs::remove_file(&path)?;
+/// let ms = ms?;
+/// assert_eq!(ms[0].target, Target::Probe { position: 1 });
+/// assert!((ms[0].q.get(2) - (-80f64).to_radians()).abs() < 1e-15);
+/// assert_eq!((ms[0].context.dir_of(4), ms[0].context.dir_of(5)), (-1, 0)); // 0: unknown
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
 /// # Errors
 /// As [`read_joint_rows`]; the `position` id is checked against the model too.
 pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
@@ -501,6 +521,22 @@ pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<
 }
 
 /// Reads tracker measurements `tcp,q1..qN,x,y,z` (world, mm), with the same optional columns.
+///
+/// # Examples
+/// A row whose `y` is not a number is refused with the file, line and column:
+/// ```
+/// use vatcal_core::CellFile;
+/// use vatcal_io::read_tracker_measurements;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-table.toml"))?)?;
+/// let path = std::env::temp_dir().join(format!("vatcal-doc-tracker-{}.csv", std::process::id()));
+/// std::fs::write(&path, "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,0,0,0,0,0,0,100,2.5,300\n1,0,0,0,0,0,0,100,n/a,300\n")?;
+/// let e = read_tracker_measurements(&path, &model).expect_err("bad y");
+/// std::fs::remove_file(&path)?;
+/// assert!(e.to_string().contains(":3: column `y`: `n/a` is not a number"), "{e}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 ///
 /// # Errors
 /// As [`read_joint_rows`]; `x,y,z` must be finite numbers.
@@ -523,6 +559,30 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
 
 /// Reads a file that may hold probe rows (`position` column) or tracker rows (`x,y,z`), or
 /// both kinds mixed (a row with an empty `position` and filled `x,y,z` is a tracker row).
+///
+/// # Examples
+/// ```
+/// use vatcal_core::{CellFile, Target};
+/// use vatcal_io::read_measurements;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+/// let path = std::env::temp_dir().join(format!("vatcal-doc-mixed-{}.csv", std::process::id()));
+/// std::fs::write(
+///     &path,
+///     "position,tcp,q1,q2,q3,q4,q5,q6,q7,x,y,z\n2,1,100,0,0,0,0,0,0,,,\n,3,100,0,0,0,0,0,0,1,2,3\n",
+/// )?;
+/// let ms = read_measurements(&path, &model);
+/// std::fs::remove_file(&path)?;
+/// let ms = ms?;
+/// assert_eq!(ms[0].target, Target::Probe { position: 2 });
+/// assert!(matches!(ms[1].target, Target::Tracker { .. }));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// As [`read_probe_measurements`] and [`read_tracker_measurements`], and
+/// [`IoError::MissingColumn`] when the file has neither `position` nor `x,y,z`.
 pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
     let path = path.as_ref();
     let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
@@ -575,6 +635,30 @@ pub struct CandidateTable {
 }
 
 /// Reads candidate poses `position,tcp,q1..qN` (other columns kept verbatim).
+///
+/// # Examples
+/// Read candidates, keep two and write them back with the input's columns:
+/// ```
+/// use vatcal_core::CellFile;
+/// use vatcal_io::read_candidates;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-table.toml"))?)?;
+/// let dir = std::env::temp_dir();
+/// let (input, output) = (dir.join(format!("vatcal-doc-cand-{}.csv", std::process::id())), dir.join(format!("vatcal-doc-sel-{}.csv", std::process::id())));
+/// std::fs::write(&input, "position,tcp,q1,q2,q3,q4,q5,q6,note\n1,1,0,0,0,0,0,0,a\n1,2,10,0,0,0,0,0,b\n1,3,20,0,0,0,0,0,c\n")?;
+/// let table = read_candidates(&input, &model)?;
+/// table.write_subset(&output, &[2, 0])?;
+/// let text = std::fs::read_to_string(&output)?;
+/// std::fs::remove_file(&input)?;
+/// std::fs::remove_file(&output)?;
+/// assert_eq!(table.measurements.len(), 3);
+/// assert_eq!(text, "position,tcp,q1,q2,q3,q4,q5,q6,note\n1,3,20,0,0,0,0,0,c\n1,1,0,0,0,0,0,0,a\n");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// As [`read_probe_measurements`] (without the check of the effects' context columns).
 pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<CandidateTable, IoError> {
     let path = path.as_ref();
     let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
@@ -626,12 +710,37 @@ fn joint_fields(q: &JointVector, kinds: &[JointKind]) -> Vec<String> {
 
 /// Writes `tcp,q1..q7` rows of the canonical 7-joint Meca500-on-guide cell (q1 in mm, q2..q7
 /// in degrees); [`write_joint_rows_for`] writes any chain.
+///
+/// # Errors
+/// As [`write_joint_rows_for`].
 pub fn write_joint_rows(path: impl AsRef<Path>, rows: &[(u32, JointVector)]) -> Result<(), IoError> {
     write_joint_rows_for(path, rows, &MECA500_ON_GUIDE_KINDS)
 }
 
 /// Writes `tcp,q1..qN` rows of a chain with joints `kinds` (mm for prismatic, degrees for
 /// revolute joints).
+///
+/// # Examples
+/// ```
+/// use vatcal_core::{CellFile, JointVector};
+/// use vatcal_io::{read_joint_rows, write_joint_rows_for};
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))?)?;
+/// let q = JointVector::from_file_units(&[10.0, -80.0, 90.0, -100.0, -90.0, 0.0], model.joint_kinds())?;
+/// let path = std::env::temp_dir().join(format!("vatcal-doc-rows-{}.csv", std::process::id()));
+/// write_joint_rows_for(&path, &[(1, q)], model.joint_kinds())?;
+/// let text = std::fs::read_to_string(&path)?;
+/// let back = read_joint_rows(&path, &model);
+/// std::fs::remove_file(&path)?;
+/// assert!(text.starts_with("tcp,q1,q2,q3,q4,q5,q6\n1,10,-80,90,-100,-90,0"), "{text}");
+/// assert_eq!(back?[0].q, q);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// [`IoError::File`] when the file cannot be created or written, [`IoError::Csv`] for a CSV
+/// writer error.
 pub fn write_joint_rows_for(
     path: impl AsRef<Path>,
     rows: &[(u32, JointVector)],
@@ -760,6 +869,9 @@ pub fn write_measurements(path: impl AsRef<Path>, measurements: &[Measurement]) 
 /// `model.joint_kinds()`): `position` (probe), `tcp`, `q1..qN` (mm for prismatic, degrees for
 /// revolute joints), `x,y,z` (tracker), `time_s`, `temperature_c`, `dir{i}` of the revolute
 /// joints, the centring offsets.
+///
+/// # Errors
+/// [`IoError::File`] when the file cannot be written.
 pub fn write_measurements_for(
     path: impl AsRef<Path>,
     measurements: &[Measurement],
@@ -792,6 +904,22 @@ pub struct PoseRow {
 /// Reads pose requests `tcp,q1,x,y,z,alpha,beta,gamma` of the canonical Meca500-on-guide cell
 /// with the optional `time_s`, `temperature_c`, `dir2..dir7` columns; TCP ids are checked
 /// against the model and `q1` against the guide limits. Another chain is an error.
+///
+/// # Examples
+/// ```
+/// use vatcal_core::CellFile;
+/// use vatcal_io::read_pose_rows;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+/// let rows = read_pose_rows(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/compensate-poses.csv"), &model)?;
+/// assert!(!rows.is_empty() && rows.iter().all(|r| model.tcp(r.tcp).is_some()));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// [`IoError::UnsupportedChain`] for a model other than the canonical cell; otherwise as
+/// [`read_joint_rows`] (`q1` outside the guide limits is a [`IoError::Row`]).
 pub fn read_pose_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<PoseRow>, IoError> {
     let path = path.as_ref();
     if !model.is_meca500_on_guide() {

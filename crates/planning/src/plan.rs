@@ -188,6 +188,33 @@ impl Plan {
 /// Detmax selection of `count` of them, the time-optimal visiting order, and a verified
 /// collision-free path for every leg.
 ///
+/// # Examples
+/// A small campaign for the Meca500 alone on a table (`examples/plan_campaign.rs` prints it):
+/// ```
+/// use vatcal_core::{CellFile, ParamSet};
+/// use vatcal_kinematics::Model;
+/// use vatcal_planning::candidates::CandidateOptions;
+/// use vatcal_planning::plan::{PlanOptions, StepKind, plan_campaign};
+/// use vatcal_planning::CellGeometry;
+///
+/// let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-table.toml"))?;
+/// let model = Model::from_cell(&cell)?;
+/// let opts = PlanOptions {
+///     candidates: CandidateOptions { orientations: 12, ..CandidateOptions::default() },
+///     params: ParamSet(Vec::new()), // the chain's identifiable default set
+///     detmax_restarts: 1,
+///     tour_restarts: 2,
+///     motion: cell.motion_limits(),
+///     seed: 4,
+///     ..PlanOptions::default()
+/// };
+/// let plan = plan_campaign(&model, &CellGeometry::from_cell(&cell)?, &opts)?;
+/// assert_eq!(plan.selected.len(), 40);
+/// assert_eq!(plan.quality.raw.rank, plan.params.len()); // the selection identifies the set
+/// assert_eq!(plan.steps.iter().filter(|s| s.kind == StepKind::Measure).count(), 40);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
 /// # Errors
 /// [`PlanError::Option`] for an invalid option (naming it); [`PlanError::UnsupportedArm`] for an
 /// arm the closed-form IK does not support; [`PlanError::Empty`] when no candidate survives the

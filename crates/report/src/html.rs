@@ -192,6 +192,25 @@ impl HtmlReport {
     }
 
     /// Writes the document to `path`.
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_report::html::HtmlReport;
+    ///
+    /// let mut page = HtmlReport::new("Calibration <cell 1>");
+    /// page.heading("Result")
+    ///     .paragraph("mean error **0.015 mm**")
+    ///     .table(&["model", "mean [mm]"], &[vec!["calibrated".into(), "0.015".into()]]);
+    /// let path = std::env::temp_dir().join(format!("vatcal-doc-report-{}.html", std::process::id()));
+    /// page.save(&path)?;
+    /// let html = std::fs::read_to_string(&path)?;
+    /// std::fs::remove_file(&path)?;
+    /// assert!(html.contains("Calibration &lt;cell 1&gt;") && html.contains("<strong>0.015 mm</strong>"));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`PlotError::File`] when the file cannot be written (naming the path).
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), PlotError> {
         let path = path.as_ref();
         std::fs::write(path, self.render())

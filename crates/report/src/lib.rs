@@ -270,6 +270,23 @@ fn render(
 /// differ by orders of magnitude, as before and after a calibration do. The bins span the range
 /// of the data (from 0 if `options.from_zero` and no value is negative).
 ///
+/// # Examples
+/// ```
+/// use vatcal_report::{HistogramOptions, PlotError, PlotSpec, Series, histogram_svg};
+///
+/// let nominal = [0.8, 1.1, 0.9, 1.3, 1.0];
+/// let calibrated = [0.012, 0.018, 0.015, 0.011, 0.020];
+/// let spec = PlotSpec::new("Position error", "error [mm]", "share of poses [%]");
+/// let series = [Series::new("nominal", &nominal), Series::new("calibrated", &calibrated)];
+/// let svg = histogram_svg(&spec, &series, &HistogramOptions::default())?;
+/// assert!(svg.contains("<svg") && svg.contains("calibrated"));
+/// // a NaN is refused, naming the series and the value's index
+/// let bad = [0.1, f64::NAN];
+/// let e = histogram_svg(&spec, &[Series::new("tracker", &bad)], &HistogramOptions::default());
+/// assert!(matches!(e, Err(PlotError::NonFinite { index: 1, .. })));
+/// # Ok::<(), PlotError>(())
+/// ```
+///
 /// # Errors
 /// Empty or non-finite data, `bins == 0`, an unusable plot size, or a drawing failure.
 pub fn histogram_svg(
@@ -375,6 +392,21 @@ fn draw_legend<'a, 'b: 'a>(chart: &mut XyChart<'a, 'b>) -> Result<(), PlotError>
 /// Line plot of one or more series against a common x variable (e.g. position error along a
 /// printing path, with one series per model). Returns the SVG document.
 ///
+/// # Examples
+/// ```
+/// use vatcal_report::{PlotSpec, Series, line_plot_svg};
+///
+/// let slice = [0.0, 1.0, 2.0, 3.0];
+/// let error_mm = [0.020, 0.015, 0.017, 0.012];
+/// let svg = line_plot_svg(&PlotSpec::new("Error along the path", "slice", "error [mm]"), &slice, &[
+///     Series::new("calibrated", &error_mm),
+/// ])?;
+/// assert!(svg.contains("Error along the path"));
+/// // every series needs one value per x value
+/// assert!(line_plot_svg(&PlotSpec::new("t", "x", "y"), &slice, &[Series::new("short", &error_mm[..2])]).is_err());
+/// # Ok::<(), vatcal_report::PlotError>(())
+/// ```
+///
 /// # Errors
 /// Empty or non-finite data, series whose length differs from `x`, an unusable plot size.
 pub fn line_plot_svg(spec: &PlotSpec, x: &[f64], series: &[Series<'_>]) -> Result<String, PlotError> {
@@ -446,6 +478,12 @@ fn xy_chart(
 }
 
 /// Writes an SVG document to `path`.
+///
+/// # Examples
+/// ```
+/// let e = vatcal_report::save_svg("/no-such-directory/plot.svg", "<svg/>").expect_err("no directory");
+/// assert!(e.to_string().starts_with("/no-such-directory/plot.svg"));
+/// ```
 ///
 /// # Errors
 /// The file cannot be written (the error names the path).

@@ -32,6 +32,18 @@ impl ImportedChain {
     ///   tool is not in the URDF chain);
     /// * `[urdf_import]`: where the chain came from (`source`, `base_link`, `tip_link`) and the
     ///   import notes.
+    ///
+    /// # Examples
+    /// ```
+    /// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.urdf");
+    /// let chain = vatcal_urdf::import_file(path, "base_link", "tool0")?;
+    /// let cell = chain.to_cell("ur5e.urdf");
+    /// assert!(cell.is_v2() && cell.joint_count() == 6);
+    /// // the cell file is valid as written, and loads back unchanged
+    /// let text = cell.to_toml_string()?;
+    /// assert_eq!(vatcal_core::CellFile::from_toml_str(&text, "ur5e-imported.toml")?, cell);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn to_cell(&self, source: &str) -> CellFile {
         let n = self.joints.len();
         let joints = self

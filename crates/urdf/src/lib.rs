@@ -279,6 +279,19 @@ pub enum UrdfImportError {
 
 /// Reads `path` and imports the chain from `base_link` down to `tip_link`.
 ///
+/// # Examples
+/// ```
+/// let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.urdf");
+/// let chain = vatcal_urdf::import_file(path, "base_link", "tool0")?;
+/// let names: Vec<&str> = chain.joints.iter().map(|j| j.name.as_str()).collect();
+/// assert_eq!(names[..2], ["shoulder_pan_joint", "shoulder_lift_joint"]);
+/// assert_eq!(chain.joints.len(), 6);
+/// // a link that is not in the file is an error naming it
+/// let e = vatcal_urdf::import_file(path, "base_link", "gripper").expect_err("no such link");
+/// assert!(e.to_string().contains("gripper"), "{e}");
+/// # Ok::<(), vatcal_urdf::UrdfImportError>(())
+/// ```
+///
 /// # Errors
 /// [`UrdfImportError::Io`] when the file cannot be read, and every error of [`import_str`].
 pub fn import_file(
