@@ -272,6 +272,10 @@ impl<'a> Compensator<'a> {
     /// Converts `requests` to tool targets under the calibrated model and compensates them as
     /// a path ([`Compensator::compensate_path`]). A request with an unknown TCP or a non-finite
     /// value is an error even in skip mode (bad input, not an unreachable pose).
+    ///
+    /// # Errors
+    /// [`CompensationError::NonFinite`] or [`CompensationError::Model`] for a bad request (its
+    /// row named); otherwise as [`Compensator::compensate_path`].
     pub fn compensate_requests(
         &self,
         requests: &[PoseRequest],
@@ -292,6 +296,12 @@ impl<'a> Compensator<'a> {
     /// leaves the joint limits, or when a joint jumps by more than
     /// [`PathOptions::max_joint_step_deg`]. In skip mode such a row is reported and the path
     /// continues from the last solved row.
+    ///
+    /// # Errors
+    /// [`CompensationError::Option`] for invalid options; without
+    /// [`PathOptions::skip_unreachable`], the first failing row's
+    /// [`CompensationError::Unreachable`], [`CompensationError::BranchChange`],
+    /// [`CompensationError::JointLimit`] or [`CompensationError::JointJump`].
     pub fn compensate_path(
         &self,
         targets: &[ToolTarget],

@@ -255,6 +255,15 @@ fn ms(v: &Option<Spanned<u64>>, default: Duration) -> Duration {
 impl DevicesFile {
     /// Reads and validates a devices file.
     ///
+    /// # Examples
+    /// ```
+    /// use vatcal_devices::DevicesFile;
+    ///
+    /// let file = DevicesFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/devices-example.toml"))?;
+    /// assert_eq!(file.source().file_name().and_then(|n| n.to_str()), Some("devices-example.toml"));
+    /// # Ok::<(), vatcal_devices::DevicesError>(())
+    /// ```
+    ///
     /// # Errors
     /// As [`DevicesFile::parse`], or the file cannot be read.
     pub fn load(path: impl AsRef<Path>) -> Result<Self, DevicesError> {
@@ -265,6 +274,16 @@ impl DevicesFile {
     }
 
     /// Parses and validates the text of a devices file (`source` names it in errors).
+    ///
+    /// # Examples
+    /// A file without a guide and gauges is refused before anything connects:
+    /// ```
+    /// use vatcal_devices::DevicesFile;
+    ///
+    /// let e = DevicesFile::parse("arm = { kind = \"meca500\", address = \"192.168.0.100:10000\" }\n", "typo.toml")
+    ///     .expect_err("no guide, no gauges");
+    /// assert!(e.to_string().contains("typo.toml"), "{e}");
+    /// ```
     ///
     /// # Errors
     /// [`DevicesError::Parse`] for invalid TOML, unknown keys, missing devices or wrong types;
@@ -630,6 +649,31 @@ impl DevicesFile {
 
     /// Connects every device with its driver (arm, guide, gauges 1–3, then the simulator's
     /// control port if named). Nothing moves: the drivers only identify the devices.
+    ///
+    /// # Examples
+    /// The three protocol simulators stand in for the devices here (a real cell: the file's
+    /// addresses):
+    /// ```
+    /// use vatcal_devices::DevicesFile;
+    /// use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig as MecaSim};
+    /// use vatcal_drivers_sylvac::sim::{SimConfig as GaugeSim, SylvacSim};
+    /// use vatcal_drivers_zaber::sim::{SimConfig as ZaberSimConfig, ZaberSim};
+    /// use vatcal_hardware_traits::Gauge;
+    ///
+    /// let arm = Meca500Sim::start(MecaSim::fast(20.0))?;
+    /// let guide = ZaberSim::start(ZaberSimConfig::fast(50.0))?;
+    /// let g = [SylvacSim::start(GaugeSim::default())?, SylvacSim::start(GaugeSim::default())?, SylvacSim::start(GaugeSim::default())?];
+    /// let text = format!(
+    ///     "arm = {{ kind = \"meca500\", address = \"{}\" }}\nguide = {{ kind = \"zaber\", tcp = \"{}\" }}\n\
+    ///      gauges = [{{ kind = \"sylvac\", tcp = \"{}\" }}, {{ kind = \"sylvac\", tcp = \"{}\" }}, {{ kind = \"sylvac\", tcp = \"{}\" }}]\n",
+    ///     arm.control_addr(), guide.addr(), g[0].addr(), g[1].addr(), g[2].addr()
+    /// );
+    /// let mut devices = DevicesFile::parse(&text, "simulators.toml")?.connect()?;
+    /// g[2].set_plunger_mm(2.5);
+    /// assert_eq!(devices.gauges[2].read_mm()?, 2.5);
+    /// assert_eq!(devices.found.len(), 5); // arm, guide, three gauges
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     ///
     /// # Errors
     /// The first device that cannot be connected ([`DevicesError::Connect`] names it).

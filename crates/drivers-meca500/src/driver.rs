@@ -107,6 +107,26 @@ pub struct Meca500<T: Transport = TcpStream> {
 impl Meca500<TcpStream> {
     /// Connects to the control port at `addr` (e.g. `"192.168.0.100:10000"`) and reads the
     /// banner.
+    ///
+    /// # Examples
+    /// Against the protocol simulator (a real robot: its address and port 10000):
+    /// ```
+    /// use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig};
+    /// use vatcal_drivers_meca500::{Meca500, Meca500Config};
+    ///
+    /// let sim = Meca500Sim::start(SimConfig::fast(20.0))?;
+    /// let robot = Meca500::connect_tcp(sim.control_addr(), Meca500Config::default())?;
+    /// assert!(robot.banner().model.contains("Meca500"));
+    /// // nothing listening: an error, not a hang (connect_timeout bounds the wait)
+    /// let closed = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?;
+    /// assert!(Meca500::connect_tcp(closed, Meca500Config::default()).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Meca500Error::Link`] when the connection cannot be made or drops, or no banner comes
+    /// within `config.connect_timeout`; [`Meca500Error::Banner`] when the robot refuses the
+    /// connection (`[3001]` another client is connected) or sends no valid banner.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: Meca500Config) -> Result<Self, Meca500Error> {
         let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
         let peer = stream.peer_addr()?;

@@ -62,6 +62,25 @@ pub struct SylvacGauge<T: Transport = TcpStream> {
 
 impl SylvacGauge<TcpStream> {
     /// Connects over TCP (a serial-to-TCP bridge or the simulator) and identifies the gauge.
+    ///
+    /// # Examples
+    /// Against the simulator:
+    /// ```
+    /// use vatcal_drivers_sylvac::sim::{SimConfig, SylvacSim};
+    /// use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
+    /// use vatcal_hardware_traits::Gauge;
+    ///
+    /// let sim = SylvacSim::start(SimConfig::default())?;
+    /// let mut gauge = SylvacGauge::connect_tcp(sim.addr(), SylvacConfig::default())?;
+    /// sim.set_plunger_mm(1.2345);
+    /// assert!((gauge.read_mm()? - 1.2345).abs() < 1e-9);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`SylvacError::Link`] when the connection cannot be made, drops or times out;
+    /// [`SylvacError::Gauge`] or [`SylvacError::UnexpectedAnswer`] when the gauge does not
+    /// identify itself as expected.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: SylvacConfig) -> Result<Self, SylvacError> {
         let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
         let peer = stream.peer_addr()?;

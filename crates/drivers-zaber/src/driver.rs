@@ -142,6 +142,24 @@ pub struct ZaberAxis<T: Transport = TcpStream> {
 
 impl ZaberAxis<TcpStream> {
     /// Connects to a raw-ASCII TCP port (e.g. `"192.168.0.50:55550"`) and identifies the axis.
+    ///
+    /// # Examples
+    /// Against the protocol simulator:
+    /// ```
+    /// use vatcal_drivers_zaber::sim::{SimConfig, ZaberSim};
+    /// use vatcal_drivers_zaber::{ZaberAxis, ZaberConfig};
+    ///
+    /// let sim = ZaberSim::start(SimConfig::fast(50.0))?;
+    /// let guide = ZaberAxis::connect_tcp(sim.addr(), ZaberConfig::default())?;
+    /// let (lo, hi) = guide.info().travel_mm().ok_or("the simulator reports its limits")?;
+    /// assert!(lo <= 0.0 && hi > 250.0, "X-LRQ300 travel {lo}..{hi} mm");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ZaberError::Link`] when the connection cannot be made, drops or times out;
+    /// [`ZaberError::Rejected`], [`ZaberError::Malformed`] or [`ZaberError::Protocol`] when the
+    /// device does not identify itself as expected.
     pub fn connect_tcp(addr: impl ToSocketAddrs, config: ZaberConfig) -> Result<Self, ZaberError> {
         let stream = vatcal_hardware_traits::transport::connect_tcp(addr, config.connect_timeout)?;
         let peer = stream.peer_addr()?;

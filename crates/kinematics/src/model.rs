@@ -260,6 +260,21 @@ impl Model {
 
     /// Writes the model back into the cell-file format (radians → degrees). Inertials,
     /// obstacles, motion limits and unknown tables are those of the file the model came from.
+    ///
+    /// # Examples
+    /// A changed parameter is written in file units, and the file builds the same model:
+    /// ```
+    /// use vatcal_core::{CellFile, ParamId};
+    /// use vatcal_kinematics::Model;
+    ///
+    /// let mut model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))?)?;
+    /// model.set_param(ParamId::Beta(3), 0.01f64.to_radians())?;
+    /// let cell = model.to_cell();
+    /// assert!((cell.joints[2].beta_deg - 0.01).abs() < 1e-12);
+    /// let back = Model::from_cell(&cell)?;
+    /// assert_eq!(back.param(ParamId::Beta(3))?, model.param(ParamId::Beta(3))?);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn to_cell(&self) -> CellFile {
         let mut cell = self.template.clone();
         for j in cell.joints.iter_mut() {

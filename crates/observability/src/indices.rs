@@ -140,6 +140,10 @@ pub fn normalized_rank(a: MatRef<'_, f64>) -> Result<usize, ObservabilityError> 
 
 /// O1..O5, rank, condition number and σ_min of a natural-unit Jacobian `j` (3 rows per pose,
 /// columns = `params`) after `scaling`. The number of poses is `j.nrows() / 3`.
+///
+/// # Errors
+/// [`ObservabilityError::InvalidInput`] when `j` does not have one column per parameter;
+/// [`ObservabilityError::Numerical`] when the SVD does not converge.
 pub fn observability_indices(
     j: MatRef<'_, f64>,
     params: &ParamSet,
