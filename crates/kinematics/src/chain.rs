@@ -4,7 +4,6 @@ use nalgebra::{Matrix3, Vector3};
 use vatcal_core::effects::{EffectInputs, Hook};
 use vatcal_core::params::Axis;
 use vatcal_core::{Frame, JointKind, JointVector, MAX_JOINTS, MeasurementContext};
-use vatcal_gravity_torque::gravity_torques;
 
 use vatcal_core::frame::{rot_x as rx, rot_y as ry, rot_z as rz};
 
@@ -116,7 +115,7 @@ fn rz_tz(fixed: &Frame, theta: f64, d: f64) -> Frame {
 }
 
 /// `fixed · Rz(theta) · Tz(d)` with `(sin theta, cos theta)` given.
-#[inline]
+#[inline(always)]
 fn rz_tz_trig(fixed: &Frame, (s, c): (f64, f64), d: f64) -> Frame {
     let m = &fixed.r;
     let c0 = m.column(0) * c + m.column(1) * s;
@@ -168,20 +167,38 @@ impl Model {
         }
     }
 
+    /// Gravity torques from the undeflected trigonometry, with the model's stored
+    /// [`GravityModel`](vatcal_gravity_torque::GravityModel) (the same numbers as
+    /// `vatcal_gravity_torque::gravity_torques`, bit for bit).
     #[inline]
     fn gravity_torques_trig(&self, q: &JointVector, trig: &[(f64, f64); MAX_JOINTS]) -> [f64; MAX_JOINTS] {
-        let mut links = [Frame::identity(); MAX_JOINTS];
         let qs = q.as_slice();
-        for k in 0..self.n {
-            links[k] = rz_tz_trig(&self.row_fixed[k], trig[k], self.row_d(k, qs));
+        let mut tau = [0.0; MAX_JOINTS];
+        match self.n {
+            7 => tau[..7].copy_from_slice(&self.gravity_torques_n::<7>(qs, trig)),
+            6 => tau[..6].copy_from_slice(&self.gravity_torques_n::<6>(qs, trig)),
+            n => {
+                let mut links = [Frame::identity(); MAX_JOINTS];
+                for k in 0..n {
+                    links[k] = rz_tz_trig(&self.row_fixed[k], trig[k], self.row_d(k, qs));
+                }
+                tau = self.gravity_model.torques(&links[..n], &self.kinds[..n]);
+            }
         }
-        gravity_torques(
-            &links[..self.n],
-            &self.kinds[..self.n],
-            &self.base_frame.r,
-            &self.masses,
-            &self.gravity,
-        )
+        tau
+    }
+
+    /// [`Model::gravity_torques_trig`] on fixed-size arrays for a chain of exactly `N` joints.
+    #[inline(always)]
+    fn gravity_torques_n<const N: usize>(&self, q: &[f64], trig: &[(f64, f64); MAX_JOINTS]) -> [f64; N] {
+        let Ok(kinds) = <&[JointKind; N]>::try_from(&self.kinds[..N]) else {
+            return [f64::NAN; N]; // unreachable: callers dispatch on self.n == N
+        };
+        let mut links = [Frame::identity(); N];
+        for (k, link) in links.iter_mut().enumerate() {
+            *link = rz_tz_trig(&self.row_fixed[k], trig[k], self.row_d(k, q));
+        }
+        self.gravity_model.torques_n(&links, kinds)
     }
 
     /// Gravity moment [N·m] of everything distal to the guide joint g ([`Model::guide_joint`];
@@ -258,13 +275,7 @@ impl Model {
             for k in 0..N {
                 links[k] = rz_tz_trig(&self.row_fixed[k], trig[k], d(k));
             }
-            let tau = vatcal_gravity_torque::gravity_torques_n(
-                &links,
-                kinds,
-                &self.base_frame.r,
-                &self.masses,
-                &self.gravity,
-            );
+            let tau = self.gravity_model.torques_n(&links, kinds);
             for k in (0..N).rev() {
                 let delta = self.compliance[k] * tau[k];
                 if kinds[k].is_revolute() && delta != 0.0 {
@@ -558,9 +569,11 @@ fn insert_transform(w: &Frame, tx: f64, ty: f64, ex: f64, ey: f64, ez: Option<f6
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
     use rand::rngs::ChaCha8Rng;
     use rand::{RngExt, SeedableRng};
-    use vatcal_core::{CellFile, ParamId};
+    use vatcal_core::{CellFile, ParamId, ParamSet};
+    use vatcal_gravity_torque::gravity_torques;
 
     use super::*;
 
@@ -600,5 +613,140 @@ mod tests {
             }
         }
         assert!(worst < 1e-12, "fast FK differs from the full chain by {worst:e} mm");
+    }
+
+    /// The lean FK with compliance as it was before the model kept a `GravityModel` (links
+    /// built per row, torques from the mass model by `vatcal_gravity_torque::gravity_torques`,
+    /// the point carried backwards): the reference the proptest below compares against.
+    fn reference_tool_point(model: &Model, q: &JointVector, t: &Vector3<f64>) -> Vector3<f64> {
+        let (n, qs) = (model.n, q.as_slice());
+        let mut links = [Frame::identity(); MAX_JOINTS];
+        for k in 0..n {
+            let (th, d) = match model.kinds[k] {
+                JointKind::Revolute => (qs[k] + model.rows[k].theta_offset, model.rows[k].d),
+                JointKind::Prismatic => (model.rows[k].theta_offset, qs[k] + model.rows[k].d),
+            };
+            links[k] = rz_tz(&model.row_fixed[k], th, d);
+        }
+        let tau = gravity_torques(
+            &links[..n],
+            &model.kinds[..n],
+            &model.base_frame.r,
+            &model.masses,
+            &model.gravity,
+        );
+        let mut v = *t;
+        for k in (0..n).rev() {
+            let delta = model.compliance[k] * tau[k];
+            if model.kinds[k].is_revolute() && delta != 0.0 {
+                let (s, c) = small_angle_sin_cos(delta);
+                v = Vector3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z);
+            }
+            v = links[k].transform_point(&v);
+        }
+        model.base_frame.transform_point(&v)
+    }
+
+    /// Torques of `model` at `q` from its public state only (frames of the full chain, mass
+    /// model, base rotation, gravity), by the free function of `vatcal-gravity-torque`.
+    fn torques_from_public_state(model: &Model, q: &JointVector) -> [f64; MAX_JOINTS] {
+        let frames =
+            model.chain_full(q, &MeasurementContext::default(), false, Some(&[0.0; MAX_JOINTS])).frames;
+        let n = model.joint_count();
+        let links: Vec<Frame> = (0..n).map(|k| frames[k].inverse().compose(&frames[k + 1])).collect();
+        gravity_torques(&links, model.joint_kinds(), &model.base_frame().r, model.masses(), &model.gravity())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// The lean FK (stored `GravityModel`, links shared by the torque pass and the point
+        /// pass) equals the FK before that change to 1e-12 mm, on random poses and random
+        /// parameters (every built-in parameter perturbed, compliance on every revolute
+        /// joint, masses scaled) of the canonical cell, the UR5e and the Meca500 on a table.
+        #[test]
+        fn lean_fk_equals_the_previous_fk(
+            seed in any::<u64>(),
+            mass_scale in 0.5..2.0f64,
+            compliance in -2e-3..2e-3f64,
+        ) {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            for name in ["meca500-zaber.toml", "ur5e.toml", "meca500-table.toml"] {
+                let mut model = fixture(name);
+                let params = ParamSet::all_builtin_chain(model.joint_kinds(), &model.tcp_ids(), &model.position_ids());
+                for id in params.iter() {
+                    let scale = match id.unit() {
+                        vatcal_core::params::ParamUnit::Rad => 0.02,
+                        vatcal_core::params::ParamUnit::Mm => 2.0,
+                        _ => 0.0,
+                    };
+                    let v = model.param(*id).expect("param") + scale * (rng.random::<f64>() - 0.5);
+                    model.set_param(*id, v).expect("set");
+                }
+                for j in 1..=model.joint_count() {
+                    if model.is_revolute(j) {
+                        let c = compliance * (0.5 + rng.random::<f64>());
+                        model.set_param(ParamId::Compliance(j as u8), c).expect("c");
+                    }
+                }
+                let mut masses = model.masses().clone();
+                for b in masses.bodies_mut() {
+                    b.mass_kg *= mass_scale;
+                }
+                model.set_masses(masses);
+                for _ in 0..8 {
+                    let q: Vec<f64> =
+                        model.joint_limits().iter().map(|(lo, hi)| lo + (hi - lo) * rng.random::<f64>()).collect();
+                    let q = JointVector::from_slice(&q).expect("q");
+                    for t in model.tcp_ids() {
+                        let tcp = model.tcp(t).expect("tcp");
+                        let new = model.tcp_position(&q, t).expect("fk");
+                        let old = reference_tool_point(&model, &q, &tcp);
+                        prop_assert!((new - old).norm() <= 1e-12, "{name}: lean FK {new} vs previous {old}");
+                        let full = model.chain(&q).tool_point(&tcp);
+                        prop_assert!((new - full).norm() <= 1e-12, "{name}: lean FK {new} vs full chain {full}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// The model's stored gravity constants follow every way its torques can change: base
+    /// orientation (set_param, set_params), masses (set_masses), effects switched on, and a
+    /// write/read round trip through the cell file.
+    #[test]
+    fn gravity_model_follows_every_mutation() {
+        let q = JointVector::from_mm_deg(120.0, [15.0, -25.0, 35.0, -45.0, 55.0, -65.0]);
+        let check = |m: &Model, what: &str| {
+            let tau = m.gravity_torques(&q);
+            let reference = torques_from_public_state(m, &q);
+            let worst = tau.iter().zip(&reference).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            assert!(worst < 1e-12, "{what}: torques {tau:?} vs {reference:?}");
+            // and the FK with compliance uses them
+            let t = m.tcp(1).expect("tcp 1");
+            let fk = m.tcp_position(&q, 1).expect("fk");
+            assert!((fk - reference_tool_point(m, &q, &t)).norm() < 1e-12, "{what}: FK");
+        };
+        let mut model = fixture("meca500-zaber.toml");
+        for j in 2..=7u8 {
+            model.set_param(ParamId::Compliance(j), 5e-4).expect("c");
+        }
+        check(&model, "loaded");
+        let before = model.gravity_torques(&q);
+        model.set_param(ParamId::Base(vatcal_core::params::BaseParam::Alpha), 0.3).expect("alpha");
+        check(&model, "base alpha via set_param");
+        assert!(model.gravity_torques(&q) != before, "tilting the base changes the torques");
+        let set = ParamSet(vec![ParamId::Base(vatcal_core::params::BaseParam::Beta)]);
+        model.set_params(&set, &[-0.2]).expect("beta");
+        check(&model, "base beta via set_params");
+        let before = model.gravity_torques(&q);
+        let mut masses = model.masses().clone();
+        masses.bodies_mut()[3].mass_kg *= 3.0;
+        model.set_masses(masses);
+        check(&model, "set_masses");
+        assert!(model.gravity_torques(&q) != before, "heavier link 4 changes the torques");
+        model.enable_effect(vatcal_core::EffectSpec::ToolFrame).expect("tool frame");
+        check(&model, "effect switched on");
+        let reloaded = Model::from_cell(&model.to_cell()).expect("round trip");
+        check(&reloaded, "cell file round trip");
     }
 }

@@ -7,7 +7,7 @@ use vatcal_core::cell::{CellFile, EffectEntry};
 use vatcal_core::effects::{ChainInfo, EffectKind, EffectSpec, ErrorEffect};
 use vatcal_core::params::{BaseParam, EffectParam, ParamUnit};
 use vatcal_core::{JointKind, JointVector, MAX_JOINTS, ParamId, ParamSet, deg_to_rad, rad_to_deg};
-use vatcal_gravity_torque::MassModel;
+use vatcal_gravity_torque::{GravityModel, MassModel};
 
 use vatcal_core::Frame;
 use vatcal_core::frame::{rot_x, rot_y, rot_z};
@@ -105,6 +105,8 @@ pub struct Model {
     /// `(sin, cos)` of `theta_offset_i` (the constant angle of a prismatic row)
     pub(crate) theta_trig: [(f64, f64); MAX_JOINTS],
     pub(crate) base_frame: Frame,
+    /// the per-model constants of the gravity-torque recursion (masses, gravity in frame 0)
+    pub(crate) gravity_model: GravityModel,
     pub(crate) any_compliance: bool,
     /// a switched-on effect needs the carriage moment
     pub(crate) effects_need_moment: bool,
@@ -203,6 +205,8 @@ impl Model {
             deg_to_rad(b.gamma_deg),
         ];
         let point = |p: &vatcal_core::cell::PointEntry| (p.id, Vector3::new(p.x_mm, p.y_mm, p.z_mm));
+        let masses = MassModel::from_inertials(&cell.inertials);
+        let gravity = Vector3::from(cell.gravity.vector_m_per_s2);
         let mut model = Self {
             n,
             kinds,
@@ -214,8 +218,9 @@ impl Model {
             limits,
             ranges,
             guide,
-            masses: MassModel::from_inertials(&cell.inertials),
-            gravity: Vector3::from(cell.gravity.vector_m_per_s2),
+            gravity_model: GravityModel::new(&masses, &Frame::identity().r, &gravity),
+            masses,
+            gravity,
             effects: Vec::new(),
             effect_values: BTreeMap::new(),
             thermal_reference_c: 20.0,
@@ -497,6 +502,7 @@ impl Model {
     /// simulated truth whose masses differ from the nominal estimates).
     pub fn set_masses(&mut self, masses: MassModel) {
         self.masses = masses;
+        self.refresh_caches();
     }
 
     /// Sets the reference temperature [°C] of a temperature-driven thermal drift.
@@ -677,6 +683,7 @@ impl Model {
             self.theta_trig[k] = row.theta_offset.sin_cos();
         }
         self.base_frame = base_frame(&self.base);
+        self.gravity_model = GravityModel::new(&self.masses, &self.base_frame.r, &self.gravity);
         self.any_compliance =
             self.compliance[..self.n].iter().zip(&self.kinds).any(|(c, k)| k.is_revolute() && *c != 0.0);
     }
