@@ -245,7 +245,7 @@ pub fn sample_orientation(
 enum Solver<'a> {
     /// canonical cell: closed-form seeds at every guide step, refined on the model
     Canonical {
-        ik: ToolPoseIk<'a>,
+        ik: Box<ToolPoseIk<'a>>,
         /// (guide position, robot base frame) per guide step
         bases: Vec<(f64, Frame)>,
     },
@@ -429,7 +429,7 @@ pub fn generate_candidates(
     let guide = guide_positions(model, opts.guide_steps, opts.guide_margin_mm)?;
     let solver = if model.is_meca500_on_guide() {
         let bases: Vec<(f64, Frame)> = guide.iter().map(|q1| (*q1, robot_base_frame(model, *q1))).collect();
-        Solver::Canonical { ik: ToolPoseIk::new(model, opts.refine)?, bases }
+        Solver::Canonical { ik: Box::new(ToolPoseIk::new(model, opts.refine)?), bases }
     } else {
         Solver::Any { ik: ModelIk::new(model, opts.refine, opts.numeric)?, guide: guide.clone() }
     };

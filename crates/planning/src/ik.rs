@@ -198,6 +198,9 @@ pub struct ArmGeometry {
     /// The cell joint (1-based) of arm joint 1 (the prismatic joints before it are the external
     /// axes; 2 on the canonical cell).
     pub first_joint: usize,
+    /// `Rx(alpha_1..alpha_5)` and `Rx(-alpha_5)`, computed once (the solver's hot path would
+    /// otherwise evaluate their sines and cosines on every call)
+    rx: [Matrix3<f64>; 6],
 }
 
 /// Up to eight closed-form solutions (the six arm joints, rad) for one tool pose.
@@ -382,6 +385,7 @@ impl ArmGeometry {
             shoulder_lateral_mm: row(2).d + sigma * row(3).d,
             alpha_rad: [alpha1, alpha2, alpha3, alpha4, alpha5],
             first_joint: f,
+            rx: [rot_x(alpha1), rot_x(alpha2), rot_x(alpha3), rot_x(alpha4), rot_x(alpha5), rot_x(-alpha5)],
         })
     }
 
@@ -475,18 +479,18 @@ impl ArmGeometry {
     /// [`ArmGeometry::solve`]). The sideways shoulder offset is put on arm row 3.
     pub fn forward(&self, q: &[f64; 6]) -> Frame {
         let t: [f64; 6] = std::array::from_fn(|k| q[k] + self.theta_offset_rad[k]);
-        let link = |alpha: f64, a: f64, theta: f64, d: f64| {
-            let r = rot_x(alpha) * rot_z(theta);
+        let link = |rx: &Matrix3<f64>, a: f64, theta: f64, d: f64| {
+            let r = rx * rot_z(theta);
             Frame { r, p: Vector3::new(a, 0.0, 0.0) + r.column(2) * d }
         };
-        let [alpha1, alpha2, alpha3, alpha4, alpha5] = self.alpha_rad;
+        let rx = &self.rx;
         [
-            link(0.0, 0.0, t[0], self.shoulder_height_mm),
-            link(alpha1, self.shoulder_forward_mm, t[1], 0.0),
-            link(alpha2, self.upper_arm_mm, t[2], self.sigma() * self.shoulder_lateral_mm),
-            link(alpha3, self.elbow_offset_mm, t[3], self.forearm_mm),
-            link(alpha4, 0.0, t[4], 0.0),
-            link(alpha5, 0.0, t[5], self.flange_mm),
+            link(&rot_x(0.0), 0.0, t[0], self.shoulder_height_mm),
+            link(&rx[0], self.shoulder_forward_mm, t[1], 0.0),
+            link(&rx[1], self.upper_arm_mm, t[2], self.sigma() * self.shoulder_lateral_mm),
+            link(&rx[2], self.elbow_offset_mm, t[3], self.forearm_mm),
+            link(&rx[3], 0.0, t[4], 0.0),
+            link(&rx[4], 0.0, t[5], self.flange_mm),
         ]
         .iter()
         .fold(Frame::identity(), |acc, l| acc.compose(l))
@@ -501,13 +505,14 @@ impl ArmGeometry {
     fn push_wrist(&self, out: &mut ArmSolutions, target: &Frame, arm: [f64; 3], beyond: bool, branch: u8) {
         use std::f64::consts::PI;
         let [t1, t2, t3] = arm;
-        let [alpha1, alpha2, alpha3, alpha4, alpha5] = self.alpha_rad;
+        let [_, alpha2, alpha3, alpha4, alpha5] = self.alpha_rad;
+        let rx = &self.rx;
         let r3 = if alpha2 == 0.0 {
-            rot_z(t1) * rot_x(alpha1) * rot_z(t2 + t3)
+            rot_z(t1) * rx[0] * rot_z(t2 + t3)
         } else {
-            rot_z(t1) * rot_x(alpha1) * rot_z(t2) * rot_x(alpha2) * rot_z(t3)
+            rot_z(t1) * rx[0] * rot_z(t2) * rx[1] * rot_z(t3)
         };
-        let mut m = r3.transpose() * target.r * rot_x(-alpha5);
+        let mut m = r3.transpose() * target.r * rx[5];
         let flip = alpha3 == alpha4;
         if flip {
             // times Rx(pi) = diag(1, -1, -1), exactly
@@ -769,6 +774,18 @@ pub fn refine_tool_pose(
             seed.len()
         )));
     }
+    refine_arm(model, first, seed, target, opts)
+}
+
+/// [`refine_tool_pose`] for a chain already checked: arm joints `first..first + 6`, one seed
+/// value per joint.
+fn refine_arm(
+    model: &Model,
+    first: usize,
+    seed: &JointVector,
+    target: &Frame,
+    opts: &RefineOptions,
+) -> Result<Refined, PlanError> {
     let arm = ArmWithFixed { model, fixed: *seed, first };
     let r = solve_local(
         &arm,
@@ -935,8 +952,14 @@ impl<'a> ToolPoseIk<'a> {
     }
 
     /// Refines one seed on the model.
+    ///
+    /// # Errors
+    /// As [`refine_tool_pose`].
     pub fn refine(&self, seed: &JointVector, target: &Frame) -> Result<Refined, PlanError> {
-        refine_tool_pose(self.model, seed, target, &self.refine)
+        if seed.len() != self.model.joint_count() {
+            return refine_tool_pose(self.model, seed, target, &self.refine);
+        }
+        refine_arm(self.model, self.arm.first_joint, seed, target, &self.refine)
     }
 
     /// Every solution at guide position `q1_mm` (ignored without a guide; closed-form seeds
@@ -1031,7 +1054,7 @@ pub struct ModelIk<'a> {
 #[derive(Debug)]
 enum Solver<'a> {
     /// the closed form, and every joint's spec (to normalise the solutions into the limits)
-    ClosedForm(ToolPoseIk<'a>, Vec<JointSpec>),
+    ClosedForm(Box<ToolPoseIk<'a>>, Vec<JointSpec>),
     Numeric {
         guide: Option<usize>,
         free: Vec<usize>,
@@ -1076,7 +1099,7 @@ impl<'a> ModelIk<'a> {
             Ok(ik) => {
                 let revolute = revolute_joints(model);
                 let specs = (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect();
-                Ok(Self { model, solver: Solver::ClosedForm(ik, specs) })
+                Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), specs) })
             }
             Err(PlanError::UnsupportedArm(reason)) => {
                 let mut me = Self::numerical(model, numeric)?;
