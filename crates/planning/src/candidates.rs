@@ -29,9 +29,9 @@
 //! numerical IK ([`crate::numeric_ik`]) otherwise, with the first prismatic joint, if the chain
 //! has one, held at each of the `guide_steps` positions over its stroke (one pass when the chain
 //! has no prismatic joint); every distinct converged branch counts as an IK solution.
-//! [`CandidateSet::ik`] says which IK was used. Stage 3 uses the chain-agnostic singularity test of [`SingularityMargins`],
-//! and the retreat pose is a local solve from the measurement joints
-//! ([`ModelIk::refine_from`]). The other stages are the same.
+//! [`CandidateSet::ik`] says which IK was used. Stage 3 uses the chain-agnostic singularity
+//! test of [`SingularityMargins`], and the retreat pose is a local solve from the measurement
+//! joints ([`ModelIk::refine_from`]). The other stages are the same.
 //!
 //! # Orientation distribution
 //! The ball must enter the probe from above: the TriCal's three gauges hold the ball from below
