@@ -2,7 +2,8 @@
 //! default options (4,500 TCP poses × 10 guide steps, Detmax 40 of N, tour, paths) ≤ 10 s, and
 //! the closed-form IK of one tool pose (all 8 branches) ≤ 5 µs. Also the closed form + refinement
 //! on the nominal model and on a calibrated model, one collision check, and the multi-start
-//! numerical IK (issue 12; no target) of the same tool pose.
+//! numerical IK (issue 12; no target) of the same tool pose, and the closed form on the Meca500
+//! alone on a table (`fixtures/meca500-table.toml`, issue 12: any 6R arm with a spherical wrist).
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -84,6 +85,26 @@ fn bench_ik(c: &mut Criterion) {
     let ur5e_target = ur5e.chain(&ur5e_q).tool;
     group.bench_function("numeric_multistart_ur5e_fixture", |b| {
         b.iter(|| black_box(ur5e_ik.solve(&[], black_box(&ur5e_target))))
+    });
+    // issue 12: the closed form on a chain other than the canonical cell (the Meca500 alone on a
+    // table), the planner's IK (`ModelIk`: 8 branches, refined on the model) and the bare closed form
+    let table = Model::from_cell(
+        &CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-table.toml"))
+            .expect("meca500-table fixture"),
+    )
+    .expect("meca500-table model");
+    let table_ik =
+        ModelIk::new(&table, RefineOptions::default(), MultiStartOptions::default()).expect("table ik");
+    assert!(table_ik.is_closed_form());
+    let table_q = JointVector::from_slice(&q.as_slice()[1..]).expect("joints");
+    let table_target = table.chain(&table_q).tool;
+    let table_arm = ArmGeometry::from_model(&table).expect("table arm");
+    let table_local = robot_base_frame(&table, 0.0).inverse().compose(&table_target);
+    group.bench_function("closed_form_8_branches_meca500_table", |b| {
+        b.iter(|| black_box(table_arm.solve(black_box(&table_local))))
+    });
+    group.bench_function("model_ik_closed_form_meca500_table", |b| {
+        b.iter(|| black_box(table_ik.solve(&[], black_box(&table_target))))
     });
     group.bench_function("collision_check", |b| {
         b.iter(|| black_box(checker.check(black_box(&q), ProbeState::Everywhere)))

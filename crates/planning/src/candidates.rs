@@ -24,12 +24,14 @@
 //! # Any serial chain
 //! The above is the canonical Meca500-on-guide cell. On any other chain
 //! ([`vatcal_kinematics::Model::is_meca500_on_guide`] false) stage 1 uses
-//! [`ModelIk`]: the multi-start numerical IK ([`crate::numeric_ik`]) with the first prismatic
-//! joint, if the chain has one, held at each of the `guide_steps` positions over its stroke
-//! (one pass when the chain has no prismatic joint); every distinct converged branch counts as
-//! an IK solution. Stage 3 uses the chain-agnostic singularity test of [`SingularityMargins`],
-//! and the retreat pose is a local solve from the measurement joints
-//! ([`ModelIk::refine_from`]). The other stages are the same.
+//! [`ModelIk`]: the closed form + refinement where the chain is a 6R arm with a spherical wrist
+//! ([`crate::ik::ArmGeometry::from_model`], e.g. the Meca500 alone on a table), the multi-start
+//! numerical IK ([`crate::numeric_ik`]) otherwise, with the first prismatic joint, if the chain
+//! has one, held at each of the `guide_steps` positions over its stroke (one pass when the chain
+//! has no prismatic joint); every distinct converged branch counts as an IK solution.
+//! [`CandidateSet::ik`] says which IK was used. Stage 3 uses the chain-agnostic singularity
+//! test of [`SingularityMargins`], and the retreat pose is a local solve from the measurement
+//! joints ([`ModelIk::refine_from`]). The other stages are the same.
 //!
 //! # Orientation distribution
 //! The ball must enter the probe from above: the TriCal's three gauges hold the ball from below
@@ -56,8 +58,8 @@ use vatcal_kinematics::Model;
 use crate::collision::{CollisionChecker, ProbeState};
 use crate::error::PlanError;
 use crate::ik::{
-    ModelIk, RefineOptions, ToolPoseIk, max_abs_diff, refine_tool_pose, robot_base_frame, tool_pose_for_tcp,
-    wrap_angle,
+    IkMethod, ModelIk, RefineOptions, ToolPoseIk, max_abs_diff, refine_tool_pose, robot_base_frame,
+    tool_pose_for_tcp, wrap_angle,
 };
 use crate::motion::{JointBounds, MOVE_MARGIN_DEG, Resolution, SingularityMargins};
 use crate::numeric_ik::MultiStartOptions;
@@ -179,6 +181,8 @@ pub struct CandidateSet {
     pub guide_positions_mm: Vec<f64>,
     /// kinds of the model's joints (the units of the joint columns in the output files)
     pub joint_kinds: Vec<vatcal_core::JointKind>,
+    /// the IK that solved the TCP poses (stage 1)
+    pub ik: IkMethod,
 }
 
 /// Evenly spaced guide positions over the stroke shrunk by `margin_mm` (the middle for one
@@ -241,7 +245,7 @@ pub fn sample_orientation(
 enum Solver<'a> {
     /// canonical cell: closed-form seeds at every guide step, refined on the model
     Canonical {
-        ik: ToolPoseIk<'a>,
+        ik: Box<ToolPoseIk<'a>>,
         /// (guide position, robot base frame) per guide step
         bases: Vec<(f64, Frame)>,
     },
@@ -425,9 +429,13 @@ pub fn generate_candidates(
     let guide = guide_positions(model, opts.guide_steps, opts.guide_margin_mm)?;
     let solver = if model.is_meca500_on_guide() {
         let bases: Vec<(f64, Frame)> = guide.iter().map(|q1| (*q1, robot_base_frame(model, *q1))).collect();
-        Solver::Canonical { ik: ToolPoseIk::new(model, opts.refine)?, bases }
+        Solver::Canonical { ik: Box::new(ToolPoseIk::new(model, opts.refine)?), bases }
     } else {
         Solver::Any { ik: ModelIk::new(model, opts.refine, opts.numeric)?, guide: guide.clone() }
+    };
+    let ik = match &solver {
+        Solver::Canonical { .. } => IkMethod::ClosedForm,
+        Solver::Any { ik, .. } => ik.method(),
     };
     let pipeline = Pipeline {
         model,
@@ -459,6 +467,7 @@ pub fn generate_candidates(
         counts,
         guide_positions_mm: guide,
         joint_kinds: model.joint_kinds().to_vec(),
+        ik,
     })
 }
 

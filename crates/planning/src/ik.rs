@@ -1,32 +1,55 @@
-//! Inverse kinematics of the cell: closed form for the nominal Meca500 arm, numerical
-//! refinement on the full [`Model`].
+//! Inverse kinematics of a cell: closed form for the nominal geometry of a 6R arm with a
+//! spherical wrist (the Meca500, KUKA KR, ABB IRB, Fanuc, Stäubli type), numerical refinement
+//! on the full [`Model`]; [`ModelIk`] picks the closed form wherever the chain qualifies and the
+//! multi-start numerical IK ([`crate::numeric_ik`]) otherwise.
+//!
+//! # Which chains ([`ArmGeometry::from_model`])
+//! Any number of prismatic joints (external axes, e.g. the canonical guide) followed by six
+//! revolute joints, *arm joints* 1..6, whose MDH rows (`alpha_{j-1}, a_{j-1}, theta_j, d_j` in
+//! row `j` of the arm) have, within 0.05 rad / 5 mm:
+//! * a spherical wrist: `a_4 = d_5 = a_5 = 0` (axes 4, 5, 6 meet in the wrist centre),
+//!   `alpha_4, alpha_5 = ±90 deg`;
+//! * an ortho-parallel shoulder and elbow: `alpha_1 = ±90 deg`, `alpha_2 = 0` or `180 deg`,
+//!   `alpha_3 = ±90 deg`, `|a_2| >= 1 mm`.
+//!
+//! `a_1` (shoulder forward offset), `d_1`, the sideways shoulder offset `D = d_2 + cos(alpha_2)
+//! d_3`, `a_3`, `d_4`, `d_6` and the theta offsets are free. A chain that does not qualify gets
+//! [`PlanError::UnsupportedArm`] naming the row, field and value (the wrist is checked first,
+//! so a UR5e-class arm is reported as not having a spherical wrist). [`ToolPoseIk`] and
+//! [`ModelIk`] hold at most one prismatic joint (the guide, joint 1) at given positions.
 //!
 //! # Frames
-//! The *robot base frame* `B` is the parent of MDH frame 2: the carriage frame 1 (after the
-//! guide) followed by the fixed part `Rx(alpha_1) Tx(a_1) Ry(beta_1)` of row 2 (the sideways
-//! mounting, `alpha_1 = -90 deg`). It depends on q1 only ([`robot_base_frame`]). In `B` the arm
-//! is the ordinary Meca500: rows 2..7 of the cell.
+//! The *robot base frame* `B` is the parent of the first arm frame: the frame after the
+//! prismatic joints followed by the fixed part `Rx(alpha_0) Tx(a_0) Ry(beta_0)` of the first arm
+//! row (on the canonical cell: the carriage frame 1 and the sideways mounting
+//! `alpha_1 = -90 deg` of cell row 2). It depends on the prismatic joints only
+//! ([`robot_base_frame`]).
 //!
 //! # Closed form ([`ArmGeometry::solve`])
-//! Written in the MDH angles `theta_i = q_i + theta_offset_i` of rows 2..7 and the structure
-//! `alpha = (-90, 0, -90, 90, -90) deg` for rows 3..7, `a_2 = a_5 = a_6 = 0`,
-//! `d_3 = d_4 = d_6 = 0` (spherical wrist; the 38 mm elbow offset is `a_4`):
+//! In the MDH angles `theta_j = q_j + theta_offset_j` of the arm, with `s_j = sign(alpha_j)`,
+//! `sigma = cos(alpha_2)`:
 //!
-//! 1. wrist centre `w = p_7 - d_7 z_7` (origin of frames 5 and 6);
-//! 2. shoulder: `theta_2 = atan2(w_y, w_x)` with the arm-plane abscissa `r = +rho`, or
-//!    `theta_2 + pi` with `r = -rho` (`rho = |(w_x, w_y)|`), height `h = w_z - d_2`;
-//! 3. elbow: `a_4 cos theta_4 - d_5 sin theta_4 = (r^2 + h^2 - a_3^2 - a_4^2 - d_5^2) / (2 a_3)`,
-//!    i.e. `theta_4 = ±acos(K / L) - delta` with `L = |(a_4, d_5)|`, `delta = atan2(d_5, a_4)`;
-//! 4. `theta_3 = atan2(v_h, v_r) - atan2(h, r)` where `v = a_3 e(0) + a_4 e(-theta_4) +
-//!    d_5 e(-theta_4 - 90 deg)` is the wrist centre in the upper-arm frame (`e(phi)` = unit vector
-//!    at angle phi in the arm plane);
-//! 5. wrist: `M = R_4^T R_7 Rx(90 deg) = Ry(theta_5) Rz(theta_6) Ry(theta_7)` (Y-Z-Y Euler
-//!    angles), two branches `theta_6 = ±acos(M_11)`.
+//! 1. wrist centre `w = p_6 - d_6 z_6` (origin of arm frames 4 and 5), `h = w_z - d_1`,
+//!    `rho = |(w_x, w_y)|`;
+//! 2. shoulder: the in-plane distance `r = ±sqrt(rho^2 - D^2)` (two branches) and
+//!    `theta_1 = atan2(w_y, w_x) - atan2(-s_1 D, r)` (`= atan2(w_y, w_x)` or `+ pi` when
+//!    `D = 0`); `x = r - a_1`;
+//! 3. elbow: with `e = -sigma s_3 d_4`, `L = |(a_3, e)|`, `delta = atan2(e, a_3)`:
+//!    `cos(psi + delta) = (x^2 + h^2 - a_2^2 - a_3^2 - e^2) / (2 a_2 L)`, two branches
+//!    `psi = ±acos(..) - delta`, `theta_3 = sigma psi`;
+//! 4. `theta_2 = atan2(v_h, v_r) + s_1 atan2(h, x)` with `v = (a_2 + a_3 cos psi - e sin psi,
+//!    -a_3 sin psi - e cos psi)`;
+//! 5. wrist: `M = R_3^T R_6 Rx(-alpha_5)` (times `Rx(pi)` when `alpha_3 = alpha_4`)
+//!    `= Ry(a) Rz(b) Ry(c)` (Y-Z-Y Euler angles, two branches `b = ±acos(M_11)`), and
+//!    `theta_4 = -s_3 a`, `theta_5 = p b`, `theta_6 = -s_5 p c` (`p = -1` when
+//!    `alpha_3 = alpha_4`, else 1).
 //!
-//! Two shoulder × two elbow × two wrist branches give up to 8 solutions; `q_i = theta_i -
-//! theta_offset_i`, wrapped into (-pi, pi]. The closed form uses the model's own lengths and
-//! theta offsets; the small angular errors of a calibrated model (alpha, beta, compliance,
-//! effects) are removed by [`refine_tool_pose`].
+//! Two shoulder × two elbow × two wrist branches give up to 8 solutions; `q_j = theta_j -
+//! theta_offset_j`, wrapped into (-pi, pi]. On the canonical cell (`alpha = (-90, 0, -90, 90,
+//! -90) deg`, `a_1 = D = 0`) this is, operation for operation, the Meca500 closed form the
+//! planner has always used. The closed form uses the model's own lengths and theta offsets; the
+//! small angular errors of a calibrated model (alpha, beta, compliance, effects) are removed by
+//! [`refine_tool_pose`].
 //!
 //! # Seeds on a calibrated model ([`ToolPoseIk::seeds`])
 //! Each closed-form branch is corrected on its own branch before the refinement
@@ -37,17 +60,18 @@
 //! the eight branches of the spherical wrist are the ones returned.
 //!
 //! # Refinement ([`refine_tool_pose`])
-//! Levenberg–Marquardt on the 6-DOF tool-frame error `[p* - p; log(R* R^T)]` with q1 held fixed.
+//! Levenberg–Marquardt on the 6-DOF tool-frame error `[p* - p; log(R* R^T)]` with the guide
+//! (the prismatic joints in front of the arm) held fixed.
 //! The Jacobian columns are `z_i × (p - o_i)` (position; identical to the
 //! `ParamId::ThetaOffset(i)` columns of `Model::jacobian`) and `z_i` (orientation), with the joint
 //! axes from [`vatcal_kinematics::Chain::frames`]. Gravity torques are held fixed in the
 //! Jacobian, so with compliance the iteration is quasi-Newton (still converging to machine
 //! precision because `c_i d(tau_i)/dq` is tiny). The iteration is the chain-agnostic one of
-//! [`crate::numeric_ik::solve_local`], run on [`ArmAtGuide`] (the arm with q1 fixed).
+//! [`crate::numeric_ik::solve_local`], run on the arm with the guide fixed (as [`ArmAtGuide`]).
 
 use nalgebra::{Matrix3, Matrix6, Matrix6xX, Vector3};
 use vatcal_core::frame::{rot_x, rot_y, rot_z};
-use vatcal_core::{Frame, JointVector};
+use vatcal_core::{Frame, JointVector, deg_to_rad};
 use vatcal_kinematics::Model;
 
 use crate::error::PlanError;
@@ -64,9 +88,6 @@ const STRUCTURE_ANGLE_TOL_RAD: f64 = 0.05;
 /// Tolerance on the structural lengths that must be zero (mm).
 const STRUCTURE_LENGTH_TOL_MM: f64 = 5.0;
 
-/// Rotation about x.
-/// Rotation about y.
-/// Rotation about z.
 /// Wraps an angle into (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
     let two_pi = std::f64::consts::TAU;
@@ -112,35 +133,77 @@ pub fn rotation_angle_between(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
     rotation_vector(&(b * a.transpose())).norm()
 }
 
-/// World pose of the robot base frame `B` (parent of MDH frame 2) at guide position `q1_mm`.
-/// Includes the model's base pose, guide effects and the fixed part of row 2.
-pub fn robot_base_frame(model: &Model, q1_mm: f64) -> Frame {
-    let mut q = JointVector::default();
-    q[0] = q1_mm;
-    let chain = model.chain(&q);
-    let row = model.row(2);
-    let fixed = Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) };
-    chain.frames[1].compose(&fixed)
+/// Number of prismatic joints before the first revolute joint of `model` (the external axes
+/// in front of the arm; 1 on the canonical cell, 0 for an arm on a table).
+pub fn leading_prismatic_joints(model: &Model) -> usize {
+    model.joint_kinds().iter().take_while(|k| !k.is_revolute()).count()
 }
 
-/// The arm lengths and offsets used by the closed form (rows 2..7 of a model).
+/// World pose of the robot base frame `B` (parent of the arm's first MDH frame) at guide
+/// position `q1_mm`: the frame after the prismatic joints in front of the arm (the first at
+/// `q1_mm`, any others at 0; `q1_mm` is ignored without one), followed by the fixed part
+/// `Rx(alpha) Tx(a) Ry(beta)` of the arm's first row. Includes the model's base pose and the
+/// guide effects. See [`robot_base_frame_at`] to give every external axis.
+pub fn robot_base_frame(model: &Model, q1_mm: f64) -> Frame {
+    let mut q = JointVector::zeros(model.joint_count());
+    if leading_prismatic_joints(model) > 0 {
+        q[0] = q1_mm;
+    }
+    robot_base_frame_at(model, &q)
+}
+
+/// World pose of the robot base frame `B` with the prismatic joints in front of the arm at
+/// their values in `q` (the arm's values in `q` are not used). On a chain without a revolute
+/// joint this is the last frame.
+pub fn robot_base_frame_at(model: &Model, q: &JointVector) -> Frame {
+    let k = leading_prismatic_joints(model);
+    let chain = model.chain(q);
+    if k >= model.joint_count() {
+        return chain.frames[k];
+    }
+    let row = model.row(k + 1);
+    let fixed = Frame { r: rot_x(row.alpha) * rot_y(row.beta), p: Vector3::new(row.a, 0.0, 0.0) };
+    chain.frames[k].compose(&fixed)
+}
+
+/// The nominal geometry of a 6R arm with a spherical wrist and an ortho-parallel shoulder and
+/// elbow, as used by the closed form (see the module docs).
+///
+/// *Arm joint* `j` (1..=6) is cell joint `first_joint + j - 1`; its MDH row holds `alpha_{j-1}`,
+/// `a_{j-1}`, `theta_j`, `d_j` of the arm. The field names keep the Meca500 reading of the
+/// canonical cell (where arm joint 1 is cell joint 2).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArmGeometry {
-    /// `d_2`: height of the shoulder (J2 axis) above the base frame (mm)
+    /// `d_1`: height of the shoulder (arm joint 2) above the base frame `B` (mm)
     pub shoulder_height_mm: f64,
-    /// `a_3`: upper-arm length (J2 to J3 axis) (mm)
+    /// `a_2`: upper-arm length (arm joint 2 to arm joint 3 axis) (mm)
     pub upper_arm_mm: f64,
-    /// `a_4`: elbow offset (mm)
+    /// `a_3`: elbow offset (mm)
     pub elbow_offset_mm: f64,
-    /// `d_5`: forearm length to the wrist centre (mm)
+    /// `d_4`: forearm length to the wrist centre (mm)
     pub forearm_mm: f64,
-    /// `d_7`: wrist centre to the tool-changer frame (mm)
+    /// `d_6`: wrist centre to the tool-changer frame (mm)
     pub flange_mm: f64,
-    /// `theta_offset_2..7` (rad)
+    /// `theta_offset_1..6` of the arm (rad)
     pub theta_offset_rad: [f64; 6],
+    /// `a_1`: shoulder offset along the common normal of arm joints 1 and 2 (mm; e.g. 260 mm
+    /// on a KUKA KR 16, 0 on the Meca500)
+    pub shoulder_forward_mm: f64,
+    /// `d_2 + cos(alpha_2) d_3`: sideways offset of the arm plane from arm joint 1 along the
+    /// axis of arm joint 2 (mm; the PUMA 560's 149 mm, 0 on most arms)
+    pub shoulder_lateral_mm: f64,
+    /// The nominal structure angles `alpha_1..alpha_5` (rad): exactly `±pi/2` for
+    /// `alpha_1, alpha_3, alpha_4, alpha_5` and `0` or `pi` for `alpha_2`.
+    pub alpha_rad: [f64; 5],
+    /// The cell joint (1-based) of arm joint 1 (the prismatic joints before it are the external
+    /// axes; 2 on the canonical cell).
+    pub first_joint: usize,
+    /// `Rx(alpha_1..alpha_5)` and `Rx(-alpha_5)`, computed once (the solver's hot path would
+    /// otherwise evaluate their sines and cosines on every call)
+    rx: [Matrix3<f64>; 6],
 }
 
-/// Up to eight closed-form solutions `[q2..q7]` (rad) for one tool pose.
+/// Up to eight closed-form solutions (the six arm joints, rad) for one tool pose.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ArmSolutions {
     q: [[f64; 6]; 8],
@@ -150,7 +213,7 @@ pub struct ArmSolutions {
 }
 
 impl ArmSolutions {
-    /// The solutions found (0..=8), each `[q2, q3, q4, q5, q6, q7]` in rad, wrapped to (-pi, pi].
+    /// The solutions found (0..=8), each the six arm joints (rad), wrapped to (-pi, pi].
     pub fn as_slice(&self) -> &[[f64; 6]] {
         &self.q[..self.len]
     }
@@ -172,7 +235,8 @@ impl ArmSolutions {
     }
 
     /// For each solution its branch: bit 0 = shoulder (0: wrist centre on the +x side of the
-    /// J1 plane), bit 1 = elbow (0: `+acos`), bit 2 = wrist (0: `theta_6 >= 0`).
+    /// arm-joint-1 plane), bit 1 = elbow (0: `+acos`), bit 2 = wrist (0: the wrist Euler
+    /// solution whose middle angle is `>= 0`; on the Meca500 `theta_6 >= 0`).
     pub fn branches(&self) -> &[u8] {
         &self.branch[..self.len]
     }
@@ -193,69 +257,145 @@ impl ArmSolutions {
     }
 }
 
+/// Why a chain does not qualify for the closed form: in joint row `row` (1-based), the value
+/// of `field` (its cell-file name) is `value`, the closed form needs `want` (`why`).
+fn structure_error(row: usize, field: &str, value: String, want: &str, why: &str) -> PlanError {
+    PlanError::UnsupportedArm(format!(
+        "joint row {row}: {field} = {value}, the closed form needs {want} ({why})"
+    ))
+}
+
+/// `Ok(±pi/2)` when `alpha` is within the tolerance of ±90 deg.
+fn quarter_turn(row: usize, alpha: f64, why: &str) -> Result<f64, PlanError> {
+    use std::f64::consts::FRAC_PI_2;
+    let sign = if wrap_angle(alpha - FRAC_PI_2).abs() <= STRUCTURE_ANGLE_TOL_RAD {
+        1.0
+    } else if wrap_angle(alpha + FRAC_PI_2).abs() <= STRUCTURE_ANGLE_TOL_RAD {
+        -1.0
+    } else {
+        return Err(structure_error(
+            row,
+            "alpha_deg",
+            format!("{:.3}", alpha.to_degrees()),
+            &format!("±90 ± {:.1} deg", STRUCTURE_ANGLE_TOL_RAD.to_degrees()),
+            why,
+        ));
+    };
+    Ok(sign * FRAC_PI_2)
+}
+
 impl ArmGeometry {
-    /// Reads the arm geometry from rows 2..7 of `model`, checking that the model has the
-    /// Meca500 structure the closed form assumes (within 0.05 rad / 5 mm, so a calibrated model
-    /// is accepted: its small deviations are removed by the refinement).
+    /// Reads the nominal arm geometry from `model`, checking that its chain is a 6R arm with a
+    /// spherical wrist and an ortho-parallel shoulder and elbow, optionally preceded by
+    /// prismatic joints (external axes). In the arm's numbering (row `j` holds `alpha_{j-1}`,
+    /// `a_{j-1}`, `d_j`):
+    ///
+    /// * wrist (checked first): `a_4 = d_5 = a_5 = 0` (the axes of arm joints 4, 5, 6 meet in
+    ///   one point) and `alpha_4, alpha_5 = ±90 deg`;
+    /// * shoulder and elbow: `alpha_1 = ±90 deg` (joint 2 perpendicular to joint 1),
+    ///   `alpha_2 = 0` or `180 deg` (joints 2 and 3 parallel), `alpha_3 = ±90 deg`, an upper arm
+    ///   `|a_2| >= 1 mm` and a wrist centre off the joint-3 axis (`|(a_3, d_4)| >= 1 mm`);
+    ///   `a_1`, `d_1`, `d_2`, `d_3`, `a_3`, `d_4`, `d_6` and the theta offsets are free.
+    ///
+    /// Angles within 0.05 rad and zero lengths within 5 mm are accepted, so that a calibrated
+    /// model qualifies: its small deviations (and beta, compliance, effects) are removed by the
+    /// refinement.
+    ///
+    /// # Errors
+    /// [`PlanError::UnsupportedArm`] naming the first joint row, field and value that do not
+    /// fit (the wrist first: a UR5e-class arm is reported as not having a spherical wrist).
     pub fn from_model(model: &Model) -> Result<Self, PlanError> {
-        use std::f64::consts::FRAC_PI_2;
-        if !model.is_meca500_on_guide() {
+        use std::f64::consts::PI;
+        let n = model.joint_count();
+        let k = leading_prismatic_joints(model);
+        if n != k + 6 || !model.joint_kinds()[k..].iter().all(|j| j.is_revolute()) {
             return Err(PlanError::UnsupportedArm(format!(
-                "the closed-form IK needs the 7-joint Meca500-on-guide chain (prismatic guide + 6 revolute joints); this chain has {}",
+                "the closed-form IK needs six revolute joints after the prismatic external axes (if any); this chain has {}",
                 model.describe_chain()
             )));
         }
-        let angle = |row: usize, want: f64| {
-            let got = model.row(row).alpha;
-            if (wrap_angle(got - want)).abs() > STRUCTURE_ANGLE_TOL_RAD {
-                return Err(PlanError::UnsupportedArm(format!(
-                    "alpha_{} = {:.3} deg, the closed form needs {:.0} deg",
-                    row - 1,
-                    got.to_degrees(),
-                    want.to_degrees()
-                )));
-            }
-            Ok(())
-        };
-        angle(3, -FRAC_PI_2)?;
-        angle(4, 0.0)?;
-        angle(5, -FRAC_PI_2)?;
-        angle(6, FRAC_PI_2)?;
-        angle(7, -FRAC_PI_2)?;
-        let zero_length = |name: &str, v: f64| {
+        let f = k + 1;
+        // cell row of arm joint j
+        let r = |j: usize| f + j - 1;
+        let row = |j: usize| model.row(r(j));
+        let wrist =
+            format!("a spherical wrist: the axes of joints {}, {}, {} meet in one point", r(4), r(5), r(6));
+        let zero = |j: usize, field: &str, v: f64, why: &str| {
             if v.abs() > STRUCTURE_LENGTH_TOL_MM {
-                return Err(PlanError::UnsupportedArm(format!(
-                    "{name} = {v:.3} mm, the closed form needs 0 (spherical wrist, no shoulder offset)"
-                )));
+                return Err(structure_error(
+                    r(j),
+                    field,
+                    format!("{v:.3}"),
+                    &format!("0 ± {STRUCTURE_LENGTH_TOL_MM} mm"),
+                    why,
+                ));
             }
             Ok(())
         };
-        zero_length("a_2", model.row(3).a)?;
-        zero_length("d_3", model.row(3).d)?;
-        zero_length("d_4", model.row(4).d)?;
-        zero_length("a_5", model.row(6).a)?;
-        zero_length("d_6", model.row(6).d)?;
-        zero_length("a_6", model.row(7).a)?;
-        let upper_arm_mm = model.row(4).a;
+        zero(5, "a_mm", row(5).a, &wrist)?;
+        zero(5, "d_mm", row(5).d, &wrist)?;
+        zero(6, "a_mm", row(6).a, &wrist)?;
+        let alpha4 = quarter_turn(r(5), row(5).alpha, "perpendicular wrist axes")?;
+        let alpha5 = quarter_turn(r(6), row(6).alpha, "perpendicular wrist axes")?;
+        let alpha1 = quarter_turn(r(2), row(2).alpha, "the shoulder joint perpendicular to the base joint")?;
+        let alpha2_got = row(3).alpha;
+        let alpha2 = if wrap_angle(alpha2_got).abs() <= STRUCTURE_ANGLE_TOL_RAD {
+            0.0
+        } else if wrap_angle(alpha2_got - PI).abs() <= STRUCTURE_ANGLE_TOL_RAD {
+            PI
+        } else {
+            return Err(structure_error(
+                r(3),
+                "alpha_deg",
+                format!("{:.3}", alpha2_got.to_degrees()),
+                &format!("0 or 180 ± {:.1} deg", STRUCTURE_ANGLE_TOL_RAD.to_degrees()),
+                "the shoulder and elbow joints parallel",
+            ));
+        };
+        let alpha3 = quarter_turn(r(4), row(4).alpha, "the forearm joint perpendicular to the elbow joint")?;
+        let upper_arm_mm = row(3).a;
         if upper_arm_mm.abs() < 1.0 {
-            return Err(PlanError::UnsupportedArm(format!("a_3 = {upper_arm_mm} mm is not an upper arm")));
+            return Err(structure_error(
+                r(3),
+                "a_mm",
+                format!("{upper_arm_mm:.3}"),
+                "|a| >= 1 mm",
+                "an upper arm",
+            ));
         }
-        let mut theta_offset_rad = [0.0; 6];
-        for (k, t) in theta_offset_rad.iter_mut().enumerate() {
-            *t = model.row(k + 2).theta_offset;
+        if row(4).a.hypot(row(4).d) < 1.0 {
+            return Err(structure_error(
+                r(4),
+                "(a_mm, d_mm)",
+                format!("({:.3}, {:.3})", row(4).a, row(4).d),
+                "a length >= 1 mm",
+                "a wrist centre off the elbow axis",
+            ));
         }
+        let sigma = if alpha2 == 0.0 { 1.0 } else { -1.0 };
+        let theta_offset_rad = std::array::from_fn(|j| row(j + 1).theta_offset);
         Ok(Self {
-            shoulder_height_mm: model.row(2).d,
+            shoulder_height_mm: row(1).d,
             upper_arm_mm,
-            elbow_offset_mm: model.row(5).a,
-            forearm_mm: model.row(5).d,
-            flange_mm: model.row(7).d,
+            elbow_offset_mm: row(4).a,
+            forearm_mm: row(4).d,
+            flange_mm: row(6).d,
             theta_offset_rad,
+            shoulder_forward_mm: row(2).a,
+            shoulder_lateral_mm: row(2).d + sigma * row(3).d,
+            alpha_rad: [alpha1, alpha2, alpha3, alpha4, alpha5],
+            first_joint: f,
+            rx: [rot_x(alpha1), rot_x(alpha2), rot_x(alpha3), rot_x(alpha4), rot_x(alpha5), rot_x(-alpha5)],
         })
     }
 
-    /// All closed-form solutions for the tool-changer frame (frame 7) pose `target` given in
-    /// the robot base frame `B`. Each is `[q2..q7]` (rad) (model offsets removed, wrapped).
+    /// `cos(alpha_2)`: +1 when `alpha_2 = 0`, -1 when `alpha_2 = pi`.
+    fn sigma(&self) -> f64 {
+        if self.alpha_rad[1] == 0.0 { 1.0 } else { -1.0 }
+    }
+
+    /// All closed-form solutions for the tool-changer frame pose `target` given in the robot
+    /// base frame `B`. Each is the six arm joints (rad) (model offsets removed, wrapped).
     pub fn solve(&self, target: &Frame) -> ArmSolutions {
         self.solve_with_reach_slack(target, 0.0)
     }
@@ -263,41 +403,69 @@ impl ArmGeometry {
     /// Like [`ArmGeometry::solve`], but a wrist centre up to `slack` (relative, in the elbow
     /// equation `|K / L| <= 1 + slack`) beyond the reach of this nominal-structure arm still
     /// gives seeds: both elbow branches at ±[`ELBOW_SEED_RAD`] from the stretched/folded arm.
-    /// A calibrated arm may reach what its nominal structure cannot; the refinement decides.
+    /// Likewise a wrist centre closer to arm joint 1 than the sideways shoulder offset gives
+    /// the seeds of the arm plane through that axis. A calibrated arm may reach what its
+    /// nominal structure cannot; the refinement decides.
     pub fn solve_with_reach_slack(&self, target: &Frame, slack: f64) -> ArmSolutions {
+        use std::f64::consts::PI;
         let mut out = ArmSolutions::default();
-        let z7 = target.z_axis();
-        let w = target.p - z7 * self.flange_mm;
+        let z6 = target.z_axis();
+        let w = target.p - z6 * self.flange_mm;
         let rho = w.x.hypot(w.y);
         let h = w.z - self.shoulder_height_mm;
-        let theta2_base = if rho > 1e-12 { w.y.atan2(w.x) } else { 0.0 };
-        let (a3, a4, d5) = (self.upper_arm_mm, self.elbow_offset_mm, self.forearm_mm);
-        let l = a4.hypot(d5);
-        let delta = d5.atan2(a4);
+        let theta1_base = if rho > 1e-12 { w.y.atan2(w.x) } else { 0.0 };
+        let s1 = self.alpha_rad[0].signum();
+        let s3 = self.alpha_rad[2].signum();
+        let sigma = self.sigma();
+        let lateral = self.shoulder_lateral_mm;
+        let (a2, a3) = (self.upper_arm_mm, self.elbow_offset_mm);
+        // the wrist centre in arm frame 3 is (a3, e, 0) after Rz(theta4)
+        let e = -sigma * s3 * self.forearm_mm;
+        let l = a3.hypot(e);
+        let delta = e.atan2(a3);
+        // in-plane distance of the wrist centre from arm joint 1 (the sideways offset removed)
+        let (r_abs, shoulder_beyond) = if lateral == 0.0 {
+            (rho, false)
+        } else {
+            let r2 = rho * rho - lateral * lateral;
+            if r2 >= 0.0 {
+                (r2.sqrt(), false)
+            } else if slack > 0.0 {
+                (0.0, true)
+            } else {
+                return out;
+            }
+        };
         for (shoulder_bit, shoulder) in [(0u8, 1.0), (1, -1.0)] {
-            let r = shoulder * rho;
-            let theta2 = if shoulder > 0.0 { theta2_base } else { theta2_base + std::f64::consts::PI };
-            let k = (r * r + h * h - a3 * a3 - a4 * a4 - d5 * d5) / (2.0 * a3);
+            let r = shoulder * r_abs;
+            let theta1 = if lateral == 0.0 {
+                if shoulder > 0.0 { theta1_base } else { theta1_base + PI }
+            } else {
+                w.y.atan2(w.x) - (-s1 * lateral).atan2(r)
+            };
+            let x = r - self.shoulder_forward_mm;
+            let k = (x * x + h * h - a2 * a2 - a3 * a3 - e * e) / (2.0 * a2);
             let ratio = k / l;
             if ratio.is_nan() || ratio.abs() > 1.0 + 1e-12 + slack {
                 continue;
             }
-            let beyond = ratio.abs() > 1.0 + 1e-12;
-            let gamma = if !beyond {
+            let beyond = shoulder_beyond || ratio.abs() > 1.0 + 1e-12;
+            let gamma = if ratio.abs() <= 1.0 + 1e-12 {
                 ratio.clamp(-1.0, 1.0).acos()
             } else {
-                let edge = if ratio > 0.0 { 0.0 } else { std::f64::consts::PI };
+                let edge = if ratio > 0.0 { 0.0 } else { PI };
                 (edge - ELBOW_SEED_RAD).abs()
             };
             for (elbow_bit, elbow) in [(0u8, gamma), (2, -gamma)] {
-                let theta4 = elbow - delta;
-                let (s4, c4) = theta4.sin_cos();
-                // v = a3 e(0) + a4 e(-theta4) + d5 e(-theta4 - 90 deg), e(phi) = (cos phi, sin phi)
-                let v_r = a3 + a4 * c4 - d5 * s4;
-                let v_h = -a4 * s4 - d5 * c4;
-                let theta3 = v_h.atan2(v_r) - h.atan2(r);
+                // psi = sigma theta3: the wrist centre in arm frame 2 is
+                // v = (a2, 0) + Rot(psi) (a3, e), and (x, s1 h) = Rot(theta2) v
+                let psi = elbow - delta;
+                let (s, c) = psi.sin_cos();
+                let v_r = a2 + a3 * c - e * s;
+                let v_h = -a3 * s - e * c;
+                let theta2 = v_h.atan2(v_r) + s1 * h.atan2(x);
                 let branch = shoulder_bit | elbow_bit;
-                self.push_wrist(&mut out, target, [theta2, theta3, theta4], beyond, branch);
+                self.push_wrist(&mut out, target, [theta1, theta2, sigma * psi], beyond, branch);
                 if gamma == 0.0 {
                     break;
                 }
@@ -307,36 +475,58 @@ impl ArmGeometry {
     }
 
     /// Forward kinematics of this nominal-structure arm: the tool-changer frame in the robot
-    /// base frame for joints `[q2..q7]` (rad) (the exact inverse of [`ArmGeometry::solve`]).
+    /// base frame for the six arm joints `q` (rad) (the exact inverse of
+    /// [`ArmGeometry::solve`]). The sideways shoulder offset is put on arm row 3.
     pub fn forward(&self, q: &[f64; 6]) -> Frame {
-        use std::f64::consts::FRAC_PI_2;
         let t: [f64; 6] = std::array::from_fn(|k| q[k] + self.theta_offset_rad[k]);
-        let link = |alpha: f64, a: f64, theta: f64, d: f64| {
-            let r = rot_x(alpha) * rot_z(theta);
+        let link = |rx: &Matrix3<f64>, a: f64, theta: f64, d: f64| {
+            let r = rx * rot_z(theta);
             Frame { r, p: Vector3::new(a, 0.0, 0.0) + r.column(2) * d }
         };
+        let rx = &self.rx;
         [
-            link(0.0, 0.0, t[0], self.shoulder_height_mm),
-            link(-FRAC_PI_2, 0.0, t[1], 0.0),
-            link(0.0, self.upper_arm_mm, t[2], 0.0),
-            link(-FRAC_PI_2, self.elbow_offset_mm, t[3], self.forearm_mm),
-            link(FRAC_PI_2, 0.0, t[4], 0.0),
-            link(-FRAC_PI_2, 0.0, t[5], self.flange_mm),
+            link(&rot_x(0.0), 0.0, t[0], self.shoulder_height_mm),
+            link(&rx[0], self.shoulder_forward_mm, t[1], 0.0),
+            link(&rx[1], self.upper_arm_mm, t[2], self.sigma() * self.shoulder_lateral_mm),
+            link(&rx[2], self.elbow_offset_mm, t[3], self.forearm_mm),
+            link(&rx[3], 0.0, t[4], 0.0),
+            link(&rx[4], 0.0, t[5], self.flange_mm),
         ]
         .iter()
         .fold(Frame::identity(), |acc, l| acc.compose(l))
     }
 
-    /// Adds the (up to two) wrist solutions for given arm angles theta_2..4.
+    /// Adds the (up to two) wrist solutions for given arm angles theta_1..3.
+    ///
+    /// With `R_3` the orientation of arm frame 3, `M = R_3^T R_6 Rx(-alpha_5)` (times
+    /// `Rx(pi)` when `alpha_3 = alpha_4`) is `Ry(a) Rz(b) Ry(c)` (Y-Z-Y Euler angles) with
+    /// `theta_4 = -sign(alpha_3) a`, `theta_5 = p b`, `theta_6 = -sign(alpha_5) p c`
+    /// (`p = -1` when `alpha_3 = alpha_4`, else 1).
     fn push_wrist(&self, out: &mut ArmSolutions, target: &Frame, arm: [f64; 3], beyond: bool, branch: u8) {
-        let [t2, t3, t4] = arm;
-        // R_4 in B: Rz(t2) Rx(-90) Rz(t3) Rz(t4)   (alpha_3 = 0, beta = 0)
-        let r4 = rot_z(t2) * rot_x(-std::f64::consts::FRAC_PI_2) * rot_z(t3 + t4);
-        let m = r4.transpose() * target.r * rot_x(std::f64::consts::FRAC_PI_2);
+        use std::f64::consts::PI;
+        let [t1, t2, t3] = arm;
+        let [_, alpha2, alpha3, alpha4, alpha5] = self.alpha_rad;
+        let rx = &self.rx;
+        let r3 = if alpha2 == 0.0 {
+            rot_z(t1) * rx[0] * rot_z(t2 + t3)
+        } else {
+            rot_z(t1) * rx[0] * rot_z(t2) * rx[1] * rot_z(t3)
+        };
+        let mut m = r3.transpose() * target.r * rx[5];
+        let flip = alpha3 == alpha4;
+        if flip {
+            // times Rx(pi) = diag(1, -1, -1), exactly
+            for r in 0..3 {
+                m[(r, 1)] = -m[(r, 1)];
+                m[(r, 2)] = -m[(r, 2)];
+            }
+        }
+        let p = if flip { -1.0 } else { 1.0 };
+        let (k4, k6) = (-alpha3.signum(), -alpha5.signum() * p);
         let s6 = m[(0, 1)].hypot(m[(2, 1)]);
         let c6 = m[(1, 1)];
-        let mut add = |t5: f64, t6: f64, t7: f64, wrist_bit: u8| {
-            let theta = [t2, t3, t4, t5, t6, t7];
+        let mut add = |a: f64, b: f64, c: f64, wrist_bit: u8| {
+            let theta = [t1, t2, t3, k4 * a, p * b, k6 * c];
             let mut q = [0.0; 6];
             for k in 0..6 {
                 q[k] = wrap_angle(theta[k] - self.theta_offset_rad[k]);
@@ -344,18 +534,18 @@ impl ArmGeometry {
             out.push(q, beyond, branch | wrist_bit);
         };
         if s6 > 1e-12 {
-            let t6 = s6.atan2(c6);
-            let t5 = m[(2, 1)].atan2(-m[(0, 1)]);
-            let t7 = m[(1, 2)].atan2(m[(1, 0)]);
-            add(t5, t6, t7, 0);
-            add(t5 + std::f64::consts::PI, -t6, t7 + std::f64::consts::PI, 4);
+            let b = s6.atan2(c6);
+            let a = m[(2, 1)].atan2(-m[(0, 1)]);
+            let c = m[(1, 2)].atan2(m[(1, 0)]);
+            add(a, b, c, 0);
+            add(a + PI, -b, c + PI, 4);
         } else if c6 > 0.0 {
-            // theta6 = 0: M = Ry(t5 + t7); choose t5 = 0
+            // b = 0: M = Ry(a + c); choose a = 0
             add(0.0, 0.0, m[(0, 2)].atan2(m[(0, 0)]), 0);
         } else {
-            // theta6 = pi: M = Ry(t5 - t7) Rz(pi); choose t5 = 0
-            let mm = m * rot_z(std::f64::consts::PI).transpose();
-            add(0.0, std::f64::consts::PI, -mm[(0, 2)].atan2(mm[(0, 0)]), 0);
+            // b = pi: M = Ry(a - c) Rz(pi); choose a = 0
+            let mm = m * rot_z(PI).transpose();
+            add(0.0, PI, -mm[(0, 2)].atan2(mm[(0, 0)]), 0);
         }
     }
 }
@@ -397,14 +587,22 @@ pub struct Refined {
     pub rotation_error_rad: f64,
 }
 
-/// The 6×6 joint Jacobian (q2..q7) of the tool frame: `[z_i × (p - o_i); z_i]` (world axes;
-/// rows: translation, then rotation).
+/// The 6×6 joint Jacobian (q2..q7, the canonical cell's arm) of the tool frame:
+/// `[z_i × (p - o_i); z_i]` (world axes; rows: translation, then rotation).
 #[inline]
 pub fn tool_jacobian(chain: &vatcal_kinematics::Chain) -> Matrix6<f64> {
+    arm_tool_jacobian(chain, 2)
+}
+
+/// The 6×6 Jacobian of the tool frame in the six revolute joints `first..first + 6`
+/// (1-based cell joints): `[z_i × (p - o_i); z_i]` (world axes; rows: translation, then
+/// rotation).
+#[inline]
+pub fn arm_tool_jacobian(chain: &vatcal_kinematics::Chain, first: usize) -> Matrix6<f64> {
     let p = chain.tool.p;
     let mut j = Matrix6::zeros();
     for k in 0..6 {
-        let f = &chain.frames[k + 2];
+        let f = &chain.frames[k + first];
         let z = f.z_axis();
         let lin = z.cross(&(p - f.p));
         for r in 0..3 {
@@ -415,8 +613,11 @@ pub fn tool_jacobian(chain: &vatcal_kinematics::Chain) -> Matrix6<f64> {
     j
 }
 
-/// The arm of a [`Model`] with the guide held at `q1_mm`, as a [`ToolKinematics`] of six
-/// joints `[q2..q7]` (rad): tool-changer frame in the world and [`tool_jacobian`].
+/// The arm of a [`Model`] with the guide held at `q1_mm`, as a [`ToolKinematics`] of the six
+/// revolute joints after the prismatic joints in front of the arm (`[q2..q7]` on the canonical
+/// cell, rad): tool-changer frame in the world and [`arm_tool_jacobian`]. The first prismatic
+/// joint is at `q1_mm` (ignored without one), any further ones at 0; the model must have six
+/// joints after them (the `joints` of a shorter chain panics).
 #[derive(Debug, Clone, Copy)]
 pub struct ArmAtGuide<'a> {
     /// the model
@@ -425,17 +626,56 @@ pub struct ArmAtGuide<'a> {
     pub q1_mm: f64,
 }
 
-impl ArmAtGuide<'_> {
+impl<'a> ArmAtGuide<'a> {
     /// The cell's joint vector for arm joints `q` (rad).
     pub fn joints(&self, q: &[f64]) -> JointVector {
-        let mut v = JointVector::default();
-        v[0] = self.q1_mm;
-        v.as_mut_slice()[1..7].copy_from_slice(&q[..6]);
-        v
+        self.arm().joints(q)
+    }
+
+    fn arm(&self) -> ArmWithFixed<'a> {
+        let first = leading_prismatic_joints(self.model) + 1;
+        let mut fixed = JointVector::zeros(self.model.joint_count());
+        if first > 1 {
+            fixed[0] = self.q1_mm;
+        }
+        ArmWithFixed { model: self.model, fixed, first }
     }
 }
 
 impl ToolKinematics for ArmAtGuide<'_> {
+    type Eval = vatcal_kinematics::Chain;
+
+    fn dof(&self) -> usize {
+        6
+    }
+
+    fn evaluate(&self, q: &[f64]) -> (Frame, vatcal_kinematics::Chain) {
+        self.arm().evaluate(q)
+    }
+
+    fn jacobian(&self, chain: &vatcal_kinematics::Chain, jacobian: &mut Matrix6xX<f64>) {
+        self.arm().jacobian(chain, jacobian)
+    }
+}
+
+/// Six revolute joints `first..first + 6` (1-based) of a model solved for, every other joint
+/// held at its value in `fixed`.
+#[derive(Debug, Clone, Copy)]
+struct ArmWithFixed<'a> {
+    model: &'a Model,
+    fixed: JointVector,
+    first: usize,
+}
+
+impl ArmWithFixed<'_> {
+    fn joints(&self, q: &[f64]) -> JointVector {
+        let mut v = self.fixed;
+        v.as_mut_slice()[self.first - 1..self.first + 5].copy_from_slice(&q[..6]);
+        v
+    }
+}
+
+impl ToolKinematics for ArmWithFixed<'_> {
     type Eval = vatcal_kinematics::Chain;
 
     fn dof(&self) -> usize {
@@ -448,7 +688,7 @@ impl ToolKinematics for ArmAtGuide<'_> {
     }
 
     fn jacobian(&self, chain: &vatcal_kinematics::Chain, jacobian: &mut Matrix6xX<f64>) {
-        jacobian.copy_from(&tool_jacobian(chain));
+        jacobian.copy_from(&arm_tool_jacobian(chain, self.first));
     }
 }
 
@@ -506,20 +746,51 @@ impl ToolKinematics for ChainTool<'_> {
     }
 }
 
-/// Refines `seed` (q1 held fixed) so that the model's tool-changer frame reaches `target`
-/// (world). Levenberg–Marquardt on the weighted 6-DOF error (no joint limits):
-/// [`crate::numeric_ik::solve_local`] on [`ArmAtGuide`]; see the module docs.
+/// Refines `seed` so that the model's tool-changer frame reaches `target` (world), solving
+/// for the six revolute joints after the prismatic joints in front of the arm (q2..q7 on the
+/// canonical cell) and holding those prismatic joints (q1, the guide) at their seed values.
+/// Levenberg–Marquardt on the weighted 6-DOF error (no joint limits):
+/// [`crate::numeric_ik::solve_local`] on the arm (as [`ArmAtGuide`]); see the module docs.
+///
+/// # Errors
+/// [`PlanError::IkNotConverged`] when the tolerances are missed; [`PlanError::UnsupportedArm`]
+/// when the model has no six revolute joints after its leading prismatic joints, or `seed`
+/// has the wrong length.
 pub fn refine_tool_pose(
     model: &Model,
     seed: &JointVector,
     target: &Frame,
     opts: &RefineOptions,
 ) -> Result<Refined, PlanError> {
-    let arm = ArmAtGuide { model, q1_mm: seed[0] };
+    let first = leading_prismatic_joints(model) + 1;
+    let n = model.joint_count();
+    if n < first + 5
+        || seed.len() != n
+        || !model.joint_kinds()[first - 1..first + 5].iter().all(|k| k.is_revolute())
+    {
+        return Err(PlanError::UnsupportedArm(format!(
+            "the refinement needs six revolute joints after the prismatic external axes and one seed value per joint; this chain has {}, the seed {} values",
+            model.describe_chain(),
+            seed.len()
+        )));
+    }
+    refine_arm(model, first, seed, target, opts)
+}
+
+/// [`refine_tool_pose`] for a chain already checked: arm joints `first..first + 6`, one seed
+/// value per joint.
+fn refine_arm(
+    model: &Model,
+    first: usize,
+    seed: &JointVector,
+    target: &Frame,
+    opts: &RefineOptions,
+) -> Result<Refined, PlanError> {
+    let arm = ArmWithFixed { model, fixed: *seed, first };
     let r = solve_local(
         &arm,
         &[JointSpec::continuous(); 6],
-        &seed.as_slice()[1..],
+        &seed.as_slice()[first - 1..first + 5],
         &IkTarget::Pose(*target),
         opts,
     )?;
@@ -534,7 +805,7 @@ pub fn refine_tool_pose(
 /// A closed-form seed of the refinement.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IkSeed {
-    /// joints (q1 as given)
+    /// joints (the external axes, q1, as given)
     pub q: JointVector,
     /// true for a seed just beyond the nominal arm's reach (not an exact nominal solution)
     pub beyond_reach: bool,
@@ -566,17 +837,25 @@ fn closed_form_is_exact(model: &Model, arm: &ArmGeometry) -> bool {
         [10.0, -100.0, -50.0, 30.0, -120.0, -20.0, 150.0],
         [280.0, 150.0, 80.0, -120.0, 10.0, 100.0, 5.0],
     ];
+    let k = arm.first_joint - 1;
     tests.iter().all(|t| {
-        let q = JointVector::from_mm_deg(t[0], [t[1], t[2], t[3], t[4], t[5], t[6]]);
-        let arm_q: [f64; 6] = std::array::from_fn(|k| q[k + 1]);
-        let nominal = robot_base_frame(model, q[0]).compose(&arm.forward(&arm_q));
+        let mut q = JointVector::zeros(model.joint_count());
+        if k > 0 {
+            q[0] = t[0];
+        }
+        for j in 0..6 {
+            q[k + j] = deg_to_rad(t[j + 1]);
+        }
+        let arm_q: [f64; 6] = std::array::from_fn(|j| q[k + j]);
+        let nominal = robot_base_frame(model, t[0]).compose(&arm.forward(&arm_q));
         let actual = model.chain(&q).tool;
         (nominal.p - actual.p).norm() < 1e-9 && rotation_angle_between(&nominal.r, &actual.r) < 1e-12
     })
 }
 
 impl<'a> ToolPoseIk<'a> {
-    /// IK for `model` (its arm must have the Meca500 structure, see [`ArmGeometry::from_model`]).
+    /// IK for `model`: a 6R arm with a spherical wrist ([`ArmGeometry::from_model`]), with at
+    /// most one prismatic joint (the guide, joint 1) in front of it.
     ///
     /// # Examples
     /// Every solution that puts the tool-changer frame at a target pose with the guide at 150 mm,
@@ -601,10 +880,18 @@ impl<'a> ToolPoseIk<'a> {
     /// ```
     ///
     /// # Errors
-    /// [`PlanError::UnsupportedArm`] when the model's arm does not have the Meca500 structure the
-    /// closed-form seeds need (intersecting wrist axes, the row layout of the canonical cell).
+    /// [`PlanError::UnsupportedArm`] when the model's arm does not have the structure the
+    /// closed form needs (see [`ArmGeometry::from_model`]; the message names the row and value)
+    /// or has more than one prismatic joint in front of the arm.
     pub fn new(model: &'a Model, refine: RefineOptions) -> Result<Self, PlanError> {
         let arm = ArmGeometry::from_model(model)?;
+        if arm.first_joint > 2 {
+            return Err(PlanError::UnsupportedArm(format!(
+                "the closed-form IK holds one prismatic joint (the guide) at given positions; this chain has {} prismatic joints in front of the arm ({})",
+                arm.first_joint - 1,
+                model.describe_chain()
+            )));
+        }
         let corrections = if closed_form_is_exact(model, &arm) { 0 } else { SEED_CORRECTIONS };
         Ok(Self { model, arm, refine, corrections })
     }
@@ -619,18 +906,32 @@ impl<'a> ToolPoseIk<'a> {
         self.model
     }
 
-    /// Closed-form seeds at guide position `q1_mm` for the world tool pose `target`, given the
-    /// robot base frame `base` at that guide position ([`robot_base_frame`]); corrected on
-    /// their branch for a calibrated model (see the type docs).
+    /// The guide joint held at the guide positions (1-based): `Some(1)` when the chain has a
+    /// prismatic joint in front of the arm, `None` for an arm alone (guide positions ignored).
+    pub fn guide_joint(&self) -> Option<usize> {
+        (self.arm.first_joint > 1).then_some(1)
+    }
+
+    /// The cell's joint vector for the guide at `q1_mm` (if the chain has one) and arm joints
+    /// `arm` (rad).
+    fn joints(&self, q1_mm: f64, arm: &[f64; 6]) -> JointVector {
+        let k = self.arm.first_joint - 1;
+        let mut q = JointVector::zeros(self.model.joint_count());
+        if k > 0 {
+            q[0] = q1_mm;
+        }
+        q.as_mut_slice()[k..k + 6].copy_from_slice(arm);
+        q
+    }
+
+    /// Closed-form seeds at guide position `q1_mm` (ignored without a guide) for the world tool
+    /// pose `target`, given the robot base frame `base` at that guide position
+    /// ([`robot_base_frame`]); corrected on their branch for a calibrated model (see the type
+    /// docs).
     pub fn seeds(&self, q1_mm: f64, base: &Frame, target: &Frame) -> Vec<IkSeed> {
         let base_inv = base.inverse();
         let solutions = self.arm.solve_with_reach_slack(&base_inv.compose(target), SEED_REACH_SLACK);
-        let joints = |arm: &[f64; 6]| {
-            let mut q = [0.0; 7];
-            q[0] = q1_mm;
-            q[1..].copy_from_slice(arm);
-            JointVector::new(q)
-        };
+        let joints = |arm: &[f64; 6]| self.joints(q1_mm, arm);
         let mut out = Vec::with_capacity(solutions.len());
         for ((arm, beyond), branch) in
             solutions.as_slice().iter().zip(solutions.beyond_reach()).zip(solutions.branches())
@@ -651,19 +952,26 @@ impl<'a> ToolPoseIk<'a> {
     }
 
     /// Refines one seed on the model.
+    ///
+    /// # Errors
+    /// As [`refine_tool_pose`].
     pub fn refine(&self, seed: &JointVector, target: &Frame) -> Result<Refined, PlanError> {
-        refine_tool_pose(self.model, seed, target, &self.refine)
+        if seed.len() != self.model.joint_count() {
+            return refine_tool_pose(self.model, seed, target, &self.refine);
+        }
+        refine_arm(self.model, self.arm.first_joint, seed, target, &self.refine)
     }
 
-    /// Every solution at guide position `q1_mm` (closed-form seeds refined on the model; seeds
-    /// that do not converge are dropped; duplicates merged), each wrapped to (-pi, pi].
+    /// Every solution at guide position `q1_mm` (ignored without a guide; closed-form seeds
+    /// refined on the model; seeds that do not converge are dropped; duplicates merged), each
+    /// arm joint wrapped to (-pi, pi].
     pub fn solve_at_guide(&self, q1_mm: f64, target: &Frame) -> Vec<JointVector> {
         let base = robot_base_frame(self.model, q1_mm);
         let mut out: Vec<JointVector> = Vec::with_capacity(8);
         for seed in self.seeds(q1_mm, &base, target) {
             if let Ok(r) = self.refine(&seed.q, target) {
                 let mut q = r.q;
-                for v in q.as_mut_slice().iter_mut().skip(1) {
+                for v in q.as_mut_slice().iter_mut().skip(self.arm.first_joint - 1) {
                     *v = wrap_angle(*v);
                 }
                 if !out.iter().any(|p| max_abs_diff(p, &q) < 1e-9) {
@@ -674,8 +982,12 @@ impl<'a> ToolPoseIk<'a> {
         out
     }
 
-    /// Every solution over several guide positions (up to 8 per position).
+    /// Every solution over several guide positions (up to 8 per position; one pass, up to 8,
+    /// for an arm without a guide).
     pub fn solve(&self, guide_positions_mm: &[f64], target: &Frame) -> Vec<JointVector> {
+        if self.guide_joint().is_none() {
+            return self.solve_at_guide(0.0, target);
+        }
         guide_positions_mm.iter().flat_map(|q1| self.solve_at_guide(*q1, target)).collect()
     }
 }
@@ -697,11 +1009,42 @@ fn joint_spec(model: &Model, i: usize, revolute: bool) -> JointSpec {
     }
 }
 
+/// Which inverse kinematics a [`ModelIk`] uses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum IkMethod {
+    /// Closed form on the nominal geometry (6R arm with a spherical wrist, up to 8 branches),
+    /// refined on the full model ([`ToolPoseIk`]).
+    ClosedForm,
+    /// Multi-start numerical IK ([`crate::numeric_ik::NumericIk`]); `reason` says why the
+    /// closed form does not apply (`None` when the numerical IK was asked for).
+    Numerical {
+        /// why the chain does not qualify for the closed form
+        reason: Option<String>,
+    },
+}
+
+impl std::fmt::Display for IkMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::ClosedForm => {
+                write!(
+                    f,
+                    "closed form (6R arm with a spherical wrist, up to 8 branches), refined on the model"
+                )
+            }
+            Self::Numerical { reason: Some(r) } => write!(f, "multi-start numerical (no closed form: {r})"),
+            Self::Numerical { reason: None } => write!(f, "multi-start numerical"),
+        }
+    }
+}
+
 /// Inverse kinematics of the tool-changer frame of any [`Model`]: the closed form + refinement
-/// ([`ToolPoseIk`]) when the arm has the Meca500 structure ([`ArmGeometry::from_model`]), the
-/// multi-start numerical IK ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`]) otherwise.
-/// The first prismatic joint, if any, is the guide: it is held at the given guide positions
-/// and the other joints are solved for; a chain without one ignores the guide positions.
+/// ([`ToolPoseIk`]) when the chain is a 6R arm with a spherical wrist, alone or behind one
+/// prismatic guide ([`ArmGeometry::from_model`]), the multi-start numerical IK
+/// ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`]) otherwise ([`ModelIk::method`] says
+/// which, and why not the closed form). The first prismatic joint, if any, is the guide: it is
+/// held at the given guide positions and the other joints are solved for; a chain without one
+/// ignores the guide positions.
 #[derive(Debug)]
 pub struct ModelIk<'a> {
     model: &'a Model,
@@ -710,12 +1053,40 @@ pub struct ModelIk<'a> {
 
 #[derive(Debug)]
 enum Solver<'a> {
-    ClosedForm(ToolPoseIk<'a>),
-    Numeric { guide: Option<usize>, free: Vec<usize>, specs: Vec<JointSpec>, opts: MultiStartOptions },
+    /// the closed form, and every joint's spec (to normalise the solutions into the limits)
+    ClosedForm(Box<ToolPoseIk<'a>>, Vec<JointSpec>),
+    Numeric {
+        guide: Option<usize>,
+        free: Vec<usize>,
+        specs: Vec<JointSpec>,
+        opts: MultiStartOptions,
+        reason: Option<String>,
+    },
 }
 
 impl<'a> ModelIk<'a> {
     /// The closed form when the model allows it, the numerical IK otherwise.
+    ///
+    /// # Examples
+    /// The Meca500 alone on a table has a spherical wrist; the UR5e has not:
+    /// ```
+    /// use vatcal_core::CellFile;
+    /// use vatcal_kinematics::Model;
+    /// use vatcal_planning::ik::{IkMethod, ModelIk, RefineOptions};
+    /// use vatcal_planning::numeric_ik::MultiStartOptions;
+    ///
+    /// let fixture = |name: &str| -> Result<Model, Box<dyn std::error::Error>> {
+    ///     let path = format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"));
+    ///     Ok(Model::from_cell(&CellFile::load(path)?)?)
+    /// };
+    /// let table = fixture("meca500-table.toml")?;
+    /// let ik = ModelIk::new(&table, RefineOptions::default(), MultiStartOptions::default())?;
+    /// assert_eq!(ik.method(), IkMethod::ClosedForm);
+    /// let ur5e = fixture("ur5e.toml")?;
+    /// let ik = ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default())?;
+    /// assert!(ik.method().to_string().contains("spherical wrist"));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     ///
     /// # Errors
     /// Invalid numerical-IK options or joint limits ([`PlanError::Option`]).
@@ -725,8 +1096,18 @@ impl<'a> ModelIk<'a> {
         numeric: MultiStartOptions,
     ) -> Result<Self, PlanError> {
         match ToolPoseIk::new(model, refine) {
-            Ok(ik) => Ok(Self { model, solver: Solver::ClosedForm(ik) }),
-            Err(PlanError::UnsupportedArm(_)) => Self::numerical(model, numeric),
+            Ok(ik) => {
+                let revolute = revolute_joints(model);
+                let specs = (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect();
+                Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), specs) })
+            }
+            Err(PlanError::UnsupportedArm(reason)) => {
+                let mut me = Self::numerical(model, numeric)?;
+                if let Solver::Numeric { reason: r, .. } = &mut me.solver {
+                    *r = Some(reason);
+                }
+                Ok(me)
+            }
             Err(e) => Err(e),
         }
     }
@@ -740,7 +1121,7 @@ impl<'a> ModelIk<'a> {
         let guide = revolute.iter().position(|r| !r).map(|k| k + 1);
         let free: Vec<usize> = (1..=revolute.len()).filter(|i| Some(*i) != guide).collect();
         let specs: Vec<JointSpec> = free.iter().map(|i| joint_spec(model, *i, revolute[i - 1])).collect();
-        let me = Self { model, solver: Solver::Numeric { guide, free, specs, opts: numeric } };
+        let me = Self { model, solver: Solver::Numeric { guide, free, specs, opts: numeric, reason: None } };
         // validate the options and limits once
         me.numeric_at(0.0).transpose()?;
         Ok(me)
@@ -748,13 +1129,21 @@ impl<'a> ModelIk<'a> {
 
     /// True when the closed form is in use.
     pub fn is_closed_form(&self) -> bool {
-        matches!(self.solver, Solver::ClosedForm(_))
+        matches!(self.solver, Solver::ClosedForm(..))
+    }
+
+    /// The IK in use (and why not the closed form).
+    pub fn method(&self) -> IkMethod {
+        match &self.solver {
+            Solver::ClosedForm(..) => IkMethod::ClosedForm,
+            Solver::Numeric { reason, .. } => IkMethod::Numerical { reason: reason.clone() },
+        }
     }
 
     /// The joint held at the guide positions (1-based), if the chain has one.
     pub fn guide_joint(&self) -> Option<usize> {
         match &self.solver {
-            Solver::ClosedForm(_) => Some(1),
+            Solver::ClosedForm(ik, _) => ik.guide_joint(),
             Solver::Numeric { guide, .. } => *guide,
         }
     }
@@ -766,7 +1155,7 @@ impl<'a> ModelIk<'a> {
 
     /// The numerical solver with the guide at `guide_mm` (`None` for the closed form).
     fn numeric_at(&self, guide_mm: f64) -> Option<Result<NumericIk<ChainTool<'a>>, PlanError>> {
-        let Solver::Numeric { guide, free, specs, opts } = &self.solver else {
+        let Solver::Numeric { guide, free, specs, opts, .. } = &self.solver else {
             return None;
         };
         let mut fixed = JointVector::zeros(self.model.joint_count());
@@ -779,11 +1168,21 @@ impl<'a> ModelIk<'a> {
     }
 
     /// Every solution with the guide at `guide_mm` (ignored without a guide), duplicates
-    /// merged; revolute joints wrapped to (-pi, pi] where the limits allow.
+    /// merged; revolute joints wrapped to (-pi, pi] where the limits allow, else moved by whole
+    /// turns into the limits. The numerical IK returns solutions inside the limits only, the
+    /// closed form every branch (also outside the limits, as [`ToolPoseIk`]).
     pub fn solve_at_guide(&self, guide_mm: f64, target: &Frame) -> Vec<JointVector> {
         match self.numeric_at(guide_mm) {
             None => match &self.solver {
-                Solver::ClosedForm(ik) => ik.solve_at_guide(guide_mm, target),
+                Solver::ClosedForm(ik, specs) => {
+                    let mut out = ik.solve_at_guide(guide_mm, target);
+                    for q in &mut out {
+                        for (v, spec) in q.as_mut_slice().iter_mut().zip(specs) {
+                            *v = spec.normalise(*v);
+                        }
+                    }
+                    out
+                }
                 Solver::Numeric { .. } => Vec::new(),
             },
             Some(Err(_)) => Vec::new(),

@@ -128,7 +128,7 @@ impl JointSpec {
 
     /// Normalised value: revolute values wrapped into (-pi, pi] when the limits allow it,
     /// else moved by whole turns to the representative inside the limits nearest to 0.
-    fn normalise(&self, v: f64) -> f64 {
+    pub fn normalise(&self, v: f64) -> f64 {
         if !self.revolute {
             return v;
         }

@@ -150,6 +150,10 @@ pub struct PlanSummary {
     pub rrt_legs: usize,
     /// rows of tour.csv
     pub tour_steps: usize,
+    /// the IK that solved the candidate poses (printed by [`PlanSummary::text`]; not written to
+    /// `summary.json`, which stays as it was)
+    #[serde(skip)]
+    pub ik: String,
 }
 
 impl PlanSummary {
@@ -175,6 +179,7 @@ impl PlanSummary {
             timing: plan.timing,
             rrt_legs: rrt_legs(plan),
             tour_steps: plan.steps.len(),
+            ik: plan.candidates.ik.to_string(),
         }
     }
 
@@ -194,7 +199,8 @@ impl PlanSummary {
              O1 of all {} candidates: {:.3}\n\
              estimated measurement time: ordered {:.0} s ({:.1} min, {} re-placements), along planned paths {:.0} s; \
              unordered (selection order) {:.0} s, shuffled {:.0} s ({} re-placements)\n\
-             tour: {} steps, {} of {} legs needed RRT-Connect",
+             tour: {} steps, {} of {} legs needed RRT-Connect\n\
+             IK: {}",
             c.poses,
             c.ik_solutions,
             c.within_limits,
@@ -229,6 +235,7 @@ impl PlanSummary {
             self.tour_steps,
             self.rrt_legs,
             self.selected,
+            self.ik,
         )
     }
 }

@@ -157,3 +157,269 @@ proptest! {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Any 6R arm with a spherical wrist (issue 12): the closed form outside the canonical cell.
+
+/// A model of the canonical fixture's sibling `fixtures/<name>`.
+fn fixture_model(name: &str) -> Model {
+    let path = format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"));
+    Model::from_cell(&vatcal_core::CellFile::load(&path).expect("fixture")).expect("model")
+}
+
+/// A 6R arm standing on the table of `fixtures/meca500-table.toml`, with the MDH rows
+/// `(alpha_deg, a_mm, theta_deg, d_mm)` and continuous joints (no limits; the IK wraps into
+/// (-180, 180] deg).
+fn table_arm(rows: [(f64, f64, f64, f64); 6]) -> Model {
+    let path = format!("{}/../../fixtures/meca500-table.toml", env!("CARGO_MANIFEST_DIR"));
+    let mut cell = vatcal_core::CellFile::load(&path).expect("fixture");
+    for (row, (alpha, a, theta, d)) in cell.joints.iter_mut().zip(rows) {
+        row.alpha_deg = alpha;
+        row.a_mm = a;
+        row.theta_deg = theta;
+        row.d_mm = d;
+        row.q_min = None;
+        row.q_max = None;
+    }
+    Model::from_cell(&cell).expect("arm model")
+}
+
+/// KUKA KR 16, standard DH as published for it (FreeCAD wiki "Robot 6-Axis", KUKA example:
+/// d = (675, 0, 0, -670, 0, -158) mm, a = (260, 680, 0, 0, 0, 0) mm, alpha = (-90, 0, 90, -90,
+/// 90, 180) deg, theta_2 offset -90 deg; the KR 16's elbow offset a_3 = -35 mm as listed on
+/// javakuka.org), converted row by row to MDH (MDH row i takes alpha_{i-1}, a_{i-1} of DH row
+/// i-1; the last DH row's 180 deg flip of the flange frame is left out). a_1 = 260 mm != 0.
+fn kuka_kr16() -> Model {
+    table_arm([
+        (0.0, 0.0, 0.0, 675.0),
+        (-90.0, 260.0, -90.0, 0.0),
+        (0.0, 680.0, 0.0, 0.0),
+        (90.0, -35.0, 0.0, -670.0),
+        (-90.0, 0.0, 0.0, 0.0),
+        (90.0, 0.0, 0.0, -158.0),
+    ])
+}
+
+/// The KR 16's lengths with every sign combination the closed form supports (`alpha_1, alpha_3,
+/// alpha_4, alpha_5` = ±90 deg, `alpha_2` = 0 or 180 deg: bits of `variant`), a sideways
+/// shoulder offset split over `d_2` and `d_3` (PUMA-like) and theta offsets on every joint.
+fn sign_variant(variant: u8) -> Model {
+    let s = |bit: u8| if variant & (1 << bit) == 0 { 90.0 } else { -90.0 };
+    let alpha2 = if variant & 16 == 0 { 0.0 } else { 180.0 };
+    table_arm([
+        (0.0, 0.0, 10.0, 675.0),
+        (s(0), 260.0, -90.0, 120.0),
+        (alpha2, 680.0, 20.0, -40.0),
+        (s(1), -35.0, -30.0, -670.0),
+        (s(2), 0.0, 40.0, 0.0),
+        (s(3), 0.0, -50.0, -158.0),
+    ])
+}
+
+/// Largest difference of two joint vectors, revolute joints modulo a whole turn.
+fn max_wrapped_diff(a: &JointVector, b: &JointVector) -> f64 {
+    a.as_slice()
+        .iter()
+        .zip(b.as_slice())
+        .map(|(x, y)| vatcal_planning::ik::wrap_angle(x - y).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Checks the planner's IK ([`ModelIk`]) on `model` at joints `q`: the closed form is used,
+/// every solution reproduces the tool pose to 1e-9 mm / 1e-9 rad, the generating joint vector
+/// is among them. `Err` names what failed.
+fn check_model_ik(model: &Model, q: &JointVector) -> Result<usize, String> {
+    use vatcal_planning::ik::ModelIk;
+    use vatcal_planning::numeric_ik::MultiStartOptions;
+    let ik = ModelIk::new(model, RefineOptions::default(), MultiStartOptions::default())
+        .map_err(|e| e.to_string())?;
+    if !ik.is_closed_form() {
+        return Err(format!("not the closed form: {}", ik.method()));
+    }
+    let target = model.chain(q).tool;
+    let solutions = ik.solve(&[q[0]], &target);
+    for s in &solutions {
+        let (dp, dr) = pose_errors(model, s, &target);
+        if dp >= 1e-9 || dr >= 1e-9 {
+            return Err(format!("{s:?} misses the pose by {dp} mm, {dr} rad"));
+        }
+    }
+    let nearest = solutions.iter().map(|s| max_wrapped_diff(s, q)).fold(f64::INFINITY, f64::min);
+    if nearest >= 1e-8 {
+        return Err(format!(
+            "generating joints not among the {} solutions (nearest {nearest})",
+            solutions.len()
+        ));
+    }
+    Ok(solutions.len())
+}
+
+/// Joints in (-170, 170) deg (six revolute joints).
+fn arm_joints() -> impl Strategy<Value = JointVector> {
+    proptest::array::uniform6(-170.0..170.0f64)
+        .prop_map(|d| JointVector::from_slice(&d.map(f64::to_radians)).expect("six joints"))
+}
+
+/// Away from the branch-merging singularities (the chain-agnostic inverse condition number).
+fn regular_any(model: &Model, q: &JointVector) -> bool {
+    let margins = SingularityMargins { min_inverse_condition: 0.03, ..SingularityMargins::default() };
+    margins.clear(model, &model.chain(q))
+}
+
+#[test]
+fn the_structure_is_detected_on_the_fixtures() {
+    let table = fixture_model("meca500-table.toml");
+    let arm = ArmGeometry::from_model(&table).expect("the Meca500 on a table has a spherical wrist");
+    assert_eq!(arm.first_joint, 1);
+    let canonical = ArmGeometry::from_model(&common::nominal()).expect("canonical");
+    assert_eq!(canonical.first_joint, 2);
+    // same arm, same geometry
+    assert_eq!(arm.upper_arm_mm, canonical.upper_arm_mm);
+    assert_eq!(arm.alpha_rad, canonical.alpha_rad);
+    let kuka = ArmGeometry::from_model(&kuka_kr16()).expect("KR 16");
+    assert_eq!(kuka.shoulder_forward_mm, 260.0);
+    assert_eq!(kuka.forearm_mm, -670.0);
+}
+
+#[test]
+fn ur5e_is_reported_as_not_spherical() {
+    let ur5e = fixture_model("ur5e.toml");
+    let err = ArmGeometry::from_model(&ur5e).expect_err("the UR5e wrist is not spherical").to_string();
+    assert!(err.contains("spherical wrist"), "{err}");
+    assert!(err.contains("joint row 5") && err.contains("d_mm = 99.700"), "{err}");
+    let ik = vatcal_planning::ik::ModelIk::new(
+        &ur5e,
+        RefineOptions::default(),
+        vatcal_planning::numeric_ik::MultiStartOptions::default(),
+    )
+    .expect("numerical IK");
+    assert!(!ik.is_closed_form());
+    let method = ik.method().to_string();
+    assert!(method.starts_with("multi-start numerical") && method.contains("d_mm = 99.700"), "{method}");
+}
+
+#[test]
+fn non_qualifying_rows_are_named() {
+    // a bent upper arm (alpha_2 = 30 deg) on the KR 16
+    let mut rows = [
+        (0.0, 0.0, 0.0, 675.0),
+        (-90.0, 260.0, -90.0, 0.0),
+        (30.0, 680.0, 0.0, 0.0),
+        (90.0, -35.0, 0.0, -670.0),
+        (-90.0, 0.0, 0.0, 0.0),
+        (90.0, 0.0, 0.0, -158.0),
+    ];
+    let err = ArmGeometry::from_model(&table_arm(rows)).expect_err("bent").to_string();
+    assert!(err.contains("joint row 3: alpha_deg = 30.000") && err.contains("parallel"), "{err}");
+    // an offset wrist: a_5 = 20 mm
+    rows[2].0 = 0.0;
+    rows[5].1 = 20.0;
+    let err = ArmGeometry::from_model(&table_arm(rows)).expect_err("offset wrist").to_string();
+    assert!(err.contains("joint row 6: a_mm = 20.000") && err.contains("spherical wrist"), "{err}");
+}
+
+#[test]
+fn closed_form_covers_every_supported_sign_combination() {
+    let mut rng = ChaCha8Rng::seed_from_u64(12);
+    for variant in 0..32u8 {
+        let model = sign_variant(variant);
+        let arm = ArmGeometry::from_model(&model).unwrap_or_else(|e| panic!("variant {variant}: {e}"));
+        let base = robot_base_frame(&model, 0.0);
+        let mut checked = 0;
+        while checked < 8 {
+            let d: [f64; 6] = std::array::from_fn(|_| rand::RngExt::random_range(&mut rng, -170.0..170.0f64));
+            let q = JointVector::from_slice(&d.map(f64::to_radians)).expect("joints");
+            if !regular_any(&model, &q) {
+                continue;
+            }
+            checked += 1;
+            let target = model.chain(&q).tool;
+            let solutions = arm.solve(&base.inverse().compose(&target));
+            assert!(solutions.len() >= 2, "variant {variant}: {} solutions", solutions.len());
+            let mut nearest = f64::INFINITY;
+            for s in solutions.as_slice() {
+                let qs = JointVector::from_slice(s).expect("joints");
+                let (dp, dr) = pose_errors(&model, &qs, &target);
+                assert!(dp < 1e-9 && dr < 1e-9, "variant {variant}, {s:?}: {dp} mm, {dr} rad");
+                nearest = nearest.min(max_wrapped_diff(&qs, &q));
+            }
+            assert!(nearest < 1e-9, "variant {variant}: generating joints not found (nearest {nearest})");
+            check_model_ik(&model, &q).unwrap_or_else(|e| panic!("variant {variant}: {e}"));
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// The Meca500 alone on a table: the planner's IK is the closed form, every solution
+    /// reproduces the pose, the generating joints are among them.
+    #[test]
+    fn meca500_table_ik_matches_fk(q in arm_joints()) {
+        let model = fixture_model("meca500-table.toml");
+        prop_assume!(regular_any(&model, &q));
+        let n = check_model_ik(&model, &q).map_err(TestCaseError::fail)?;
+        prop_assert!(n >= 2);
+    }
+
+    /// A KUKA KR 16 from its published DH table (a_1 = 260 mm).
+    #[test]
+    fn kuka_kr16_ik_matches_fk(q in arm_joints()) {
+        let model = kuka_kr16();
+        prop_assume!(regular_any(&model, &q));
+        let n = check_model_ik(&model, &q).map_err(TestCaseError::fail)?;
+        prop_assert!(n >= 2);
+    }
+
+    /// The canonical cell through the planner's IK (guide held at the generating q1).
+    #[test]
+    fn canonical_model_ik_matches_fk(q in joints()) {
+        let model = common::nominal();
+        prop_assume!(regular(&model, &q));
+        check_model_ik(&model, &q).map_err(TestCaseError::fail)?;
+    }
+}
+
+/// The closed form finds at least as many solutions within the joint limits as the multi-start
+/// numerical IK on the Meca500 alone on a table, for the planner's TCP targets.
+#[test]
+fn meca500_table_closed_form_finds_at_least_the_numeric_solutions() {
+    use vatcal_planning::ik::ModelIk;
+    use vatcal_planning::numeric_ik::MultiStartOptions;
+    let model = fixture_model("meca500-table.toml");
+    let closed = ModelIk::new(&model, RefineOptions::default(), MultiStartOptions::default()).expect("ik");
+    assert!(closed.is_closed_form());
+    let numeric = ModelIk::numerical(&model, MultiStartOptions::default()).expect("numeric");
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let (mut n_closed, mut n_numeric) = (0, 0);
+    for position in model.position_ids() {
+        for tcp in model.tcp_ids() {
+            let t = model.tcp(tcp).expect("tcp");
+            let p = model.position(position).expect("position");
+            for _ in 0..4 {
+                let r = sample_orientation(&mut rng, &(-t), 60f64.to_radians());
+                let target = tool_pose_for_tcp(&r, &t, &p);
+                let a: Vec<JointVector> = closed
+                    .solve(&[], &target)
+                    .into_iter()
+                    .filter(|q| model.limit_violation(q).is_none())
+                    .collect();
+                let b: Vec<JointVector> = numeric
+                    .solve(&[], &target)
+                    .into_iter()
+                    .filter(|q| model.limit_violation(q).is_none())
+                    .collect();
+                for s in &b {
+                    assert!(
+                        a.iter().any(|c| max_wrapped_diff(c, s) < 1e-6),
+                        "numerical solution {s:?} not found by the closed form"
+                    );
+                }
+                n_closed += a.len();
+                n_numeric += b.len();
+            }
+        }
+    }
+    eprintln!("meca500-table: {n_closed} closed-form vs {n_numeric} numerical solutions within the limits");
+    assert!(n_closed >= n_numeric && n_numeric > 0, "{n_closed} closed form vs {n_numeric} numerical");
+}
