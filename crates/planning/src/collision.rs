@@ -257,6 +257,7 @@ impl<'a> CollisionChecker<'a> {
             model.tcp_ids().into_iter().filter_map(|id| model.tcp(id).map(|t| (id, t))).collect();
         let obstacles = build_obstacles(model, geometry);
         if !model.is_meca500_on_guide() {
+            geometry.robot.check_link_count(model.joint_count())?;
             return Ok(Self::for_any_chain(model, geometry, margin_mm, obstacles, tcps));
         }
         let n_bodies = BODY_NAMES.len() + tcps.len();
@@ -319,6 +320,11 @@ impl<'a> CollisionChecker<'a> {
         }
         me.self_pairs = pairs.into_iter().zip(always).filter(|(_, a)| !a).map(|(p, _)| p).collect();
         me
+    }
+
+    /// The pairs of bodies tested for self-collision, by name (see the module docs for the rule).
+    pub fn self_collision_pairs(&self) -> Vec<(String, String)> {
+        self.self_pairs.iter().map(|&(i, j)| (self.body_name(i), self.body_name(j))).collect()
     }
 
     /// The model whose chain places the bodies.
@@ -412,10 +418,10 @@ impl<'a> CollisionChecker<'a> {
 
     /// The bodies of a generic chain (see the module docs).
     fn chain_bodies(&self, layout: &ChainLayout, chain: &Chain) -> Vec<Body> {
-        let radius = self.geometry.robot.chain_link_radius_mm + self.margin_mm;
         let f = &chain.frames;
         let mut out = Vec::with_capacity(layout.links.len());
-        for seg in &layout.segments {
+        for (seg, link) in layout.segments.iter().zip(&layout.links) {
+            let radius = self.geometry.robot.chain_radius_mm(*link) + self.margin_mm;
             let (a, b) = match *seg {
                 ChainSegment::A { row } => {
                     let o = f[row - 1].p;
@@ -459,8 +465,41 @@ impl<'a> CollisionChecker<'a> {
 
     /// [`CollisionChecker::check`] for an already computed chain.
     pub fn check_chain(&self, chain: &Chain, probe: ProbeState) -> Option<Contact> {
+        let mut first = None;
+        self.scan(chain, probe, |i, other| {
+            first = Some(Contact { body: self.body_name(i), other: other.name(self) });
+            true
+        });
+        first
+    }
+
+    /// Every contact at `chain` with the probe in state `probe` (not only the first one), each
+    /// with its penetration depth (mm, > 0; the margin included): a diagnostic of which pairs
+    /// reject a pose, in the order [`CollisionChecker::check_chain`] tests them.
+    pub fn contacts(&self, chain: &Chain, probe: ProbeState) -> Vec<(Contact, f64)> {
         let bodies = self.bodies(chain);
-        for obstacle in &self.obstacles {
+        let mut out = Vec::new();
+        self.scan_bodies(&bodies, probe, |i, other| {
+            let (sa, pa) = bodies[i].shape.parts();
+            let (sb, pb) = match other {
+                Other::Obstacle(k) => self.obstacles[k].shape.parts(),
+                Other::Body(j) => bodies[j].shape.parts(),
+            };
+            let depth = query::contact(&pb, sb, &pa, sa, 0.0).ok().flatten().map_or(0.0, |c| -c.dist);
+            out.push((Contact { body: self.body_name(i), other: other.name(self) }, depth));
+            false
+        });
+        out
+    }
+
+    /// Calls `hit(body, other)` for every contact, in the checking order, until it returns true.
+    fn scan(&self, chain: &Chain, probe: ProbeState, hit: impl FnMut(usize, Other) -> bool) {
+        let bodies = self.bodies(chain);
+        self.scan_bodies(&bodies, probe, hit);
+    }
+
+    fn scan_bodies(&self, bodies: &[Body], probe: ProbeState, mut hit: impl FnMut(usize, Other) -> bool) {
+        for (k, obstacle) in self.obstacles.iter().enumerate() {
             if let Some(pos) = obstacle.probe_position {
                 let present = match probe {
                     ProbeState::Absent => false,
@@ -489,17 +528,32 @@ impl<'a> CollisionChecker<'a> {
                     continue;
                 }
                 let (shape_b, pose_b) = b.shape.parts();
-                if intersects(&pose_b, shape_b, &pose_o, shape_o) {
-                    return Some(Contact { body: self.body_name(i), other: obstacle.name.clone() });
+                if intersects(&pose_b, shape_b, &pose_o, shape_o) && hit(i, Other::Obstacle(k)) {
+                    return;
                 }
             }
         }
         for &(i, j) in &self.self_pairs {
-            if bodies_intersect(&bodies[i], &bodies[j]) {
-                return Some(Contact { body: self.body_name(i), other: self.body_name(j) });
+            if bodies_intersect(&bodies[i], &bodies[j]) && hit(i, Other::Body(j)) {
+                return;
             }
         }
-        None
+    }
+}
+
+/// The second party of a contact: an obstacle or a body (indices).
+#[derive(Debug, Clone, Copy)]
+enum Other {
+    Obstacle(usize),
+    Body(usize),
+}
+
+impl Other {
+    fn name(self, checker: &CollisionChecker<'_>) -> String {
+        match self {
+            Other::Obstacle(k) => checker.obstacles[k].name.clone(),
+            Other::Body(j) => checker.body_name(j),
+        }
     }
 }
 
