@@ -60,6 +60,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut depth_max: BTreeMap<String, f64> = BTreeMap::new();
     let mut shown = 0;
     let mut classes: BTreeMap<&str, usize> = BTreeMap::new();
+    // "arm vs floor" solutions whose frame-3 origin (the elbow of a 6R arm) is below z = 0
+    let mut elbow_below = 0usize;
     for position in model.position_ids() {
         let p = model.position(position).ok_or("position")?;
         for tcp in model.tcp_ids() {
@@ -95,6 +97,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                         "self-collision only"
                     };
                     *classes.entry(class).or_default() += 1;
+                    if class == "arm vs floor" && chain.frames[3].p.z < 0.0 {
+                        elbow_below += 1;
+                    }
                     for (c, d) in &contacts {
                         *any.entry(c.to_string()).or_default() += 1;
                         let e = depth_max.entry(c.to_string()).or_insert(0.0);
@@ -118,6 +123,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (k, n) in &classes {
         println!("  {n:6}  {k}");
     }
+    println!("  ({elbow_below} of the arm-vs-floor ones have frame 3 below z = 0)");
     println!("self-collision pairs tested: {}", checker.self_collision_pairs().len());
     if std::env::var("PAIRS").is_ok() {
         for (a, b) in checker.self_collision_pairs() {

@@ -15,7 +15,8 @@
 //!
 //! # Any serial chain
 //! On any chain other than the canonical cell the robot is a set of capsules built from the MDH
-//! rows (radius `[obstacles.robot_links] chain_link_radius_mm`, default 30 mm): row i
+//! rows (radius of link k: `[obstacles.robot_links] link_radii_mm[k]`, one per link 0..N, else
+//! `chain_link_radius_mm`, default 30 mm; see [`RobotLinkGeometry::chain_radius_mm`]): row i
 //! (`Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d)`) gives a capsule along its `a` offset (from the
 //! origin of frame i-1 along x_{i-1}, moving with link i-1) and, on a revolute row, one along
 //! its `d` offset (ending at the origin of frame i along z_i, moving with link i); offsets
@@ -26,6 +27,9 @@
 //! differ by at least 2, except pairs that touch in every one of [`ALWAYS_TOUCHING_SAMPLES`]
 //! seeded random configurations (they touch by construction, like the elbow corner of the
 //! canonical arm; the same rule as MoveIt's "always in collision" matrix).
+//! [`CollisionChecker::contacts`] lists every contact of a configuration with its depth and
+//! [`CollisionChecker::self_collision_pairs`] the pairs tested (diagnostics: the example
+//! `collision_breakdown` counts which pairs reject a cell's candidates).
 //!
 //! Each pair is first screened with bounding spheres / boxes; only overlapping candidates reach
 //! parry's `intersection_test`. Shapes are built directly in world coordinates (capsules,
@@ -40,6 +44,8 @@ use vatcal_kinematics::{Chain, Model};
 
 use crate::error::PlanError;
 use crate::geometry::CellGeometry;
+#[cfg(doc)]
+use crate::geometry::RobotLinkGeometry;
 use vatcal_core::frame::{rot_x, rot_y};
 
 /// Names of the robot and end-effector bodies, in body-index order (balls follow as
