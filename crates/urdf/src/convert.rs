@@ -469,7 +469,7 @@ fn moving_joint_above(tree: &Tree<'_>, base: &str, l: &str) -> Option<usize> {
     None
 }
 
-/// Radius [mm] of the capsule that covers a URDF collision primitive: a cylinder's or capsule's
+/// Radius (mm) of the capsule that covers a URDF collision primitive: a cylinder's or capsule's
 /// radius, a sphere's radius, a box's half diagonal across its two smallest sides (the link
 /// runs along the longest); `None` for a mesh.
 fn primitive_radius_mm(g: &urdf_rs::Geometry) -> Option<f64> {

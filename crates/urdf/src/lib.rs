@@ -101,7 +101,7 @@ pub use vatcal_core::cell::{BaseInWorld, LinkInertial};
 /// Most actuated joints an imported chain may have (the cell model's limit).
 pub const MAX_IMPORTED_JOINTS: usize = vatcal_core::MAX_JOINTS;
 
-/// Capsule radius [mm] of an imported link without a `<collision>` primitive when other links
+/// Capsule radius (mm) of an imported link without a `<collision>` primitive when other links
 /// have one (the default `chain_link_radius_mm` of `vatcal-planning`).
 pub const DEFAULT_LINK_RADIUS_MM: f64 = 30.0;
 
@@ -159,7 +159,7 @@ pub struct ImportedChain {
     /// masses and centres of mass of the moving links, in the MDH frame (1..=N) that moves them
     /// (one entry per frame that carries mass, frames ascending)
     pub inertials: Vec<LinkInertial>,
-    /// capsule radius of each MDH link 0..N [mm] for the planner's collision model, from the
+    /// capsule radius of each MDH link 0..N (mm) for the planner's collision model, from the
     /// `<collision>` cylinders, capsules, spheres and boxes (see the crate docs); `None` when the
     /// chain has none (meshes only, or no `<collision>` at all)
     pub link_radii_mm: Option<Vec<f64>>,
