@@ -24,9 +24,14 @@
 //! body is the cell's `[obstacles.guide]` box). The end-effector bodies are as on the canonical
 //! cell, on link N. Bodies of links 0 and 1 sit on the mounting surface and are not tested
 //! against the floor and the guide box. Self-collision is tested between bodies whose links
-//! differ by at least 2, except pairs that touch in every one of [`ALWAYS_TOUCHING_SAMPLES`]
-//! seeded random configurations (they touch by construction, like the elbow corner of the
-//! canonical arm; the same rule as MoveIt's "always in collision" matrix).
+//! differ by at least 2, except pairs that touch at a joint they share: they touch in every one
+//! of [`ALWAYS_TOUCHING_SAMPLES`] seeded random configurations (MoveIt's "always in collision"
+//! rule) *and* an end of one body's axis stays, in all of them, at the same distance from an
+//! end of the other's, close enough for the two to overlap there (the ends sit on the joint
+//! axes between the bodies, like the elbow corner or the wrist centre of the canonical arm; a
+//! body other than a capsule counts by its centre and bounding radius). A pair that merely
+//! happens to touch in every sample (an oversized body) is still tested, so it shows up as
+//! rejected poses instead of being silently skipped.
 //! [`CollisionChecker::contacts`] lists every contact of a configuration with its depth and
 //! [`CollisionChecker::self_collision_pairs`] the pairs tested (diagnostics: the example
 //! `collision_breakdown` counts which pairs reject a cell's candidates).
@@ -59,6 +64,10 @@ const BODY_LINKS: [u8; 9] = [1, 2, 3, 4, 5, 6, 7, 7, 7];
 /// Random configurations in which a self-collision pair of a generic chain must touch to be
 /// treated as touching by construction (and not tested).
 pub const ALWAYS_TOUCHING_SAMPLES: usize = 24;
+
+/// How much the distance between two body ends may change over the sampled configurations for
+/// the ends to count as one joint the bodies share (mm; round-off only).
+const SHARED_JOINT_TOLERANCE_MM: f64 = 1e-6;
 
 /// A body of a generic chain's link capsules (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -309,22 +318,47 @@ impl<'a> CollisionChecker<'a> {
                 }
             }
         }
-        // drop the pairs that touch in every sampled configuration (touching by construction)
+        // drop the pairs that touch at a joint they share: in every sampled configuration they
+        // touch, and some end of one is at the same distance from some end of the other (a point
+        // on the joint axes between them, which no joint moves relative to the other body)
         let mut always = vec![true; pairs.len()];
+        // per pair: distances of every (end of i, end of j) at the first sample, and whether
+        // each has stayed the same since
+        let mut anchors: Vec<Vec<(f64, bool)>> = vec![Vec::new(); pairs.len()];
         let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(0x5eed);
-        for _ in 0..ALWAYS_TOUCHING_SAMPLES {
+        for sample in 0..ALWAYS_TOUCHING_SAMPLES {
             let mut q = JointVector::zeros(model.joint_count());
             for (k, (lo, hi)) in model.joint_limits().iter().enumerate() {
                 q[k] = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
             }
             let bodies = me.bodies(&model.chain(&q));
-            for (a, &(i, j)) in always.iter_mut().zip(&pairs) {
-                if *a && !bodies_intersect(&bodies[i], &bodies[j]) {
+            for ((a, fixed), &(i, j)) in always.iter_mut().zip(anchors.iter_mut()).zip(&pairs) {
+                if !*a {
+                    continue;
+                }
+                if !bodies_intersect(&bodies[i], &bodies[j]) {
                     *a = false;
+                    continue;
+                }
+                let ((ei, ri), (ej, rj)) = (ends(&bodies[i]), ends(&bodies[j]));
+                let d = ei.iter().flat_map(|p| ej.iter().map(move |r| (p - r).norm()));
+                if sample == 0 {
+                    // only ends close enough for the two bodies to overlap there
+                    *fixed = d.map(|d| (d, d <= ri + rj)).collect();
+                } else {
+                    for ((d0, same), d) in fixed.iter_mut().zip(d) {
+                        *same &= (d - *d0).abs() <= SHARED_JOINT_TOLERANCE_MM;
+                    }
                 }
             }
         }
-        me.self_pairs = pairs.into_iter().zip(always).filter(|(_, a)| !a).map(|(p, _)| p).collect();
+        let shared = |(a, fixed): (&bool, &Vec<(f64, bool)>)| *a && fixed.iter().any(|(_, same)| *same);
+        me.self_pairs = pairs
+            .into_iter()
+            .zip(always.iter().zip(&anchors))
+            .filter(|(_, touch)| !shared(*touch))
+            .map(|(p, _)| p)
+            .collect();
         me
     }
 
@@ -560,6 +594,19 @@ impl Other {
             Other::Obstacle(k) => checker.obstacles[k].name.clone(),
             Other::Body(j) => checker.body_name(j),
         }
+    }
+}
+
+/// The ends of a body's axis for the shared-joint rule of a generic chain and the body's reach
+/// around them: a capsule's two segment ends and its radius, the centre and bounding radius of
+/// any other body.
+fn ends(b: &Body) -> (Vec<Vector3<f64>>, f64) {
+    match &b.shape {
+        Placed::Capsule(c) => {
+            let (a, e) = (c.segment.a, c.segment.b);
+            (vec![Vector3::new(a.x, a.y, a.z), Vector3::new(e.x, e.y, e.z)], c.radius)
+        }
+        _ => (vec![b.center], b.radius),
     }
 }
 

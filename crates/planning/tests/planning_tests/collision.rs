@@ -349,3 +349,33 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn only_pairs_sharing_a_joint_are_left_out_of_the_self_collision_test() {
+    let named = |pairs: &[(String, String)], a: &str, b: &str| pairs.iter().any(|(x, y)| x == a && y == b);
+    // Meca500 on a table: upper arm and forearm touch 38 mm apart at the elbow corner, forearm
+    // and flange at the wrist centre; both are left out, the elbow corner and the flange are not
+    let (model, geometry) = any_chain_fixture("meca500-table.toml");
+    let pairs = CollisionChecker::new(&model, &geometry, 2.0).expect("checker").self_collision_pairs();
+    assert!(!named(&pairs, "link 2 (a_2)", "link 4 (d_4)"), "{pairs:?}");
+    assert!(!named(&pairs, "link 4 (d_4)", "link 6 (d_6)"), "{pairs:?}");
+    assert!(named(&pairs, "link 3 (a_3)", "link 6 (d_6)"), "{pairs:?}");
+    assert!(named(&pairs, "link 1 (d_1)", "link 3 (a_3)"), "{pairs:?}");
+    // UR5e: no two of its link capsules share a joint point, every pair 2 links apart is tested
+    let (model, geometry) = any_chain_fixture("ur5e.toml");
+    let checker = CollisionChecker::new(&model, &geometry, 2.0).expect("checker");
+    assert_eq!(checker.self_collision_pairs().len(), 30);
+    // a plate 3 m wide touches the base column in every configuration without sharing a joint
+    // with it: still tested, so every pose is rejected rather than the pair silently skipped
+    let huge = CellGeometry {
+        end_effector: vatcal_planning::geometry::EndEffectorGeometry {
+            plate_half_extents_mm: [1500.0, 1500.0, 1500.0],
+            ..Default::default()
+        },
+        ..geometry
+    };
+    let checker = CollisionChecker::new(&model, &huge, 2.0).expect("checker");
+    assert!(named(&checker.self_collision_pairs(), "link 1 (d_1)", "plate"));
+    let home = deg([0.0, -90.0, 0.0, -90.0, 0.0, 0.0]);
+    assert!(checker.check(&home, ProbeState::Absent).is_some());
+}
