@@ -514,8 +514,9 @@ impl<'a> CollisionChecker<'a> {
     }
 
     /// Every contact at `chain` with the probe in state `probe` (not only the first one), each
-    /// with its penetration depth (mm, > 0; the margin included): a diagnostic of which pairs
-    /// reject a pose, in the order [`CollisionChecker::check_chain`] tests them.
+    /// with its penetration depth (mm, the margin included; 0 where parry gives none): a
+    /// diagnostic of which pairs reject a pose, in the order [`CollisionChecker::check_chain`]
+    /// tests them.
     pub fn contacts(&self, chain: &Chain, probe: ProbeState) -> Vec<(Contact, f64)> {
         let bodies = self.bodies(chain);
         let mut out = Vec::new();
@@ -525,6 +526,8 @@ impl<'a> CollisionChecker<'a> {
                 Other::Obstacle(k) => self.obstacles[k].shape.parts(),
                 Other::Body(j) => bodies[j].shape.parts(),
             };
+            // the obstacle first: parry 0.31 gives a cuboid's depth in the floor half-space wrong
+            // the other way round (checked against the cuboid's lowest corner)
             let depth = query::contact(&pb, sb, &pa, sa, 0.0).ok().flatten().map_or(0.0, |c| -c.dist);
             out.push((Contact { body: self.body_name(i), other: other.name(self) }, depth));
             false
