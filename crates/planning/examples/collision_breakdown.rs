@@ -6,7 +6,8 @@
 //! a property of the sampled tool pose, whatever the robot —, arm vs floor, arm vs the other
 //! obstacles, self-collision). `SHOW` rejected solutions are printed with their contacts;
 //! `PAIRS=1` lists the self-collision pairs tested; `Q_DEG="q1,..,qN;..."` prints the contacts
-//! of given joint vectors (degrees, no probe) instead.
+//! of given joint vectors (degrees, no probe) instead. Meant for all-revolute chains: a
+//! prismatic joint is held at 0 mm (the real pipeline steps it over its stroke).
 //!
 //! ```text
 //! cargo run -p vatcal-planning --example collision_breakdown -- fixtures/ur5e.toml 100 [SHOW]
