@@ -15,7 +15,8 @@
 //!
 //! # Any serial chain
 //! On any chain other than the canonical cell the robot is a set of capsules built from the MDH
-//! rows (radius `[obstacles.robot_links] chain_link_radius_mm`, default 30 mm): row i
+//! rows (radius of link k: `[obstacles.robot_links] link_radii_mm[k]`, one per link 0..N, else
+//! `chain_link_radius_mm`, default 30 mm; see [`RobotLinkGeometry::chain_radius_mm`]): row i
 //! (`Rx(alpha) Tx(a) Ry(beta) Rz(theta) Tz(d)`) gives a capsule along its `a` offset (from the
 //! origin of frame i-1 along x_{i-1}, moving with link i-1) and, on a revolute row, one along
 //! its `d` offset (ending at the origin of frame i along z_i, moving with link i); offsets
@@ -23,9 +24,17 @@
 //! body is the cell's `[obstacles.guide]` box). The end-effector bodies are as on the canonical
 //! cell, on link N. Bodies of links 0 and 1 sit on the mounting surface and are not tested
 //! against the floor and the guide box. Self-collision is tested between bodies whose links
-//! differ by at least 2, except pairs that touch in every one of [`ALWAYS_TOUCHING_SAMPLES`]
-//! seeded random configurations (they touch by construction, like the elbow corner of the
-//! canonical arm; the same rule as MoveIt's "always in collision" matrix).
+//! differ by at least 2, except pairs that touch at a joint they share: they touch in every one
+//! of [`ALWAYS_TOUCHING_SAMPLES`] seeded random configurations (MoveIt's "always in collision"
+//! rule) *and* an end of one body's axis stays, in all of them, at the same distance from an
+//! end of the other's, close enough for the two to overlap there (the ends sit on the joint
+//! axes between the bodies, like the elbow corner or the wrist centre of the canonical arm; a
+//! body other than a capsule counts by its centre and bounding radius). A pair that merely
+//! happens to touch in every sample (an oversized body) is still tested, so it shows up as
+//! rejected poses instead of being silently skipped.
+//! [`CollisionChecker::contacts`] lists every contact of a configuration with its depth and
+//! [`CollisionChecker::self_collision_pairs`] the pairs tested (diagnostics: the example
+//! `collision_breakdown` counts which pairs reject a cell's candidates).
 //!
 //! Each pair is first screened with bounding spheres / boxes; only overlapping candidates reach
 //! parry's `intersection_test`. Shapes are built directly in world coordinates (capsules,
@@ -40,6 +49,8 @@ use vatcal_kinematics::{Chain, Model};
 
 use crate::error::PlanError;
 use crate::geometry::CellGeometry;
+#[cfg(doc)]
+use crate::geometry::RobotLinkGeometry;
 use vatcal_core::frame::{rot_x, rot_y};
 
 /// Names of the robot and end-effector bodies, in body-index order (balls follow as
@@ -53,6 +64,10 @@ const BODY_LINKS: [u8; 9] = [1, 2, 3, 4, 5, 6, 7, 7, 7];
 /// Random configurations in which a self-collision pair of a generic chain must touch to be
 /// treated as touching by construction (and not tested).
 pub const ALWAYS_TOUCHING_SAMPLES: usize = 24;
+
+/// How much the distance between two body ends may change over the sampled configurations for
+/// the ends to count as one joint the bodies share (mm; round-off only).
+const SHARED_JOINT_TOLERANCE_MM: f64 = 1e-6;
 
 /// A body of a generic chain's link capsules (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -257,6 +272,7 @@ impl<'a> CollisionChecker<'a> {
             model.tcp_ids().into_iter().filter_map(|id| model.tcp(id).map(|t| (id, t))).collect();
         let obstacles = build_obstacles(model, geometry);
         if !model.is_meca500_on_guide() {
+            geometry.robot.check_link_count(model.joint_count())?;
             return Ok(Self::for_any_chain(model, geometry, margin_mm, obstacles, tcps));
         }
         let n_bodies = BODY_NAMES.len() + tcps.len();
@@ -302,23 +318,53 @@ impl<'a> CollisionChecker<'a> {
                 }
             }
         }
-        // drop the pairs that touch in every sampled configuration (touching by construction)
+        // drop the pairs that touch at a joint they share: in every sampled configuration they
+        // touch, and some end of one is at the same distance from some end of the other (a point
+        // on the joint axes between them, which no joint moves relative to the other body)
         let mut always = vec![true; pairs.len()];
+        // per pair: distances of every (end of i, end of j) at the first sample, and whether
+        // each has stayed the same since
+        let mut anchors: Vec<Vec<(f64, bool)>> = vec![Vec::new(); pairs.len()];
         let mut rng = rand::rngs::ChaCha8Rng::seed_from_u64(0x5eed);
-        for _ in 0..ALWAYS_TOUCHING_SAMPLES {
+        for sample in 0..ALWAYS_TOUCHING_SAMPLES {
             let mut q = JointVector::zeros(model.joint_count());
             for (k, (lo, hi)) in model.joint_limits().iter().enumerate() {
                 q[k] = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
             }
             let bodies = me.bodies(&model.chain(&q));
-            for (a, &(i, j)) in always.iter_mut().zip(&pairs) {
-                if *a && !bodies_intersect(&bodies[i], &bodies[j]) {
+            for ((a, fixed), &(i, j)) in always.iter_mut().zip(anchors.iter_mut()).zip(&pairs) {
+                if !*a {
+                    continue;
+                }
+                if !bodies_intersect(&bodies[i], &bodies[j]) {
                     *a = false;
+                    continue;
+                }
+                let ((ei, ri), (ej, rj)) = (ends(&bodies[i]), ends(&bodies[j]));
+                let d = ei.iter().flat_map(|p| ej.iter().map(move |r| (p - r).norm()));
+                if sample == 0 {
+                    // only ends close enough for the two bodies to overlap there
+                    *fixed = d.map(|d| (d, d <= ri + rj)).collect();
+                } else {
+                    for ((d0, same), d) in fixed.iter_mut().zip(d) {
+                        *same &= (d - *d0).abs() <= SHARED_JOINT_TOLERANCE_MM;
+                    }
                 }
             }
         }
-        me.self_pairs = pairs.into_iter().zip(always).filter(|(_, a)| !a).map(|(p, _)| p).collect();
+        let shared = |(a, fixed): (&bool, &Vec<(f64, bool)>)| *a && fixed.iter().any(|(_, same)| *same);
+        me.self_pairs = pairs
+            .into_iter()
+            .zip(always.iter().zip(&anchors))
+            .filter(|(_, touch)| !shared(*touch))
+            .map(|(p, _)| p)
+            .collect();
         me
+    }
+
+    /// The pairs of bodies tested for self-collision, by name (see the module docs for the rule).
+    pub fn self_collision_pairs(&self) -> Vec<(String, String)> {
+        self.self_pairs.iter().map(|&(i, j)| (self.body_name(i), self.body_name(j))).collect()
     }
 
     /// The model whose chain places the bodies.
@@ -412,10 +458,10 @@ impl<'a> CollisionChecker<'a> {
 
     /// The bodies of a generic chain (see the module docs).
     fn chain_bodies(&self, layout: &ChainLayout, chain: &Chain) -> Vec<Body> {
-        let radius = self.geometry.robot.chain_link_radius_mm + self.margin_mm;
         let f = &chain.frames;
         let mut out = Vec::with_capacity(layout.links.len());
-        for seg in &layout.segments {
+        for (seg, link) in layout.segments.iter().zip(&layout.links) {
+            let radius = self.geometry.robot.chain_radius_mm(*link) + self.margin_mm;
             let (a, b) = match *seg {
                 ChainSegment::A { row } => {
                     let o = f[row - 1].p;
@@ -459,8 +505,44 @@ impl<'a> CollisionChecker<'a> {
 
     /// [`CollisionChecker::check`] for an already computed chain.
     pub fn check_chain(&self, chain: &Chain, probe: ProbeState) -> Option<Contact> {
+        let mut first = None;
+        self.scan(chain, probe, |i, other| {
+            first = Some(Contact { body: self.body_name(i), other: other.name(self) });
+            true
+        });
+        first
+    }
+
+    /// Every contact at `chain` with the probe in state `probe` (not only the first one), each
+    /// with its penetration depth (mm, the margin included; 0 where parry gives none): a
+    /// diagnostic of which pairs reject a pose, in the order [`CollisionChecker::check_chain`]
+    /// tests them.
+    pub fn contacts(&self, chain: &Chain, probe: ProbeState) -> Vec<(Contact, f64)> {
         let bodies = self.bodies(chain);
-        for obstacle in &self.obstacles {
+        let mut out = Vec::new();
+        self.scan_bodies(&bodies, probe, |i, other| {
+            let (sa, pa) = bodies[i].shape.parts();
+            let (sb, pb) = match other {
+                Other::Obstacle(k) => self.obstacles[k].shape.parts(),
+                Other::Body(j) => bodies[j].shape.parts(),
+            };
+            // the obstacle first: parry 0.31 gives a cuboid's depth in the floor half-space wrong
+            // the other way round (checked against the cuboid's lowest corner)
+            let depth = query::contact(&pb, sb, &pa, sa, 0.0).ok().flatten().map_or(0.0, |c| -c.dist);
+            out.push((Contact { body: self.body_name(i), other: other.name(self) }, depth));
+            false
+        });
+        out
+    }
+
+    /// Calls `hit(body, other)` for every contact, in the checking order, until it returns true.
+    fn scan(&self, chain: &Chain, probe: ProbeState, hit: impl FnMut(usize, Other) -> bool) {
+        let bodies = self.bodies(chain);
+        self.scan_bodies(&bodies, probe, hit);
+    }
+
+    fn scan_bodies(&self, bodies: &[Body], probe: ProbeState, mut hit: impl FnMut(usize, Other) -> bool) {
+        for (k, obstacle) in self.obstacles.iter().enumerate() {
             if let Some(pos) = obstacle.probe_position {
                 let present = match probe {
                     ProbeState::Absent => false,
@@ -489,17 +571,45 @@ impl<'a> CollisionChecker<'a> {
                     continue;
                 }
                 let (shape_b, pose_b) = b.shape.parts();
-                if intersects(&pose_b, shape_b, &pose_o, shape_o) {
-                    return Some(Contact { body: self.body_name(i), other: obstacle.name.clone() });
+                if intersects(&pose_b, shape_b, &pose_o, shape_o) && hit(i, Other::Obstacle(k)) {
+                    return;
                 }
             }
         }
         for &(i, j) in &self.self_pairs {
-            if bodies_intersect(&bodies[i], &bodies[j]) {
-                return Some(Contact { body: self.body_name(i), other: self.body_name(j) });
+            if bodies_intersect(&bodies[i], &bodies[j]) && hit(i, Other::Body(j)) {
+                return;
             }
         }
-        None
+    }
+}
+
+/// The second party of a contact: an obstacle or a body (indices).
+#[derive(Debug, Clone, Copy)]
+enum Other {
+    Obstacle(usize),
+    Body(usize),
+}
+
+impl Other {
+    fn name(self, checker: &CollisionChecker<'_>) -> String {
+        match self {
+            Other::Obstacle(k) => checker.obstacles[k].name.clone(),
+            Other::Body(j) => checker.body_name(j),
+        }
+    }
+}
+
+/// The ends of a body's axis for the shared-joint rule of a generic chain and the body's reach
+/// around them: a capsule's two segment ends and its radius, the centre and bounding radius of
+/// any other body.
+fn ends(b: &Body) -> (Vec<Vector3<f64>>, f64) {
+    match &b.shape {
+        Placed::Capsule(c) => {
+            let (a, e) = (c.segment.a, c.segment.b);
+            (vec![Vector3::new(a.x, a.y, a.z), Vector3::new(e.x, e.y, e.z)], c.radius)
+        }
+        _ => (vec![b.center], b.radius),
     }
 }
 

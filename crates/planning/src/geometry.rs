@@ -31,8 +31,9 @@ use vatcal_core::cell::{BoxObstacle, CylinderObstacle, PlaneObstacle};
 
 use crate::error::PlanError;
 
-/// Link shapes of the Meca500 (`[obstacles.robot_links]`), lengths in mm.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+/// Link shapes of the Meca500 (`[obstacles.robot_links]`), lengths in mm; on any other chain
+/// `chain_link_radius_mm` and `link_radii_mm`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RobotLinkGeometry {
     /// base cylinder radius
@@ -58,6 +59,34 @@ pub struct RobotLinkGeometry {
     /// any chain other than the canonical cell: radius of the capsules along the MDH `a` and
     /// `d` offsets of every row (see `crate::collision`)
     pub chain_link_radius_mm: f64,
+    /// any chain other than the canonical cell: the capsule radius of each link, links 0 (the
+    /// base) to N (the flange), N + 1 values; `None`: `chain_link_radius_mm` for every link
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub link_radii_mm: Option<Vec<f64>>,
+}
+
+impl RobotLinkGeometry {
+    /// Capsule radius of link `link` (0 = base, N = flange) of a chain other than the canonical
+    /// cell: `link_radii_mm[link]`, else `chain_link_radius_mm`.
+    pub fn chain_radius_mm(&self, link: usize) -> f64 {
+        self.link_radii_mm.as_ref().and_then(|r| r.get(link)).copied().unwrap_or(self.chain_link_radius_mm)
+    }
+
+    /// Checks that `link_radii_mm`, when given, has one value per link of an `n_joints`-joint
+    /// chain (N + 1 values, links 0..N).
+    pub fn check_link_count(&self, n_joints: usize) -> Result<(), PlanError> {
+        match &self.link_radii_mm {
+            Some(r) if r.len() != n_joints + 1 => Err(PlanError::Geometry {
+                field: "obstacles.robot_links.link_radii_mm".into(),
+                reason: format!(
+                    "needs one radius per link 0..{n_joints} ({} values) for this {n_joints}-joint chain, got {}",
+                    n_joints + 1,
+                    r.len()
+                ),
+            }),
+            _ => Ok(()),
+        }
+    }
 }
 
 impl Default for RobotLinkGeometry {
@@ -74,6 +103,7 @@ impl Default for RobotLinkGeometry {
             wrist_half_length_mm: 25.0,
             flange_radius_mm: 20.0,
             chain_link_radius_mm: 30.0,
+            link_radii_mm: None,
         }
     }
 }
@@ -163,6 +193,7 @@ impl CellGeometry {
             })?;
         }
         g.validate()?;
+        g.robot.check_link_count(cell.joints.len())?;
         Ok(g)
     }
 
@@ -192,6 +223,14 @@ impl CellGeometry {
             if !(v.is_finite() && v > 0.0) {
                 return Err(PlanError::Geometry {
                     field: format!("obstacles.{name}"),
+                    reason: format!("must be a positive finite length, got {v}"),
+                });
+            }
+        }
+        for (k, v) in r.link_radii_mm.iter().flatten().enumerate() {
+            if !(v.is_finite() && *v > 0.0) {
+                return Err(PlanError::Geometry {
+                    field: format!("obstacles.robot_links.link_radii_mm[{k}]"),
                     reason: format!("must be a positive finite length, got {v}"),
                 });
             }

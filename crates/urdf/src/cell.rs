@@ -2,8 +2,8 @@
 
 use nalgebra::Vector3;
 use vatcal_core::cell::{
-    CellFile, FORMAT_NAME_V2, FORMAT_VERSION_V2, Gravity, Inertials, JointRow, PointEntry, RobotInfo,
-    ToolInertial, Units,
+    CellFile, FORMAT_NAME_V2, FORMAT_VERSION_V2, Gravity, Inertials, JointRow, Obstacles, PointEntry,
+    RobotInfo, ToolInertial, Units,
 };
 
 use crate::ImportedChain;
@@ -30,6 +30,8 @@ impl ImportedChain {
     ///   format needs one; replace it with the probe's positions;
     /// * `[[inertials.links]]` as imported, `[inertials.tool]` 0 kg at the origin of frame N (the
     ///   tool is not in the URDF chain);
+    /// * `[obstacles.robot_links] link_radii_mm`: the collision radii, when the URDF has
+    ///   `<collision>` primitives ([`ImportedChain::link_radii_mm`]);
     /// * `[urdf_import]`: where the chain came from (`source`, `base_link`, `tip_link`) and the
     ///   import notes.
     ///
@@ -96,7 +98,16 @@ impl ImportedChain {
                 links: self.inertials.clone(),
                 tool: ToolInertial { frame: n as u8, mass_kg: 0.0, com_mm: [0.0; 3] },
             },
-            obstacles: None,
+            obstacles: self.link_radii_mm.as_ref().map(|radii| {
+                let mut links = toml::Table::new();
+                links.insert(
+                    "link_radii_mm".into(),
+                    toml::Value::Array(radii.iter().map(|r| (*r).into()).collect()),
+                );
+                let mut extra = toml::Table::new();
+                extra.insert("robot_links".into(), toml::Value::Table(links));
+                Obstacles { extra, ..Obstacles::default() }
+            }),
             motion: None,
             effects: Vec::new(),
             extra,

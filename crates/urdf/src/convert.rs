@@ -399,8 +399,9 @@ pub(crate) fn convert(
     // 6. inertials
     let frame_of_joint: HashMap<usize, usize> =
         rows.iter().enumerate().map(|(i, r)| (r.joint, i + 1)).collect();
-    let (inertials, notes) =
+    let (inertials, mut notes) =
         inertials(tree, base, &link_poses_at_zero(tree, base), &frame_of_joint, &frames, text, origin)?;
+    let link_radii_mm = link_radii(tree, base, &frame_of_joint, n, text, origin, &mut notes)?;
 
     let chain = ImportedChain {
         robot_name: robot.name.clone(),
@@ -410,6 +411,7 @@ pub(crate) fn convert(
         base_in_world,
         tcp_mm: [clean(tcp.x), clean(tcp.y), clean(tcp.z)],
         inertials,
+        link_radii_mm,
         notes,
     };
 
@@ -452,6 +454,103 @@ fn link_poses_at_zero<'a>(tree: &Tree<'a>, base: &'a str) -> HashMap<&'a str, Fr
     poses
 }
 
+/// The nearest movable joint above link `l` (index into `robot.joints`); `None` when `l` is
+/// fixed to `base`.
+fn moving_joint_above(tree: &Tree<'_>, base: &str, l: &str) -> Option<usize> {
+    let robot = tree.robot;
+    let mut cur = l;
+    while cur != base {
+        let &j = tree.parent_joint.get(cur)?;
+        if robot.joints[j].joint_type != JointType::Fixed {
+            return Some(j);
+        }
+        cur = robot.joints[j].parent.link.as_str();
+    }
+    None
+}
+
+/// Radius (mm) of the capsule that covers a URDF collision primitive: a cylinder's or capsule's
+/// radius, a sphere's radius, a box's half diagonal across its two smallest sides (the link
+/// runs along the longest); `None` for a mesh.
+fn primitive_radius_mm(g: &urdf_rs::Geometry) -> Option<f64> {
+    match g {
+        urdf_rs::Geometry::Cylinder { radius, .. }
+        | urdf_rs::Geometry::Capsule { radius, .. }
+        | urdf_rs::Geometry::Sphere { radius } => Some(radius * M_TO_MM),
+        urdf_rs::Geometry::Box { size } => {
+            let mut s = [size[0].abs(), size[1].abs(), size[2].abs()];
+            s.sort_by(f64::total_cmp);
+            Some(0.5 * s[0].hypot(s[1]) * M_TO_MM)
+        }
+        urdf_rs::Geometry::Mesh { .. } => None,
+    }
+}
+
+/// Capsule radius per MDH link 0..N from the `<collision>` primitives (see the crate docs): the
+/// largest primitive radius among the links that move with frame `i` (frame 0: the links fixed
+/// to the base); `None` when no link on the chain has a primitive. A link with primitives only
+/// on some frames gets [`DEFAULT_LINK_RADIUS_MM`](crate::DEFAULT_LINK_RADIUS_MM) on the others,
+/// named in the notes.
+fn link_radii(
+    tree: &Tree<'_>,
+    base: &str,
+    frame_of_joint: &HashMap<usize, usize>,
+    n: usize,
+    text: &str,
+    origin: &str,
+    notes: &mut Vec<String>,
+) -> Result<Option<Vec<f64>>, UrdfImportError> {
+    let robot = tree.robot;
+    let mut radii: Vec<Option<f64>> = vec![None; n + 1];
+    let mut meshes = 0usize;
+    for l in tree.subtree(base) {
+        let Some(&li) = tree.link_index.get(l) else { continue };
+        let frame = match moving_joint_above(tree, base, l) {
+            None => 0,
+            Some(j) => match frame_of_joint.get(&j) {
+                Some(&f) => f,
+                None => continue, // moved by a joint off the chain (named in the mass notes)
+            },
+        };
+        for c in &robot.links[li].collision {
+            let Some(r) = primitive_radius_mm(&c.geometry) else {
+                meshes += 1;
+                continue;
+            };
+            if !(r.is_finite() && r > 0.0) {
+                return Err(UrdfImportError::InvalidLink {
+                    location: match element_line(text, "link", l) {
+                        Some(line) => format!("{origin}:{line}"),
+                        None => origin.to_string(),
+                    },
+                    link: l.to_string(),
+                    reason: format!("<collision> primitive with radius / size {r} mm: must be > 0"),
+                });
+            }
+            let e = &mut radii[frame];
+            *e = Some(e.map_or(r, |v: f64| v.max(r)));
+        }
+    }
+    if meshes > 0 {
+        notes.push(format!(
+            "{meshes} <collision> mesh(es) give no link radius (only cylinders, capsules, spheres and boxes do)"
+        ));
+    }
+    if radii.iter().all(Option::is_none) {
+        return Ok(None);
+    }
+    let missing: Vec<String> =
+        radii.iter().enumerate().filter(|(_, r)| r.is_none()).map(|(k, _)| k.to_string()).collect();
+    if !missing.is_empty() {
+        notes.push(format!(
+            "links {} have no <collision> primitive: capsule radius {} mm (the planner's default)",
+            missing.join(", "),
+            crate::DEFAULT_LINK_RADIUS_MM
+        ));
+    }
+    Ok(Some(radii.into_iter().map(|r| clean(r.unwrap_or(crate::DEFAULT_LINK_RADIUS_MM))).collect()))
+}
+
 /// Masses and COMs per MDH frame (see the crate docs), and notes on what was left out.
 fn inertials(
     tree: &Tree<'_>,
@@ -488,18 +587,7 @@ fn inertials(
         if c.iter().any(|v| !v.is_finite()) {
             return Err(bad("<inertial><origin xyz> has a non-finite value".into()));
         }
-        // nearest movable joint above the link
-        let mut owner = None;
-        let mut cur = l;
-        while cur != base {
-            let Some(&j) = tree.parent_joint.get(cur) else { break };
-            if robot.joints[j].joint_type != JointType::Fixed {
-                owner = Some(j);
-                break;
-            }
-            cur = robot.joints[j].parent.link.as_str();
-        }
-        let Some(j) = owner else { continue }; // fixed to the base: not moved by any joint
+        let Some(j) = moving_joint_above(tree, base, l) else { continue }; // fixed to the base
         let Some(&frame) = frame_of_joint.get(&j) else {
             notes.push(format!(
                 "link `{l}` ({m} kg) moves with joint `{}`, which is not on the chain: its mass is left out",

@@ -60,6 +60,16 @@
 //! links moved by a joint that is not on the path (a gripper finger, a second arm) are left out
 //! and mentioned in [`ImportedChain::notes`].
 //!
+//! ## Collision radii
+//!
+//! The planner models the links of a chain as capsules along the MDH offsets, one radius per
+//! link (`[obstacles.robot_links] link_radii_mm`, docs/formats.md). A link's `<collision>`
+//! primitives give it: the radius of a cylinder, capsule or sphere, half the diagonal across
+//! the two smallest sides of a box; the largest over the URDF links that move with MDH frame
+//! `i` (frame 0: the links fixed to `B`) is link `i`'s radius ([`ImportedChain::link_radii_mm`]).
+//! Meshes give none (noted); a link without a primitive, when others have one, gets
+//! [`DEFAULT_LINK_RADIUS_MM`] (noted).
+//!
 //! ```
 //! let urdf = r#"<robot name="two">
 //!   <link name="base"/> <link name="l1"/> <link name="l2"/>
@@ -90,6 +100,10 @@ pub use vatcal_core::cell::{BaseInWorld, LinkInertial};
 
 /// Most actuated joints an imported chain may have (the cell model's limit).
 pub const MAX_IMPORTED_JOINTS: usize = vatcal_core::MAX_JOINTS;
+
+/// Capsule radius (mm) of an imported link without a `<collision>` primitive when other links
+/// have one (the default `chain_link_radius_mm` of `vatcal-planning`).
+pub const DEFAULT_LINK_RADIUS_MM: f64 = 30.0;
 
 /// Consecutive joint axes closer than this to parallel (or anti-parallel) use the Hayati
 /// construction (`beta`) instead of the common normal [deg].
@@ -145,6 +159,10 @@ pub struct ImportedChain {
     /// masses and centres of mass of the moving links, in the MDH frame (1..=N) that moves them
     /// (one entry per frame that carries mass, frames ascending)
     pub inertials: Vec<LinkInertial>,
+    /// capsule radius of each MDH link 0..N (mm) for the planner's collision model, from the
+    /// `<collision>` cylinders, capsules, spheres and boxes (see the crate docs); `None` when the
+    /// chain has none (meshes only, or no `<collision>` at all)
+    pub link_radii_mm: Option<Vec<f64>>,
     /// things the user should know (masses left out, links lumped together)
     pub notes: Vec<String>,
 }

@@ -318,3 +318,75 @@ fn twelve_joints_are_accepted() {
         .collect();
     assert_eq!(import_and_check(&js).joints.len(), 12);
 }
+
+/// A 3-joint URDF whose links carry the given `<collision>` elements (base, l1, l1 fixed child,
+/// l2, l3).
+fn collision_urdf(collisions: [&str; 5]) -> String {
+    let [c0, c1, c1b, c2, c3] = collisions;
+    format!(
+        r#"<robot name="caps">
+  <link name="base">{c0}</link> <link name="l1">{c1}</link> <link name="l1b">{c1b}</link>
+  <link name="l2">{c2}</link> <link name="l3">{c3}</link>
+  <joint name="j1" type="continuous"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 0 1"/></joint>
+  <joint name="fix" type="fixed"><parent link="l1"/><child link="l1b"/><origin xyz="0 0 0.05"/></joint>
+  <joint name="j2" type="continuous"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0 0.1" rpy="1.5707963267948966 0 0"/><axis xyz="0 0 1"/></joint>
+  <joint name="j3" type="continuous"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0.3 0 0"/><axis xyz="0 0 1"/></joint>
+</robot>"#
+    )
+}
+
+fn collision(geometry: &str) -> String {
+    format!(r#"<collision><origin xyz="0 0 0.02"/><geometry>{geometry}</geometry></collision>"#)
+}
+
+#[test]
+fn collision_primitives_give_one_capsule_radius_per_link() {
+    let cyl = collision(r#"<cylinder radius="0.075" length="0.1"/>"#);
+    let l1 = format!(
+        "{}{}",
+        collision(r#"<cylinder radius="0.06" length="0.2"/>"#),
+        collision(r#"<mesh filename="package://x/l1.stl"/>"#)
+    );
+    // box 50 x 80 x 300 mm: half its cross-section diagonal is 47.2 mm, below l1's 60 mm
+    let l1b = collision(r#"<box size="0.05 0.3 0.08"/>"#);
+    let l2 = collision(r#"<sphere radius="0.07"/>"#);
+    let c =
+        import_str(&collision_urdf([&cyl, &l1, &l1b, &l2, ""]), "caps.urdf", "base", "l3").expect("import");
+    assert_eq!(
+        c.link_radii_mm.as_deref(),
+        Some(&[75.0, 60.0, 70.0, vatcal_urdf::DEFAULT_LINK_RADIUS_MM][..])
+    );
+    assert!(c.notes.iter().any(|n| n.contains("mesh")), "{:?}", c.notes);
+    assert!(c.notes.iter().any(|n| n.contains("links 3 have no <collision> primitive")), "{:?}", c.notes);
+    // the written cell carries them in [obstacles.robot_links] and reads back unchanged
+    let text = c.to_cell("caps.urdf").to_toml_string().expect("toml");
+    let cell = vatcal_core::CellFile::from_toml_str(&text, "caps.toml").expect("cell");
+    let radii =
+        cell.obstacles.as_ref().and_then(|o| o.extra.get("robot_links")).and_then(|t| t.get("link_radii_mm"));
+    let radii: Vec<f64> = radii
+        .and_then(|v| v.as_array())
+        .expect("link_radii_mm")
+        .iter()
+        .filter_map(|v| v.as_float())
+        .collect();
+    assert_eq!(radii, vec![75.0, 60.0, 70.0, 30.0]);
+    // a 47.2 mm box alone on link 1 sets its radius
+    let c = import_str(&collision_urdf(["", "", &l1b, "", ""]), "caps.urdf", "base", "l3").expect("import");
+    let r1 = c.link_radii_mm.expect("radii")[1];
+    assert!((r1 - 0.5 * 50f64.hypot(80.0)).abs() < 1e-9, "{r1}");
+    // meshes only, or no <collision> at all: no radii, no [obstacles] table
+    let mesh = collision(r#"<mesh filename="package://x/l1.stl"/>"#);
+    let c = import_str(&collision_urdf(["", &mesh, "", "", ""]), "caps.urdf", "base", "l3").expect("import");
+    assert_eq!(c.link_radii_mm, None);
+    assert!(c.notes.iter().any(|n| n.contains("mesh")), "{:?}", c.notes);
+    let c = import_str(&collision_urdf(["", "", "", "", ""]), "caps.urdf", "base", "l3").expect("import");
+    assert!(c.to_cell("caps.urdf").obstacles.is_none());
+    // a zero radius is an error naming the link
+    let zero = collision(r#"<sphere radius="0"/>"#);
+    let err =
+        import_str(&collision_urdf(["", "", "", &zero, ""]), "caps.urdf", "base", "l3").expect_err("zero");
+    assert!(err.to_string().contains("l2"), "{err}");
+}
