@@ -23,13 +23,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("calibrated cell written to {out}");
 
     // first row of fixtures/compensate-poses.csv
-    let request = PoseRequest {
-        tcp: 2,
-        q1_mm: 100.0,
-        xyz_mm: [60.0, -40.0, 40.0],
-        abc_deg: [180.0, 0.0, 0.0],
-        context: MeasurementContext::default(),
-    };
+    let request = PoseRequest::on_guide(2, 100.0, [60.0, -40.0, 40.0], [180.0, 0.0, 0.0]);
     println!("request: {request:?}");
     let target = request.tool_target(&calibrated, 0)?;
     println!("tool-changer frame wanted (world): p = {:?} mm", target.tool.p.as_slice());
@@ -57,8 +51,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let corrected = comp.corrected_pose(&c.q, 2, MeasurementContext::default())?;
     println!("corrected world pose (--emit poses): {:?}", corrected.world);
-    println!("MoveJoints{:?}", corrected.controller_joints_deg);
-    println!("MovePose{:?}", corrected.controller_pose);
+    println!("MoveJoints{:?}", corrected.controller_joints_deg.unwrap_or_default());
+    println!("MovePose{:?}", corrected.controller_pose.unwrap_or_default());
     let abc = rotation_to_euler_xyz_deg(&target.tool.r);
     println!("check: Euler angles of the wanted tool frame {abc:?}");
     Ok(())

@@ -40,4 +40,4 @@ pub use pose::{
     PoseRequest, ToolTarget, euler_xyz_deg_to_rotation, frame_to_meca_pose, meca_pose_to_frame,
     rotation_to_euler_xyz_deg,
 };
-pub use solve::{Branch, SolveOptions};
+pub use solve::{Branch, JointSplit, SolveOptions};
