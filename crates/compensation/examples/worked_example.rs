@@ -8,6 +8,9 @@
 //! ```text
 //! cargo run -p vatcal-compensation --example worked_example -- /tmp/calibrated-example.toml
 //! ```
+//!
+//! With a second argument naming another fixture (e.g. `ur5e.toml`), it only writes that
+//! fixture's stand-in calibrated file (same errors budget and seed) for the any-chain example.
 
 use vatcal_compensation::{Compensator, PoseRequest, SolveOptions, rotation_to_euler_xyz_deg};
 use vatcal_core::{CellFile, MeasurementContext};
@@ -17,6 +20,12 @@ use vatcal_sim::truth::{ErrorBudget, perturbed_truth};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "calibrated-example.toml".into());
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/");
+    if let Some(fixture) = std::env::args().nth(2) {
+        let nominal = Model::from_cell(&CellFile::load(format!("{root}{fixture}"))?)?;
+        perturbed_truth(&nominal, 4, &ErrorBudget::realistic()).to_cell().save(&out)?;
+        println!("stand-in calibrated {fixture} written to {out}");
+        return Ok(());
+    }
     let nominal = Model::from_cell(&CellFile::load(format!("{root}meca500-zaber.toml"))?)?;
     perturbed_truth(&nominal, 4, &ErrorBudget::realistic()).to_cell().save(&out)?;
     let calibrated = Model::from_cell(&CellFile::load(&out)?)?;
