@@ -1,10 +1,11 @@
 //! The pose solver: Newton's method on the analytic tool-frame Jacobian, and IK branches.
 //!
 //! The error of the tool-changer frame at `q` is `e = [p* − p; log(R* Rᵀ)]` (world position
-//! \[mm\] and world rotation vector \[rad\]). Its derivative with respect to arm joint `i` is
-//! `[z_i × (p − o_i); z_i]` with `z_i`, `o_i` the world axis and origin of MDH frame `i` of
-//! the model's own chain ([`vatcal_kinematics::Chain::frames`]), exactly the columns of
-//! `vatcal_planning::ik`'s refinement. The step solves `J Δq = e` (6×6 LU, on the stack).
+//! \[mm\] and world rotation vector \[rad\]). Its derivative with respect to a solved revolute
+//! joint `i` ([`JointSplit`]) is `[z_i × (p − o_i); z_i]` (a prismatic one: `[z_i; 0]`) with
+//! `z_i`, `o_i` the world axis and origin of MDH frame `i` of the model's own chain
+//! ([`vatcal_kinematics::Chain::frames`]), exactly the columns of `vatcal_planning::ik`'s
+//! refinement. The step solves `J Δq = e` (6×6 LU, on the stack).
 //! The forward kinematics include compliance and every enabled effect with the request's
 //! context; the Jacobian holds gravity torques and the joint effects' `dθ/dq` fixed, so with
 //! them the iteration is quasi-Newton — still converging to rounding level because those
@@ -423,6 +424,35 @@ mod tests {
             let dr = rotation_vector(&(cp.tool.r * cm.tool.r.transpose())) / (2.0 * h);
             for r in 0..3 {
                 assert!((j[(r, k)] - dp[r]).abs() < 1e-5, "col {k} row {r}: {} vs {}", j[(r, k)], dp[r]);
+                assert!((j[(r + 3, k)] - dr[r]).abs() < 1e-8, "col {k} rot {r}");
+            }
+        }
+    }
+
+    /// The split's Jacobian is planning's tool Jacobian on the canonical cell (bit for bit),
+    /// and matches central differences on the UR5e (all six joints solved).
+    #[test]
+    fn split_jacobian_is_the_tool_jacobian_and_matches_finite_differences() {
+        let m = nominal();
+        let q = JointVector::from_mm_deg(120.0, [20.0, 10.0, -30.0, 40.0, 50.0, -60.0]);
+        let split = JointSplit::of(&m).expect("split");
+        assert_eq!(split.jacobian(&m.chain(&q)), tool_jacobian(&m.chain(&q)));
+        let cell =
+            CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml")).expect("cell");
+        let ur = Model::from_cell(&cell).expect("model");
+        let split = JointSplit::of(&ur).expect("split");
+        let q = JointVector::new([0.3, -1.2, 1.1, -1.4, 1.2, 0.2]);
+        let j = split.jacobian(&ur.chain(&q));
+        let h = 1e-6;
+        for k in 0..6 {
+            let (mut qp, mut qm) = (q, q);
+            qp[k] += h;
+            qm[k] -= h;
+            let (cp, cm) = (ur.chain(&qp), ur.chain(&qm));
+            let dp = (cp.tool.p - cm.tool.p) / (2.0 * h);
+            let dr = rotation_vector(&(cp.tool.r * cm.tool.r.transpose())) / (2.0 * h);
+            for r in 0..3 {
+                assert!((j[(r, k)] - dp[r]).abs() < 1e-4, "col {k} row {r}: {} vs {}", j[(r, k)], dp[r]);
                 assert!((j[(r + 3, k)] - dr[r]).abs() < 1e-8, "col {k} rot {r}");
             }
         }

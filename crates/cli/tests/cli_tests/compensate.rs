@@ -278,8 +278,9 @@ fn six_joint_setup(fixture_name: &str, seed: u64) -> (tempfile::TempDir, String,
     let model_path = dir.path().join("calibrated.toml").display().to_string();
     calibrated.to_cell().save(&model_path).expect("save");
     let calibrated = Model::from_cell(&CellFile::load(&model_path).expect("load")).expect("model");
-    let a = [0.3, -1.2, 1.1, -1.4, 1.2, 0.2];
-    let b = [0.6, -1.0, 1.3, -1.1, 1.5, 0.7];
+    // a short path well inside the joint limits of both arms (the Meca500's are tight)
+    let a = [-0.35, 0.17, -0.35, 0.52, 0.7, -0.87];
+    let b = [-0.17, 0.26, -0.26, 0.35, 0.79, -0.52];
     let requests = (0..6)
         .map(|k| {
             let t = k as f64 / 5.0;
