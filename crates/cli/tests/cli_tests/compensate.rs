@@ -469,3 +469,44 @@ fn six_joint_arms_programs_and_errors() {
     assert!(!ok && err.contains("far.csv:5") && err.contains("cannot be reached"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// The context columns of a six-joint arm are `dir1..dir6` (its revolute joints): a calibrated
+/// UR5e with backlash refuses a poses file without them and compensates with them.
+#[test]
+fn six_joint_arm_context_columns() {
+    let (dir, model_path, _, requests) = six_joint_setup("ur5e.toml", 7);
+    let mut cal = Model::from_cell(&CellFile::load(&model_path).expect("load")).expect("model");
+    let spec = vatcal_core::effects::EffectSpec::JointBacklash { joint: 3 };
+    cal.enable_effect(spec).expect("effect");
+    for id in spec.params() {
+        cal.set_param(id, 5e-4).expect("set");
+    }
+    let backlash_path = dir.path().join("backlash.toml").display().to_string();
+    cal.to_cell().save(&backlash_path).expect("save");
+    let poses = dir.path().join("poses.csv").display().to_string();
+    std::fs::write(&poses, arm_poses_csv(&requests)).expect("write");
+    let out = dir.path().join("out.csv").display().to_string();
+    let (ok, _, err) = run(&["compensate", "--model", &backlash_path, "--poses", &poses, "--out", &out]);
+    assert!(!ok && err.contains("dir1..dir6"), "{err}");
+    let mut text = String::from("tcp,x,y,z,alpha,beta,gamma,dir1,dir2,dir3,dir4,dir5,dir6\n");
+    for line in arm_poses_csv(&requests).lines().skip(1) {
+        text.push_str(&format!("{line},1,1,-1,1,1,1\n"));
+    }
+    std::fs::write(&poses, text).expect("write");
+    let (ok, _, err) = run(&["compensate", "--model", &backlash_path, "--poses", &poses, "--out", &out]);
+    assert!(ok, "{err}");
+    // fk with the same context columns: the targets (joint rows with dir1..dir6) reach the requests
+    let rows = csv_rows(&std::fs::read_to_string(&out).expect("read"));
+    let mut joints = String::from("tcp,q1,q2,q3,q4,q5,q6,dir1,dir2,dir3,dir4,dir5,dir6\n");
+    for r in &rows[1..] {
+        joints.push_str(&format!("{},{},1,1,-1,1,1,1\n", r[1], r[2..8].join(",")));
+    }
+    let joints_path = dir.path().join("joints.csv").display().to_string();
+    std::fs::write(&joints_path, joints).expect("write");
+    let (ok, fk, err) = run(&["fk", "--model", &backlash_path, "--input", &joints_path]);
+    assert!(ok, "{err}");
+    for (line, req) in fk.lines().skip(1).zip(&requests) {
+        let p: Vec<f64> = line.split(',').map(|v| v.parse().expect("number")).collect();
+        assert!((0..3).all(|k| (p[k] - req.xyz_mm[k]).abs() < 1e-6), "{p:?} vs {:?}", req.xyz_mm);
+    }
+}

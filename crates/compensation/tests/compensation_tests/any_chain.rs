@@ -321,3 +321,40 @@ fn a_chain_with_two_external_axes_gives_both() {
     assert!((tool.p - target.tool.p).norm() < 1e-6 && rotation_angle_between(&tool.r, &target.tool.r) < 1e-9);
     assert!(matches!(c.branch, Branch::DET_POSITIVE | Branch::DET_NEGATIVE));
 }
+
+/// The row's context reaches the model on a six-joint arm: a calibrated UR5e with backlash on
+/// joint 3 and a time-driven thermal drift; the targets put the TCP on the request under the
+/// model *with* the row's `dir` and `time_s`, and the same joints without the context miss it.
+#[test]
+fn context_columns_pass_to_the_model_on_a_six_joint_arm() {
+    use vatcal_core::ParamId;
+    use vatcal_core::effects::{EffectSpec, ThermalDriver};
+    let (nom, mut cal) = models("ur5e.toml", 8);
+    for spec in
+        [EffectSpec::JointBacklash { joint: 3 }, EffectSpec::ThermalDrift { driver: ThermalDriver::Time }]
+    {
+        cal.enable_effect(spec).expect("effect");
+        for id in spec.params() {
+            let v = match (spec, id) {
+                (EffectSpec::ThermalDrift { .. }, ParamId::Effect(_)) => 2e-8,
+                _ => 5e-4,
+            };
+            cal.set_param(id, v).expect("set");
+        }
+    }
+    let comp = Compensator::new(&cal, &nom).expect("compensator");
+    let context = MeasurementContext {
+        dir: Some([1, -1, 1, -1, 1, -1, 0, 0, 0, 0, 0, 0]),
+        time_s: Some(3600.0),
+        temperature_c: None,
+    };
+    let q = JointVector::new([0.3, -1.2, 1.1, -1.4, 1.2, 0.2]);
+    let tool = cal.chain_full(&q, &context, false, None).tool;
+    let req = PoseRequest::from_tool_frame(&cal, 1, JointVector::zeros(6), &tool, context).expect("request");
+    let c = comp.compensate_pose(&req, None, &SolveOptions::default()).expect("solve");
+    let (dp, dr) = fk_error(&cal, &c.q, &req);
+    assert!(dp < 1e-6 && dr < 1e-9, "with context: {dp:e} mm, {dr:e} rad");
+    let without = PoseRequest { context: MeasurementContext::default(), ..req };
+    let (miss, _) = fk_error(&cal, &c.q, &without);
+    assert!(miss > 1e-3, "the context changes the prediction by only {miss} mm");
+}
