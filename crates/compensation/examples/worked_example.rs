@@ -8,6 +8,9 @@
 //! ```text
 //! cargo run -p vatcal-compensation --example worked_example -- /tmp/calibrated-example.toml
 //! ```
+//!
+//! With a second argument naming another fixture (e.g. `ur5e.toml`), it only writes that
+//! fixture's stand-in calibrated file (same errors budget and seed) for the any-chain example.
 
 use vatcal_compensation::{Compensator, PoseRequest, SolveOptions, rotation_to_euler_xyz_deg};
 use vatcal_core::{CellFile, MeasurementContext};
@@ -17,19 +20,19 @@ use vatcal_sim::truth::{ErrorBudget, perturbed_truth};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "calibrated-example.toml".into());
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/");
+    if let Some(fixture) = std::env::args().nth(2) {
+        let nominal = Model::from_cell(&CellFile::load(format!("{root}{fixture}"))?)?;
+        perturbed_truth(&nominal, 4, &ErrorBudget::realistic()).to_cell().save(&out)?;
+        println!("stand-in calibrated {fixture} written to {out}");
+        return Ok(());
+    }
     let nominal = Model::from_cell(&CellFile::load(format!("{root}meca500-zaber.toml"))?)?;
     perturbed_truth(&nominal, 4, &ErrorBudget::realistic()).to_cell().save(&out)?;
     let calibrated = Model::from_cell(&CellFile::load(&out)?)?;
     println!("calibrated cell written to {out}");
 
     // first row of fixtures/compensate-poses.csv
-    let request = PoseRequest {
-        tcp: 2,
-        q1_mm: 100.0,
-        xyz_mm: [60.0, -40.0, 40.0],
-        abc_deg: [180.0, 0.0, 0.0],
-        context: MeasurementContext::default(),
-    };
+    let request = PoseRequest::on_guide(2, 100.0, [60.0, -40.0, 40.0], [180.0, 0.0, 0.0]);
     println!("request: {request:?}");
     let target = request.tool_target(&calibrated, 0)?;
     println!("tool-changer frame wanted (world): p = {:?} mm", target.tool.p.as_slice());
@@ -57,8 +60,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let corrected = comp.corrected_pose(&c.q, 2, MeasurementContext::default())?;
     println!("corrected world pose (--emit poses): {:?}", corrected.world);
-    println!("MoveJoints{:?}", corrected.controller_joints_deg);
-    println!("MovePose{:?}", corrected.controller_pose);
+    println!("MoveJoints{:?}", corrected.controller_joints_deg.unwrap_or_default());
+    println!("MovePose{:?}", corrected.controller_pose.unwrap_or_default());
     let abc = rotation_to_euler_xyz_deg(&target.tool.r);
     println!("check: Euler angles of the wanted tool frame {abc:?}");
     Ok(())

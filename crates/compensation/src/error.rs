@@ -5,7 +5,7 @@
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum CompensationError {
-    /// The model's arm is not Meca500-like (the closed-form seeds need it).
+    /// The planning layer failed (e.g. invalid options of the numerical IK).
     #[error(transparent)]
     Plan(#[from] vatcal_planning::PlanError),
     /// The model layer failed (e.g. an unknown TCP id).
@@ -34,9 +34,9 @@ pub enum CompensationError {
     JointLimit {
         /// row index
         row: usize,
-        /// cell joint (1..=7)
+        /// joint (1..=N)
         joint: usize,
-        /// value in file units (mm for q1, degrees otherwise)
+        /// value in file units (mm for prismatic, degrees for revolute joints)
         value: f64,
         /// lower limit in file units
         min: f64,
@@ -65,12 +65,22 @@ pub enum CompensationError {
     JointJump {
         /// row index
         row: usize,
-        /// cell joint (2..=7)
+        /// joint (1..=N; a joint the pose determines)
         joint: usize,
         /// the jump [deg]
         step_deg: f64,
         /// the allowed step [deg]
         max_deg: f64,
+    },
+    /// Compensation does not handle this chain (fewer than six joints, or more than six whose
+    /// prismatic joints do not leave exactly six to solve, see [`crate::JointSplit::of`]), or
+    /// the nominal and calibrated models are different chains.
+    #[error("compensation on {chain}: {reason}")]
+    UnsupportedChain {
+        /// the chain, e.g. `5 joints (RRRRR)`
+        chain: String,
+        /// why
+        reason: String,
     },
     /// An option is invalid.
     #[error("invalid option `{option}`: {reason}")]

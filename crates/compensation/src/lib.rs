@@ -2,13 +2,19 @@
 //!
 //! Puts a calibration to work: turns requested world poses into joint targets under the
 //! **calibrated** model (issue 13), so that the cell physically lands where it is asked to, and
-//! into the poses the robot's own (nominal) controller must be sent to get there.
+//! into the poses the robot's own (nominal) controller must be sent to get there. Works on any
+//! serial chain of six or more joints (issue 12): the canonical Meca500-on-guide cell, a
+//! six-joint arm (UR5e, Meca500 on a table), or a longer chain with prismatic external axes.
 //!
-//! * [`PoseRequest`] — one requested pose as a slicer writes it: TCP id, guide position `q1`
-//!   \[mm\], TCP point `x, y, z` \[mm\] in the world (resin-tank) frame and the orientation of
-//!   the tool-changer frame (frame 7) as Mecademic intrinsic X-Y-Z Euler angles `α, β, γ`
-//!   \[deg\], plus the optional per-sample context (`time_s`, `temperature_c`, `dir`) the
-//!   model's effects use. [`ToolTarget`] is the same request as a world frame.
+//! * [`JointSplit`] — which joints a request gives (the prismatic external axes of a chain with
+//!   more than six joints, e.g. the canonical guide `q1`; none on a six-joint arm) and which six
+//!   the pose determines; fewer than six joints is an error.
+//! * [`PoseRequest`] — one requested pose as a slicer writes it: TCP id, the given joints, TCP
+//!   point `x, y, z` \[mm\] in the world (resin-tank) frame and the orientation of the chain's
+//!   last frame (the tool-changer frame, frame 7 on the canonical cell) as Mecademic intrinsic
+//!   X-Y-Z Euler angles `α, β, γ` \[deg\], plus the optional per-sample context (`time_s`,
+//!   `temperature_c`, `dir`) the model's effects use. [`ToolTarget`] is the same request as a
+//!   world frame.
 //! * [`Compensator`] — [`Compensator::compensate_pose`] for one pose,
 //!   [`Compensator::compensate_path`] for a path (same IK branch throughout, each pose seeded
 //!   from the previous solution, branch changes, joint jumps, limit violations and unreachable
@@ -17,12 +23,13 @@
 //! * [`path_accuracy`] — the proof on a virtual cell: the true error along a path commanded
 //!   with compensated targets and with uncompensated (nominal) targets.
 //!
-//! The solver ([`solve`]) is Newton's method on the analytic 6×6 joint Jacobian of the tool
-//! frame (compliance and every enabled effect in the forward kinematics, the Jacobian holding
-//! gravity torques fixed as in the paper), warm-started from a quadratic prediction of the
-//! previous poses' solutions; the first pose
-//! of a path, or a pose where the warm start fails, is seeded from the closed-form branches of
-//! `vatcal_planning::ik`.
+//! The solver ([`solve`]) is Newton's method on the analytic 6×6 Jacobian of the tool frame
+//! with respect to the six solved joints (compliance and every enabled effect in the forward
+//! kinematics, the Jacobian holding gravity torques fixed as in the paper), warm-started from a
+//! quadratic prediction of the previous poses' solutions; the first pose of a path, or a pose
+//! where the warm start fails, is seeded from the closed-form branches of `vatcal_planning::ik`
+//! on the canonical cell, and from `vatcal_planning::ik::ModelIk` (closed form or multi-start
+//! numerical IK) on any other chain, where the IK branch is the sign of `det J` ([`Branch`]).
 //!
 //! Units: mm and degrees in [`PoseRequest`] and in the files, mm and radians inside.
 //! See `docs/compensation.md`.
@@ -40,4 +47,4 @@ pub use pose::{
     PoseRequest, ToolTarget, euler_xyz_deg_to_rotation, frame_to_meca_pose, meca_pose_to_frame,
     rotation_to_euler_xyz_deg,
 };
-pub use solve::{Branch, SolveOptions};
+pub use solve::{Branch, JointSplit, SolveOptions};

@@ -7,11 +7,11 @@
 //! controller speaks.
 
 use nalgebra::{Isometry3, Matrix3, Vector3};
-use vatcal_core::{Frame, MeasurementContext};
+use vatcal_core::{Frame, JointVector, MeasurementContext};
 use vatcal_drivers_meca500::sim::{from_xyzabc, to_xyzabc};
 use vatcal_kinematics::Model;
 
-use crate::CompensationError;
+use crate::{CompensationError, JointSplit};
 
 /// Rotation `Rx(α) Ry(β) Rz(γ)` of Mecademic Euler angles `[α, β, γ]` \[deg\].
 pub fn euler_xyz_deg_to_rotation(abc_deg: [f64; 3]) -> Matrix3<f64> {
@@ -37,26 +37,64 @@ pub fn meca_pose_to_frame(p: &[f64; 6]) -> Frame {
 }
 
 /// One requested pose in the world (resin-tank) frame, in file units.
+///
+/// The pose fixes six degrees of freedom; the values of the chain's other joints are part of
+/// the request ([`crate::JointSplit`]: the prismatic external axes of a chain with more than six
+/// joints, e.g. the canonical cell's guide `q1`; none on a six-joint arm).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PoseRequest {
     /// TCP id whose point must reach `xyz_mm`
     pub tcp: u32,
-    /// guide position \[mm\]
-    pub q1_mm: f64,
+    /// a joint vector of the chain (one entry per joint) holding the values of the joints the
+    /// pose does not determine ([`crate::JointSplit::given_joints`], prismatic: mm); the other
+    /// entries are not used
+    pub given: JointVector,
     /// TCP point in the world \[mm\]
     pub xyz_mm: [f64; 3],
-    /// orientation of the tool-changer frame, Mecademic intrinsic X-Y-Z Euler angles \[deg\]
+    /// orientation of the chain's last frame (flange / tool-changer frame), Mecademic
+    /// intrinsic X-Y-Z Euler angles \[deg\]
     pub abc_deg: [f64; 3],
     /// per-sample context passed to the model (time, temperature, motion directions)
     pub context: MeasurementContext,
 }
 
 impl PoseRequest {
+    /// A request on the canonical Meca500-on-guide cell: the guide at `q1_mm`, no context.
+    pub fn on_guide(tcp: u32, q1_mm: f64, xyz_mm: [f64; 3], abc_deg: [f64; 3]) -> Self {
+        let mut given = JointVector::default();
+        given[0] = q1_mm;
+        Self { tcp, given, xyz_mm, abc_deg, context: MeasurementContext::default() }
+    }
+
+    /// A request on a chain of `joints` joints that determines all of them (a six-joint arm),
+    /// no context.
+    pub fn for_arm(joints: usize, tcp: u32, xyz_mm: [f64; 3], abc_deg: [f64; 3]) -> Self {
+        Self {
+            tcp,
+            given: JointVector::zeros(joints),
+            xyz_mm,
+            abc_deg,
+            context: MeasurementContext::default(),
+        }
+    }
+
     /// The request as a world tool-changer frame under `model` (the model's own coordinates
     /// of the TCP: a calibrated model's calibrated TCP). `row` names the request in errors.
+    ///
+    /// # Errors
+    /// [`CompensationError::UnsupportedChain`] for a chain compensation does not handle,
+    /// [`CompensationError::Model`] for a `given` of the wrong length or an unknown TCP,
+    /// [`CompensationError::NonFinite`] for a value that is not finite.
     pub fn tool_target(&self, model: &Model, row: usize) -> Result<ToolTarget, CompensationError> {
+        let split = JointSplit::of(model)?;
+        model.check_joint_count(&self.given)?;
+        for j in split.given_joints() {
+            let value = self.given.get(j);
+            if !value.is_finite() {
+                return Err(CompensationError::NonFinite { row, field: joint_field(j), value });
+            }
+        }
         let values = [
-            ("q1", self.q1_mm),
             ("x", self.xyz_mm[0]),
             ("y", self.xyz_mm[1]),
             ("z", self.xyz_mm[2]),
@@ -72,30 +110,41 @@ impl PoseRequest {
             .ok_or_else(|| vatcal_kinematics::ModelError::UnknownTcp(self.tcp, model.tcp_ids()))?;
         let r = euler_xyz_deg_to_rotation(self.abc_deg);
         let point = Vector3::from(self.xyz_mm);
-        Ok(ToolTarget { q1_mm: self.q1_mm, tool: Frame { r, p: point - r * tcp }, context: self.context })
+        Ok(ToolTarget { given: self.given, tool: Frame { r, p: point - r * tcp }, context: self.context })
     }
 
     /// The request that asks for tool-changer frame `tool` (world) with TCP `tcp` of `model`,
-    /// at guide position `q1_mm`: the inverse of [`PoseRequest::tool_target`].
+    /// with the given joints of `given`: the inverse of [`PoseRequest::tool_target`].
+    ///
+    /// # Errors
+    /// An unknown TCP.
     pub fn from_tool_frame(
         model: &Model,
         tcp: u32,
-        q1_mm: f64,
+        given: JointVector,
         tool: &Frame,
         context: MeasurementContext,
     ) -> Result<Self, CompensationError> {
         let t =
             model.tcp(tcp).ok_or_else(|| vatcal_kinematics::ModelError::UnknownTcp(tcp, model.tcp_ids()))?;
         let p = tool.transform_point(&t);
-        Ok(Self { tcp, q1_mm, xyz_mm: [p.x, p.y, p.z], abc_deg: rotation_to_euler_xyz_deg(&tool.r), context })
+        Ok(Self { tcp, given, xyz_mm: [p.x, p.y, p.z], abc_deg: rotation_to_euler_xyz_deg(&tool.r), context })
     }
+}
+
+/// The column name `q<i>` of joint `i` (1..=12) as a static string (error fields).
+pub(crate) fn joint_field(i: usize) -> &'static str {
+    const NAMES: [&str; 12] = ["q1", "q2", "q3", "q4", "q5", "q6", "q7", "q8", "q9", "q10", "q11", "q12"];
+    NAMES.get(i.wrapping_sub(1)).copied().unwrap_or("q")
 }
 
 /// A requested pose as a world frame of the tool-changer frame (internal units).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ToolTarget {
-    /// guide position \[mm\] (held fixed: the arm joints solve the pose)
-    pub q1_mm: f64,
+    /// a joint vector of the chain holding the values of the joints the pose does not
+    /// determine (held fixed; [`crate::JointSplit::given_joints`]); the other entries are not
+    /// used
+    pub given: JointVector,
     /// requested world pose of the tool-changer frame
     pub tool: Frame,
     /// per-sample context passed to the model
@@ -103,9 +152,17 @@ pub struct ToolTarget {
 }
 
 impl ToolTarget {
-    /// A target without context.
+    /// A target on the canonical Meca500-on-guide cell (guide at `q1_mm`), without context.
     pub fn new(q1_mm: f64, tool: Frame) -> Self {
-        Self { q1_mm, tool, context: MeasurementContext::default() }
+        let mut given = JointVector::default();
+        given[0] = q1_mm;
+        Self { given, tool, context: MeasurementContext::default() }
+    }
+
+    /// A target on any chain: `given` holds the values of the joints the pose does not
+    /// determine (one entry per joint of the chain), without context.
+    pub fn with_given(given: JointVector, tool: Frame) -> Self {
+        Self { given, tool, context: MeasurementContext::default() }
     }
 }
 

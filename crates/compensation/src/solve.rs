@@ -1,10 +1,11 @@
 //! The pose solver: Newton's method on the analytic tool-frame Jacobian, and IK branches.
 //!
 //! The error of the tool-changer frame at `q` is `e = [p* − p; log(R* Rᵀ)]` (world position
-//! \[mm\] and world rotation vector \[rad\]). Its derivative with respect to arm joint `i` is
-//! `[z_i × (p − o_i); z_i]` with `z_i`, `o_i` the world axis and origin of MDH frame `i` of
-//! the model's own chain ([`vatcal_kinematics::Chain::frames`]), exactly the columns of
-//! `vatcal_planning::ik`'s refinement. The step solves `J Δq = e` (6×6 LU, on the stack).
+//! \[mm\] and world rotation vector \[rad\]). Its derivative with respect to a solved revolute
+//! joint `i` ([`JointSplit`]) is `[z_i × (p − o_i); z_i]` (a prismatic one: `[z_i; 0]`) with
+//! `z_i`, `o_i` the world axis and origin of MDH frame `i` of the model's own chain
+//! ([`vatcal_kinematics::Chain::frames`]), exactly the columns of `vatcal_planning::ik`'s
+//! refinement. The step solves `J Δq = e` (6×6 LU, on the stack).
 //! The forward kinematics include compliance and every enabled effect with the request's
 //! context; the Jacobian holds gravity torques and the joint effects' `dθ/dq` fixed, so with
 //! them the iteration is quasi-Newton — still converging to rounding level because those
@@ -15,12 +16,134 @@
 
 use std::fmt;
 
-use nalgebra::Vector6;
-use vatcal_core::{Frame, JointVector};
+use nalgebra::{Matrix6, Vector6};
+use vatcal_core::{Frame, JointVector, MAX_JOINTS};
 use vatcal_kinematics::{Chain, Model};
 use vatcal_planning::ik::{ArmGeometry, rotation_vector, wrap_angle};
 
-use crate::ToolTarget;
+use crate::{CompensationError, ToolTarget};
+
+/// Which joints of a chain a pose request gives and which the solver finds.
+///
+/// A pose fixes six degrees of freedom, so exactly six joints are solved for:
+/// * a chain of **six** joints: all six (the request gives none; columns
+///   `tcp,x,y,z,alpha,beta,gamma`);
+/// * a chain of **more than six** joints: the request gives the prismatic joints (the
+///   "external axes", e.g. the canonical cell's guide `q1`), and there must be exactly
+///   `N − 6` of them, so that six joints are left;
+/// * a chain of **fewer than six** joints cannot reach an arbitrary pose: an error (compensate
+///   positions only with a six-joint model, or extend the chain).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct JointSplit {
+    n: usize,
+    given: [bool; MAX_JOINTS],
+    /// 0-based indices of the solved joints, in chain order
+    free: [usize; 6],
+    free_revolute: [bool; 6],
+}
+
+impl JointSplit {
+    /// The split of `model`'s chain (see the type docs).
+    ///
+    /// # Errors
+    /// [`CompensationError::UnsupportedChain`] for fewer than six joints, or more than six
+    /// joints whose prismatic joints are not exactly `N − 6`.
+    pub fn of(model: &Model) -> Result<Self, CompensationError> {
+        let kinds = model.joint_kinds();
+        let n = kinds.len();
+        let unsupported =
+            |reason: String| CompensationError::UnsupportedChain { chain: model.describe_chain(), reason };
+        if n < 6 {
+            return Err(unsupported(format!(
+                "a pose (position and orientation: 6 degrees of freedom) needs at least 6 joints; \
+                 {n} joints cannot reach an arbitrary pose"
+            )));
+        }
+        let mut given = [false; MAX_JOINTS];
+        if n > 6 {
+            let prismatic = kinds.iter().filter(|k| !k.is_revolute()).count();
+            if prismatic != n - 6 {
+                return Err(unsupported(format!(
+                    "a request gives the prismatic joints (external axes) and the pose determines the \
+                     other six; this chain has {prismatic} prismatic joint(s), so {} joints would be left \
+                     for the 6 degrees of freedom of a pose",
+                    n - prismatic
+                )));
+            }
+            for (g, k) in given.iter_mut().zip(kinds) {
+                *g = !k.is_revolute();
+            }
+        }
+        let mut free = [0; 6];
+        let mut free_revolute = [false; 6];
+        for (slot, k) in (0..n).filter(|k| !given[*k]).enumerate() {
+            free[slot] = k;
+            free_revolute[slot] = kinds[k].is_revolute();
+        }
+        Ok(Self { n, given, free, free_revolute })
+    }
+
+    /// Number of joints of the chain.
+    pub fn joint_count(&self) -> usize {
+        self.n
+    }
+
+    /// The joints a request gives (1-based, in chain order).
+    pub fn given_joints(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.n).filter(|k| self.given[*k]).map(|k| k + 1)
+    }
+
+    /// The six joints the solver finds (1-based, in chain order).
+    pub fn solved_joints(&self) -> [usize; 6] {
+        self.free.map(|k| k + 1)
+    }
+
+    /// 0-based indices of the solved joints.
+    pub(crate) fn free(&self) -> &[usize; 6] {
+        &self.free
+    }
+
+    /// True when solved joint `slot` (0..6) is revolute.
+    pub(crate) fn free_revolute(&self, slot: usize) -> bool {
+        self.free_revolute[slot]
+    }
+
+    /// `q` with its given joints set to the values in `given`.
+    #[inline]
+    pub(crate) fn apply_given(&self, q: &mut JointVector, given: &JointVector) {
+        for k in 0..self.n {
+            if self.given[k] {
+                q[k] = given[k];
+            }
+        }
+    }
+
+    /// The 6×6 Jacobian of the tool frame with respect to the solved joints: column
+    /// `[z_i × (p − o_i); z_i]` for a revolute and `[z_i; 0]` for a prismatic joint `i` (world
+    /// axes of MDH frame `i`; rows: translation, then rotation). On the canonical cell this is
+    /// `vatcal_planning::ik::tool_jacobian`.
+    #[inline]
+    pub fn jacobian(&self, chain: &Chain) -> Matrix6<f64> {
+        let p = chain.tool.p;
+        let mut j = Matrix6::zeros();
+        for (c, &k) in self.free.iter().enumerate() {
+            let f = &chain.frames[k + 1];
+            let z = f.z_axis();
+            if self.free_revolute[c] {
+                let lin = z.cross(&(p - f.p));
+                for r in 0..3 {
+                    j[(r, c)] = lin[r];
+                    j[(r + 3, c)] = z[r];
+                }
+            } else {
+                for r in 0..3 {
+                    j[(r, c)] = z[r];
+                }
+            }
+        }
+        j
+    }
+}
 
 /// Weight of the orientation error against the position error in the step acceptance
 /// (mm per rad).
@@ -113,16 +236,18 @@ fn cost(e: &Vector6<f64>) -> f64 {
     p * p + (ORIENTATION_SCALE_MM * r) * (ORIENTATION_SCALE_MM * r)
 }
 
-/// Newton iterations from `seed` (its q1 is replaced by the target's) until the model's
-/// tool-changer frame, with the target's context, is at `target.tool`.
+/// Newton iterations from `seed` (its given joints are replaced by the target's) until the
+/// model's tool-changer frame, with the target's context, is at `target.tool`. `split` is
+/// [`JointSplit::of`] the model.
 pub fn newton(
     model: &Model,
+    split: &JointSplit,
     target: &ToolTarget,
     seed: &JointVector,
     opts: &SolveOptions,
 ) -> Result<Solved, NotConverged> {
     let mut q = *seed;
-    q[0] = target.q1_mm;
+    split.apply_given(&mut q, &target.given);
     let fk = |q: &JointVector| model.chain_full(q, &target.context, false, None);
     let mut chain = fk(&q);
     let mut e = tool_error(&chain, &target.tool);
@@ -136,7 +261,7 @@ pub fn newton(
         if iterations == opts.max_iterations || !c.is_finite() {
             break;
         }
-        let Some(step) = tool_jacobian(&chain).lu().solve(&e) else {
+        let Some(step) = split.jacobian(&chain).lu().solve(&e) else {
             break;
         };
         let largest = step.amax();
@@ -147,8 +272,8 @@ pub fn newton(
         let mut accepted = false;
         for _ in 0..=MAX_HALVINGS {
             let mut trial = q;
-            for k in 0..6 {
-                trial[k + 1] += scale * step[k];
+            for (k, &i) in split.free().iter().enumerate() {
+                trial[i] += scale * step[k];
             }
             let trial_chain = fk(&trial);
             let trial_e = tool_error(&trial_chain, &target.tool);
@@ -180,13 +305,47 @@ pub fn newton(
     }
 }
 
-/// An IK branch of the Meca500 arm, with the bits of `vatcal_planning::ik::ArmSolutions`:
-/// bit 0 shoulder (set: wrist centre behind the J1 axis), bit 1 elbow (set: the `−acos`
-/// elbow), bit 2 wrist (set: `θ_6 < 0`, cell joint 6 = Meca500 J5).
+/// An IK branch.
+///
+/// On the canonical cell (closed-form IK of the Meca500 arm), 0..=7 with the bits of
+/// `vatcal_planning::ik::ArmSolutions`: bit 0 shoulder (set: wrist centre behind the J1 axis),
+/// bit 1 elbow (set: the `−acos` elbow), bit 2 wrist (set: `θ_6 < 0`, cell joint 6 = Meca500
+/// J5).
+///
+/// On any other chain (numerical IK) the branch is the sign of the determinant of the 6×6
+/// Jacobian of the solved joints ([`JointSplit::jacobian`]): [`Branch::DET_POSITIVE`] or
+/// [`Branch::DET_NEGATIVE`]. The solution branches of a six-degree-of-freedom arm are separated
+/// by its singular configurations (`det J = 0`), so two solutions of opposite sign are on
+/// different branches, and a path whose sign changes passes a singularity (a flip).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Branch(pub u8);
 
 impl Branch {
+    /// Numerical-IK branch class: `det J > 0`.
+    pub const DET_POSITIVE: Branch = Branch(8);
+    /// Numerical-IK branch class: `det J < 0`.
+    pub const DET_NEGATIVE: Branch = Branch(9);
+
+    /// The numerical-IK branch class of a Jacobian determinant.
+    pub fn of_determinant(det: f64) -> Self {
+        if det < 0.0 { Self::DET_NEGATIVE } else { Self::DET_POSITIVE }
+    }
+
+    /// True for a numerical-IK class ([`Branch::DET_POSITIVE`], [`Branch::DET_NEGATIVE`]).
+    pub fn is_determinant_class(self) -> bool {
+        self == Self::DET_POSITIVE || self == Self::DET_NEGATIVE
+    }
+
+    /// The branch as written in the `branch` column: `0..7` on the canonical cell, `+` / `-`
+    /// (sign of `det J`) for a numerical-IK class.
+    pub fn column(self) -> String {
+        match self {
+            Self::DET_POSITIVE => "+".into(),
+            Self::DET_NEGATIVE => "-".into(),
+            b => b.0.to_string(),
+        }
+    }
+
     /// The branch of arm joints `q` on the closed-form geometry `arm` (a calibrated model's
     /// arm is close enough: branches differ by sign changes far from its small errors, except
     /// right at a singularity).
@@ -221,6 +380,11 @@ impl Branch {
 
 impl fmt::Display for Branch {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Self::DET_POSITIVE => return write!(f, "+ (det J > 0)"),
+            Self::DET_NEGATIVE => return write!(f, "- (det J < 0)"),
+            _ => {}
+        }
         let s = |b: bool| if b { '-' } else { '+' };
         write!(
             f,
@@ -260,6 +424,35 @@ mod tests {
             let dr = rotation_vector(&(cp.tool.r * cm.tool.r.transpose())) / (2.0 * h);
             for r in 0..3 {
                 assert!((j[(r, k)] - dp[r]).abs() < 1e-5, "col {k} row {r}: {} vs {}", j[(r, k)], dp[r]);
+                assert!((j[(r + 3, k)] - dr[r]).abs() < 1e-8, "col {k} rot {r}");
+            }
+        }
+    }
+
+    /// The split's Jacobian is planning's tool Jacobian on the canonical cell (bit for bit),
+    /// and matches central differences on the UR5e (all six joints solved).
+    #[test]
+    fn split_jacobian_is_the_tool_jacobian_and_matches_finite_differences() {
+        let m = nominal();
+        let q = JointVector::from_mm_deg(120.0, [20.0, 10.0, -30.0, 40.0, 50.0, -60.0]);
+        let split = JointSplit::of(&m).expect("split");
+        assert_eq!(split.jacobian(&m.chain(&q)), tool_jacobian(&m.chain(&q)));
+        let cell =
+            CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml")).expect("cell");
+        let ur = Model::from_cell(&cell).expect("model");
+        let split = JointSplit::of(&ur).expect("split");
+        let q = JointVector::new([0.3, -1.2, 1.1, -1.4, 1.2, 0.2]);
+        let j = split.jacobian(&ur.chain(&q));
+        let h = 1e-6;
+        for k in 0..6 {
+            let (mut qp, mut qm) = (q, q);
+            qp[k] += h;
+            qm[k] -= h;
+            let (cp, cm) = (ur.chain(&qp), ur.chain(&qm));
+            let dp = (cp.tool.p - cm.tool.p) / (2.0 * h);
+            let dr = rotation_vector(&(cp.tool.r * cm.tool.r.transpose())) / (2.0 * h);
+            for r in 0..3 {
+                assert!((j[(r, k)] - dp[r]).abs() < 1e-4, "col {k} row {r}: {} vs {}", j[(r, k)], dp[r]);
                 assert!((j[(r + 3, k)] - dr[r]).abs() < 1e-8, "col {k} rot {r}");
             }
         }

@@ -1,11 +1,12 @@
 //! `vatcal compensate`: compensated joint targets, corrected controller poses and Meca500
-//! programs from a calibrated cell model (issue 13; see `docs/compensation.md`).
+//! programs from a calibrated cell model of any chain of six or more joints (issues 13 and 12;
+//! see `docs/compensation.md`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use vatcal_compensation::{CompensationError, Compensator, PathOptions, PoseRequest, SolveOptions};
+use vatcal_compensation::{Branch, CompensationError, Compensator, PathOptions, PoseRequest, SolveOptions};
 use vatcal_core::CellFile;
 use vatcal_drivers_meca500::Command as MecaCommand;
 use vatcal_drivers_meca500::codec::format_number;
@@ -17,11 +18,12 @@ const BUILT_IN_NOMINAL: &str = include_str!("../../../../fixtures/meca500-zaber.
 /// What `vatcal compensate` writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Emit {
-    /// CSV `line,tcp,q1..q7,branch,residual_mm,residual_deg` (joint targets, mm/deg)
+    /// CSV `line,tcp,q1..qN,branch,residual_mm,residual_deg` (joint targets, mm/deg)
     Joints,
     /// CSV of corrected poses in the input format: FK_nominal(IK_calibrated(request))
     Poses,
-    /// Meca500 program of `MoveJoints(...)` lines, guide moves as `# guide` comments
+    /// Meca500 program of `MoveJoints(...)` lines, guide moves as `# guide` comments (a chain
+    /// whose last six joints are a Meca500 arm only)
     Meca500,
     /// Meca500 program of `MovePose(...)` lines (robot base frame, WRF = TRF = identity)
     #[value(name = "meca500-poses")]
@@ -34,9 +36,10 @@ pub struct Args {
     /// Calibrated cell model (TOML, e.g. written by `vatcal identify`).
     #[arg(long)]
     pub model: PathBuf,
-    /// Requested poses: CSV `tcp,q1,x,y,z,alpha,beta,gamma` (mm, deg; world frame; Mecademic
-    /// intrinsic X-Y-Z Euler angles of the tool-changer frame), optional `time_s`,
-    /// `temperature_c`, `dir2..dir7`.
+    /// Requested poses: CSV `tcp,q1,x,y,z,alpha,beta,gamma` on the canonical cell (mm, deg;
+    /// world frame; Mecademic intrinsic X-Y-Z Euler angles of the tool-changer frame); on a
+    /// six-joint arm `tcp,x,y,z,alpha,beta,gamma`; on a longer chain `tcp`, the prismatic
+    /// joints' `q{i}`, then the pose. Optional `time_s`, `temperature_c`, `dir{i}`.
     #[arg(long)]
     pub poses: PathBuf,
     /// Output file.
@@ -56,37 +59,59 @@ pub struct Args {
     /// Largest change of an arm joint between consecutive rows [deg].
     #[arg(long, default_value_t = 30.0)]
     pub max_joint_step_deg: f64,
-    /// IK branch of the path (0..=7: bit 0 shoulder, bit 1 elbow, bit 2 wrist); default: the
+    /// IK branch of the path: on the canonical cell 0..=7 (bit 0 shoulder, bit 1 elbow, bit 2
+    /// wrist); on another chain `+` or `-` (sign of det J of the solved joints); default: the
     /// first row's solution farthest from the joint limits.
-    #[arg(long, value_parser = clap::value_parser!(u8).range(0..=7))]
-    pub branch: Option<u8>,
+    #[arg(long, value_parser = parse_branch, allow_hyphen_values = true)]
+    pub branch: Option<Branch>,
 }
 
-/// The nominal model and a description of where it came from.
-fn nominal_model(args: &Args, calibrated: &CellFile) -> anyhow::Result<(Model, String)> {
+fn parse_branch(s: &str) -> Result<Branch, String> {
+    match s {
+        "+" => Ok(Branch::DET_POSITIVE),
+        "-" => Ok(Branch::DET_NEGATIVE),
+        _ => match s.parse::<u8>() {
+            Ok(b) if b <= 7 => Ok(Branch(b)),
+            _ => Err(format!("`{s}`: expected 0..=7 (canonical cell) or + / - (sign of det J)")),
+        },
+    }
+}
+
+/// The nominal model and a description of where it came from; `None` for a chain other than
+/// the canonical cell that names none (then only `--emit joints` works).
+fn nominal_model(
+    args: &Args,
+    calibrated: &CellFile,
+    model: &Model,
+) -> anyhow::Result<Option<(Model, String)>> {
     let from_file = |p: &Path| -> anyhow::Result<(Model, String)> {
         let model = super::load_model(p)?;
         let text = std::fs::read(p).with_context(|| format!("{}: cannot read", p.display()))?;
         Ok((model, format!("{} (fnv1a64 {:016x})", p.display(), vatcal_campaign::fnv1a64(&text))))
     };
     if let Some(p) = &args.nominal {
-        return from_file(p);
+        return from_file(p).map(Some);
     }
     let named =
         calibrated.extra.get("provenance").and_then(|t| t.get("nominal_cell")).and_then(|v| v.as_str());
     if let Some(name) = named {
         let p = args.model.parent().unwrap_or(Path::new(".")).join(name);
-        return from_file(&p).with_context(|| format!("{}: [provenance] nominal_cell", args.model.display()));
+        return from_file(&p)
+            .with_context(|| format!("{}: [provenance] nominal_cell", args.model.display()))
+            .map(Some);
+    }
+    if !model.is_meca500_on_guide() {
+        return Ok(None);
     }
     let cell = CellFile::from_toml_str(BUILT_IN_NOMINAL, "built-in canonical cell")?;
     let model = Model::from_cell(&cell).context("built-in canonical cell")?;
-    Ok((
+    Ok(Some((
         model,
         format!(
             "built-in canonical cell fixtures/meca500-zaber.toml (fnv1a64 {:016x})",
             vatcal_campaign::fnv1a64(BUILT_IN_NOMINAL.as_bytes())
         ),
-    ))
+    )))
 }
 
 /// Compensates every requested pose and writes the chosen output.
@@ -96,13 +121,49 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let model_bytes =
         std::fs::read(&args.model).with_context(|| format!("{}: cannot read", args.model.display()))?;
-    let (nominal, nominal_desc) = nominal_model(&args, &cell)?;
-    let rows = vatcal_io::read_pose_rows(&args.poses, &calibrated)?;
+    let (nominal, nominal_desc) = match nominal_model(&args, &cell, &calibrated)? {
+        Some(n) => n,
+        None if args.emit == Emit::Joints => (
+            calibrated.clone(),
+            "none (the calibrated file names no [provenance] nominal_cell; --emit joints needs none)".into(),
+        ),
+        None => anyhow::bail!(
+            "{}: --emit {:?} needs the nominal (controller) model of this chain ({}): pass --nominal or \
+             name it in the calibrated file's [provenance] nominal_cell",
+            args.model.display(),
+            args.emit,
+            calibrated.describe_chain()
+        ),
+    };
+    let compensator = Compensator::new(&calibrated, &nominal)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
+    if matches!(args.emit, Emit::Meca500 | Emit::Meca500Poses) && compensator.meca500_arm().is_none() {
+        anyhow::bail!(
+            "--emit meca500 / meca500-poses: the nominal chain ({}) is not a Meca500 arm (its last six joints \
+             do not move like the Meca500 controller's kinematics); use --emit joints or poses",
+            nominal.describe_chain()
+        );
+    }
+    if let Some(b) = args.branch
+        && b.is_determinant_class() == compensator.is_closed_form()
+    {
+        anyhow::bail!(
+            "--branch {}: {}",
+            b.column(),
+            if compensator.is_closed_form() {
+                "the canonical cell's branches are 0..=7"
+            } else {
+                "on this chain the branch is the sign of det J: + or -"
+            }
+        );
+    }
+    let given_joints: Vec<usize> = compensator.split().given_joints().collect();
+    let rows = vatcal_io::read_pose_requests(&args.poses, &calibrated, &given_joints)?;
     let requests: Vec<PoseRequest> = rows
         .iter()
         .map(|r| PoseRequest {
             tcp: r.tcp,
-            q1_mm: r.q1_mm,
+            given: r.given,
             xyz_mm: r.xyz_mm,
             abc_deg: r.abc_deg,
             context: r.context,
@@ -115,13 +176,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             None => anyhow::anyhow!("{}: {e}", args.poses.display()),
         }
     };
-    let compensator = Compensator::new(&calibrated, &nominal).map_err(name_row)?;
     let opts = PathOptions {
         solve: SolveOptions::default(),
         skip_unreachable: args.skip_unreachable,
         max_joint_step_deg: args.max_joint_step_deg,
         start: None,
-        branch: args.branch.map(vatcal_compensation::Branch),
+        branch: args.branch,
     };
     let result = compensator.compensate_requests(&requests, &opts).map_err(name_row)?;
 
@@ -147,22 +207,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     out.push_str(&skipped);
     match args.emit {
         Emit::Joints => {
-            out.push_str("line,tcp,q1,q2,q3,q4,q5,q6,q7,branch,residual_mm,residual_deg\n");
+            let kinds = calibrated.joint_kinds();
+            out.push_str("line,tcp,");
+            out.push_str(&vatcal_io::joint_columns(kinds.len()).join(","));
+            out.push_str(",branch,residual_mm,residual_deg\n");
             for (row, c) in result.solved() {
-                let q = c.q.to_mm_deg();
+                let q = if compensator.is_closed_form() {
+                    c.q.to_mm_deg().to_vec()
+                } else {
+                    c.q.to_file_units(kinds)
+                };
+                let _ = write!(out, "{},{}", line_of(row), requests[row].tcp);
+                for v in q {
+                    let _ = write!(out, ",{v}");
+                }
                 let _ = writeln!(
                     out,
-                    "{},{},{},{},{},{},{},{},{},{},{:e},{:e}",
-                    line_of(row),
-                    requests[row].tcp,
-                    q[0],
-                    q[1],
-                    q[2],
-                    q[3],
-                    q[4],
-                    q[5],
-                    q[6],
-                    c.branch.0,
+                    ",{},{:e},{:e}",
+                    c.branch.column(),
                     c.position_residual_mm,
                     c.rotation_residual_rad.to_degrees()
                 );
@@ -172,32 +234,35 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let time = requests.iter().any(|r| r.context.time_s.is_some());
             let temp = requests.iter().any(|r| r.context.temperature_c.is_some());
             let dir = requests.iter().any(|r| r.context.dir.is_some());
-            out.push_str("line,tcp,q1,x,y,z,alpha,beta,gamma");
+            out.push_str("line,tcp");
+            for j in &given_joints {
+                let _ = write!(out, ",q{j}");
+            }
+            out.push_str(",x,y,z,alpha,beta,gamma");
             if time {
                 out.push_str(",time_s");
             }
             if temp {
                 out.push_str(",temperature_c");
             }
+            let dir_cols = vatcal_io::dir_columns(calibrated.joint_kinds());
             if dir {
-                out.push_str(",dir2,dir3,dir4,dir5,dir6,dir7");
+                for (_, col) in &dir_cols {
+                    let _ = write!(out, ",{col}");
+                }
             }
             out.push('\n');
             for (row, c) in result.solved() {
                 let r = &requests[row];
                 let p = compensator.corrected_pose(&c.q, r.tcp, r.context).map_err(name_row)?.world;
+                let _ = write!(out, "{},{}", line_of(row), p.tcp);
+                for j in &given_joints {
+                    let _ = write!(out, ",{}", p.given.get(*j));
+                }
                 let _ = write!(
                     out,
-                    "{},{},{},{},{},{},{},{},{}",
-                    line_of(row),
-                    p.tcp,
-                    p.q1_mm,
-                    p.xyz_mm[0],
-                    p.xyz_mm[1],
-                    p.xyz_mm[2],
-                    p.abc_deg[0],
-                    p.abc_deg[1],
-                    p.abc_deg[2]
+                    ",{},{},{},{},{},{}",
+                    p.xyz_mm[0], p.xyz_mm[1], p.xyz_mm[2], p.abc_deg[0], p.abc_deg[1], p.abc_deg[2]
                 );
                 let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
                 if time {
@@ -207,22 +272,28 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     let _ = write!(out, ",{}", opt(r.context.temperature_c));
                 }
                 if dir {
-                    match r.context.dir {
-                        Some(d) => d[1..7].iter().for_each(|v| {
-                            let _ = write!(out, ",{v}");
-                        }),
-                        None => out.push_str(",,,,,,"),
+                    for (joint, _) in &dir_cols {
+                        match r.context.dir {
+                            Some(d) => {
+                                let _ = write!(out, ",{}", d[joint - 1]);
+                            }
+                            None => out.push(','),
+                        }
                     }
                 }
                 out.push('\n');
             }
         }
         Emit::Meca500 | Emit::Meca500Poses => {
-            out.push_str(
-                "# Lines starting with '#' are not robot commands. Before each motion command, move the \
-                 guide to the\n# position of the '# guide q1_mm=<mm>' line above it (the Meca500 does not \
-                 drive the guide).\n",
-            );
+            if given_joints.is_empty() {
+                out.push_str("# Lines starting with '#' are not robot commands.\n");
+            } else {
+                out.push_str(
+                    "# Lines starting with '#' are not robot commands. Before each motion command, move the \
+                     guide to the\n# position of the '# guide q1_mm=<mm>' line above it (the Meca500 does not \
+                     drive the guide).\n",
+                );
+            }
             if args.emit == Emit::Meca500Poses {
                 out.push_str(
                     "# MovePose: flange pose in the robot base frame by the nominal controller kinematics; \
@@ -236,10 +307,20 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             for (row, c) in result.solved() {
                 let r = &requests[row];
                 let corrected = compensator.corrected_pose(&c.q, r.tcp, r.context).map_err(name_row)?;
-                let _ = writeln!(out, "# guide q1_mm={} (line {})", format_number(c.q[0]), line_of(row));
+                for j in &given_joints {
+                    let _ = writeln!(
+                        out,
+                        "# guide q{j}_mm={} (line {})",
+                        format_number(c.q.get(*j)),
+                        line_of(row)
+                    );
+                }
+                let not_meca = || anyhow::anyhow!("the nominal chain is not a Meca500 arm");
                 let cmd = match args.emit {
-                    Emit::Meca500 => MecaCommand::MoveJoints(corrected.controller_joints_deg),
-                    _ => MecaCommand::MovePose(corrected.controller_pose),
+                    Emit::Meca500 => {
+                        MecaCommand::MoveJoints(corrected.controller_joints_deg.ok_or_else(not_meca)?)
+                    }
+                    _ => MecaCommand::MovePose(corrected.controller_pose.ok_or_else(not_meca)?),
                 };
                 let _ = writeln!(out, "{}", cmd.to_text());
             }

@@ -41,7 +41,7 @@ fn setup() -> Setup {
             let t = k as f64 / 5.0;
             let q = JointVector::new::<7>(std::array::from_fn(|i| a[i] + t * (b[i] - a[i])));
             let tool = calibrated.chain(&q).tool;
-            PoseRequest::from_tool_frame(&calibrated, 2, q[0], &tool, MeasurementContext::default())
+            PoseRequest::from_tool_frame(&calibrated, 2, q, &tool, MeasurementContext::default())
                 .expect("request")
         })
         .collect();
@@ -53,7 +53,14 @@ fn poses_csv(requests: &[PoseRequest]) -> String {
     for r in requests {
         s.push_str(&format!(
             "{},{},{},{},{},{},{},{}\n",
-            r.tcp, r.q1_mm, r.xyz_mm[0], r.xyz_mm[1], r.xyz_mm[2], r.abc_deg[0], r.abc_deg[1], r.abc_deg[2]
+            r.tcp,
+            r.given[0],
+            r.xyz_mm[0],
+            r.xyz_mm[1],
+            r.xyz_mm[2],
+            r.abc_deg[0],
+            r.abc_deg[1],
+            r.abc_deg[2]
         ));
     }
     s
@@ -259,4 +266,247 @@ fn bad_and_unreachable_rows_are_named() {
     let text = std::fs::read_to_string(&out).expect("read");
     assert!(text.contains("# skipped"), "{text}");
     assert_eq!(csv_rows(&text).len(), 1 + 5);
+}
+
+/// A calibrated model of a six-joint fixture (perturbed truth) saved to a file, and requests
+/// (no joint columns) along a short joint-space line of that model.
+fn six_joint_setup(fixture_name: &str, seed: u64) -> (tempfile::TempDir, String, Model, Vec<PoseRequest>) {
+    let dir = tempfile::tempdir().expect("tmp");
+    let nominal = Model::from_cell(&CellFile::load(fixture(fixture_name)).expect("cell")).expect("model");
+    let calibrated =
+        vatcal_sim::truth::perturbed_truth(&nominal, seed, &vatcal_sim::truth::ErrorBudget::realistic());
+    let model_path = dir.path().join("calibrated.toml").display().to_string();
+    calibrated.to_cell().save(&model_path).expect("save");
+    let calibrated = Model::from_cell(&CellFile::load(&model_path).expect("load")).expect("model");
+    // a short path well inside the joint limits of both arms (the Meca500's are tight)
+    let a = [-0.35, 0.17, -0.35, 0.52, 0.7, -0.87];
+    let b = [-0.17, 0.26, -0.26, 0.35, 0.79, -0.52];
+    let requests = (0..6)
+        .map(|k| {
+            let t = k as f64 / 5.0;
+            let q = JointVector::new::<6>(std::array::from_fn(|i| a[i] + t * (b[i] - a[i])));
+            let tool = calibrated.chain(&q).tool;
+            PoseRequest::from_tool_frame(
+                &calibrated,
+                1,
+                JointVector::zeros(6),
+                &tool,
+                MeasurementContext::default(),
+            )
+            .expect("request")
+        })
+        .collect();
+    (dir, model_path, calibrated, requests)
+}
+
+fn arm_poses_csv(requests: &[PoseRequest]) -> String {
+    let mut s = String::from("tcp,x,y,z,alpha,beta,gamma\n");
+    for r in requests {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{}\n",
+            r.tcp, r.xyz_mm[0], r.xyz_mm[1], r.xyz_mm[2], r.abc_deg[0], r.abc_deg[1], r.abc_deg[2]
+        ));
+    }
+    s
+}
+
+fn joints_of(rows: &[Vec<String>]) -> Vec<JointVector> {
+    rows.iter()
+        .map(|r| {
+            let v: Vec<f64> =
+                r[2..8].iter().map(|x| x.parse::<f64>().expect("number").to_radians()).collect();
+            JointVector::from_slice(&v).expect("q")
+        })
+        .collect()
+}
+
+/// On the UR5e and the Meca500 on a table the requests have no joint columns; the targets
+/// `q1..q6` put the TCP on the request under the calibrated model (`vatcal fk`), on one branch
+/// class (`+`/`-`), and `--emit poses` round-trips: the nominal IK of the corrected poses gives
+/// joints at which the calibrated FK equals the request.
+#[test]
+fn six_joint_arms_compensate_and_round_trip() {
+    for name in ["ur5e.toml", "meca500-table.toml"] {
+        let (dir, model_path, calibrated, requests) = six_joint_setup(name, 5);
+        let poses = dir.path().join("poses.csv").display().to_string();
+        std::fs::write(&poses, arm_poses_csv(&requests)).expect("write");
+        let out = dir.path().join("targets.csv").display().to_string();
+        // --emit joints needs no nominal model
+        let (ok, _, err) = run(&["compensate", "--model", &model_path, "--poses", &poses, "--out", &out]);
+        assert!(ok, "{name}: {err}");
+        let rows = csv_rows(&std::fs::read_to_string(&out).expect("out"));
+        assert_eq!(rows[0].join(","), "line,tcp,q1,q2,q3,q4,q5,q6,branch,residual_mm,residual_deg");
+        assert_eq!(rows.len(), 7);
+        let branch = rows[1][8].clone();
+        assert!(branch == "+" || branch == "-", "{branch}");
+        let (ok, fk, err) = run(&["fk", "--model", &model_path, "--input", &out]);
+        assert!(ok, "{err}");
+        for (line, req) in fk.lines().skip(1).zip(&requests) {
+            let p: Vec<f64> = line.split(',').map(|v| v.parse().expect("number")).collect();
+            assert!((0..3).all(|k| (p[k] - req.xyz_mm[k]).abs() < 1e-6), "{p:?} vs {:?}", req.xyz_mm);
+        }
+        let targets = joints_of(&rows[1..]);
+        for ((row, q), req) in rows[1..].iter().zip(&targets).zip(&requests) {
+            assert_eq!(row[8], branch, "one branch class along the path");
+            let target = req.tool_target(&calibrated, 0).expect("target");
+            let tool = calibrated.chain(q).tool;
+            assert!(vatcal_planning::ik::rotation_angle_between(&tool.r, &target.tool.r) < 1e-9);
+        }
+
+        // --emit poses with the nominal model, then compensate the corrected poses under it
+        let nominal_path = fixture(name);
+        let corrected = dir.path().join("corrected.csv").display().to_string();
+        let (ok, _, err) = run(&[
+            "compensate",
+            "--model",
+            &model_path,
+            "--poses",
+            &poses,
+            "--out",
+            &corrected,
+            "--emit",
+            "poses",
+            "--nominal",
+            &nominal_path,
+        ]);
+        assert!(ok, "{err}");
+        let text = std::fs::read_to_string(&corrected).expect("read");
+        assert_eq!(csv_rows(&text)[0].join(","), "line,tcp,x,y,z,alpha,beta,gamma");
+        let back = dir.path().join("back.csv").display().to_string();
+        let (ok, _, err) =
+            run(&["compensate", "--model", &nominal_path, "--poses", &corrected, "--out", &back]);
+        assert!(ok, "{err}");
+        let back_rows = csv_rows(&std::fs::read_to_string(&back).expect("read"));
+        for (q, req) in joints_of(&back_rows[1..]).iter().zip(&requests) {
+            let p = calibrated.tcp_position(q, req.tcp).expect("fk");
+            assert!((p - nalgebra::Vector3::from(req.xyz_mm)).norm() < 1e-6, "{name}: round trip {p:?}");
+        }
+        for (a, b) in joints_of(&back_rows[1..]).iter().zip(&targets) {
+            assert!(a.as_slice().iter().zip(b.as_slice()).all(|(x, y)| (x - y).abs() < 1e-9));
+        }
+    }
+}
+
+/// `--emit meca500` works on the Meca500 on a table (no guide comments) and is a clear error
+/// on the UR5e; other poses files and options that do not fit the chain are named.
+#[test]
+fn six_joint_arms_programs_and_errors() {
+    let (dir, model_path, _, requests) = six_joint_setup("meca500-table.toml", 6);
+    let poses = dir.path().join("poses.csv").display().to_string();
+    std::fs::write(&poses, arm_poses_csv(&requests)).expect("write");
+    let program = dir.path().join("program.txt").display().to_string();
+    let nominal_path = fixture("meca500-table.toml");
+    let (ok, _, err) = run(&[
+        "compensate",
+        "--model",
+        &model_path,
+        "--poses",
+        &poses,
+        "--out",
+        &program,
+        "--emit",
+        "meca500",
+        "--nominal",
+        &nominal_path,
+    ]);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&program).expect("read");
+    assert!(!text.contains("# guide"), "{text}");
+    let commands: Vec<&str> = text.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(commands.len(), requests.len());
+    for line in commands {
+        let parsed = vatcal_drivers_meca500::codec::parse_command(line).expect("parse");
+        assert!(matches!(parsed.command, vatcal_drivers_meca500::Command::MoveJoints(_)), "{line}");
+    }
+
+    let (dir, model_path, _, requests) = six_joint_setup("ur5e.toml", 6);
+    let poses = dir.path().join("poses.csv").display().to_string();
+    std::fs::write(&poses, arm_poses_csv(&requests)).expect("write");
+    let out = dir.path().join("out.txt").display().to_string();
+    let ur_nominal = fixture("ur5e.toml");
+    let (ok, _, err) = run(&[
+        "compensate",
+        "--model",
+        &model_path,
+        "--poses",
+        &poses,
+        "--out",
+        &out,
+        "--emit",
+        "meca500",
+        "--nominal",
+        &ur_nominal,
+    ]);
+    assert!(!ok && err.contains("not a Meca500 arm"), "{err}");
+    // --emit poses without a nominal model of this chain
+    let (ok, _, err) =
+        run(&["compensate", "--model", &model_path, "--poses", &poses, "--out", &out, "--emit", "poses"]);
+    assert!(!ok && err.contains("--nominal"), "{err}");
+    // a canonical --branch on a numerical-IK chain
+    let (ok, _, err) =
+        run(&["compensate", "--model", &model_path, "--poses", &poses, "--out", &out, "--branch", "3"]);
+    assert!(!ok && err.contains("+ or -"), "{err}");
+    // a q1 column: the pose determines every joint of a six-joint arm
+    let with_q1 = dir.path().join("q1.csv");
+    std::fs::write(&with_q1, "tcp,q1,x,y,z,alpha,beta,gamma\n1,100,0,0,500,0,0,0\n").expect("write");
+    let (ok, _, err) = run(&[
+        "compensate",
+        "--model",
+        &model_path,
+        "--poses",
+        &with_q1.display().to_string(),
+        "--out",
+        &out,
+    ]);
+    assert!(!ok && err.contains("q1") && err.contains("6 joints (RRRRRR)"), "{err}");
+    // an unreachable row is named by file and line
+    let mut far = requests.clone();
+    far[3].xyz_mm[2] += 3000.0;
+    let far_path = dir.path().join("far.csv");
+    std::fs::write(&far_path, arm_poses_csv(&far)).expect("write");
+    let far_path = far_path.display().to_string();
+    let (ok, _, err) = run(&["compensate", "--model", &model_path, "--poses", &far_path, "--out", &out]);
+    assert!(!ok && err.contains("far.csv:5") && err.contains("cannot be reached"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+/// The context columns of a six-joint arm are `dir1..dir6` (its revolute joints): a calibrated
+/// UR5e with backlash refuses a poses file without them and compensates with them.
+#[test]
+fn six_joint_arm_context_columns() {
+    let (dir, model_path, _, requests) = six_joint_setup("ur5e.toml", 7);
+    let mut cal = Model::from_cell(&CellFile::load(&model_path).expect("load")).expect("model");
+    let spec = vatcal_core::effects::EffectSpec::JointBacklash { joint: 3 };
+    cal.enable_effect(spec).expect("effect");
+    for id in spec.params() {
+        cal.set_param(id, 5e-4).expect("set");
+    }
+    let backlash_path = dir.path().join("backlash.toml").display().to_string();
+    cal.to_cell().save(&backlash_path).expect("save");
+    let poses = dir.path().join("poses.csv").display().to_string();
+    std::fs::write(&poses, arm_poses_csv(&requests)).expect("write");
+    let out = dir.path().join("out.csv").display().to_string();
+    let (ok, _, err) = run(&["compensate", "--model", &backlash_path, "--poses", &poses, "--out", &out]);
+    assert!(!ok && err.contains("dir1..dir6"), "{err}");
+    let mut text = String::from("tcp,x,y,z,alpha,beta,gamma,dir1,dir2,dir3,dir4,dir5,dir6\n");
+    for line in arm_poses_csv(&requests).lines().skip(1) {
+        text.push_str(&format!("{line},1,1,-1,1,1,1\n"));
+    }
+    std::fs::write(&poses, text).expect("write");
+    let (ok, _, err) = run(&["compensate", "--model", &backlash_path, "--poses", &poses, "--out", &out]);
+    assert!(ok, "{err}");
+    // fk with the same context columns: the targets (joint rows with dir1..dir6) reach the requests
+    let rows = csv_rows(&std::fs::read_to_string(&out).expect("read"));
+    let mut joints = String::from("tcp,q1,q2,q3,q4,q5,q6,dir1,dir2,dir3,dir4,dir5,dir6\n");
+    for r in &rows[1..] {
+        joints.push_str(&format!("{},{},1,1,-1,1,1,1\n", r[1], r[2..8].join(",")));
+    }
+    let joints_path = dir.path().join("joints.csv").display().to_string();
+    std::fs::write(&joints_path, joints).expect("write");
+    let (ok, fk, err) = run(&["fk", "--model", &backlash_path, "--input", &joints_path]);
+    assert!(ok, "{err}");
+    for (line, req) in fk.lines().skip(1).zip(&requests) {
+        let p: Vec<f64> = line.split(',').map(|v| v.parse().expect("number")).collect();
+        assert!((0..3).all(|k| (p[k] - req.xyz_mm[k]).abs() < 1e-6), "{p:?} vs {:?}", req.xyz_mm);
+    }
 }

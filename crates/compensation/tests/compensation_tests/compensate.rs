@@ -97,7 +97,7 @@ proptest! {
         let q = reachable_joints(&cal, seed);
         let ctx = context();
         let tool = cal.chain_full(&q, &ctx, false, None).tool;
-        let req = PoseRequest::from_tool_frame(&cal, tcp, q[0], &tool, ctx).expect("request");
+        let req = PoseRequest::from_tool_frame(&cal, tcp, q, &tool, ctx).expect("request");
         let c = comp.compensate_pose(&req, None, &SolveOptions::default());
         prop_assert!(c.is_ok(), "{:?}", c.err());
         let Ok(c) = c else { return Ok(()) };
@@ -118,7 +118,7 @@ fn corrected_pose_is_nominal_fk_and_the_controller_pose() {
     let comp = Compensator::new(&cal, &nom).expect("compensator");
     let q = reachable_joints(&cal, 3);
     let tool = cal.chain_full(&q, &context(), false, None).tool;
-    let req = PoseRequest::from_tool_frame(&cal, 2, q[0], &tool, context()).expect("request");
+    let req = PoseRequest::from_tool_frame(&cal, 2, q, &tool, context()).expect("request");
     let c = comp.compensate_pose(&req, Some(&q), &SolveOptions::default()).expect("solve");
     let corrected = comp.corrected_pose(&c.q, 2, context()).expect("corrected");
     let nominal_tcp = nom.tcp_position_ctx(&c.q, &context(), 2).expect("fk");
@@ -138,10 +138,12 @@ fn corrected_pose_is_nominal_fk_and_the_controller_pose() {
         c.q
     );
     // the controller's own kinematics (drivers-meca500 simulator) at the joints
-    let sim = vatcal_drivers_meca500::sim::forward_kinematics(&corrected.controller_joints_deg);
+    let joints = corrected.controller_joints_deg.expect("a Meca500 arm");
+    let pose = corrected.controller_pose.expect("a Meca500 arm");
+    let sim = vatcal_drivers_meca500::sim::forward_kinematics(&joints);
     let expect = vatcal_drivers_meca500::sim::to_xyzabc(&sim);
-    for (a, b) in corrected.controller_pose.iter().zip(expect) {
-        assert!((a - b).abs() < 1e-7, "{:?} vs {expect:?}", corrected.controller_pose);
+    for (a, b) in pose.iter().zip(expect) {
+        assert!((a - b).abs() < 1e-7, "{pose:?} vs {expect:?}");
     }
 }
 
@@ -234,13 +236,7 @@ fn bad_requests_are_errors() {
     let cal = calibrated_with_effects();
     let nom = nominal();
     let comp = Compensator::new(&cal, &nom).expect("compensator");
-    let good = PoseRequest {
-        tcp: 1,
-        q1_mm: 100.0,
-        xyz_mm: [0.0, 0.0, 100.0],
-        abc_deg: [180.0, 0.0, 0.0],
-        context: MeasurementContext::default(),
-    };
+    let good = PoseRequest::on_guide(1, 100.0, [0.0, 0.0, 100.0], [180.0, 0.0, 0.0]);
     let unknown = PoseRequest { tcp: 9, ..good };
     let err = comp.compensate_requests(&[good, unknown], &PathOptions::default()).expect_err("tcp");
     assert!(err.to_string().contains("unknown TCP id 9"), "{err}");
