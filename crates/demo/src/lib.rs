@@ -319,7 +319,8 @@ impl DemoOutcome {
 #[derive(Debug)]
 pub struct SimDevices {
     arm: SimArm,
-    guide: SimGuide,
+    /// the guide, when the cell's chain has one
+    guide: Option<SimGuide>,
     probe: TriCal<SimGauge>,
     tracker: SimTracker,
     operator: SimOperator,
@@ -350,7 +351,7 @@ impl DeviceSet for SimDevices {
     fn devices(&mut self) -> CellDevices<'_> {
         CellDevices {
             arm: &mut self.arm,
-            guide: &mut self.guide,
+            guide: self.guide.as_mut().map(|g| g as &mut dyn vatcal_hardware_traits::LinearAxis),
             probe: &mut self.probe,
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,

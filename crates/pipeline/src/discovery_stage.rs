@@ -333,7 +333,7 @@ pub fn discovery_stage(
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
     let plan_folder = PlanFolder::new(out.join(DISCOVERY_PLAN));
     plan_discovery(opts, stage, nominal, &geometry, start, &plan_folder)?;
-    let mut tour = plan_folder.read_tour()?;
+    let mut tour = plan_folder.read_tour(nominal.joint_kinds())?;
     let repeats =
         add_two_sided_repeats(&mut tour, nominal, stage.two_sided_repeats, stage.repeat_overshoot_rad);
     let folder = RunFolder::new(out);
@@ -344,7 +344,7 @@ pub fn discovery_stage(
     }
     let campaign = crate::run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, progress)?;
     let csv = out.join(DISCOVERY_MEASUREMENTS_CSV);
-    vatcal_io::write_measurements(&csv, &campaign.measurements)?;
+    vatcal_io::write_measurements_for(&csv, &campaign.measurements, nominal.joint_kinds())?;
     let mut all = calibration.to_vec();
     all.extend_from_slice(&campaign.measurements);
     let discovery = discover(calibrated, &all, &ParamSet::paper34(), None, &stage.discover)?;
@@ -675,14 +675,15 @@ mod tests {
             truth.set_param(ParamId::Effect(EffectParam::Backlash { joint }), b).expect("value");
         }
         let cell = vatcal_sim::VirtualCell::new(model.clone(), truth, vatcal_sim::SimConfig::default(), 4);
-        let (mut arm, mut guide, mut operator) = (cell.arm(), cell.guide(), cell.operator());
+        let (mut arm, mut guide, mut operator) =
+            (cell.arm(), cell.guide().expect("the canonical cell has a guide"), cell.operator());
         let mut probe = cell.probe().expect("probe");
         let clock = cell.clock();
         assert!(cell.thermometer().is_none());
         let mut no_thermometer: Option<vatcal_sim::SimThermometer> = None;
         let devices = CellDevices {
             arm: &mut arm,
-            guide: &mut guide,
+            guide: Some(&mut guide),
             probe: &mut probe,
             tracker: None,
             operator: &mut operator,

@@ -218,7 +218,7 @@ pub fn run_with_discovery<S: ReportSetup>(
     folder.remove_journals()?;
     let nominal = Model::from_cell(&opts.nominal)?;
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
-    let mut files = report::Files::new(out);
+    let mut files = report::Files::new(out, nominal.joint_kinds());
     files.cell("nominal.toml", &opts.nominal)?;
 
     stages.start(Stage::Plan, None);
@@ -232,7 +232,7 @@ pub fn run_with_discovery<S: ReportSetup>(
         ))
     });
 
-    let tour = plan_folder.read_tour()?;
+    let tour = plan_folder.read_tour(nominal.joint_kinds())?;
     let clock_start_s = devices.devices().clock.now_s();
     let campaign =
         campaign_stage(devices, &nominal, &tour, &folder, opts.campaign.clone(), &mut *stages.progress)?;
@@ -401,7 +401,7 @@ pub fn campaign_stage(
     progress.stage_started(Stage::Campaign, Some(tour.steps.len()));
     let journal = folder.journal();
     let report = run_campaign(devices, nominal, tour, &journal, config, Stage::Campaign, progress)?;
-    folder.write_measurements(&report.measurements)?;
+    folder.write_measurements(&report.measurements, nominal.joint_kinds())?;
     Ok(report)
 }
 

@@ -11,7 +11,7 @@ use vatcal_campaign::validation::{
     ValidationPlanOptions, ValidationRecords,
 };
 use vatcal_campaign::{CampaignReport, StepOutcome};
-use vatcal_core::{CellFile, Measurement};
+use vatcal_core::{CellFile, JointKind, Measurement};
 use vatcal_identification::{ErrorStats, Identification, IdentificationReport};
 use vatcal_planning::output::PlanSummary;
 use vatcal_report::{PlotSpec, Series, line_plot_svg, save_svg};
@@ -274,11 +274,13 @@ pub fn comparison_table<S>(report: &RunReport<S>) -> String {
 pub(crate) struct Files {
     out: PathBuf,
     written: Vec<PathBuf>,
+    /// the joints of the cell's chain (the measurement files' `q1..qN`, `dir{j}`)
+    kinds: Vec<JointKind>,
 }
 
 impl Files {
-    pub fn new(out: &Path) -> Self {
-        Self { out: out.to_path_buf(), written: Vec::new() }
+    pub fn new(out: &Path, kinds: &[JointKind]) -> Self {
+        Self { out: out.to_path_buf(), written: Vec::new(), kinds: kinds.to_vec() }
     }
 
     pub fn written(&self) -> &[PathBuf] {
@@ -310,7 +312,7 @@ impl Files {
     }
 
     pub fn measurements(&mut self, name: &str, m: &[Measurement]) -> Result<(), PipelineError> {
-        vatcal_io::write_measurements(self.out.join(name), m)?;
+        vatcal_io::write_measurements_for(self.out.join(name), m, &self.kinds)?;
         self.note(name);
         Ok(())
     }

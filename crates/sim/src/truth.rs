@@ -2,7 +2,7 @@
 //!
 //! * [`perturbed_truth`] — nominal model + random errors of realistic size ([`ErrorBudget`]);
 //! * [`reach`] — numerical position IK: move the arm joints (guide fixed) until a TCP sits on a
-//!   world point, on any model (this is what auto-centering achieves physically);
+//!   world point, on any model and any chain (this is what auto-centering achieves physically);
 //! * [`probe_start_poses`] — random joint vectors whose nominal TCP reaches a calibration
 //!   position (a stand-in for planned candidates in tests);
 //! * [`synthetic_probe_measurements`] / [`synthetic_tracker_measurements`] — data as the real
@@ -12,17 +12,18 @@ use std::fmt;
 use std::path::PathBuf;
 use std::str::FromStr;
 
-use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use vatcal_core::effects::{EffectSpec, ThermalDriver};
 use vatcal_core::params::{Axis, BaseParam, EffectParam, ToolFrameDof};
 use vatcal_core::{CellFile, JointVector, Measurement, MeasurementContext, ParamId, Target};
+use vatcal_hardware_traits::JointLayout;
 use vatcal_kinematics::Model;
 
 use crate::cell::VirtualCell;
-use crate::config::{CellPhysics, SimConfig, SimTiming, ThermalProfile};
+use crate::config::{CellPhysics, SimConfig, ThermalProfile};
 
 /// Standard deviations of the random errors of the true cell (internal units).
 #[derive(Debug, Clone, PartialEq)]
@@ -554,7 +555,7 @@ impl TruthSpec {
     pub fn virtual_cell(&self, nominal: Model, seed: u64) -> Result<VirtualCell, TruthError> {
         let built = self.build(&nominal, seed)?;
         let config = SimConfig {
-            timing: SimTiming::from_motion_limits(&nominal.to_cell().motion_limits()),
+            timing: SimConfig::paper_for(&nominal).timing,
             physics: built.physics,
             ..SimConfig::default()
         };
@@ -584,19 +585,17 @@ pub enum ReachError {
     Model(String),
 }
 
-const JOINT_PARAMS: [ParamId; 6] = [
-    ParamId::ThetaOffset(2),
-    ParamId::ThetaOffset(3),
-    ParamId::ThetaOffset(4),
-    ParamId::ThetaOffset(5),
-    ParamId::ThetaOffset(6),
-    ParamId::ThetaOffset(7),
-];
-
-/// Numerical position IK: moves the six arm joints (the guide stays at `q_start.q1`) until
-/// TCP `tcp` of `model` is at `target_mm` (world), to `tolerance_mm`. Damped least squares with
-/// the minimum-norm step, so the arm stays close to `q_start` (the redundancy is resolved
-/// toward the start). Torques are re-evaluated at every iterate.
+/// Numerical position IK: moves the arm joints (every joint but the guide of the model's
+/// [`JointLayout`]: the six Meca500 joints on the canonical cell, all joints of a chain
+/// without a guide; the guide stays at its value in `q_start`) until TCP `tcp` of `model` is
+/// at `target_mm` (world), to `tolerance_mm`. Damped least squares on the model's own
+/// Jacobian (columns of the joints' offsets: `theta` of revolute, `d` of prismatic joints)
+/// with the minimum-norm step, so the arm stays close to `q_start` (the redundancy is resolved
+/// toward the start). Torques are re-evaluated at every iterate. Any chain, no closed form.
+///
+/// # Errors
+/// [`ReachError`]: no convergence in 100 iterations, a solution outside the joint limits, or a
+/// TCP the model does not have.
 pub fn reach(
     model: &Model,
     q_start: &JointVector,
@@ -604,13 +603,38 @@ pub fn reach(
     target_mm: &Vector3<f64>,
     tolerance_mm: f64,
 ) -> Result<JointVector, ReachError> {
+    let layout = JointLayout::of(model.joint_kinds());
+    macro_rules! dispatch {
+        ($($n:literal)*) => {
+            match layout.arm_joint_count() {
+                $($n => reach_n::<$n>(model, &layout, q_start, tcp, target_mm, tolerance_mm),)*
+                n => Err(ReachError::Model(format!("an arm of {n} joints"))),
+            }
+        };
+    }
+    dispatch!(1 2 3 4 5 6 7 8 9 10 11 12)
+}
+
+/// [`reach`] for an arm of `N` joints.
+fn reach_n<const N: usize>(
+    model: &Model,
+    layout: &JointLayout,
+    q_start: &JointVector,
+    tcp: u32,
+    target_mm: &Vector3<f64>,
+    tolerance_mm: f64,
+) -> Result<JointVector, ReachError> {
+    let params: Vec<ParamId> = layout
+        .arm_cell_joints()
+        .map(|j| if model.is_revolute(j) { ParamId::ThetaOffset(j as u8) } else { ParamId::D(j as u8) })
+        .collect();
     let mut q = *q_start;
-    let mut buf = [0.0; 18];
+    let mut buf = vec![0.0; 3 * N];
     let ctx = MeasurementContext::default();
     let max_iter = 100;
     for it in 0..max_iter {
         let p = model
-            .jacobian_into(&q, &ctx, tcp, &JOINT_PARAMS, &mut buf)
+            .jacobian_into(&q, &ctx, tcp, &params, &mut buf)
             .map_err(|e| ReachError::Model(e.to_string()))?;
         let e = target_mm - p;
         let n = e.norm();
@@ -623,21 +647,21 @@ pub fn reach(
         if !n.is_finite() || it + 1 == max_iter {
             return Err(ReachError::NoConvergence { residual_mm: n, iterations: it });
         }
-        let j = Matrix3x6::from_column_slice(&buf);
+        let j = SMatrix::<f64, 3, N>::from_column_slice(&buf);
         // damping only far from the target (stabilises big first steps)
         let lambda2 = if n > 1.0 { 1e-2 * n } else { 0.0 };
         let jjt = j * j.transpose() + Matrix3::identity() * lambda2;
         let Some(inv) = jjt.try_inverse() else {
             return Err(ReachError::NoConvergence { residual_mm: n, iterations: it });
         };
-        let mut dq: Vector6<f64> = j.transpose() * (inv * e);
+        let mut dq: SVector<f64, N> = j.transpose() * (inv * e);
         // cap the step at 0.2 rad per joint
         let m = dq.amax();
         if m > 0.2 {
             dq *= 0.2 / m;
         }
-        for k in 0..6 {
-            q[k + 1] += dq[k];
+        for k in 0..N {
+            q[layout.cell_joint(k) - 1] += dq[k];
         }
     }
     Err(ReachError::NoConvergence { residual_mm: f64::NAN, iterations: max_iter })
