@@ -16,11 +16,12 @@
 //! Everything is seeded: the same options give the same numbers (`report.json` is identical
 //! byte for byte; only the wall-clock times in `summary.md` change).
 //!
-//! Any other serial chain (a cell file that is not the canonical Meca500-on-guide cell) runs
-//! the model-level demo of [`any_chain`] instead: the same plan → measure → identify →
-//! validate sequence with each measurement simulated on the hidden true model.
-
-pub mod any_chain;
+//! Any other serial chain (a cell file that is not the canonical Meca500-on-guide cell, e.g.
+//! `fixtures/ur5e.toml`) runs the **same** pipeline on the virtual cell of that chain: the
+//! simulated arm has the chain's joints, the guide exists only if the chain has one, the
+//! identified set is the chain's identifiable default set, the discovery stage looks for gear
+//! harmonics of every revolute joint, and the validation has random poses only (no printing
+//! path: that needs the canonical cell's guide and tank; `docs/virtual-cell.md`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -88,6 +89,17 @@ impl DemoOptions {
             truth: TruthSpec::PaperLike,
             discovery: true,
         })
+    }
+
+    /// Small sizes for a quick look at a chain (`vatcal demo --quick`): 20 orientations, 3
+    /// guide steps, 40 measurements, 200 random validation poses (the printing path's slices
+    /// as given).
+    pub fn quick(mut self) -> Self {
+        self.sizes.orientations = 20;
+        self.sizes.guide_steps = 3;
+        self.sizes.count = 40;
+        self.sizes.random_poses = 200;
+        self
     }
 
     /// The pipeline options of the demo: the campaign settings of [`campaign_config`].
@@ -195,7 +207,11 @@ impl DemoSetup {
             orientations: opts.sizes.orientations,
             guide_steps: opts.sizes.guide_steps,
             count: opts.sizes.count,
-            parameters: format!("paper34 ({} parameters)", fit.params.len()),
+            parameters: if fit.params == vatcal_core::ParamSet::paper34() {
+                format!("paper34 ({} parameters)", fit.params.len())
+            } else {
+                format!("the chain's identifiable default set ({} parameters)", fit.params.len())
+            },
             method: fit.method.to_string(),
         }
     }
@@ -404,6 +420,7 @@ pub fn run_demo_with_progress(
     let (probe_sigma_mm, tracker_sigma_mm) = instrument_noise_mm(&cell.config().noise);
     let stage = opts.discovery.then(|| DiscoveryStageOptions {
         true_effects: Some(cell.truth().effects().to_vec()),
+        plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(&nominal),
         ..DiscoveryStageOptions::new(opts.seed).with_instrument_noise(probe_sigma_mm, tracker_sigma_mm)
     });
     let outcome = vatcal_pipeline::run_with_discovery(

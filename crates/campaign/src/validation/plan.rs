@@ -120,7 +120,9 @@ pub struct ValidationPlan {
 ///   commanding its own run (e.g. `[("nominal", &nominal), ("calibrated", &calibrated)]`);
 /// * the random poses are ordered by the tour heuristic of `vatcal-planning` (joint-move time),
 ///   and every leg between consecutive poses is a verified collision-free path with the probe
-///   removed.
+///   removed;
+/// * `opts.printing.slices == 0` plans no printing path (random poses only): what a chain
+///   without the Meca500-on-guide's tank path is validated with (any serial chain).
 ///
 /// # Errors
 /// Invalid options or geometry, too few collision-free random poses, a printing path that no
@@ -132,9 +134,45 @@ pub fn build_validation_plan(
     opts: &ValidationPlanOptions,
 ) -> Result<ValidationPlan, ValidationError> {
     let checker = CollisionChecker::new(reference, geometry, opts.collision_margin_mm)?;
-    let timer = MotionTimer::from_limits(&opts.motion)?;
+    let timer = MotionTimer::for_model(&opts.motion, reference)?;
     let poses = random_validation_poses(reference, &checker, &opts.random, opts.seed)?;
     let random_poses = order_poses(&poses, &timer, opts);
+    // no printing path: random poses only (a chain without a guide and tank path). A random
+    // pose the path planner cannot connect to its neighbour (a pocket of free space, rare on a
+    // ±360° arm) is dropped, at most one in twenty, and the tour planned again
+    if opts.printing.slices == 0 {
+        let mut random_poses = random_poses;
+        let max_drops = (random_poses.len() / 20).max(1);
+        let mut last_from: Option<JointVector> = None;
+        let mut drops = 0;
+        let (campaign, targets, rrt_legs) = loop {
+            let mut builder = StepBuilder::new(&checker, &timer, opts);
+            builder.add_random(&random_poses);
+            match builder.finish_indexed() {
+                Ok(done) => break done,
+                Err((k, e)) if drops < max_drops && k < random_poses.len() => {
+                    // the same pose failing as the start of a leg again: drop it instead
+                    let from = k.checked_sub(1).map(|f| random_poses[f].q);
+                    let drop = if from.is_some() && from == last_from { k - 1 } else { k };
+                    last_from = from;
+                    random_poses.remove(drop);
+                    drops += 1;
+                    let _ = e;
+                }
+                Err((_, e)) => return Err(e),
+            }
+        };
+        let slice_targets = Vec::new();
+        return Ok(ValidationPlan {
+            random_poses,
+            slices: Vec::new(),
+            path_runs: Vec::new(),
+            slice_targets,
+            campaign,
+            rrt_legs,
+            targets,
+        });
+    }
     let slices = printing_path(&opts.printing)?;
     let bounds = JointBounds::new(reference, opts.printing_joint_margin_deg, opts.random.guide_margin_mm)?;
     let rules = PrintingJointRules {
@@ -236,8 +274,16 @@ impl<'a> StepBuilder<'a> {
 
     /// Plans every leg and returns the campaign plan, the step targets and the RRT leg count.
     fn finish(self) -> Result<(CampaignPlan, Vec<Option<TrackTarget>>, usize), ValidationError> {
+        self.finish_indexed().map_err(|(_, e)| e)
+    }
+
+    /// [`StepBuilder::finish`], a failure with the index of the goal whose leg failed.
+    #[allow(clippy::type_complexity)]
+    fn finish_indexed(
+        self,
+    ) -> Result<(CampaignPlan, Vec<Option<TrackTarget>>, usize), (usize, ValidationError)> {
         let reference = self.checker.model();
-        let bounds = JointBounds::new(reference, MOVE_MARGIN_DEG, 0.0)?;
+        let bounds = JointBounds::new(reference, MOVE_MARGIN_DEG, 0.0).map_err(|e| (0, e.into()))?;
         let planner =
             PathPlanner { checker: self.checker, bounds: &bounds, timer: self.timer, opts: &self.opts.paths };
         let start = self.opts.start;
@@ -270,8 +316,8 @@ impl<'a> StepBuilder<'a> {
         let mut steps = Vec::new();
         let mut targets = Vec::new();
         let mut rrt_legs = 0;
-        for (goal, leg) in self.goals.iter().zip(legs) {
-            let (path, rrt) = leg?;
+        for (k, (goal, leg)) in self.goals.iter().zip(legs).enumerate() {
+            let (path, rrt) = leg.map_err(|e| (k, e))?;
             rrt_legs += usize::from(rrt);
             steps.push(CampaignStep::Move { path });
             targets.push(None);
