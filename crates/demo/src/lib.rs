@@ -72,6 +72,9 @@ pub struct DemoOptions {
     /// run the discovery stage after the calibration (default: on): extra probe measurements,
     /// missing-effect discovery, and the fit with the truth's effect structure (the oracle)
     pub discovery: bool,
+    /// extra probe measurements of the discovery stage (default 360,
+    /// `DiscoveryStageOptions::new`)
+    pub discovery_count: usize,
 }
 
 impl DemoOptions {
@@ -88,17 +91,19 @@ impl DemoOptions {
             sizes: DemoSizes::default(),
             truth: TruthSpec::PaperLike,
             discovery: true,
+            discovery_count: DiscoveryStageOptions::new(seed).count,
         })
     }
 
     /// Small sizes for a quick look at a chain (`vatcal demo --quick`): 20 orientations, 3
-    /// guide steps, 40 measurements, 200 random validation poses (the printing path's slices
-    /// as given).
+    /// guide steps, 40 measurements, 200 random validation poses, 60 discovery measurements
+    /// (the printing path's slices as given).
     pub fn quick(mut self) -> Self {
         self.sizes.orientations = 20;
         self.sizes.guide_steps = 3;
         self.sizes.count = 40;
         self.sizes.random_poses = 200;
+        self.discovery_count = 60;
         self
     }
 
@@ -421,6 +426,7 @@ pub fn run_demo_with_progress(
     let stage = opts.discovery.then(|| DiscoveryStageOptions {
         true_effects: Some(cell.truth().effects().to_vec()),
         plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(&nominal),
+        count: opts.discovery_count,
         ..DiscoveryStageOptions::new(opts.seed).with_instrument_noise(probe_sigma_mm, tracker_sigma_mm)
     });
     let outcome = vatcal_pipeline::run_with_discovery(

@@ -138,28 +138,36 @@ pub fn build_validation_plan(
     let poses = random_validation_poses(reference, &checker, &opts.random, opts.seed)?;
     let random_poses = order_poses(&poses, &timer, opts);
     // no printing path: random poses only (a chain without a guide and tank path). A random
-    // pose the path planner cannot connect to its neighbour (a pocket of free space, rare on a
-    // ±360° arm) is dropped, at most one in twenty, and the tour planned again
+    // pose the path planner cannot reach from its predecessor (a pocket of free space, or a
+    // detour longer than the planner's iterations, on a ±360° arm) is dropped with its
+    // predecessor (the isolated one may be either) — at most one in ten over four rounds — and
+    // the legs planned again
     if opts.printing.slices == 0 {
         let mut random_poses = random_poses;
-        let max_drops = (random_poses.len() / 20).max(1);
-        let mut last_from: Option<JointVector> = None;
+        let max_drops = (random_poses.len() / 10).max(2);
         let mut drops = 0;
+        let mut round = 0;
         let (campaign, targets, rrt_legs) = loop {
+            round += 1;
             let mut builder = StepBuilder::new(&checker, &timer, opts);
             builder.add_random(&random_poses);
             match builder.finish_indexed() {
                 Ok(done) => break done,
-                Err((k, e)) if drops < max_drops && k < random_poses.len() => {
-                    // the same pose failing as the start of a leg again: drop it instead
-                    let from = k.checked_sub(1).map(|f| random_poses[f].q);
-                    let drop = if from.is_some() && from == last_from { k - 1 } else { k };
-                    last_from = from;
-                    random_poses.remove(drop);
-                    drops += 1;
-                    let _ = e;
+                Err((failed, e)) => {
+                    let mut drop: Vec<usize> = failed
+                        .iter()
+                        .flat_map(|k| [k.saturating_sub(1), *k])
+                        .filter(|k| *k < random_poses.len())
+                        .collect();
+                    drop.dedup();
+                    if round > 4 || drops + drop.len() > max_drops {
+                        return Err(e);
+                    }
+                    drops += drop.len();
+                    for k in drop.iter().rev() {
+                        random_poses.remove(*k);
+                    }
                 }
-                Err((_, e)) => return Err(e),
             }
         };
         let slice_targets = Vec::new();
@@ -277,13 +285,14 @@ impl<'a> StepBuilder<'a> {
         self.finish_indexed().map_err(|(_, e)| e)
     }
 
-    /// [`StepBuilder::finish`], a failure with the index of the goal whose leg failed.
+    /// [`StepBuilder::finish`]; a failure lists every goal whose leg failed (ascending) with the
+    /// first error.
     #[allow(clippy::type_complexity)]
     fn finish_indexed(
         self,
-    ) -> Result<(CampaignPlan, Vec<Option<TrackTarget>>, usize), (usize, ValidationError)> {
+    ) -> Result<(CampaignPlan, Vec<Option<TrackTarget>>, usize), (Vec<usize>, ValidationError)> {
         let reference = self.checker.model();
-        let bounds = JointBounds::new(reference, MOVE_MARGIN_DEG, 0.0).map_err(|e| (0, e.into()))?;
+        let bounds = JointBounds::new(reference, MOVE_MARGIN_DEG, 0.0).map_err(|e| (Vec::new(), e.into()))?;
         let planner =
             PathPlanner { checker: self.checker, bounds: &bounds, timer: self.timer, opts: &self.opts.paths };
         let start = self.opts.start;
@@ -313,11 +322,13 @@ impl<'a> StepBuilder<'a> {
                 Ok((path.waypoints.into_iter().skip(1).collect(), rrt))
             })
             .collect();
+        let failed: Vec<usize> =
+            legs.iter().enumerate().filter(|(_, l)| l.is_err()).map(|(k, _)| k).collect();
         let mut steps = Vec::new();
         let mut targets = Vec::new();
         let mut rrt_legs = 0;
-        for (k, (goal, leg)) in self.goals.iter().zip(legs).enumerate() {
-            let (path, rrt) = leg.map_err(|e| (k, e))?;
+        for (goal, leg) in self.goals.iter().zip(legs) {
+            let (path, rrt) = leg.map_err(|e| (failed.clone(), e))?;
             rrt_legs += usize::from(rrt);
             steps.push(CampaignStep::Move { path });
             targets.push(None);
