@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let config = CampaignConfig { show_progress: false, ..CampaignConfig::default() };
     let mut devices = SimDevices {
         arm: cell.arm(),
-        guide: cell.guide(),
+        guide: cell.guide().expect("the canonical cell has a guide"),
         probe: cell.probe()?,
         tracker: cell.tracker(),
         operator: cell.operator(),
@@ -95,7 +95,7 @@ impl SimDevices {
     fn lend(&mut self) -> CellDevices<'_> {
         CellDevices {
             arm: &mut self.arm,
-            guide: &mut self.guide,
+            guide: Some(&mut self.guide),
             probe: &mut self.probe,
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,

@@ -3,7 +3,9 @@
 //! Read the probe offset `c` (probe frame, nominal gauge axes), command the TCP by `−c`
 //! (mapped into the world through the placement's nominal orientation, then into the flange
 //! frame through the controller's nominal model), repeat until the composite error `|c|` is
-//! below the tolerance (5 µm). The guide is never moved. Because the gauges read zero only
+//! below the tolerance (5 µm). The guide (if the cell has one) is never moved. Any serial
+//! chain: the cell's joints split into the optional guide and the arm by
+//! [`JointLayout`](vatcal_hardware_traits::JointLayout). Because the gauges read zero only
 //! when the ball is centred, neither the gauge axes nor the robot's model need to be exact: they
 //! only set the contraction rate (background §7.4).
 //!
@@ -21,7 +23,8 @@
 
 use nalgebra::Vector3;
 use vatcal_hardware_traits::{
-    ArmJoints, ErrorKind, LinearAxis, LinearFrame, MotionOptions, Probe3d, ProbeReading, RobotArm,
+    ArmJoints, ErrorKind, JointLayout, LinearAxis, LinearFrame, MotionOptions, Probe3d, ProbeReading,
+    RobotArm,
 };
 use vatcal_kinematics::Model;
 
@@ -131,10 +134,11 @@ pub struct CenteringOutcome {
     /// arm joints read before each corrective move, then the final joints
     /// (`iterations + 1` entries) [rad]
     pub joint_trace: Vec<ArmJoints>,
-    /// sign of the last motion of each arm joint (cell joints 2..7) when the ball was centred:
-    /// the `approach` given to [`auto_center`], updated by every motion it made (0 = never
-    /// moved). These are the measurement's `dir2..dir7`
-    pub approach_dir: [i8; 6],
+    /// sign of the last motion of each arm joint (J1.., the cell joints of
+    /// [`JointLayout::arm_cell_joints`]) when the ball was centred: the `approach` given to
+    /// [`auto_center`], updated by every motion it made (0 = never moved). These are the
+    /// measurement's `dir{j}` (`dir2..dir7` on the canonical cell)
+    pub approach_dir: Vec<i8>,
     /// arm motions made: the corrective linear moves plus the joint moves that restored the
     /// approach side (two per correction that reversed a joint)
     pub arm_motions: usize,
@@ -146,29 +150,39 @@ pub struct CenteringOutcome {
 ///
 /// `controller` is the kinematic model the robot controller uses (the nominal one): it maps
 /// the world correction into the flange frame at the current joints, so the arm's
-/// [`LinearFrame::Tool`] move realises it as well as the controller can. The guide is only read.
+/// [`LinearFrame::Tool`] move realises it as well as the controller can. `guide` is the cell's
+/// guide (`None` for a chain without one, see [`JointLayout`]); it is only read.
 ///
-/// `approach` is the sign of the last motion of each arm joint (cell joints 2..7) when the
-/// arm arrived at the approach pose (`+1`, `-1`, or 0 when unknown: the joint's first
-/// correction then sets it). Every correction ends with each joint arriving from that side
-/// (see [`CenteringConfig::approach_overshoot_rad`]).
+/// `approach` is the sign of the last motion of each arm joint (J1.., one per arm joint; a
+/// shorter slice reads as 0) when the arm arrived at the approach pose (`+1`, `-1`, or 0 when
+/// unknown: the joint's first correction then sets it). Every correction ends with each joint
+/// arriving from that side (see [`CenteringConfig::approach_overshoot_rad`]).
+///
+/// # Errors
+/// [`CenteringError`]; an arm or a guide that does not fit the controller model's joints is a
+/// [`CenteringError::Device`] error of kind `OutOfRange` naming the joint counts.
 pub fn auto_center(
     arm: &mut dyn RobotArm,
-    guide: &mut dyn LinearAxis,
+    guide: Option<&mut dyn LinearAxis>,
     probe: &mut dyn Probe3d,
     controller: &Model,
     position: u32,
-    approach: [i8; 6],
+    approach: &[i8],
     config: &CenteringConfig,
 ) -> Result<CenteringOutcome, CenteringError> {
     let placement = probe.placement(position).ok_or(CenteringError::NoPlacement { position })?;
     let range_mm = probe.range_mm();
-    let guide_mm = guide.position_mm()?;
+    let layout = JointLayout::of(controller.joint_kinds());
+    let guide_mm = match guide {
+        Some(g) => Some(g.position_mm()?),
+        None => None,
+    };
+    let n_arm = layout.arm_joint_count();
     let mut history: Vec<f64> = Vec::new();
     let mut steps: Vec<Vector3<f64>> = Vec::new();
     let mut trace: Vec<ArmJoints> = Vec::new();
-    let mut preferred = approach;
-    let mut dir = approach;
+    let mut preferred: Vec<i8> = (0..n_arm).map(|j| approach.get(j).copied().unwrap_or(0)).collect();
+    let mut dir = preferred.clone();
     let mut arm_motions = 0;
     let mut last_motion_from = None;
     let limits = controller.joint_limits();
@@ -208,19 +222,20 @@ pub fn auto_center(
         }
         let joints = arm.joints()?;
         trace.push(joints);
-        let q = joints.with_guide(guide_mm);
-        let flange = controller.chain(&q).frames[7];
+        let q = layout.join(guide_mm, &joints)?;
+        let flange = controller.chain(&q).flange();
         let step_tool = flange.r.transpose() * step_world;
         arm.move_linear_relative_and_wait(&step_tool, LinearFrame::Tool, &config.motion)?;
         steps.push(step_world);
         arm_motions += 1;
         last_motion_from = Some(joints);
         let after = arm.joints()?;
+        layout.check_arm(&after)?;
         // joints the linear move reversed: past the target, then back onto it from the side
         // of the planned approach
         let mut pre = after;
-        for j in 0..6 {
-            let moved = after.0[j] - joints.0[j];
+        for j in 0..n_arm {
+            let moved = after[j] - joints[j];
             if moved == 0.0 {
                 continue;
             }
@@ -230,9 +245,8 @@ pub fn auto_center(
                 preferred[j] = sign;
             }
             if sign != preferred[j] && config.approach_overshoot_rad > 0.0 {
-                let (lo, hi) = limits[j + 1];
-                pre.0[j] =
-                    (after.0[j] - f64::from(preferred[j]) * config.approach_overshoot_rad).clamp(lo, hi);
+                let (lo, hi) = limits[layout.cell_joint(j) - 1];
+                pre[j] = (after[j] - f64::from(preferred[j]) * config.approach_overshoot_rad).clamp(lo, hi);
             }
         }
         if pre != after {
@@ -240,7 +254,7 @@ pub fn auto_center(
             arm.move_joints_and_wait(&after, &config.motion)?;
             arm_motions += 2;
             last_motion_from = Some(pre);
-            for (d, (p, a)) in dir.iter_mut().zip(pre.0.iter().zip(&after.0)) {
+            for (d, (p, a)) in dir.iter_mut().zip(pre.as_slice().iter().zip(after.as_slice())) {
                 if p != a {
                     *d = if a > p { 1 } else { -1 };
                 }

@@ -15,7 +15,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use vatcal_core::{JointVector, Measurement, MeasurementContext, Target};
+use vatcal_core::{JointVector, MAX_JOINTS, Measurement, MeasurementContext, Target};
 
 use crate::checksum::fnv1a64;
 
@@ -61,18 +61,39 @@ impl JournalHeader {
 }
 
 /// The state of the cell when a step completed: enough to put the cell back exactly there.
+///
+/// Any serial chain: `joints` are the cell's joints q1..qN, `arm_from` and `dir` the arm's
+/// joints (those of `vatcal_hardware_traits::JointLayout`: q2..q7 on the canonical cell, all
+/// joints of a chain without a guide). On the canonical cell the JSON is that of the 7-joint
+/// journals written before (`arm_from` and `dir` six values, `guide_from_mm` a number).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellState {
-    /// joints reported at the end of the step (q1 mm, q2..q7 rad)
+    /// joints reported at the end of the step (internal units: mm for prismatic, rad for
+    /// revolute joints; canonical cell: q1 mm, q2..q7 rad)
     pub joints: JointVector,
-    /// arm joints [rad] before the last arm motion (the motion that reached `joints`)
-    pub arm_from: [f64; 6],
-    /// guide position [mm] before the last guide motion
-    pub guide_from_mm: f64,
-    /// sign of the last motion of joints 2..7 (0 = not moved since homing)
-    pub dir: [i8; 6],
+    /// arm joints (internal units) before the last arm motion (the motion that reached
+    /// `joints`)
+    pub arm_from: JointVector,
+    /// guide position [mm] before the last guide motion (`None`: the cell has no guide)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub guide_from_mm: Option<f64>,
+    /// sign of the last motion of each arm joint (0 = not moved since homing)
+    pub dir: Vec<i8>,
     /// calibration position where the probe plate is
     pub placement: Option<u32>,
+}
+
+impl CellState {
+    /// Motion directions per cell joint (index `i - 1` = joint i; the guide and unused entries
+    /// 0): the arm's `dir` placed after the guide, if `joints` has one more value than the arm.
+    pub fn cell_dirs(&self) -> [i8; MAX_JOINTS] {
+        let offset = self.joints.len().saturating_sub(self.dir.len());
+        let mut d = [0; MAX_JOINTS];
+        for (slot, v) in d.iter_mut().skip(offset).zip(&self.dir) {
+            *slot = *v;
+        }
+        d
+    }
 }
 
 /// What a step produced.
@@ -146,7 +167,7 @@ impl StepRecord {
     /// `temperature_c` (when recorded).
     pub fn measurement(&self) -> Option<Measurement> {
         let context = MeasurementContext {
-            dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(self.state.dir)),
+            dir: Some(self.state.cell_dirs()),
             time_s: Some(self.time_s),
             temperature_c: self.temperature_c,
         };
@@ -482,9 +503,9 @@ mod tests {
             temperature_c: step.is_multiple_of(2).then_some(20.0 + 0.01 * step as f64),
             state: CellState {
                 joints: JointVector::new([x, 0.1, -0.2, x / 3.0, 0.4, 1e-300, -0.6]),
-                arm_from: [x; 6],
-                guide_from_mm: x * 7.0,
-                dir: [1, -1, 0, 1, 1, -1],
+                arm_from: JointVector::new([x; 6]),
+                guide_from_mm: Some(x * 7.0),
+                dir: vec![1, -1, 0, 1, 1, -1],
                 placement: Some(2),
             },
             outcome: StepOutcome::Measured {
@@ -651,5 +672,33 @@ mod tests {
         assert!(!json.contains("temperature_c"), "{json}");
         let back: Line = serde_json::from_str(&json).expect("read");
         assert_eq!(back, Line::Step(Box::new(r)));
+    }
+
+    #[test]
+    fn canonical_state_json_is_unchanged_and_other_chains_have_no_guide() {
+        // the JSON of a canonical record as the 7-joint journals wrote it
+        let r = record(1, 0.5);
+        let json = serde_json::to_string(&r.state).expect("json");
+        assert_eq!(
+            json,
+            "{\"joints\":[0.5,0.1,-0.2,0.16666666666666666,0.4,1e-300,-0.6],\"arm_from\":[0.5,0.5,0.5,0.5,0.5,0.5],\
+             \"guide_from_mm\":3.5,\"dir\":[1,-1,0,1,1,-1],\"placement\":2}"
+        );
+        assert_eq!(
+            r.state.cell_dirs(),
+            vatcal_core::measurement::dirs_from_meca500_arm([1, -1, 0, 1, 1, -1])
+        );
+        // a six-joint arm without a guide: dir1..dir6, no guide field
+        let state = CellState {
+            joints: JointVector::new([0.1, 0.2, 0.3, 0.4, 0.5, 0.6]),
+            arm_from: JointVector::new([0.0; 6]),
+            guide_from_mm: None,
+            dir: vec![1, -1, 1, -1, 1, -1],
+            placement: None,
+        };
+        let json = serde_json::to_string(&state).expect("json");
+        assert!(!json.contains("guide_from_mm"), "{json}");
+        assert_eq!(serde_json::from_str::<CellState>(&json).expect("back"), state);
+        assert_eq!(state.cell_dirs()[..7], [1, -1, 1, -1, 1, -1, 0]);
     }
 }

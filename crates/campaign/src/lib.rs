@@ -39,5 +39,5 @@ pub use journal::{
 pub use plan::{CampaignPlan, CampaignPlanOptions, CampaignStep, PlanError, TourFileError};
 pub use runner::{
     Campaign, CampaignConfig, CampaignError, CampaignReport, CellDevices, StepLabel, WarmUp,
-    export_measurements,
+    export_measurements, export_measurements_for,
 };

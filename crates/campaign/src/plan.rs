@@ -7,12 +7,13 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use vatcal_core::{JointVector, Measurement, Target};
+use vatcal_core::{JointKind, JointVector, Measurement, Target};
 use vatcal_kinematics::Model;
 
 use crate::checksum::fnv1a64;
 
-/// One step of a measurement campaign (internal units: q1 mm, q2..q7 rad).
+/// One step of a measurement campaign (internal units: mm for prismatic, rad for revolute
+/// joints; the canonical cell: q1 mm, q2..q7 rad).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "step", rename_all = "snake_case")]
 pub enum CampaignStep {
@@ -56,9 +57,18 @@ pub enum PlanError {
     /// The plan has no steps.
     #[error("the plan has no steps")]
     Empty,
-    /// The campaign runs the Meca500-on-guide cell only (the message says why).
-    #[error("{0}")]
-    UnsupportedChain(String),
+    /// A waypoint has another number of joints than the model.
+    #[error("step {step}: waypoint {waypoint}: {got} joint values for a model of {expected} joints")]
+    JointCount {
+        /// step index (0-based)
+        step: usize,
+        /// waypoint index (0-based)
+        waypoint: usize,
+        /// the model's joint count
+        expected: usize,
+        /// values in the waypoint
+        got: usize,
+    },
     /// A waypoint is outside the joint limits or not finite.
     #[error("step {step}: waypoint {waypoint}: joint q{joint} = {value} is outside its limits")]
     Limits {
@@ -66,9 +76,9 @@ pub enum PlanError {
         step: usize,
         /// waypoint index (0-based)
         waypoint: usize,
-        /// cell joint 1..=7
+        /// cell joint 1..=N
         joint: usize,
-        /// value (mm for q1, rad otherwise)
+        /// value (mm for prismatic, rad for revolute joints)
         value: f64,
     },
     /// A move has no waypoints.
@@ -172,14 +182,30 @@ impl CampaignPlan {
         Self { steps }
     }
 
-    /// Reads the tour file written by `vatcal plan` (`step,kind,position,tcp,q1..q7[,time_s]`,
-    /// q1 in mm, q2..q7 in degrees, columns by name): consecutive `move` rows become one
-    /// [`CampaignStep::Move`] through their waypoints; a `measure` row adds its joints as the
-    /// last waypoint (the straight move from the approach pose down to the measurement pose)
-    /// and then a [`CampaignStep::Measure`]; a `replace_probe` row becomes a
+    /// Reads the tour file written by `vatcal plan` for the canonical Meca500-on-guide cell
+    /// (`step,kind,position,tcp,q1..q7[,time_s]`, q1 in mm, q2..q7 in degrees, columns by
+    /// name); [`CampaignPlan::read_tour_for`] reads any chain's. Consecutive `move` rows become
+    /// one [`CampaignStep::Move`] through their waypoints; a `measure` row adds its joints as
+    /// the last waypoint (the straight move from the approach pose down to the measurement
+    /// pose) and then a [`CampaignStep::Measure`]; a `replace_probe` row becomes a
     /// [`CampaignStep::PlaceProbe`]. Validate the result with [`CampaignPlan::validate`].
+    ///
+    /// # Errors
+    /// [`TourFileError`] naming the file (and the line and column of a bad field).
     pub fn read_tour(path: impl AsRef<Path>) -> Result<Self, TourFileError> {
+        Self::read_tour_for(path, &vatcal_io::MECA500_ON_GUIDE_KINDS)
+    }
+
+    /// [`CampaignPlan::read_tour`] for a chain with joints `kinds` (`model.joint_kinds()`):
+    /// the columns `q1..qN`, mm for prismatic and degrees for revolute joints. A file with
+    /// another number of q-columns (a `q{N+1}` column, or one of `q1..qN` missing) is an error
+    /// naming the expected columns.
+    ///
+    /// # Errors
+    /// [`TourFileError`] naming the file (and the line and column of a bad field).
+    pub fn read_tour_for(path: impl AsRef<Path>, kinds: &[JointKind]) -> Result<Self, TourFileError> {
         let path = path.as_ref();
+        let n = kinds.len();
         let file_err = |reason: String| TourFileError::File { path: path.into(), reason };
         let mut rdr = csv::ReaderBuilder::new()
             .comment(Some(b'#'))
@@ -188,10 +214,20 @@ impl CampaignPlan {
             .map_err(|e| file_err(e.to_string()))?;
         let headers = rdr.headers().map_err(|e| file_err(e.to_string()))?.clone();
         let column = |name: &str| headers.iter().position(|h| h == name);
-        let required = ["kind", "position", "tcp", "q1", "q2", "q3", "q4", "q5", "q6", "q7"];
-        let mut index = [0usize; 10];
+        let mut required: Vec<String> = ["kind", "position", "tcp"].map(String::from).to_vec();
+        required.extend((1..=n).map(|j| format!("q{j}")));
+        let expected = format!("q1..q{n} for the model's {n} joints");
+        let mut index = vec![0usize; required.len()];
         for (k, name) in required.iter().enumerate() {
-            index[k] = column(name).ok_or_else(|| file_err(format!("missing column `{name}`")))?;
+            index[k] = column(name).ok_or_else(|| {
+                file_err(format!("missing column `{name}` (the joint columns are {expected})"))
+            })?;
+        }
+        if column(&format!("q{}", n + 1)).is_some() {
+            return Err(file_err(format!(
+                "has a column `q{}`: the joint columns are {expected} (a tour of another robot?)",
+                n + 1
+            )));
         }
         let mut steps = Vec::new();
         let mut pending: Vec<JointVector> = Vec::new();
@@ -201,14 +237,14 @@ impl CampaignPlan {
             let row_err = |k: usize, reason: String| TourFileError::Row {
                 path: path.into(),
                 line,
-                column: required[k].into(),
+                column: required[k].clone(),
                 reason,
             };
             let field = |k: usize| rec.get(index[k]).unwrap_or("");
             let id = |k: usize| {
                 field(k).parse::<u32>().map_err(|_| row_err(k, format!("`{}` is not an id", field(k))))
             };
-            let mut values = [0.0; 7];
+            let mut values = vec![0.0; n];
             for (j, v) in values.iter_mut().enumerate() {
                 let text = field(3 + j);
                 *v = text
@@ -217,10 +253,8 @@ impl CampaignPlan {
                     .filter(|x| x.is_finite())
                     .ok_or_else(|| row_err(3 + j, format!("`{text}` is not a finite number")))?;
             }
-            let q = JointVector::from_mm_deg(
-                values[0],
-                [values[1], values[2], values[3], values[4], values[5], values[6]],
-            );
+            let q = JointVector::from_file_units(&values, kinds)
+                .map_err(|e| file_err(format!("line {line}: {e}")))?;
             match field(0) {
                 "move" => pending.push(q),
                 "measure" => {
@@ -268,9 +302,6 @@ impl CampaignPlan {
         if self.steps.is_empty() {
             return Err(PlanError::Empty);
         }
-        model
-            .require_meca500_on_guide("a measurement campaign on the cell's devices")
-            .map_err(|e| PlanError::UnsupportedChain(e.to_string()))?;
         let (tcps, positions) = (model.tcp_ids(), model.position_ids());
         let known = |step: usize, what: &'static str, id: u32, ids: &[u32]| {
             if ids.contains(&id) { Ok(()) } else { Err(PlanError::UnknownId { step, what, id }) }
@@ -296,6 +327,14 @@ impl CampaignPlan {
                         return Err(PlanError::EmptyMove { step });
                     }
                     for (waypoint, q) in path.iter().enumerate() {
+                        if q.len() != model.joint_count() {
+                            return Err(PlanError::JointCount {
+                                step,
+                                waypoint,
+                                expected: model.joint_count(),
+                                got: q.len(),
+                            });
+                        }
                         let bad =
                             model.limit_violation(q).map(|(joint, value, ..)| (joint, value)).or_else(|| {
                                 q.as_slice().iter().position(|v| !v.is_finite()).map(|k| (k + 1, q[k]))

@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use vatcal_core::{JointVector, Measurement};
+use vatcal_core::{JointKind, JointVector, Measurement};
 use vatcal_hardware_traits::{
-    ArmJoints, Clock, LinearAxis, MotionOptions, Operator, OperatorInstruction, PositionTracker, Probe3d,
-    RobotArm, Thermometer,
+    ArmJoints, Clock, JointLayout, LinearAxis, MotionOptions, Operator, OperatorInstruction, PositionTracker,
+    Probe3d, RobotArm, Thermometer,
 };
 use vatcal_kinematics::Model;
 
@@ -20,8 +20,9 @@ use crate::plan::{CampaignPlan, CampaignStep, PlanError};
 pub struct CellDevices<'a> {
     /// the robot arm
     pub arm: &'a mut dyn RobotArm,
-    /// the linear guide carrying the arm
-    pub guide: &'a mut dyn LinearAxis,
+    /// the linear guide carrying the arm; `None` for a cell without one (the controller
+    /// model's [`JointLayout`] decides which the cell needs)
+    pub guide: Option<&'a mut dyn LinearAxis>,
     /// the 3D probe (TriCal)
     pub probe: &'a mut dyn Probe3d,
     /// a tracker, needed only by [`CampaignStep::Track`] steps
@@ -38,6 +39,7 @@ pub struct CellDevices<'a> {
 impl std::fmt::Debug for CellDevices<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("CellDevices")
+            .field("guide", &self.guide.is_some())
             .field("tracker", &self.tracker.is_some())
             .field("clock", &self.clock)
             .field("thermometer", &self.thermometer.is_some())
@@ -75,8 +77,9 @@ pub struct CampaignConfig {
     pub recovery_approach_rad: f64,
     /// free text stored in the journal header
     pub note: String,
-    /// keep this measurements CSV up to date after every measurement (`position,tcp,q1..q7,
-    /// time_s[,temperature_c],dir2..dir7`, mm/deg; replaced atomically)
+    /// keep this measurements CSV up to date after every measurement (`position,tcp,q1..qN,
+    /// time_s[,temperature_c],dir{j}` of the revolute joints j, mm/deg; the canonical cell:
+    /// `q1..q7`, `dir2..dir7`; replaced atomically)
     pub measurements_csv: Option<PathBuf>,
     /// `fsync` the journal after every step (default `true`). Set it to `false` only for
     /// simulated cells, whose steps take microseconds: the records are still written one by
@@ -125,6 +128,15 @@ pub enum CampaignError {
         journal: u64,
         /// fingerprint of the given plan
         plan: u64,
+    },
+    /// The devices do not fit the controller model's joints (an arm with another joint count,
+    /// a guide missing or one too many).
+    #[error("the devices do not fit the cell's model ({chain}): {reason}")]
+    DeviceMismatch {
+        /// the model's chain, e.g. `6 joints (RRRRRR)`
+        chain: String,
+        /// what does not fit
+        reason: String,
     },
     /// A device failed.
     #[error("step {step}: {action}: {source}")]
@@ -202,6 +214,7 @@ pub struct CampaignReport {
 pub struct Campaign<'a> {
     devices: CellDevices<'a>,
     controller: &'a Model,
+    layout: JointLayout,
     config: CampaignConfig,
     observer: Option<Observer<'a>>,
 }
@@ -233,7 +246,8 @@ impl<'a> Campaign<'a> {
     /// believes (the nominal cell): auto-centering uses it to express corrections in the
     /// flange frame, and the plan is validated against its limits and ids.
     pub fn new(devices: CellDevices<'a>, controller: &'a Model, config: CampaignConfig) -> Self {
-        Self { devices, controller, config, observer: None }
+        let layout = JointLayout::of(controller.joint_kinds());
+        Self { devices, controller, layout, config, observer: None }
     }
 
     /// Calls `f` after every journaled step (logging, a live display, tests).
@@ -278,14 +292,14 @@ impl<'a> Campaign<'a> {
             if let Some(e) = fault {
                 journal.sync()?;
                 if let Some(csv) = &self.config.measurements_csv {
-                    write_csv_atomically(csv, &journal.measurements())?;
+                    write_csv_atomically(csv, &journal.measurements(), self.controller.joint_kinds())?;
                 }
                 return Err(e);
             }
             if record.measurement().is_some()
                 && let Some(csv) = &self.config.measurements_csv
             {
-                write_csv_atomically(csv, &journal.measurements())?;
+                write_csv_atomically(csv, &journal.measurements(), self.controller.joint_kinds())?;
             }
             if let Some(f) = self.observer.as_mut() {
                 f(&record);
@@ -388,33 +402,63 @@ impl<'a> Campaign<'a> {
         bar
     }
 
+    /// Checks that the devices fit the controller model (arm joint count, guide present
+    /// exactly when the model has one) before anything moves, then activates and homes them.
     fn prepare_devices(&mut self) -> Result<(), CampaignError> {
+        let mismatch = |reason: String| CampaignError::DeviceMismatch {
+            chain: self.controller.describe_chain(),
+            reason,
+        };
+        let layout = self.layout;
+        match (layout.has_guide(), self.devices.guide.is_some()) {
+            (true, false) => {
+                return Err(mismatch("joint 1 is a prismatic guide but no guide device is connected".into()));
+            }
+            (false, true) => {
+                return Err(mismatch("a guide device is connected but the model has no guide joint".into()));
+            }
+            _ => {}
+        }
+        let n = self.devices.arm.joint_count();
+        if let Err(e) = layout.check_arm_count(n) {
+            return Err(mismatch(e.to_string()));
+        }
         let t = self.config.home_timeout;
         let d = &mut self.devices;
         d.arm.activate_and_home(t).map_err(device_err(StepLabel::Setup, "activating and homing the arm"))?;
-        let homed = d.guide.is_homed().map_err(device_err(StepLabel::Setup, "reading the guide state"))?;
-        if !homed {
-            d.guide.home(t).map_err(device_err(StepLabel::Setup, "homing the guide"))?;
+        if let Some(guide) = d.guide.as_deref_mut() {
+            let homed = guide.is_homed().map_err(device_err(StepLabel::Setup, "reading the guide state"))?;
+            if !homed {
+                guide.home(t).map_err(device_err(StepLabel::Setup, "homing the guide"))?;
+            }
         }
         Ok(())
     }
 
     fn read_joints(&mut self, step: StepLabel) -> Result<JointVector, CampaignError> {
         let arm = self.devices.arm.joints().map_err(device_err(step, "reading the arm joints"))?;
-        let guide =
-            self.devices.guide.position_mm().map_err(device_err(step, "reading the guide position"))?;
-        Ok(arm.with_guide(guide))
+        let guide = match self.devices.guide.as_deref_mut() {
+            Some(g) => Some(g.position_mm().map_err(device_err(step, "reading the guide position"))?),
+            None => None,
+        };
+        self.layout.join(guide, &arm).map_err(device_err(step, "reading the arm joints"))
     }
 
     fn initial_state(&mut self) -> Result<State, CampaignError> {
         let joints = self.read_joints(StepLabel::Setup)?;
         Ok(CellState {
-            arm_from: ArmJoints::from_joint_vector(&joints).0,
-            guide_from_mm: joints.guide_mm(),
+            arm_from: self.layout.arm(&joints).values(),
+            guide_from_mm: self.layout.guide_mm(&joints),
             joints,
-            dir: [0; 6],
+            dir: vec![0; self.layout.arm_joint_count()],
             placement: None,
         })
+    }
+
+    /// `q` in file units (mm / degrees) for messages.
+    fn file_units(&self, q: &JointVector) -> String {
+        let v = q.to_file_units(self.controller.joint_kinds());
+        v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(", ")
     }
 
     /// Commands guide and arm to `target` together, waits for both, and updates the state
@@ -427,23 +471,23 @@ impl<'a> Campaign<'a> {
     ) -> Result<(), CampaignError> {
         let options = self.config.motion;
         let before = self.read_joints(step)?;
+        let layout = self.layout;
+        let q_text = self.file_units(target);
+        let what = |s: &str| format!("{s} to q = [{q_text}] (mm/deg)");
         let d = &mut self.devices;
-        let what = |s: &str| {
-            let q = target.to_mm_deg().map(|v| format!("{v:.3}"));
-            format!("{s} to q = [{}] (mm/deg)", q.join(", "))
-        };
-        d.guide
-            .move_absolute_mm(target.guide_mm(), &options)
-            .map_err(device_err(step, what("moving the guide")))?;
-        d.arm
-            .move_joints(&ArmJoints::from_joint_vector(target), &options)
-            .map_err(device_err(step, what("moving the arm")))?;
-        d.guide.wait_idle(options.timeout).map_err(device_err(step, what("waiting for the guide")))?;
+        let guide_target = layout.guide_mm(target);
+        if let (Some(guide), Some(g)) = (d.guide.as_deref_mut(), guide_target) {
+            guide.move_absolute_mm(g, &options).map_err(device_err(step, what("moving the guide")))?;
+        }
+        d.arm.move_joints(&layout.arm(target), &options).map_err(device_err(step, what("moving the arm")))?;
+        if let (Some(guide), Some(_)) = (d.guide.as_deref_mut(), guide_target) {
+            guide.wait_idle(options.timeout).map_err(device_err(step, what("waiting for the guide")))?;
+        }
         d.arm.wait_idle(options.timeout).map_err(device_err(step, what("waiting for the arm")))?;
         let after = self.read_joints(step)?;
-        state.arm_from = ArmJoints::from_joint_vector(&before).0;
-        state.guide_from_mm = before.guide_mm();
-        update_dir(&mut state.dir, &before, &after);
+        state.arm_from = layout.arm(&before).values();
+        state.guide_from_mm = layout.guide_mm(&before);
+        update_dir(&layout, &mut state.dir, &before, &after);
         state.joints = after;
         Ok(())
     }
@@ -460,30 +504,34 @@ impl<'a> Campaign<'a> {
                 .map_err(device_err(step, "confirming the probe plate after a restart"))?;
         }
         let description = format!(
-            "resuming: the guide and the arm return to the last recorded pose q = {:?} (mm/deg)",
-            s.joints.to_mm_deg()
+            "resuming: the {} return{} to the last recorded pose q = [{}] (mm/deg)",
+            if self.layout.has_guide() { "guide and the arm" } else { "arm" },
+            if self.layout.has_guide() { "" } else { "s" },
+            self.file_units(&s.joints)
         );
         self.devices
             .operator
             .perform(&OperatorInstruction::ConfirmMotion { description })
             .map_err(device_err(step, "confirming the recovery motion"))?;
-        let target_arm = ArmJoints::from_joint_vector(&s.joints);
+        let layout = self.layout;
+        let target_arm = layout.arm(&s.joints);
+        let arm_from = ArmJoints::from_values(s.arm_from);
         let limits = self.controller.joint_limits();
-        let mut pre = s.arm_from;
-        for j in 0..6 {
-            if s.arm_from[j] == target_arm.0[j] && s.dir[j] != 0 {
-                let (lo, hi) = limits[j + 1];
-                pre[j] = (pre[j] - f64::from(s.dir[j]) * self.config.recovery_approach_rad).clamp(lo, hi);
+        let mut pre = arm_from;
+        for j in 0..pre.len().min(target_arm.len()) {
+            let d = s.dir.get(j).copied().unwrap_or(0);
+            if arm_from[j] == target_arm[j] && d != 0 {
+                let (lo, hi) = limits[layout.cell_joint(j) - 1];
+                pre[j] = (pre[j] - f64::from(d) * self.config.recovery_approach_rad).clamp(lo, hi);
             }
         }
         let mut scratch = s.clone();
         let guide_from = s.guide_from_mm;
-        for (guide, arm) in [
-            (guide_from, ArmJoints(pre)),
-            (guide_from, ArmJoints(s.arm_from)),
-            (s.joints.guide_mm(), target_arm),
-        ] {
-            self.move_to(step, &arm.with_guide(guide), &mut scratch)?;
+        for (guide, arm) in
+            [(guide_from, pre), (guide_from, arm_from), (layout.guide_mm(&s.joints), target_arm)]
+        {
+            let q = layout.join(guide, &arm).map_err(device_err(step, "restoring the recorded pose"))?;
+            self.move_to(step, &q, &mut scratch)?;
         }
         Ok(())
     }
@@ -555,18 +603,18 @@ impl<'a> Campaign<'a> {
         let d = &mut self.devices;
         let result = auto_center(
             &mut *d.arm,
-            &mut *d.guide,
+            d.guide.as_deref_mut().map(|g| g as &mut dyn LinearAxis),
             &mut *d.probe,
             self.controller,
             position,
-            state.dir,
+            &state.dir,
             &self.config.centering,
         );
         match result {
             Ok(o) => {
                 state.dir = o.approach_dir;
                 if let Some(from) = o.last_motion_from {
-                    state.arm_from = from.0;
+                    state.arm_from = from.values();
                 }
                 state.joints = self.read_joints(label)?;
                 let g = o.final_reading.gauges_mm;
@@ -597,9 +645,11 @@ impl<'a> Campaign<'a> {
     }
 }
 
-/// Signs of the arm joints that changed between `before` and `after`.
-fn update_dir(dir: &mut [i8; 6], before: &JointVector, after: &JointVector) {
-    for (d, (a, b)) in dir.iter_mut().zip(before[1..].iter().zip(&after[1..])) {
+/// Signs of the arm joints that changed between `before` and `after` (cell joint vectors).
+fn update_dir(layout: &JointLayout, dir: &mut Vec<i8>, before: &JointVector, after: &JointVector) {
+    let (a, b) = (layout.arm(before), layout.arm(after));
+    dir.resize(a.len(), 0);
+    for (d, (a, b)) in dir.iter_mut().zip(a.as_slice().iter().zip(b.as_slice())) {
         if b != a {
             *d = if b > a { 1 } else { -1 };
         }
@@ -618,21 +668,42 @@ fn describe(step: &CampaignStep) -> String {
 
 /// Writes `measurements` to `path` through a temporary file and a rename, so a crash never
 /// leaves a half-written CSV.
-fn write_csv_atomically(path: &Path, measurements: &[Measurement]) -> Result<(), CampaignError> {
+fn write_csv_atomically(
+    path: &Path,
+    measurements: &[Measurement],
+    kinds: &[JointKind],
+) -> Result<(), CampaignError> {
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
-    vatcal_io::write_measurements(&tmp, measurements)?;
+    vatcal_io::write_measurements_for(&tmp, measurements, kinds)?;
     std::fs::rename(&tmp, path)
         .map_err(|source| vatcal_io::IoError::File { path: path.to_path_buf(), cause: source }.into())
 }
 
-/// Writes the measurements of a (possibly unfinished) journal as a measurements CSV
-/// (`position,tcp,q1..q7,time_s[,temperature_c],dir2..dir7`, mm/deg; tracker rows with `x,y,z`). Returns the
-/// number of measurements written.
+/// Writes the measurements of a (possibly unfinished) journal of the canonical
+/// Meca500-on-guide cell as a measurements CSV (`position,tcp,q1..q7,time_s[,temperature_c],
+/// dir2..dir7`, mm/deg; tracker rows with `x,y,z`); [`export_measurements_for`] writes any
+/// chain. Returns the number of measurements written.
+///
+/// # Errors
+/// The journal cannot be read or the CSV written.
 pub fn export_measurements(journal: impl AsRef<Path>, csv: impl AsRef<Path>) -> Result<usize, CampaignError> {
+    export_measurements_for(journal, csv, &vatcal_io::MECA500_ON_GUIDE_KINDS)
+}
+
+/// [`export_measurements`] for a chain with joints `kinds` (`model.joint_kinds()`):
+/// `q1..qN` (mm for prismatic, degrees for revolute joints) and `dir{j}` of the revolute joints.
+///
+/// # Errors
+/// The journal cannot be read or the CSV written.
+pub fn export_measurements_for(
+    journal: impl AsRef<Path>,
+    csv: impl AsRef<Path>,
+    kinds: &[JointKind],
+) -> Result<usize, CampaignError> {
     let j = Journal::open(journal)?;
     let m = j.measurements();
-    vatcal_io::write_measurements(csv, &m)?;
+    vatcal_io::write_measurements_for(csv, &m, kinds)?;
     Ok(m.len())
 }

@@ -56,8 +56,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("truth itself (tracker/registration floor): {:.4} mm", mean_error(&truth, &validation));
     println!("calibrated (34): {:.4} mm", mean_error(&calibrated, &validation));
+    // the calibration's parameter set: the paper's 34 on the canonical cell
+    let base = vatcal_core::ParamSet::paper34();
     let fit = |specs: &[EffectSpec], ms: &[Measurement]| -> String {
-        match true_structure_fit(&calibrated, ms, specs) {
+        match true_structure_fit(&calibrated, ms, &base, specs) {
             Ok((m, _)) => format!("{:.4}", mean_error(&m, &validation)),
             Err(e) => format!("failed: {e}"),
         }

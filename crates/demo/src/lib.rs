@@ -16,11 +16,12 @@
 //! Everything is seeded: the same options give the same numbers (`report.json` is identical
 //! byte for byte; only the wall-clock times in `summary.md` change).
 //!
-//! Any other serial chain (a cell file that is not the canonical Meca500-on-guide cell) runs
-//! the model-level demo of [`any_chain`] instead: the same plan → measure → identify →
-//! validate sequence with each measurement simulated on the hidden true model.
-
-pub mod any_chain;
+//! Any other serial chain (a cell file that is not the canonical Meca500-on-guide cell, e.g.
+//! `fixtures/ur5e.toml`) runs the **same** pipeline on the virtual cell of that chain: the
+//! simulated arm has the chain's joints, the guide exists only if the chain has one, the
+//! identified set is the chain's identifiable default set, the discovery stage looks for gear
+//! harmonics of every revolute joint, and the validation has random poses only (no printing
+//! path: that needs the canonical cell's guide and tank; `docs/virtual-cell.md`).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -71,6 +72,9 @@ pub struct DemoOptions {
     /// run the discovery stage after the calibration (default: on): extra probe measurements,
     /// missing-effect discovery, and the fit with the truth's effect structure (the oracle)
     pub discovery: bool,
+    /// extra probe measurements of the discovery stage (default 360,
+    /// `DiscoveryStageOptions::new`)
+    pub discovery_count: usize,
 }
 
 impl DemoOptions {
@@ -87,7 +91,20 @@ impl DemoOptions {
             sizes: DemoSizes::default(),
             truth: TruthSpec::PaperLike,
             discovery: true,
+            discovery_count: DiscoveryStageOptions::new(seed).count,
         })
+    }
+
+    /// Small sizes for a quick look at a chain (`vatcal demo --quick`): 20 orientations, 3
+    /// guide steps, 40 measurements, 200 random validation poses, 60 discovery measurements
+    /// (the printing path's slices as given).
+    pub fn quick(mut self) -> Self {
+        self.sizes.orientations = 20;
+        self.sizes.guide_steps = 3;
+        self.sizes.count = 40;
+        self.sizes.random_poses = 200;
+        self.discovery_count = 60;
+        self
     }
 
     /// The pipeline options of the demo: the campaign settings of [`campaign_config`].
@@ -195,7 +212,11 @@ impl DemoSetup {
             orientations: opts.sizes.orientations,
             guide_steps: opts.sizes.guide_steps,
             count: opts.sizes.count,
-            parameters: format!("paper34 ({} parameters)", fit.params.len()),
+            parameters: if fit.params == vatcal_core::ParamSet::paper34() {
+                format!("paper34 ({} parameters)", fit.params.len())
+            } else {
+                format!("the chain's identifiable default set ({} parameters)", fit.params.len())
+            },
             method: fit.method.to_string(),
         }
     }
@@ -319,7 +340,8 @@ impl DemoOutcome {
 #[derive(Debug)]
 pub struct SimDevices {
     arm: SimArm,
-    guide: SimGuide,
+    /// the guide, when the cell's chain has one
+    guide: Option<SimGuide>,
     probe: TriCal<SimGauge>,
     tracker: SimTracker,
     operator: SimOperator,
@@ -350,7 +372,7 @@ impl DeviceSet for SimDevices {
     fn devices(&mut self) -> CellDevices<'_> {
         CellDevices {
             arm: &mut self.arm,
-            guide: &mut self.guide,
+            guide: self.guide.as_mut().map(|g| g as &mut dyn vatcal_hardware_traits::LinearAxis),
             probe: &mut self.probe,
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,
@@ -403,6 +425,8 @@ pub fn run_demo_with_progress(
     let (probe_sigma_mm, tracker_sigma_mm) = instrument_noise_mm(&cell.config().noise);
     let stage = opts.discovery.then(|| DiscoveryStageOptions {
         true_effects: Some(cell.truth().effects().to_vec()),
+        plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(&nominal),
+        count: opts.discovery_count,
         ..DiscoveryStageOptions::new(opts.seed).with_instrument_noise(probe_sigma_mm, tracker_sigma_mm)
     });
     let outcome = vatcal_pipeline::run_with_discovery(

@@ -54,13 +54,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let timeout = Duration::from_secs(10);
     let fast = MotionOptions { speed_fraction: 1.0, timeout };
     devices.arm.activate_and_home(timeout)?;
-    devices.guide.home(timeout)?;
-    devices.guide.move_absolute_and_wait(75.0, &fast)?;
-    devices.arm.move_joints_and_wait(&ArmJoints::from_deg([0.0, -20.0, 20.0, 0.0, 30.0, 0.0]), &fast)?;
+    let Some(guide) = devices.guide.as_mut() else { return Err("the file names a guide".into()) };
+    guide.home(timeout)?;
+    guide.move_absolute_and_wait(75.0, &fast)?;
+    devices
+        .arm
+        .move_joints_and_wait(&ArmJoints::from_deg_array([0.0, -20.0, 20.0, 0.0, 30.0, 0.0]), &fast)?;
     gauges[1].set_plunger_mm(2.5);
     println!(
         "guide at {} mm, arm at {:.3?} deg, gauge 2 reads {} mm",
-        devices.guide.position_mm()?,
+        guide.position_mm()?,
         devices.arm.joints()?.to_deg(),
         devices.gauges[1].read_mm()?
     );

@@ -9,7 +9,7 @@ use vatcal_drivers_meca500::driver::{Meca500, Meca500Config};
 use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
 use vatcal_drivers_zaber::driver::{AxisInfo, MicrostepSize, ZaberAxis, ZaberConfig};
 use vatcal_hardware_traits::{
-    Gauge, LinearAxis, PositionTracker, ProbePlacement, RobotArm, Thermometer, TriCalConfig,
+    Gauge, JointLayout, LinearAxis, PositionTracker, ProbePlacement, RobotArm, Thermometer, TriCalConfig,
 };
 
 use crate::sim_control::SimControl;
@@ -45,6 +45,15 @@ pub enum DevicesError {
         /// the field, e.g. `gauges[2].tcp`
         field: String,
         /// what is wrong
+        reason: String,
+    },
+    /// The file does not fit the cell's model: a guide for a chain without one, or no guide
+    /// for a chain that has one.
+    #[error("{path}: {reason}")]
+    Cell {
+        /// the file
+        path: PathBuf,
+        /// what does not fit
         reason: String,
     },
     /// A device could not be connected (or did not identify itself).
@@ -194,8 +203,9 @@ pub struct ProbeSpec {
 pub struct DevicesFile {
     /// the robot arm
     pub arm: ArmSpec,
-    /// the linear guide
-    pub guide: GuideSpec,
+    /// the linear guide (only for a cell whose chain has one: joint 1 prismatic, followed by
+    /// the arm)
+    pub guide: Option<GuideSpec>,
     /// the three TriCal gauges, gauge 1 first
     pub gauges: Vec<GaugeSpec>,
     /// a laser tracker (validation only)
@@ -214,8 +224,8 @@ pub struct DevicesFile {
 pub struct ConnectedDevices {
     /// the robot arm
     pub arm: Box<dyn RobotArm>,
-    /// the linear guide
-    pub guide: Box<dyn LinearAxis>,
+    /// the linear guide, if the file names one
+    pub guide: Option<Box<dyn LinearAxis>>,
     /// the three gauges, gauge 1 first
     pub gauges: [Box<dyn Gauge>; 3],
     /// the tracker, if any
@@ -350,21 +360,22 @@ impl DevicesFile {
         timeout(&a.io_timeout_ms, "arm.io_timeout_ms")?;
         timeout(&a.connect_timeout_ms, "arm.connect_timeout_ms")?;
 
-        let g = &self.guide;
-        kind(&g.kind, "guide", "zaber")?;
-        self.check_link(text, g.tcp.as_ref(), g.serial.as_ref(), "guide", g.kind.span())?;
-        timeout(&g.io_timeout_ms, "guide.io_timeout_ms")?;
-        timeout(&g.connect_timeout_ms, "guide.connect_timeout_ms")?;
-        if let Some(l) = &g.lead_mm
-            && !(l.get_ref().is_finite() && *l.get_ref() > 0.0)
-        {
-            return Err(err(l.span(), "guide.lead_mm", format!("{} must be > 0", l.get_ref())));
-        }
-        for (name, v) in [("guide.device", &g.device), ("guide.axis", &g.axis)] {
-            if let Some(v) = v
-                && *v.get_ref() == 0
+        if let Some(g) = &self.guide {
+            kind(&g.kind, "guide", "zaber")?;
+            self.check_link(text, g.tcp.as_ref(), g.serial.as_ref(), "guide", g.kind.span())?;
+            timeout(&g.io_timeout_ms, "guide.io_timeout_ms")?;
+            timeout(&g.connect_timeout_ms, "guide.connect_timeout_ms")?;
+            if let Some(l) = &g.lead_mm
+                && !(l.get_ref().is_finite() && *l.get_ref() > 0.0)
             {
-                return Err(err(v.span(), name, "must be at least 1".into()));
+                return Err(err(l.span(), "guide.lead_mm", format!("{} must be > 0", l.get_ref())));
+            }
+            for (name, v) in [("guide.device", &g.device), ("guide.axis", &g.axis)] {
+                if let Some(v) = v
+                    && *v.get_ref() == 0
+                {
+                    return Err(err(v.span(), name, "must be at least 1".into()));
+                }
             }
         }
 
@@ -584,13 +595,29 @@ impl DevicesFile {
         }
     }
 
-    /// How the guide is reached.
-    pub fn guide_link(&self) -> Link {
-        link(
-            self.guide.tcp.as_ref(),
-            self.guide.serial.as_ref(),
-            self.guide.baud.as_ref().map_or(115_200, |b| *b.get_ref()),
-        )
+    /// `Ok` when the file fits a cell whose joints split as `layout` (from the cell model's
+    /// joint kinds): a `guide` entry exactly when the chain has a guide. `chain` describes the
+    /// chain in the message (e.g. `Model::describe_chain`).
+    ///
+    /// # Errors
+    /// [`DevicesError::Cell`] naming the file and what does not fit.
+    pub fn check_cell(&self, layout: &JointLayout, chain: &str) -> Result<(), DevicesError> {
+        let reason = match (layout.has_guide(), self.guide.is_some()) {
+            (true, false) => format!(
+                "the cell's model ({chain}) has a guide (joint 1, prismatic) but the devices file has no `guide` entry"
+            ),
+            (false, true) => format!(
+                "the devices file has a `guide` entry but the cell's model ({chain}) has no guide: remove it"
+            ),
+            _ => return Ok(()),
+        };
+        Err(DevicesError::Cell { path: self.source.clone(), reason })
+    }
+
+    /// How the guide is reached (`None` without a guide).
+    pub fn guide_link(&self) -> Option<Link> {
+        let g = self.guide.as_ref()?;
+        Some(link(g.tcp.as_ref(), g.serial.as_ref(), g.baud.as_ref().map_or(115_200, |b| *b.get_ref())))
     }
 
     /// How gauge `i` (0-based) is reached.
@@ -618,10 +645,10 @@ impl DevicesFile {
         }
     }
 
-    /// The driver configuration of the guide.
+    /// The driver configuration of the guide (the defaults without a `guide` entry).
     pub fn guide_config(&self) -> ZaberConfig {
         let d = ZaberConfig::default();
-        let g = &self.guide;
+        let Some(g) = &self.guide else { return d };
         ZaberConfig {
             address: g.device.as_ref().map_or(d.address, |v| *v.get_ref()),
             axis: g.axis.as_ref().map_or(d.axis, |v| *v.get_ref()),
@@ -696,17 +723,22 @@ impl DevicesFile {
             if b.virtual_robot { " (virtual robot)" } else { "" }
         ));
 
-        let guide_link = self.guide_link();
-        let (guide, info) =
-            connect_guide(&guide_link, self.guide_config()).map_err(|e| DevicesError::Connect {
-                role: "guide".into(),
-                what: format!("zaber over {guide_link}"),
-                cause: e.into_hw("zaber guide"),
-            })?;
-        let travel = info
-            .travel_mm()
-            .map_or("travel unknown".to_string(), |(lo, hi)| format!("travel {lo:.1}..{hi:.1} mm"));
-        found.push(format!("guide: zaber over {guide_link}: {travel}"));
+        let guide = match self.guide_link() {
+            None => None,
+            Some(guide_link) => {
+                let (guide, info) =
+                    connect_guide(&guide_link, self.guide_config()).map_err(|e| DevicesError::Connect {
+                        role: "guide".into(),
+                        what: format!("zaber over {guide_link}"),
+                        cause: e.into_hw("zaber guide"),
+                    })?;
+                let travel = info
+                    .travel_mm()
+                    .map_or("travel unknown".to_string(), |(lo, hi)| format!("travel {lo:.1}..{hi:.1} mm"));
+                found.push(format!("guide: zaber over {guide_link}: {travel}"));
+                Some(guide)
+            }
+        };
 
         let mut gauges: Vec<Box<dyn Gauge>> = Vec::with_capacity(3);
         for i in 0..3 {

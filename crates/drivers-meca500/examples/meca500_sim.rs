@@ -25,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     robot.activate_and_home(Duration::from_secs(10))?;
     println!("status after homing: {:?}", robot.status()?);
 
-    let target = ArmJoints::from_deg([10.0, -20.0, 30.0, 5.0, 40.0, -15.0]);
+    let target = ArmJoints::from_deg_array([10.0, -20.0, 30.0, 5.0, 40.0, -15.0]);
     let options = MotionOptions { speed_fraction: 1.0, timeout: Duration::from_secs(10) };
     robot.move_joints_and_wait(&target, &options)?;
     let q = robot.joints()?;

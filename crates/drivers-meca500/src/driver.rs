@@ -531,7 +531,21 @@ fn finite_or_err(values: &[f64], what: &str) -> Result<(), Meca500Error> {
     }
 }
 
+/// The Meca500's six joint targets [deg], or an error naming the joint count it was given.
+fn six_joints_deg(target: &ArmJoints) -> Result<[f64; 6], Meca500Error> {
+    <[f64; 6]>::try_from(target.to_deg().as_slice()).map_err(|_| {
+        Meca500Error::InvalidArgument(format!(
+            "the Meca500 has 6 joints, got a target of {} joints (is the cell's model another robot?)",
+            target.len()
+        ))
+    })
+}
+
 impl<T: Transport> RobotArm for Meca500<T> {
+    fn joint_count(&self) -> usize {
+        6
+    }
+
     fn activate_and_home(&mut self, timeout: Duration) -> HwResult<()> {
         let r = self.activate_and_home_within(timeout);
         self.hw(r)
@@ -551,14 +565,14 @@ impl<T: Transport> RobotArm for Meca500<T> {
 
     fn joints(&mut self) -> HwResult<ArmJoints> {
         let r = self.joints_deg();
-        Ok(ArmJoints::from_deg(self.hw(r)?))
+        Ok(ArmJoints::from_deg_array(self.hw(r)?))
     }
 
     fn move_joints(&mut self, target: &ArmJoints, options: &MotionOptions) -> HwResult<()> {
-        let deg = target.to_deg();
-        let r = finite_or_err(&deg, "joint target")
-            .and_then(|()| joint_speed_percent(options.speed_fraction))
-            .and_then(|p| self.send_queued(&[Command::SetJointVel(p), Command::MoveJoints(deg)]));
+        let r = six_joints_deg(target)
+            .and_then(|deg| finite_or_err(&deg, "joint target").map(|()| deg))
+            .and_then(|deg| joint_speed_percent(options.speed_fraction).map(|p| (deg, p)))
+            .and_then(|(deg, p)| self.send_queued(&[Command::SetJointVel(p), Command::MoveJoints(deg)]));
         self.stop_on_link_fault(&r);
         self.hw(r)
     }

@@ -40,7 +40,7 @@
 //! let sim = Meca500Sim::start(SimConfig::fast(20.0))?;
 //! let mut robot = Meca500::connect_tcp(sim.control_addr(), Meca500Config::default())?;
 //! robot.activate_and_home(Duration::from_secs(5))?;
-//! robot.move_joints_and_wait(&ArmJoints::from_deg([10.0, 0.0, 0.0, 0.0, 30.0, 0.0]), &MotionOptions::default())?;
+//! robot.move_joints_and_wait(&ArmJoints::from_deg_array([10.0, 0.0, 0.0, 0.0, 30.0, 0.0]), &MotionOptions::default())?;
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 

@@ -48,7 +48,7 @@ mod thermometer;
 mod tracker;
 pub mod transport;
 
-pub use arm::{ArmJoints, ArmStatus, LinearFrame, MotionOptions, RobotArm};
+pub use arm::{ArmJoints, ArmStatus, JointLayout, LinearFrame, MotionOptions, RobotArm};
 pub use axis::LinearAxis;
 pub use clock::{Clock, SystemClock, VirtualClock};
 pub use error::{Error, ErrorKind, Result, Source};

@@ -36,7 +36,7 @@ impl DeviceSet for Devices {
     fn devices(&mut self) -> CellDevices<'_> {
         CellDevices {
             arm: &mut self.arm,
-            guide: &mut self.guide,
+            guide: Some(&mut self.guide),
             probe: &mut self.probe,
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,
@@ -82,7 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cell = VirtualCell::paper(Model::from_cell(&nominal)?, 5);
     let mut devices = Devices {
         arm: cell.arm(),
-        guide: cell.guide(),
+        guide: cell.guide().expect("the canonical cell has a guide"),
         probe: cell.probe()?,
         tracker: cell.tracker(),
         operator: cell.operator(),

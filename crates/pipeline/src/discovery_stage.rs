@@ -22,6 +22,7 @@ use vatcal_core::effects::EffectSpec;
 use vatcal_core::{JointVector, Measurement, ParamSet};
 use vatcal_discovery::plots::{effect_plot_file_name, effect_plot_svg};
 use vatcal_discovery::{DiscoverOptions, Discovery, discover};
+use vatcal_hardware_traits::JointLayout;
 use vatcal_identification::{IdentifyOptions, identify};
 use vatcal_kinematics::Model;
 use vatcal_kinematics::effects::{DataAvailability, missing_data};
@@ -93,9 +94,10 @@ impl DiscoveryStageOptions {
     }
 }
 
-/// The candidate effects the discovery campaign is planned for: gear harmonics 1 and 2 of
-/// joints 2..7 and a quadratic guide pitch/yaw/roll (the carriage tilt is left out: about
-/// one axis it is indistinguishable from the compliance of joint 2 on the candidate poses).
+/// The candidate effects the discovery campaign is planned for on the canonical cell: gear
+/// harmonics 1 and 2 of joints 2..7 and a quadratic guide pitch/yaw/roll (the carriage tilt is
+/// left out: about one axis it is indistinguishable from the compliance of joint 2 on the
+/// candidate poses). [`plan_effects_for`] gives them for any chain.
 pub fn default_plan_effects() -> Vec<EffectSpec> {
     let mut v = Vec::new();
     for joint in 2..=7u8 {
@@ -104,6 +106,22 @@ pub fn default_plan_effects() -> Vec<EffectSpec> {
         }
     }
     v.push(EffectSpec::GuideAngular { order: 2 });
+    v
+}
+
+/// The candidate effects of [`default_plan_effects`] for the chain of `model`: gear harmonics
+/// 1 and 2 of every revolute joint, and the quadratic guide pitch/yaw/roll when the chain has
+/// a guide ([`JointLayout`]). Equal to [`default_plan_effects`] on the canonical cell.
+pub fn plan_effects_for(model: &Model) -> Vec<EffectSpec> {
+    let mut v = Vec::new();
+    for joint in (1..=model.joint_count()).filter(|j| model.is_revolute(*j)) {
+        for harmonic in 1..=2u8 {
+            v.push(EffectSpec::JointCyclic { joint: joint as u8, harmonic });
+        }
+    }
+    if JointLayout::of(model.joint_kinds()).has_guide() {
+        v.push(EffectSpec::GuideAngular { order: 2 });
+    }
     v
 }
 
@@ -192,8 +210,9 @@ impl DiscoveryReport {
     }
 }
 
-/// Plans the discovery campaign (Detmax for the 34 parameters and the candidate effects'
-/// directions), starting at `start`, into `folder`.
+/// Plans the discovery campaign (Detmax for the calibration's parameters `base` — the paper's
+/// 34 on the canonical cell — and the candidate effects' directions), starting at `start`,
+/// into `folder`.
 ///
 /// # Errors
 /// An invalid candidate effect or a planning failure.
@@ -201,12 +220,13 @@ pub fn plan_discovery(
     opts: &RunOptions,
     stage: &DiscoveryStageOptions,
     nominal: &Model,
+    base: &ParamSet,
     geometry: &CellGeometry,
     start: Option<JointVector>,
     folder: &PlanFolder,
 ) -> Result<PlanSummary, PipelineError> {
     let mut model = nominal.clone();
-    let mut params = ParamSet::paper34().0;
+    let mut params = base.0.clone();
     for spec in &stage.plan_effects {
         model.enable_effect(*spec)?;
         for id in spec.params() {
@@ -248,17 +268,18 @@ pub fn add_two_sided_repeats(
         return 0;
     }
     // the planned approach side of every measurement: the sign of the last motion of each
-    // arm joint through the plan's waypoints (0: not moved yet)
+    // revolute joint through the plan's waypoints (0: not moved yet)
+    let revolute: Vec<usize> = (0..model.joint_count()).filter(|k| model.is_revolute(k + 1)).collect();
     let mut measures = Vec::new();
-    let mut dir = [0i8; 6];
+    let mut dir = vec![0i8; revolute.len()];
     let mut current: Option<JointVector> = None;
     for (k, step) in plan.steps.iter().enumerate() {
         match step {
             CampaignStep::Move { path } => {
                 for w in path {
                     if let Some(c) = current {
-                        for (j, d) in dir.iter_mut().enumerate() {
-                            let (a, b) = (c[j + 1], w[j + 1]);
+                        for (d, j) in dir.iter_mut().zip(&revolute) {
+                            let (a, b) = (c[*j], w[*j]);
                             if b != a {
                                 *d = if b > a { 1 } else { -1 };
                             }
@@ -269,7 +290,7 @@ pub fn add_two_sided_repeats(
             }
             CampaignStep::Measure { position, tcp } => {
                 if let Some(q) = current {
-                    measures.push((k, *position, *tcp, q, dir));
+                    measures.push((k, *position, *tcp, q, dir.clone()));
                 }
             }
             _ => {}
@@ -285,10 +306,10 @@ pub fn add_two_sided_repeats(
         // evenly spread, moving on when a pose is too close to a limit
         let from = (i * measures.len() / wanted).max(next);
         let Some(found) = (from..measures.len()).find(|&m| {
-            let (_, _, _, q, s) = measures[m];
-            let mut w = q;
-            for (j, sj) in s.iter().enumerate() {
-                w[j + 1] += overshoot_rad * if *sj < 0 { -1.0 } else { 1.0 };
+            let (_, _, _, q, s) = &measures[m];
+            let mut w = *q;
+            for (j, sj) in revolute.iter().zip(s) {
+                w[*j] += overshoot_rad * if *sj < 0 { -1.0 } else { 1.0 };
             }
             model.limit_violation(&w).is_none()
         }) else {
@@ -299,10 +320,11 @@ pub fn add_two_sided_repeats(
     }
     // insert from the back so the step indices stay valid
     for &m in chosen.iter().rev() {
-        let (k, position, tcp, q, s) = measures[m];
+        let (k, position, tcp, q, s) = &measures[m];
+        let (k, position, tcp, q) = (*k, *position, *tcp, *q);
         let mut past = q;
-        for (j, sj) in s.iter().enumerate() {
-            past[j + 1] += overshoot_rad * if *sj < 0 { -1.0 } else { 1.0 };
+        for (j, sj) in revolute.iter().zip(s) {
+            past[*j] += overshoot_rad * if *sj < 0 { -1.0 } else { 1.0 };
         }
         plan.steps.insert(k + 1, CampaignStep::Move { path: vec![past, q] });
         plan.steps.insert(k + 2, CampaignStep::Measure { position, tcp });
@@ -324,6 +346,7 @@ pub fn discovery_stage(
     devices: &mut dyn DeviceSet,
     nominal: &Model,
     calibrated: &Model,
+    base: &ParamSet,
     calibration: &[Measurement],
     start: Option<JointVector>,
     out: &Path,
@@ -332,8 +355,8 @@ pub fn discovery_stage(
 ) -> Result<DiscoveryOutcome, PipelineError> {
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
     let plan_folder = PlanFolder::new(out.join(DISCOVERY_PLAN));
-    plan_discovery(opts, stage, nominal, &geometry, start, &plan_folder)?;
-    let mut tour = plan_folder.read_tour()?;
+    plan_discovery(opts, stage, nominal, base, &geometry, start, &plan_folder)?;
+    let mut tour = plan_folder.read_tour(nominal.joint_kinds())?;
     let repeats =
         add_two_sided_repeats(&mut tour, nominal, stage.two_sided_repeats, stage.repeat_overshoot_rad);
     let folder = RunFolder::new(out);
@@ -344,13 +367,13 @@ pub fn discovery_stage(
     }
     let campaign = crate::run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, progress)?;
     let csv = out.join(DISCOVERY_MEASUREMENTS_CSV);
-    vatcal_io::write_measurements(&csv, &campaign.measurements)?;
+    vatcal_io::write_measurements_for(&csv, &campaign.measurements, nominal.joint_kinds())?;
     let mut all = calibration.to_vec();
     all.extend_from_slice(&campaign.measurements);
-    let discovery = discover(calibrated, &all, &ParamSet::paper34(), None, &stage.discover)?;
+    let discovery = discover(calibrated, &all, base, None, &stage.discover)?;
     let (true_structure, true_structure_note) = match &stage.true_effects {
         None => (None, "no true structure known (a real cell)".to_string()),
-        Some(effects) => match true_structure_fit(calibrated, &all, effects) {
+        Some(effects) => match true_structure_fit(calibrated, &all, base, effects) {
             Ok((m, note)) => (Some(m), note),
             Err(e) => (None, format!("the true-structure fit failed: {}", error_chain(&e))),
         },
@@ -388,8 +411,8 @@ fn error_chain(e: &dyn std::error::Error) -> String {
     s
 }
 
-/// Fits the paper's 34 parameters plus every parameter of `effects` (switched on in `start`)
-/// to `measurements`. The effect parameters get a weak prior (their typical scale) toward zero
+/// Fits the calibration's parameters `base` (the paper's 34 on the canonical cell) plus every
+/// parameter of `effects` (switched on in `start`) to `measurements`. The effect parameters get a weak prior (their typical scale) toward zero
 /// so that components the data cannot see (e.g. a gear harmonic of very high order) stay
 /// bounded instead of refusing the fit; effects the data lacks a column for are left out.
 ///
@@ -398,11 +421,12 @@ fn error_chain(e: &dyn std::error::Error) -> String {
 pub fn true_structure_fit(
     start: &Model,
     measurements: &[Measurement],
+    base: &ParamSet,
     effects: &[EffectSpec],
 ) -> Result<(Model, String), PipelineError> {
     let data = DataAvailability::of(measurements);
     let mut model = start.clone();
-    let mut params = ParamSet::paper34().0;
+    let mut params = base.0.clone();
     let mut priors = vec![f64::INFINITY; params.len()];
     let mut left_out = Vec::new();
     let mut used = 0;
@@ -426,10 +450,15 @@ pub fn true_structure_fit(
         ..IdentifyOptions::default()
     };
     let fit = identify(&model, measurements, &ParamSet(params), &options)?;
+    let base_name = if base == &ParamSet::paper34() {
+        "paper34".to_string()
+    } else {
+        format!("{} parameters", base.len())
+    };
     let mut note = format!(
-        "paper34 + {} parameters of the truth's {used} effects (weak prior of their typical scale toward 0), \
+        "{base_name} + {} parameters of the truth's {used} effects (weak prior of their typical scale toward 0), \
          {} probe measurements",
-        fit.params.len().saturating_sub(34),
+        fit.params.len().saturating_sub(base.len()),
         measurements.len()
     );
     if !left_out.is_empty() {
@@ -675,14 +704,15 @@ mod tests {
             truth.set_param(ParamId::Effect(EffectParam::Backlash { joint }), b).expect("value");
         }
         let cell = vatcal_sim::VirtualCell::new(model.clone(), truth, vatcal_sim::SimConfig::default(), 4);
-        let (mut arm, mut guide, mut operator) = (cell.arm(), cell.guide(), cell.operator());
+        let (mut arm, mut guide, mut operator) =
+            (cell.arm(), cell.guide().expect("the canonical cell has a guide"), cell.operator());
         let mut probe = cell.probe().expect("probe");
         let clock = cell.clock();
         assert!(cell.thermometer().is_none());
         let mut no_thermometer: Option<vatcal_sim::SimThermometer> = None;
         let devices = CellDevices {
             arm: &mut arm,
-            guide: &mut guide,
+            guide: Some(&mut guide),
             probe: &mut probe,
             tracker: None,
             operator: &mut operator,

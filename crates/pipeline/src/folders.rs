@@ -13,7 +13,7 @@
 use std::path::{Path, PathBuf};
 
 use vatcal_campaign::{CampaignPlan, Journal};
-use vatcal_core::Measurement;
+use vatcal_core::{JointKind, Measurement};
 use vatcal_kinematics::Model;
 use vatcal_planning::output::{PlanSummary, write_plan};
 use vatcal_planning::plan::Plan;
@@ -61,18 +61,20 @@ impl PlanFolder {
         Ok(write_plan(plan, &self.dir)?)
     }
 
-    /// Reads `tour.csv` as campaign steps (validate them against the model before running).
+    /// Reads `tour.csv` of a chain with joints `kinds` (`model.joint_kinds()`: `q1..qN`) as
+    /// campaign steps (validate them against the model before running).
     ///
     /// # Errors
-    /// A missing folder or tour file, or a bad row (file, line and column named).
-    pub fn read_tour(&self) -> Result<CampaignPlan, PipelineError> {
+    /// A missing folder or tour file, a tour of another joint count, or a bad row (file, line
+    /// and column named).
+    pub fn read_tour(&self, kinds: &[JointKind]) -> Result<CampaignPlan, PipelineError> {
         if !self.dir.is_dir() {
             return Err(PipelineError::Folder {
                 path: self.dir.clone(),
                 reason: "is not a plan folder (no such directory; write one with `vatcal plan`)".into(),
             });
         }
-        Ok(CampaignPlan::read_tour(self.path("tour.csv"))?)
+        Ok(CampaignPlan::read_tour_for(self.path("tour.csv"), kinds)?)
     }
 
     /// Reads `summary.json` as JSON (the plan summary is written for people and reports; its
@@ -129,12 +131,17 @@ impl RunFolder {
         self.path(MEASUREMENTS_CSV)
     }
 
-    /// Writes the measurements CSV (`position,tcp,q1..q7,time_s,dir2..dir7`, mm/deg).
+    /// Writes the measurements CSV of a chain with joints `kinds` (`position,tcp,q1..qN,
+    /// time_s,dir{j}`, mm/deg; the canonical cell: `q1..q7`, `dir2..dir7`).
     ///
     /// # Errors
     /// The file cannot be written.
-    pub fn write_measurements(&self, measurements: &[Measurement]) -> Result<(), PipelineError> {
-        Ok(vatcal_io::write_measurements(self.measurements(), measurements)?)
+    pub fn write_measurements(
+        &self,
+        measurements: &[Measurement],
+        kinds: &[JointKind],
+    ) -> Result<(), PipelineError> {
+        Ok(vatcal_io::write_measurements_for(self.measurements(), measurements, kinds)?)
     }
 
     /// Reads the measurements CSV (probe and tracker rows), checked against `model`.
@@ -177,10 +184,10 @@ mod tests {
     fn a_missing_plan_folder_or_tour_is_named() {
         let dir = tempfile::tempdir().expect("tmp");
         let missing = PlanFolder::new(dir.path().join("nope"));
-        let e = missing.read_tour().expect_err("missing").to_string();
+        let e = missing.read_tour(&vatcal_io::MECA500_ON_GUIDE_KINDS).expect_err("missing").to_string();
         assert!(e.contains("nope") && e.contains("vatcal plan"), "{e}");
         let empty = PlanFolder::new(dir.path());
-        let e = empty.read_tour().expect_err("no tour").to_string();
+        let e = empty.read_tour(&vatcal_io::MECA500_ON_GUIDE_KINDS).expect_err("no tour").to_string();
         assert!(e.contains("tour.csv"), "{e}");
     }
 

@@ -8,12 +8,15 @@
 //! 2. [`Stage::Campaign`] (`vatcal-campaign`): the planned measurements on any
 //!    [`DeviceSet`] with TriCal auto-centering, the crash-safe journal and `measurements.csv`
 //!    ([`campaign_stage`], also what `vatcal campaign` runs on the real cell);
-//! 3. [`Stage::Identify`] (`vatcal-identification`): the paper's 34 parameters by
+//! 3. [`Stage::Identify`] (`vatcal-identification`): the plan's parameter set (the paper's 34
+//!    parameters on the canonical cell, the chain's identifiable default set otherwise) by
 //!    Levenberg–Marquardt;
 //! 4. [`Stage::Validate`] (`vatcal_campaign::validation`): random poses and a printing path
 //!    measured with the tracker, commanded by the nominal and by the calibrated model; the
 //!    two printing-path runs are the uncompensated and compensated targets of
-//!    `vatcal-compensation` (checked before any motion, [`compensation`]);
+//!    `vatcal-compensation` (checked before any motion, [`compensation`]). The printing path
+//!    (the guide lifting the part out of the tank) exists on the canonical Meca500-on-guide
+//!    cell only: any other chain is validated on the random poses alone ([`has_printing_path`]);
 //! 5. [`Stage::Report`]: `report.json` ([`RunReport`]), `summary.md`, CSVs and SVG plots.
 //!
 //! [`run`] executes all of them in order. Progress goes to a [`Progress`] implementation
@@ -218,12 +221,12 @@ pub fn run_with_discovery<S: ReportSetup>(
     folder.remove_journals()?;
     let nominal = Model::from_cell(&opts.nominal)?;
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
-    let mut files = report::Files::new(out);
+    let mut files = report::Files::new(out, nominal.joint_kinds());
     files.cell("nominal.toml", &opts.nominal)?;
 
     stages.start(Stage::Plan, None);
     let plan_folder = PlanFolder::new(out.join("plan"));
-    let (candidates, plan) = plan_stage(opts, &nominal, &geometry, &plan_folder)?;
+    let (candidates, plan, params) = plan_stage(opts, &nominal, &geometry, &plan_folder)?;
     files.record_plan();
     stages.finish(Stage::Plan, |s| {
         Some(format!(
@@ -232,7 +235,7 @@ pub fn run_with_discovery<S: ReportSetup>(
         ))
     });
 
-    let tour = plan_folder.read_tour()?;
+    let tour = plan_folder.read_tour(nominal.joint_kinds())?;
     let clock_start_s = devices.devices().clock.now_s();
     let campaign =
         campaign_stage(devices, &nominal, &tour, &folder, opts.campaign.clone(), &mut *stages.progress)?;
@@ -249,7 +252,7 @@ pub fn run_with_discovery<S: ReportSetup>(
     });
 
     stages.start(Stage::Identify, None);
-    let fit = identify_stage(&nominal, &campaign.measurements)?;
+    let fit = identify_stage(&nominal, &campaign.measurements, &params)?;
     files.cell(folders::CALIBRATED_CELL, &fit.model.to_cell())?;
     stages.finish(Stage::Identify, |s| {
         Some(format!(
@@ -269,6 +272,7 @@ pub fn run_with_discovery<S: ReportSetup>(
                 devices,
                 &nominal,
                 &fit.model,
+                &fit.params,
                 &campaign.measurements,
                 start,
                 out,
@@ -296,7 +300,12 @@ pub fn run_with_discovery<S: ReportSetup>(
         }
         None => None,
     };
-    let options = validation_options(opts, start);
+    let mut options = validation_options(opts, start);
+    if !has_printing_path(&nominal) {
+        options.printing.slices = 0;
+        // one turn per joint: the path planner connects the random poses of a ±360° arm
+        options.random.revolute_range_deg = Some(360.0);
+    }
     let mut models: Vec<(&str, &Model)> = vec![(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
     if let Some(d) = &discovered {
         models.push((DISCOVERED, &d.discovery.model));
@@ -305,7 +314,11 @@ pub fn run_with_discovery<S: ReportSetup>(
         }
     }
     let validation_plan = build_validation_plan(&nominal, &geometry, &models, &options)?;
-    let printing_targets = compensation::check_printing_path(&nominal, &fit.model, &validation_plan)?;
+    let printing_targets = if validation_plan.slices.is_empty() {
+        None
+    } else {
+        Some(compensation::check_printing_path(&nominal, &fit.model, &validation_plan)?)
+    };
     stages.start(Stage::Validate, Some(validation_plan.campaign.steps.len()));
     let validation = validation_stage(
         devices,
@@ -341,7 +354,9 @@ pub fn run_with_discovery<S: ReportSetup>(
         validation_plan: &validation.plan,
         validation_options: &options,
         validation_time_s,
-        compensation: compensation::CompensationSummary::new(&printing_targets, &validation.results),
+        compensation: printing_targets
+            .as_ref()
+            .map(|t| compensation::CompensationSummary::new(t, &validation.results)),
         results: validation.results,
     });
     if let Some(d) = &discovered {
@@ -368,7 +383,8 @@ pub fn run_with_discovery<S: ReportSetup>(
 }
 
 /// Plans the campaign on the nominal cell and writes the plan folder; returns the number of
-/// candidates and the plan summary.
+/// candidates, the plan summary and the parameter set the plan was selected for (the paper's
+/// 34 on the canonical cell, the chain's identifiable default set otherwise).
 ///
 /// # Errors
 /// Planning fails or the folder cannot be written.
@@ -377,10 +393,17 @@ pub fn plan_stage(
     nominal: &Model,
     geometry: &CellGeometry,
     folder: &PlanFolder,
-) -> Result<(usize, PlanSummary), PipelineError> {
+) -> Result<(usize, PlanSummary, ParamSet), PipelineError> {
     let plan = plan_campaign(nominal, geometry, &plan_options(opts))?;
     let summary = folder.write(&plan)?;
-    Ok((plan.candidates.candidates.len(), summary))
+    Ok((plan.candidates.candidates.len(), summary, plan.params))
+}
+
+/// Whether the validation of `nominal` has the printing path: the guide lifts the part out of
+/// the tank like a printer's z axis, so only the canonical Meca500-on-guide cell has it (its
+/// IK and tank geometry); any other chain is validated on random poses only.
+pub fn has_printing_path(nominal: &Model) -> bool {
+    nominal.is_meca500_on_guide()
 }
 
 /// Runs `tour` on `devices`, journaling into the run folder's `campaign.journal` (a journal
@@ -401,7 +424,7 @@ pub fn campaign_stage(
     progress.stage_started(Stage::Campaign, Some(tour.steps.len()));
     let journal = folder.journal();
     let report = run_campaign(devices, nominal, tour, &journal, config, Stage::Campaign, progress)?;
-    folder.write_measurements(&report.measurements)?;
+    folder.write_measurements(&report.measurements, nominal.joint_kinds())?;
     Ok(report)
 }
 
@@ -429,15 +452,17 @@ fn run_campaign(
     Ok(report)
 }
 
-/// Identifies the paper's 34 parameters from the probe measurements (Levenberg–Marquardt).
+/// Identifies `params` (the plan's set: the paper's 34 on the canonical cell) from the probe
+/// measurements (Levenberg–Marquardt).
 ///
 /// # Errors
 /// The identification fails (too few measurements, divergence).
 pub fn identify_stage(
     nominal: &Model,
     measurements: &[vatcal_core::Measurement],
+    params: &ParamSet,
 ) -> Result<Identification, PipelineError> {
-    Ok(identify(nominal, measurements, &ParamSet::paper34(), &IdentifyOptions::default())?)
+    Ok(identify(nominal, measurements, params, &IdentifyOptions::default())?)
 }
 
 /// What the validation stage produced.
@@ -489,6 +514,8 @@ pub fn plan_options(opts: &RunOptions) -> PlanOptions {
             ..CandidateOptions::default()
         },
         count: opts.sizes.count,
+        // empty: the chain's default set (the paper's 34 on the canonical cell)
+        params: ParamSet(Vec::new()),
         motion: opts.nominal.motion_limits(),
         seed: opts.seed,
         ..PlanOptions::default()

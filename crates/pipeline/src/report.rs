@@ -11,7 +11,7 @@ use vatcal_campaign::validation::{
     ValidationPlanOptions, ValidationRecords,
 };
 use vatcal_campaign::{CampaignReport, StepOutcome};
-use vatcal_core::{CellFile, Measurement};
+use vatcal_core::{CellFile, JointKind, Measurement};
 use vatcal_identification::{ErrorStats, Identification, IdentificationReport};
 use vatcal_planning::output::PlanSummary;
 use vatcal_report::{PlotSpec, Series, line_plot_svg, save_svg};
@@ -134,8 +134,10 @@ pub struct RunReport<S> {
     /// the validation with the simulated laser tracker
     pub validation: ValidationSummary,
     /// the printing path commanded with uncompensated and compensated targets
-    /// (`vatcal-compensation`, the library of `vatcal compensate`)
-    pub compensation: crate::compensation::CompensationSummary,
+    /// (`vatcal-compensation`, the library of `vatcal compensate`); `None` for a chain without
+    /// the printing path (`crate::has_printing_path`)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub compensation: Option<crate::compensation::CompensationSummary>,
     /// the paper's figures, for comparison (not ours)
     pub paper: PaperFigures,
     /// the discovery stage, when it ran
@@ -162,7 +164,7 @@ pub(crate) struct ReportInputs<'a, S> {
     pub validation_options: &'a ValidationPlanOptions,
     pub validation_time_s: f64,
     pub results: Vec<ModelValidation>,
-    pub compensation: crate::compensation::CompensationSummary,
+    pub compensation: Option<crate::compensation::CompensationSummary>,
 }
 
 pub(crate) fn build_report<S: ReportSetup>(i: ReportInputs<'_, S>) -> RunReport<S> {
@@ -274,11 +276,13 @@ pub fn comparison_table<S>(report: &RunReport<S>) -> String {
 pub(crate) struct Files {
     out: PathBuf,
     written: Vec<PathBuf>,
+    /// the joints of the cell's chain (the measurement files' `q1..qN`, `dir{j}`)
+    kinds: Vec<JointKind>,
 }
 
 impl Files {
-    pub fn new(out: &Path) -> Self {
-        Self { out: out.to_path_buf(), written: Vec::new() }
+    pub fn new(out: &Path, kinds: &[JointKind]) -> Self {
+        Self { out: out.to_path_buf(), written: Vec::new(), kinds: kinds.to_vec() }
     }
 
     pub fn written(&self) -> &[PathBuf] {
@@ -310,7 +314,7 @@ impl Files {
     }
 
     pub fn measurements(&mut self, name: &str, m: &[Measurement]) -> Result<(), PipelineError> {
-        vatcal_io::write_measurements(self.out.join(name), m)?;
+        vatcal_io::write_measurements_for(self.out.join(name), m, &self.kinds)?;
         self.note(name);
         Ok(())
     }
@@ -341,6 +345,10 @@ impl Files {
             )?;
         }
         self.text("validation_random_errors.csv", &random_errors_csv(records, results))?;
+        if slices.is_empty() {
+            // a chain without the printing path
+            return Ok(());
+        }
         self.text("printing_path_errors.csv", &path_errors_csv(slices, results))
     }
 
@@ -354,6 +362,10 @@ impl Files {
     ) -> Result<(), PipelineError> {
         self.svg("random_errors_histogram.svg", &random_error_histogram_svg(results, 40)?)?;
         let paths: Vec<&PathValidation> = results.iter().filter_map(|r| r.path.as_ref()).collect();
+        if slices.is_empty() || paths.is_empty() {
+            // a chain without the printing path
+            return self.svg("identification_convergence.svg", &convergence_svg(fit)?);
+        }
         let title = "Position error at the tank bottom along the printing path";
         self.svg("path_errors.svg", &path_error_svg(title, slices, &paths)?)?;
         let calibrated: Vec<&PathValidation> =
@@ -590,7 +602,9 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         "| **paper**, printing path ({} slices) | {:.3} | {:.3} |",
         PAPER.path_slices, PAPER.path_nominal_mean_mm, PAPER.path_calibrated_mean_mm
     );
-    m.push_str(&crate::compensation::summary_markdown(&r.compensation));
+    if let Some(c) = &r.compensation {
+        m.push_str(&crate::compensation::summary_markdown(c));
+    }
     if let Some(d) = &outcome.discovery {
         m.push_str(&crate::discovery_stage::summary_section(r, d));
     }

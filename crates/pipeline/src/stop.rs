@@ -92,6 +92,9 @@ impl<A: RobotArm> StoppableArm<A> {
 }
 
 impl<A: RobotArm> RobotArm for StoppableArm<A> {
+    fn joint_count(&self) -> usize {
+        self.inner.joint_count()
+    }
     fn activate_and_home(&mut self, timeout: Duration) -> Result<()> {
         self.flag.check("arm")?;
         self.inner.activate_and_home(timeout)

@@ -18,7 +18,7 @@ use std::time::Duration;
 use vatcal_drivers_meca500::{Meca500, Meca500Config};
 use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
 use vatcal_drivers_zaber::{ZaberAxis, ZaberConfig};
-use vatcal_hardware_traits::{ArmJoints, Gauge, LinearAxis, MotionOptions, RobotArm};
+use vatcal_hardware_traits::{Gauge, JointLayout, LinearAxis, MotionOptions, RobotArm};
 use vatcal_sim_cell::{Ports, SimCell, SimCellOptions};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -65,7 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let fast = MotionOptions { speed_fraction: 1.0, timeout };
     guide.move_absolute_and_wait(pose.q.guide_mm(), &fast)?;
-    arm.move_joints_and_wait(&ArmJoints::from_joint_vector(&pose.q), &fast)?;
+    arm.move_joints_and_wait(&JointLayout::MECA500_ON_GUIDE.arm(&pose.q), &fast)?;
     let readings: Vec<f64> = gauges.iter_mut().map(|g| g.read_mm()).collect::<Result<_, _>>()?;
     println!("TCP {} at calibration position {position}: raw gauge readings {readings:?} mm", pose.tcp);
     Ok(())

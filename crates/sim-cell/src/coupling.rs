@@ -20,7 +20,10 @@ pub(crate) struct ArmCoupling {
 
 impl ArmBackend for ArmCoupling {
     fn motion_started(&self, from_deg: &Six, to_deg: &Six) {
-        self.cell.external_motion_started(&ArmJoints::from_deg(*from_deg), &ArmJoints::from_deg(*to_deg));
+        self.cell.external_motion_started(
+            &ArmJoints::from_deg_array(*from_deg),
+            &ArmJoints::from_deg_array(*to_deg),
+        );
     }
 
     fn linear_relative(
@@ -29,8 +32,13 @@ impl ArmBackend for ArmCoupling {
         translation_mm: &Vector3<f64>,
         frame: LinearFrame,
     ) -> Option<Result<Six, (u16, String)>> {
-        let from = ArmJoints::from_deg(*from_deg);
-        Some(self.cell.external_linear_target(&from, translation_mm, frame).map(|q| q.to_deg()))
+        let from = ArmJoints::from_deg_array(*from_deg);
+        Some(self.cell.external_linear_target(&from, translation_mm, frame).and_then(|q| {
+            // the simulated cell is the Meca500 on its guide (checked at start): six joints
+            Six::try_from(q.to_deg().as_slice()).map_err(|_| {
+                (vatcal_sim::external::CODE_JOINT_LIMIT, format!("{} joints for a Meca500", q.len()))
+            })
+        }))
     }
 }
 
@@ -94,7 +102,7 @@ impl GaugeCoupling {
         let (Some(arm), Some(guide)) = (self.arm.upgrade(), self.guide.upgrade()) else { return };
         // each simulator's lock is taken and released before the world's (lock order)
         let arm_state = arm.state();
-        let joints = ArmJoints::from_deg(arm_state.joints_deg);
+        let joints = ArmJoints::from_deg_array(arm_state.joints_deg);
         let p = arm_state.params;
         let arm_speed = p.joint_vel_pct.min(p.joint_vel_limit_pct) / 100.0;
         let guide_state = guide.state();

@@ -280,7 +280,8 @@ impl SimCell {
 
         // the guide: microsteps of the default lead, stroke and speed of the nominal cell
         let mut zaber_config = ZaberConfig { time_scale: options.time_scale, ..ZaberConfig::default() };
-        let (_, stroke_mm) = cell.guide_limits_mm();
+        // the cell is the Meca500 on its guide (checked above)
+        let (_, stroke_mm) = cell.guide_limits_mm().unwrap_or_default();
         zaber_config.travel_mm = stroke_mm;
         let limits = options.nominal.to_cell().motion_limits();
         zaber_config.maxspeed =
@@ -293,8 +294,9 @@ impl SimCell {
 
         // the arm: the nominal cell's joint limits, motions coupled to the world
         let mut meca_config = MecaConfig { time_scale: options.time_scale, ..MecaConfig::default() };
-        meca_config.joint_limits_deg =
-            cell.arm_joint_limits().map(|(lo, hi)| (lo.to_degrees(), hi.to_degrees()));
+        for (slot, (lo, hi)) in meca_config.joint_limits_deg.iter_mut().zip(cell.arm_joint_limits()) {
+            *slot = (lo.to_degrees(), hi.to_degrees());
+        }
         meca_config.control_bind = at(options.ports.meca500_control);
         meca_config.monitoring_bind = at(options.ports.meca500_monitoring);
         meca_config.backend = Some(Arc::new(ArmCoupling { cell: cell.clone() }));

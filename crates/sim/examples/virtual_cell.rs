@@ -13,7 +13,7 @@
 use std::time::Duration;
 
 use vatcal_core::{CellFile, JointVector};
-use vatcal_hardware_traits::{ArmJoints, Clock, LinearAxis, MotionOptions, PositionTracker, RobotArm};
+use vatcal_hardware_traits::{Clock, JointLayout, LinearAxis, MotionOptions, PositionTracker, RobotArm};
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::{
     ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
@@ -27,13 +27,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let truth = perturbed_truth(&nominal, 5, &ErrorBudget::realistic());
     let cell = VirtualCell::new(nominal.clone(), truth.clone(), SimConfig::default(), 5);
 
-    let (mut arm, mut guide, mut tracker) = (cell.arm(), cell.guide(), cell.tracker());
+    let (mut arm, mut guide, mut tracker) =
+        (cell.arm(), cell.guide().expect("the canonical cell has a guide"), cell.tracker());
     arm.activate_and_home(Duration::from_secs(60))?;
     guide.home(Duration::from_secs(60))?;
     let q = JointVector::from_mm_deg(150.0, [10.0, 20.0, -30.0, 40.0, 50.0, 60.0]);
     let options = MotionOptions::default();
     guide.move_absolute_and_wait(q.guide_mm(), &options)?;
-    arm.move_joints_and_wait(&ArmJoints::from_joint_vector(&q), &options)?;
+    arm.move_joints_and_wait(&JointLayout::MECA500_ON_GUIDE.arm(&q), &options)?;
 
     let tcp = 1;
     let measured = tracker.measure_mm(tcp)?;

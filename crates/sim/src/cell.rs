@@ -1,11 +1,11 @@
-//! [`VirtualCell`]: the simulated Meca500 + guide + TriCal + tracker + operator, sharing one
-//! hidden true model and one virtual clock.
+//! [`VirtualCell`]: the simulated robot arm (+ guide, when the chain has one) + TriCal +
+//! tracker + operator, sharing one hidden true model and one virtual clock.
 
 use std::sync::{Arc, Mutex};
 
 use nalgebra::Vector3;
 use vatcal_core::JointVector;
-use vatcal_hardware_traits::{TriCal, TriCalConfig, VirtualClock};
+use vatcal_hardware_traits::{JointLayout, TriCal, TriCalConfig, VirtualClock};
 use vatcal_kinematics::Model;
 
 use crate::config::{SimConfig, SimFaults};
@@ -13,7 +13,9 @@ use crate::devices::{Shared, SimArm, SimGauge, SimGuide, SimOperator, SimThermom
 use crate::truth::{ErrorBudget, perturbed_truth};
 use crate::world::World;
 
-/// A virtual cell.
+/// A virtual cell of any serial chain: the simulated arm has the chain's arm joints and the
+/// guide exists only when the chain has one ([`JointLayout`] of the nominal model: the
+/// canonical cell is the Meca500 on its guide, `fixtures/ur5e.toml` a six-axis arm alone).
 ///
 /// * The **truth** (a [`Model`], e.g. from [`perturbed_truth`], possibly with catalog effects)
 ///   decides where the balls physically are; the **nominal** model is what the simulated robot
@@ -63,9 +65,14 @@ impl VirtualCell {
         SimArm { shared: self.shared.clone() }
     }
 
-    /// The simulated linear guide.
-    pub fn guide(&self) -> SimGuide {
-        SimGuide { shared: self.shared.clone() }
+    /// The simulated linear guide, when the chain has one (`None` otherwise).
+    pub fn guide(&self) -> Option<SimGuide> {
+        self.layout().has_guide().then(|| SimGuide { shared: self.shared.clone() })
+    }
+
+    /// How the cell's joints split into the guide and the arm (from the nominal model).
+    pub fn layout(&self) -> JointLayout {
+        self.shared.lock().layout
     }
 
     /// The three simulated gauges of the TriCal.
@@ -156,10 +163,10 @@ impl VirtualCell {
         self.shared.lock().physical_joints()
     }
 
-    /// Oracle: sign of the last motion of each arm joint (cell joints 2..7; 0 = never moved),
-    /// as the truth's backlash effect sees it.
-    pub fn motion_directions(&self) -> [i8; 6] {
-        self.shared.lock().arm.dir
+    /// Oracle: sign of the last motion of each arm joint (J1..; cell joints 2..7 on the
+    /// canonical cell; 0 = never moved), as the truth's backlash effect sees it.
+    pub fn motion_directions(&self) -> Vec<i8> {
+        self.shared.lock().arm_dirs().to_vec()
     }
 
     /// Oracle: the world displacements requested by every relative linear move so far [mm].

@@ -2,6 +2,7 @@
 //! motion timing and fault injection.
 
 use vatcal_core::cell::MotionLimits;
+use vatcal_core::{JointKind, MAX_JOINTS};
 
 /// Random errors of the devices. Each figure is the paper's number, interpreted as a **3σ**
 /// bound: Gaussian draws use σ = figure / 3 per axis; the gauge error is a uniform draw within
@@ -79,8 +80,9 @@ impl Default for ProbeImperfections {
 /// How long things take in virtual time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimTiming {
-    /// maximum speed of each arm joint J1..J6 [rad/s]
-    pub joint_speed_rad_per_s: [f64; 6],
+    /// maximum speed of each arm joint J1.. [rad/s] (mm/s for a prismatic arm joint); index
+    /// k is arm joint J(k+1), entries beyond the arm's joints are unused
+    pub joint_speed_rad_per_s: [f64; MAX_JOINTS],
     /// maximum guide speed [mm/s]
     pub guide_speed_mm_per_s: f64,
     /// added to every motion (acceleration, settling) [s]
@@ -96,12 +98,31 @@ pub struct SimTiming {
 }
 
 impl SimTiming {
-    /// Speeds from the cell file's motion limits (degrees → radians), 0.3 s settling, 0.15 s
-    /// per gauge reading, 1 s per tracker measurement, 8 s homing, the file's probe
-    /// re-placement time.
+    /// Speeds from the cell file's motion limits for a six-axis arm of revolute joints
+    /// (degrees → radians), 0.3 s settling, 0.15 s per gauge reading, 1 s per tracker
+    /// measurement, 8 s homing, the file's probe re-placement time.
     pub fn from_motion_limits(m: &MotionLimits) -> Self {
+        Self::for_arm(m, &[JointKind::Revolute; 6])
+    }
+
+    /// [`SimTiming::from_motion_limits`] for an arm with joints `arm_kinds` (the arm's joints
+    /// only, without the guide), with the rule of the planner's motion timer: the k-th
+    /// revolute joint moves at the k-th of the `[motion]` table's six joint speeds, any further
+    /// revolute joint at the slowest of them, a prismatic arm joint at the guide speed.
+    pub fn for_arm(m: &MotionLimits, arm_kinds: &[JointKind]) -> Self {
+        let slowest = m.joint_speed_deg_per_s.iter().copied().fold(f64::INFINITY, f64::min);
+        let mut speed = [slowest.to_radians(); MAX_JOINTS];
+        let mut revolute = 0;
+        for (s, kind) in speed.iter_mut().zip(arm_kinds) {
+            *s = if kind.is_revolute() {
+                revolute += 1;
+                m.joint_speed_deg_per_s.get(revolute - 1).copied().unwrap_or(slowest).to_radians()
+            } else {
+                m.guide_speed_mm_per_s
+            };
+        }
         Self {
-            joint_speed_rad_per_s: m.joint_speed_deg_per_s.map(f64::to_radians),
+            joint_speed_rad_per_s: speed,
             guide_speed_mm_per_s: m.guide_speed_mm_per_s,
             settle_s: 0.3,
             gauge_read_s: 0.15,

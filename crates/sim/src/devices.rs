@@ -53,11 +53,16 @@ fn wait_until(clock: &VirtualClock, device: &str, end: Duration, timeout: Durati
     Ok(())
 }
 
-/// The simulated Meca500. Its controller believes the **nominal** model: joint moves are exact,
-/// relative linear moves are solved on the nominal geometry while the physics is the true one.
-/// [`LinearFrame::World`] is the axes of MDH frame 1 (the carriage the arm is bolted on);
-/// [`LinearFrame::Tool`] the flange axes (MDH frame 7). Error codes follow the Meca500:
-/// 1005/1006 not activated/homed, 1007 joint limit, 1011 in error, 1012 singularity.
+/// The simulated robot arm: the arm joints of the cell's chain
+/// ([`JointLayout`](vatcal_hardware_traits::JointLayout) of the nominal model — the six
+/// Meca500 joints on the canonical cell, all joints of a chain without a guide). Its
+/// controller believes the **nominal** model: joint moves are exact, relative linear moves are
+/// solved on the nominal geometry while the physics is the true one. [`LinearFrame::World`] is
+/// the axes of the frame the arm is mounted on (MDH frame 1, the carriage, on a cell with a
+/// guide; frame 0, the robot base, otherwise); [`LinearFrame::Tool`] the flange axes (MDH frame
+/// N). Error codes follow the Meca500: 1005/1006 not activated/homed, 1007 joint limit, 1011 in
+/// error, 1012 singularity; a target with another number of joints is refused
+/// ([`ErrorKind::OutOfRange`]).
 #[derive(Debug, Clone)]
 pub struct SimArm {
     pub(crate) shared: Shared,
@@ -88,18 +93,22 @@ impl SimArm {
         Error::new(ErrorKind::DeviceFault { code }, ARM, message)
     }
 
-    fn check_limits(w: &mut World, arm: &[f64; 6]) -> Result<()> {
-        let limits = w.nominal.joint_limits();
-        for j in 0..6 {
-            let (lo, hi) = limits[j + 1];
+    fn check_limits(w: &mut World, arm: &ArmJoints) -> Result<()> {
+        for j in 0..arm.len() {
+            let joint = w.layout.cell_joint(j);
+            let Some((lo, hi)) = w.nominal.joint_limit(joint) else { continue };
             if !(lo..=hi).contains(&arm[j]) {
-                let msg = format!(
-                    "joint J{} target {:.3} deg is outside [{:.1}, {:.1}] deg",
-                    j + 1,
-                    arm[j].to_degrees(),
-                    lo.to_degrees(),
-                    hi.to_degrees()
-                );
+                let msg = if w.nominal.is_revolute(joint) {
+                    format!(
+                        "joint J{} target {:.3} deg is outside [{:.1}, {:.1}] deg",
+                        j + 1,
+                        arm[j].to_degrees(),
+                        lo.to_degrees(),
+                        hi.to_degrees()
+                    )
+                } else {
+                    format!("joint J{} target {:.3} mm is outside [{lo:.1}, {hi:.1}] mm", j + 1, arm[j])
+                };
                 return Err(Self::fault(w, 1007, msg));
             }
         }
@@ -108,6 +117,10 @@ impl SimArm {
 }
 
 impl RobotArm for SimArm {
+    fn joint_count(&self) -> usize {
+        self.shared.lock().arm_count()
+    }
+
     fn activate_and_home(&mut self, timeout: Duration) -> Result<()> {
         let homing = {
             let w = self.shared.lock();
@@ -138,21 +151,23 @@ impl RobotArm for SimArm {
     }
 
     fn joints(&mut self) -> Result<ArmJoints> {
-        Ok(ArmJoints(self.shared.lock().arm_joints()))
+        Ok(self.shared.lock().arm_joints())
     }
 
     fn move_joints(&mut self, target: &ArmJoints, options: &MotionOptions) -> Result<()> {
         check_speed(ARM, options)?;
         let mut w = self.shared.lock();
+        w.layout.check_arm(target)?;
         Self::ready(&w)?;
-        if !target.0.iter().all(|v| v.is_finite()) {
+        if !target.as_slice().iter().all(|v| v.is_finite()) {
             return Err(Self::fault(&mut w, 1003, "non-finite joint target".into()));
         }
-        Self::check_limits(&mut w, &target.0)?;
-        let mut parts = bits(&target.0);
-        parts.extend(bits(&w.arm.motion.to));
+        Self::check_limits(&mut w, target)?;
+        let n = w.arm_count();
+        let mut parts = bits(target.as_slice());
+        parts.extend(bits(&w.arm.motion.to[..n]));
         let event = key(w.seed, "arm-joints", &parts);
-        w.start_arm_motion(target.0, options.speed_fraction, event);
+        w.start_arm_motion(target, options.speed_fraction, event);
         Ok(())
     }
 
@@ -168,11 +183,11 @@ impl RobotArm for SimArm {
         if !displacement_mm.iter().all(|v| v.is_finite()) {
             return Err(Self::fault(&mut w, 1003, "non-finite displacement".into()));
         }
-        let start = ArmJoints(w.arm.motion.to).with_guide(w.guide.motion.to[0]);
+        let start = w.cell_joints(w.guide.motion.to[0], &w.to_arm(&w.arm.motion.to));
         let delta = world_displacement(&w.nominal, &start, displacement_mm, frame);
         let executed = delta * w.config.faults.linear_move_gain;
         let target = match translate_flange(&w.nominal, &start, &executed) {
-            Ok(q) => ArmJoints::from_joint_vector(&q),
+            Ok(q) => w.layout.arm(&q),
             Err(LinearMoveError::Singular) => {
                 return Err(Self::fault(&mut w, 1012, "linear move would cross a singularity".into()));
             }
@@ -184,12 +199,13 @@ impl RobotArm for SimArm {
                 ));
             }
         };
-        let mut parts = bits(&w.arm.motion.to);
+        let n = w.arm_count();
+        let mut parts = bits(&w.arm.motion.to[..n]);
         parts.extend(bits(displacement_mm.as_slice()));
         parts.push(frame as u64);
         let event = key(w.seed, "arm-linear", &parts);
         w.linear_moves.push(delta);
-        w.start_arm_motion(target.0, options.speed_fraction, event);
+        w.start_arm_motion(&target, options.speed_fraction, event);
         Ok(())
     }
 
@@ -207,7 +223,7 @@ impl RobotArm for SimArm {
     fn stop(&mut self) -> Result<()> {
         let mut w = self.shared.lock();
         let now = w.now();
-        let here = w.arm_joints();
+        let here = w.arm.motion.position(now);
         w.arm.motion.to = here;
         w.arm.motion.end = now;
         Ok(())
@@ -219,8 +235,9 @@ impl RobotArm for SimArm {
     }
 }
 
-/// The simulated Zaber guide: reports the commanded position, is physically off by its
-/// repeatability error (drawn per move).
+/// The simulated Zaber guide (only on a cell whose chain has one, see
+/// [`VirtualCell::guide`](crate::VirtualCell::guide)): reports the commanded position, is
+/// physically off by its repeatability error (drawn per move).
 #[derive(Debug, Clone)]
 pub struct SimGuide {
     pub(crate) shared: Shared,

@@ -31,7 +31,7 @@ use crate::cell::VirtualCell;
 use crate::config::{SimConfig, SimTiming};
 use crate::controller::{LinearMoveError, translate_flange, world_displacement};
 use crate::noise::{bits, key, uniform};
-use crate::world::{Motion, PendingSegment};
+use crate::world::{Motion, PendingSegment, padded};
 
 /// Joint changes below this are the protocol's rounding, not motion (1e-9 rad ≈ 6e-8°, well
 /// above the Meca500 protocol's 9 decimals of a degree and far below any physical motion).
@@ -46,7 +46,10 @@ impl SimConfig {
     /// The configuration of [`VirtualCell::paper`] for the cell `nominal`: the paper's noise
     /// budget and probe imperfections, the timing of the cell file's motion limits.
     pub fn paper_for(nominal: &vatcal_kinematics::Model) -> Self {
-        Self { timing: SimTiming::from_motion_limits(&nominal.to_cell().motion_limits()), ..Self::default() }
+        let layout = vatcal_hardware_traits::JointLayout::of(nominal.joint_kinds());
+        let arm_kinds: Vec<_> = layout.arm_cell_joints().map(|j| nominal.joint_kind(j)).collect();
+        let timing = SimTiming::for_arm(&nominal.to_cell().motion_limits(), &arm_kinds);
+        Self { timing, ..Self::default() }
     }
 }
 
@@ -56,23 +59,25 @@ impl VirtualCell {
     /// joint vectors like [`SimArm`](crate::SimArm)'s joint moves.
     pub fn external_motion_started(&self, from: &ArmJoints, to: &ArmJoints) {
         let mut w = self.shared.lock();
-        let mut parts = bits(&to.0);
-        parts.extend(bits(&from.0));
+        let mut parts = bits(to.as_slice());
+        parts.extend(bits(from.as_slice()));
         let event = key(w.seed, "arm-joints", &parts);
-        w.arm.motion = Motion::at_rest(from.0);
+        let (from, to) = (padded(from), padded(to));
+        w.arm.motion = Motion::at_rest(from);
         let dir_before = w.arm.dir;
-        w.start_arm_motion(to.0, 1.0, event);
+        let to_arm = w.to_arm(&to);
+        w.start_arm_motion(&to_arm, 1.0, event);
         // a joint commanded to where it already is, up to the wire's precision (9 decimals of
         // a degree: a joint target read back and sent again), does not move: its backlash side
         // stays
         for (j, before) in dir_before.iter().enumerate() {
-            if (to.0[j] - from.0[j]).abs() < WIRE_RESOLUTION_RAD {
+            if (to[j] - from[j]).abs() < WIRE_RESOLUTION_RAD {
                 w.arm.dir[j] = *before;
             }
         }
         match w.pending.last_mut() {
-            Some(segment) if segment.arm.is_none() => segment.arm = Some((from.0, to.0)),
-            _ => w.pending.push(PendingSegment { arm: Some((from.0, to.0)), guide: None }),
+            Some(segment) if segment.arm.is_none() => segment.arm = Some((from, to)),
+            _ => w.pending.push(PendingSegment { arm: Some((from, to)), guide: None }),
         }
     }
 
@@ -115,7 +120,7 @@ impl VirtualCell {
             })
             .sum();
         w.clock.advance(elapsed);
-        w.arm.motion = Motion::at_rest(arm.0);
+        w.arm.motion = Motion::at_rest(padded(arm));
         w.guide.motion = Motion::at_rest([guide_mm]);
     }
 
@@ -135,13 +140,16 @@ impl VirtualCell {
         if !translation_mm.iter().all(|v| v.is_finite()) {
             return Err((CODE_SINGULARITY, "non-finite displacement".into()));
         }
-        let start = from.with_guide(w.guide.motion.to[0]);
+        if let Err(e) = w.layout.check_arm(from) {
+            return Err((CODE_JOINT_LIMIT, e.to_string()));
+        }
+        let start = w.cell_joints(w.guide.motion.to[0], from);
         let delta = world_displacement(&w.nominal, &start, translation_mm, frame);
         let executed = delta * w.config.faults.linear_move_gain;
         match translate_flange(&w.nominal, &start, &executed) {
             Ok(q) => {
                 w.linear_moves.push(delta);
-                Ok(ArmJoints::from_joint_vector(&q))
+                Ok(w.layout.arm(&q))
             }
             Err(LinearMoveError::Singular) => {
                 Err((CODE_SINGULARITY, "linear move would cross a singularity".into()))
@@ -175,19 +183,18 @@ impl VirtualCell {
         uniform(&mut rng, max)
     }
 
-    /// The arm's joint limits J1..J6 in the controller's (nominal) model [rad].
-    pub fn arm_joint_limits(&self) -> [(f64, f64); 6] {
-        let limits = self.shared.lock().nominal.joint_limits().to_vec();
-        let mut out = [(0.0, 0.0); 6];
-        for (o, l) in out.iter_mut().zip(limits.iter().skip(1)) {
-            *o = *l;
-        }
-        out
+    /// The arm's joint limits J1.. in the controller's (nominal) model [rad] (a continuous
+    /// joint: one turn, see `Model::joint_limits`).
+    pub fn arm_joint_limits(&self) -> Vec<(f64, f64)> {
+        let w = self.shared.lock();
+        let limits = w.nominal.joint_limits();
+        w.layout.arm_cell_joints().map(|j| limits[j - 1]).collect()
     }
 
-    /// The guide's stroke in the controller's (nominal) model [mm].
-    pub fn guide_limits_mm(&self) -> (f64, f64) {
-        self.shared.lock().nominal.joint_limits()[0]
+    /// The guide's stroke in the controller's (nominal) model [mm] (`None`: no guide).
+    pub fn guide_limits_mm(&self) -> Option<(f64, f64)> {
+        let w = self.shared.lock();
+        w.layout.guide_joint().map(|g| w.nominal.joint_limits()[g - 1])
     }
 }
 
@@ -221,12 +228,12 @@ mod tests {
         let options = MotionOptions { speed_fraction: 1.0, ..MotionOptions::default() };
 
         // in-process
-        let (mut arm, mut guide, mut op) = (inproc.arm(), inproc.guide(), inproc.operator());
+        let (mut arm, mut guide, mut op) = (inproc.arm(), inproc.guide().expect("guide"), inproc.operator());
         arm.activate_and_home(Duration::from_secs(60)).expect("home");
         guide.home(Duration::from_secs(60)).expect("home guide");
         // guide and arm together, waited for together (as the campaign moves them)
         guide.move_absolute_mm(target[0], &options).expect("guide");
-        let arm_target = ArmJoints::from_joint_vector(&target);
+        let arm_target = vatcal_hardware_traits::JointLayout::MECA500_ON_GUIDE.arm(&target);
         arm.move_joints(&arm_target, &options).expect("arm");
         guide.wait_idle(Duration::from_secs(60)).expect("guide idle");
         arm.wait_idle(Duration::from_secs(60)).expect("arm idle");
@@ -239,7 +246,7 @@ mod tests {
         // external
         ext.external_guide_motion_started(0.0, 0.0);
         ext.external_guide_motion_started(0.0, target[0]);
-        ext.external_motion_started(&ArmJoints([0.0; 6]), &arm_target);
+        ext.external_motion_started(&ArmJoints::zeros(6), &arm_target);
         ext.operator().perform(&OperatorInstruction::PlaceProbe { position }).expect("place");
         let after = ext.external_linear_target(&arm_target, &d, LinearFrame::Tool).expect("ik");
         assert_eq!(after, arm.joints().expect("joints"), "same controller solution");
@@ -265,13 +272,13 @@ mod tests {
         let nominal = nominal();
         let truth = crate::truth::perturbed_truth(&nominal, 5, &crate::truth::ErrorBudget::realistic());
         let cell = VirtualCell::new(nominal, truth, SimConfig::default(), 5);
-        let a = ArmJoints([0.1, 0.2, -0.3, 0.4, 0.5, -0.6]);
-        cell.external_motion_started(&ArmJoints([0.0; 6]), &a);
+        let a = ArmJoints::new([0.1, 0.2, -0.3, 0.4, 0.5, -0.6]);
+        cell.external_motion_started(&ArmJoints::zeros(6), &a);
         assert_eq!(cell.motion_directions(), [1, 1, -1, 1, 1, -1]);
         let mut rounded = a;
-        rounded.0[0] -= 1e-12; // 6e-11°: below the Meca500 protocol's 9 decimals
-        rounded.0[1] += 1e-3; // a real motion, same direction
-        rounded.0[2] += 1e-3; // a real reversal
+        rounded[0] -= 1e-12; // 6e-11°: below the Meca500 protocol's 9 decimals
+        rounded[1] += 1e-3; // a real motion, same direction
+        rounded[2] += 1e-3; // a real reversal
         cell.external_motion_started(&a, &rounded);
         assert_eq!(cell.motion_directions(), [1, 1, 1, 1, 1, -1]);
     }

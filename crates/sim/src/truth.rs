@@ -2,7 +2,7 @@
 //!
 //! * [`perturbed_truth`] — nominal model + random errors of realistic size ([`ErrorBudget`]);
 //! * [`reach`] — numerical position IK: move the arm joints (guide fixed) until a TCP sits on a
-//!   world point, on any model (this is what auto-centering achieves physically);
+//!   world point, on any model and any chain (this is what auto-centering achieves physically);
 //! * [`probe_start_poses`] — random joint vectors whose nominal TCP reaches a calibration
 //!   position (a stand-in for planned candidates in tests);
 //! * [`synthetic_probe_measurements`] / [`synthetic_tracker_measurements`] — data as the real
@@ -12,17 +12,18 @@ use std::fmt;
 use std::path::PathBuf;
 use std::str::FromStr;
 
-use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use vatcal_core::effects::{EffectSpec, ThermalDriver};
 use vatcal_core::params::{Axis, BaseParam, EffectParam, ToolFrameDof};
 use vatcal_core::{CellFile, JointVector, Measurement, MeasurementContext, ParamId, Target};
+use vatcal_hardware_traits::JointLayout;
 use vatcal_kinematics::Model;
 
 use crate::cell::VirtualCell;
-use crate::config::{CellPhysics, SimConfig, SimTiming, ThermalProfile};
+use crate::config::{CellPhysics, SimConfig, ThermalProfile};
 
 /// Standard deviations of the random errors of the true cell (internal units).
 #[derive(Debug, Clone, PartialEq)]
@@ -222,11 +223,22 @@ fn perturb(
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn perturbed_truth_any_chain(nominal: &Model, seed: u64, budget: &ErrorBudget) -> Model {
+    perturb_any_chain(nominal, seed, budget, gauss)
+}
+
+/// The parameter list of [`perturbed_truth_any_chain`]; `draw(rng, size)` gives one error of
+/// the given size (Gaussian there, ± the size in the any-chain [`paper_like_truth`]).
+fn perturb_any_chain(
+    nominal: &Model,
+    seed: u64,
+    budget: &ErrorBudget,
+    draw: impl Fn(&mut ChaCha8Rng, f64) -> f64,
+) -> Model {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut truth = nominal.clone();
     let add = |truth: &mut Model, rng: &mut ChaCha8Rng, id: ParamId, sigma: f64| {
         if let Ok(v) = truth.param(id) {
-            let _ = truth.set_param(id, v + gauss(rng, sigma));
+            let _ = truth.set_param(id, v + draw(rng, sigma));
         }
     };
     let n = nominal.joint_count() as u8;
@@ -365,7 +377,13 @@ impl PaperLikePhysics {
 /// seeded stream: gear harmonics (fixed amplitudes, random phases), backlash, guide angular and
 /// straightness errors and wrong masses / centres of mass (± their sizes), carriage tilt, a
 /// tool-changer offset (± its sizes), and a temperature-driven thermal growth.
+///
+/// Any other chain than the canonical cell gets the same physics on its own joints
+/// ([`paper_like_truth_any_chain`]).
 pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) -> Model {
+    if !nominal.is_meca500_on_guide() {
+        return paper_like_truth_any_chain(nominal, seed, physics);
+    }
     let mut truth = signed_truth(nominal, seed, &physics.geometry);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a11_c0de_9b35_0002);
     let sign = |rng: &mut ChaCha8Rng, size: f64| if rng.random::<bool>() { size } else { -size };
@@ -426,6 +444,110 @@ pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) 
     }
     truth.set_masses(masses);
     debug_assert!(truth.has_param(ParamId::Effect(EffectParam::CarriageTilt { axis: Axis::X })));
+    truth
+}
+
+/// Gravity torque [N·m] of the paper's cell that sets the size of the joint compliances of
+/// the error budgets (`ErrorBudget::compliance_range`, up to 4·10⁻⁴ rad/(N·m)): about the
+/// largest torque on the Meca500's joints (shoulder, arm stretched out).
+pub const REFERENCE_TORQUE_N_M: f64 = 5.0;
+
+/// The factor (≤ 1) by which a chain's compliances are scaled in the any-chain truths of the
+/// virtual cell ([`TruthSpec::build`], [`paper_like_truth_any_chain`]): the reference torque
+/// over the chain's largest gravity torque at its zero pose (arm stretched out on the UR5e
+/// fixture: ≈ 0.1). A heavier arm deflects by the same angles as the paper's cell instead of
+/// ten times more, which would put the nominal ball centimetres off the probe.
+pub fn compliance_scale(nominal: &Model) -> f64 {
+    let torques = nominal.gravity_torques(&JointVector::zeros(nominal.joint_count()));
+    let largest = torques.iter().fold(0.0f64, |m, t| m.max(t.abs()));
+    if largest > REFERENCE_TORQUE_N_M { REFERENCE_TORQUE_N_M / largest } else { 1.0 }
+}
+
+/// `budget` with its compliance range scaled by [`compliance_scale`]`(nominal)`.
+fn scaled_compliance(nominal: &Model, budget: &ErrorBudget) -> ErrorBudget {
+    let k = compliance_scale(nominal);
+    ErrorBudget {
+        compliance_range: (budget.compliance_range.0 * k, budget.compliance_range.1 * k),
+        ..budget.clone()
+    }
+}
+
+/// [`paper_like_truth`] on any chain other than the canonical cell: every MDH + β value, the
+/// base pose, TCPs and positions off by exactly ± the sizes of `physics.geometry` (random
+/// signs, the rows in order as [`perturbed_truth_any_chain`]), compliances of the revolute
+/// joints drawn in its range scaled by [`compliance_scale`]; then, from their own seeded stream,
+/// on **every revolute joint** the strain-wave gear harmonics (1–4 and the high one, fixed
+/// amplitudes, random phases) and the backlash, the guide's angular/straightness errors and
+/// carriage tilt when the chain has a guide, the tool-changer offset, the thermal growth with
+/// the temperature driver, and wrong masses / centres of mass of every body (± their sizes).
+pub fn paper_like_truth_any_chain(nominal: &Model, seed: u64, physics: &PaperLikePhysics) -> Model {
+    let budget = scaled_compliance(nominal, &physics.geometry);
+    let mut truth =
+        perturb_any_chain(
+            nominal,
+            seed,
+            &budget,
+            |rng, size| if rng.random::<bool>() { size } else { -size },
+        );
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a11_c0de_9b35_0002);
+    let sign = |rng: &mut ChaCha8Rng, size: f64| if rng.random::<bool>() { size } else { -size };
+    let set = |truth: &mut Model, spec: EffectSpec, values: &[f64]| {
+        // a spec the chain cannot take (a guide effect without a guide) is left out
+        if truth.enable_effect(spec).is_ok() {
+            for (id, v) in spec.params().into_iter().zip(values) {
+                let _ = truth.set_param(id, *v);
+            }
+        }
+    };
+    let high = (2 * u16::from(physics.gear_ratio)).min(255) as u8;
+    for joint in (1..=nominal.joint_count()).filter(|j| nominal.is_revolute(*j)) {
+        let joint = joint as u8;
+        for (harmonic, amplitude) in [
+            (1u8, physics.cyclic_low_rad),
+            (2, physics.cyclic_low_rad),
+            (3, physics.cyclic_mid_rad),
+            (4, physics.cyclic_mid_rad),
+            (high, physics.cyclic_high_rad),
+        ] {
+            let phase = rng.random_range(0.0..std::f64::consts::TAU);
+            let (s, c) = phase.sin_cos();
+            set(&mut truth, EffectSpec::JointCyclic { joint, harmonic }, &[amplitude * c, amplitude * s]);
+        }
+        set(&mut truth, EffectSpec::JointBacklash { joint }, &[physics.backlash_rad]);
+    }
+    if JointLayout::of(nominal.joint_kinds()).has_guide() {
+        let angular = EffectSpec::GuideAngular { order: 3 };
+        let values: Vec<f64> =
+            angular.params().iter().map(|_| sign(&mut rng, physics.guide_angular_rad)).collect();
+        set(&mut truth, angular, &values);
+        let straight = EffectSpec::GuideStraightness { order: 3 };
+        let values: Vec<f64> =
+            straight.params().iter().map(|_| sign(&mut rng, physics.guide_straightness_mm)).collect();
+        set(&mut truth, straight, &values);
+        set(&mut truth, EffectSpec::GuideCarriageTilt, &[physics.carriage_tilt_rad_per_n_m; 2]);
+    }
+    let tool: Vec<f64> = ToolFrameDof::ALL
+        .iter()
+        .map(|d| match d {
+            ToolFrameDof::Tx | ToolFrameDof::Ty => sign(&mut rng, physics.tool_offset_mm),
+            ToolFrameDof::Rx | ToolFrameDof::Ry => sign(&mut rng, physics.tool_tilt_rad),
+        })
+        .collect();
+    set(&mut truth, EffectSpec::ToolFrame, &tool);
+    set(
+        &mut truth,
+        EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature },
+        &[physics.thermal_per_k],
+    );
+    truth.set_thermal_reference_c(physics.reference_c);
+    let mut masses = truth.masses().clone();
+    for body in masses.bodies_mut().iter_mut() {
+        body.mass_kg *= 1.0 + sign(&mut rng, physics.mass_relative);
+        for k in 0..3 {
+            body.com_mm[k] += sign(&mut rng, physics.com_mm);
+        }
+    }
+    truth.set_masses(masses);
     truth
 }
 
@@ -505,7 +627,12 @@ impl TruthSpec {
         let paper_physics = CellPhysics { thermal: Some(paper.temperature), ..paper.tracker };
         Ok(match self {
             Self::Ideal => BuiltTruth {
-                model: perturbed_truth(nominal, seed, &ErrorBudget::realistic()),
+                // any other chain: compliances scaled to its gravity torques (compliance_scale)
+                model: if nominal.is_meca500_on_guide() {
+                    perturbed_truth(nominal, seed, &ErrorBudget::realistic())
+                } else {
+                    perturbed_truth(nominal, seed, &scaled_compliance(nominal, &ErrorBudget::realistic()))
+                },
                 physics: CellPhysics::none(),
                 description: "ideal: random errors of the paper's 34 parameters only (no effect \
                               outside the model, ideal tracker)"
@@ -554,7 +681,7 @@ impl TruthSpec {
     pub fn virtual_cell(&self, nominal: Model, seed: u64) -> Result<VirtualCell, TruthError> {
         let built = self.build(&nominal, seed)?;
         let config = SimConfig {
-            timing: SimTiming::from_motion_limits(&nominal.to_cell().motion_limits()),
+            timing: SimConfig::paper_for(&nominal).timing,
             physics: built.physics,
             ..SimConfig::default()
         };
@@ -584,19 +711,17 @@ pub enum ReachError {
     Model(String),
 }
 
-const JOINT_PARAMS: [ParamId; 6] = [
-    ParamId::ThetaOffset(2),
-    ParamId::ThetaOffset(3),
-    ParamId::ThetaOffset(4),
-    ParamId::ThetaOffset(5),
-    ParamId::ThetaOffset(6),
-    ParamId::ThetaOffset(7),
-];
-
-/// Numerical position IK: moves the six arm joints (the guide stays at `q_start.q1`) until
-/// TCP `tcp` of `model` is at `target_mm` (world), to `tolerance_mm`. Damped least squares with
-/// the minimum-norm step, so the arm stays close to `q_start` (the redundancy is resolved
-/// toward the start). Torques are re-evaluated at every iterate.
+/// Numerical position IK: moves the arm joints (every joint but the guide of the model's
+/// [`JointLayout`]: the six Meca500 joints on the canonical cell, all joints of a chain
+/// without a guide; the guide stays at its value in `q_start`) until TCP `tcp` of `model` is
+/// at `target_mm` (world), to `tolerance_mm`. Damped least squares on the model's own
+/// Jacobian (columns of the joints' offsets: `theta` of revolute, `d` of prismatic joints)
+/// with the minimum-norm step, so the arm stays close to `q_start` (the redundancy is resolved
+/// toward the start). Torques are re-evaluated at every iterate. Any chain, no closed form.
+///
+/// # Errors
+/// [`ReachError`]: no convergence in 100 iterations, a solution outside the joint limits, or a
+/// TCP the model does not have.
 pub fn reach(
     model: &Model,
     q_start: &JointVector,
@@ -604,13 +729,38 @@ pub fn reach(
     target_mm: &Vector3<f64>,
     tolerance_mm: f64,
 ) -> Result<JointVector, ReachError> {
+    let layout = JointLayout::of(model.joint_kinds());
+    macro_rules! dispatch {
+        ($($n:literal)*) => {
+            match layout.arm_joint_count() {
+                $($n => reach_n::<$n>(model, &layout, q_start, tcp, target_mm, tolerance_mm),)*
+                n => Err(ReachError::Model(format!("an arm of {n} joints"))),
+            }
+        };
+    }
+    dispatch!(1 2 3 4 5 6 7 8 9 10 11 12)
+}
+
+/// [`reach`] for an arm of `N` joints.
+fn reach_n<const N: usize>(
+    model: &Model,
+    layout: &JointLayout,
+    q_start: &JointVector,
+    tcp: u32,
+    target_mm: &Vector3<f64>,
+    tolerance_mm: f64,
+) -> Result<JointVector, ReachError> {
+    let params: Vec<ParamId> = layout
+        .arm_cell_joints()
+        .map(|j| if model.is_revolute(j) { ParamId::ThetaOffset(j as u8) } else { ParamId::D(j as u8) })
+        .collect();
     let mut q = *q_start;
-    let mut buf = [0.0; 18];
+    let mut buf = vec![0.0; 3 * N];
     let ctx = MeasurementContext::default();
     let max_iter = 100;
     for it in 0..max_iter {
         let p = model
-            .jacobian_into(&q, &ctx, tcp, &JOINT_PARAMS, &mut buf)
+            .jacobian_into(&q, &ctx, tcp, &params, &mut buf)
             .map_err(|e| ReachError::Model(e.to_string()))?;
         let e = target_mm - p;
         let n = e.norm();
@@ -623,21 +773,21 @@ pub fn reach(
         if !n.is_finite() || it + 1 == max_iter {
             return Err(ReachError::NoConvergence { residual_mm: n, iterations: it });
         }
-        let j = Matrix3x6::from_column_slice(&buf);
+        let j = SMatrix::<f64, 3, N>::from_column_slice(&buf);
         // damping only far from the target (stabilises big first steps)
         let lambda2 = if n > 1.0 { 1e-2 * n } else { 0.0 };
         let jjt = j * j.transpose() + Matrix3::identity() * lambda2;
         let Some(inv) = jjt.try_inverse() else {
             return Err(ReachError::NoConvergence { residual_mm: n, iterations: it });
         };
-        let mut dq: Vector6<f64> = j.transpose() * (inv * e);
+        let mut dq: SVector<f64, N> = j.transpose() * (inv * e);
         // cap the step at 0.2 rad per joint
         let m = dq.amax();
         if m > 0.2 {
             dq *= 0.2 / m;
         }
-        for k in 0..6 {
-            q[k + 1] += dq[k];
+        for k in 0..N {
+            q[layout.cell_joint(k) - 1] += dq[k];
         }
     }
     Err(ReachError::NoConvergence { residual_mm: f64::NAN, iterations: max_iter })

@@ -5,8 +5,8 @@ use std::time::Duration;
 
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use rand::RngExt;
-use vatcal_core::{JointVector, MeasurementContext};
-use vatcal_hardware_traits::{Clock, Error, ErrorKind, ProbePlacement, VirtualClock};
+use vatcal_core::{JointVector, MAX_JOINTS, MeasurementContext};
+use vatcal_hardware_traits::{ArmJoints, Clock, Error, ErrorKind, JointLayout, ProbePlacement, VirtualClock};
 use vatcal_kinematics::Model;
 
 use crate::config::SimConfig;
@@ -44,17 +44,27 @@ impl<const N: usize> Motion<N> {
     }
 }
 
-/// The arm as the controller and the physics see it.
+/// The arm as the controller and the physics see it. The arm has the joints of the cell's
+/// [`JointLayout`] (J1.. = entries `0..n`, the rest of the fixed capacity stays 0).
 #[derive(Debug, Clone)]
 pub(crate) struct ArmState {
     pub activated: bool,
     pub homed: bool,
     pub error: Option<(i32, String)>,
-    pub motion: Motion<6>,
+    pub motion: Motion<MAX_JOINTS>,
     /// repeatability: world offset of the tool, re-drawn at every motion [mm]
     pub offset_mm: Vector3<f64>,
-    /// sign of the last motion of each arm joint (cell joints 2..7)
-    pub dir: [i8; 6],
+    /// sign of the last motion of each arm joint (J1.. = entries `0..n`)
+    pub dir: [i8; MAX_JOINTS],
+}
+
+/// The arm's joints padded to the fixed capacity of [`ArmState`].
+pub(crate) fn padded(arm: &ArmJoints) -> [f64; MAX_JOINTS] {
+    let mut out = [0.0; MAX_JOINTS];
+    for (o, v) in out.iter_mut().zip(arm.as_slice()) {
+        *o = *v;
+    }
+    out
 }
 
 /// The guide.
@@ -86,6 +96,8 @@ pub(crate) struct World {
     pub config: SimConfig,
     pub nominal: Model,
     pub truth: Model,
+    /// how the cell's joints split into the guide and the arm (from the nominal model)
+    pub layout: JointLayout,
     pub clock: VirtualClock,
     pub arm: ArmState,
     pub guide: GuideState,
@@ -114,8 +126,8 @@ pub(crate) struct World {
 /// segment is the longer of the two.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct PendingSegment {
-    /// arm motion from, to [rad]
-    pub arm: Option<([f64; 6], [f64; 6])>,
+    /// arm motion from, to [rad] (J1.. = entries `0..n`)
+    pub arm: Option<([f64; MAX_JOINTS], [f64; MAX_JOINTS])>,
     /// guide motion from, to [mm]
     pub guide: Option<(f64, f64)>,
 }
@@ -206,19 +218,21 @@ impl World {
         let smr_offsets_mm =
             truth.tcp_ids().into_iter().map(|t| (t, gauss3(&mut smr_rng, physics.smr_nest_mm))).collect();
 
+        let layout = JointLayout::of(nominal.joint_kinds());
         Self {
             seed,
             config,
             nominal,
             truth,
+            layout,
             clock,
             arm: ArmState {
                 activated: false,
                 homed: false,
                 error: None,
-                motion: Motion::at_rest([0.0; 6]),
+                motion: Motion::at_rest([0.0; MAX_JOINTS]),
                 offset_mm: Vector3::zeros(),
-                dir: [0; 6],
+                dir: [0; MAX_JOINTS],
             },
             guide: GuideState { homed: false, motion: Motion::at_rest([0.0]), offset_mm: 0.0 },
             plate: None,
@@ -258,9 +272,40 @@ impl World {
         noise::rng(k)
     }
 
+    /// Number of arm joints.
+    pub fn arm_count(&self) -> usize {
+        self.layout.arm_joint_count()
+    }
+
     /// Joints the arm reports now [rad].
-    pub fn arm_joints(&self) -> [f64; 6] {
-        self.arm.motion.position(self.now())
+    pub fn arm_joints(&self) -> ArmJoints {
+        self.to_arm(&self.arm.motion.position(self.now()))
+    }
+
+    /// The arm's joints from the fixed-capacity storage.
+    pub fn to_arm(&self, padded: &[f64; MAX_JOINTS]) -> ArmJoints {
+        let mut a = ArmJoints::zeros(self.arm_count());
+        let n = a.len();
+        a.as_mut_slice().copy_from_slice(&padded[..n]);
+        a
+    }
+
+    /// The arm's current motion directions (J1..).
+    pub fn arm_dirs(&self) -> &[i8] {
+        &self.arm.dir[..self.arm_count()]
+    }
+
+    /// The cell joint vector of the guide at `guide_mm` (ignored without a guide) and the arm
+    /// at `arm`.
+    pub fn cell_joints(&self, guide_mm: f64, arm: &ArmJoints) -> JointVector {
+        let mut q = JointVector::zeros(self.layout.joint_count());
+        if self.layout.has_guide() {
+            q[0] = guide_mm;
+        }
+        for (k, v) in arm.as_slice().iter().enumerate() {
+            q[self.layout.cell_joint(k) - 1] = *v;
+        }
+        q
     }
 
     /// Position the guide reports now [mm].
@@ -269,19 +314,20 @@ impl World {
     }
 
     /// Duration of a joint-space move at `speed_fraction`.
-    pub fn arm_duration(&self, from: &[f64; 6], to: &[f64; 6], speed_fraction: f64) -> Duration {
+    pub fn arm_duration(&self, from: &[f64], to: &[f64], speed_fraction: f64) -> Duration {
         let t = &self.config.timing;
-        let s = (0..6)
+        let s = (0..self.arm_count().min(from.len()).min(to.len()))
             .map(|j| (to[j] - from[j]).abs() / (t.joint_speed_rad_per_s[j] * speed_fraction).max(1e-9))
             .fold(0.0, f64::max);
         Duration::from_secs_f64(s + t.settle_s)
     }
 
     /// Starts an arm motion to `to`; `event_key` names the command (its noise).
-    pub fn start_arm_motion(&mut self, to: [f64; 6], speed_fraction: f64, event_key: u64) {
+    pub fn start_arm_motion(&mut self, to: &ArmJoints, speed_fraction: f64, event_key: u64) {
         let now = self.now();
-        let from = self.arm_joints();
-        for j in 0..6 {
+        let from = self.arm.motion.position(now);
+        let to = padded(to);
+        for j in 0..self.arm_count() {
             if to[j] != from[j] {
                 self.arm.dir[j] = if to[j] > from[j] { 1 } else { -1 };
             }
@@ -316,11 +362,7 @@ impl World {
 
     /// Joints where the cell physically is (guide with its repeatability error).
     pub fn physical_joints(&self) -> JointVector {
-        let arm = self.arm_joints();
-        let mut q = [0.0; 7];
-        q[0] = self.guide_mm() + self.guide.offset_mm;
-        q[1..].copy_from_slice(&arm);
-        JointVector::new(q)
+        self.cell_joints(self.guide_mm() + self.guide.offset_mm, &self.arm_joints())
     }
 
     /// Per-sample context the true model sees (backlash direction, time, temperature when the
@@ -328,7 +370,7 @@ impl World {
     pub fn context(&self) -> MeasurementContext {
         let t = self.now().as_secs_f64();
         MeasurementContext {
-            dir: Some(vatcal_core::measurement::dirs_from_meca500_arm(self.arm.dir)),
+            dir: Some(self.layout.cell_dirs(self.arm_dirs())),
             time_s: Some(t),
             temperature_c: self.config.physics.thermal.map(|p| p.at(t)),
         }

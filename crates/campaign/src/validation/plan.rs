@@ -120,7 +120,9 @@ pub struct ValidationPlan {
 ///   commanding its own run (e.g. `[("nominal", &nominal), ("calibrated", &calibrated)]`);
 /// * the random poses are ordered by the tour heuristic of `vatcal-planning` (joint-move time),
 ///   and every leg between consecutive poses is a verified collision-free path with the probe
-///   removed.
+///   removed;
+/// * `opts.printing.slices == 0` plans no printing path (random poses only): what a chain
+///   without the Meca500-on-guide's tank path is validated with (any serial chain).
 ///
 /// # Errors
 /// Invalid options or geometry, too few collision-free random poses, a printing path that no
@@ -132,9 +134,53 @@ pub fn build_validation_plan(
     opts: &ValidationPlanOptions,
 ) -> Result<ValidationPlan, ValidationError> {
     let checker = CollisionChecker::new(reference, geometry, opts.collision_margin_mm)?;
-    let timer = MotionTimer::from_limits(&opts.motion)?;
+    let timer = MotionTimer::for_model(&opts.motion, reference)?;
     let poses = random_validation_poses(reference, &checker, &opts.random, opts.seed)?;
     let random_poses = order_poses(&poses, &timer, opts);
+    // no printing path: random poses only (a chain without a guide and tank path). A random
+    // pose the path planner cannot reach from its predecessor (a pocket of free space, or a
+    // detour longer than the planner's iterations, on a ±360° arm) is dropped with its
+    // predecessor (the isolated one may be either) — at most one in ten over four rounds — and
+    // the legs planned again
+    if opts.printing.slices == 0 {
+        let mut random_poses = random_poses;
+        let max_drops = (random_poses.len() / 10).max(2);
+        let mut drops = 0;
+        let mut round = 0;
+        let (campaign, targets, rrt_legs) = loop {
+            round += 1;
+            let mut builder = StepBuilder::new(&checker, &timer, opts);
+            builder.add_random(&random_poses);
+            match builder.finish_indexed() {
+                Ok(done) => break done,
+                Err((failed, e)) => {
+                    let mut drop: Vec<usize> = failed
+                        .iter()
+                        .flat_map(|k| [k.saturating_sub(1), *k])
+                        .filter(|k| *k < random_poses.len())
+                        .collect();
+                    drop.dedup();
+                    if round > 4 || drops + drop.len() > max_drops {
+                        return Err(e);
+                    }
+                    drops += drop.len();
+                    for k in drop.iter().rev() {
+                        random_poses.remove(*k);
+                    }
+                }
+            }
+        };
+        let slice_targets = Vec::new();
+        return Ok(ValidationPlan {
+            random_poses,
+            slices: Vec::new(),
+            path_runs: Vec::new(),
+            slice_targets,
+            campaign,
+            rrt_legs,
+            targets,
+        });
+    }
     let slices = printing_path(&opts.printing)?;
     let bounds = JointBounds::new(reference, opts.printing_joint_margin_deg, opts.random.guide_margin_mm)?;
     let rules = PrintingJointRules {
@@ -236,8 +282,17 @@ impl<'a> StepBuilder<'a> {
 
     /// Plans every leg and returns the campaign plan, the step targets and the RRT leg count.
     fn finish(self) -> Result<(CampaignPlan, Vec<Option<TrackTarget>>, usize), ValidationError> {
+        self.finish_indexed().map_err(|(_, e)| e)
+    }
+
+    /// [`StepBuilder::finish`]; a failure lists every goal whose leg failed (ascending) with the
+    /// first error.
+    #[allow(clippy::type_complexity)]
+    fn finish_indexed(
+        self,
+    ) -> Result<(CampaignPlan, Vec<Option<TrackTarget>>, usize), (Vec<usize>, ValidationError)> {
         let reference = self.checker.model();
-        let bounds = JointBounds::new(reference, MOVE_MARGIN_DEG, 0.0)?;
+        let bounds = JointBounds::new(reference, MOVE_MARGIN_DEG, 0.0).map_err(|e| (Vec::new(), e.into()))?;
         let planner =
             PathPlanner { checker: self.checker, bounds: &bounds, timer: self.timer, opts: &self.opts.paths };
         let start = self.opts.start;
@@ -267,11 +322,13 @@ impl<'a> StepBuilder<'a> {
                 Ok((path.waypoints.into_iter().skip(1).collect(), rrt))
             })
             .collect();
+        let failed: Vec<usize> =
+            legs.iter().enumerate().filter(|(_, l)| l.is_err()).map(|(k, _)| k).collect();
         let mut steps = Vec::new();
         let mut targets = Vec::new();
         let mut rrt_legs = 0;
         for (goal, leg) in self.goals.iter().zip(legs) {
-            let (path, rrt) = leg?;
+            let (path, rrt) = leg.map_err(|e| (failed.clone(), e))?;
             rrt_legs += usize::from(rrt);
             steps.push(CampaignStep::Move { path });
             targets.push(None);

@@ -22,12 +22,25 @@ pub struct RandomPoseOptions {
     pub guide_margin_mm: f64,
     /// draws allowed per accepted pose before giving up
     pub max_draws_per_pose: usize,
+    /// when given, each revolute joint is drawn within at most this range centred on the
+    /// middle of its limits [deg] (e.g. 360: one turn of a ±360° UR joint, whose two turns
+    /// reach the same poses and make the legs between random poses too long for the path
+    /// planner); `None` (the default): the whole range
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub revolute_range_deg: Option<f64>,
 }
 
 impl Default for RandomPoseOptions {
-    /// 573 poses, 5° from the arm joint limits, 5 mm from the stroke ends, 200 draws per pose.
+    /// 573 poses, 5° from the arm joint limits, 5 mm from the stroke ends, 200 draws per pose,
+    /// the whole range of every joint.
     fn default() -> Self {
-        Self { count: 573, joint_margin_deg: 5.0, guide_margin_mm: 5.0, max_draws_per_pose: 200 }
+        Self {
+            count: 573,
+            joint_margin_deg: 5.0,
+            guide_margin_mm: 5.0,
+            max_draws_per_pose: 200,
+            revolute_range_deg: None,
+        }
     }
 }
 
@@ -54,7 +67,16 @@ pub fn random_validation_poses(
     opts: &RandomPoseOptions,
     seed: u64,
 ) -> Result<Vec<ValidationPose>, ValidationError> {
-    let bounds = JointBounds::new(model, opts.joint_margin_deg, opts.guide_margin_mm)?;
+    let mut bounds = JointBounds::new(model, opts.joint_margin_deg, opts.guide_margin_mm)?;
+    if let Some(range) = opts.revolute_range_deg {
+        let half = range.to_radians() / 2.0;
+        for (k, (lo, hi)) in bounds.bounds.iter_mut().enumerate().take(model.joint_count()) {
+            if model.is_revolute(k + 1) && *hi - *lo > 2.0 * half {
+                let mid = 0.5 * (*lo + *hi);
+                (*lo, *hi) = (mid - half, mid + half);
+            }
+        }
+    }
     let tcps = model.tcp_ids();
     if tcps.is_empty() {
         return Err(ValidationError::Option { option: "model".into(), reason: "has no TCP".into() });
@@ -68,7 +90,7 @@ pub fn random_validation_poses(
             return Err(ValidationError::NotEnoughPoses { found: out.len(), wanted: opts.count, draws });
         }
         draws += 1;
-        let mut q = JointVector::default();
+        let mut q = JointVector::zeros(model.joint_count());
         for (v, (lo, hi)) in q.as_mut_slice().iter_mut().zip(&bounds.bounds) {
             *v = if hi > lo { rng.random_range(*lo..*hi) } else { *lo };
         }

@@ -154,6 +154,9 @@ struct DropsAt<A> {
 }
 
 impl<A: RobotArm> RobotArm for DropsAt<A> {
+    fn joint_count(&self) -> usize {
+        self.inner.joint_count()
+    }
     fn activate_and_home(&mut self, timeout: Duration) -> HwResult<()> {
         self.inner.activate_and_home(timeout)
     }
@@ -433,4 +436,136 @@ fn a_cell_with_a_thermometer_records_the_temperature_of_each_measurement() {
     let resumed = Campaign::new(d.devices(), &model, quiet_config()).run(&plan, &journal).expect("resume");
     assert_eq!(resumed.measurements.len(), plan.measurement_count());
     assert!(resumed.measurements.iter().all(|m| m.context.temperature_c.is_some()));
+}
+
+// --- any serial chain: a UR5e-class arm without a guide on the virtual cell ---
+
+/// The UR5e-class fixture (`fixtures/ur5e.toml`, six revolute joints, no guide).
+fn ur5e() -> (vatcal_core::CellFile, vatcal_kinematics::Model) {
+    let cell = vatcal_core::CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
+        .expect("fixture");
+    let model = vatcal_kinematics::Model::from_cell(&cell).expect("model");
+    (cell, model)
+}
+
+/// A hidden truth of the UR5e: the realistic error budget, with compliances scaled to the
+/// UR5e's gravity torques (about 50 N·m at the shoulder, ten times the Meca500's): the same
+/// joint deflections as the paper's cell, so that the nominal pose puts the ball inside the
+/// ±6 mm gauges.
+fn ur5e_truth(nominal: &vatcal_kinematics::Model, seed: u64) -> vatcal_kinematics::Model {
+    let budget = vatcal_sim::truth::ErrorBudget {
+        compliance_range: (1e-5, 4e-5),
+        ..vatcal_sim::truth::ErrorBudget::realistic()
+    };
+    vatcal_sim::truth::perturbed_truth(nominal, seed, &budget)
+}
+
+#[test]
+fn a_ur5e_virtual_cell_is_measured_by_the_same_campaign_and_calibrated() {
+    use vatcal_planning::candidates::CandidateOptions;
+    use vatcal_planning::plan::{PlanOptions, plan_campaign};
+
+    let (cell_file, nominal) = ur5e();
+    let geometry = vatcal_planning::geometry::CellGeometry::from_cell(&cell_file).expect("geometry");
+    let options = PlanOptions {
+        candidates: CandidateOptions { orientations: 20, progress: false, ..CandidateOptions::default() },
+        count: 40,
+        params: vatcal_core::ParamSet(Vec::new()),
+        detmax_restarts: 2,
+        tour_restarts: 2,
+        motion: cell_file.motion_limits(),
+        seed: 1,
+        ..PlanOptions::default()
+    };
+    let planned = plan_campaign(&nominal, &geometry, &options).expect("plan");
+    // through the tour file, as `vatcal campaign` reads it (q1..q6, no guide)
+    let dir = tempfile::tempdir().expect("tmp");
+    vatcal_planning::output::write_plan(&planned, dir.path()).expect("write plan");
+    let tour = CampaignPlan::read_tour_for(dir.path().join("tour.csv"), nominal.joint_kinds()).expect("tour");
+    assert_eq!(tour.measurement_count(), 40);
+    assert!(CampaignPlan::read_tour(dir.path().join("tour.csv")).is_err(), "not a 7-joint tour");
+
+    let truth = ur5e_truth(&nominal, 1);
+    let cell =
+        VirtualCell::new(nominal.clone(), truth.clone(), vatcal_sim::SimConfig::paper_for(&nominal), 1);
+    assert!(cell.guide().is_none(), "a UR5e has no guide");
+    let (mut arm, mut probe, mut operator) = (cell.arm(), cell.probe().expect("probe"), cell.operator());
+    assert_eq!(RobotArm::joint_count(&arm), 6);
+    let clock = cell.clock();
+    let devices = CellDevices {
+        arm: &mut arm,
+        guide: None,
+        probe: &mut probe,
+        tracker: None,
+        operator: &mut operator,
+        clock: &clock,
+        thermometer: None,
+    };
+    let csv = dir.path().join("measurements.csv");
+    let config = CampaignConfig { measurements_csv: Some(csv.clone()), ..quiet_config() };
+    let report = Campaign::new(devices, &nominal, config).run(&tour, dir.path().join("j")).expect("campaign");
+
+    // every planned measurement centred within the paper's 5 µm
+    assert_eq!(report.measurements.len(), 40);
+    assert_eq!(report.skipped, 0);
+    let mut worst_mm: f64 = 0.0;
+    for r in &report.records {
+        if let StepOutcome::Measured { composite_history_mm, .. } = &r.outcome {
+            let last = *composite_history_mm.last().expect("a reading");
+            assert!(last < 0.005, "step {}: composite {last} mm", r.step);
+            worst_mm = worst_mm.max(last);
+            assert!(r.state.guide_from_mm.is_none() && r.state.dir.len() == 6);
+        }
+    }
+    // the journal's `dir` are the six arm joints = cell joints 1..6
+    let m = &report.measurements[0];
+    let dir_of = m.context.dir.expect("dir");
+    assert!(dir_of[..6].iter().any(|d| *d != 0) && dir_of[6..].iter().all(|d| *d == 0), "{dir_of:?}");
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let header = text.lines().next().expect("header");
+    assert!(header.starts_with("position,tcp,q1,q2,q3,q4,q5,q6,time_s,"), "{header}");
+    assert!(header.contains("dir1,dir2,dir3,dir4,dir5,dir6") && !header.contains("q7"), "{header}");
+
+    // identify the plan's parameters: held-out error from the nominal's down to the noise
+    let fit = vatcal_identification::identify(
+        &nominal,
+        &report.measurements,
+        &planned.params,
+        &vatcal_identification::IdentifyOptions::default(),
+    )
+    .expect("identify");
+    let held_out = vatcal_sim::truth::synthetic_tracker_measurements(&truth, 200, 0.0, 9);
+    let mean = |model: &vatcal_kinematics::Model| {
+        held_out.iter().map(|x| model.residual(x).expect("residual").norm()).sum::<f64>()
+            / held_out.len() as f64
+    };
+    let (before, after) = (mean(&nominal), mean(&fit.model));
+    eprintln!(
+        "UR5e virtual cell: worst centring {worst_mm:.4} mm; held-out mean error nominal {before:.4} mm -> calibrated {after:.4} mm ({} parameters)",
+        fit.params.len()
+    );
+    assert!(before > 0.3, "the nominal model must be wrong: {before} mm");
+    assert!(after < 0.05 && after < before / 10.0, "calibrated {after} mm (nominal {before} mm)");
+}
+
+#[test]
+fn devices_that_do_not_fit_the_chain_are_refused_before_anything_moves() {
+    // the canonical cell without its guide
+    let cell = paper_cell(SEED);
+    let model = nominal();
+    let mut d = SimDevices::of(&cell);
+    let devices = CellDevices { guide: None, ..d.devices() };
+    let dir = tempfile::tempdir().expect("tmp");
+    let e = Campaign::new(devices, &model, quiet_config())
+        .run(&plan(3, 1), dir.path().join("a"))
+        .expect_err("no guide");
+    assert!(matches!(e, CampaignError::DeviceMismatch { .. }), "{e}");
+    assert!(e.to_string().contains("no guide device"), "{e}");
+    assert_eq!(cell.clock().now(), Duration::ZERO, "nothing moved");
+    // a UR5e model with the canonical cell's devices (a guide, and a six-joint arm)
+    let (_, ur) = ur5e();
+    let e = Campaign::new(d.devices(), &ur, quiet_config())
+        .run(&CampaignPlan { steps: vec![CampaignStep::PlaceProbe { position: 1 }] }, dir.path().join("b"))
+        .expect_err("a guide too many");
+    assert!(e.to_string().contains("6 joints (RRRRRR)") && e.to_string().contains("no guide joint"), "{e}");
 }

@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use vatcal_campaign::{CenteringConfig, CenteringError, auto_center};
 use vatcal_core::JointVector;
 use vatcal_hardware_traits::{
-    ArmJoints, LinearAxis, MotionOptions, Operator, OperatorInstruction, Probe3d, RobotArm,
+    JointLayout, LinearAxis, MotionOptions, Operator, OperatorInstruction, Probe3d, RobotArm,
 };
 use vatcal_sim::truth::reach;
 use vatcal_sim::{SimFaults, VirtualCell};
@@ -21,7 +21,9 @@ fn at_pose(cell: &VirtualCell, d: &mut SimDevices, position: u32, q: &JointVecto
     d.guide.home(Duration::from_secs(60)).expect("home guide");
     d.operator.perform(&OperatorInstruction::PlaceProbe { position }).expect("plate");
     d.guide.move_absolute_and_wait(q.guide_mm(), &MotionOptions::default()).expect("guide");
-    d.arm.move_joints_and_wait(&ArmJoints::from_joint_vector(q), &MotionOptions::default()).expect("arm");
+    d.arm
+        .move_joints_and_wait(&JointLayout::MECA500_ON_GUIDE.arm(q), &MotionOptions::default())
+        .expect("arm");
     assert_eq!(cell.plate_position(), Some(position));
 }
 
@@ -34,7 +36,7 @@ fn center(
     config: &CenteringConfig,
 ) -> Result<vatcal_campaign::CenteringOutcome, CenteringError> {
     let approach = cell.motion_directions();
-    auto_center(&mut d.arm, &mut d.guide, &mut d.probe, &nominal(), position, approach, config)
+    auto_center(&mut d.arm, Some(&mut d.guide), &mut d.probe, &nominal(), position, &approach, config)
 }
 
 #[test]
@@ -105,7 +107,9 @@ fn readings_near_or_beyond_the_range_are_refused_before_moving() {
     let along = d.probe.placement(position).expect("placement").to_world(&Vector3::new(0.0, 0.0, 7.0));
     let q = reach(&truth, &pose.q, pose.tcp, &(truth.position(position).expect("p") + along), 1e-10)
         .expect("reach");
-    d.arm.move_joints_and_wait(&ArmJoints::from_joint_vector(&q), &MotionOptions::default()).expect("arm");
+    d.arm
+        .move_joints_and_wait(&JointLayout::MECA500_ON_GUIDE.arm(&q), &MotionOptions::default())
+        .expect("arm");
     let e = center(&cell, &mut d, position, &CenteringConfig::default()).expect_err("range");
     assert!(matches!(e, CenteringError::OutOfRange { ref readings_mm, .. } if readings_mm.is_empty()), "{e}");
     assert!(e.to_string().contains("outside"), "{e}");

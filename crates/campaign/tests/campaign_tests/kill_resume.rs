@@ -28,6 +28,9 @@ const CHILD_MOTION_DELAY: Duration = Duration::from_millis(8);
 struct RealTimeArm<A>(A);
 
 impl<A: RobotArm> RobotArm for RealTimeArm<A> {
+    fn joint_count(&self) -> usize {
+        self.0.joint_count()
+    }
     fn activate_and_home(&mut self, timeout: Duration) -> HwResult<()> {
         self.0.activate_and_home(timeout)
     }

@@ -37,7 +37,7 @@ impl SimDevices {
     pub fn of(cell: &VirtualCell) -> Self {
         Self {
             arm: cell.arm(),
-            guide: cell.guide(),
+            guide: cell.guide().expect("the canonical cell has a guide"),
             probe: cell.probe().expect("probe"),
             tracker: cell.tracker(),
             operator: cell.operator(),
@@ -49,7 +49,7 @@ impl SimDevices {
     pub fn devices(&mut self) -> CellDevices<'_> {
         CellDevices {
             arm: &mut self.arm,
-            guide: &mut self.guide,
+            guide: Some(&mut self.guide),
             probe: &mut self.probe,
             tracker: Some(&mut self.tracker),
             operator: &mut self.operator,

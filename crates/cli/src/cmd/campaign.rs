@@ -16,8 +16,8 @@ use vatcal_campaign::{CampaignConfig, CellDevices, ConsoleOperator};
 use vatcal_core::CellFile;
 use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
 use vatcal_hardware_traits::{
-    Clock, ErrorKind, Gauge, LinearAxis, MotionOptions, Operator, ProbePlacement, RobotArm, SystemClock,
-    Thermometer, TriCal,
+    Clock, ErrorKind, Gauge, JointLayout, LinearAxis, MotionOptions, Operator, ProbePlacement, RobotArm,
+    SystemClock, Thermometer, TriCal,
 };
 use vatcal_kinematics::Model;
 use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};
@@ -74,7 +74,8 @@ pub struct Args {
 /// The connected devices, wrapped so that Ctrl-C stops the arm and the guide.
 struct RealCell {
     arm: StoppableArm<Box<dyn RobotArm>>,
-    guide: StoppableAxis<Box<dyn LinearAxis>>,
+    /// the guide, on a cell whose chain has one
+    guide: Option<StoppableAxis<Box<dyn LinearAxis>>>,
     probe: TriCal<Box<dyn Gauge>>,
     operator: Box<dyn Operator>,
     /// the wall clock, or the simulated cell's virtual time with `--operator auto`
@@ -87,7 +88,7 @@ impl DeviceSet for RealCell {
     fn devices(&mut self) -> CellDevices<'_> {
         CellDevices {
             arm: &mut self.arm,
-            guide: &mut self.guide,
+            guide: self.guide.as_mut().map(|g| g as &mut dyn LinearAxis),
             probe: &mut self.probe,
             tracker: None,
             operator: &mut self.operator,
@@ -103,7 +104,7 @@ impl RealCell {
         if let Err(e) = self.arm.inner_mut().stop() {
             eprintln!("warning: stopping the arm: {e}");
         }
-        if let Err(e) = self.guide.inner_mut().stop() {
+        if let Some(Err(e)) = self.guide.as_mut().map(|g| g.inner_mut().stop()) {
             eprintln!("warning: stopping the guide: {e}");
         }
     }
@@ -144,14 +145,17 @@ fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
     }
     cell.arm.activate_and_home(timeout).context("arm: activating and homing")?;
     let joints = cell.arm.joints().context("arm: reading the joints")?;
-    println!("  arm: joints {:?} deg", joints.to_deg().map(|v| (v * 1000.0).round() / 1000.0));
-    let homed = cell.guide.is_homed().context("guide: reading the state")?;
-    if !homed {
-        println!("  guide: not homed, homing …");
-        cell.guide.home(timeout).context("guide: homing")?;
+    let deg: Vec<f64> = joints.to_deg().iter().map(|v| (v * 1000.0).round() / 1000.0).collect();
+    println!("  arm: joints {deg:?} deg");
+    if let Some(guide) = cell.guide.as_mut() {
+        let homed = guide.is_homed().context("guide: reading the state")?;
+        if !homed {
+            println!("  guide: not homed, homing …");
+            guide.home(timeout).context("guide: homing")?;
+        }
+        let at = guide.position_mm().context("guide: reading the position")?;
+        println!("  guide: homed, at {at:.3} mm");
     }
-    let at = cell.guide.position_mm().context("guide: reading the position")?;
-    println!("  guide: homed, at {at:.3} mm");
     let range = vatcal_hardware_traits::Probe3d::range_mm(&cell.probe);
     match vatcal_hardware_traits::Probe3d::read(&mut cell.probe) {
         Ok(r) => println!(
@@ -187,10 +191,11 @@ fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // everything that can be checked without the cell, before connecting
     let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
-    let tour = PlanFolder::new(&args.plan).read_tour()?;
+    let tour = PlanFolder::new(&args.plan).read_tour(nominal.joint_kinds())?;
     tour.validate(&nominal)
         .with_context(|| format!("{}: the plan does not fit {nominal_source}", args.plan.display()))?;
     let devices_file = DevicesFile::load(&args.devices)?;
+    devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
     if !(args.speed > 0.0 && args.speed <= 1.0) {
         bail!("--speed must be in (0, 1], got {}", args.speed);
     }
@@ -258,7 +263,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .context("building the TriCal probe")?;
     let mut cell = RealCell {
         arm: StoppableArm::new(arm, flag.clone()),
-        guide: StoppableAxis::new(guide, flag.clone()),
+        guide: guide.map(|g| StoppableAxis::new(g, flag.clone())),
         probe,
         operator,
         clock,

@@ -7,7 +7,8 @@
 //! before/after table. See `docs/campaign.md`.
 //!
 //! A cell file that is not the canonical Meca500-on-guide cell (`--cell fixtures/ur5e.toml`)
-//! runs the model-level demo of `vatcal_demo::any_chain` (`docs/virtual-cell.md`).
+//! runs the same pipeline on the virtual cell of that chain (no guide unless the chain has
+//! one, random validation poses only: `docs/virtual-cell.md`).
 
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -96,11 +97,13 @@ pub struct Args {
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Nominal cell file (default: the built-in fixtures/meca500-zaber.toml); any serial chain
-    /// other than the canonical cell runs the model-level demo.
+    /// runs on its own virtual cell (validation without the printing path unless it is the
+    /// canonical cell).
     #[arg(long, visible_alias = "cell", value_name = "CELL.toml")]
     pub model: Option<PathBuf>,
     /// Small sizes for a quick look (any chain other than the canonical cell: 20 orientations,
-    /// 3 guide steps, 200 validation poses; the canonical cell: ignored, give the sizes).
+    /// 3 guide steps, 40 measurements, 200 random validation poses; the canonical cell:
+    /// ignored, give the sizes).
     #[arg(long)]
     pub quick: bool,
     /// Random tool orientations per TCP × calibration position for the candidates.
@@ -134,13 +137,14 @@ pub struct Args {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut opts = DemoOptions::new(args.seed)?;
+    let mut chain = None;
     if let Some(path) = &args.model {
         opts.nominal = CellFile::load(path)?;
         opts.nominal_source = path.display().to_string();
         let model = vatcal_kinematics::Model::from_cell(&opts.nominal)
             .with_context(|| format!("{}: cannot build the model", path.display()))?;
         if !model.is_meca500_on_guide() {
-            return run_any_chain(&args, opts.nominal, path.display().to_string(), &model);
+            chain = Some(model.describe_chain());
         }
     }
     opts.sizes.orientations = args.orientations;
@@ -148,12 +152,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     opts.sizes.count = args.count;
     opts.sizes.random_poses = args.random_poses;
     opts.sizes.slices = args.slices;
+    if chain.is_some() && args.quick {
+        opts = opts.quick();
+    }
     let mut progress = BarProgress::new(!args.quiet && std::io::stdout().is_terminal());
     opts.truth = args.truth.clone();
     opts.discovery = !args.no_discovery;
     println!(
-        "vatcal demo: simulated calibration of {} (seed {}, truth {}), report in {}",
+        "vatcal demo: simulated calibration of {}{} (seed {}, truth {}), report in {}",
         opts.nominal_source,
+        chain.as_ref().map_or(String::new(), |c| format!(" ({c}, no printing path)")),
         args.seed,
         opts.truth,
         args.out.display()
@@ -165,41 +173,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let total: f64 = outcome.stage_seconds.iter().map(|(_, s)| s).sum();
     println!(
         "\ndone in {total:.1} s; see {} (summary.md, report.json, plots, calibrated.toml)",
-        args.out.display()
-    );
-    Ok(())
-}
-
-/// The model-level demo of a chain other than the canonical cell.
-fn run_any_chain(
-    args: &Args,
-    nominal: CellFile,
-    source: String,
-    model: &vatcal_kinematics::Model,
-) -> anyhow::Result<()> {
-    use vatcal_demo::any_chain::{AnyChainDemoOptions, comparison_table, run_any_chain_demo};
-    let mut opts = AnyChainDemoOptions::new(args.seed, nominal, source);
-    opts.orientations = args.orientations;
-    opts.guide_steps = args.guide_steps;
-    opts.count = args.count;
-    opts.validation_poses = args.random_poses;
-    if args.quick {
-        opts = opts.quick();
-    }
-    println!(
-        "vatcal demo: model-level simulated calibration of {} ({}, seed {}), report in {}",
-        opts.nominal_source,
-        model.describe_chain(),
-        args.seed,
-        args.out.display()
-    );
-    let outcome = run_any_chain_demo(&opts, &args.out, &mut |line| println!("  {line}"))
-        .with_context(|| format!("demo (seed {}, report folder {})", args.seed, args.out.display()))?;
-    println!();
-    print!("{}", comparison_table(&outcome.report));
-    let total: f64 = outcome.report.stage_seconds.iter().map(|(_, s)| s).sum();
-    println!(
-        "\ndone in {total:.1} s; see {} (summary.md, report.json, plan/, calibrated.toml)",
         args.out.display()
     );
     Ok(())

@@ -581,7 +581,7 @@ fn probe_zeroing_with_the_auto_operator_seats_the_master_ball_through_the_contro
     let clock = SystemClock;
     let cell_devices = CellDevices {
         arm: &mut arm,
-        guide: &mut guide,
+        guide: guide.as_mut().map(|g| g as &mut dyn vatcal_hardware_traits::LinearAxis),
         probe: &mut probe,
         tracker: None,
         operator: &mut operator,

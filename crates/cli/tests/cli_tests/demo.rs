@@ -119,7 +119,8 @@ fn fixture(name: &str) -> String {
 
 /// `vatcal plan` on a version-2 fixture (the Meca500 on a table: no guide, numerical IK) writes
 /// a plan whose files have the chain's `q1..q6` columns; `vatcal demo --cell` on the UR5e
-/// fixture runs the model-level demo (`--quick`) and calibrates to the tracker's noise level.
+/// fixture runs the device-level pipeline on its own virtual cell (`--quick`, the paper-like
+/// truth, discovery on) and calibrates it.
 #[test]
 fn plan_and_demo_run_on_any_chain() {
     let dir = tempfile::tempdir().expect("tmp");
@@ -154,23 +155,36 @@ fn plan_and_demo_run_on_any_chain() {
 
     let demo = dir.path().join("demo");
     let o = Command::new(env!("CARGO_BIN_EXE_vatcal"))
-        .args(["demo", "--cell", &fixture("ur5e.toml"), "--quick", "--quiet", "--seed", "2"])
+        .args(["demo", "--cell", &fixture("ur5e.toml"), "--quick", "--quiet", "--seed", "1"])
         .args(["--out", demo.to_str().expect("utf-8")])
         .output()
         .expect("run vatcal");
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "stdout:\n{stdout}\nstderr:\n{}", String::from_utf8_lossy(&o.stderr));
-    assert!(stdout.contains("model-level"), "{stdout}");
+    assert!(stdout.contains("6 joints (RRRRRR), no printing path"), "{stdout}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(demo.join("report.json")).expect("report.json"))
             .expect("json");
-    assert_eq!(json["format"], "vatcal-demo-any-chain-report/1");
-    assert_eq!(json["measurements"], 40);
-    let before = json["nominal"]["mean_mm"].as_f64().expect("nominal");
-    let after = json["calibrated"]["mean_mm"].as_f64().expect("calibrated");
-    eprintln!("ur5e demo (seed 2, quick): {before} mm -> {after} mm");
-    assert!(before > 0.3 && after < 0.04, "{before} mm -> {after} mm");
-    for f in ["summary.md", "calibrated.toml", "truth.toml", "plan/tour.csv"] {
+    assert_eq!(json["format"], "vatcal-demo-report/1");
+    assert_eq!(json["campaign"]["measurements"], 40);
+    assert!(json["compensation"].is_null(), "no printing path");
+    let mean = |label: &str| {
+        json["validation"]["models"]
+            .as_array()
+            .and_then(|m| m.iter().find(|m| m["label"] == label))
+            .and_then(|m| m["random"]["stats"]["mean_mm"].as_f64())
+            .unwrap_or(f64::NAN)
+    };
+    let (before, after, discovered) = (mean("nominal"), mean("calibrated"), mean("discovered"));
+    eprintln!(
+        "ur5e demo (seed 2, quick, paper-like truth): {before} mm -> {after} mm -> discovered {discovered} mm"
+    );
+    // the paper-like truth's gear harmonics act on the UR5e's long links: the 31 parameters
+    // leave a good part of a millimetre (docs/virtual-cell.md)
+    assert!(before > 0.3 && after < 0.6 * before, "{before} mm -> {after} mm");
+    assert!(json["discovery"].is_object(), "the discovery stage ran");
+    assert!(discovered.is_finite(), "the discovered model was validated");
+    for f in ["summary.md", "calibrated.toml", "measurements.csv", "plan/tour.csv"] {
         assert!(demo.join(f).is_file(), "{f} missing");
     }
 }

@@ -15,7 +15,7 @@ use crate::common;
 fn the_printing_path_lands_with_the_calibrated_error_when_compensated() {
     let demo = common::default_demo();
     let (opts, out) = (&demo.opts, &demo.out);
-    let c = &out.report.compensation;
+    let c = out.report.compensation.as_ref().expect("the canonical cell has the printing path");
     eprintln!("{c:#?}");
     assert_eq!(c.slices, 300);
     // the commanded runs are the compensation's targets, solved to rounding level

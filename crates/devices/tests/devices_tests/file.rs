@@ -3,7 +3,9 @@
 
 use std::time::Duration;
 
+use vatcal_core::JointKind;
 use vatcal_devices::{DevicesError, DevicesFile, Link};
+use vatcal_hardware_traits::JointLayout;
 
 const EXAMPLE: &str = include_str!("../../../../fixtures/devices-example.toml");
 const SIM: &str = include_str!("../../../../fixtures/sim-cell-devices.toml");
@@ -24,7 +26,7 @@ const GAUGES: &str = "gauges = [\n  { kind = \"sylvac\", tcp = \"10.0.0.3:1\" },
 fn the_fixtures_parse_with_their_addresses_and_timeouts() {
     let real = parse(EXAMPLE).expect("example");
     assert_eq!(real.arm.address.get_ref(), "192.168.0.100:10000");
-    assert_eq!(real.guide_link(), Link::Tcp("192.168.0.50:55550".into()));
+    assert_eq!(real.guide_link(), Some(Link::Tcp("192.168.0.50:55550".into())));
     assert_eq!(real.gauge_link(2), Some(Link::Tcp("192.168.0.60:4003".into())));
     assert_eq!(real.arm_config().io_timeout, Duration::from_millis(2000));
     assert_eq!(real.guide_config().io_timeout, Duration::from_millis(1000));
@@ -44,9 +46,28 @@ fn unknown_keys_are_rejected_with_their_name_and_line() {
 }
 
 #[test]
+fn the_guide_is_needed_exactly_when_the_cells_chain_has_one() {
+    let canonical = JointLayout::MECA500_ON_GUIDE;
+    let ur5e = JointLayout::of(&[JointKind::Revolute; 6]);
+    let with_guide = parse(&format!("{ARM}{GUIDE}{GAUGES}")).expect("with a guide");
+    let without = parse(&format!("{ARM}{GAUGES}")).expect("a file without a guide parses");
+    assert!(without.guide.is_none() && without.guide_link().is_none());
+    with_guide.check_cell(&canonical, "7 joints (PRRRRRR)").expect("canonical cell with its guide");
+    without.check_cell(&ur5e, "6 joints (RRRRRR)").expect("UR5e without a guide");
+    let e = without.check_cell(&canonical, "7 joints (PRRRRRR)").expect_err("guide missing").to_string();
+    assert!(
+        e.starts_with("devices.toml: ") && e.contains("has a guide") && e.contains("no `guide` entry"),
+        "{e}"
+    );
+    let e = with_guide.check_cell(&ur5e, "6 joints (RRRRRR)").expect_err("guide too many").to_string();
+    assert!(
+        e.starts_with("devices.toml: ") && e.contains("6 joints (RRRRRR)") && e.contains("no guide"),
+        "{e}"
+    );
+}
+
+#[test]
 fn missing_devices_are_named() {
-    let e = error(&format!("{ARM}{GAUGES}"));
-    assert!(e.contains("guide"), "{e}");
     let e = error(&format!("{GUIDE}{GAUGES}"));
     assert!(e.contains("arm"), "{e}");
     let e = error(&format!("{ARM}{GUIDE}gauges = [ {{ kind = \"sylvac\", tcp = \"1.2.3.4:5\" }} ]\n"));

@@ -37,7 +37,7 @@ fn moving(scale: f64) -> (Meca500Sim, Meca500) {
     let mut robot = ok(Meca500::connect_tcp(sim.control_addr(), config()));
     ok(robot.activate_and_home(TIMEOUT));
     let slow = MotionOptions { speed_fraction: 0.01, timeout: TIMEOUT };
-    ok(robot.move_joints(&ArmJoints::from_deg([60.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &slow));
+    ok(robot.move_joints(&ArmJoints::from_deg_array([60.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &slow));
     (sim, robot)
 }
 

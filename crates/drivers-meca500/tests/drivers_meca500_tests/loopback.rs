@@ -64,11 +64,24 @@ fn connect_activate_and_home() {
 }
 
 #[test]
+fn a_target_of_another_joint_count_is_refused_before_anything_is_sent() {
+    let sim = fast_sim();
+    let mut robot = ready(&sim);
+    assert_eq!(robot.joint_count(), 6);
+    assert_eq!(ok(robot.joints()).len(), 6);
+    let seven = ArmJoints::from_deg_array([10.0, -20.0, 30.0, 5.0, 40.0, -15.0, 3.0]);
+    let e = robot.move_joints(&seven, &full_speed()).expect_err("7 joints for a Meca500");
+    assert_eq!(e.kind(), ErrorKind::OutOfRange);
+    assert!(e.to_string().contains("6 joints") && e.to_string().contains("7 joints"), "{e}");
+    assert!(sim.state().joints_deg.iter().all(|v| *v == 0.0), "nothing moved");
+}
+
+#[test]
 fn joint_moves_read_back_in_radians() {
     let sim = fast_sim();
     let mut robot = ready(&sim);
     let target_deg = [10.0, -20.0, 30.0, 5.0, 40.0, -15.0];
-    let target = ArmJoints::from_deg(target_deg);
+    let target = ArmJoints::from_deg_array(target_deg);
     ok(robot.move_joints_and_wait(&target, &full_speed()));
     let q = ok(robot.joints());
     assert!(q.max_abs_diff(&target) < 1e-9, "{q:?}");
@@ -94,7 +107,7 @@ fn motion_is_reported_while_it_runs_and_waits_are_bounded() {
     let mut robot = ready(&sim);
     // J1 at 5 % of 150 deg/s: 30 deg take 4 s
     let slow = MotionOptions { speed_fraction: 0.05, timeout: TIMEOUT };
-    ok(robot.move_joints(&ArmJoints::from_deg([30.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &slow));
+    ok(robot.move_joints(&ArmJoints::from_deg_array([30.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &slow));
     assert!(ok(robot.status()).moving);
     let t0 = Instant::now();
     assert_eq!(err_kind(robot.wait_idle(Duration::from_millis(200))), ErrorKind::Timeout);
@@ -104,8 +117,8 @@ fn motion_is_reported_while_it_runs_and_waits_are_bounded() {
     let after_stop = sim.state();
     assert!(!after_stop.status.paused && after_stop.queue_len == 0);
     let stopped_at = ok(robot.joints());
-    assert!(stopped_at.0[0] > 0.0 && stopped_at.0[0] < 30f64.to_radians());
-    ok(robot.move_joints_and_wait(&ArmJoints::from_deg([0.0, 0.0, 0.0, 0.0, 0.0, 1.0]), &full_speed()));
+    assert!(stopped_at[0] > 0.0 && stopped_at[0] < 30f64.to_radians());
+    ok(robot.move_joints_and_wait(&ArmJoints::from_deg_array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0]), &full_speed()));
     assert!(!ok(robot.status()).moving);
 }
 
@@ -113,8 +126,12 @@ fn motion_is_reported_while_it_runs_and_waits_are_bounded() {
 fn linear_relative_moves_in_world_and_tool_axes() {
     let sim = fast_sim();
     let mut robot = ready(&sim);
-    ok(robot.move_joints_and_wait(&ArmJoints::from_deg([5.0, 10.0, 20.0, 10.0, 40.0, 5.0]), &full_speed()));
-    let flange = |r: &mut Meca500| forward_kinematics(&ok(r.joints()).to_deg());
+    ok(robot
+        .move_joints_and_wait(&ArmJoints::from_deg_array([5.0, 10.0, 20.0, 10.0, 40.0, 5.0]), &full_speed()));
+    let flange = |r: &mut Meca500| {
+        let deg: [f64; 6] = ok(r.joints()).to_deg().try_into().unwrap_or_else(|_| panic!("six joints"));
+        forward_kinematics(&deg)
+    };
     let before = flange(&mut robot);
     let d = Vector3::new(1.5, -2.0, 0.75);
     ok(robot.move_linear_relative_and_wait(&d, LinearFrame::World, &full_speed()));
@@ -134,7 +151,7 @@ fn linear_relative_moves_in_world_and_tool_axes() {
 fn joint_limit_is_a_device_fault_with_the_code_and_reset_recovers() {
     let sim = fast_sim();
     let mut robot = ready(&sim);
-    let over = ArmJoints::from_deg([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]);
+    let over = ArmJoints::from_deg_array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]);
     assert_eq!(err_kind(robot.move_joints(&over, &full_speed())), ErrorKind::DeviceFault { code: 1007 });
     let s = ok(robot.status());
     assert_eq!(s.error.as_ref().map(|e| e.0), Some(1007), "{s:?}");
@@ -144,7 +161,8 @@ fn joint_limit_is_a_device_fault_with_the_code_and_reset_recovers() {
     let s = ok(robot.status());
     assert!(s.error.is_none() && s.activated, "{s:?}");
     assert!(!sim.state().status.paused, "reset_error resumes motion");
-    ok(robot.move_joints_and_wait(&ArmJoints::from_deg([0.0, 10.0, 0.0, 0.0, 20.0, 0.0]), &full_speed()));
+    ok(robot
+        .move_joints_and_wait(&ArmJoints::from_deg_array([0.0, 10.0, 0.0, 0.0, 20.0, 0.0]), &full_speed()));
 }
 
 #[test]
@@ -162,7 +180,7 @@ fn execution_errors_fail_the_wait() {
     ok(robot.reset_error());
     // an asynchronous motion error while waiting
     let slow = MotionOptions { speed_fraction: 0.01, timeout: TIMEOUT };
-    ok(robot.move_joints(&ArmJoints::from_deg([60.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &slow));
+    ok(robot.move_joints(&ArmJoints::from_deg_array([60.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &slow));
     let result = std::thread::scope(|s| {
         s.spawn(|| {
             std::thread::sleep(Duration::from_millis(50));
@@ -194,7 +212,7 @@ fn estop_needs_reset_and_reactivation() {
     sim.set_estop(false);
     ok(robot.reset_error());
     ok(robot.activate_and_home(TIMEOUT));
-    ok(robot.move_joints_and_wait(&ArmJoints::from_deg([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &full_speed()));
+    ok(robot.move_joints_and_wait(&ArmJoints::from_deg_array([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &full_speed()));
 }
 
 #[test]

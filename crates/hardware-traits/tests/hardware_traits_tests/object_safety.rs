@@ -17,6 +17,9 @@ struct CountingArm {
 }
 
 impl RobotArm for CountingArm {
+    fn joint_count(&self) -> usize {
+        6
+    }
     fn activate_and_home(&mut self, _timeout: Duration) -> Result<()> {
         Ok(())
     }
@@ -109,7 +112,7 @@ impl Operator for Log {
 
 /// Generic code written once against trait objects.
 fn drive(arm: &mut dyn RobotArm, axis: &mut dyn LinearAxis, probe: &mut dyn Probe3d) -> Result<f64> {
-    arm.move_joints_and_wait(&ArmJoints([0.1; 6]), &MotionOptions::default())?;
+    arm.move_joints_and_wait(&ArmJoints::new([0.1; 6]), &MotionOptions::default())?;
     axis.move_absolute_and_wait(150.0, &MotionOptions::default())?;
     Ok(probe.read()?.composite_mm())
 }
@@ -129,8 +132,8 @@ fn trait_objects_and_forwarding_impls() {
     }
     assert_eq!((arm.moves, arm.waits), (1, 1), "provided method forwarded through &mut");
     let mut boxed: Box<dyn RobotArm> = Box::new(arm);
-    boxed.move_joints_and_wait(&ArmJoints([0.2; 6]), &MotionOptions::default()).expect("boxed move");
-    assert_eq!(boxed.joints().expect("joints"), ArmJoints([0.2; 6]));
+    boxed.move_joints_and_wait(&ArmJoints::new([0.2; 6]), &MotionOptions::default()).expect("boxed move");
+    assert_eq!(boxed.joints().expect("joints"), ArmJoints::new([0.2; 6]));
     let e = boxed
         .move_linear_relative_and_wait(&Vector3::x(), LinearFrame::Tool, &MotionOptions::default())
         .expect_err("fault");

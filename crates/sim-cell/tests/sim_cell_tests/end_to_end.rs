@@ -12,7 +12,7 @@ use vatcal_drivers_meca500::{Meca500, Meca500Config};
 use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
 use vatcal_drivers_zaber::{ZaberAxis, ZaberConfig};
 use vatcal_hardware_traits::{
-    ArmJoints, Error, ErrorKind, Gauge, LinearAxis, LinearFrame, MotionOptions, Operator,
+    ArmJoints, Error, ErrorKind, Gauge, JointLayout, LinearAxis, LinearFrame, MotionOptions, Operator,
     OperatorInstruction, RobotArm,
 };
 use vatcal_sim::VirtualCell;
@@ -116,12 +116,12 @@ fn the_gauges_read_the_true_ball_where_the_robot_and_guide_put_it() {
 
     ok(d.guide.move_absolute_mm(pose.q[0], &fast()));
     ok(d.guide.wait_idle(TIMEOUT));
-    let arm_target = ArmJoints::from_joint_vector(&pose.q);
+    let arm_target = JointLayout::MECA500_ON_GUIDE.arm(&pose.q);
     ok(d.arm.move_joints_and_wait(&arm_target, &fast()));
 
     // the same commands on an in-process cell with the same truth give the same readings
     let reference = VirtualCell::new(sim.cell().nominal(), sim.cell().truth(), sim.cell().config(), 3);
-    let (mut arm, mut guide) = (reference.arm(), reference.guide());
+    let (mut arm, mut guide) = (reference.arm(), reference.guide().expect("the canonical cell has a guide"));
     ok(arm.activate_and_home(TIMEOUT));
     ok(guide.home(TIMEOUT));
     ok(guide.move_absolute_mm(ok(d.guide.position_mm()), &fast()));
@@ -179,14 +179,17 @@ fn injected_faults_reach_the_drivers() {
     assert_eq!(e.kind(), ErrorKind::OutOfRange, "{e}");
     sim.set_gauge_out_of_range(1, false);
     // robot error: the next wait fails with the code, reset recovers
-    ok(d.arm.move_joints(&ArmJoints::from_deg([20.0, 0.0, 0.0, 0.0, 20.0, 0.0]), &MotionOptions::default()));
+    ok(d.arm.move_joints(
+        &ArmJoints::from_deg_array([20.0, 0.0, 0.0, 0.0, 20.0, 0.0]),
+        &MotionOptions::default(),
+    ));
     sim.robot_error(3005, "Collision.");
     let e = d.arm.wait_idle(TIMEOUT).expect_err("robot error");
     assert_eq!(e.kind(), ErrorKind::DeviceFault { code: 3005 }, "{e}");
     ok(d.arm.reset_error());
     // E-stop
     sim.set_estop(true);
-    let e = d.arm.move_joints_and_wait(&ArmJoints([0.0; 6]), &fast()).expect_err("E-stop");
+    let e = d.arm.move_joints_and_wait(&ArmJoints::new([0.0; 6]), &fast()).expect_err("E-stop");
     assert!(matches!(e.kind(), ErrorKind::DeviceFault { .. } | ErrorKind::NotHomed), "{e}");
     sim.set_estop(false);
     // dropped connection
@@ -243,7 +246,7 @@ fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
         let clock = SystemClock;
         let devices = CellDevices {
             arm: &mut arm,
-            guide: &mut guide,
+            guide: Some(&mut guide),
             probe: &mut probe,
             tracker: None,
             operator: &mut operator,
@@ -256,12 +259,16 @@ fn a_campaign_over_tcp_records_what_the_in_process_cell_records() {
     // in process, same truth, same configuration
     let reference = VirtualCell::new(nominal.clone(), sim.cell().truth(), sim.cell().config(), seed);
     let inproc = {
-        let (mut arm, mut guide, mut operator) = (reference.arm(), reference.guide(), reference.operator());
+        let (mut arm, mut guide, mut operator) = (
+            reference.arm(),
+            reference.guide().expect("the canonical cell has a guide"),
+            reference.operator(),
+        );
         let mut probe = ok(reference.probe());
         let clock = reference.clock();
         let devices = CellDevices {
             arm: &mut arm,
-            guide: &mut guide,
+            guide: Some(&mut guide),
             probe: &mut probe,
             tracker: None,
             operator: &mut operator,

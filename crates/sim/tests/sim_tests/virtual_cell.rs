@@ -7,7 +7,7 @@ use std::time::Duration;
 use nalgebra::Vector3;
 use vatcal_core::{CellFile, JointVector};
 use vatcal_hardware_traits::{
-    ArmJoints, Clock, ErrorKind, Gauge, LinearAxis, LinearFrame, MotionOptions, Operator,
+    ArmJoints, Clock, ErrorKind, Gauge, JointLayout, LinearAxis, LinearFrame, MotionOptions, Operator,
     OperatorInstruction, PositionTracker, Probe3d, RobotArm, Thermometer,
 };
 use vatcal_kinematics::Model;
@@ -30,14 +30,17 @@ fn ready_cell(config: SimConfig, seed: u64, position: u32) -> VirtualCell {
     let truth = perturbed_truth(&m, seed, &ErrorBudget::realistic());
     let cell = VirtualCell::new(m, truth, config, seed);
     cell.arm().activate_and_home(Duration::from_secs(60)).expect("home arm");
-    cell.guide().home(Duration::from_secs(60)).expect("home guide");
+    cell.guide().expect("the canonical cell has a guide").home(Duration::from_secs(60)).expect("home guide");
     cell.operator().perform(&OperatorInstruction::PlaceProbe { position }).expect("plate");
     cell
 }
 
 fn go_to(cell: &VirtualCell, q: &JointVector) {
-    cell.guide().move_absolute_and_wait(q.guide_mm(), &opts()).expect("guide");
-    cell.arm().move_joints_and_wait(&ArmJoints::from_joint_vector(q), &opts()).expect("arm");
+    cell.guide()
+        .expect("the canonical cell has a guide")
+        .move_absolute_and_wait(q.guide_mm(), &opts())
+        .expect("guide");
+    cell.arm().move_joints_and_wait(&JointLayout::MECA500_ON_GUIDE.arm(q), &opts()).expect("arm");
 }
 
 /// A nominal start pose for (position 1, some TCP).
@@ -58,7 +61,9 @@ fn relative_moves_are_exact_on_the_nominal_model_only() {
     let d = Vector3::new(1.0, -0.5, 0.75);
     let flange = nominal.chain(&q).frames[7];
     cell.arm().move_linear_relative_and_wait(&d, LinearFrame::Tool, &opts()).expect("move");
-    let q2 = cell.arm().joints().expect("joints").with_guide(q.guide_mm());
+    let q2 = JointLayout::MECA500_ON_GUIDE
+        .join(Some(q.guide_mm()), &cell.arm().joints().expect("joints"))
+        .expect("joints");
     let moved_nominal = nominal.tcp_position(&q2, tcp).expect("fk") - before_nominal;
     assert!((moved_nominal - flange.r * d).norm() < 1e-8, "nominal displacement {moved_nominal}");
     let moved_true = cell.true_ball_position_mm(tcp).expect("ball") - before_true;
@@ -143,23 +148,28 @@ fn limits_errors_reset_and_not_homed() {
     let m = nominal();
     let cell = VirtualCell::new(m.clone(), m, SimConfig::ideal(), 1);
     let mut arm = cell.arm();
-    let e = arm.move_joints(&ArmJoints([0.0; 6]), &opts()).expect_err("not homed");
+    let e = arm.move_joints(&ArmJoints::new([0.0; 6]), &opts()).expect_err("not homed");
     assert_eq!(e.kind(), ErrorKind::NotHomed);
     assert_eq!(
-        cell.guide().move_absolute_mm(10.0, &opts()).expect_err("not homed").kind(),
+        cell.guide()
+            .expect("the canonical cell has a guide")
+            .move_absolute_mm(10.0, &opts())
+            .expect_err("not homed")
+            .kind(),
         ErrorKind::NotHomed
     );
     arm.activate_and_home(Duration::from_secs(60)).expect("home");
-    let e =
-        arm.move_joints(&ArmJoints::from_deg([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), &opts()).expect_err("limit");
+    let e = arm
+        .move_joints(&ArmJoints::from_deg_array([0.0, 100.0, 0.0, 0.0, 0.0, 0.0]), &opts())
+        .expect_err("limit");
     assert_eq!(e.kind(), ErrorKind::DeviceFault { code: 1007 });
     assert!(e.to_string().contains("J2"), "{e}");
-    let e = arm.move_joints(&ArmJoints([0.1; 6]), &opts()).expect_err("in error");
+    let e = arm.move_joints(&ArmJoints::new([0.1; 6]), &opts()).expect_err("in error");
     assert_eq!(e.kind(), ErrorKind::DeviceFault { code: 1011 });
     assert!(arm.status().expect("status").error.is_some());
     arm.reset_error().expect("reset");
-    arm.move_joints_and_wait(&ArmJoints([0.1; 6]), &opts()).expect("moves after reset");
-    let mut guide = cell.guide();
+    arm.move_joints_and_wait(&ArmJoints::new([0.1; 6]), &opts()).expect("moves after reset");
+    let mut guide = cell.guide().expect("the canonical cell has a guide");
     guide.home(Duration::from_secs(60)).expect("home");
     assert_eq!(guide.move_absolute_mm(301.0, &opts()).expect_err("stroke").kind(), ErrorKind::OutOfRange);
 }
@@ -174,8 +184,8 @@ fn motions_take_virtual_time_and_waits_time_out() {
     let t0 = clock.now();
     // J1 by 90° at 25 % of 150°/s = 2.4 s + 0.3 s settling
     let fast = MotionOptions { speed_fraction: 0.25, timeout: Duration::from_millis(500) };
-    arm.move_joints(&ArmJoints::from_deg([90.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &fast).expect("start");
-    assert_eq!(arm.move_joints(&ArmJoints([0.0; 6]), &fast).expect_err("busy").kind(), ErrorKind::Busy);
+    arm.move_joints(&ArmJoints::from_deg_array([90.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &fast).expect("start");
+    assert_eq!(arm.move_joints(&ArmJoints::new([0.0; 6]), &fast).expect_err("busy").kind(), ErrorKind::Busy);
     let e = arm.wait_idle(Duration::from_millis(500)).expect_err("timeout");
     assert!(e.is_timeout());
     assert_eq!(clock.now() - t0, Duration::from_millis(500));
@@ -185,7 +195,8 @@ fn motions_take_virtual_time_and_waits_time_out() {
     assert!(((clock.now() - t0).as_secs_f64() - 2.7).abs() < 1e-6);
     assert_eq!(arm.joints().expect("joints").to_deg()[0], 90.0f64.to_radians().to_degrees());
     assert_eq!(cell.motion_directions(), [1, 0, 0, 0, 0, 0]);
-    arm.move_joints_and_wait(&ArmJoints::from_deg([80.0, 0.0, 0.0, 0.0, 0.0, 1.0]), &opts()).expect("back");
+    arm.move_joints_and_wait(&ArmJoints::from_deg_array([80.0, 0.0, 0.0, 0.0, 0.0, 1.0]), &opts())
+        .expect("back");
     assert_eq!(cell.motion_directions(), [-1, 0, 0, 0, 0, 1]);
 }
 
