@@ -138,29 +138,24 @@ pub fn build_validation_plan(
     let poses = random_validation_poses(reference, &checker, &opts.random, opts.seed)?;
     let random_poses = order_poses(&poses, &timer, opts);
     // no printing path: random poses only (a chain without a guide and tank path). A random
-    // pose the path planner cannot reach from its predecessor (a pocket of free space, or a
-    // detour longer than the planner's iterations, on a ±360° arm) is dropped with its
-    // predecessor (the isolated one may be either) — at most one in ten over four rounds — and
-    // the legs planned again
+    // pose the path planner cannot connect to its neighbour (a pocket of free space, or a
+    // detour longer than the planner's iterations, on a ±360° arm) is dropped and the legs are
+    // planned again: when both legs of a pose fail, that pose is the isolated one; when only
+    // the leg into a pose fails, the pose it leads to. At most one pose in four is
+    // dropped, which also bounds the rounds (each drops at least one); the validation
+    // statistics need many poses, not these particular ones, and the report gives the count.
     if opts.printing.slices == 0 {
         let mut random_poses = random_poses;
-        let max_drops = (random_poses.len() / 10).max(2);
+        let max_drops = (random_poses.len() / 4).max(2);
         let mut drops = 0;
-        let mut round = 0;
         let (campaign, targets, rrt_legs) = loop {
-            round += 1;
             let mut builder = StepBuilder::new(&checker, &timer, opts);
             builder.add_random(&random_poses);
             match builder.finish_indexed() {
                 Ok(done) => break done,
                 Err((failed, e)) => {
-                    let mut drop: Vec<usize> = failed
-                        .iter()
-                        .flat_map(|k| [k.saturating_sub(1), *k])
-                        .filter(|k| *k < random_poses.len())
-                        .collect();
-                    drop.dedup();
-                    if round > 4 || drops + drop.len() > max_drops {
+                    let drop = isolated_poses(&failed, random_poses.len());
+                    if drop.is_empty() || drops + drop.len() > max_drops {
                         return Err(e);
                     }
                     drops += drop.len();
@@ -211,6 +206,21 @@ pub fn build_validation_plan(
     }
     let (campaign, targets, rrt_legs) = builder.finish()?;
     Ok(ValidationPlan { random_poses, slices, path_runs, slice_targets, campaign, rrt_legs, targets })
+}
+
+/// The poses to drop after the legs into the goals `failed` (ascending) failed: a pose whose
+/// incoming and outgoing legs both failed is the isolated one; otherwise the goal of the failed
+/// leg. Ascending, without repeats, all `< count`.
+fn isolated_poses(failed: &[usize], count: usize) -> Vec<usize> {
+    let blame_start = |k: usize| failed.binary_search(&(k - 1)).is_ok();
+    let mut drop: Vec<usize> = failed
+        .iter()
+        .map(|&k| if k > 0 && blame_start(k) { k - 1 } else { k })
+        .filter(|&k| k < count)
+        .collect();
+    drop.sort_unstable();
+    drop.dedup();
+    drop
 }
 
 /// The random poses in a short visiting order (joint-move time, from the start if given).
@@ -460,5 +470,23 @@ impl ValidationPlan {
             }
         }
         Ok(ValidationRecords { random, paths })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::isolated_poses;
+
+    #[test]
+    fn the_pose_whose_both_legs_fail_is_the_one_dropped() {
+        // pose 4 isolated: the legs into 4 and into 5 (out of 4) fail
+        assert_eq!(isolated_poses(&[4, 5], 10), vec![4]);
+        // only the leg into 7 fails: drop 7
+        assert_eq!(isolated_poses(&[7], 10), vec![7]);
+        // two separate failures, one isolated pose and one single leg
+        assert_eq!(isolated_poses(&[2, 3, 8], 10), vec![2, 8]);
+        // the first pose's leg (from the start pose) fails
+        assert_eq!(isolated_poses(&[0, 1], 5), vec![0]);
+        assert!(isolated_poses(&[], 5).is_empty());
     }
 }
