@@ -162,7 +162,7 @@ pub struct CorrectedPose {
 #[derive(Debug)]
 enum Seeder<'a> {
     /// The canonical cell: the closed-form branches of the Meca500 arm.
-    ClosedForm { ik: ToolPoseIk<'a>, arm: ArmGeometry },
+    ClosedForm { ik: Box<ToolPoseIk<'a>>, arm: Box<ArmGeometry> },
     /// Any other chain whose given joints are what [`ModelIk`] holds (none, or its guide).
     ModelIk(ModelIk<'a>),
     /// Any other chain: multi-start numerical IK of the solved joints.
@@ -245,7 +245,7 @@ impl<'a> Compensator<'a> {
                 calibrated,
                 nominal,
                 split,
-                seeder: Seeder::ClosedForm { ik, arm },
+                seeder: Seeder::ClosedForm { ik: Box::new(ik), arm: Box::new(arm) },
                 meca500_arm: Some(2),
             });
         }

@@ -31,7 +31,9 @@ pub use effects::{EffectKind, EffectSpec, ThermalDriver};
 pub use frame::Frame;
 pub use measurement::{Measurement, MeasurementContext, Target};
 pub use params::{Axis, BaseParam, ParamId, ParamSet, ToolFrameDof};
-pub use units::{JointKind, JointVector, JointVectorError, MAX_JOINTS, deg_to_rad, rad_to_deg};
+pub use units::{
+    JointKind, JointVector, JointVectorError, MAX_JOINTS, MECA500_ON_GUIDE_KINDS, deg_to_rad, rad_to_deg,
+};
 
 /// Number of joints of the canonical Meca500-on-guide cell (cell file version 1): the linear
 /// guide (joint 1, prismatic) and the six Meca500 joints (2..7, revolute). Other chains have

@@ -41,6 +41,18 @@ pub enum JointKind {
     Prismatic,
 }
 
+/// The joint kinds of the canonical 7-joint Meca500-on-guide cell: the prismatic guide q1,
+/// then the six revolute Meca500 joints q2..q7.
+pub const MECA500_ON_GUIDE_KINDS: [JointKind; 7] = [
+    JointKind::Prismatic,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+    JointKind::Revolute,
+];
+
 impl JointKind {
     /// The name used in cell files: `"revolute"` or `"prismatic"`.
     pub fn name(self) -> &'static str {

@@ -52,16 +52,7 @@ pub enum DriverKind {
     Categorical,
 }
 
-/// Joint kinds of the canonical Meca500-on-guide cell.
-const CANONICAL: [JointKind; 7] = [
-    JointKind::Prismatic,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-];
+use vatcal_core::MECA500_ON_GUIDE_KINDS as CANONICAL;
 
 /// True when joint `j` (1-based) is prismatic in `kinds`.
 fn prismatic(kinds: &[JointKind], j: u8) -> bool {

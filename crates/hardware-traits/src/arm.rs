@@ -448,15 +448,7 @@ forward_robot_arm!(&mut T, Box<T>);
 mod tests {
     use super::*;
 
-    const CANONICAL: [JointKind; 7] = [
-        JointKind::Prismatic,
-        JointKind::Revolute,
-        JointKind::Revolute,
-        JointKind::Revolute,
-        JointKind::Revolute,
-        JointKind::Revolute,
-        JointKind::Revolute,
-    ];
+    use vatcal_core::MECA500_ON_GUIDE_KINDS as CANONICAL;
 
     #[test]
     fn joint_vector_round_trip() {

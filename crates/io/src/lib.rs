@@ -126,17 +126,7 @@ pub struct JointRow {
     pub context: MeasurementContext,
 }
 
-/// The joint kinds of the canonical 7-joint Meca500-on-guide cell (prismatic guide, six
-/// revolute joints).
-pub const MECA500_ON_GUIDE_KINDS: [JointKind; 7] = [
-    JointKind::Prismatic,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-];
+pub use vatcal_core::MECA500_ON_GUIDE_KINDS;
 
 /// The joint columns `q1..qN` of an N-joint chain.
 pub fn joint_columns(n: usize) -> Vec<String> {

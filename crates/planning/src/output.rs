@@ -15,16 +15,7 @@ use crate::candidates::{Candidate, StageCounts};
 use crate::error::PlanError;
 use crate::plan::{Plan, Timing, TourStep, rrt_legs};
 
-/// The canonical cell's joint kinds (guide + six revolute joints).
-const CANONICAL_KINDS: [JointKind; 7] = [
-    JointKind::Prismatic,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-    JointKind::Revolute,
-];
+use vatcal_core::MECA500_ON_GUIDE_KINDS as CANONICAL_KINDS;
 
 /// Column names `q1..qN`.
 fn joint_columns(n: usize) -> Vec<String> {
