@@ -384,11 +384,23 @@ pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) 
     if !nominal.is_meca500_on_guide() {
         return paper_like_truth_any_chain(nominal, seed, physics);
     }
-    let mut truth = signed_truth(nominal, seed, &physics.geometry);
+    let truth = with_paper_like_physics(signed_truth(nominal, seed, &physics.geometry), seed, physics);
+    debug_assert!(truth.has_param(ParamId::Effect(EffectParam::CarriageTilt { axis: Axis::X })));
+    truth
+}
+
+/// The physics of [`PaperLikePhysics`] added to `truth` from their own seeded stream (the same
+/// stream on every chain): on every revolute joint, in joint order, the strain-wave gear
+/// harmonics (1–4 and the high one, fixed amplitudes, random phases) and the backlash; the
+/// guide's angular/straightness errors and carriage tilt when the chain has a guide; the
+/// tool-changer offset; the thermal growth with the temperature driver; wrong masses / centres
+/// of mass (± their sizes) of every moving body (the guide carriage, frame 1, carries no
+/// modelled mass and is left out).
+fn with_paper_like_physics(mut truth: Model, seed: u64, physics: &PaperLikePhysics) -> Model {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a11_c0de_9b35_0002);
     let sign = |rng: &mut ChaCha8Rng, size: f64| if rng.random::<bool>() { size } else { -size };
     let set = |truth: &mut Model, spec: EffectSpec, values: &[f64]| {
-        // every spec here is valid for a cell model with joints 2..7
+        // a spec the chain cannot take (a guide effect without a guide) is left out
         if truth.enable_effect(spec).is_ok() {
             for (id, v) in spec.params().into_iter().zip(values) {
                 let _ = truth.set_param(id, *v);
@@ -396,7 +408,9 @@ pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) 
         }
     };
     let high = (2 * u16::from(physics.gear_ratio)).min(255) as u8;
-    for joint in 2..=7u8 {
+    let revolute: Vec<u8> =
+        (1..=truth.joint_count()).filter(|j| truth.is_revolute(*j)).map(|j| j as u8).collect();
+    for joint in revolute {
         for (harmonic, amplitude) in [
             (1u8, physics.cyclic_low_rad),
             (2, physics.cyclic_low_rad),
@@ -410,16 +424,18 @@ pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) 
         }
         set(&mut truth, EffectSpec::JointBacklash { joint }, &[physics.backlash_rad]);
     }
-    let angular = EffectSpec::GuideAngular { order: 3 };
-    let values: Vec<f64> =
-        angular.params().iter().map(|_| sign(&mut rng, physics.guide_angular_rad)).collect();
-    set(&mut truth, angular, &values);
-    let straight = EffectSpec::GuideStraightness { order: 3 };
-    let values: Vec<f64> =
-        straight.params().iter().map(|_| sign(&mut rng, physics.guide_straightness_mm)).collect();
-    set(&mut truth, straight, &values);
-    let tilt = [physics.carriage_tilt_rad_per_n_m; 2];
-    set(&mut truth, EffectSpec::GuideCarriageTilt, &tilt);
+    let has_guide = JointLayout::of(truth.joint_kinds()).has_guide();
+    if has_guide {
+        let angular = EffectSpec::GuideAngular { order: 3 };
+        let values: Vec<f64> =
+            angular.params().iter().map(|_| sign(&mut rng, physics.guide_angular_rad)).collect();
+        set(&mut truth, angular, &values);
+        let straight = EffectSpec::GuideStraightness { order: 3 };
+        let values: Vec<f64> =
+            straight.params().iter().map(|_| sign(&mut rng, physics.guide_straightness_mm)).collect();
+        set(&mut truth, straight, &values);
+        set(&mut truth, EffectSpec::GuideCarriageTilt, &[physics.carriage_tilt_rad_per_n_m; 2]);
+    }
     let tool: Vec<f64> = ToolFrameDof::ALL
         .iter()
         .map(|d| match d {
@@ -435,15 +451,13 @@ pub fn paper_like_truth(nominal: &Model, seed: u64, physics: &PaperLikePhysics) 
     );
     truth.set_thermal_reference_c(physics.reference_c);
     let mut masses = truth.masses().clone();
-    // the moving Meca500 links, frames 2..7 (the carriage, frame 1, carries no modelled mass)
-    for body in masses.bodies_mut().iter_mut().skip(1) {
+    for body in masses.bodies_mut().iter_mut().skip(usize::from(has_guide)) {
         body.mass_kg *= 1.0 + sign(&mut rng, physics.mass_relative);
         for k in 0..3 {
             body.com_mm[k] += sign(&mut rng, physics.com_mm);
         }
     }
     truth.set_masses(masses);
-    debug_assert!(truth.has_param(ParamId::Effect(EffectParam::CarriageTilt { axis: Axis::X })));
     truth
 }
 
@@ -482,73 +496,13 @@ fn scaled_compliance(nominal: &Model, budget: &ErrorBudget) -> ErrorBudget {
 /// the temperature driver, and wrong masses / centres of mass of every body (± their sizes).
 pub fn paper_like_truth_any_chain(nominal: &Model, seed: u64, physics: &PaperLikePhysics) -> Model {
     let budget = scaled_compliance(nominal, &physics.geometry);
-    let mut truth =
-        perturb_any_chain(
-            nominal,
-            seed,
-            &budget,
-            |rng, size| if rng.random::<bool>() { size } else { -size },
-        );
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7a11_c0de_9b35_0002);
-    let sign = |rng: &mut ChaCha8Rng, size: f64| if rng.random::<bool>() { size } else { -size };
-    let set = |truth: &mut Model, spec: EffectSpec, values: &[f64]| {
-        // a spec the chain cannot take (a guide effect without a guide) is left out
-        if truth.enable_effect(spec).is_ok() {
-            for (id, v) in spec.params().into_iter().zip(values) {
-                let _ = truth.set_param(id, *v);
-            }
-        }
-    };
-    let high = (2 * u16::from(physics.gear_ratio)).min(255) as u8;
-    for joint in (1..=nominal.joint_count()).filter(|j| nominal.is_revolute(*j)) {
-        let joint = joint as u8;
-        for (harmonic, amplitude) in [
-            (1u8, physics.cyclic_low_rad),
-            (2, physics.cyclic_low_rad),
-            (3, physics.cyclic_mid_rad),
-            (4, physics.cyclic_mid_rad),
-            (high, physics.cyclic_high_rad),
-        ] {
-            let phase = rng.random_range(0.0..std::f64::consts::TAU);
-            let (s, c) = phase.sin_cos();
-            set(&mut truth, EffectSpec::JointCyclic { joint, harmonic }, &[amplitude * c, amplitude * s]);
-        }
-        set(&mut truth, EffectSpec::JointBacklash { joint }, &[physics.backlash_rad]);
-    }
-    if JointLayout::of(nominal.joint_kinds()).has_guide() {
-        let angular = EffectSpec::GuideAngular { order: 3 };
-        let values: Vec<f64> =
-            angular.params().iter().map(|_| sign(&mut rng, physics.guide_angular_rad)).collect();
-        set(&mut truth, angular, &values);
-        let straight = EffectSpec::GuideStraightness { order: 3 };
-        let values: Vec<f64> =
-            straight.params().iter().map(|_| sign(&mut rng, physics.guide_straightness_mm)).collect();
-        set(&mut truth, straight, &values);
-        set(&mut truth, EffectSpec::GuideCarriageTilt, &[physics.carriage_tilt_rad_per_n_m; 2]);
-    }
-    let tool: Vec<f64> = ToolFrameDof::ALL
-        .iter()
-        .map(|d| match d {
-            ToolFrameDof::Tx | ToolFrameDof::Ty => sign(&mut rng, physics.tool_offset_mm),
-            ToolFrameDof::Rx | ToolFrameDof::Ry => sign(&mut rng, physics.tool_tilt_rad),
-        })
-        .collect();
-    set(&mut truth, EffectSpec::ToolFrame, &tool);
-    set(
-        &mut truth,
-        EffectSpec::ThermalDrift { driver: ThermalDriver::Temperature },
-        &[physics.thermal_per_k],
+    let truth = perturb_any_chain(
+        nominal,
+        seed,
+        &budget,
+        |rng, size| if rng.random::<bool>() { size } else { -size },
     );
-    truth.set_thermal_reference_c(physics.reference_c);
-    let mut masses = truth.masses().clone();
-    for body in masses.bodies_mut().iter_mut() {
-        body.mass_kg *= 1.0 + sign(&mut rng, physics.mass_relative);
-        for k in 0..3 {
-            body.com_mm[k] += sign(&mut rng, physics.com_mm);
-        }
-    }
-    truth.set_masses(masses);
-    truth
+    with_paper_like_physics(truth, seed, physics)
 }
 
 /// Which hidden truth a virtual cell gets (`--truth ideal|paper-like|FILE`).
