@@ -413,17 +413,33 @@ mod tests {
         let m = nominal();
         let q = JointVector::from_mm_deg(120.0, [20.0, 10.0, -30.0, 40.0, 50.0, -60.0]);
         let c = m.chain(&q);
-        let j = tool_jacobian(&c);
+        assert_matches_central_differences(&m, &q, &tool_jacobian(&c), 1, 1e-5);
+    }
+
+    /// Column `k` of the 6 × 6 tool Jacobian `j` against central differences of joint
+    /// `first + k` (0-based): position rows within `position_tol`, rotation rows within 1e-8.
+    fn assert_matches_central_differences(
+        m: &Model,
+        q: &JointVector,
+        j: &nalgebra::Matrix6<f64>,
+        first: usize,
+        position_tol: f64,
+    ) {
         let h = 1e-6;
         for k in 0..6 {
-            let (mut qp, mut qm) = (q, q);
-            qp[k + 1] += h;
-            qm[k + 1] -= h;
+            let (mut qp, mut qm) = (*q, *q);
+            qp[k + first] += h;
+            qm[k + first] -= h;
             let (cp, cm) = (m.chain(&qp), m.chain(&qm));
             let dp = (cp.tool.p - cm.tool.p) / (2.0 * h);
             let dr = rotation_vector(&(cp.tool.r * cm.tool.r.transpose())) / (2.0 * h);
             for r in 0..3 {
-                assert!((j[(r, k)] - dp[r]).abs() < 1e-5, "col {k} row {r}: {} vs {}", j[(r, k)], dp[r]);
+                assert!(
+                    (j[(r, k)] - dp[r]).abs() < position_tol,
+                    "col {k} row {r}: {} vs {}",
+                    j[(r, k)],
+                    dp[r]
+                );
                 assert!((j[(r + 3, k)] - dr[r]).abs() < 1e-8, "col {k} rot {r}");
             }
         }
@@ -442,20 +458,7 @@ mod tests {
         let ur = Model::from_cell(&cell).expect("model");
         let split = JointSplit::of(&ur).expect("split");
         let q = JointVector::new([0.3, -1.2, 1.1, -1.4, 1.2, 0.2]);
-        let j = split.jacobian(&ur.chain(&q));
-        let h = 1e-6;
-        for k in 0..6 {
-            let (mut qp, mut qm) = (q, q);
-            qp[k] += h;
-            qm[k] -= h;
-            let (cp, cm) = (ur.chain(&qp), ur.chain(&qm));
-            let dp = (cp.tool.p - cm.tool.p) / (2.0 * h);
-            let dr = rotation_vector(&(cp.tool.r * cm.tool.r.transpose())) / (2.0 * h);
-            for r in 0..3 {
-                assert!((j[(r, k)] - dp[r]).abs() < 1e-4, "col {k} row {r}: {} vs {}", j[(r, k)], dp[r]);
-                assert!((j[(r + 3, k)] - dr[r]).abs() < 1e-8, "col {k} rot {r}");
-            }
-        }
+        assert_matches_central_differences(&ur, &q, &split.jacobian(&ur.chain(&q)), 0, 1e-4);
     }
 
     #[test]
