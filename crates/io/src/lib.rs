@@ -172,6 +172,20 @@ struct Table {
     joint_names: Vec<String>,
     /// the `dir{i}` columns of that model (the canonical cell's without a model), built once
     dir_cols: Vec<(usize, String)>,
+    /// field indices of the columns every row reads, resolved on first use (after
+    /// `joint_names` and `dir_cols` are final)
+    resolved: std::sync::OnceLock<ResolvedColumns>,
+}
+
+/// Field indices of the columns read on every row, so that a row costs no name lookups.
+struct ResolvedColumns {
+    /// `(name, field)` of `q1..qN` (the field is None when the header lacks it)
+    joints: Vec<(String, Option<usize>)>,
+    /// `(joint, name, field)` of the `dir{i}` columns the file has
+    dirs: Vec<(usize, String, usize)>,
+    time_s: Option<usize>,
+    temperature_c: Option<usize>,
+    offsets: [Option<usize>; 3],
 }
 
 impl Table {
@@ -250,6 +264,7 @@ impl Table {
             joint_names: Vec::new(),
             // the canonical cell's columns for tables read without a model (pose requests)
             dir_cols: dir_columns(&MECA500_ON_GUIDE_KINDS),
+            resolved: std::sync::OnceLock::new(),
         })
     }
 
@@ -297,6 +312,21 @@ impl Table {
         self.column(col).and_then(|i| rec.get(i))
     }
 
+    /// The field indices of the per-row columns (resolved once).
+    fn resolved(&self) -> &ResolvedColumns {
+        self.resolved.get_or_init(|| ResolvedColumns {
+            joints: self.joint_names.iter().map(|n| (n.clone(), self.column(n))).collect(),
+            dirs: self
+                .dir_cols
+                .iter()
+                .filter_map(|(joint, name)| self.column(name).map(|i| (*joint, name.clone(), i)))
+                .collect(),
+            time_s: self.column("time_s"),
+            temperature_c: self.column("temperature_c"),
+            offsets: OFFSET_COLUMNS.map(|c| self.column(c)),
+        })
+    }
+
     /// Converts every row with `f`, in parallel; the rows keep their order and an error is the
     /// one of the first bad row (as a sequential pass would report).
     fn convert<T: Send>(
@@ -313,7 +343,18 @@ impl Table {
     }
 
     fn float(&self, line: u64, rec: &csv::StringRecord, col: &str) -> Result<f64, IoError> {
-        let s = self.field(rec, col).unwrap_or("");
+        self.float_at(line, rec, col, self.column(col))
+    }
+
+    /// [`Self::float`] of column `col` at the already resolved field `index`.
+    fn float_at(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        col: &str,
+        index: Option<usize>,
+    ) -> Result<f64, IoError> {
+        let s = index.and_then(|i| rec.get(i)).unwrap_or("");
         if s.is_empty() {
             return Err(self.err(line, col, "empty field"));
         }
@@ -324,10 +365,17 @@ impl Table {
         Ok(v)
     }
 
-    fn optional_float(&self, line: u64, rec: &csv::StringRecord, col: &str) -> Result<Option<f64>, IoError> {
-        match self.field(rec, col) {
+    /// The value of column `col` (resolved to field `index`), None when absent or empty.
+    fn optional_float_at(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        col: &str,
+        index: Option<usize>,
+    ) -> Result<Option<f64>, IoError> {
+        match index.and_then(|i| rec.get(i)) {
             None | Some("") => Ok(None),
-            Some(_) => self.float(line, rec, col).map(Some),
+            Some(_) => self.float_at(line, rec, col, index).map(Some),
         }
     }
 
@@ -346,9 +394,10 @@ impl Table {
     fn joints(&self, line: u64, rec: &csv::StringRecord, model: &Model) -> Result<JointVector, IoError> {
         let kinds = model.joint_kinds();
         let mut values = [0.0; MAX_JOINTS];
+        let joints = &self.resolved().joints;
         for (k, v) in values.iter_mut().enumerate().take(kinds.len()) {
-            *v = match self.joint_names.get(k) {
-                Some(name) => self.float(line, rec, name)?,
+            *v = match joints.get(k) {
+                Some((name, index)) => self.float_at(line, rec, name, *index)?,
                 None => self.float(line, rec, &format!("q{}", k + 1))?,
             };
         }
@@ -368,15 +417,17 @@ impl Table {
     }
 
     fn context(&self, line: u64, rec: &csv::StringRecord) -> Result<MeasurementContext, IoError> {
-        let time_s = self.optional_float(line, rec, "time_s")?;
-        let temperature_c = self.optional_float(line, rec, "temperature_c")?;
+        let cols = self.resolved();
+        let time_s = self.optional_float_at(line, rec, "time_s", cols.time_s)?;
+        let temperature_c = self.optional_float_at(line, rec, "temperature_c", cols.temperature_c)?;
         // every `dir{i}` column of a revolute joint i the file has; a joint without one is 0
         // (unknown); no direction data when the file has none of them
-        let dir_cols = &self.dir_cols;
-        let dir = if dir_cols.iter().any(|(_, c)| self.has(c)) {
+        let dir = if cols.dirs.is_empty() {
+            None
+        } else {
             let mut d = [0i8; MAX_JOINTS];
-            for (joint, col) in dir_cols.iter().filter(|(_, c)| self.has(c)) {
-                let v = self.float(line, rec, col)?;
+            for (joint, col, index) in &cols.dirs {
+                let v = self.float_at(line, rec, col, Some(*index))?;
                 d[joint - 1] = match v {
                     1.0 => 1,
                     -1.0 => -1,
@@ -385,8 +436,6 @@ impl Table {
                 };
             }
             Some(d)
-        } else {
-            None
         };
         Ok(MeasurementContext { dir, time_s, temperature_c })
     }
@@ -395,8 +444,8 @@ impl Table {
     /// a probe row: all three present or all three empty/absent.
     fn probe_offset(&self, line: u64, rec: &csv::StringRecord) -> Result<Option<Vector3<f64>>, IoError> {
         let mut v = [None; 3];
-        for (value, c) in v.iter_mut().zip(OFFSET_COLUMNS) {
-            *value = self.optional_float(line, rec, c)?;
+        for ((value, c), index) in v.iter_mut().zip(OFFSET_COLUMNS).zip(self.resolved().offsets) {
+            *value = self.optional_float_at(line, rec, c, index)?;
         }
         match (v[0], v[1], v[2]) {
             (Some(x), Some(y), Some(z)) => Ok(Some(Vector3::new(x, y, z))),
@@ -470,17 +519,24 @@ fn parallel_rows(
     let parts: Vec<Option<Part>> = chunks
         .par_iter()
         .map(|(_, chunk)| {
-            // one branch-free pass (vectorised): line ends, and quotes or carriage returns
-            let (line_ends, unusual) = chunk.iter().fold((0u64, 0u64), |(n, u), b| {
-                (n + u64::from(*b == b'\n'), u + u64::from(*b == b'"' || *b == b'\r'))
+            // one branch-free pass (vectorised): line ends, quotes or carriage returns, and the
+            // other whitespace a field could be trimmed of
+            let (line_ends, unusual, blanks) = chunk.iter().fold((0u64, 0u64, 0u64), |(n, u, w), b| {
+                (
+                    n + u64::from(*b == b'\n'),
+                    u + u64::from(*b == b'"' || *b == b'\r'),
+                    w + u64::from(*b == b' ' || *b == b'\t' || *b == b'\x0c'),
+                )
             });
             if unusual > 0 {
                 return None;
             }
+            // without whitespace in the chunk trimming changes nothing: skip its per-record cost
+            let trim = if blanks > 0 { csv::Trim::All } else { csv::Trim::None };
             let mut rdr = csv::ReaderBuilder::new()
                 .has_headers(false)
                 .comment(Some(b'#'))
-                .trim(csv::Trim::All)
+                .trim(trim)
                 .flexible(true)
                 .from_reader(*chunk);
             let (mut rows, mut records) = (Vec::with_capacity(line_ends as usize + 1), 0);

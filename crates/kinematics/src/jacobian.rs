@@ -50,9 +50,9 @@ impl Model {
             rot(a.z, a.o)
         };
         let row_ok = |i: u8| (1..=self.n).contains(&(i as usize));
-        if !self.has_param(id) && !matches!(id, ParamId::Effect(_)) {
-            return Err(ModelError::ParamNotInModel(id.name()));
-        }
+        // every arm checks that the parameter exists in the model (as `has_param` would), so
+        // that a column costs no lookup for the common parameters; `tcp` itself is checked by
+        // the caller
         Ok(match id {
             ParamId::Alpha(i) if row_ok(i) => {
                 let a = &chain.axes[i as usize - 1];
@@ -85,14 +85,9 @@ impl Model {
                     BaseParam::Gamma => rot(chain.frames[0].z_axis(), o),
                 }
             }
-            ParamId::Tcp { id: t, axis } => {
-                if t == tcp {
-                    chain.tool.r * unit(axis)
-                } else {
-                    Vector3::zeros()
-                }
-            }
-            ParamId::Position { .. } => Vector3::zeros(),
+            ParamId::Tcp { id: t, axis } if t == tcp => chain.tool.r * unit(axis),
+            ParamId::Tcp { id: t, .. } if self.tcp(t).is_some() => Vector3::zeros(),
+            ParamId::Position { id: pos, .. } if self.position(pos).is_some() => Vector3::zeros(),
             ParamId::Effect(e) => self.effect_column(chain, q, ctx, p, e)?,
             _ => return Err(ModelError::ParamNotInModel(id.name())),
         })

@@ -576,13 +576,15 @@ impl<'a> Work<'a> {
             let (start, len) = chunk_range(ci, n);
             // blocks of 16 candidates: 48 source rows stay in L1, each store run fills a line
             const BLOCK: usize = 16;
+            let src_chunk = &orig.rows[3 * start * l..3 * (start + len) * l];
             for i0 in (0..len).step_by(BLOCK) {
                 let width = BLOCK.min(len - i0);
+                let src = &src_chunk[3 * i0 * l..3 * (i0 + width) * l];
                 for a in 0..3 {
                     for (j, f) in factors.iter().enumerate() {
                         let dst = &mut out[j * 3 * len + a * len + i0..][..width];
-                        for (d, i) in dst.iter_mut().zip(i0..) {
-                            *d = (orig.row(start + i, a)[j] * f) as f32;
+                        for (d, row) in dst.iter_mut().zip(src.chunks_exact(3 * l)) {
+                            *d = (row[a * l + j] * f) as f32;
                         }
                     }
                 }
