@@ -480,10 +480,25 @@ fn loss_of(g: &Sym3) -> f64 {
 
 /// Euclidean norm of every column over all candidates.
 fn column_norms(c: &Candidates) -> Vec<f64> {
+    // per chunk of CHUNK candidates in parallel, the partial sums added in chunk order: the
+    // result does not depend on the number of threads
+    let partial: Vec<Vec<f64>> = c
+        .rows
+        .par_chunks(3 * CHUNK * c.l)
+        .map(|rows| {
+            let mut sq = vec![0.0; c.l];
+            for row in rows.chunks(c.l) {
+                for (s, x) in sq.iter_mut().zip(row) {
+                    *s += x * x;
+                }
+            }
+            sq
+        })
+        .collect();
     let mut sq = vec![0.0; c.l];
-    for row in c.rows.chunks(c.l) {
-        for (s, x) in sq.iter_mut().zip(row) {
-            *s += x * x;
+    for p in partial {
+        for (s, x) in sq.iter_mut().zip(p) {
+            *s += x;
         }
     }
     sq.into_iter().map(f64::sqrt).collect()
