@@ -36,7 +36,7 @@ pub use console::ConsoleOperator;
 pub use journal::{
     CellState, JOURNAL_FORMAT, JOURNAL_VERSION, Journal, JournalError, JournalHeader, StepOutcome, StepRecord,
 };
-pub use plan::{CampaignPlan, CampaignPlanOptions, CampaignStep, PlanError, TourFileError};
+pub use plan::{CampaignPlan, CampaignPlanError, CampaignPlanOptions, CampaignStep, TourFileError};
 pub use runner::{
     Campaign, CampaignConfig, CampaignError, CampaignReport, CellDevices, StepLabel, WarmUp,
     export_measurements, export_measurements_for,

@@ -53,7 +53,7 @@ pub enum CampaignStep {
 
 /// Why a plan is rejected before anything moves.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum PlanError {
+pub enum CampaignPlanError {
     /// The plan has no steps.
     #[error("the plan has no steps")]
     Empty,
@@ -298,13 +298,13 @@ impl CampaignPlan {
 
     /// Checks the plan against the model: waypoints inside the joint limits, known ids, every
     /// measurement at the position where the plate is.
-    pub fn validate(&self, model: &Model) -> Result<(), PlanError> {
+    pub fn validate(&self, model: &Model) -> Result<(), CampaignPlanError> {
         if self.steps.is_empty() {
-            return Err(PlanError::Empty);
+            return Err(CampaignPlanError::Empty);
         }
         let (tcps, positions) = (model.tcp_ids(), model.position_ids());
         let known = |step: usize, what: &'static str, id: u32, ids: &[u32]| {
-            if ids.contains(&id) { Ok(()) } else { Err(PlanError::UnknownId { step, what, id }) }
+            if ids.contains(&id) { Ok(()) } else { Err(CampaignPlanError::UnknownId { step, what, id }) }
         };
         let mut placed = None;
         for (step, s) in self.steps.iter().enumerate() {
@@ -316,7 +316,7 @@ impl CampaignPlan {
                 CampaignStep::ZeroProbe { position } | CampaignStep::Measure { position, .. }
                     if placed != Some(*position) =>
                 {
-                    return Err(PlanError::PlateNotThere { step, position: *position, placed });
+                    return Err(CampaignPlanError::PlateNotThere { step, position: *position, placed });
                 }
                 CampaignStep::ZeroProbe { .. } => {}
                 CampaignStep::Measure { tcp, .. } | CampaignStep::Track { tcp } => {
@@ -324,11 +324,11 @@ impl CampaignPlan {
                 }
                 CampaignStep::Move { path } => {
                     if path.is_empty() {
-                        return Err(PlanError::EmptyMove { step });
+                        return Err(CampaignPlanError::EmptyMove { step });
                     }
                     for (waypoint, q) in path.iter().enumerate() {
                         if q.len() != model.joint_count() {
-                            return Err(PlanError::JointCount {
+                            return Err(CampaignPlanError::JointCount {
                                 step,
                                 waypoint,
                                 expected: model.joint_count(),
@@ -340,7 +340,7 @@ impl CampaignPlan {
                                 q.as_slice().iter().position(|v| !v.is_finite()).map(|k| (k + 1, q[k]))
                             });
                         if let Some((joint, value)) = bad {
-                            return Err(PlanError::Limits { step, waypoint, joint, value });
+                            return Err(CampaignPlanError::Limits { step, waypoint, joint, value });
                         }
                     }
                 }

@@ -14,7 +14,7 @@ use vatcal_kinematics::Model;
 
 use crate::centering::{CenteringConfig, CenteringError, auto_center};
 use crate::journal::{CellState, Journal, JournalError, JournalHeader, StepOutcome, StepRecord};
-use crate::plan::{CampaignPlan, CampaignStep, PlanError};
+use crate::plan::{CampaignPlan, CampaignPlanError, CampaignStep};
 
 /// The devices a campaign drives — trait objects only, so any driver (real or simulated) fits.
 pub struct CellDevices<'a> {
@@ -113,7 +113,7 @@ impl Default for CampaignConfig {
 pub enum CampaignError {
     /// The plan is invalid for the model.
     #[error("invalid plan: {0}")]
-    Plan(#[from] PlanError),
+    Plan(#[from] CampaignPlanError),
     /// The journal cannot be read or written.
     #[error(transparent)]
     Journal(#[from] JournalError),

@@ -175,6 +175,13 @@ pub struct DemoSetup {
     pub parameters: String,
     /// estimation method
     pub method: String,
+    /// how the summary names the identified set (`the paper's 34 parameters`, `the
+    /// calibration's N parameters`; not in `report.json`)
+    #[serde(skip)]
+    pub parameters_name: String,
+    /// number of identified parameters (not in `report.json`)
+    #[serde(skip)]
+    pub parameter_count: usize,
 }
 
 impl DemoSetup {
@@ -218,6 +225,8 @@ impl DemoSetup {
                 format!("the chain's identifiable default set ({} parameters)", fit.params.len())
             },
             method: fit.method.to_string(),
+            parameters_name: vatcal_pipeline::discovery_stage::parameter_set_name(&fit.params),
+            parameter_count: fit.params.len(),
         }
     }
 }
@@ -283,20 +292,24 @@ impl ReportSetup for DemoSetup {
     }
 
     fn comparison_note(&self) -> String {
+        let (set, n) = (&self.parameters_name, self.parameter_count);
         if self.hidden_truth.contains("perturbed_truth") {
-            "The hidden truth (`--truth ideal`) differs from the nominal cell only in the paper's 34 parameters, \
+            format!(
+                "The hidden truth (`--truth ideal`) differs from the nominal cell only in {set}, \
              so a calibrated model can match it up to the noise of the simulated devices: the calibrated errors \
              above are that noise floor (tracker, robot and tool-changer repeatability). The paper's 0.271 / \
              0.220 mm also contain whatever the real cell does beyond the model, and the real tracker's \
              registration errors."
+            )
         } else {
-            "The hidden truth also contains physics the paper's 34 parameters do not model (strain-wave gear \
+            format!(
+                "The hidden truth also contains physics {set} do not model (strain-wave gear \
              harmonics, backlash, guide angular and straightness errors, carriage tilt under the arm's weight, \
              wrong masses, CMM errors, a tool-changer offset, thermal growth, tracker registration and SMR \
-             errors; `docs/virtual-cell.md`), so the calibrated errors above are what the 34-parameter model \
+             errors; `docs/virtual-cell.md`), so the calibrated errors above are what the {n}-parameter model \
              leaves, like the paper's 0.271 / 0.220 mm; `--truth ideal` shows the devices' noise floor instead."
+            )
         }
-        .into()
     }
 
     fn method(&self) -> String {

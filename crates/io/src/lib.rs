@@ -8,8 +8,7 @@
 //! | probe measurements | `position,tcp,q1..qN` (+ `time_s`, `temperature_c`, `dir{i}`, `offset_x_mm,offset_y_mm,offset_z_mm`) | [`read_probe_measurements`] | [`write_measurements_for`] |
 //! | tracker measurements | `tcp,q1..qN,x,y,z` | [`read_tracker_measurements`] | [`write_measurements_for`] |
 //! | candidate poses | `position,tcp,q1..qN` | [`read_candidates`] | [`CandidateTable::write_subset`] |
-//! | pose requests (Meca500-on-guide cell) | `tcp,q1,x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir2..dir7`) | [`read_pose_rows`] | (`vatcal compensate`) |
-//! | pose requests (any chain) | `tcp`, the given joints' `q{i}`, `x,y,z,alpha,beta,gamma` (+ context) | [`read_pose_requests`] | (`vatcal compensate`) |
+//! | pose requests | `tcp`, the given joints' `q{i}` (`q1` on the canonical cell, none on a six-joint arm), `x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir{i}`) | [`read_pose_requests`] | (`vatcal compensate`) |
 //!
 //! Rules: a header line, columns found by name in any order, unknown columns ignored, `#`
 //! comment lines and blank lines skipped. An N-joint model reads and writes the joint columns
@@ -1026,77 +1025,6 @@ pub fn write_measurements_for(
         .map_err(|source| IoError::File { path: path.into(), cause: source })
 }
 
-/// One row of a pose-request file (`vatcal compensate`): the TCP `tcp` must reach the world
-/// point `x,y,z` \[mm\] with the tool-changer frame at Mecademic Euler angles
-/// `alpha,beta,gamma` \[deg\] (intrinsic X-Y-Z), the guide at `q1` \[mm\].
-#[derive(Debug, Clone, PartialEq)]
-pub struct PoseRow {
-    /// 1-based line number in the file
-    pub line: u64,
-    /// TCP id
-    pub tcp: u32,
-    /// guide position \[mm\]
-    pub q1_mm: f64,
-    /// TCP point in the world \[mm\]
-    pub xyz_mm: [f64; 3],
-    /// tool-changer frame orientation, intrinsic X-Y-Z Euler angles \[deg\]
-    pub abc_deg: [f64; 3],
-    /// optional `time_s`, `temperature_c`, `dir2..dir7`
-    pub context: MeasurementContext,
-}
-
-/// Reads pose requests `tcp,q1,x,y,z,alpha,beta,gamma` of the canonical Meca500-on-guide cell
-/// with the optional `time_s`, `temperature_c`, `dir2..dir7` columns; TCP ids are checked
-/// against the model and `q1` against the guide limits. Another chain is an error.
-///
-/// # Examples
-/// ```
-/// use vatcal_core::CellFile;
-/// use vatcal_io::read_pose_rows;
-/// use vatcal_kinematics::Model;
-///
-/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
-/// let rows = read_pose_rows(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/compensate-poses.csv"), &model)?;
-/// assert!(!rows.is_empty() && rows.iter().all(|r| model.tcp(r.tcp).is_some()));
-/// # Ok::<(), Box<dyn std::error::Error>>(())
-/// ```
-///
-/// # Errors
-/// [`IoError::UnsupportedChain`] for a model other than the canonical cell; otherwise as
-/// [`read_joint_rows`] (`q1` outside the guide limits is a [`IoError::Row`]).
-pub fn read_pose_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<PoseRow>, IoError> {
-    let path = path.as_ref();
-    if !model.is_meca500_on_guide() {
-        return Err(IoError::UnsupportedChain {
-            path: path.into(),
-            reason: format!(
-                "pose requests (tcp,q1,x,y,z,alpha,beta,gamma) are for the 7-joint Meca500-on-guide cell; this model has {}",
-                model.describe_chain()
-            ),
-        });
-    }
-    let required = ["tcp", "q1", "x", "y", "z", "alpha", "beta", "gamma"];
-    let t = Table::read(path, &required)?;
-    let tcps = model.tcp_ids();
-    let (lo, hi) = model.joint_limits()[0];
-    t.convert(|line, rec| {
-        let tcp = t.id(line, rec, "tcp", &tcps)?;
-        let q1_mm = t.float(line, rec, "q1")?;
-        if !(lo..=hi).contains(&q1_mm) {
-            return Err(t.err(line, "q1", format!("{q1_mm} mm is outside the guide limits [{lo}, {hi}] mm")));
-        }
-        let f = |c: &str| t.float(line, rec, c);
-        Ok(PoseRow {
-            line,
-            tcp,
-            q1_mm,
-            xyz_mm: [f("x")?, f("y")?, f("z")?],
-            abc_deg: [f("alpha")?, f("beta")?, f("gamma")?],
-            context: t.context(line, rec)?,
-        })
-    })
-}
-
 /// One row of a pose-request file of any chain (`vatcal compensate`): TCP `tcp` must reach the
 /// world point `x,y,z` \[mm\] with the chain's last frame at Mecademic Euler angles
 /// `alpha,beta,gamma` \[deg\] (intrinsic X-Y-Z), the given joints (e.g. the guide `q1`) at
@@ -1126,9 +1054,23 @@ pub struct PoseRequestRow {
 /// an error (the pose determines that joint); context columns the model's effects need must be
 /// present ([`IoError::ModelNeedsColumn`]).
 ///
+/// # Examples
+/// ```
+/// use vatcal_core::CellFile;
+/// use vatcal_io::read_pose_requests;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))?)?;
+/// // the canonical cell: the request gives the guide `q1` (mm), the pose determines q2..q7
+/// let rows = read_pose_requests(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/compensate-poses.csv"), &model, &[1])?;
+/// assert!(!rows.is_empty() && rows.iter().all(|r| model.tcp(r.tcp).is_some()));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
 /// # Errors
-/// As [`read_joint_rows`], with [`IoError::UnsupportedChain`] for a `q` column that is not
-/// one of the given joints'.
+/// As [`read_joint_rows`] (a given joint outside its limits is an [`IoError::Row`] naming
+/// the column), with [`IoError::UnsupportedChain`] for a `q` column that is not one of the
+/// given joints'.
 pub fn read_pose_requests(
     path: impl AsRef<Path>,
     model: &Model,
@@ -1234,25 +1176,36 @@ mod tests {
     }
 
     #[test]
-    fn pose_rows_read_by_name_with_context_and_named_errors() {
+    fn pose_requests_read_by_name_with_context_and_named_errors() {
         let m = model();
         let f = file("# poses\ngamma,beta,alpha,z,y,x,q1,tcp,time_s\n3,2,180,40,-40,60,100,2,7.5\n");
-        let rows = read_pose_rows(f.path(), &m).expect("ok");
+        let rows = read_pose_requests(f.path(), &m, &[1]).expect("ok");
         assert_eq!(rows.len(), 1);
         let r = &rows[0];
-        assert_eq!((r.line, r.tcp, r.q1_mm), (3, 2, 100.0));
+        assert_eq!((r.line, r.tcp, r.given.len(), r.given.get(1)), (3, 2, 7, 100.0));
+        assert!((2..=7).all(|i| r.given.get(i) == 0.0), "{:?}", r.given);
         assert_eq!((r.xyz_mm, r.abc_deg), ([60.0, -40.0, 40.0], [180.0, 2.0, 3.0]));
         assert_eq!(r.context.time_s, Some(7.5));
         let cases = [
-            ("tcp,q1,x,y,z,alpha,beta,gamma\n2,400,0,0,0,0,0,0\n", "q1", "guide limits"),
+            (
+                "tcp,q1,x,y,z,alpha,beta,gamma\n2,400,0,0,0,0,0,0\n",
+                "q1",
+                "400 mm is outside the joint limits [0, 300] mm",
+            ),
+            (
+                "tcp,q1,x,y,z,alpha,beta,gamma,q3\n2,100,0,0,0,0,0,0,5\n",
+                "q3",
+                "the pose determines the others",
+            ),
             ("tcp,q1,x,y,z,alpha,beta,gamma\n2,100,0,0,0,0,nan,0\n", "beta", "not finite"),
             ("tcp,q1,x,y,z,alpha,beta,gamma\n7,100,0,0,0,0,0,0\n", "tcp", "unknown tcp id 7"),
             ("tcp,q1,x,y,z,alpha,beta\n2,100,0,0,0,0,0\n", "gamma", "missing column"),
         ];
         for (text, column, reason) in cases {
             let f = file(text);
-            let e = read_pose_rows(f.path(), &m).expect_err("bad").to_string();
-            assert!(e.contains(&format!("`{column}`")) && e.contains(reason), "{e}");
+            let e = read_pose_requests(f.path(), &m, &[1]).expect_err("bad").to_string();
+            assert!(e.contains(column) && e.contains(reason), "{e}");
+            assert!(e.contains(&f.path().display().to_string()), "{e}");
         }
     }
 
@@ -1362,10 +1315,18 @@ mod tests {
         let f = file("tcp,q1,q2,q3,q4,q5,q6\n1,0,95,0,0,0,0\n");
         let e = read_joint_rows(f.path(), &meca).expect_err("J2 limit").to_string();
         assert!(e.contains(":2: column `q2`: 95 deg is outside the joint limits"), "{e}");
-        // pose requests are for the Meca500-on-guide cell only
+        // a canonical-cell pose request (with the guide `q1`) on a six-joint arm, where the
+        // pose determines every joint: the stray column and the chain are named
         let f = file("tcp,q1,x,y,z,alpha,beta,gamma\n1,0,0,0,0,0,0,0\n");
-        let e = read_pose_rows(f.path(), &ur).expect_err("not the guide cell").to_string();
-        assert!(e.contains("Meca500-on-guide"), "{e}");
+        let e = read_pose_requests(f.path(), &ur, &[]).expect_err("no guide on the arm").to_string();
+        assert!(
+            e.contains("column(s) q1 in the header") && e.contains("gives the joint columns none"),
+            "{e}"
+        );
+        // and the arm's own requests are read
+        let f = file("tcp,x,y,z,alpha,beta,gamma\n1,400,100,300,180,0,0\n");
+        let rows = read_pose_requests(f.path(), &ur, &[]).expect("six-joint request");
+        assert_eq!((rows[0].given.len(), rows[0].xyz_mm), (6, [400.0, 100.0, 300.0]));
     }
 
     /// A backlash on joint i needs exactly the column `dir{i}`, on any chain: the error names

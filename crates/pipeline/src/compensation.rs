@@ -20,6 +20,38 @@ use vatcal_kinematics::Model;
 
 use crate::{CALIBRATED, NOMINAL, PipelineError};
 
+/// Why the validation's printing path is not commanded by the compensation's targets (the
+/// source of [`PipelineError::Compensation`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PrintingPathCheckError {
+    /// The plan has no run with this label over every slice.
+    #[error("no `{label}` printing-path run of every slice")]
+    MissingRun {
+        /// run label ([`NOMINAL`] or [`CALIBRATED`])
+        label: String,
+    },
+    /// The compensation library cannot solve the targets (its error is the source).
+    #[error("{targets} targets of the printing path")]
+    Solve {
+        /// `compensated` (under the calibrated model) or `uncompensated` (under the nominal)
+        targets: &'static str,
+        /// why
+        #[source]
+        source: vatcal_compensation::CompensationError,
+    },
+    /// A commanded joint differs from its target by more than [`JOINT_AGREEMENT`].
+    #[error(
+        "the `{label}` printing-path run differs from the compensation's targets by {difference:.3e} (allowed {JOINT_AGREEMENT:.0e})"
+    )]
+    Differs {
+        /// run label
+        label: String,
+        /// largest difference \[rad for revolute, mm for prismatic joints\]
+        difference: f64,
+    },
+}
+
 /// Largest allowed difference between a commanded joint of the validation's printing path and
 /// the compensation's target \[rad for q2..q7, mm for q1\].
 pub const JOINT_AGREEMENT: f64 = 1e-6;
@@ -145,9 +177,7 @@ pub fn check_printing_path(
             .iter()
             .find(|r| r.label == label && r.joints.len() == plan.slices.len())
             .map(|r| r.joints.as_slice())
-            .ok_or_else(|| {
-                PipelineError::Compensation(format!("no `{label}` printing-path run of every slice"))
-            })
+            .ok_or_else(|| PrintingPathCheckError::MissingRun { label: label.to_string() })
     };
     let (commanded_nominal, commanded_calibrated) = (run(NOMINAL)?, run(CALIBRATED)?);
     let targets: Vec<ToolTarget> = plan
@@ -157,9 +187,7 @@ pub fn check_printing_path(
         .map(|(s, q)| ToolTarget::new(q.guide_mm(), s.tool_pose))
         .collect();
     let opts = PathOptions { start: commanded_nominal.first().copied(), ..PathOptions::default() };
-    let fail = |what: &str, e: vatcal_compensation::CompensationError| {
-        PipelineError::Compensation(format!("{what} targets of the printing path: {e}"))
-    };
+    let fail = |targets: &'static str, source| PrintingPathCheckError::Solve { targets, source };
     let comp = Compensator::new(calibrated, nominal)
         .and_then(|c| c.compensate_path(&targets, &opts))
         .map_err(|e| fail("compensated", e))?;
@@ -171,10 +199,7 @@ pub fn check_printing_path(
     let nominal_run_difference = largest_difference(commanded_nominal, &uncompensated);
     for (label, d) in [(CALIBRATED, calibrated_run_difference), (NOMINAL, nominal_run_difference)] {
         if d.is_nan() || d > JOINT_AGREEMENT {
-            return Err(PipelineError::Compensation(format!(
-                "the `{label}` printing-path run differs from the compensation's targets by {d:.3e} \
-                 (allowed {JOINT_AGREEMENT:.0e})"
-            )));
+            return Err(PrintingPathCheckError::Differs { label: label.to_string(), difference: d }.into());
         }
     }
     let (mut max_residual_mm, mut max_residual_rad) = (0.0_f64, 0.0_f64);
@@ -279,11 +304,45 @@ mod tests {
         let mut bad = plan.clone();
         bad.path_runs[1].joints[7][3] += 1e-4;
         let e = check_printing_path(&nominal, &nominal, &bad).expect_err("mismatch");
-        assert!(e.to_string().contains("`calibrated`") && e.to_string().contains("1.000e-4"), "{e}");
+        assert!(matches!(e, PipelineError::Compensation(PrintingPathCheckError::Differs { .. })), "{e:?}");
+        let text = chain(&e);
+        assert!(
+            text.starts_with("compensation of the printing path: the `calibrated` printing-path run differs")
+                && text.contains("1.000e-4"),
+            "{text}"
+        );
         // a missing run is an error, not a silent skip
-        let mut missing = plan;
+        let mut missing = plan.clone();
         missing.path_runs.retain(|r| r.label != NOMINAL);
         let e = check_printing_path(&nominal, &nominal, &missing).expect_err("missing");
-        assert!(e.to_string().contains("`nominal`"), "{e}");
+        assert!(chain(&e).contains("no `nominal` printing-path run of every slice"), "{e:?}");
+        // a compensation that cannot solve keeps the compensation library's error as the source
+        let mut unreachable = plan;
+        for s in &mut unreachable.slices {
+            s.tool_pose.p.z += 5000.0;
+        }
+        let e = check_printing_path(&nominal, &nominal, &unreachable).expect_err("out of reach");
+        let PipelineError::Compensation(PrintingPathCheckError::Solve { targets, source }) = &e else {
+            panic!("{e:?}");
+        };
+        assert_eq!(*targets, "compensated");
+        assert!(
+            chain(&e).starts_with(&format!(
+                "compensation of the printing path: compensated targets of the printing path: {source}"
+            )),
+            "{}",
+            chain(&e)
+        );
+    }
+
+    /// The error and its sources, `: `-separated (what `vatcal`'s `{:#}` prints).
+    fn chain(e: &dyn std::error::Error) -> String {
+        let mut text = e.to_string();
+        let mut next = e.source();
+        while let Some(s) = next {
+            text = format!("{text}: {s}");
+            next = s.source();
+        }
+        text
     }
 }

@@ -157,6 +157,38 @@ pub struct DiscoveryOutcome {
     pub plots: Vec<EffectPlot>,
     /// where the discovery campaign left the arm
     pub last_joints: Option<JointVector>,
+    /// number of the calibration's parameters (the base of the discovery; 34 on the canonical
+    /// cell)
+    pub base_params: usize,
+    /// how the summary names the calibration's parameters: `the paper's 34 parameters`, or
+    /// `the calibration's N parameters` for another set
+    pub base_name: String,
+    /// the direction columns recorded with each measurement, e.g. `dir2..dir7` on the
+    /// canonical cell, `dir1..dir6` on a six-joint arm
+    pub dir_columns: String,
+}
+
+/// How the summary names a calibration parameter set: `the paper's 34 parameters` for
+/// [`ParamSet::paper34`], `the calibration's N parameters` otherwise.
+pub fn parameter_set_name(set: &ParamSet) -> String {
+    if set == &ParamSet::paper34() {
+        format!("the paper's {} parameters", set.len())
+    } else {
+        format!("the calibration's {} parameters", set.len())
+    }
+}
+
+/// The `dir{i}` columns of a chain's revolute joints for text: `dir2..dir7` when they are
+/// consecutive, else the list (`dir1,dir3`), `none` without revolute joints.
+pub fn dir_columns_text(kinds: &[vatcal_core::JointKind]) -> String {
+    let cols = vatcal_io::dir_columns(kinds);
+    let consecutive = cols.windows(2).all(|w| w[1].0 == w[0].0 + 1);
+    match cols.as_slice() {
+        [] => "none".to_string(),
+        [(_, one)] => one.clone(),
+        [(_, first), .., (_, last)] if consecutive => format!("{first}..{last}"),
+        _ => cols.iter().map(|(_, c)| c.as_str()).collect::<Vec<_>>().join(","),
+    }
 }
 
 /// `report.json`'s `discovery` object.
@@ -398,6 +430,9 @@ pub fn discovery_stage(
         true_structure_note,
         plots,
         last_joints: campaign.records.last().map(|r| r.state.joints),
+        base_params: base.len(),
+        base_name: parameter_set_name(base),
+        dir_columns: dir_columns_text(nominal.joint_kinds()),
     })
 }
 
@@ -475,13 +510,19 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
     let _ = writeln!(m, "## 5. Discovery (`{DISCOVERY_JOURNAL}`, `{DISCOVERY_MEASUREMENTS_CSV}`)\n");
     let _ = writeln!(
         m,
-        "{} extra probe measurements (Detmax for the 34 parameters and the candidate effects' directions, \
+        "{} extra probe measurements (Detmax for the {n} parameters and the candidate effects' directions, \
          {} of them two-sided repeats: a planned pose measured again right after, approached from the \
-         opposite side on every revolute joint; `dir2..dir7`, `time_s` and, with a thermometer, \
+         opposite side on every revolute joint; `{}`, `time_s` and, with a thermometer, \
          `temperature_c` recorded) joined the calibration's; the discovery loop (screening \
          and held-out confirmation on separate splits) ran on all {} of them, starting from the calibrated \
-         34-parameter model. Cross-validated gap on the probe data: {:.4} → {:.4} mm.\n",
-        o.extra_measurements, o.two_sided_repeats, o.total_measurements, d.initial_gap_mm, d.final_gap_mm
+         {n}-parameter model. Cross-validated gap on the probe data: {:.4} → {:.4} mm.\n",
+        o.extra_measurements,
+        o.two_sided_repeats,
+        o.dir_columns,
+        o.total_measurements,
+        d.initial_gap_mm,
+        d.final_gap_mm,
+        n = o.base_params,
     );
     let _ = writeln!(
         m,
@@ -489,7 +530,7 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
     );
     for (label, name) in [
         (NOMINAL, "nominal"),
-        (CALIBRATED, "the paper's 34 parameters"),
+        (CALIBRATED, o.base_name.as_str()),
         (DISCOVERED, "discovered"),
         (TRUE_STRUCTURE, "true structure (floor)"),
     ] {
@@ -509,7 +550,12 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
     }
     let mean = |l: &str| report.model(l).map(|v| v.random.stats.mean);
     if let (Some(c), Some(x)) = (mean(CALIBRATED), mean(DISCOVERED)) {
-        let _ = write!(m, "\nDiscovered / 34-parameter mean random-pose error: **{:.0} %**", 100.0 * x / c);
+        let _ = write!(
+            m,
+            "\nDiscovered / {}-parameter mean random-pose error: **{:.0} %**",
+            o.base_params,
+            100.0 * x / c
+        );
         if let Some(t) = mean(TRUE_STRUCTURE) {
             let closed = if c > t { 100.0 * (c - x) / (c - t) } else { f64::NAN };
             let _ = write!(m, "; share of the gap to the true structure closed: **{closed:.0} %**");
@@ -521,9 +567,9 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
         let _ = writeln!(
             m,
             "No effect was added: none passed the held-out confirmation and the negligibility check, so the \
-             `discovered` row is the paper's 34 parameters refitted on all {} probe measurements (its gain over \
-             the 34-parameter row comes from the extra measurements, not from a new effect).\n",
-            o.total_measurements
+             `discovered` row is {} refitted on all {} probe measurements (its gain over \
+             the {}-parameter row comes from the extra measurements, not from a new effect).\n",
+            o.base_name, o.total_measurements, o.base_params
         );
     } else {
         let _ = writeln!(

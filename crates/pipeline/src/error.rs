@@ -65,8 +65,8 @@ pub enum PipelineError {
     Json(#[from] serde_json::Error),
     /// The printing path's targets from `vatcal-compensation` cannot be solved or differ from
     /// the commanded joints.
-    #[error("compensation of the printing path: {0}")]
-    Compensation(String),
+    #[error("compensation of the printing path")]
+    Compensation(#[from] crate::compensation::PrintingPathCheckError),
     /// The journal of a run folder cannot be read.
     #[error(transparent)]
     Journal(#[from] vatcal_campaign::JournalError),

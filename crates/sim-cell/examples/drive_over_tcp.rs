@@ -37,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let timeout = Duration::from_secs(20);
     let mut arm = Meca500::connect_tcp(addrs.meca500_control, Meca500Config::default())?;
     let mut guide = ZaberAxis::connect_tcp(
-        addrs.zaber,
+        addrs.zaber.ok_or("the canonical cell has a guide")?,
         ZaberConfig { poll_interval: Duration::from_millis(2), ..ZaberConfig::default() },
     )?;
     let mut gauges = Vec::new();

@@ -34,7 +34,7 @@ impl ArmBackend for ArmCoupling {
     ) -> Option<Result<Six, (u16, String)>> {
         let from = ArmJoints::from_deg_array(*from_deg);
         Some(self.cell.external_linear_target(&from, translation_mm, frame).and_then(|q| {
-            // the simulated cell is the Meca500 on its guide (checked at start): six joints
+            // the simulated cell's arm has six joints (checked at start)
             Six::try_from(q.to_deg().as_slice()).map_err(|_| {
                 (vatcal_sim::external::CODE_JOINT_LIMIT, format!("{} joints for a Meca500", q.len()))
             })
@@ -58,6 +58,15 @@ impl AxisBackend for GuideCoupling {
     }
 }
 
+/// The Zaber simulator as the gauges see it.
+#[derive(Debug, Clone)]
+pub(crate) struct GuideLink {
+    pub sim: Weak<ZaberSim>,
+    pub microstep_mm: f64,
+    /// the guide's `maxspeed` at full speed (the driver sets a fraction of it per move)
+    pub full_maxspeed: i64,
+}
+
 /// World → Sylvac simulator: where the true ball pushes the plunger of one gauge.
 #[derive(Debug)]
 pub(crate) struct GaugeCoupling {
@@ -66,10 +75,8 @@ pub(crate) struct GaugeCoupling {
     /// the plunger position that reads zero before any preset [mm] (mid-travel)
     zero_mm: f64,
     arm: Weak<Meca500Sim>,
-    guide: Weak<ZaberSim>,
-    microstep_mm: f64,
-    /// the guide's `maxspeed` at full speed (the driver sets a fraction of it per move)
-    guide_full_maxspeed: i64,
+    /// `None`: the cell has no guide
+    guide: Option<GuideLink>,
     /// fault injection: the gauge reads out of range
     pub out_of_range: AtomicBool,
 }
@@ -80,34 +87,35 @@ impl GaugeCoupling {
         index: usize,
         zero_mm: f64,
         arm: Weak<Meca500Sim>,
-        guide: Weak<ZaberSim>,
-        microstep_mm: f64,
-        guide_full_maxspeed: i64,
+        guide: Option<GuideLink>,
     ) -> Self {
-        Self {
-            cell,
-            index,
-            zero_mm,
-            arm,
-            guide,
-            microstep_mm,
-            guide_full_maxspeed,
-            out_of_range: AtomicBool::new(false),
-        }
+        Self { cell, index, zero_mm, arm, guide, out_of_range: AtomicBool::new(false) }
     }
 
     /// Puts the world where the Meca500 and Zaber simulators are now, with the speeds in
     /// force (the world's virtual clock advances by the motions since the last sync).
     pub fn sync(&self) {
-        let (Some(arm), Some(guide)) = (self.arm.upgrade(), self.guide.upgrade()) else { return };
+        let Some(arm) = self.arm.upgrade() else { return };
+        let guide = match &self.guide {
+            Some(link) => match link.sim.upgrade() {
+                Some(sim) => Some((sim, link)),
+                None => return,
+            },
+            None => None,
+        };
         // each simulator's lock is taken and released before the world's (lock order)
         let arm_state = arm.state();
         let joints = ArmJoints::from_deg_array(arm_state.joints_deg);
         let p = arm_state.params;
         let arm_speed = p.joint_vel_pct.min(p.joint_vel_limit_pct) / 100.0;
-        let guide_state = guide.state();
-        let guide_mm = guide_state.pos_microsteps * self.microstep_mm;
-        let guide_speed = guide_state.maxspeed as f64 / self.guide_full_maxspeed.max(1) as f64;
+        // without a guide the world has no guide joint: its position and speed are unused
+        let (guide_mm, guide_speed) = guide.map_or((0.0, 1.0), |(sim, link)| {
+            let guide_state = sim.state();
+            (
+                guide_state.pos_microsteps * link.microstep_mm,
+                guide_state.maxspeed as f64 / link.full_maxspeed.max(1) as f64,
+            )
+        });
         self.cell.external_sync(&joints, guide_mm, arm_speed, guide_speed);
     }
 }

@@ -5,11 +5,18 @@
 //! | port (default) | device | simulator |
 //! |---|---|---|
 //! | 10000, 10001 | Meca500 control and monitoring | `vatcal_drivers_meca500::sim` |
-//! | 55550 | Zaber ASCII (the guide) | `vatcal_drivers_zaber::sim` |
+//! | 55550 | Zaber ASCII (the guide; none when the cell has no guide) | `vatcal_drivers_zaber::sim` |
 //! | 55561, 55562, 55563 | Sylvac gauges 1–3 of the TriCal | `vatcal_drivers_sylvac::sim` |
 //! | 55570 | cell control (the operator), see [`control`] | this crate |
 //!
-//! from **one shared virtual world**, a [`VirtualCell`] of `vatcal-sim`: the protocol
+//! The cell is the canonical Meca500 on its guide by default, or any cell whose arm has six
+//! revolute joints, with or without a prismatic guide as joint 1 ([`SimCellOptions::for_nominal`],
+//! `vatcal sim-cell --model`): the arm is served behind the Meca500 protocol (joint-space
+//! commands and relative linear moves, solved on the cell's own nominal model; the pose commands
+//! and the reported pose keep the Meca500's own kinematics), and a cell without a guide has no
+//! Zaber server.
+//!
+//! Everything is served from **one shared virtual world**, a [`VirtualCell`] of `vatcal-sim`: the protocol
 //! simulators keep their queues, timing and protocol states, and a small backend hook couples
 //! each to the world —
 //!
@@ -51,6 +58,7 @@ use vatcal_core::CellFile;
 use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig as MecaConfig};
 use vatcal_drivers_sylvac::sim::{SimConfig as SylvacConfig, SylvacSim};
 use vatcal_drivers_zaber::sim::{SimConfig as ZaberConfig, ZaberSim};
+use vatcal_hardware_traits::JointLayout;
 use vatcal_hardware_traits::sim_server::SimServer;
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::{ErrorBudget, TruthSpec, perturbed_truth};
@@ -58,7 +66,7 @@ use vatcal_sim::{CellPhysics, NoiseBudget, SimConfig, VirtualCell};
 
 pub use error::SimCellError;
 
-use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling};
+use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling, GuideLink};
 
 /// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built in so that `vatcal
 /// sim-cell` runs from any directory (the same file as `vatcal demo`'s built-in cell).
@@ -71,7 +79,7 @@ pub struct Ports {
     pub meca500_control: u16,
     /// Meca500 monitoring port
     pub meca500_monitoring: u16,
-    /// Zaber ASCII port
+    /// Zaber ASCII port (unused when the cell has no guide)
     pub zaber: u16,
     /// Sylvac gauges 1, 2, 3
     pub gauges: [u16; 3],
@@ -108,7 +116,8 @@ pub struct SimCellOptions {
     pub ports: Ports,
     /// seed of the probe imperfections and of the noise (and of the default truth)
     pub seed: u64,
-    /// what the robot controller believes (and where the probe placements are configured)
+    /// what the robot controller believes (and where the probe placements are configured): an
+    /// arm of six revolute joints, with or without a prismatic guide as joint 1
     pub nominal: Model,
     /// the hidden true cell
     pub truth: Model,
@@ -136,6 +145,18 @@ impl SimCellOptions {
         let cell = CellFile::from_toml_str(BUILT_IN_CELL, "fixtures/meca500-zaber.toml (built in)")?;
         let nominal = Model::from_cell(&cell)?;
         nominal.require_meca500_on_guide("the simulated cell")?;
+        Self::for_nominal(nominal, seed)
+    }
+
+    /// The cell `nominal` (any arm of six revolute joints, with or without a guide as joint 1)
+    /// with the defaults of [`SimCellOptions::paper`]: truth
+    /// `perturbed_truth(nominal, seed, &ErrorBudget::realistic())`, noise on, real time, the
+    /// usual ports on 127.0.0.1, 4-decimal gauges.
+    ///
+    /// # Errors
+    /// [`SimCellError::Option`] (`nominal`) for a chain the Meca500 protocol cannot serve.
+    pub fn for_nominal(nominal: Model, seed: u64) -> Result<Self, SimCellError> {
+        check_chain(&nominal)?;
         let truth = perturbed_truth(&nominal, seed, &ErrorBudget::realistic());
         Ok(Self {
             bind: IpAddr::V4(Ipv4Addr::LOCALHOST),
@@ -185,6 +206,17 @@ impl SimCellOptions {
     }
 
     fn check(&self) -> Result<(), SimCellError> {
+        check_chain(&self.nominal)?;
+        if self.truth.joint_kinds() != self.nominal.joint_kinds() {
+            return Err(SimCellError::Option {
+                option: "truth".into(),
+                reason: format!(
+                    "the truth ({}) is not the nominal cell's chain ({})",
+                    self.truth.describe_chain(),
+                    self.nominal.describe_chain()
+                ),
+            });
+        }
         if !(self.time_scale.is_finite() && self.time_scale > 0.0) {
             return Err(SimCellError::Option {
                 option: "time_scale".into(),
@@ -201,6 +233,23 @@ impl SimCellOptions {
     }
 }
 
+/// The Meca500 protocol carries six joint values in degrees: the arm must be six revolute
+/// joints (after an optional prismatic guide).
+fn check_chain(nominal: &Model) -> Result<(), SimCellError> {
+    let layout = JointLayout::of(nominal.joint_kinds());
+    if layout.arm_joint_count() != 6 || !layout.arm_cell_joints().all(|j| nominal.is_revolute(j)) {
+        return Err(SimCellError::Option {
+            option: "nominal".into(),
+            reason: format!(
+                "the simulated cell serves an arm of six revolute joints (with or without a guide as joint 1) \
+                 behind the Meca500 protocol; this cell has {}",
+                nominal.describe_chain()
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// The addresses a running [`SimCell`] listens on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SimCellAddrs {
@@ -208,8 +257,8 @@ pub struct SimCellAddrs {
     pub meca500_control: SocketAddr,
     /// Meca500 monitoring
     pub meca500_monitoring: SocketAddr,
-    /// Zaber ASCII
-    pub zaber: SocketAddr,
+    /// Zaber ASCII (`None`: the cell has no guide)
+    pub zaber: Option<SocketAddr>,
     /// Sylvac gauges 1, 2, 3
     pub gauges: [SocketAddr; 3],
     /// cell control
@@ -217,17 +266,19 @@ pub struct SimCellAddrs {
 }
 
 impl SimCellAddrs {
-    /// `(name, address)` of every port, in the order `vatcal sim-cell` prints them.
+    /// `(name, address)` of every port, in the order `vatcal sim-cell` prints them (no
+    /// `zaber` without a guide).
     pub fn named(&self) -> Vec<(&'static str, SocketAddr)> {
-        vec![
-            ("meca500-control", self.meca500_control),
-            ("meca500-monitoring", self.meca500_monitoring),
-            ("zaber", self.zaber),
+        let mut named =
+            vec![("meca500-control", self.meca500_control), ("meca500-monitoring", self.meca500_monitoring)];
+        named.extend(self.zaber.map(|z| ("zaber", z)));
+        named.extend([
             ("gauge-1", self.gauges[0]),
             ("gauge-2", self.gauges[1]),
             ("gauge-3", self.gauges[2]),
             ("cell-control", self.control),
-        ]
+        ]);
+        named
     }
 }
 
@@ -252,7 +303,7 @@ pub struct SimCell {
     gauge_couplings: Vec<Arc<GaugeCoupling>>,
     control: SimServer,
     meca500: Arc<Meca500Sim>,
-    zaber: Arc<ZaberSim>,
+    zaber: Option<Arc<ZaberSim>>,
     cell: VirtualCell,
     addrs: SimCellAddrs,
 }
@@ -278,19 +329,25 @@ impl SimCell {
             move |source| SimCellError::Bind { device, address, source }
         };
 
-        // the guide: microsteps of the default lead, stroke and speed of the nominal cell
-        let mut zaber_config = ZaberConfig { time_scale: options.time_scale, ..ZaberConfig::default() };
-        // the cell is the Meca500 on its guide (checked above)
-        let (_, stroke_mm) = cell.guide_limits_mm().unwrap_or_default();
-        zaber_config.travel_mm = stroke_mm;
-        let limits = options.nominal.to_cell().motion_limits();
-        zaber_config.maxspeed =
-            ZaberConfig::maxspeed_for(limits.guide_speed_mm_per_s, zaber_config.microstep_mm);
-        let microstep_mm = zaber_config.microstep_mm;
-        let guide_full_maxspeed = zaber_config.maxspeed;
-        zaber_config.bind = at(options.ports.zaber);
-        zaber_config.backend = Some(Arc::new(GuideCoupling { cell: cell.clone(), microstep_mm }));
-        let zaber = Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
+        // the guide, if the cell has one: microsteps of the default lead, stroke and speed of
+        // the nominal cell
+        let mut zaber = None;
+        let mut guide_link = None;
+        if let Some((_, stroke_mm)) = cell.guide_limits_mm() {
+            let mut zaber_config = ZaberConfig { time_scale: options.time_scale, ..ZaberConfig::default() };
+            zaber_config.travel_mm = stroke_mm;
+            let limits = options.nominal.to_cell().motion_limits();
+            zaber_config.maxspeed =
+                ZaberConfig::maxspeed_for(limits.guide_speed_mm_per_s, zaber_config.microstep_mm);
+            let microstep_mm = zaber_config.microstep_mm;
+            let full_maxspeed = zaber_config.maxspeed;
+            zaber_config.bind = at(options.ports.zaber);
+            zaber_config.backend = Some(Arc::new(GuideCoupling { cell: cell.clone(), microstep_mm }));
+            let sim =
+                Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
+            guide_link = Some(GuideLink { sim: Arc::downgrade(&sim), microstep_mm, full_maxspeed });
+            zaber = Some(sim);
+        }
 
         // the arm: the nominal cell's joint limits, motions coupled to the world
         let mut meca_config = MecaConfig { time_scale: options.time_scale, ..MecaConfig::default() };
@@ -316,9 +373,7 @@ impl SimCell {
                 index,
                 range_mm,
                 Arc::downgrade(&meca500),
-                Arc::downgrade(&zaber),
-                microstep_mm,
-                guide_full_maxspeed,
+                guide_link.clone(),
             ));
             let decimals = options.gauge_decimals;
             let config = SylvacConfig {
@@ -349,7 +404,7 @@ impl SimCell {
         let addrs = SimCellAddrs {
             meca500_control: meca500.control_addr(),
             meca500_monitoring: meca500.monitoring_addr().unwrap_or_else(|| at(0)),
-            zaber: zaber.addr(),
+            zaber: zaber.as_ref().map(|z| z.addr()),
             gauges: [gauges[0].addr(), gauges[1].addr(), gauges[2].addr()],
             control: control.addrs()[0],
         };
@@ -372,9 +427,9 @@ impl SimCell {
         &self.meca500
     }
 
-    /// The Zaber simulator.
-    pub fn zaber(&self) -> &ZaberSim {
-        &self.zaber
+    /// The Zaber simulator (`None`: the cell has no guide).
+    pub fn zaber(&self) -> Option<&ZaberSim> {
+        self.zaber.as_deref()
     }
 
     /// Gauge simulator `index` (0, 1, 2).
@@ -388,7 +443,11 @@ impl SimCell {
     pub fn drop_connections(&self, device: Device) {
         match device {
             Device::Arm => self.meca500.drop_client(),
-            Device::Guide => self.zaber.drop_clients(),
+            Device::Guide => {
+                if let Some(z) = &self.zaber {
+                    z.drop_clients();
+                }
+            }
             Device::Gauge(i) => {
                 if let Some(g) = self.gauges.get(i) {
                     g.drop_clients();
@@ -402,7 +461,11 @@ impl SimCell {
     pub fn set_stalled(&self, device: Device, stalled: bool) {
         match device {
             Device::Arm => self.meca500.set_stalled(stalled),
-            Device::Guide => self.zaber.set_stalled(stalled),
+            Device::Guide => {
+                if let Some(z) = &self.zaber {
+                    z.set_stalled(stalled);
+                }
+            }
             Device::Gauge(i) => {
                 if let Some(g) = self.gauges.get(i) {
                     g.set_stalled(stalled);
@@ -429,8 +492,11 @@ impl SimCell {
         }
     }
 
-    /// The guide's motor stalls (`FS`); a running guide move stops where it is.
+    /// The guide's motor stalls (`FS`); a running guide move stops where it is (nothing
+    /// without a guide).
     pub fn guide_stall(&self) {
-        self.zaber.inject_stall();
+        if let Some(z) = &self.zaber {
+            z.inject_stall();
+        }
     }
 }

@@ -36,7 +36,7 @@ pub use plan::{
     build_validation_plan,
 };
 pub use poses::{RandomPoseOptions, ValidationPose, random_validation_poses};
-pub use printing::{PrintingPathOptions, PrintingSlice, printing_path};
+pub use printing::{PrintingPathError, PrintingPathOptions, PrintingSlice, printing_path};
 pub use registration::{RegistrationError, fit_rigid_transform};
 
 use crate::CampaignError;
@@ -65,9 +65,10 @@ pub enum ValidationError {
         /// draws made
         draws: usize,
     },
-    /// The printing path cannot be commanded.
-    #[error("printing path: {0}")]
-    PrintingPath(String),
+    /// The printing path cannot be commanded (messages start with `printing path:`; an IK
+    /// failure keeps the planning error as the source).
+    #[error(transparent)]
+    PrintingPath(#[from] PrintingPathError),
     /// No collision-free path between two consecutive validation poses.
     #[error("no collision-free path from {from} to {to}: {reason}")]
     NoPath {

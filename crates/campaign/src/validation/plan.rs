@@ -16,8 +16,8 @@ use vatcal_planning::tour::{TourCosts, TourOptions, solve_open_path};
 
 use super::printing::{PrintingJointRules, command_printing_joints, plan_printing_joints};
 use super::{
-    PrintingPathOptions, PrintingSlice, RandomPoseOptions, ValidationError, ValidationPose, printing_path,
-    random_validation_poses,
+    PrintingPathError, PrintingPathOptions, PrintingSlice, RandomPoseOptions, ValidationError,
+    ValidationPose, printing_path, random_validation_poses,
 };
 use crate::{Campaign, CampaignPlan, CampaignReport, CampaignStep, StepOutcome, StepRecord};
 
@@ -192,9 +192,9 @@ pub fn build_validation_plan(
         if let Some((k, contact)) =
             joints.iter().enumerate().find_map(|(k, q)| checker.check(q, ProbeState::Absent).map(|c| (k, c)))
         {
-            return Err(ValidationError::PrintingPath(format!(
-                "`{label}` commands slice {k} into a collision ({contact})"
-            )));
+            return Err(
+                PrintingPathError::Collision { label: (*label).to_string(), slice: k, contact }.into()
+            );
         }
         path_runs.push(PathRun { label: (*label).to_string(), joints });
     }

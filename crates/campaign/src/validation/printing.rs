@@ -40,7 +40,72 @@ use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::ik::{RefineOptions, ToolPoseIk, refine_tool_pose};
 use vatcal_planning::motion::{JointBounds, SingularityMargins};
 
+use vatcal_planning::collision::Contact;
+
 use super::ValidationError;
+
+/// Why the printing path cannot be commanded (the `source` of
+/// [`ValidationError::PrintingPath`]; every message starts with `printing path:`).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PrintingPathError {
+    /// The path has no slices.
+    #[error("printing path: the path has no slices")]
+    NoSlices,
+    /// The guide's stroke is shorter than the part's height.
+    #[error("printing path: the guide stroke cannot lift the part by {rise_mm:.1} mm")]
+    GuideStroke {
+        /// how far the guide must lift the part over the print \[mm\]
+        rise_mm: f64,
+    },
+    /// No guide start and IK branch of the first slice commands the whole path.
+    #[error(
+        "printing path: no guide start and IK branch commands all {slices} slices ({tried} feasible first-slice solutions tried)"
+    )]
+    NoStart {
+        /// number of slices
+        slices: usize,
+        /// feasible first-slice solutions tried
+        tried: usize,
+    },
+    /// The reference joints do not have one joint vector per slice.
+    #[error("printing path: {slices} slices but {reference} reference joint vectors")]
+    ReferenceLength {
+        /// number of slices
+        slices: usize,
+        /// number of reference joint vectors
+        reference: usize,
+    },
+    /// The IK refinement of a slice failed (the planning error is the source).
+    #[error("printing path: slice {slice}")]
+    SliceIk {
+        /// 0-based slice index
+        slice: usize,
+        /// why
+        #[source]
+        source: vatcal_planning::PlanError,
+    },
+    /// A slice's solution leaves the joint limits.
+    #[error("printing path: slice {slice}: joint q{joint} = {value:.4} leaves its limits")]
+    SliceLimits {
+        /// 0-based slice index
+        slice: usize,
+        /// cell joint 1..=N
+        joint: usize,
+        /// value (mm for prismatic, rad for revolute joints)
+        value: f64,
+    },
+    /// A model commands a slice into a collision.
+    #[error("printing path: `{label}` commands slice {slice} into a collision ({contact})")]
+    Collision {
+        /// label of the commanding model
+        label: String,
+        /// 0-based slice index
+        slice: usize,
+        /// the bodies in contact
+        contact: Contact,
+    },
+}
 
 /// Definition of the printing path (see the module docs). Lengths in mm, angles in degrees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -198,14 +263,11 @@ pub fn plan_printing_joints(
     slices: &[PrintingSlice],
     rules: &PrintingJointRules<'_>,
 ) -> Result<Vec<JointVector>, ValidationError> {
-    let first =
-        slices.first().ok_or_else(|| ValidationError::PrintingPath("the path has no slices".into()))?;
+    let first = slices.first().ok_or(ValidationError::PrintingPath(PrintingPathError::NoSlices))?;
     let rise = slices.last().map_or(0.0, |s| s.part_height_mm) - first.part_height_mm;
     let (lo, hi) = rules.bounds.bounds[0];
     if hi - rise < lo {
-        return Err(ValidationError::PrintingPath(format!(
-            "the guide stroke cannot lift the part by {rise:.1} mm"
-        )));
+        return Err(PrintingPathError::GuideStroke { rise_mm: rise }.into());
     }
     let ik = ToolPoseIk::new(model, RefineOptions::default())?;
     let n = rules.guide_candidates.max(1);
@@ -226,10 +288,7 @@ pub fn plan_printing_joints(
             return Ok(path);
         }
     }
-    Err(ValidationError::PrintingPath(format!(
-        "no guide start and IK branch commands all {} slices ({tried} feasible first-slice solutions tried)",
-        slices.len()
-    )))
+    Err(PrintingPathError::NoStart { slices: slices.len(), tried }.into())
 }
 
 /// Follows the path from the first-slice joints `q0`, refining every slice from the previous
@@ -282,23 +341,18 @@ pub fn command_printing_joints(
     reference: &[JointVector],
 ) -> Result<Vec<JointVector>, ValidationError> {
     if slices.len() != reference.len() {
-        return Err(ValidationError::PrintingPath(format!(
-            "{} slices but {} reference joint vectors",
-            slices.len(),
-            reference.len()
-        )));
+        return Err(
+            PrintingPathError::ReferenceLength { slices: slices.len(), reference: reference.len() }.into()
+        );
     }
     slices
         .iter()
         .zip(reference)
         .map(|(slice, seed)| {
             let refined = refine_tool_pose(model, seed, &slice.tool_pose, &RefineOptions::default())
-                .map_err(|e| ValidationError::PrintingPath(format!("slice {}: {e}", slice.index)))?;
+                .map_err(|source| PrintingPathError::SliceIk { slice: slice.index, source })?;
             if let Some((joint, value, ..)) = model.limit_violation(&refined.q) {
-                return Err(ValidationError::PrintingPath(format!(
-                    "slice {}: joint q{joint} = {value:.4} leaves its limits",
-                    slice.index
-                )));
+                return Err(PrintingPathError::SliceLimits { slice: slice.index, joint, value }.into());
             }
             Ok(refined.q)
         })
@@ -356,6 +410,51 @@ mod tests {
         let tilt = (-mid.tool_pose.z_axis().z).acos().to_degrees();
         assert!((tilt - 8.0).abs() < 0.01, "{tilt}");
         assert_eq!(guide_schedule(&path, 100.0)[299], 100.0 + 29.9);
+    }
+
+    /// Every way the path cannot be commanded is a typed [`PrintingPathError`] whose message
+    /// starts with `printing path:`; an IK failure keeps the planning error as the source.
+    #[test]
+    fn printing_path_errors_are_typed_and_keep_the_ik_error() {
+        let cell = vatcal_core::CellFile::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../fixtures/meca500-zaber.toml"
+        ))
+        .expect("fixture");
+        let model = Model::from_cell(&cell).expect("model");
+        let mut slices =
+            printing_path(&PrintingPathOptions { slices: 2, ..Default::default() }).expect("path");
+        let seed = JointVector::from_mm_deg(150.0, [0.0, 20.0, 20.0, 0.0, 40.0, 0.0]);
+        let e = command_printing_joints(&model, &slices, &[seed]).expect_err("one seed for two slices");
+        assert!(
+            matches!(
+                e,
+                ValidationError::PrintingPath(PrintingPathError::ReferenceLength { slices: 2, reference: 1 })
+            ),
+            "{e:?}"
+        );
+        assert_eq!(e.to_string(), "printing path: 2 slices but 1 reference joint vectors");
+        // from this seed the refinement of slice 0 converges outside the joint limits
+        let e = command_printing_joints(&model, &slices, &[seed, seed]).expect_err("outside the limits");
+        assert!(
+            matches!(e, ValidationError::PrintingPath(PrintingPathError::SliceLimits { slice: 0, .. })),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string().starts_with("printing path: slice 0: joint q")
+                && e.to_string().ends_with("leaves its limits"),
+            "{e}"
+        );
+        // slice 0 five metres above the cell: the IK refinement fails
+        slices[0].tool_pose.p.z += 5000.0;
+        let e = command_printing_joints(&model, &slices, &[seed, seed]).expect_err("out of reach");
+        let ValidationError::PrintingPath(PrintingPathError::SliceIk { slice: 0, source }) = &e else {
+            panic!("{e:?}");
+        };
+        assert_eq!(e.to_string(), "printing path: slice 0");
+        let source_text = std::error::Error::source(&e).map(ToString::to_string);
+        assert_eq!(source_text, Some(source.to_string()));
+        assert!(source.to_string().contains("did not converge"), "{source}");
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! `vatcal sim-cell`: the whole virtual cell over TCP — Meca500 control/monitoring, Zaber
-//! ASCII, three Sylvac gauges and the cell-control port — driven by one hidden true cell, until
-//! Ctrl-C or SIGTERM. The work is done by `vatcal_sim_cell::SimCell`; see `docs/drivers.md`.
+//! ASCII (when the cell has a guide), three Sylvac gauges and the cell-control port — driven by
+//! one hidden true cell, until Ctrl-C or SIGTERM. The cell is the canonical one or, with
+//! `--model`, any arm of six revolute joints (with or without a guide) behind the Meca500
+//! protocol. The work is done by `vatcal_sim_cell::SimCell`; see `docs/drivers.md`.
 
 use std::io::Write;
 use std::net::IpAddr;
@@ -20,7 +22,9 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Nominal cell file: what the robot controller believes (default: the built-in
-    /// fixtures/meca500-zaber.toml, as `vatcal demo`).
+    /// fixtures/meca500-zaber.toml, as `vatcal demo`). Any arm of six revolute joints, with or
+    /// without a prismatic guide as joint 1, served behind the Meca500 protocol (joint-space
+    /// and relative linear moves); without a guide there is no Zaber port.
     #[arg(long, value_name = "CELL.toml")]
     pub model: Option<PathBuf>,
     /// The hidden true cell: `ideal` (errors of the 34 parameters only), `paper-like` (plus the
@@ -44,7 +48,7 @@ pub struct Args {
     /// Meca500 monitoring port.
     #[arg(long, default_value_t = Ports::default().meca500_monitoring, value_name = "P")]
     pub meca500_monitoring_port: u16,
-    /// Zaber ASCII port.
+    /// Zaber ASCII port (unused when the cell has no guide).
     #[arg(long, default_value_t = Ports::default().zaber, value_name = "P")]
     pub zaber_port: u16,
     /// Sylvac gauge 1 port.

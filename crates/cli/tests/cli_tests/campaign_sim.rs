@@ -141,7 +141,13 @@ fn devices_file(cell: &SimCell, dir: &Path) -> PathBuf {
          guide = {{ kind = \"zaber\", tcp = \"{}\" }}\n\
          gauges = [\n  {{ kind = \"sylvac\", tcp = \"{}\" }},\n  {{ kind = \"sylvac\", tcp = \"{}\" }},\n  {{ kind = \"sylvac\", tcp = \"{}\" }},\n]\n\
          sim_control = {{ tcp = \"{}\" }}\n",
-        a.meca500_control, a.meca500_monitoring, a.zaber, a.gauges[0], a.gauges[1], a.gauges[2], a.control
+        a.meca500_control,
+        a.meca500_monitoring,
+        a.zaber.expect("the canonical cell has a guide"),
+        a.gauges[0],
+        a.gauges[1],
+        a.gauges[2],
+        a.control
     );
     let path = dir.join("devices.toml");
     std::fs::write(&path, text).expect("write devices file");

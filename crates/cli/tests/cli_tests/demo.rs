@@ -187,4 +187,21 @@ fn plan_and_demo_run_on_any_chain() {
     for f in ["summary.md", "calibrated.toml", "measurements.csv", "plan/tour.csv"] {
         assert!(demo.join(f).is_file(), "{f} missing");
     }
+    // the summary speaks of the UR5e's own parameter set and direction columns, not the
+    // canonical cell's 34 parameters and dir2..dir7
+    let n = json["identification"]["n_parameters"].as_u64().expect("n_parameters");
+    assert_ne!(n, 34);
+    let summary = std::fs::read_to_string(demo.join("summary.md")).expect("summary.md");
+    for text in [
+        format!("Detmax for the {n} parameters"),
+        "`dir1..dir6`".to_string(),
+        format!("starting from the calibrated {n}-parameter model"),
+        format!("| the calibration's {n} parameters |"),
+        format!("what the {n}-parameter model leaves"),
+    ] {
+        assert!(summary.contains(&text), "`{text}` missing from summary.md:\n{summary}");
+    }
+    for canonical in ["34 parameters", "34-parameter", "dir2..dir7"] {
+        assert!(!summary.contains(canonical), "`{canonical}` in summary.md:\n{summary}");
+    }
 }

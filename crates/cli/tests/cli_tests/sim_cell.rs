@@ -111,6 +111,39 @@ fn prints_its_ports_serves_them_and_stops_on_sigterm() {
     assert!(matches!(meca.read(&mut meca_after), Ok(0) | Err(_)), "sockets closed");
 }
 
+/// `--model` with a six-joint arm without a guide (the UR5e): every port but the Zaber one.
+#[test]
+fn a_six_joint_arm_cell_has_no_zaber_port() {
+    let model = format!("{}/../../fixtures/ur5e.toml", env!("CARGO_MANIFEST_DIR"));
+    let child = vatcal()
+        .args(["sim-cell", "--bind", "127.0.0.1", "--model", &model, "--time-scale", "100"])
+        .args(ALL_EPHEMERAL)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn vatcal sim-cell");
+    let mut guard = Guard(child);
+    let mut stdout = BufReader::new(guard.0.stdout.take().expect("stdout"));
+    let mut names = Vec::new();
+    loop {
+        let mut line = String::new();
+        assert!(stdout.read_line(&mut line).expect("read a line") > 0, "stdout closed: {names:?}");
+        if line.starts_with("vatcal sim-cell:") {
+            break;
+        }
+        let words: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!((words.len(), words[0]), (3, "listening"), "{line:?}");
+        names.push(words[1].to_owned());
+    }
+    assert_eq!(
+        names,
+        ["meca500-control", "meca500-monitoring", "gauge-1", "gauge-2", "gauge-3", "cell-control"]
+    );
+    let pid = guard.0.id().to_string();
+    assert!(Command::new("kill").args(["-TERM", &pid]).status().expect("kill -TERM").success());
+    assert!(wait_exit(&mut guard.0, Duration::from_secs(10)).success());
+}
+
 #[test]
 fn bad_options_and_busy_ports_are_clear_errors() {
     let out = vatcal().args(["sim-cell", "--time-scale", "0"]).args(ALL_EPHEMERAL).output().expect("run");

@@ -82,7 +82,7 @@ fn connect(cell: &SimCell) -> Drivers {
     let a = cell.addrs();
     let arm = ok(Meca500::connect_tcp(a.meca500_control, Meca500Config::default()));
     let guide = ok(ZaberAxis::connect_tcp(
-        a.zaber,
+        a.zaber.expect("the canonical cell has a guide"),
         ZaberConfig { poll_interval: Duration::from_millis(2), ..ZaberConfig::default() },
     ));
     let gauges = a
@@ -166,6 +166,106 @@ fn the_gauges_read_the_true_ball_where_the_robot_and_guide_put_it() {
     let r = ok(d.gauges[0].read_mm());
     assert!((r + 6.0).abs() < 1e-9, "plunger on its stop reads -range: {r}");
     assert!(d.operator.ask("PLACE 999").starts_with("ERR"));
+}
+
+/// A six-joint arm without a guide (the UR5e fixture) behind the Meca500 protocol: no Zaber
+/// server, and the gauges read over TCP what an in-process cell with the same truth reads after
+/// the same joint-space move and the same relative linear move (solved on the UR5e's nominal
+/// model by the cell's controller).
+#[test]
+fn a_six_joint_arm_without_a_guide_is_served_behind_the_meca500_protocol() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml");
+    let ur5e = ok(vatcal_kinematics::Model::from_cell(&ok(vatcal_core::CellFile::load(path))));
+    let options = SimCellOptions {
+        ports: Ports::ephemeral(),
+        noise: false,
+        time_scale: 1000.0,
+        ..ok(SimCellOptions::for_nominal(ur5e, 3))
+    };
+    let sim = ok(SimCell::start(options));
+    let a = sim.addrs();
+    assert!(a.zaber.is_none() && sim.zaber().is_none(), "no guide, no Zaber server");
+    let names: Vec<&str> = a.named().iter().map(|(n, _)| *n).collect();
+    assert_eq!(
+        names,
+        ["meca500-control", "meca500-monitoring", "gauge-1", "gauge-2", "gauge-3", "cell-control"]
+    );
+    let mut arm = ok(Meca500::connect_tcp(a.meca500_control, Meca500Config::default()));
+    let mut gauges: Vec<SylvacGauge> =
+        a.gauges.iter().map(|g| ok(SylvacGauge::connect_tcp(*g, SylvacConfig::default()))).collect();
+    let mut operator = TcpOperator::connect(a.control);
+    ok(arm.activate_and_home(TIMEOUT));
+    assert_eq!(arm.joint_count(), 6);
+
+    // a pose that puts the TRUE ball on the true position (as auto-centering would find it):
+    // the UR5e's errors under its own weight reach several millimetres, beyond the gauges'
+    // range at a nominal pose
+    let truth = sim.cell().truth();
+    let pose = vatcal_sim::truth::probe_start_poses(&truth, 30, 11)
+        .into_iter()
+        .find(|m| vatcal_sim::translation_joint_gain(&truth, &m.q).is_some_and(|g| g < 0.03))
+        .expect("a well-conditioned pose");
+    assert_eq!(pose.q.len(), 6);
+    let position = pose.position().expect("probe pose");
+    assert_eq!(operator.ask(&format!("PLACE {position}")), format!("OK PLACE {position}"));
+    let layout = JointLayout::of(sim.cell().nominal().joint_kinds());
+    ok(arm.move_joints_and_wait(&layout.arm(&pose.q), &fast()));
+
+    // the same commands on an in-process cell with the same truth
+    let reference = VirtualCell::new(sim.cell().nominal(), sim.cell().truth(), sim.cell().config(), 3);
+    assert!(reference.guide().is_none());
+    let mut reference_arm = reference.arm();
+    ok(reference_arm.activate_and_home(TIMEOUT));
+    ok(reference_arm.move_joints_and_wait(&ok(arm.joints()), &fast()));
+    ok(reference.operator().perform(&OperatorInstruction::PlaceProbe { position }));
+    let mut reference_gauges = reference.gauges();
+    let compare = |what: &str, gauges: &mut [SylvacGauge], reference: &mut [vatcal_sim::SimGauge; 3]| {
+        let readings: Vec<f64> = (0..3)
+            .map(|i| {
+                let (tcp, inproc) = (ok(gauges[i].read_mm()), ok(reference[i].read_mm()));
+                assert!(
+                    (tcp - inproc).abs() <= 0.5e-4 + 1e-12,
+                    "{what}: gauge {}: {tcp} over TCP, {inproc} in process",
+                    i + 1
+                );
+                tcp
+            })
+            .collect();
+        // the ball is on the plate: no plunger rests on its stop (-6 mm)
+        assert!(readings.iter().all(|r| r.abs() < 5.0), "{what}: {readings:?}");
+        readings
+    };
+    let before = compare("after the joint move", &mut gauges, &mut reference_gauges);
+
+    // a relative linear move of the tool, solved by the controller on the UR5e's nominal model
+    let step = Vector3::new(0.3, 0.2, -0.25);
+    ok(arm.move_linear_relative_and_wait(&step, LinearFrame::Tool, &fast()));
+    ok(reference_arm.move_linear_relative_and_wait(&step, LinearFrame::Tool, &fast()));
+    let (q_tcp, q_ref) = (ok(arm.joints()), ok(reference_arm.joints()));
+    assert!(q_tcp.max_abs_diff(&q_ref).to_degrees() < 1e-6, "same controller solution");
+    let after = compare("after the linear move", &mut gauges, &mut reference_gauges);
+    let moved: f64 = (0..3).map(|i| (after[i] - before[i]).powi(2)).sum::<f64>().sqrt();
+    assert!((moved - step.norm()).abs() < 0.05, "gauges moved by {moved} mm for a {} mm step", step.norm());
+    // guide faults are no-ops without a guide
+    sim.guide_stall();
+    sim.drop_connections(vatcal_sim_cell::Device::Guide);
+}
+
+/// A chain the Meca500 protocol cannot carry, or a truth of another chain, is a clear error,
+/// not a half-served cell.
+#[test]
+fn a_chain_that_is_not_a_six_joint_arm_is_refused() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml");
+    let mut five = ok(vatcal_core::CellFile::load(path));
+    five.joints.pop();
+    let five = ok(vatcal_kinematics::Model::from_cell(&five));
+    let e = SimCellOptions::for_nominal(five, 1).expect_err("five joints");
+    assert!(e.to_string().contains("six revolute joints") && e.to_string().contains("5 joints"), "{e}");
+    let ur5e = ok(vatcal_kinematics::Model::from_cell(&ok(vatcal_core::CellFile::load(path))));
+    let canonical = ok(SimCellOptions::paper(1));
+    // the canonical truth behind a UR5e controller: the chains differ
+    let e = SimCell::start(SimCellOptions { nominal: ur5e, ..canonical }).expect_err("mismatched truth");
+    assert!(e.to_string().contains("is not the nominal cell's chain"), "{e}");
 }
 
 #[test]
