@@ -59,7 +59,7 @@
 //! calibrated wrist (axes no longer exactly intersecting) can have more than eight solutions,
 //! notably when the wrist centre is also near the axis of arm joint 1: each refined solution
 //! within [`WRIST_SCAN_BAND_DEG`] of the wrist singularity has its soft direction
-//! (`theta_4` and `theta_6` turned against each other) scanned over a whole turn, and every
+//! (`theta_4` and `theta_6` turned against each other) searched over a whole turn, and every
 //! further solution found is added ([`ToolPoseIk::add_wrist_band_solutions`]).
 //!
 //! # Refinement ([`refine_tool_pose`])
@@ -838,8 +838,13 @@ pub const SEED_CORRECTIONS: usize = 2;
 pub const WRIST_SCAN_BAND_DEG: f64 = 15.0;
 
 /// Steps per turn of `theta_4` of the scan of the soft wrist direction
-/// ([`ToolPoseIk::add_wrist_band_solutions`]; every 5 deg).
+/// ([`ToolPoseIk::add_wrist_band_solutions`]; every 5 deg: further solutions were seen 8 deg
+/// apart in `theta_4`).
 pub const WRIST_SCAN_STEPS: usize = 72;
+
+/// Re-seeds per turn of `theta_4` of a solution in the wrist band, besides the scan (every
+/// 30 deg; [`ToolPoseIk::add_wrist_band_solutions`]).
+pub const WRIST_RESEEDS: usize = 12;
 
 /// Gauss–Newton steps of each fit of that scan (continued from the previous step's fit).
 const WRIST_FIT_ITERATIONS: usize = 8;
@@ -1023,76 +1028,121 @@ impl<'a> ToolPoseIk<'a> {
     /// refined branch is the continuation of a nominal one and correct, but the other solutions
     /// are missed.
     ///
-    /// What: for every solution given (not those added here) with `|sin theta_5| <
-    /// sin(`[`WRIST_SCAN_BAND_DEG`]`)` and not already met by an earlier scan, the soft
-    /// direction is scanned over a whole turn of `theta_4`: at `theta_4` every
-    /// `360 deg /` [`WRIST_SCAN_STEPS`] the pose is fitted in least squares with `theta_4` held
-    /// (the other five arm joints, continued from the previous step; `theta_4 + k theta_6`
-    /// kept). The weighted error `e` of the fit is then normal to the five columns of the
-    /// weighted Jacobian; its component `r = n . e` along the unit normal `n` of those columns
-    /// (the sign of `n` carried on from step to step, starting as the part of the `theta_4`
-    /// column normal to them) is a continuous function of `theta_4` that is zero exactly at the
-    /// solutions. Every sign change of `r` between two steps brackets a solution; the fit at
-    /// the step before it, turned to the zero of the linear interpolation of `r`, is refined as
-    /// the closed-form seeds are. Each converged solution that differs from every solution
-    /// already in `solutions` by more than 1e-6 rad in some arm joint (modulo a whole turn) is
-    /// appended; so every appended solution reproduces `target` to the refinement tolerances.
+    /// What: every solution (given or found here) with `|sin theta_5| <
+    /// sin(`[`WRIST_SCAN_BAND_DEG`]`)` that no earlier scan met has its soft direction searched
+    /// in two ways (`k = -sign(alpha_4 alpha_5) sign(cos theta_5)`, so that `theta_4 + k
+    /// theta_6` is kept):
+    ///
+    /// * a scan over a whole turn of `theta_4`: every `360 deg /` [`WRIST_SCAN_STEPS`] the pose
+    ///   is fitted in least squares with `theta_4` held (the other five arm joints, continued
+    ///   from the previous step). The weighted error `e` of the fit is then normal to the five
+    ///   columns of the weighted Jacobian; its component `r = n . e` along the unit normal `n`
+    ///   of those columns (the sign of `n` carried on from step to step, starting as the part of
+    ///   the `theta_4` column normal to them) is continuous in `theta_4` and zero exactly at the
+    ///   solutions. Every sign change of `r` between two steps brackets a solution, which regula
+    ///   falsi on `theta_4` (fits with `theta_4` held) converges to the refinement tolerances;
+    ///   this finds solutions a few degrees apart;
+    /// * the solution turned by every multiple of `360 deg /` [`WRIST_RESEEDS`] (`theta_4 +
+    ///   phi`, `theta_6 - k phi`) and refined as the closed-form seeds are: the curve of fits
+    ///   need not stay near the singularity over a whole turn (near the shoulder singularity it
+    ///   can swing to large `theta_5` before reaching the wrist-flipped solution).
+    ///
+    /// Each converged solution that differs from every solution already in `solutions` by more
+    /// than 1e-6 rad in some arm joint (modulo a whole turn) is appended (and searched in turn);
+    /// every appended solution reproduces `target` to the refinement tolerances.
     pub fn add_wrist_band_solutions(&self, target: &Frame, solutions: &mut Vec<JointVector>) {
         if self.corrections == 0 {
             return;
         }
         let first = self.arm.first_joint - 1;
         let band = deg_to_rad(WRIST_SCAN_BAND_DEG).sin();
-        let s45 = self.arm.alpha_rad[3].signum() * self.arm.alpha_rad[4].signum();
-        let step = std::f64::consts::TAU / WRIST_SCAN_STEPS as f64;
-        let given = solutions.len();
-        // solutions met by an earlier scan: their curve has been scanned
+        // solutions whose soft direction is still to be searched (every one in the band,
+        // including those found here), and those met by a scan (their curve has been scanned)
+        let mut queue: Vec<JointVector> = solutions.clone();
         let mut scanned: Vec<JointVector> = Vec::new();
-        for i in 0..given {
-            let q = solutions[i];
+        while let Some(q) = queue.pop() {
             let theta5 = q[first + 4] + self.arm.theta_offset_rad[4];
             if theta5.sin().abs() >= band || scanned.iter().any(|p| self.same_arm_joints(p, &q, 1e-6)) {
                 continue;
             }
-            // theta_4 + k theta_6 is the well-determined combination (k = -1 near theta_5 = pi)
-            let k = -s45 * theta5.cos().signum();
-            let turn = |mut v: JointVector, by: f64| {
-                v[first + 3] += by;
-                v[first + 5] -= k * by;
-                v
-            };
-            // (fit, r, normal) at every step, and once more at the start after the whole turn
-            let mut fits: Vec<(JointVector, f64, nalgebra::Vector6<f64>)> =
-                Vec::with_capacity(WRIST_SCAN_STEPS + 1);
-            let mut current = q;
-            let mut normal: Option<nalgebra::Vector6<f64>> = None;
-            for _ in 0..=WRIST_SCAN_STEPS {
-                let fit = self.fit_with_joint4_held(current, target, WRIST_FIT_ITERATIONS);
-                let Some(n) = fit.normal(normal.unwrap_or(fit.j4)) else {
-                    break;
-                };
-                normal = Some(n);
-                fits.push((fit.q, n.dot(&fit.e), n));
-                current = turn(fit.q, step);
-            }
-            for w in fits.windows(2) {
-                let ((a, ra, na), (_, rb, _)) = (w[0], w[1]);
-                if ra == 0.0 || (ra > 0.0) == (rb > 0.0) {
-                    continue;
-                }
-                let seed = self.wrist_root(target, (a, na), (ra, rb), step, &turn);
-                let Ok(r) = self.refine(&seed, target) else {
-                    continue;
-                };
-                let found = self.wrapped(r.q);
-                if !scanned.iter().any(|p| self.same_arm_joints(p, &found, 1e-6)) {
+            scanned.push(q);
+            let (on_curve, other) = self.search_soft_wrist_direction(&q, theta5, target);
+            for (found, met) in
+                on_curve.into_iter().map(|f| (f, true)).chain(other.into_iter().map(|f| (f, false)))
+            {
+                let found = self.wrapped(found);
+                if met && !scanned.iter().any(|p| self.same_arm_joints(p, &found, 1e-6)) {
                     scanned.push(found);
                 }
                 if !solutions.iter().any(|p| self.same_arm_joints(p, &found, 1e-6)) {
                     solutions.push(found);
+                    queue.push(found);
                 }
             }
         }
+    }
+
+    /// The solutions near the solution `q` (MDH `theta_5` = `theta5`) along its soft wrist
+    /// direction ([`ToolPoseIk::add_wrist_band_solutions`]): those bracketed by the scan of the
+    /// curve of least-squares fits with arm joint 4 held (first), and those refined from `q`
+    /// turned by a multiple of `360 deg /` [`WRIST_RESEEDS`] (second; the curve need not stay
+    /// near the singularity over a whole turn, e.g. to the wrist-flipped solution).
+    fn search_soft_wrist_direction(
+        &self,
+        q: &JointVector,
+        theta5: f64,
+        target: &Frame,
+    ) -> (Vec<JointVector>, Vec<JointVector>) {
+        let first = self.arm.first_joint - 1;
+        let s45 = self.arm.alpha_rad[3].signum() * self.arm.alpha_rad[4].signum();
+        // theta_4 + k theta_6 is the well-determined combination (k = -1 near theta_5 = pi)
+        let k = -s45 * theta5.cos().signum();
+        let turn = |mut v: JointVector, by: f64| {
+            v[first + 3] += by;
+            v[first + 5] -= k * by;
+            v
+        };
+        let step = std::f64::consts::TAU / WRIST_SCAN_STEPS as f64;
+        // (fit, r, normal) at every step, and once more at the start after the whole turn
+        let mut fits: Vec<(JointVector, f64, nalgebra::Vector6<f64>)> =
+            Vec::with_capacity(WRIST_SCAN_STEPS + 1);
+        let mut current = *q;
+        let mut normal: Option<nalgebra::Vector6<f64>> = None;
+        for _ in 0..=WRIST_SCAN_STEPS {
+            let fit = self.fit_with_joint4_held(current, target, WRIST_FIT_ITERATIONS, 1e-6);
+            let Some(n) = fit.normal(normal.unwrap_or(fit.j4)) else {
+                break;
+            };
+            normal = Some(n);
+            fits.push((fit.q, n.dot(&fit.e), n));
+            current = turn(fit.q, step);
+        }
+        // the scan starts and ends at the known solution `q`: r = 0 there (up to rounding),
+        // and the steps next to it bracket `q` itself
+        if let Some(f) = fits.first_mut() {
+            f.1 = 0.0;
+        }
+        if fits.len() == WRIST_SCAN_STEPS + 1 {
+            fits[WRIST_SCAN_STEPS].1 = 0.0;
+        }
+        let mut on_curve = Vec::new();
+        for w in fits.windows(2) {
+            let ((a, ra, na), (_, rb, _)) = (w[0], w[1]);
+            if ra == 0.0 || rb == 0.0 || (ra > 0.0) == (rb > 0.0) {
+                continue;
+            }
+            let seed = self.wrist_root(target, (a, na), (ra, rb), step, &turn);
+            if let Ok(r) = self.refine(&seed, target) {
+                on_curve.push(r.q);
+            }
+        }
+        let other = (1..WRIST_RESEEDS)
+            .filter_map(|m| {
+                let by = std::f64::consts::TAU * m as f64 / WRIST_RESEEDS as f64;
+                self.refine(&turn(*q, by), target).ok().map(|r| r.q)
+            })
+            .collect();
+        (on_curve, other)
     }
 
     /// The solution bracketed by a scan step of [`ToolPoseIk::add_wrist_band_solutions`]: the
@@ -1117,7 +1167,7 @@ impl<'a> ToolPoseIk<'a> {
         let mut best = turn(a, step * ra / (ra - rb));
         for _ in 0..WRIST_ROOT_ITERATIONS {
             let x = (xa * rb - xb * ra) / (rb - ra);
-            let fit = self.fit_with_joint4_held(turn(a, x), target, 2 * WRIST_FIT_ITERATIONS);
+            let fit = self.fit_with_joint4_held(turn(a, x), target, 2 * WRIST_FIT_ITERATIONS, 1e-14);
             best = fit.q;
             let done = fit.e.fixed_rows::<3>(0).norm() <= self.refine.tol_position_mm
                 && fit.e.fixed_rows::<3>(3).norm() / scale <= self.refine.tol_rotation_rad;
@@ -1146,9 +1196,16 @@ impl<'a> ToolPoseIk<'a> {
     }
 
     /// Least-squares fit of the tool pose `target` with arm joint 4 held at its value in `q`:
-    /// up to `iterations` damped Gauss–Newton steps on the other five arm joints (weighted
-    /// error as in the refinement), from `q`.
-    fn fit_with_joint4_held(&self, q: JointVector, target: &Frame, iterations: usize) -> WristFit {
+    /// damped Gauss–Newton steps on the other five arm joints (weighted error as in the
+    /// refinement) from `q`, up to `iterations`, until a step lowers the cost by less than
+    /// `rel_tol` times the cost.
+    fn fit_with_joint4_held(
+        &self,
+        q: JointVector,
+        target: &Frame,
+        iterations: usize,
+        rel_tol: f64,
+    ) -> WristFit {
         use nalgebra::{Matrix6x5, Vector6};
         let first = self.arm.first_joint - 1;
         let scale = self.refine.orientation_scale_mm;
@@ -1196,7 +1253,7 @@ impl<'a> ToolPoseIk<'a> {
                 if c1 < c0 {
                     (q, chain, e) = (trial, trial_chain, trial_e);
                     lambda = (lambda * 0.1).max(1e-15);
-                    improved = c0 - c1 > 1e-14 * c0;
+                    improved = c0 - c1 > rel_tol * c0;
                     break;
                 }
                 lambda *= 10.0;
