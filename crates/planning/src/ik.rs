@@ -846,6 +846,10 @@ pub const WRIST_SCAN_STEPS: usize = 72;
 /// 30 deg; [`ToolPoseIk::add_wrist_band_solutions`]).
 pub const WRIST_RESEEDS: usize = 12;
 
+/// At most this many distinct solutions has the inverse kinematics of a 6R arm (a general 6R
+/// arm has up to 16); the wrist band search stops there.
+const MAX_6R_SOLUTIONS: usize = 16;
+
 /// Gauss–Newton steps of each fit of that scan (continued from the previous step's fit).
 const WRIST_FIT_ITERATIONS: usize = 8;
 
@@ -1048,8 +1052,9 @@ impl<'a> ToolPoseIk<'a> {
     ///   can swing to large `theta_5` before reaching the wrist-flipped solution).
     ///
     /// Each converged solution that differs from every solution already in `solutions` by more
-    /// than 1e-6 rad in some arm joint (modulo a whole turn) is appended (and searched in turn);
-    /// every appended solution reproduces `target` to the refinement tolerances.
+    /// than 1e-6 rad in some arm joint (modulo a whole turn) is appended (and searched in turn;
+    /// the search stops at 16 solutions, the most a 6R arm has); every appended solution
+    /// reproduces `target` to the refinement tolerances.
     pub fn add_wrist_band_solutions(&self, target: &Frame, solutions: &mut Vec<JointVector>) {
         if self.corrections == 0 {
             return;
@@ -1061,6 +1066,9 @@ impl<'a> ToolPoseIk<'a> {
         let mut queue: Vec<JointVector> = solutions.clone();
         let mut scanned: Vec<JointVector> = Vec::new();
         while let Some(q) = queue.pop() {
+            if solutions.len() >= MAX_6R_SOLUTIONS {
+                break;
+            }
             let theta5 = q[first + 4] + self.arm.theta_offset_rad[4];
             if theta5.sin().abs() >= band || scanned.iter().any(|p| self.same_arm_joints(p, &q, 1e-6)) {
                 continue;
