@@ -37,6 +37,21 @@ impl Drop for Guard {
     }
 }
 
+/// Starts `vatcal sim-cell` with `args` on ephemeral ports; its guard and its stdout.
+fn spawn_sim_cell(args: &[&str]) -> (Guard, BufReader<std::process::ChildStdout>) {
+    let child = vatcal()
+        .arg("sim-cell")
+        .args(args)
+        .args(ALL_EPHEMERAL)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn vatcal sim-cell");
+    let mut guard = Guard(child);
+    let stdout = BufReader::new(guard.0.stdout.take().expect("stdout"));
+    (guard, stdout)
+}
+
 fn wait_exit(child: &mut Child, limit: Duration) -> std::process::ExitStatus {
     let start = Instant::now();
     loop {
@@ -50,15 +65,8 @@ fn wait_exit(child: &mut Child, limit: Duration) -> std::process::ExitStatus {
 
 #[test]
 fn prints_its_ports_serves_them_and_stops_on_sigterm() {
-    let child = vatcal()
-        .args(["sim-cell", "--bind", "127.0.0.1", "--seed", "3", "--time-scale", "100", "--no-noise"])
-        .args(ALL_EPHEMERAL)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn vatcal sim-cell");
-    let mut guard = Guard(child);
-    let mut stdout = BufReader::new(guard.0.stdout.take().expect("stdout"));
+    let (mut guard, mut stdout) =
+        spawn_sim_cell(&["--bind", "127.0.0.1", "--seed", "3", "--time-scale", "100", "--no-noise"]);
     let mut ports = std::collections::HashMap::new();
     for _ in 0..7 {
         let mut line = String::new();
@@ -115,15 +123,8 @@ fn prints_its_ports_serves_them_and_stops_on_sigterm() {
 #[test]
 fn a_six_joint_arm_cell_has_no_zaber_port() {
     let model = format!("{}/../../fixtures/ur5e.toml", env!("CARGO_MANIFEST_DIR"));
-    let child = vatcal()
-        .args(["sim-cell", "--bind", "127.0.0.1", "--model", &model, "--time-scale", "100"])
-        .args(ALL_EPHEMERAL)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn vatcal sim-cell");
-    let mut guard = Guard(child);
-    let mut stdout = BufReader::new(guard.0.stdout.take().expect("stdout"));
+    let (mut guard, mut stdout) =
+        spawn_sim_cell(&["--bind", "127.0.0.1", "--model", &model, "--time-scale", "100"]);
     let mut names = Vec::new();
     loop {
         let mut line = String::new();
