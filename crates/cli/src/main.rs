@@ -68,8 +68,81 @@ fn main() -> std::process::ExitCode {
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_text(&e));
             std::process::ExitCode::FAILURE
         }
+    }
+}
+
+/// The error and its causes joined by `": "` (as `{:#}` does), leaving out a cause whose text
+/// already ends the message: many library errors show their source at the end of their own
+/// message (`"invalid plan: {0}"`) as well as returning it from `source()`, and the chain
+/// would print it twice.
+fn error_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let message = cause.to_string();
+        if message.is_empty() || text.ends_with(&message) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&message);
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_text;
+    use std::fmt;
+
+    #[derive(Debug)]
+    struct Inner;
+    impl fmt::Display for Inner {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            write!(f, "the plan has no steps")
+        }
+    }
+    impl std::error::Error for Inner {}
+
+    /// An error with a source, showing it in its own message (`shown`) or not.
+    #[derive(Debug)]
+    struct Plan {
+        shown: bool,
+        source: Inner,
+    }
+    impl fmt::Display for Plan {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            if self.shown { write!(f, "invalid plan: {}", self.source) } else { write!(f, "invalid plan") }
+        }
+    }
+    impl std::error::Error for Plan {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.source)
+        }
+    }
+
+    #[test]
+    fn a_source_shown_in_its_message_is_printed_once() {
+        let e = anyhow::Error::new(Plan { shown: true, source: Inner }).context("campaign.toml");
+        assert_eq!(error_text(&e), "campaign.toml: invalid plan: the plan has no steps");
+        // `{:#}` repeats it
+        assert_eq!(
+            format!("{e:#}"),
+            "campaign.toml: invalid plan: the plan has no steps: the plan has no steps"
+        );
+    }
+
+    #[test]
+    fn a_source_not_in_its_message_is_printed_after_it() {
+        let e = anyhow::Error::new(Plan { shown: false, source: Inner }).context("campaign.toml");
+        assert_eq!(error_text(&e), "campaign.toml: invalid plan: the plan has no steps");
+        assert_eq!(error_text(&anyhow::anyhow!("plain")), "plain");
+        // a cause that only occurs inside the message is still printed
+        let e = anyhow::Error::new(Plan { shown: false, source: Inner })
+            .context("the plan has no steps (1 of 2)");
+        assert_eq!(error_text(&e), "the plan has no steps (1 of 2): invalid plan: the plan has no steps");
     }
 }
