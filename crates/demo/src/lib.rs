@@ -182,6 +182,10 @@ pub struct DemoSetup {
     /// number of identified parameters (not in `report.json`)
     #[serde(skip)]
     pub parameter_count: usize,
+    /// whether the cell's chain has an external guide (not in `report.json`): the summary
+    /// leaves out guide noise, guide steps and guide physics otherwise
+    #[serde(skip)]
+    pub has_guide: bool,
 }
 
 impl DemoSetup {
@@ -227,6 +231,7 @@ impl DemoSetup {
             method: fit.method.to_string(),
             parameters_name: vatcal_pipeline::discovery_stage::parameter_set_name(&fit.params),
             parameter_count: fit.params.len(),
+            has_guide: fit.model.guide_joint().is_some(),
         }
     }
 }
@@ -267,22 +272,29 @@ impl ReportSetup for DemoSetup {
             s.truth_compliance_range_rad_per_n_m.0,
             s.truth_compliance_range_rad_per_n_m.1
         );
+        let guide_noise =
+            if s.has_guide { format!(", guide {} mm", s.guide_repeatability_mm) } else { String::new() };
         let _ = writeln!(
             m,
-            "* device noise (the paper's budget, 3σ): robot {} mm, guide {} mm, tool changer {} mm, gauges {} mm \
+            "* device noise (the paper's budget, 3σ): robot {} mm{guide_noise}, tool changer {} mm, gauges {} mm \
              (uniform), tracker {} mm per axis; TriCal gauge axes tilted by up to {:.1}° (unknown to the campaign)",
             s.robot_repeatability_mm,
-            s.guide_repeatability_mm,
             s.tool_changer_repeatability_mm,
             s.gauge_max_error_mm,
             s.tracker_error_mm,
             s.gauge_axis_tilt_deg
         );
+        let guide_steps =
+            if s.has_guide { format!(" × {} guide steps", s.guide_steps) } else { String::new() };
+        let slices = match v.printing_path.slices {
+            0 => String::new(),
+            n => format!(", {n} printing slices"),
+        };
         let _ = writeln!(
             m,
-            "* sizes: {} orientations × {} guide steps per TCP × position, {} measurements, {} random validation \
-             poses, {} printing slices",
-            s.orientations, s.guide_steps, s.count, v.random_poses, v.printing_path.slices
+            "* sizes: {} orientations{guide_steps} per TCP × position, {} measurements, {} random validation \
+             poses{slices}",
+            s.orientations, s.count, v.random_poses
         );
         m
     }
@@ -302,12 +314,17 @@ impl ReportSetup for DemoSetup {
              registration errors."
             )
         } else {
+            let guide = if self.has_guide {
+                "guide angular and straightness errors, carriage tilt under the arm's weight, "
+            } else {
+                ""
+            };
             format!(
                 "The hidden truth also contains physics {set} do not model (strain-wave gear \
-             harmonics, backlash, guide angular and straightness errors, carriage tilt under the arm's weight, \
-             wrong masses, CMM errors, a tool-changer offset, thermal growth, tracker registration and SMR \
-             errors; `docs/virtual-cell.md`), so the calibrated errors above are what the {n}-parameter model \
-             leaves, like the paper's 0.271 / 0.220 mm; `--truth ideal` shows the devices' noise floor instead."
+             harmonics, backlash, {guide}wrong masses, CMM errors, a tool-changer offset, thermal growth, tracker \
+             registration and SMR errors; `docs/virtual-cell.md`), so the calibrated errors above are what the \
+             {n}-parameter model leaves, like the paper's 0.271 / 0.220 mm; `--truth ideal` shows the devices' \
+             noise floor instead."
             )
         }
     }

@@ -541,22 +541,30 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         v.random_poses, v.random_options.joint_margin_deg
     );
     let p = &v.printing_path;
-    let _ = writeln!(
-        m,
-        "* **printing path**: {} slices of {} mm; the part's end stays on the tank bottom (world z = {} mm) and \
+    if p.slices == 0 {
+        let _ = writeln!(
+            m,
+            "* **printing path**: none (the tank path, lifted by the guide one layer per slice, exists for the \
+             canonical Meca500-on-guide cell only);"
+        );
+    } else {
+        let _ = writeln!(
+            m,
+            "* **printing path**: {} slices of {} mm; the part's end stays on the tank bottom (world z = {} mm) and \
          follows a half circle of radius {} mm while the plate tilts by up to {}° and turns by {}°; the guide \
          lifts by one layer per slice from {:.1} mm. Each model *commands* its own run through its IK; the three \
          SMRs measured at each slice give the end-effector pose, carried to the end of the part (lever effect). \
          Error = measured − intended there (`validation_path_*.csv`, `printing_path_errors.csv`, \
          `path_errors.svg`, `path_errors_calibrated.svg`, the paper's Figs. 9–10);",
-        p.slices,
-        p.layer_mm,
-        p.start_mm[2],
-        p.lateral_radius_mm,
-        p.tilt_max_deg,
-        p.spin_deg,
-        v.guide_start_mm
-    );
+            p.slices,
+            p.layer_mm,
+            p.start_mm[2],
+            p.lateral_radius_mm,
+            p.tilt_max_deg,
+            p.spin_deg,
+            v.guide_start_mm
+        );
+    }
     let _ = writeln!(
         m,
         "* {} tracker measurements in {} campaign steps ({} legs between random poses needed RRT-Connect), \
@@ -596,7 +604,9 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         "| **paper**, random poses (n = {}, FARO Vantage E tracker) | {:.3} | {:.3} |",
         PAPER.random_poses, PAPER.random_nominal_mean_mm, PAPER.random_calibrated_mean_mm
     );
-    let _ = writeln!(m, "| this demo, printing path ({} slices) | {} | {} |", p.slices, f(np), f(cp));
+    if p.slices > 0 {
+        let _ = writeln!(m, "| this demo, printing path ({} slices) | {} | {} |", p.slices, f(np), f(cp));
+    }
     let _ = writeln!(
         m,
         "| **paper**, printing path ({} slices) | {:.3} | {:.3} |",

@@ -204,4 +204,11 @@ fn plan_and_demo_run_on_any_chain() {
     for canonical in ["34 parameters", "34-parameter", "dir2..dir7"] {
         assert!(!summary.contains(canonical), "`{canonical}` in summary.md:\n{summary}");
     }
+    // no guide and no printing path on this cell: the summary does not describe them
+    assert!(summary.contains("* **printing path**: none"), "no-printing-path line missing:\n{summary}");
+    for guide in
+        ["guide steps", ", guide 0.", "guide angular", "printing path (0 slices)", "0 printing slices"]
+    {
+        assert!(!summary.contains(guide), "`{guide}` in summary.md:\n{summary}");
+    }
 }
