@@ -520,6 +520,41 @@ fn near_wrist_deg() -> impl Strategy<Value = f64> {
     (2.0..10.0f64, any::<bool>()).prop_map(|(a, negative)| if negative { -a } else { a })
 }
 
+/// The arguments of [`near_shoulder_arm`] near both singularities: the wrist centre 5..10 mm
+/// from the J1 axis (any azimuth, -150..250 mm above the shoulder, any branch), J5 2°..10°
+/// from the wrist singularity; plus a perturbation seed.
+#[derive(Debug, Clone)]
+struct NearBoth {
+    rho_mm: f64,
+    azimuth_deg: f64,
+    h_mm: f64,
+    branch: u8,
+    wrist_deg: [f64; 3],
+    seed: u64,
+}
+
+impl NearBoth {
+    /// The arm joints on `arm` (None when out of reach).
+    fn arm_joints(&self, arm: &ArmGeometry) -> Option<[f64; 6]> {
+        near_shoulder_arm(arm, self.rho_mm, self.azimuth_deg, self.h_mm, self.branch, self.wrist_deg)
+    }
+}
+
+prop_compose! {
+    fn near_both()(
+        rho_mm in 5.0..10.0f64,
+        azimuth_deg in -180.0..180.0f64,
+        h_mm in -150.0..250.0f64,
+        branch in 0u8..4,
+        j4 in -170.0..170.0f64,
+        j5 in near_wrist_deg(),
+        j6 in -170.0..170.0f64,
+        seed in 0u64..1000,
+    ) -> NearBoth {
+        NearBoth { rho_mm, azimuth_deg, h_mm, branch, wrist_deg: [j4, j5, j6], seed }
+    }
+}
+
 /// The Meca500 of `fixtures/meca500-table.toml` with the errors of `common::perturbed` (every
 /// MDH parameter, the base pose, compliance on every joint).
 fn perturbed_table(seed: u64) -> Model {
@@ -599,44 +634,25 @@ proptest! {
     /// 5..10 mm from the J1 axis, where one spherical-wrist branch can become three solutions
     /// (about 1 % of such cases lost the generating joints before the wrist scan).
     #[test]
-    fn calibrated_ik_near_the_wrist_and_shoulder_singularities(
-        q1 in 0.0..300.0f64,
-        rho in 5.0..10.0f64,
-        azimuth in -180.0..180.0f64,
-        h in -150.0..250.0f64,
-        branch in 0u8..4,
-        j4 in -170.0..170.0f64,
-        j5 in near_wrist_deg(),
-        j6 in -170.0..170.0f64,
-        seed in 0u64..1000,
-    ) {
+    fn calibrated_ik_near_the_wrist_and_shoulder_singularities(q1 in 0.0..300.0f64, c in near_both()) {
         let arm = ArmGeometry::from_model(&common::nominal()).expect("meca500");
-        let joints = near_shoulder_arm(&arm, rho, azimuth, h, branch, [j4, j5, j6]);
+        let joints = c.arm_joints(&arm);
         prop_assume!(joints.is_some());
         let a = joints.unwrap_or_default();
         let q = JointVector::new([q1, a[0], a[1], a[2], a[3], a[4], a[5]]);
-        let model = common::perturbed(seed);
+        let model = common::perturbed(c.seed);
         prop_assume!(regular(&model, &q));
         check_calibrated_ik(&model, &q).map_err(TestCaseError::fail)?;
     }
 
     /// The same on the Meca500 alone on a table (`ModelIk`, the any-chain closed form).
     #[test]
-    fn calibrated_table_ik_near_the_wrist_and_shoulder_singularities(
-        rho in 5.0..10.0f64,
-        azimuth in -180.0..180.0f64,
-        h in -150.0..250.0f64,
-        branch in 0u8..4,
-        j4 in -170.0..170.0f64,
-        j5 in near_wrist_deg(),
-        j6 in -170.0..170.0f64,
-        seed in 0u64..1000,
-    ) {
+    fn calibrated_table_ik_near_the_wrist_and_shoulder_singularities(c in near_both()) {
         let arm = ArmGeometry::from_model(&fixture_model("meca500-table.toml")).expect("meca500");
-        let joints = near_shoulder_arm(&arm, rho, azimuth, h, branch, [j4, j5, j6]);
+        let joints = c.arm_joints(&arm);
         prop_assume!(joints.is_some());
         let q = JointVector::from_slice(&joints.unwrap_or_default()).expect("joints");
-        let model = perturbed_table(seed);
+        let model = perturbed_table(c.seed);
         prop_assume!(regular_table(&model, &q));
         check_model_ik(&model, &q).map_err(TestCaseError::fail)?;
     }
