@@ -167,18 +167,14 @@ struct Table {
     /// columns: cheaper than hashing the name at every field lookup of every row)
     index: Vec<(String, usize)>,
     rows: Vec<(u64, csv::StringRecord)>,
-    /// `q1..qN` of the model the rows are read for (empty: no joint columns), built once
-    joint_names: Vec<String>,
-    /// the `dir{i}` columns of that model (the canonical cell's without a model), built once
-    dir_cols: Vec<(usize, String)>,
-    /// field indices of the columns every row reads, resolved on first use (after
-    /// `joint_names` and `dir_cols` are final)
-    resolved: std::sync::OnceLock<ResolvedColumns>,
+    /// field indices of the columns every row reads, resolved once from the header
+    cols: RowColumns,
 }
 
 /// Field indices of the columns read on every row, so that a row costs no name lookups.
-struct ResolvedColumns {
-    /// `(name, field)` of `q1..qN` (the field is None when the header lacks it)
+struct RowColumns {
+    /// `(name, field)` of `q1..qN` of the model (empty when the table has no joint columns;
+    /// the field is None when the header lacks it)
     joints: Vec<(String, Option<usize>)>,
     /// `(joint, name, field)` of the `dir{i}` columns the file has
     dirs: Vec<(usize, String, usize)>,
@@ -191,17 +187,21 @@ impl Table {
     /// Reads a table whose joint columns must be exactly `q1..qN` of `model`.
     fn read_for(path: &Path, model: &Model, required: &[String]) -> Result<Table, IoError> {
         let refs: Vec<&str> = required.iter().map(String::as_str).collect();
-        let mut t = Self::read_checked(path, &refs, Some(model.joint_count()))?;
-        t.joint_names = joint_columns(model.joint_count());
-        t.dir_cols = dir_columns(model.joint_kinds());
-        Ok(t)
+        Self::read_checked(path, &refs, model, true)
     }
 
-    fn read(path: &Path, required: &[&str]) -> Result<Table, IoError> {
-        Self::read_checked(path, required, None)
+    /// Reads a table of `model`'s rows without joint columns of its own (pose requests: the
+    /// caller checks its `q` columns).
+    fn read(path: &Path, model: &Model, required: &[&str]) -> Result<Table, IoError> {
+        Self::read_checked(path, required, model, false)
     }
 
-    fn read_checked(path: &Path, required: &[&str], joints: Option<usize>) -> Result<Table, IoError> {
+    fn read_checked(
+        path: &Path,
+        required: &[&str],
+        model: &Model,
+        joint_columns_of_model: bool,
+    ) -> Result<Table, IoError> {
         let text =
             std::fs::read(path).map_err(|source| IoError::File { path: path.into(), cause: source })?;
         // the header is the first line that is neither blank nor a comment
@@ -220,7 +220,8 @@ impl Table {
                 index.push((h.to_string(), i));
             }
         }
-        if let Some(n) = joints {
+        if joint_columns_of_model {
+            let n = model.joint_count();
             let mut found: Vec<usize> = headers
                 .iter()
                 .filter_map(|h| h.strip_prefix('q').and_then(|k| k.parse::<usize>().ok()))
@@ -255,16 +256,26 @@ impl Table {
         if rows.is_empty() {
             return Err(IoError::Empty { path: path.into() });
         }
-        Ok(Table {
-            path: path.into(),
-            headers,
-            index,
-            rows,
-            joint_names: Vec::new(),
-            // the canonical cell's columns for tables read without a model (pose requests)
-            dir_cols: dir_columns(&MECA500_ON_GUIDE_KINDS),
-            resolved: std::sync::OnceLock::new(),
-        })
+        let column = |c: &str| index.iter().find(|(name, _)| name == c).map(|(_, i)| *i);
+        let joint_names =
+            if joint_columns_of_model { joint_columns(model.joint_count()) } else { Vec::new() };
+        let cols = RowColumns {
+            joints: joint_names
+                .into_iter()
+                .map(|name| {
+                    let field = column(&name);
+                    (name, field)
+                })
+                .collect(),
+            dirs: dir_columns(model.joint_kinds())
+                .into_iter()
+                .filter_map(|(joint, name)| column(&name).map(|i| (joint, name, i)))
+                .collect(),
+            time_s: column("time_s"),
+            temperature_c: column("temperature_c"),
+            offsets: OFFSET_COLUMNS.map(column),
+        };
+        Ok(Table { path: path.into(), headers, index, rows, cols })
     }
 
     /// Fails when an effect of `model` depends on a context column (`dir{i}` of every revolute
@@ -309,21 +320,6 @@ impl Table {
 
     fn field<'a>(&self, rec: &'a csv::StringRecord, col: &str) -> Option<&'a str> {
         self.column(col).and_then(|i| rec.get(i))
-    }
-
-    /// The field indices of the per-row columns (resolved once).
-    fn resolved(&self) -> &ResolvedColumns {
-        self.resolved.get_or_init(|| ResolvedColumns {
-            joints: self.joint_names.iter().map(|n| (n.clone(), self.column(n))).collect(),
-            dirs: self
-                .dir_cols
-                .iter()
-                .filter_map(|(joint, name)| self.column(name).map(|i| (*joint, name.clone(), i)))
-                .collect(),
-            time_s: self.column("time_s"),
-            temperature_c: self.column("temperature_c"),
-            offsets: OFFSET_COLUMNS.map(|c| self.column(c)),
-        })
     }
 
     /// Converts every row with `f`, in parallel; the rows keep their order and an error is the
@@ -393,7 +389,7 @@ impl Table {
     fn joints(&self, line: u64, rec: &csv::StringRecord, model: &Model) -> Result<JointVector, IoError> {
         let kinds = model.joint_kinds();
         let mut values = [0.0; MAX_JOINTS];
-        let joints = &self.resolved().joints;
+        let joints = &self.cols.joints;
         for (k, v) in values.iter_mut().enumerate().take(kinds.len()) {
             *v = match joints.get(k) {
                 Some((name, index)) => self.float_at(line, rec, name, *index)?,
@@ -416,7 +412,7 @@ impl Table {
     }
 
     fn context(&self, line: u64, rec: &csv::StringRecord) -> Result<MeasurementContext, IoError> {
-        let cols = self.resolved();
+        let cols = &self.cols;
         let time_s = self.optional_float_at(line, rec, "time_s", cols.time_s)?;
         let temperature_c = self.optional_float_at(line, rec, "temperature_c", cols.temperature_c)?;
         // every `dir{i}` column of a revolute joint i the file has; a joint without one is 0
@@ -443,7 +439,7 @@ impl Table {
     /// a probe row: all three present or all three empty/absent.
     fn probe_offset(&self, line: u64, rec: &csv::StringRecord) -> Result<Option<Vector3<f64>>, IoError> {
         let mut v = [None; 3];
-        for ((value, c), index) in v.iter_mut().zip(OFFSET_COLUMNS).zip(self.resolved().offsets) {
+        for ((value, c), index) in v.iter_mut().zip(OFFSET_COLUMNS).zip(self.cols.offsets) {
             *value = self.optional_float_at(line, rec, c, index)?;
         }
         match (v[0], v[1], v[2]) {
@@ -1082,8 +1078,7 @@ pub fn read_pose_requests(
     let mut required: Vec<&str> = vec!["tcp"];
     required.extend(given_cols.iter().map(String::as_str));
     required.extend(["x", "y", "z", "alpha", "beta", "gamma"]);
-    let mut t = Table::read(path, &required)?;
-    t.dir_cols = dir_columns(model.joint_kinds());
+    let t = Table::read(path, model, &required)?;
     let stray: Vec<&str> = t
         .headers
         .iter()
