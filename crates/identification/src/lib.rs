@@ -29,6 +29,7 @@ mod dense;
 mod error;
 mod error_stats;
 mod fit_statistics;
+mod init;
 mod literal;
 mod options;
 mod problem;
@@ -44,6 +45,7 @@ use vatcal_observability::ObservabilityError;
 
 pub use error::{FailureReport, IdentifyError};
 pub use error_stats::ErrorStats;
+pub use init::{InitOptions, Initialisation, initialise};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
 pub use problem::residual_vector;
@@ -196,7 +198,18 @@ fn check_rank(
     params: &ParamSet,
     options: &IdentifyOptions,
 ) -> Result<(), IdentifyError> {
-    match vatcal_observability::check_identifiable(start, measurements, params) {
+    let design = vatcal_observability::sets::DataDesign {
+        free_positions: Vec::new(),
+        distances: options.point_distances.clone(),
+    };
+    let checked = vatcal_observability::sets::analyze_design(start, measurements, &design, params).and_then(|r| {
+        if r.is_full_rank() {
+            Ok(r)
+        } else {
+            Err(vatcal_observability::identifiability::rank_deficient_error_for(&r, start.joint_kinds()))
+        }
+    });
+    match checked {
         Ok(_) => Ok(()),
         Err(ObservabilityError::RankDeficient { unidentifiable, .. })
             if priors_cover(params, options.priors.as_deref(), &unidentifiable) =>
