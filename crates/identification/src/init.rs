@@ -52,7 +52,8 @@ impl InitOptions {
     /// What the parameter set frees: the base pose is registered when any base parameter is
     /// identified, the TCPs and positions whose coordinates are identified are solved.
     pub fn for_params(params: &vatcal_core::ParamSet) -> Self {
-        let mut o = Self { register_base: params.iter().any(|p| matches!(p, ParamId::Base(_))), ..Self::default() };
+        let mut o =
+            Self { register_base: params.iter().any(|p| matches!(p, ParamId::Base(_))), ..Self::default() };
         for p in params.iter() {
             match *p {
                 ParamId::Tcp { id, .. } if !o.tcps.contains(&id) => o.tcps.push(id),
@@ -150,7 +151,13 @@ pub fn initialise(
             break;
         }
     }
-    Ok(Initialisation { rms_after_mm: rms(&model, measurements)?, model, rms_before_mm, rounds, registered: register })
+    Ok(Initialisation {
+        rms_after_mm: rms(&model, measurements)?,
+        model,
+        rms_before_mm,
+        rounds,
+        registered: register,
+    })
 }
 
 /// RMS of the residual norms [mm].
@@ -237,7 +244,11 @@ pub(crate) fn xyz_euler(r: &Matrix3<f64>) -> (f64, f64, f64) {
 /// Step 2: TCP coordinates and free fixed points by one linear least-squares problem (minimum
 /// norm where the data do not fix them; rows of TCPs that are not solved use their current
 /// coordinates).
-fn solve_points(model: &mut Model, measurements: &[Measurement], options: &InitOptions) -> Result<(), IdentifyError> {
+fn solve_points(
+    model: &mut Model,
+    measurements: &[Measurement],
+    options: &InitOptions,
+) -> Result<(), IdentifyError> {
     let tcps = &options.tcps;
     let free = &options.free_positions;
     let cols = 3 * (tcps.len() + free.len());
@@ -333,7 +344,8 @@ mod tests {
 
     #[test]
     fn collinear_points_fix_no_rotation() {
-        let pairs: Vec<_> = (0..5).map(|k| (Vector3::new(k as f64, 0.0, 0.0), Vector3::new(0.0, k as f64, 0.0))).collect();
+        let pairs: Vec<_> =
+            (0..5).map(|k| (Vector3::new(k as f64, 0.0, 0.0), Vector3::new(0.0, k as f64, 0.0))).collect();
         assert!(kabsch(&pairs).is_none());
     }
 }

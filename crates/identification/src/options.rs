@@ -217,7 +217,10 @@ impl IdentifyOptions {
             ));
         }
         for d in &self.point_distances {
-            if !(d.distance_mm.is_finite() && d.distance_mm > 0.0 && d.sigma_mm.is_finite() && d.sigma_mm > 0.0)
+            if !(d.distance_mm.is_finite()
+                && d.distance_mm > 0.0
+                && d.sigma_mm.is_finite()
+                && d.sigma_mm > 0.0)
             {
                 return bad(format!(
                     "point_distances: {},{}: distance {} mm and sigma {} mm must be finite and > 0",
