@@ -169,6 +169,8 @@ struct Table {
     rows: Vec<(u64, csv::StringRecord)>,
     /// field indices of the columns every row reads, resolved once from the header
     cols: RowColumns,
+    /// 1-based line of the header
+    header_line: u64,
 }
 
 /// Field indices of the columns read on every row, so that a row costs no name lookups.
@@ -275,7 +277,7 @@ impl Table {
             temperature_c: column("temperature_c"),
             offsets: OFFSET_COLUMNS.map(column),
         };
-        Ok(Table { path: path.into(), headers, index, rows, cols })
+        Ok(Table { path: path.into(), headers, index, rows, cols, header_line })
     }
 
     /// Fails when an effect of `model` depends on a context column (`dir{i}` of every revolute
@@ -720,8 +722,9 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
 /// ```
 ///
 /// # Errors
-/// As [`read_probe_measurements`] and [`read_tracker_measurements`], and
-/// [`IoError::MissingColumn`] when the file has neither `position` nor `x,y,z`.
+/// As [`read_probe_measurements`] and [`read_tracker_measurements`], and [`IoError::Row`]
+/// naming the header line when the file has neither `position` nor `x,y,z`, or the line of a
+/// row that has neither a `position` nor `x`.
 pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
     let path = path.as_ref();
     let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
@@ -729,14 +732,25 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
     if !t.has("position") && !has_xyz {
-        return Err(IoError::MissingColumn {
-            path: path.into(),
-            column: "position (probe rows) or x,y,z (tracker rows)".into(),
-            required: format!("tcp,{} and position or x,y,z", span(&joint_columns(model.joint_count()))),
-        });
+        return Err(t.err(
+            t.header_line,
+            "position / x,y,z",
+            format!(
+                "the header has neither probe rows' `position` nor tracker rows' `x,y,z` (probe rows: position,tcp,{q}; tracker rows: tcp,{q},x,y,z)",
+                q = span(&joint_columns(model.joint_count()))
+            ),
+        ));
     }
     t.convert(|line, rec| {
         let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
+        if !has_pos && t.field(rec, "x").is_none_or(str::is_empty) {
+            let column = if t.has("position") { "position" } else { "x" };
+            return Err(t.err(
+                line,
+                column,
+                "empty: a probe row needs `position`, a tracker row `x,y,z` (this row has neither)",
+            ));
+        }
         let target = if has_pos {
             Target::Probe { position: t.id(line, rec, "position", &positions)? }
         } else {
