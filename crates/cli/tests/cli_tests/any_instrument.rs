@@ -47,7 +47,7 @@ fn truth(nominal: &Model, seed: u64) -> Model {
 
 fn mean_of(validate_json: &str) -> f64 {
     let v: serde_json::Value = serde_json::from_str(validate_json).expect("json");
-    v["model"]["stats"]["mean"].as_f64().expect("mean")
+    v["model"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean")
 }
 
 /// The simulated "done" case through the binary: `vatcal identify` with its defaults,
