@@ -4,8 +4,7 @@
 //! canonical-only parameter set on another chain). The data are simulated here from a perturbed
 //! truth of the UR5e fixture (`vatcal_sim`), seeded.
 
-use std::process::Command;
-
+use super::any_robot::{fixture, run, vatcal};
 use nalgebra::{Rotation3, Vector3};
 use vatcal_core::{Axis, CellFile, Measurement, ParamId, Target};
 use vatcal_kinematics::Model;
@@ -13,20 +12,6 @@ use vatcal_sim::truth::{
     ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
     synthetic_tracker_measurements,
 };
-
-fn vatcal() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vatcal"))
-}
-
-fn fixture(name: &str) -> String {
-    format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
-}
-
-fn run(args: &[&str]) -> String {
-    let out = vatcal().args(args).output().expect("run");
-    assert!(out.status.success(), "vatcal {args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
-    String::from_utf8(out.stdout).expect("utf8")
-}
 
 fn fail(args: &[&str]) -> String {
     let out = vatcal().args(args).output().expect("run");
@@ -183,43 +168,19 @@ fn any_instrument_errors_name_file_line_and_field() {
     // a distance naming a point that does not exist
     let tracker = dir.path().join("t.csv");
     std::fs::write(&tracker, "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,0,-90,90,0,90,0,1,2,3\n").expect("write");
-    let e = fail(&[
-        "identify",
-        "--model",
-        &fixture("ur5e.toml"),
-        "--tracker",
-        &s(&tracker),
-        "--point-distance",
-        "1,7,50",
-        "--out",
-        &out,
-    ]);
+    let (fixture_path, tracker_path) = (fixture("ur5e.toml"), s(&tracker));
+    let with_tracker = |extra: &[&str]| {
+        let mut args = vec!["identify", "--model", &fixture_path, "--tracker", &tracker_path, "--out", &out];
+        args.extend_from_slice(extra);
+        fail(&args)
+    };
+    let e = with_tracker(&["--point-distance", "1,7,50"]);
     assert!(e.contains("point 7 is not a calibration position"), "{e}");
     assert_eq!(e.trim().lines().count(), 1, "{e}");
-    let e = fail(&[
-        "identify",
-        "--model",
-        &fixture("ur5e.toml"),
-        "--tracker",
-        &s(&tracker),
-        "--point-distance",
-        "1,x,50",
-        "--out",
-        &out,
-    ]);
+    let e = with_tracker(&["--point-distance", "1,x,50"]);
     assert!(e.contains("--point-distance") && e.contains("`x` is not a point id"), "{e}");
     // the paper's names on another chain
-    let e = fail(&[
-        "identify",
-        "--model",
-        &fixture("ur5e.toml"),
-        "--tracker",
-        &s(&tracker),
-        "--params",
-        "paper34",
-        "--out",
-        &out,
-    ]);
+    let e = with_tracker(&["--params", "paper34"]);
     assert!(e.contains("canonical Meca500-on-guide cell") && e.contains("6 joints (RRRRRR)"), "{e}");
     assert!(!e.contains("three calibration positions"), "{e}");
 }

@@ -18,15 +18,15 @@ use vatcal_planning::ik::ChainTool;
 use vatcal_planning::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk};
 use vatcal_sim::truth::{ErrorBudget, perturbed_truth, random_joints};
 
-fn vatcal() -> Command {
+pub(crate) fn vatcal() -> Command {
     Command::new(env!("CARGO_BIN_EXE_vatcal"))
 }
 
-fn fixture(name: &str) -> String {
+pub(crate) fn fixture(name: &str) -> String {
     format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
-fn run(args: &[&str]) -> String {
+pub(crate) fn run(args: &[&str]) -> String {
     let out = vatcal().args(args).output().expect("run");
     assert!(out.status.success(), "vatcal {args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).expect("utf8")
