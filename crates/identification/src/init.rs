@@ -225,7 +225,7 @@ pub(crate) fn kabsch(pairs: &[(Vector3<f64>, Vector3<f64>)]) -> Option<(Matrix3<
     let mut s = svd.singular_values;
     s.as_mut_slice().sort_by(|a, b| b.total_cmp(a));
     // collinear (or coincident) points leave the rotation about their line free
-    if !(s[1] > 1e-9 * s[0].max(f64::MIN_POSITIVE)) {
+    if s[1].is_nan() || s[1] <= 1e-9 * s[0].max(f64::MIN_POSITIVE) {
         return None;
     }
     let v = v_t.transpose();
@@ -245,6 +245,9 @@ pub(crate) fn xyz_euler(r: &Matrix3<f64>) -> (f64, f64, f64) {
     }
 }
 
+/// One row block of step 2: the right-hand side and the 3 × 3 blocks `(first column, block)`.
+type LinearRow = ([f64; 3], Vec<(usize, Matrix3<f64>)>);
+
 /// Step 2: TCP coordinates and free fixed points by one linear least-squares problem (minimum
 /// norm where the data do not fix them; rows of TCPs that are not solved use their current
 /// coordinates).
@@ -259,7 +262,7 @@ fn solve_points(
     if cols == 0 {
         return Ok(());
     }
-    let mut rows: Vec<([f64; 3], Vec<(usize, Matrix3<f64>)>)> = Vec::new();
+    let mut rows: Vec<LinearRow> = Vec::new();
     for (index, m) in measurements.iter().enumerate() {
         let tool = model.chain_full(&m.q, &m.context, true, None).tool;
         let tcp_col = tcps.iter().position(|t| *t == m.tcp).map(|k| 3 * k);

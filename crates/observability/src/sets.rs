@@ -314,10 +314,8 @@ pub fn resolve_spec(
             model.describe_chain()
         )));
     }
-    if trimmed == "default" {
-        if canonical {
-            return Ok(vatcal_core::canonical::default_param_set());
-        }
+    if trimmed == "default" && canonical {
+        return Ok(vatcal_core::canonical::default_param_set());
     }
     if trimmed == "all-identifiable" || trimmed == "default" {
         if design.free_positions.is_empty() && design.distances.is_empty() {
