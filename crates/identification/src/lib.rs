@@ -29,6 +29,7 @@ mod dense;
 mod error;
 mod error_stats;
 mod fit_statistics;
+mod fixed_points;
 mod literal;
 mod options;
 mod problem;
@@ -44,6 +45,9 @@ use vatcal_observability::ObservabilityError;
 
 pub use error::{FailureReport, IdentifyError};
 pub use error_stats::ErrorStats;
+pub use fixed_points::{
+    DistanceCheck, FixedPointEvaluation, FixedPointStats, KnownDistance, evaluate_fixed_points,
+};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
 pub use problem::residual_vector;

@@ -149,6 +149,9 @@ pub struct ReadOptions {
     /// check that the values look like the given units (e.g. every angle within ±2π with
     /// degrees: radians?) and refuse the file with a hint otherwise
     pub check_units: bool,
+    /// probe rows name fixed points at unknown places (e.g. the sockets of a fixture): any
+    /// `position` id is read, not only the model's calibration positions
+    pub any_position_id: bool,
 }
 
 impl ReadOptions {
@@ -161,6 +164,7 @@ impl ReadOptions {
             limit_tolerance: LimitTolerance::STRICT,
             dir_from_row_order: false,
             check_units: false,
+            any_position_id: false,
         }
     }
 }
@@ -175,6 +179,7 @@ impl Default for ReadOptions {
             limit_tolerance: LimitTolerance::MEASURED,
             dir_from_row_order: false,
             check_units: true,
+            any_position_id: false,
         }
     }
 }

@@ -51,6 +51,9 @@ pub struct Args {
     /// solution exceeds this (healthy designs: ~30).
     #[arg(long, default_value_t = 1e3)]
     pub max_condition_number: f64,
+    /// Units, limit tolerance and directions of the measurement files.
+    #[command(flatten)]
+    pub read: super::read_args::ReadArgs,
 }
 
 /// Runs the identification, prints one line per iteration and a summary, writes the outputs.
@@ -95,9 +98,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 fn read_all(args: &Args, model: &Model) -> anyhow::Result<Vec<Measurement>> {
-    let mut measurements = vatcal_io::read_probe_measurements(&args.measurements, model)?;
+    let mut measurements = args.read.probe(&args.measurements, model)?;
     if let Some(path) = &args.tracker {
-        measurements.extend(vatcal_io::read_tracker_measurements(path, model)?);
+        measurements.extend(args.read.tracker(path, model)?);
     }
     Ok(measurements)
 }
