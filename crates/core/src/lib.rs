@@ -14,11 +14,14 @@
 //! * [`effects`] — the error-effect catalog, one module per effect behind the
 //!   [`effects::ErrorEffect`] trait (names, parameters, bounds, candidates and the
 //!   kinematic hooks `vatcal-kinematics` applies);
-//! * [`measurement`] — probe / tracker measurements and their per-sample context.
+//! * [`measurement`] — probe / tracker measurements and their per-sample context;
+//! * [`canonical`] — everything specific to the canonical Meca500-on-guide cell (the dispatch
+//!   predicate, its default parameter set, its hints), in one place.
 //!
 //! Units: every public Rust API uses **mm, rad, N·m, rad/(N·m), kg**. Degrees appear only at the
 //! file and CLI boundary (the cell file, CSV files), and conversions happen here.
 
+pub mod canonical;
 pub mod cell;
 pub mod effects;
 pub mod frame;
@@ -29,7 +32,7 @@ pub mod units;
 pub use cell::{CellError, CellFile};
 pub use effects::{EffectKind, EffectSpec, ThermalDriver};
 pub use frame::Frame;
-pub use measurement::{Measurement, MeasurementContext, Target};
+pub use measurement::{Measurement, MeasurementContext, PointDistance, Target};
 pub use params::{Axis, BaseParam, ParamId, ParamSet, ToolFrameDof};
 pub use units::{
     JointKind, JointVector, JointVectorError, MAX_JOINTS, MECA500_ON_GUIDE_KINDS, deg_to_rad, rad_to_deg,

@@ -120,3 +120,60 @@ impl Measurement {
         }
     }
 }
+
+/// A known distance between two fixed points (calibration positions / sockets): a measurement
+/// of its own, the residual `distance_mm − |p_a − p_b|` with standard deviation `sigma_mm`. It
+/// fixes the scale when the positions of the points are identified with the rest.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PointDistance {
+    /// first calibration position (fixed point) id
+    pub a: u32,
+    /// second calibration position id
+    pub b: u32,
+    /// the known distance between their centres [mm]
+    pub distance_mm: f64,
+    /// its standard deviation [mm]
+    pub sigma_mm: f64,
+}
+
+impl PointDistance {
+    /// Default standard deviation of a known distance [mm]: a machined fixture, ~10 µm.
+    pub const DEFAULT_SIGMA_MM: f64 = 0.01;
+
+    /// Parses `a,b,distance_mm` or `a,b,distance_mm,sigma_mm` (the CLI's `--point-distance`).
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::PointDistance;
+    ///
+    /// let d = PointDistance::parse("0,1,50")?;
+    /// assert_eq!((d.a, d.b, d.distance_mm, d.sigma_mm), (0, 1, 50.0, 0.01));
+    /// assert!(PointDistance::parse("0,0,50").is_err());
+    /// assert!(PointDistance::parse("0,1,-3").is_err());
+    /// # Ok::<(), String>(())
+    /// ```
+    ///
+    /// # Errors
+    /// A message naming the field that is wrong (not a number, a negative distance or σ, the
+    /// same id twice, a wrong field count).
+    pub fn parse(spec: &str) -> Result<Self, String> {
+        let fields: Vec<&str> = spec.split(',').map(str::trim).collect();
+        if !(3..=4).contains(&fields.len()) {
+            return Err(format!("`{spec}`: expected `a,b,distance_mm` or `a,b,distance_mm,sigma_mm`"));
+        }
+        let id = |k: usize, name: &str| {
+            fields[k].parse::<u32>().map_err(|_| format!("`{spec}`: {name} `{}` is not a point id", fields[k]))
+        };
+        let num = |k: usize, name: &str| match fields[k].parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+            _ => Err(format!("`{spec}`: {name} `{}` must be a positive number", fields[k])),
+        };
+        let (a, b) = (id(0, "a")?, id(1, "b")?);
+        if a == b {
+            return Err(format!("`{spec}`: the two points must differ"));
+        }
+        let distance_mm = num(2, "distance_mm")?;
+        let sigma_mm = if fields.len() == 4 { num(3, "sigma_mm")? } else { Self::DEFAULT_SIGMA_MM };
+        Ok(Self { a, b, distance_mm, sigma_mm })
+    }
+}

@@ -144,7 +144,8 @@ fn ill_conditioned_message(fit: &Identification) -> String {
     let correlated =
         if pairs.is_empty() { String::new() } else { format!("; strongly correlated: {}", pairs.join(", ")) };
     format!(
-        "ill-conditioned data: the condition number of the column-normalised Jacobian at the solution is {:.3e} (healthy designs: ~30){correlated}. These parameters cannot be separated by the measurements: add poses (at all three calibration positions), drop parameters, or give priors",
-        fit.condition_number
+        "ill-conditioned data: the condition number of the column-normalised Jacobian at the solution is {:.3e} (healthy designs: ~30){correlated}. These parameters cannot be separated by the measurements: {}",
+        fit.condition_number,
+        vatcal_core::canonical::conditioning_hint(fit.model.joint_kinds())
     )
 }

@@ -373,11 +373,10 @@ impl Model {
     }
 
     /// True for the canonical chain of cell file version 1: 7 joints, a prismatic guide
-    /// followed by the six revolute Meca500 joints.
+    /// followed by the six revolute Meca500 joints ([`vatcal_core::canonical::is_canonical_chain`],
+    /// the one dispatch predicate of canonical-cell behaviour).
     pub fn is_meca500_on_guide(&self) -> bool {
-        self.n == 7
-            && self.kinds[0] == JointKind::Prismatic
-            && self.kinds[1..7].iter().all(|k| k.is_revolute())
+        vatcal_core::canonical::is_canonical_chain(self.joint_kinds())
     }
 
     /// `Ok` on the canonical Meca500-on-guide chain; otherwise the error

@@ -56,7 +56,7 @@ use std::fmt;
 
 use faer::linalg::solvers::SolveLstsq;
 use faer::{Mat, MatRef};
-use vatcal_core::{Measurement, ParamId, ParamSet};
+use vatcal_core::{JointKind, Measurement, ParamId, ParamSet};
 use vatcal_kinematics::Model;
 
 use crate::error::ObservabilityError;
@@ -638,11 +638,23 @@ pub fn check_identifiable(
     if report.is_full_rank() {
         return Ok(report);
     }
-    Err(rank_deficient_error(&report))
+    Err(rank_deficient_error_for(&report, model.joint_kinds()))
 }
 
-/// The [`ObservabilityError::RankDeficient`] describing a rank-deficient report.
+/// [`rank_deficient_error`] ending with the advice for the chain at hand
+/// ([`vatcal_core::canonical::rank_hint`]: the three calibration positions on the canonical
+/// cell, generic advice on any other chain).
+pub fn rank_deficient_error_for(report: &IdentifiabilityReport, kinds: &[JointKind]) -> ObservabilityError {
+    rank_deficient_error_with(report, vatcal_core::canonical::rank_hint(kinds))
+}
+
+/// The [`ObservabilityError::RankDeficient`] describing a rank-deficient report, with
+/// chain-neutral advice (see [`rank_deficient_error_for`]).
 pub fn rank_deficient_error(report: &IdentifiabilityReport) -> ObservabilityError {
+    rank_deficient_error_with(report, "Fix or drop these parameters, or add poses.")
+}
+
+fn rank_deficient_error_with(report: &IdentifiabilityReport, hint: &str) -> ObservabilityError {
     let unidentifiable = report.unidentifiable();
     let names: Vec<String> = unidentifiable.iter().map(|p| p.name()).collect();
     let mut message = format!(
@@ -666,7 +678,8 @@ pub fn rank_deficient_error(report: &IdentifiabilityReport) -> ObservabilityErro
         let dirs: Vec<String> = report.lost_directions.iter().map(|d| d.sentence()).collect();
         message.push_str(&format!(". Invisible combinations: {}", dirs.join(" | ")));
     }
-    message.push_str(". Fix or drop these parameters, or add poses (all three calibration positions are needed to fix the world frame).");
+    message.push_str(". ");
+    message.push_str(hint);
     ObservabilityError::RankDeficient {
         rank: report.rank,
         needed: report.parameter_count,
@@ -686,7 +699,7 @@ pub fn rank_deficient_error(report: &IdentifiabilityReport) -> ObservabilityErro
 /// and leaving them free would make the world frame and the tool frame trade places with them.
 pub fn preference_order(model: &Model) -> ParamSet {
     let mut v: Vec<ParamId> = if model.is_meca500_on_guide() {
-        ParamSet::paper34().0.into_iter().filter(|p| model.has_param(*p)).collect()
+        vatcal_core::canonical::default_param_set().0.into_iter().filter(|p| model.has_param(*p)).collect()
     } else {
         let rows = 1..=model.joint_count() as u8;
         let mut v: Vec<ParamId> = rows
@@ -716,31 +729,24 @@ pub fn all_identifiable(model: &Model, measurements: &[Measurement]) -> Result<P
 /// The default parameter set of `model`: the paper's 34 on the canonical Meca500-on-guide
 /// cell, the [`all_identifiable`] basis for these measurements on any other chain.
 pub fn default_params(model: &Model, measurements: &[Measurement]) -> Result<ParamSet, ObservabilityError> {
-    if model.is_meca500_on_guide() { Ok(ParamSet::paper34()) } else { all_identifiable(model, measurements) }
+    if model.is_meca500_on_guide() {
+        Ok(vatcal_core::canonical::default_param_set())
+    } else {
+        all_identifiable(model, measurements)
+    }
 }
 
-/// Resolves a `--params` specification: `paper34`, `geometric`, a comma-separated list of
-/// names, `all-identifiable` (the [`all_identifiable`] basis for these measurements) or
-/// `default` ([`default_params`]).
+/// Resolves a `--params` specification: `paper34`, `geometric` (canonical cell only), a
+/// comma-separated list of names, `all-identifiable` (the [`all_identifiable`] basis for these
+/// measurements), `default` ([`default_params`]) or a robot-agnostic set (`registration`,
+/// `joint-offsets`, `kinematic`, `kinematic+compliance`): [`crate::sets::resolve_spec`] without
+/// unknown fixed points or distances.
 pub fn param_set_from_spec(
     spec: &str,
     model: &Model,
     measurements: &[Measurement],
 ) -> Result<ParamSet, ObservabilityError> {
-    if spec.trim() == "all-identifiable" {
-        return all_identifiable(model, measurements);
-    }
-    if spec.trim() == "default" {
-        return default_params(model, measurements);
-    }
-    let set = ParamSet::parse(spec)
-        .map_err(|e| ObservabilityError::InvalidInput(format!("parameter set `{spec}`: {e}")))?;
-    if let Some(p) = set.iter().find(|p| !model.has_param(**p)) {
-        return Err(ObservabilityError::InvalidInput(format!(
-            "parameter set `{spec}`: `{p}` is not part of this model (switch its effect on in the cell file first)"
-        )));
-    }
-    Ok(set)
+    crate::sets::resolve_spec(spec, model, measurements, &crate::sets::DataDesign::default())
 }
 
 /// The columns of `j` (columns = `params`) that belong to `subset`, in `subset`'s order.

@@ -8,6 +8,9 @@
 //!   (background.md §5);
 //! * [`indices`] — the observability indices O1..O5, always reported together with rank,
 //!   condition number and σ_min (background.md §3);
+//! * [`sets`] — the robot-agnostic parameter sets (`registration` ⊂ `joint-offsets` ⊂
+//!   `kinematic` ⊂ `kinematic+compliance`), unknown fixed points and known distances between
+//!   them ([`sets::DataDesign`]), and the resolution of `--params` specifications;
 //! * [`detmax`] — D-optimal selection of `n` poses out of `N` candidates with rank-3
 //!   determinant-lemma / Woodbury updates (background.md §4), plus a naive reference.
 //!
@@ -17,6 +20,7 @@ pub mod detmax;
 mod error;
 pub mod identifiability;
 pub mod indices;
+pub mod sets;
 
 pub use error::ObservabilityError;
 pub use identifiability::{

@@ -1,0 +1,372 @@
+//! Robot-agnostic parameter sets and the data beyond joint rows that a fit can use.
+//!
+//! The named sets of the paper (`paper34`, `geometric`) list the canonical cell's parameters
+//! ([`vatcal_core::canonical`]). Any chain — measured by any instrument — uses the nested,
+//! generic sets of [`GenericSet`]:
+//!
+//! | set | preference order before the rank analysis |
+//! |---|---|
+//! | `registration` | free fixed-point coordinates, coordinates of every measured TCP, base pose |
+//! | `joint-offsets` | + `theta_offset_i` of revolute and `d_i` of prismatic joints |
+//! | `kinematic` | + `alpha`, `a`, `theta_offset`, `d` of every row, then `beta` of every row |
+//! | `kinematic+compliance` | + the compliance `c_i` of every revolute joint |
+//!
+//! Each list is reduced to its identifiable basis on the data at hand
+//! ([`crate::identifiability::analyze_jacobian`], preference order: earlier parameters are
+//! kept). So the registration of tracker data is the base pose plus the TCP, while for probe
+//! data at **unknown** fixed points ([`DataDesign::free_positions`]) the base pose is absorbed
+//! by the points and drops out; without a known distance between two points
+//! ([`DataDesign::distances`]) a `kinematic` fit also loses the overall scale (one length).
+
+use faer::Mat;
+use vatcal_core::params::Axis;
+use vatcal_core::{BaseParam, Measurement, ParamId, ParamSet, PointDistance};
+use vatcal_kinematics::Model;
+
+use crate::ObservabilityError;
+use crate::identifiability::{
+    AnalysisOptions, IdentifiabilityReport, all_identifiable, analyze_jacobian, assemble_jacobian,
+};
+
+/// The robot-agnostic parameter sets, smallest first; each contains the previous one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum GenericSet {
+    /// where the robot is (base pose) and which point the instrument sees (TCP coordinates,
+    /// unknown fixed points)
+    Registration,
+    /// registration + the zero offset of every joint
+    JointOffsets,
+    /// the full identifiable geometric basis (MDH + Hayati β of every row, TCPs, base)
+    Kinematic,
+    /// kinematic + the compliance of every revolute joint
+    KinematicCompliance,
+}
+
+impl GenericSet {
+    /// All four, smallest first (the candidates of the cross-validated default).
+    pub const ALL: [GenericSet; 4] = [
+        GenericSet::Registration,
+        GenericSet::JointOffsets,
+        GenericSet::Kinematic,
+        GenericSet::KinematicCompliance,
+    ];
+
+    /// The `--params` name: `registration`, `joint-offsets`, `kinematic`, `kinematic+compliance`.
+    pub fn name(self) -> &'static str {
+        match self {
+            GenericSet::Registration => "registration",
+            GenericSet::JointOffsets => "joint-offsets",
+            GenericSet::Kinematic => "kinematic",
+            GenericSet::KinematicCompliance => "kinematic+compliance",
+        }
+    }
+
+    /// Parses a name of [`GenericSet::name`] (surrounding blanks ignored).
+    pub fn parse(spec: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == spec.trim())
+    }
+}
+
+impl std::fmt::Display for GenericSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What a fit knows beyond the joint rows: which fixed points (calibration positions) are at
+/// unknown places — their coordinates are then parameters — and known distances between them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DataDesign {
+    /// ids of the calibration positions whose coordinates are unknown (identified)
+    pub free_positions: Vec<u32>,
+    /// known distances between fixed points (one residual row each)
+    pub distances: Vec<PointDistance>,
+}
+
+impl DataDesign {
+    /// Checks that every distance names two positions of the model.
+    ///
+    /// # Errors
+    /// [`ObservabilityError::InvalidInput`] naming the distance and the unknown id.
+    pub fn check(&self, model: &Model) -> Result<(), ObservabilityError> {
+        let known = model.position_ids();
+        for d in &self.distances {
+            for id in [d.a, d.b] {
+                if !known.contains(&id) {
+                    return Err(ObservabilityError::InvalidInput(format!(
+                        "point distance {},{},{}: point {id} is not a calibration position of the model or the data (known: {known:?})",
+                        d.a, d.b, d.distance_mm
+                    )));
+                }
+            }
+        }
+        for id in &self.free_positions {
+            if !known.contains(id) {
+                return Err(ObservabilityError::InvalidInput(format!(
+                    "unknown position {id} is not a calibration position of the model (known: {known:?})"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The residual `distance_mm − |p_a − p_b|` of a known distance at `model`, and its Jacobian
+/// row `d|p_a − p_b| / dρ` over `params` into `row` (the sign convention of the measurement
+/// rows: `d(model − observed)/dρ`). Only the coordinates of `a` and `b` have non-zero entries.
+///
+/// # Errors
+/// [`ObservabilityError::InvalidInput`] when a point is not in the model or the two coincide.
+pub fn distance_row(
+    model: &Model,
+    d: &PointDistance,
+    params: &[ParamId],
+    row: &mut [f64],
+) -> Result<f64, ObservabilityError> {
+    let point = |id: u32| {
+        model.position(id).ok_or_else(|| {
+            ObservabilityError::InvalidInput(format!(
+                "point distance {},{}: point {id} is not a calibration position of the model",
+                d.a, d.b
+            ))
+        })
+    };
+    let diff = point(d.a)? - point(d.b)?;
+    let len = diff.norm();
+    if !(len > 0.0 && len.is_finite()) {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "point distance {},{}: the two points coincide in the model; give them distinct starting places",
+            d.a, d.b
+        )));
+    }
+    let u = diff / len;
+    for (c, p) in params.iter().enumerate() {
+        row[c] = match *p {
+            ParamId::Position { id, axis } if id == d.a => u[axis.index()],
+            ParamId::Position { id, axis } if id == d.b => -u[axis.index()],
+            _ => 0.0,
+        };
+    }
+    Ok(d.distance_mm - len)
+}
+
+/// [`assemble_jacobian`] with one more row per known distance (unweighted; row order:
+/// measurements, then distances).
+///
+/// # Errors
+/// As [`assemble_jacobian`] and [`distance_row`].
+pub fn assemble_design_jacobian(
+    model: &Model,
+    measurements: &[Measurement],
+    design: &DataDesign,
+    params: &ParamSet,
+) -> Result<Mat<f64>, ObservabilityError> {
+    let j = assemble_jacobian(model, measurements, params)?;
+    if design.distances.is_empty() {
+        return Ok(j);
+    }
+    let (m, l) = (j.nrows(), params.len());
+    let mut out = Mat::<f64>::zeros(m + design.distances.len(), l);
+    out.as_mut().get_mut(..m, ..).copy_from(j.as_ref());
+    let mut row = vec![0.0; l];
+    for (k, d) in design.distances.iter().enumerate() {
+        distance_row(model, d, &params.0, &mut row)?;
+        for (c, v) in row.iter().enumerate() {
+            out[(m + k, c)] = *v;
+        }
+    }
+    Ok(out)
+}
+
+/// [`crate::analyze`] of the measurements together with the known distances.
+///
+/// # Errors
+/// As [`crate::analyze`] and [`distance_row`].
+pub fn analyze_design(
+    model: &Model,
+    measurements: &[Measurement],
+    design: &DataDesign,
+    params: &ParamSet,
+) -> Result<IdentifiabilityReport, ObservabilityError> {
+    if measurements.is_empty() {
+        return Err(ObservabilityError::NoMeasurements);
+    }
+    let j = assemble_design_jacobian(model, measurements, design, params)?;
+    analyze_jacobian(j.as_ref(), params, &AnalysisOptions::default())
+}
+
+/// The ids of the TCPs the measurements use, ascending.
+pub fn measured_tcps(measurements: &[Measurement]) -> Vec<u32> {
+    let mut ids: Vec<u32> = measurements.iter().map(|m| m.tcp).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids
+}
+
+/// The preference order of `set` (see the module docs) before the rank analysis.
+pub fn generic_order(model: &Model, measurements: &[Measurement], set: GenericSet, design: &DataDesign) -> ParamSet {
+    let xyz = |f: &dyn Fn(Axis) -> ParamId| Axis::ALL.map(f);
+    let mut v: Vec<ParamId> = Vec::new();
+    for id in &design.free_positions {
+        v.extend(xyz(&|axis| ParamId::Position { id: *id, axis }));
+    }
+    for id in measured_tcps(measurements) {
+        v.extend(xyz(&|axis| ParamId::Tcp { id, axis }));
+    }
+    v.extend(BaseParam::ALL.map(ParamId::Base));
+    let n = model.joint_count() as u8;
+    if set >= GenericSet::JointOffsets {
+        v.extend((1..=n).map(|i| {
+            if model.is_revolute(i as usize) { ParamId::ThetaOffset(i) } else { ParamId::D(i) }
+        }));
+    }
+    if set >= GenericSet::Kinematic {
+        for i in 1..=n {
+            for p in [ParamId::Alpha(i), ParamId::A(i), ParamId::ThetaOffset(i), ParamId::D(i)] {
+                if !v.contains(&p) {
+                    v.push(p);
+                }
+            }
+        }
+        v.extend((1..=n).map(ParamId::Beta));
+    }
+    if set >= GenericSet::KinematicCompliance {
+        v.extend((1..=n).map(ParamId::Compliance).filter(|p| model.has_param(*p)));
+    }
+    ParamSet(v)
+}
+
+/// The identifiable basis of `set` on these data ([`generic_order`] reduced by
+/// [`analyze_design`]).
+///
+/// # Errors
+/// As [`analyze_design`].
+pub fn generic_set(
+    model: &Model,
+    measurements: &[Measurement],
+    set: GenericSet,
+    design: &DataDesign,
+) -> Result<ParamSet, ObservabilityError> {
+    let order = generic_order(model, measurements, set, design);
+    Ok(analyze_design(model, measurements, design, &order)?.identifiable_set())
+}
+
+/// Resolves a `--params` specification for these data:
+///
+/// * a [`GenericSet`] name → [`generic_set`];
+/// * `paper34`, `geometric` → the paper's lists, **only on the canonical cell**
+///   ([`vatcal_core::canonical::CANONICAL_ONLY_SETS`]); refused on any other chain;
+/// * `all-identifiable` → [`all_identifiable`] (plus the free fixed-point coordinates);
+/// * `default` → the canonical default ([`vatcal_core::canonical::default_param_set`]) on the
+///   canonical cell; on another chain `all-identifiable` (the CLI's `identify` picks among the
+///   generic sets by cross-validation instead, `vatcal_identification::cross_validate_sets`);
+/// * a comma-separated list of names (each must be a parameter of the model).
+///
+/// # Errors
+/// [`ObservabilityError::InvalidInput`] naming the specification and what is wrong; the errors
+/// of [`analyze_design`].
+pub fn resolve_spec(
+    spec: &str,
+    model: &Model,
+    measurements: &[Measurement],
+    design: &DataDesign,
+) -> Result<ParamSet, ObservabilityError> {
+    let trimmed = spec.trim();
+    let canonical = model.is_meca500_on_guide();
+    if let Some(set) = GenericSet::parse(trimmed) {
+        return generic_set(model, measurements, set, design);
+    }
+    if vatcal_core::canonical::is_canonical_only_set(trimmed) && !canonical {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "parameter set `{trimmed}` names the parameters of the canonical Meca500-on-guide cell (the paper's list); this chain is {}: use registration, joint-offsets, kinematic, kinematic+compliance, all-identifiable, default or a list of names",
+            model.describe_chain()
+        )));
+    }
+    if trimmed == "default" {
+        if canonical {
+            return Ok(vatcal_core::canonical::default_param_set());
+        }
+    }
+    if trimmed == "all-identifiable" || trimmed == "default" {
+        if design.free_positions.is_empty() && design.distances.is_empty() {
+            return all_identifiable(model, measurements);
+        }
+        let mut order = generic_order(model, measurements, GenericSet::Registration, design);
+        order.0.retain(|p| matches!(p, ParamId::Position { .. }));
+        for p in crate::identifiability::preference_order(model).0 {
+            if !order.0.contains(&p) {
+                order.0.push(p);
+            }
+        }
+        return Ok(analyze_design(model, measurements, design, &order)?.identifiable_set());
+    }
+    let set = ParamSet::parse(spec)
+        .map_err(|e| ObservabilityError::InvalidInput(format!("parameter set `{spec}`: {e}")))?;
+    if let Some(p) = set.iter().find(|p| !model.has_param(**p)) {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "parameter set `{spec}`: `{p}` is not part of this model (switch its effect on in the cell file first)"
+        )));
+    }
+    Ok(set)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vatcal_core::CellFile;
+
+    fn ur5e() -> Model {
+        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml")).expect("fixture");
+        Model::from_cell(&cell).expect("model")
+    }
+
+    #[test]
+    fn sets_are_nested_and_parse() {
+        let model = ur5e();
+        let tcp = model.tcp_ids()[0];
+        let q = vatcal_core::JointVector::from_slice(&[0.1, -1.0, 1.2, -0.5, 0.7, 0.3]).expect("q");
+        let ms = vec![Measurement::tracker(tcp, q, nalgebra::Vector3::zeros())];
+        let design = DataDesign::default();
+        let mut last = 0;
+        for s in GenericSet::ALL {
+            assert_eq!(GenericSet::parse(s.name()), Some(s));
+            let order = generic_order(&model, &ms, s, &design);
+            assert!(order.len() > last, "{s}");
+            let mut dedup = order.0.clone();
+            dedup.sort();
+            dedup.dedup();
+            assert_eq!(dedup.len(), order.len(), "{s}: no duplicates");
+            last = order.len();
+        }
+        assert_eq!(generic_order(&model, &ms, GenericSet::Registration, &design).len(), 9);
+        let e = resolve_spec("paper34", &model, &ms, &design).expect_err("refused").to_string();
+        assert!(e.contains("canonical") && e.contains("6 joints"), "{e}");
+    }
+
+    #[test]
+    fn distance_row_matches_finite_differences() {
+        let mut model = ur5e();
+        let ids = model.position_ids();
+        assert!(ids.len() >= 2, "the fixture has calibration positions");
+        let (a, b) = (ids[0], ids[1]);
+        let d = PointDistance { a, b, distance_mm: 50.0, sigma_mm: 0.01 };
+        let params: Vec<ParamId> = [a, b]
+            .iter()
+            .flat_map(|id| Axis::ALL.map(|axis| ParamId::Position { id: *id, axis }))
+            .chain([ParamId::Base(BaseParam::X)])
+            .collect();
+        let mut row = vec![0.0; params.len()];
+        let r0 = distance_row(&model, &d, &params, &mut row).expect("row");
+        for (c, p) in params.iter().enumerate() {
+            let v = model.param(*p).expect("value");
+            let h = 1e-4;
+            model.set_param(*p, v + h).expect("set");
+            let mut scratch = vec![0.0; params.len()];
+            let rp = distance_row(&model, &d, &params, &mut scratch).expect("row");
+            model.set_param(*p, v).expect("reset");
+            // residual = d − |p_a − p_b|, row = +d|p_a − p_b|/dρ
+            let fd = -(rp - r0) / h;
+            assert!((fd - row[c]).abs() < 1e-6, "{p}: {fd} vs {}", row[c]);
+        }
+    }
+}
