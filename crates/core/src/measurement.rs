@@ -162,7 +162,9 @@ impl PointDistance {
             return Err(format!("`{spec}`: expected `a,b,distance_mm` or `a,b,distance_mm,sigma_mm`"));
         }
         let id = |k: usize, name: &str| {
-            fields[k].parse::<u32>().map_err(|_| format!("`{spec}`: {name} `{}` is not a point id", fields[k]))
+            fields[k]
+                .parse::<u32>()
+                .map_err(|_| format!("`{spec}`: {name} `{}` is not a point id", fields[k]))
         };
         let num = |k: usize, name: &str| match fields[k].parse::<f64>() {
             Ok(v) if v.is_finite() && v > 0.0 => Ok(v),

@@ -45,9 +45,7 @@ use vatcal_observability::ObservabilityError;
 
 pub use error::{FailureReport, IdentifyError};
 pub use error_stats::ErrorStats;
-pub use fixed_points::{
-    DistanceCheck, FixedPointEvaluation, FixedPointStats, KnownDistance, evaluate_fixed_points,
-};
+pub use fixed_points::{DistanceCheck, FixedPointEvaluation, FixedPointStats, evaluate_fixed_points};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
 pub use problem::residual_vector;

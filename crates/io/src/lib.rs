@@ -495,7 +495,7 @@ impl Table {
                     format!(
                         "{v} {unit} is outside the joint limits {limits} (by {excess:.4} {tol_unit}, more than \
                          the tolerance of {tolerance} {tol_unit}){}",
-                        self.unit_hint(*kind)
+                        if self.fits_other_unit(*kind, v, lo, hi) { self.unit_hint(*kind) } else { "" }
                     ),
                 ));
             }
@@ -511,7 +511,24 @@ impl Table {
         }
     }
 
-    /// A hint appended to a limit error: the other unit, when the value would fit it.
+    /// Whether the file value `v` of a joint of `kind` would lie within the limits `[lo, hi]`
+    /// (internal units) if it were in the other unit (degrees for radians, metres for mm, and
+    /// back).
+    fn fits_other_unit(&self, kind: JointKind, v: f64, lo: f64, hi: f64) -> bool {
+        let other = match kind {
+            JointKind::Revolute => match self.opts.angle_unit {
+                AngleUnit::Deg => v,
+                AngleUnit::Rad => v.to_radians(),
+            },
+            JointKind::Prismatic => match self.opts.length_unit {
+                LengthUnit::Mm => v * 1000.0,
+                LengthUnit::M => v,
+            },
+        };
+        (lo..=hi).contains(&other)
+    }
+
+    /// A hint at the other unit (for an error on a value that fits it).
     fn unit_hint(&self, kind: JointKind) -> &'static str {
         match (kind, self.opts.angle_unit, self.opts.length_unit) {
             (JointKind::Revolute, AngleUnit::Deg, _) => " (radians? use --angle-unit rad)",
@@ -525,7 +542,9 @@ impl Table {
     /// (degrees?) or more than 20 m in metres (millimetres?).
     fn check_joint_unit(&self, line: u64, joint: usize, kind: JointKind, v: f64) -> Result<(), IoError> {
         let bad = match kind {
-            JointKind::Revolute => self.opts.angle_unit == AngleUnit::Rad && v.abs() > 4.0 * std::f64::consts::PI,
+            JointKind::Revolute => {
+                self.opts.angle_unit == AngleUnit::Rad && v.abs() > 4.0 * std::f64::consts::PI
+            }
             JointKind::Prismatic => self.opts.length_unit == LengthUnit::M && v.abs() > 20.0,
         };
         if bad {
@@ -542,11 +561,13 @@ impl Table {
     /// A length column (`x,y,z`) in mm, from the file's length unit.
     fn length_mm(&self, line: u64, rec: &csv::StringRecord, col: &str) -> Result<f64, IoError> {
         let v = self.float(line, rec, col)?;
-        if self.opts.check_units && self.opts.length_unit == LengthUnit::M && v.abs() > 1000.0 {
+        if self.opts.check_units && self.opts.length_unit == LengthUnit::M && v.abs() > 100.0 {
             return Err(self.err(
                 line,
                 col,
-                format!("{v} m is more than 1 km from the origin (millimetres? use --length-unit mm)"),
+                format!(
+                    "{v} m is more than 100 m from the instrument's origin (millimetres? use --length-unit mm)"
+                ),
             ));
         }
         Ok(v * self.opts.length_unit.to_mm())
@@ -1041,8 +1062,7 @@ pub fn read_probe_measurements_with(
     options: &ReadOptions,
 ) -> Result<ReadOutcome<Measurement>, IoError> {
     let path = path.as_ref();
-    let t =
-        Table::read_for_with(path, model, &required_columns(&["position", "tcp"], model, &[]), *options)?;
+    let t = Table::read_for_with(path, model, &required_columns(&["position", "tcp"], model, &[]), *options)?;
     t.check_model_columns(model)?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let rows = t.convert(|line, rec| {
@@ -1842,5 +1862,168 @@ mod tests {
         c.write_subset(out.path(), &[1]).expect("write");
         let text = std::fs::read_to_string(out.path()).expect("read");
         assert_eq!(text, "position,tcp,q1,q2,q3,q4,q5,q6,q7,note\n2,2,10,0,0,0,0,0,0,b\n");
+    }
+
+    /// Item 5 of issue 20: a measured joint slightly beyond its limit is a warning naming file,
+    /// line and joint; further than the tolerance, an error; the readers without options (and
+    /// so planning and compensation) keep the limits strict.
+    #[test]
+    fn limit_tolerance_warns_within_and_refuses_beyond() {
+        let m = model(); // canonical cell: q1 guide [0, 300] mm, q3 = Meca500 J2 [-70, 90] deg
+        let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,10,0,0,0,0\n1,1,300.2,0,90.3,0,0,0,0\n");
+        let read = read_probe_measurements_with(f.path(), &m, &ReadOptions::default()).expect("within");
+        assert_eq!(read.rows.len(), 2);
+        let w: Vec<String> = read.warnings.iter().map(ToString::to_string).collect();
+        assert_eq!(w.len(), 2, "{w:?}");
+        let name = f.path().display().to_string();
+        assert!(
+            w[0].starts_with(&format!("{name}:3: column `q1`: 300.2 mm is beyond the joint limits")),
+            "{w:?}"
+        );
+        assert!(w[1].starts_with(&format!("{name}:3: column `q3`: 90.3 deg is beyond")), "{w:?}");
+        assert!(w[1].contains("by 0.3000 deg") && w[1].contains("tolerance of 0.5 deg"), "{w:?}");
+        // the value is read as measured (not clamped)
+        assert!((read.rows[1].q[2] - 90.3f64.to_radians()).abs() < 1e-12);
+        // strict readers: an error, as before
+        let e = read_probe_measurements(f.path(), &m).expect_err("strict").to_string();
+        assert!(e.contains(":3: column `q1`") && e.contains("outside the joint limits"), "{e}");
+        // beyond the tolerance: an error naming file, line, joint and the tolerance
+        let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,10,0,0,0,0\n1,1,100,0,91,0,0,0,0\n");
+        let e = read_probe_measurements_with(f.path(), &m, &ReadOptions::default())
+            .expect_err("1 deg")
+            .to_string();
+        assert!(
+            e.contains(":3: column `q3`: 91 deg is outside the joint limits [-70, 90] deg (by 1.0000 deg")
+                && e.contains("tolerance of 0.5 deg"),
+            "{e}"
+        );
+        assert!(!e.contains("--angle-unit"), "no unit hint for a value that fits no other unit: {e}");
+        // a larger tolerance reads it
+        let wide = ReadOptions {
+            limit_tolerance: LimitTolerance { revolute_deg: 2.0, prismatic_mm: 0.5 },
+            ..ReadOptions::default()
+        };
+        assert_eq!(read_probe_measurements_with(f.path(), &m, &wide).expect("2 deg").warnings.len(), 1);
+    }
+
+    /// Item 6: metres and radians are read as mm and radians; a file that does not look like
+    /// the stated units is refused with a hint naming the other unit.
+    #[test]
+    fn units_are_options_and_mismatches_are_named() {
+        let ur = fixture_model("ur5e.toml");
+        let deg = file("tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,400,-100.5,250\n");
+        let (q, rad) = ([10.0f64, -80.0, 90.0, -100.0, -90.0, 30.0], "");
+        let rad_row: Vec<String> = q.iter().map(|v| v.to_radians().to_string()).collect();
+        let si =
+            file(&format!("tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,{},0.4,-0.1005,0.25\n{rad}", rad_row.join(",")));
+        let options =
+            ReadOptions { length_unit: LengthUnit::M, angle_unit: AngleUnit::Rad, ..ReadOptions::default() };
+        let a = read_tracker_measurements(deg.path(), &ur).expect("deg");
+        let b = read_tracker_measurements_with(si.path(), &ur, &options).expect("SI");
+        assert!(b.warnings.is_empty());
+        for k in 0..6 {
+            assert!((a[0].q[k] - b.rows[0].q[k]).abs() < 1e-12, "joint {k}");
+        }
+        let (Target::Tracker { xyz_mm: pa }, Target::Tracker { xyz_mm: pb }) =
+            (a[0].target, b.rows[0].target)
+        else {
+            panic!("tracker rows");
+        };
+        assert!((pa - pb).norm() < 1e-9, "{pa} vs {pb}");
+        // radians read as degrees: every angle within ±2π "degrees" on 3+ rows
+        let text = format!(
+            "tcp,q1,q2,q3,q4,q5,q6\n1,{}\n1,0.1,0.2,0.3,0.4,0.5,0.6\n1,0,0,0,0,0,0\n",
+            rad_row.join(",")
+        );
+        let f = file(&text);
+        let e =
+            read_joint_rows_with(f.path(), &ur, &ReadOptions::default()).expect_err("radians").to_string();
+        assert!(
+            e.contains(":2: column `q4`: every revolute joint value") && e.contains("--angle-unit rad"),
+            "{e}"
+        );
+        assert!(
+            read_joint_rows_with(
+                f.path(),
+                &ur,
+                &ReadOptions { angle_unit: AngleUnit::Rad, ..ReadOptions::default() }
+            )
+            .is_ok()
+        );
+        assert!(read_joint_rows(f.path(), &ur).is_ok(), "the readers without options have no heuristics");
+        // degrees read as radians: more than two turns
+        let f = file("tcp,q1,q2,q3,q4,q5,q6\n1,10,-80,90,-100,-90,30\n");
+        let e = read_joint_rows_with(
+            f.path(),
+            &ur,
+            &ReadOptions { angle_unit: AngleUnit::Rad, ..ReadOptions::default() },
+        )
+        .expect_err("degrees")
+        .to_string();
+        assert!(
+            e.contains(":2: column `q1`: 10 rad is outside the joint limits")
+                && e.contains("--angle-unit deg"),
+            "{e}"
+        );
+        // more than two turns: the magnitude alone tells
+        let f = file("tcp,q1,q2,q3,q4,q5,q6\n1,0.1,-80,0,0,0,0\n");
+        let e = read_joint_rows_with(
+            f.path(),
+            &ur,
+            &ReadOptions { angle_unit: AngleUnit::Rad, ..ReadOptions::default() },
+        )
+        .expect_err("degrees")
+        .to_string();
+        assert!(
+            e.contains(":2: column `q2`: -80 rad is implausible") && e.contains("--angle-unit deg"),
+            "{e}"
+        );
+        // millimetres read as metres
+        let e = read_tracker_measurements_with(
+            deg.path(),
+            &ur,
+            &ReadOptions { length_unit: LengthUnit::M, ..ReadOptions::default() },
+        )
+        .map(|_| ())
+        .expect_err("mm as m");
+        assert!(
+            e.to_string().contains(":2: column `x`: 400 m is more than 100 m")
+                && e.to_string().contains("--length-unit mm"),
+            "{e}"
+        );
+        // a guide in metres beyond its limit in mm hints at the unit
+        let m = model();
+        let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,150,0,10,0,0,0,0\n");
+        let e = read_probe_measurements_with(
+            f.path(),
+            &m,
+            &ReadOptions { length_unit: LengthUnit::M, ..ReadOptions::default() },
+        )
+        .expect_err("150 m")
+        .to_string();
+        assert!(e.contains(":2: column `q1`") && e.contains("--length-unit mm"), "{e}");
+    }
+
+    /// Item 6: the approach directions from the row order, on any chain; a file with its own
+    /// `dir` columns is refused; a backlash model reads a file without `dir` columns then.
+    #[test]
+    fn directions_derived_from_the_row_order() {
+        use vatcal_core::effects::EffectSpec;
+        let mut ur = fixture_model("ur5e.toml");
+        ur.enable_effect(EffectSpec::JointBacklash { joint: 4 }).expect("backlash on joint 4");
+        let f = file(
+            "tcp,q1,q2,q3,q4,q5,q6\n1,10,-80,90,-100,-90,30\n1,10,-80,90,-90,-90,30\n1,12,-80,90,-95,-90,30\n",
+        );
+        let e =
+            read_joint_rows_with(f.path(), &ur, &ReadOptions::default()).expect_err("no dir4").to_string();
+        assert!(e.contains("needs the column(s) dir4"), "{e}");
+        let options = ReadOptions { dir_from_row_order: true, ..ReadOptions::default() };
+        let rows = read_joint_rows_with(f.path(), &ur, &options).expect("derived").rows;
+        let dirs: Vec<(i8, i8, i8)> =
+            rows.iter().map(|r| (r.context.dir_of(1), r.context.dir_of(4), r.context.dir_of(6))).collect();
+        assert_eq!(dirs, vec![(0, 0, 0), (0, 1, 0), (1, -1, 0)]);
+        let f = file("tcp,q1,q2,q3,q4,q5,q6,dir4\n1,10,-80,90,-100,-90,30,1\n");
+        let e = read_joint_rows_with(f.path(), &ur, &options).expect_err("own dir4").to_string();
+        assert!(e.contains("has its own direction column `dir4`"), "{e}");
     }
 }

@@ -204,7 +204,12 @@ pub fn measured_tcps(measurements: &[Measurement]) -> Vec<u32> {
 }
 
 /// The preference order of `set` (see the module docs) before the rank analysis.
-pub fn generic_order(model: &Model, measurements: &[Measurement], set: GenericSet, design: &DataDesign) -> ParamSet {
+pub fn generic_order(
+    model: &Model,
+    measurements: &[Measurement],
+    set: GenericSet,
+    design: &DataDesign,
+) -> ParamSet {
     let xyz = |f: &dyn Fn(Axis) -> ParamId| Axis::ALL.map(f);
     let mut v: Vec<ParamId> = Vec::new();
     for id in &design.free_positions {
@@ -216,9 +221,13 @@ pub fn generic_order(model: &Model, measurements: &[Measurement], set: GenericSe
     v.extend(BaseParam::ALL.map(ParamId::Base));
     let n = model.joint_count() as u8;
     if set >= GenericSet::JointOffsets {
-        v.extend((1..=n).map(|i| {
-            if model.is_revolute(i as usize) { ParamId::ThetaOffset(i) } else { ParamId::D(i) }
-        }));
+        v.extend(
+            (1..=n).map(
+                |i| {
+                    if model.is_revolute(i as usize) { ParamId::ThetaOffset(i) } else { ParamId::D(i) }
+                },
+            ),
+        );
     }
     if set >= GenericSet::Kinematic {
         for i in 1..=n {
@@ -316,7 +325,8 @@ mod tests {
     use vatcal_core::CellFile;
 
     fn ur5e() -> Model {
-        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml")).expect("fixture");
+        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
+            .expect("fixture");
         Model::from_cell(&cell).expect("model")
     }
 

@@ -71,7 +71,11 @@ pub struct Args {
     pub read: super::read_args::ReadArgs,
 }
 
-fn read_all(path: &PathBuf, model: &Model, read: &super::read_args::ReadArgs) -> anyhow::Result<Vec<Measurement>> {
+fn read_all(
+    path: &PathBuf,
+    model: &Model,
+    read: &super::read_args::ReadArgs,
+) -> anyhow::Result<Vec<Measurement>> {
     let m = read.measurements(path, model)?;
     anyhow::ensure!(!m.is_empty(), "{}: no measurement rows", path.display());
     Ok(m)

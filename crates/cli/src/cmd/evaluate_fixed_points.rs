@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
-use vatcal_identification::{FixedPointEvaluation, KnownDistance, evaluate_fixed_points};
+use vatcal_core::PointDistance;
+use vatcal_identification::{FixedPointEvaluation, evaluate_fixed_points};
 
 /// Arguments of `vatcal evaluate-fixed-points`.
 #[derive(Debug, clap::Args)]
@@ -21,10 +22,11 @@ pub struct Args {
     /// unknown and fitted per file).
     #[arg(long, required = true)]
     pub measurements: Vec<PathBuf>,
-    /// A known distance between two points, `A:B:DISTANCE_MM` (e.g. `1:2:50` for MUKCa's two
-    /// sockets); repeat for more.
-    #[arg(long)]
-    pub distance: Vec<KnownDistance>,
+    /// A known distance between two points, `a,b,distance_mm` (e.g. `1,2,50` for MUKCa's two
+    /// sockets; a fourth field, the distance's sigma for `identify`, is accepted and not used);
+    /// repeat for more.
+    #[arg(long, value_parser = PointDistance::parse)]
+    pub point_distance: Vec<PointDistance>,
     /// Write every evaluation (per file and model: per point centre and spread, distances) as
     /// JSON here.
     #[arg(long)]
@@ -62,7 +64,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 let options = vatcal_io::ReadOptions { any_position_id: true, ..args.read.options()? };
                 vatcal_io::read_probe_measurements_with(file, model, &options)?.rows
             };
-            let evaluation = evaluate_fixed_points(model, &rows, &args.distance)
+            let evaluation = evaluate_fixed_points(model, &rows, &args.point_distance)
                 .with_context(|| format!("evaluating {} on {}", path.display(), file.display()))?;
             results.push(EvaluatedFile {
                 measurements: file.display().to_string(),
@@ -91,7 +93,8 @@ fn short(path: &str) -> String {
 }
 
 fn print_table(args: &Args, results: &[EvaluatedFile]) {
-    let distance_heads: Vec<String> = args.distance.iter().map(|d| format!("d{}-{} err", d.a, d.b)).collect();
+    let distance_heads: Vec<String> =
+        args.point_distance.iter().map(|d| format!("d{}-{} err", d.a, d.b)).collect();
     print!("{:<28} {:<32} {:>4} {:>9} {:>9} {:>9}", "[mm]", "model", "n", "RMS", "mean", "max");
     for h in &distance_heads {
         print!(" {h:>11}");
@@ -123,7 +126,8 @@ fn print_table(args: &Args, results: &[EvaluatedFile]) {
             let k = mine.len().max(1) as f64;
             let rms = mine.iter().map(|e| e.rms_mm).sum::<f64>() / k;
             let mean = mine.iter().map(|e| e.mean_mm).sum::<f64>() / k;
-            let dist = mine.iter().flat_map(|e| e.distances.iter().map(|d| d.error_mm.abs())).collect::<Vec<_>>();
+            let dist =
+                mine.iter().flat_map(|e| e.distances.iter().map(|d| d.error_mm.abs())).collect::<Vec<_>>();
             let dist_mean = dist.iter().sum::<f64>() / dist.len().max(1) as f64;
             println!(
                 "  {:<32} RMS {rms:.4}  mean {mean:.4}{}",

@@ -46,9 +46,10 @@ fn parse_angle_unit(s: &str) -> Result<AngleUnit, String> {
 impl ReadArgs {
     /// The reader options (checks the tolerances).
     pub fn options(&self) -> anyhow::Result<ReadOptions> {
-        for (flag, v) in
-            [("--limit-tolerance-deg", self.limit_tolerance_deg), ("--limit-tolerance-mm", self.limit_tolerance_mm)]
-        {
+        for (flag, v) in [
+            ("--limit-tolerance-deg", self.limit_tolerance_deg),
+            ("--limit-tolerance-mm", self.limit_tolerance_mm),
+        ] {
             anyhow::ensure!(v.is_finite() && v >= 0.0, "{flag} must be a number >= 0, got {v}");
         }
         Ok(ReadOptions {

@@ -68,7 +68,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         Some(path) => {
             let base = super::load_model(path)?;
             // read again with the baseline: checks the context columns its effects need
-            let tracker = vatcal_io::read_tracker_measurements_with(&args.tracker, &base, &args.read.options()?)?.rows;
+            let tracker =
+                vatcal_io::read_tracker_measurements_with(&args.tracker, &base, &args.read.options()?)?.rows;
             Some((path, validate(&base, &tracker).with_context(|| format!("validating {}", path.display()))?))
         }
         None => None,
