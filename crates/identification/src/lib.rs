@@ -13,6 +13,11 @@
 //!   Table 7 read literally is available as [`Method::PaperLiteral`], for comparison only.
 //! * [`Identification`] — calibrated model, values, σ, covariance, correlations, iteration
 //!   log, residual statistics, σ̂, condition number, predicted TCP uncertainty at any pose.
+//! * [`initialise`] — closed-form start for a nominal model whose world frame, measured TCP or
+//!   fixed points are unknown (Kabsch registration + linear least squares);
+//!   [`cross_validate_sets`] — the model size chosen by K-fold cross-validation over posture
+//!   groups (1-SE rule); [`calibrate`] — initialise, choose, fit in one call (what
+//!   `vatcal identify` runs);
 //! * [`IdentificationReport`] — the JSON report (file units).
 //! * [`KindSigmas`] — σ of probe and tracker residuals estimated separately (inverse-variance
 //!   weights); [`CmmUncertainty`] — systematic CMM errors of the TCP and calibration-position
@@ -25,11 +30,13 @@
 //! Units: internal (mm, rad, rad/(N·m)) in every Rust API; the JSON report and the cell file
 //! use degrees for angles.
 
+mod cv;
 mod dense;
 mod error;
 mod error_stats;
 mod fit_statistics;
 mod fixed_points;
+mod init;
 mod literal;
 mod options;
 mod problem;
@@ -43,9 +50,13 @@ use vatcal_core::{Measurement, ParamId, ParamSet, Target};
 use vatcal_kinematics::Model;
 use vatcal_observability::ObservabilityError;
 
+pub use cv::{
+    Calibration, CandidateScore, CvOptions, CvSelection, calibrate, cross_validate_sets, posture_folds,
+};
 pub use error::{FailureReport, IdentifyError};
 pub use error_stats::ErrorStats;
 pub use fixed_points::{DistanceCheck, FixedPointEvaluation, FixedPointStats, evaluate_fixed_points};
+pub use init::{InitOptions, Initialisation, initialise};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
 pub use problem::residual_vector;
@@ -198,7 +209,19 @@ fn check_rank(
     params: &ParamSet,
     options: &IdentifyOptions,
 ) -> Result<(), IdentifyError> {
-    match vatcal_observability::check_identifiable(start, measurements, params) {
+    let design = vatcal_observability::sets::DataDesign {
+        free_positions: Vec::new(),
+        distances: options.point_distances.clone(),
+    };
+    let checked =
+        vatcal_observability::sets::analyze_design(start, measurements, &design, params).and_then(|r| {
+            if r.is_full_rank() {
+                Ok(r)
+            } else {
+                Err(vatcal_observability::identifiability::rank_deficient_error_for(&r, start.joint_kinds()))
+            }
+        });
+    match checked {
         Ok(_) => Ok(()),
         Err(ObservabilityError::RankDeficient { unidentifiable, .. })
             if priors_cover(params, options.priors.as_deref(), &unidentifiable) =>

@@ -4,7 +4,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
-use vatcal_core::ParamSet;
+use vatcal_core::{ParamSet, PointDistance};
 
 use crate::IdentifyError;
 
@@ -144,6 +144,10 @@ pub struct IdentifyOptions {
     /// Gauss–Newton and the paper-literal method: the fit has diverged when the mean residual
     /// exceeds this factor times the starting mean residual (default 100)
     pub divergence_factor: f64,
+    /// known distances between fixed points (calibration positions): one residual row each,
+    /// `distance − |p_a − p_b|` weighted by `measurement_sigma_mm / sigma_mm`, so that the
+    /// positions identified as parameters keep the scale (default none)
+    pub point_distances: Vec<PointDistance>,
 }
 
 impl Default for IdentifyOptions {
@@ -164,6 +168,7 @@ impl Default for IdentifyOptions {
             max_condition_number: 1e3,
             accept_iteration_cap: false,
             divergence_factor: 100.0,
+            point_distances: Vec::new(),
         }
     }
 }
@@ -210,6 +215,21 @@ impl IdentifyOptions {
                 "correlation_threshold must be in [0, 1], got {}",
                 self.correlation_threshold
             ));
+        }
+        for d in &self.point_distances {
+            if !(d.distance_mm.is_finite()
+                && d.distance_mm > 0.0
+                && d.sigma_mm.is_finite()
+                && d.sigma_mm > 0.0)
+            {
+                return bad(format!(
+                    "point_distances: {},{}: distance {} mm and sigma {} mm must be finite and > 0",
+                    d.a, d.b, d.distance_mm, d.sigma_mm
+                ));
+            }
+        }
+        if self.method == Method::PaperLiteral && !self.point_distances.is_empty() {
+            return bad("point distances are not supported by the paper-literal method".into());
         }
         if let Some(p) = &self.priors {
             if p.len() != params.len() {

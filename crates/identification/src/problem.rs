@@ -10,7 +10,7 @@
 
 use faer::MatMut;
 use nalgebra::Vector3;
-use vatcal_core::{Measurement, ParamSet, Target};
+use vatcal_core::{Measurement, ParamSet, PointDistance, Target};
 use vatcal_kinematics::Model;
 
 use crate::{IdentifyError, IdentifyOptions, KindWeights};
@@ -26,6 +26,10 @@ pub(crate) struct Problem<'a> {
     pub priors: Vec<(usize, f64)>,
     /// starting values (prior means)
     pub start: Vec<f64>,
+    /// known distances between fixed points: one row each after the measurement rows
+    pub distances: Vec<PointDistance>,
+    /// `σ_meas / σ_d` of every distance row
+    pub distance_weight: Vec<f64>,
 }
 
 impl<'a> Problem<'a> {
@@ -46,12 +50,48 @@ impl<'a> Problem<'a> {
                     .collect()
             })
             .unwrap_or_default();
-        Self { measurements, params, row_weight: row_weights(measurements, &options.weights), priors, start }
+        Self {
+            measurements,
+            params,
+            row_weight: row_weights(measurements, &options.weights),
+            priors,
+            start,
+            distances: options.point_distances.clone(),
+            distance_weight: options
+                .point_distances
+                .iter()
+                .map(|d| options.measurement_sigma_mm / d.sigma_mm)
+                .collect(),
+        }
     }
 
-    /// Number of measurement rows (3 per measurement).
+    /// Number of data rows: 3 per measurement, then one per known distance (the prior rows
+    /// follow).
     pub fn measurement_rows(&self) -> usize {
-        3 * self.measurements.len()
+        3 * self.measurements.len() + self.distances.len()
+    }
+
+    /// The distance rows: residuals into `r[3n..]` and, when `jac` is given, their Jacobian
+    /// rows (weighted).
+    fn distance_rows(
+        &self,
+        model: &Model,
+        r: &mut [f64],
+        mut jac: Option<&mut MatMut<'_, f64>>,
+        row: &mut [f64],
+    ) -> Result<(), IdentifyError> {
+        let base = 3 * self.measurements.len();
+        for (k, d) in self.distances.iter().enumerate() {
+            let w = self.distance_weight[k];
+            let e = vatcal_observability::sets::distance_row(model, d, &self.params.0, row)?;
+            r[base + k] = w * e;
+            if let Some(j) = jac.as_deref_mut() {
+                for (c, v) in row.iter().enumerate() {
+                    j[(base + k, c)] = w * v;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Total rows including prior rows.
@@ -79,6 +119,10 @@ impl<'a> Problem<'a> {
             vecs[k] = e;
             let w = self.row_weight[k];
             r[3 * k..3 * k + 3].copy_from_slice(&[w * e.x, w * e.y, w * e.z]);
+        }
+        if !self.distances.is_empty() {
+            let mut row = vec![0.0; self.cols()];
+            self.distance_rows(model, r, None, &mut row)?;
         }
         self.prior_residuals(values, r);
         Ok(())
@@ -116,6 +160,10 @@ impl<'a> Problem<'a> {
                     jac[(3 * k + a, c)] = w * block[3 * c + a];
                 }
             }
+        }
+        if !self.distances.is_empty() {
+            let mut row = vec![0.0; l];
+            self.distance_rows(model, r, Some(&mut jac), &mut row)?;
         }
         let base = self.measurement_rows();
         for (row, (j, c)) in self.priors.iter().enumerate() {
