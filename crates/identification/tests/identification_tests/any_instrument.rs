@@ -39,7 +39,14 @@ fn truth(nominal: &Model, seed: u64) -> Model {
 }
 
 /// Tracker rows of TCP 1 in an instrument frame `y = R x + t`.
-fn tracker_rows(truth: &Model, n: usize, sigma_mm: f64, seed: u64, r: &Rotation3<f64>, t: &Vector3<f64>) -> Vec<Measurement> {
+fn tracker_rows(
+    truth: &Model,
+    n: usize,
+    sigma_mm: f64,
+    seed: u64,
+    r: &Rotation3<f64>,
+    t: &Vector3<f64>,
+) -> Vec<Measurement> {
     synthetic_tracker_measurements(truth, n, sigma_mm, seed)
         .into_iter()
         .map(|m| {
@@ -119,12 +126,8 @@ fn registration_initialisation_converges_for_random_rotations() {
             rng.random_range(-3000.0..3000.0),
         );
         let rows = tracker_rows(&truth, 40, 0.01, 100 + case, &r, &t);
-        let init = initialise(
-            &nominal,
-            &rows,
-            &InitOptions { tcps: vec![1], ..InitOptions::default() },
-        )
-        .expect("init");
+        let init = initialise(&nominal, &rows, &InitOptions { tcps: vec![1], ..InitOptions::default() })
+            .expect("init");
         // what remains is the truth's geometry error (~1 mm), not the frame (metres)
         assert!(init.rms_after_mm < 5.0, "case {case}: {} -> {} mm", init.rms_before_mm, init.rms_after_mm);
         let params = vatcal_observability::sets::generic_set(
@@ -163,10 +166,8 @@ fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
     let rows = |count: usize, seed: u64| -> Vec<Measurement> {
         // start poses reach the socket with the TCP they drew; the synthetic step re-reaches
         // with the measured point (TCP 1)
-        let starts: Vec<Measurement> = probe_start_poses(&truth, count, seed)
-            .into_iter()
-            .map(|m| Measurement { tcp: 1, ..m })
-            .collect();
+        let starts: Vec<Measurement> =
+            probe_start_poses(&truth, count, seed).into_iter().map(|m| Measurement { tcp: 1, ..m }).collect();
         synthetic_probe_measurements(&truth, &starts, noise, seed + 1)
     };
     let train = rows(300, 7);
@@ -176,11 +177,18 @@ fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
         free_positions: ids.clone(),
         distances: vec![PointDistance { a: ids[0], b: ids[1], distance_mm: 50.0, sigma_mm: 0.005 }],
     };
-    let cal = calibrate(&nominal, &train, "default", &design, &IdentifyOptions::default(), &CvOptions::default())
-        .expect("calibration");
+    let cal =
+        calibrate(&nominal, &train, "default", &design, &IdentifyOptions::default(), &CvOptions::default())
+            .expect("calibration");
     let sel = cal.selection.as_ref().expect("cross-validated default");
     for c in &sel.candidates {
-        eprintln!("{:<22} {:>3} params  CV {:>9.4} mm  {:?}", c.set.name(), c.params.len(), c.cv_rms_mm, c.rejected);
+        eprintln!(
+            "{:<22} {:>3} params  CV {:>9.4} mm  {:?}",
+            c.set.name(),
+            c.params.len(),
+            c.cv_rms_mm,
+            c.rejected
+        );
     }
     eprintln!("{}", sel.reason);
     assert!(
