@@ -512,12 +512,14 @@ impl Table {
     }
 
     /// Whether the file value `v` of a joint of `kind` would lie within the limits `[lo, hi]`
-    /// (internal units) if it were in the other unit (degrees for radians, metres for mm, and
-    /// back).
+    /// (internal units) if it were in the other unit (degrees for radians — only beyond a turn,
+    /// as a smaller value is a plausible angle in radians —, metres for mm, and back).
     fn fits_other_unit(&self, kind: JointKind, v: f64, lo: f64, hi: f64) -> bool {
         let other = match kind {
             JointKind::Revolute => match self.opts.angle_unit {
                 AngleUnit::Deg => v,
+                // a value within a turn is a plausible angle in radians: no hint at degrees
+                AngleUnit::Rad if v.abs() <= std::f64::consts::TAU => return false,
                 AngleUnit::Rad => v.to_radians(),
             },
             JointKind::Prismatic => match self.opts.length_unit {
