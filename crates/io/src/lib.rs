@@ -423,7 +423,8 @@ impl Table {
         let s = self.field(rec, col).unwrap_or("");
         let v: u32 =
             s.parse().map_err(|_| self.err(line, col, format!("`{s}` is not a non-negative integer id")))?;
-        if !known.contains(&v) && !(col == "position" && self.opts.any_position_id) {
+        let free_point = col == "position" && self.opts.any_position_id;
+        if !(known.contains(&v) || free_point) {
             return Err(self.err(line, col, format!("unknown {col} id {v} (the model has {known:?})")));
         }
         Ok(v)
