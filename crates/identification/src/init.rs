@@ -11,6 +11,8 @@
 //!    reflection excluded): the rotation and translation that best map the model's predicted
 //!    points onto the observed ones (tracker points, known calibration positions). It is
 //!    composed with the base pose: `H_0^W ← T · H_0^W`, which moves every prediction rigidly.
+//!    It is a change of world frame, not a tilt of the robot, so the gravity vector (given in
+//!    the world frame) turns with it: the gravity torques of the compliances stay the same.
 //! 2. **Tool point and fixed points** by linear least squares given the registration: with
 //!    `T_k = (R_k, o_k)` the tool frame of row k in the world, a tracker row gives
 //!    `R_k t = y_k − o_k`, a probe row at a known position `R_k t = P + offset − o_k`, and a probe
@@ -196,6 +198,8 @@ fn register_base(model: &mut Model, measurements: &[Measurement], free: &[u32]) 
     }
     let Some((r, t)) = kabsch(&pairs) else { return Ok(()) };
     let b = model.base_frame();
+    // a change of world frame, not a tilt of the robot: gravity turns with it
+    model.set_gravity(r * model.gravity())?;
     let new_r = r * b.r;
     let new_p = r * b.p + t;
     let (alpha, beta, gamma) = xyz_euler(&new_r);

@@ -61,7 +61,8 @@ pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
 pub use problem::residual_vector;
 pub use report::{
-    CorrelationReport, IdentificationReport, ParameterReport, REPORT_FORMAT, file_unit_label, to_file_units,
+    CandidateReport, CorrelationReport, IdentificationReport, InitialisationReport, ParameterReport,
+    REPORT_FORMAT, SelectionReport, file_unit_label, to_file_units,
 };
 pub use result::{Identification, IterationLog, Termination};
 pub use uncertainty::{CmmUncertainty, KindSigmas};

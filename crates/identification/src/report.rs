@@ -93,6 +93,94 @@ pub struct IdentificationReport {
     pub correlation_threshold: f64,
     /// pairs above the threshold, strongest first
     pub strong_correlations: Vec<CorrelationReport>,
+    /// the closed-form initialisation, when one ran ([`crate::calibrate`])
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initialisation: Option<InitialisationReport>,
+    /// the cross-validated choice of the parameter set, when `default` chose one
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub selection: Option<SelectionReport>,
+}
+
+/// What the initialisation did ([`crate::initialise`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct InitialisationReport {
+    /// RMS residual norm of the nominal model [mm]
+    pub rms_before_mm: f64,
+    /// RMS residual norm after the initialisation [mm]
+    pub rms_after_mm: f64,
+    /// rounds of registration + linear solve
+    pub rounds: usize,
+    /// whether the base pose was registered
+    pub registered: bool,
+}
+
+/// One candidate of the cross-validated choice.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CandidateReport {
+    /// set name (`registration`, `joint-offsets`, `kinematic`, `kinematic+compliance`)
+    pub set: String,
+    /// its identifiable parameters on these data
+    pub n_parameters: usize,
+    /// RMS held-out residual norm over the folds [mm] (null when rejected)
+    pub cv_rms_mm: Option<f64>,
+    /// standard error of the fold mean squared residuals [mm²]
+    pub cv_se_mm2: Option<f64>,
+    /// RMS held-out residual norm of each fold [mm]
+    pub fold_rms_mm: Vec<f64>,
+    /// RMS residual norm of the fit on all rows [mm]
+    pub train_rms_mm: Option<f64>,
+    /// condition number of the fit on all rows
+    pub condition_number: Option<f64>,
+    /// why the candidate was not scored
+    pub rejected: Option<String>,
+}
+
+/// The cross-validated choice ([`crate::cross_validate_sets`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SelectionReport {
+    /// folds and posture groups
+    pub folds: usize,
+    /// posture groups dealt into the folds
+    pub groups: usize,
+    /// shuffle seed
+    pub seed: u64,
+    /// every candidate, smallest first
+    pub candidates: Vec<CandidateReport>,
+    /// the chosen set
+    pub chosen: String,
+    /// why it won
+    pub reason: String,
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+impl SelectionReport {
+    /// The report of a selection.
+    pub fn from_selection(sel: &crate::CvSelection) -> Self {
+        Self {
+            folds: sel.folds,
+            groups: sel.groups,
+            seed: sel.seed,
+            candidates: sel
+                .candidates
+                .iter()
+                .map(|c| CandidateReport {
+                    set: c.set.name().to_string(),
+                    n_parameters: c.params.len(),
+                    cv_rms_mm: finite(c.cv_rms_mm),
+                    cv_se_mm2: finite(c.cv_se_mm2),
+                    fold_rms_mm: c.fold_rms_mm.clone(),
+                    train_rms_mm: finite(c.train_rms_mm),
+                    condition_number: finite(c.condition_number),
+                    rejected: c.rejected.clone(),
+                })
+                .collect(),
+            chosen: sel.chosen().set.name().to_string(),
+            reason: sel.reason.clone(),
+        }
+    }
 }
 
 /// Value of [`IdentificationReport::format`].
@@ -137,7 +225,23 @@ impl IdentificationReport {
                 .iter()
                 .map(|(a, b, c)| CorrelationReport { a: a.name(), b: b.name(), correlation: *c })
                 .collect(),
+            initialisation: None,
+            selection: None,
         }
+    }
+
+    /// The report of a [`crate::calibrate`] run: the fit, its initialisation and the
+    /// cross-validated choice.
+    pub fn from_calibration(cal: &crate::Calibration) -> Self {
+        let mut r = Self::from_identification(&cal.fit);
+        r.initialisation = cal.init.as_ref().map(|i| InitialisationReport {
+            rms_before_mm: i.rms_before_mm,
+            rms_after_mm: i.rms_after_mm,
+            rounds: i.rounds,
+            registered: i.registered,
+        });
+        r.selection = cal.selection.as_ref().map(SelectionReport::from_selection);
+        r
     }
 
     /// Pretty-printed JSON.

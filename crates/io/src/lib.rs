@@ -190,6 +190,8 @@ struct Table {
     opts: ReadOptions,
     /// warnings met while converting rows (any order; sorted by line when returned)
     warnings: Mutex<Vec<ReadWarning>>,
+    /// 1-based line of the header
+    header_line: u64,
 }
 
 /// Field indices of the columns read on every row, so that a row costs no name lookups.
@@ -316,6 +318,7 @@ impl Table {
             cols,
             opts: ReadOptions::strict(),
             warnings: Mutex::new(Vec::new()),
+            header_line,
         })
     }
 
@@ -786,18 +789,7 @@ fn csv_error(path: &Path, e: &csv::Error) -> IoError {
 /// (not a number, an unknown TCP id, a joint outside its limits, a bad context value), and
 /// [`IoError::ModelNeedsColumn`] when the model's effects need context columns the file lacks.
 pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<JointRow>, IoError> {
-    let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
-    t.check_model_columns(model)?;
-    let tcps = model.tcp_ids();
-    t.convert(|line, rec| {
-        Ok(JointRow {
-            line,
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            context: t.context(line, rec)?,
-        })
-    })
+    read_joint_rows_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
 /// Reads probe measurements `position,tcp,q1..qN` with the optional `time_s`,
@@ -826,20 +818,7 @@ pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Join
 /// # Errors
 /// As [`read_joint_rows`]; the `position` id is checked against the model too.
 pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
-    let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
-    t.check_model_columns(model)?;
-    let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    t.convert(|line, rec| {
-        let position = t.id(line, rec, "position", &positions)?;
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target: Target::Probe { position },
-            context: t.context(line, rec)?,
-            probe_offset_mm: t.probe_offset(line, rec)?,
-        })
-    })
+    read_probe_measurements_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
 /// Reads tracker measurements `tcp,q1..qN,x,y,z` (world, mm), with the same optional columns.
@@ -863,20 +842,7 @@ pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<
 /// # Errors
 /// As [`read_joint_rows`]; `x,y,z` must be finite numbers.
 pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
-    let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]))?;
-    t.check_model_columns(model)?;
-    let tcps = model.tcp_ids();
-    t.convert(|line, rec| {
-        let xyz = Vector3::new(t.float(line, rec, "x")?, t.float(line, rec, "y")?, t.float(line, rec, "z")?);
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target: Target::Tracker { xyz_mm: xyz },
-            context: t.context(line, rec)?,
-            probe_offset_mm: None,
-        })
-    })
+    read_tracker_measurements_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
 /// Reads a file that may hold probe rows (`position` column) or tracker rows (`x,y,z`), or
@@ -903,43 +869,11 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
 /// ```
 ///
 /// # Errors
-/// As [`read_probe_measurements`] and [`read_tracker_measurements`], and
-/// [`IoError::MissingColumn`] when the file has neither `position` nor `x,y,z`.
+/// As [`read_probe_measurements`] and [`read_tracker_measurements`], and [`IoError::Row`]
+/// naming the header line when the file has neither `position` nor `x,y,z`, or the line of a
+/// row that has neither a `position` nor `x`.
 pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
-    let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
-    t.check_model_columns(model)?;
-    let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    let has_xyz = t.has("x") && t.has("y") && t.has("z");
-    if !t.has("position") && !has_xyz {
-        return Err(IoError::MissingColumn {
-            path: path.into(),
-            column: "position (probe rows) or x,y,z (tracker rows)".into(),
-            required: format!("tcp,{} and position or x,y,z", span(&joint_columns(model.joint_count()))),
-        });
-    }
-    t.convert(|line, rec| {
-        let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
-        let target = if has_pos {
-            Target::Probe { position: t.id(line, rec, "position", &positions)? }
-        } else {
-            Target::Tracker {
-                xyz_mm: Vector3::new(
-                    t.float(line, rec, "x")?,
-                    t.float(line, rec, "y")?,
-                    t.float(line, rec, "z")?,
-                ),
-            }
-        };
-        let probe_offset_mm = if has_pos { t.probe_offset(line, rec)? } else { None };
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target,
-            context: t.context(line, rec)?,
-            probe_offset_mm,
-        })
-    })
+    read_measurements_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
 impl Table {
@@ -1129,14 +1063,25 @@ pub fn read_measurements_with(
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
     if !t.has("position") && !has_xyz {
-        return Err(IoError::MissingColumn {
-            path: path.into(),
-            column: "position (probe rows) or x,y,z (tracker rows)".into(),
-            required: format!("tcp,{} and position or x,y,z", span(&joint_columns(model.joint_count()))),
-        });
+        return Err(t.err(
+            t.header_line,
+            "position / x,y,z",
+            format!(
+                "the header has neither probe rows' `position` nor tracker rows' `x,y,z` (probe rows: position,tcp,{q}; tracker rows: tcp,{q},x,y,z)",
+                q = span(&joint_columns(model.joint_count()))
+            ),
+        ));
     }
     let rows = t.convert(|line, rec| {
         let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
+        if !has_pos && t.field(rec, "x").is_none_or(str::is_empty) {
+            let column = if t.has("position") { "position" } else { "x" };
+            return Err(t.err(
+                line,
+                column,
+                "empty: a probe row needs `position`, a tracker row `x,y,z` (this row has neither)",
+            ));
+        }
         let target = if has_pos {
             Target::Probe { position: t.id(line, rec, "position", &positions)? }
         } else {

@@ -311,6 +311,9 @@ impl Model {
                 (p.x_mm, p.y_mm, p.z_mm) = (v.x, v.y, v.z);
             }
         }
+        if Vector3::from(cell.gravity.vector_m_per_s2) != self.gravity {
+            cell.gravity.vector_m_per_s2 = self.gravity.into();
+        }
         cell.effects = self.effects.iter().map(|s| self.entry_of(s)).collect();
         cell
     }
@@ -490,6 +493,21 @@ impl Model {
     /// Gravity vector in the world [m/s²].
     pub fn gravity(&self) -> Vector3<f64> {
         self.gravity
+    }
+
+    /// Sets the gravity vector in the world frame [m/s²] (e.g. after the world frame was
+    /// re-registered onto an instrument's frame: gravity turns with it, so that its direction
+    /// relative to the robot's base stays the same).
+    ///
+    /// # Errors
+    /// [`ModelError::NonFinite`] for a non-finite component.
+    pub fn set_gravity(&mut self, g_m_per_s2: Vector3<f64>) -> Result<(), ModelError> {
+        if let Some(v) = g_m_per_s2.iter().find(|v| !v.is_finite()) {
+            return Err(ModelError::NonFinite("gravity".into(), *v));
+        }
+        self.gravity = g_m_per_s2;
+        self.refresh_caches();
+        Ok(())
     }
 
     /// The mass model used for gravity torques.

@@ -203,13 +203,29 @@ pub fn measured_tcps(measurements: &[Measurement]) -> Vec<u32> {
     ids
 }
 
-/// The preference order of `set` (see the module docs) before the rank analysis.
+/// True when some row observes a known place — a tracker row, or a probe row at a calibration
+/// position that is not free. Without such a row the world frame is a gauge: moving the base
+/// pose (or anything before joint 1: MDH row 1) and every free point by the same rigid motion
+/// leaves the cost unchanged, so neither the base pose nor row 1 can be identified.
+pub fn anchored(measurements: &[Measurement], design: &DataDesign) -> bool {
+    measurements.iter().any(|m| match m.target {
+        vatcal_core::Target::Tracker { .. } => true,
+        vatcal_core::Target::Probe { position } => !design.free_positions.contains(&position),
+    })
+}
+
+/// The preference order of `set` (see the module docs) before the rank analysis. Data without
+/// an anchor ([`anchored`]) leave out the base pose and MDH row 1 (a gauge of the world frame:
+/// the rank test at a model that does not fit yet cannot see it, because the cost, not the
+/// residual vector, is invariant).
 pub fn generic_order(
     model: &Model,
     measurements: &[Measurement],
     set: GenericSet,
     design: &DataDesign,
 ) -> ParamSet {
+    let anchor = anchored(measurements, design);
+    let first_row = if anchor { 1 } else { 2 };
     let xyz = |f: &dyn Fn(Axis) -> ParamId| Axis::ALL.map(f);
     let mut v: Vec<ParamId> = Vec::new();
     for id in &design.free_positions {
@@ -218,26 +234,25 @@ pub fn generic_order(
     for id in measured_tcps(measurements) {
         v.extend(xyz(&|axis| ParamId::Tcp { id, axis }));
     }
-    v.extend(BaseParam::ALL.map(ParamId::Base));
+    if anchor {
+        v.extend(BaseParam::ALL.map(ParamId::Base));
+    }
     let n = model.joint_count() as u8;
     if set >= GenericSet::JointOffsets {
         v.extend(
-            (1..=n).map(
-                |i| {
-                    if model.is_revolute(i as usize) { ParamId::ThetaOffset(i) } else { ParamId::D(i) }
-                },
-            ),
+            (first_row..=n)
+                .map(|i| if model.is_revolute(i as usize) { ParamId::ThetaOffset(i) } else { ParamId::D(i) }),
         );
     }
     if set >= GenericSet::Kinematic {
-        for i in 1..=n {
+        for i in first_row..=n {
             for p in [ParamId::Alpha(i), ParamId::A(i), ParamId::ThetaOffset(i), ParamId::D(i)] {
                 if !v.contains(&p) {
                     v.push(p);
                 }
             }
         }
-        v.extend((1..=n).map(ParamId::Beta));
+        v.extend((first_row..=n).map(ParamId::Beta));
     }
     if set >= GenericSet::KinematicCompliance {
         v.extend((1..=n).map(ParamId::Compliance).filter(|p| model.has_param(*p)));
@@ -249,13 +264,21 @@ pub fn generic_order(
 /// [`analyze_design`]).
 ///
 /// # Errors
-/// As [`analyze_design`].
+/// As [`analyze_design`]; [`ObservabilityError::InvalidInput`] for a `kinematic` set on data
+/// that fix no length — every probe row at an unknown fixed point, no tracker row and no known
+/// distance: scaling every length of the chain and the points together changes nothing but the
+/// size of the residuals, and the fit would shrink the robot.
 pub fn generic_set(
     model: &Model,
     measurements: &[Measurement],
     set: GenericSet,
     design: &DataDesign,
 ) -> Result<ParamSet, ObservabilityError> {
+    if set >= GenericSet::Kinematic && !anchored(measurements, design) && design.distances.is_empty() {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "`{set}` cannot be identified from these data: every row is at an unknown fixed point, so nothing fixes the scale of the chain; give a known distance between two points (--point-distance A,B,MM) or use registration / joint-offsets"
+        )));
+    }
     let order = generic_order(model, measurements, set, design);
     Ok(analyze_design(model, measurements, design, &order)?.identifiable_set())
 }

@@ -1,15 +1,17 @@
-//! `vatcal identify`: identify model parameters from probe (and/or tracker) measurements and
-//! write the calibrated cell file, with an optional JSON report.
+//! `vatcal identify`: identify model parameters from probe and/or tracker measurements (and
+//! known distances between fixed points) and write the calibrated cell file, with an optional
+//! JSON report. The library call is `vatcal_identification::calibrate`.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use vatcal_core::{Measurement, ParamSet};
+use vatcal_core::{Measurement, PointDistance, Target};
 use vatcal_identification::{
-    FailureReport, Identification, IdentificationReport, IdentifyError, IdentifyOptions, IterationLog,
-    KindWeights, Method, file_unit_label, identify, to_file_units,
+    CvOptions, CvSelection, FailureReport, Identification, IdentificationReport, IdentifyError,
+    IdentifyOptions, IterationLog, KindWeights, Method, calibrate, file_unit_label, to_file_units,
 };
 use vatcal_kinematics::Model;
+use vatcal_observability::sets::DataDesign;
 
 /// Arguments of `vatcal identify`.
 #[derive(Debug, clap::Args)]
@@ -17,17 +19,20 @@ pub struct Args {
     /// Starting (nominal) cell model file (TOML, `meca500-zaber-cell` or `serial-robot-cell`).
     #[arg(long)]
     pub model: PathBuf,
-    /// Probe measurements: CSV with columns position,tcp,q1..qN for the model's N joints (mm for
-    /// prismatic, degrees for revolute joints; the canonical cell: q1 mm, q2..q7 degrees).
+    /// Measurements: CSV with probe rows (position,tcp,q1..qN), tracker rows (tcp,q1..qN,x,y,z,
+    /// world mm) or both (a row with an empty `position` is a tracker row); joints in mm for
+    /// prismatic, degrees for revolute joints (the canonical cell: q1 mm, q2..q7 degrees).
     #[arg(long)]
-    pub measurements: PathBuf,
+    pub measurements: Option<PathBuf>,
     /// Where to write the calibrated cell file (same format as --model).
     #[arg(long)]
     pub out: PathBuf,
-    /// Parameters to identify: `default` (`paper34` on the canonical Meca500-on-guide cell,
-    /// `all-identifiable` on any other chain), `paper34`, `geometric`, `all-identifiable` (every
-    /// model parameter these measurements can identify) or a comma-separated list of names
-    /// (e.g. `d_4,theta_offset_2,c_3`).
+    /// Parameters to identify: `default` (`paper34` on the canonical Meca500-on-guide cell; on
+    /// any other chain the set among registration, joint-offsets, kinematic and
+    /// kinematic+compliance chosen by cross-validation), `registration` (base pose + measured
+    /// TCPs + unknown points), `joint-offsets`, `kinematic`, `kinematic+compliance`,
+    /// `all-identifiable`, `paper34` and `geometric` (canonical cell only) or a comma-separated
+    /// list of names (e.g. `d_4,theta_offset_2,c_3`).
     #[arg(long, default_value = "default")]
     pub params: String,
     /// Estimation method: `lm` (Levenberg-Marquardt), `gn` (Gauss-Newton) or `paper` (the
@@ -37,18 +42,39 @@ pub struct Args {
     /// Write the JSON report (parameters in file units, iteration log, statistics) here.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Additional tracker measurements: CSV with columns tcp,q1..qN,x,y,z (world, mm).
+    /// More measurements: CSV with tracker rows tcp,q1..qN,x,y,z (world, mm), probe rows, or both.
     #[arg(long)]
     pub tracker: Option<PathBuf>,
     /// Weight of tracker rows relative to probe rows (inverse-variance ratio,
     /// (sigma_probe / sigma_tracker)^2).
     #[arg(long, default_value_t = 1.0)]
     pub tracker_weight: f64,
+    /// Calibration positions (fixed points) whose coordinates are unknown and identified with
+    /// the rest: a comma-separated list of ids (a position the cell file lacks is added) or
+    /// `all` (every position of the cell file).
+    #[arg(long)]
+    pub unknown_positions: Option<String>,
+    /// A known distance between two fixed points, `A,B,MM` or `A,B,MM,SIGMA_MM` (default sigma
+    /// 0.01 mm): a measurement of its own that fixes the scale. Repeatable.
+    #[arg(long = "point-distance")]
+    pub point_distances: Vec<String>,
+    /// `--params default` on a chain other than the canonical cell: number of folds of the
+    /// cross-validation (posture groups dealt into K folds).
+    #[arg(long, default_value_t = 5)]
+    pub folds: usize,
+    /// Seed of the cross-validation's shuffle.
+    #[arg(long, default_value_t = 1)]
+    pub cv_seed: u64,
+    /// `--params default` on another chain: regularise the robot's parameters toward their
+    /// nominal values with priors of this many typical spreads (0.1 mm, 0.001 rad per unit).
+    #[arg(long)]
+    pub prior_scale: Option<f64>,
     /// Iteration cap.
     #[arg(long, default_value_t = 50)]
     pub max_iterations: usize,
     /// Refuse the fit when the condition number of the column-normalised Jacobian at the
-    /// solution exceeds this (healthy designs: ~30).
+    /// solution exceeds this (healthy designs: ~30). Not applied to a set chosen by
+    /// cross-validation (reported instead).
     #[arg(long, default_value_t = 1e3)]
     pub max_condition_number: f64,
     /// Units, limit tolerance and directions of the measurement files.
@@ -58,10 +84,19 @@ pub struct Args {
 
 /// Runs the identification, prints one line per iteration and a summary, writes the outputs.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let model = super::load_model(&args.model)?;
+    let mut cell = vatcal_core::CellFile::load(&args.model)?;
+    let free_positions = add_unknown_positions(&mut cell, args.unknown_positions.as_deref())?;
+    let model = Model::from_cell(&cell)
+        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let measurements = read_all(&args, &model)?;
     let method: Method = args.method.parse().map_err(anyhow::Error::msg).context("--method")?;
-    let params = resolve_params(&args.params, &model, &measurements)?;
+    let distances = args
+        .point_distances
+        .iter()
+        .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let design = DataDesign { free_positions, distances };
+    design.check(&model).context("--point-distance / --unknown-positions")?;
     let options = IdentifyOptions {
         method,
         max_iterations: args.max_iterations,
@@ -69,51 +104,162 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         weights: KindWeights { probe: 1.0, tracker: args.tracker_weight },
         ..IdentifyOptions::default()
     };
+    let cv = CvOptions {
+        folds: args.folds,
+        seed: args.cv_seed,
+        prior_scale: args.prior_scale,
+        ..CvOptions::default()
+    };
+    let source = [&args.measurements, &args.tracker]
+        .into_iter()
+        .flatten()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(" + ");
+    let n_probe = measurements.iter().filter(|m| matches!(m.target, Target::Probe { .. })).count();
+    let extra = if design.distances.is_empty() {
+        String::new()
+    } else {
+        format!(", {} known distance(s)", design.distances.len())
+    };
     println!(
-        "identifying {} parameters from {} measurements with {method}",
-        params.len(),
-        measurements.len()
+        "identifying `{}` from {} measurements ({n_probe} probe, {} tracker{extra}) with {method}",
+        args.params.trim(),
+        measurements.len(),
+        measurements.len() - n_probe,
     );
-    let fit = match identify(&model, &measurements, &params, &options) {
-        Ok(fit) => fit,
+    let cal = match calibrate(&model, &measurements, &args.params, &design, &options, &cv) {
+        Ok(cal) => cal,
         Err(IdentifyError::NotConverged(report)) => {
             print_log(&report.iterations);
             print_failure(&report);
             bail!("{}", IdentifyError::NotConverged(report));
         }
-        Err(e) => return Err(e).context(format!("cannot identify from {}", args.measurements.display())),
+        Err(e) => return Err(e).context(format!("cannot identify from {source}")),
     };
+    if let Some(init) = &cal.init {
+        println!(
+            "initialisation: RMS residual {:.4} mm (nominal) -> {:.4} mm after {} round(s) ({})",
+            init.rms_before_mm,
+            init.rms_after_mm,
+            init.rounds,
+            if init.registered {
+                "base pose registered, measured TCPs and unknown points solved"
+            } else {
+                "measured TCPs and unknown points solved; the base pose is absorbed by the points"
+            }
+        );
+    }
+    match &cal.selection {
+        Some(sel) => print_selection(sel),
+        None if args.params.trim() != "paper34" && cal.init.is_some() => {
+            println!("{}: {}", args.params.trim(), cal.params.names().join(","));
+        }
+        None if args.params.trim() == "all-identifiable" => {
+            println!("all-identifiable: {}", cal.params.names().join(","));
+        }
+        None => {}
+    }
+    let fit = &cal.fit;
     print_log(&fit.iterations);
-    print_summary(&fit);
+    print_summary(fit);
+    if cal.selection.is_some() && fit.condition_number > args.max_condition_number {
+        println!(
+            "note: condition number {:.3e} above {:.0e}: accepted because the set was chosen by cross-validation; combinations the data barely see are only trustworthy near the training postures (--prior-scale keeps them near nominal)",
+            fit.condition_number, args.max_condition_number
+        );
+    }
     fit.model
         .to_cell()
         .save(&args.out)
         .with_context(|| format!("cannot write the calibrated model to {}", args.out.display()))?;
     println!("calibrated model written to {}", args.out.display());
     if let Some(path) = &args.report {
-        IdentificationReport::from_identification(&fit).save(path)?;
+        IdentificationReport::from_calibration(&cal).save(path)?;
         println!("report written to {}", path.display());
     }
     Ok(())
 }
 
-fn read_all(args: &Args, model: &Model) -> anyhow::Result<Vec<Measurement>> {
-    let mut measurements = args.read.probe(&args.measurements, model)?;
-    if let Some(path) = &args.tracker {
-        measurements.extend(args.read.tracker(path, model)?);
+/// The cross-validation table and the reason of the choice.
+fn print_selection(sel: &CvSelection) {
+    println!(
+        "choosing the parameter set by {}-fold cross-validation over {} posture groups (seed {}):",
+        sel.folds, sel.groups, sel.seed
+    );
+    println!(
+        "{:<22} {:>7} {:>14} {:>15} {:>12}  note",
+        "set", "params", "CV RMS [mm]", "train RMS [mm]", "condition"
+    );
+    for (k, c) in sel.candidates.iter().enumerate() {
+        match &c.rejected {
+            Some(why) => println!(
+                "{:<22} {:>7} {:>14} {:>15} {:>12}  rejected: {why}",
+                c.set.name(),
+                c.params.len(),
+                "-",
+                "-",
+                "-"
+            ),
+            None => println!(
+                "{:<22} {:>7} {:>14.5} {:>15.5} {:>12.1}  {}",
+                c.set.name(),
+                c.params.len(),
+                c.cv_rms_mm,
+                c.train_rms_mm,
+                c.condition_number,
+                if k == sel.chosen { "<- chosen" } else { "" }
+            ),
+        }
     }
-    Ok(measurements)
+    println!("{}", sel.reason);
+    println!("{}: {}", sel.chosen().set.name(), sel.chosen().params.names().join(","));
 }
 
-/// `default`, `paper34`, `geometric`, a name list, or `all-identifiable` (resolved on the data
-/// by the identifiability analysis, which is printed).
-fn resolve_params(spec: &str, model: &Model, measurements: &[Measurement]) -> anyhow::Result<ParamSet> {
-    let set = vatcal_observability::identifiability::param_set_from_spec(spec, model, measurements)
-        .with_context(|| format!("--params `{spec}`"))?;
-    if spec.trim() == "all-identifiable" || (spec.trim() == "default" && !model.is_meca500_on_guide()) {
-        println!("all-identifiable: {}", set.names().join(","));
+/// Marks the positions of `--unknown-positions` as unknown: a position the cell file lacks is
+/// added at a distinct placeholder (the initialisation places it). Returns the free ids.
+fn add_unknown_positions(cell: &mut vatcal_core::CellFile, spec: Option<&str>) -> anyhow::Result<Vec<u32>> {
+    let Some(spec) = spec else { return Ok(Vec::new()) };
+    let ids: Vec<u32> = if spec.trim() == "all" {
+        cell.calibration_positions.iter().map(|p| p.id).collect()
+    } else {
+        spec.split(',')
+            .map(|s| {
+                s.trim().parse::<u32>().map_err(|_| {
+                    anyhow::anyhow!(
+                        "--unknown-positions: `{}` is not a position id (expected ids like 0,1 or `all`)",
+                        s.trim()
+                    )
+                })
+            })
+            .collect::<anyhow::Result<_>>()?
+    };
+    if ids.is_empty() {
+        bail!("--unknown-positions: no position ids given");
     }
-    Ok(set)
+    for (k, id) in ids.iter().enumerate() {
+        if !cell.calibration_positions.iter().any(|p| p.id == *id) {
+            cell.calibration_positions.push(vatcal_core::cell::PointEntry {
+                id: *id,
+                x_mm: 100.0 * k as f64,
+                y_mm: 0.0,
+                z_mm: 0.0,
+            });
+        }
+    }
+    Ok(ids)
+}
+
+/// Every row of `--measurements` and `--tracker` (each file: probe rows, tracker rows or both).
+fn read_all(args: &Args, model: &Model) -> anyhow::Result<Vec<Measurement>> {
+    if args.measurements.is_none() && args.tracker.is_none() {
+        bail!("no measurements: give --measurements FILE (probe and/or tracker rows) and/or --tracker FILE");
+    }
+    let mut measurements = Vec::new();
+    for path in [&args.measurements, &args.tracker].into_iter().flatten() {
+        measurements.extend(args.read.measurements(path, model)?);
+    }
+    Ok(measurements)
 }
 
 fn print_log(log: &[IterationLog]) {

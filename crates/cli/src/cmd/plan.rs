@@ -100,7 +100,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let geometry = CellGeometry::from_cell(&cell).with_context(|| format!("{}", args.model.display()))?;
     let params = match args.params.trim() {
         // resolved on the candidates by plan_campaign (paper34 on the canonical cell)
-        "default" if model.is_meca500_on_guide() => ParamSet::paper34(),
+        "default" if model.is_meca500_on_guide() => vatcal_core::canonical::default_param_set(),
         "default" => ParamSet(Vec::new()),
         spec => ParamSet::parse(spec).map_err(|e| anyhow::anyhow!("--params: {e}"))?,
     };

@@ -17,8 +17,9 @@ pub struct Args {
     /// Optional baseline model to compare with (e.g. the nominal cell file).
     #[arg(long)]
     pub baseline: Option<PathBuf>,
-    /// Validation measurements: CSV with columns tcp,q1..qN,x,y,z (N = the model's joints; world,
-    /// mm), and the optional context columns time_s, temperature_c, dir{i} for revolute joints i
+    /// Validation measurements: CSV with tracker rows tcp,q1..qN,x,y,z (N = the model's joints;
+    /// world, mm), probe rows position,tcp,q1..qN (error = the model's position − FK), or both
+    /// (a row with an empty `position` is a tracker row), and the optional context columns time_s, temperature_c, dir{i} for revolute joints i
     /// (applied to the models' effects; required when a model has backlash or thermal drift).
     #[arg(long)]
     pub tracker: PathBuf,
@@ -61,7 +62,7 @@ pub struct ValidateOutput {
 /// Validates the model(s), prints the statistics, writes the plot and the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
-    let tracker = args.read.tracker(&args.tracker, &model)?;
+    let tracker = args.read.measurements(&args.tracker, &model)?;
     let tested =
         validate(&model, &tracker).with_context(|| format!("validating {}", args.model.display()))?;
     let baseline = match &args.baseline {
@@ -69,7 +70,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let base = super::load_model(path)?;
             // read again with the baseline: checks the context columns its effects need
             let tracker =
-                vatcal_io::read_tracker_measurements_with(&args.tracker, &base, &args.read.options()?)?.rows;
+                vatcal_io::read_measurements_with(&args.tracker, &base, &args.read.options()?)?.rows;
             Some((path, validate(&base, &tracker).with_context(|| format!("validating {}", path.display()))?))
         }
         None => None,

@@ -160,8 +160,14 @@ fn bad_input_gets_a_clear_error_and_a_non_zero_exit() {
     assert!(stderr.contains("did not converge"), "{stderr}");
     assert!(text(&out.stdout).contains("mean [mm]"), "the log is printed");
 
-    // validate with a tracker file that lacks x,y,z
-    let out = vatcal(&["validate", "--model", s(&fixture()), "--tracker", s(&m1)]);
+    // validate with a file that has neither probe rows (position) nor tracker rows (x,y,z)
+    let joints_only = dir.path().join("joints-only.csv");
+    std::fs::write(&joints_only, "tcp,q1,q2,q3,q4,q5,q6,q7\n1,100,0,0,0,0,0,0\n").expect("write");
+    let out = vatcal(&["validate", "--model", s(&fixture()), "--tracker", s(&joints_only)]);
     assert!(!out.status.success());
-    assert!(text(&out.stderr).contains("missing column"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("joints-only.csv:1: column `position / x,y,z`"),
+        "{}",
+        text(&out.stderr)
+    );
 }

@@ -203,6 +203,17 @@ fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
     eprintln!("held-out {:.3} -> {:.5} mm, distance {d:.5} mm", before.mean, after.mean);
     assert!((d - 50.0).abs() < 0.01, "distance {d}");
     assert!(after.mean < 0.03, "held-out mean {} mm", after.mean);
+    // regularised toward nominal: the same prediction quality
+    let cv = CvOptions { prior_scale: Some(1.0), ..CvOptions::default() };
+    let reg = calibrate(&nominal, &train, "default", &design, &IdentifyOptions::default(), &cv)
+        .expect("regularised");
+    let after_reg = validate(&reg.fit.model, &held_out).expect("validate").stats;
+    eprintln!(
+        "regularised: {} chosen, held-out {:.5} mm",
+        reg.selection.as_ref().expect("cv").chosen().set,
+        after_reg.mean
+    );
+    assert!(after_reg.mean < 0.03, "regularised held-out mean {} mm", after_reg.mean);
 }
 
 /// Folds keep repeated readings of one posture together and depend only on the seed.
