@@ -69,16 +69,6 @@ impl ReadArgs {
         Ok(print_warnings(vatcal_io::read_joint_rows_with(path, model, &self.options()?)?))
     }
 
-    /// `vatcal_io::read_probe_measurements_with`, warnings printed.
-    pub fn probe(&self, path: &Path, model: &Model) -> anyhow::Result<Vec<Measurement>> {
-        Ok(print_warnings(vatcal_io::read_probe_measurements_with(path, model, &self.options()?)?))
-    }
-
-    /// `vatcal_io::read_tracker_measurements_with`, warnings printed.
-    pub fn tracker(&self, path: &Path, model: &Model) -> anyhow::Result<Vec<Measurement>> {
-        Ok(print_warnings(vatcal_io::read_tracker_measurements_with(path, model, &self.options()?)?))
-    }
-
     /// `vatcal_io::read_measurements_with` (probe and/or tracker rows), warnings printed.
     pub fn measurements(&self, path: &Path, model: &Model) -> anyhow::Result<Vec<Measurement>> {
         Ok(print_warnings(vatcal_io::read_measurements_with(path, model, &self.options()?)?))
