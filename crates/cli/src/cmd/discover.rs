@@ -72,7 +72,7 @@ pub struct Args {
 }
 
 fn read_all(
-    path: &PathBuf,
+    path: &std::path::Path,
     model: &Model,
     read: &super::read_args::ReadArgs,
 ) -> anyhow::Result<Vec<Measurement>> {
