@@ -46,6 +46,9 @@ enum Command {
     SimCell(cmd::sim_cell::Args),
     /// Write a cell file (format version 2) from the serial chain between two links of a URDF.
     ImportUrdf(cmd::import_urdf::Args),
+    /// Consistency and distance errors of models on fixed points at unknown places (e.g. a
+    /// sphere seated in the sockets of a fixture), per file (placement).
+    EvaluateFixedPoints(cmd::evaluate_fixed_points::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -64,6 +67,7 @@ fn main() -> std::process::ExitCode {
         Command::Campaign(a) => cmd::campaign::run(a),
         Command::SimCell(a) => cmd::sim_cell::run(a),
         Command::ImportUrdf(a) => cmd::import_urdf::run(a),
+        Command::EvaluateFixedPoints(a) => cmd::evaluate_fixed_points::run(a),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

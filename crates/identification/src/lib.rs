@@ -35,6 +35,7 @@ mod dense;
 mod error;
 mod error_stats;
 mod fit_statistics;
+mod fixed_points;
 mod init;
 mod literal;
 mod options;
@@ -54,6 +55,7 @@ pub use cv::{
 };
 pub use error::{FailureReport, IdentifyError};
 pub use error_stats::ErrorStats;
+pub use fixed_points::{DistanceCheck, FixedPointEvaluation, FixedPointStats, evaluate_fixed_points};
 pub use init::{InitOptions, Initialisation, initialise};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};

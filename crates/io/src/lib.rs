@@ -21,6 +21,13 @@
 //! shortest round-trip formatting.
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+mod options;
+pub use options::{
+    AngleUnit, DIR_DEADBAND_DEG, LengthUnit, LimitTolerance, ReadOptions, ReadOutcome, ReadWarning,
+    dirs_from_row_order,
+};
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -89,6 +96,15 @@ pub enum IoError {
     /// The file kind needs another chain than the model's.
     #[error("{path}: {reason}")]
     UnsupportedChain {
+        /// file
+        path: PathBuf,
+        /// why
+        reason: String,
+    },
+    /// The reader options do not fit the file (e.g. directions derived from the row order of a
+    /// file that has `dir` columns of its own).
+    #[error("{path}: {reason}")]
+    Options {
         /// file
         path: PathBuf,
         /// why
@@ -169,6 +185,11 @@ struct Table {
     rows: Vec<(u64, csv::StringRecord)>,
     /// field indices of the columns every row reads, resolved once from the header
     cols: RowColumns,
+    /// units, limit tolerance, unit checks ([`ReadOptions::strict`] for the readers without
+    /// options)
+    opts: ReadOptions,
+    /// warnings met while converting rows (any order; sorted by line when returned)
+    warnings: Mutex<Vec<ReadWarning>>,
     /// 1-based line of the header
     header_line: u64,
 }
@@ -188,8 +209,20 @@ struct RowColumns {
 impl Table {
     /// Reads a table whose joint columns must be exactly `q1..qN` of `model`.
     fn read_for(path: &Path, model: &Model, required: &[String]) -> Result<Table, IoError> {
+        Self::read_for_with(path, model, required, ReadOptions::strict())
+    }
+
+    /// [`Self::read_for`] with reader options.
+    fn read_for_with(
+        path: &Path,
+        model: &Model,
+        required: &[String],
+        opts: ReadOptions,
+    ) -> Result<Table, IoError> {
         let refs: Vec<&str> = required.iter().map(String::as_str).collect();
-        Self::read_checked(path, &refs, model, true)
+        let mut t = Self::read_checked(path, &refs, model, true)?;
+        t.opts = opts;
+        Ok(t)
     }
 
     /// Reads a table of `model`'s rows without joint columns of its own (pose requests: the
@@ -277,7 +310,16 @@ impl Table {
             temperature_c: column("temperature_c"),
             offsets: OFFSET_COLUMNS.map(column),
         };
-        Ok(Table { path: path.into(), headers, index, rows, cols, header_line })
+        Ok(Table {
+            path: path.into(),
+            headers,
+            index,
+            rows,
+            cols,
+            opts: ReadOptions::strict(),
+            warnings: Mutex::new(Vec::new()),
+            header_line,
+        })
     }
 
     /// Fails when an effect of `model` depends on a context column (`dir{i}` of every revolute
@@ -285,8 +327,12 @@ impl Table {
     /// predictions there would silently use 0.
     fn check_model_columns(&self, model: &Model) -> Result<(), IoError> {
         for spec in model.effects() {
-            let columns: Vec<String> =
-                vatcal_kinematics::effects::context_columns(spec).iter().map(|c| c.to_string()).collect();
+            // with directions derived from the row order, the file needs no `dir` column
+            let columns: Vec<String> = vatcal_kinematics::effects::context_columns(spec)
+                .iter()
+                .map(|c| c.to_string())
+                .filter(|c| !(self.opts.dir_from_row_order && c.starts_with("dir")))
+                .collect();
             if columns.is_empty() {
                 continue;
             }
@@ -380,7 +426,8 @@ impl Table {
         let s = self.field(rec, col).unwrap_or("");
         let v: u32 =
             s.parse().map_err(|_| self.err(line, col, format!("`{s}` is not a non-negative integer id")))?;
-        if !known.contains(&v) {
+        let free_point = col == "position" && self.opts.any_position_id;
+        if !(known.contains(&v) || free_point) {
             return Err(self.err(line, col, format!("unknown {col} id {v} (the model has {known:?})")));
         }
         Ok(v)
@@ -398,19 +445,156 @@ impl Table {
                 None => self.float(line, rec, &format!("q{}", k + 1))?,
             };
         }
-        let q = JointVector::from_file_units(&values[..kinds.len()], kinds)
-            .map_err(|e| self.err(line, "q1", e.to_string()))?;
-        if let Some((joint, _, lo, hi)) = model.limit_violation(&q) {
-            let kind = kinds[joint - 1];
-            let (lo, hi) = (kind.to_file_unit(lo), kind.to_file_unit(hi));
-            let unit = kind.file_unit();
+        let opts = &self.opts;
+        if *opts == ReadOptions::strict() {
+            let q = JointVector::from_file_units(&values[..kinds.len()], kinds)
+                .map_err(|e| self.err(line, "q1", e.to_string()))?;
+            if let Some((joint, _, lo, hi)) = model.limit_violation(&q) {
+                let kind = kinds[joint - 1];
+                let (lo, hi) = (kind.to_file_unit(lo), kind.to_file_unit(hi));
+                let unit = kind.file_unit();
+                return Err(self.err(
+                    line,
+                    &format!("q{joint}"),
+                    format!("{} {unit} is outside the joint limits [{lo}, {hi}] {unit}", values[joint - 1]),
+                ));
+            }
+            return Ok(q);
+        }
+        // file units -> internal units (mm, rad), then the limits with their tolerance
+        let mut internal = [0.0; MAX_JOINTS];
+        for (k, kind) in kinds.iter().enumerate() {
+            let (scale, unit) = self.joint_unit(*kind);
+            let v = values[k];
+            if opts.check_units {
+                self.check_joint_unit(line, k + 1, *kind, v)?;
+            }
+            internal[k] = v * scale;
+            let Some((lo, hi)) = model.joint_limit(k + 1) else { continue };
+            let x = internal[k];
+            if (lo..=hi).contains(&x) {
+                continue;
+            }
+            // the excess in the user's units of tolerance (deg / mm)
+            let excess = kind.to_file_unit(if x < lo { lo - x } else { x - hi });
+            let (tolerance, tol_unit) = match kind {
+                JointKind::Revolute => (opts.limit_tolerance.revolute_deg, "deg"),
+                JointKind::Prismatic => (opts.limit_tolerance.prismatic_mm, "mm"),
+            };
+            let limits = format!("[{}, {}] {unit}", lo / scale, hi / scale);
+            let column = format!("q{}", k + 1);
+            if excess <= tolerance {
+                self.warn(
+                    line,
+                    &column,
+                    format!(
+                        "{v} {unit} is beyond the joint limits {limits} by {excess:.4} {tol_unit} (within the \
+                         tolerance of {tolerance} {tol_unit}: read as measured)"
+                    ),
+                );
+            } else {
+                return Err(self.err(
+                    line,
+                    &column,
+                    format!(
+                        "{v} {unit} is outside the joint limits {limits} (by {excess:.4} {tol_unit}, more than \
+                         the tolerance of {tolerance} {tol_unit}){}",
+                        if self.fits_other_unit(*kind, v, lo, hi) { self.unit_hint(*kind) } else { "" }
+                    ),
+                ));
+            }
+        }
+        JointVector::from_slice(&internal[..kinds.len()]).map_err(|e| self.err(line, "q1", e.to_string()))
+    }
+
+    /// Internal units per file unit of a joint of `kind`, and the file unit's label.
+    fn joint_unit(&self, kind: JointKind) -> (f64, &'static str) {
+        match kind {
+            JointKind::Revolute => (self.opts.angle_unit.to_rad(), self.opts.angle_unit.label()),
+            JointKind::Prismatic => (self.opts.length_unit.to_mm(), self.opts.length_unit.label()),
+        }
+    }
+
+    /// Whether the file value `v` of a joint of `kind` would lie within the limits `[lo, hi]`
+    /// (internal units) if it were in the other unit (degrees for radians — only beyond a turn,
+    /// as a smaller value is a plausible angle in radians —, metres for mm, and back).
+    fn fits_other_unit(&self, kind: JointKind, v: f64, lo: f64, hi: f64) -> bool {
+        let other = match kind {
+            JointKind::Revolute => match self.opts.angle_unit {
+                AngleUnit::Deg => v,
+                // a value within a turn is a plausible angle in radians: no hint at degrees
+                AngleUnit::Rad if v.abs() <= std::f64::consts::TAU => return false,
+                AngleUnit::Rad => v.to_radians(),
+            },
+            JointKind::Prismatic => match self.opts.length_unit {
+                LengthUnit::Mm => v * 1000.0,
+                LengthUnit::M => v,
+            },
+        };
+        (lo..=hi).contains(&other)
+    }
+
+    /// A hint at the other unit (for an error on a value that fits it).
+    fn unit_hint(&self, kind: JointKind) -> &'static str {
+        match (kind, self.opts.angle_unit, self.opts.length_unit) {
+            (JointKind::Revolute, AngleUnit::Deg, _) => " (radians? use --angle-unit rad)",
+            (JointKind::Revolute, AngleUnit::Rad, _) => " (degrees? use --angle-unit deg)",
+            (JointKind::Prismatic, _, LengthUnit::Mm) => " (metres? use --length-unit m)",
+            (JointKind::Prismatic, _, LengthUnit::M) => " (millimetres? use --length-unit mm)",
+        }
+    }
+
+    /// Refuses a joint value that cannot be in the stated unit: more than two turns in radians
+    /// (degrees?) or more than 20 m in metres (millimetres?).
+    fn check_joint_unit(&self, line: u64, joint: usize, kind: JointKind, v: f64) -> Result<(), IoError> {
+        let bad = match kind {
+            JointKind::Revolute => {
+                self.opts.angle_unit == AngleUnit::Rad && v.abs() > 4.0 * std::f64::consts::PI
+            }
+            JointKind::Prismatic => self.opts.length_unit == LengthUnit::M && v.abs() > 20.0,
+        };
+        if bad {
+            let (_, unit) = self.joint_unit(kind);
             return Err(self.err(
                 line,
                 &format!("q{joint}"),
-                format!("{} {unit} is outside the joint limits [{lo}, {hi}] {unit}", values[joint - 1]),
+                format!("{v} {unit} is implausible for a joint{}", self.unit_hint(kind)),
             ));
         }
-        Ok(q)
+        Ok(())
+    }
+
+    /// A length column (`x,y,z`) in mm, from the file's length unit.
+    fn length_mm(&self, line: u64, rec: &csv::StringRecord, col: &str) -> Result<f64, IoError> {
+        let v = self.float(line, rec, col)?;
+        if self.opts.check_units && self.opts.length_unit == LengthUnit::M && v.abs() > 100.0 {
+            return Err(self.err(
+                line,
+                col,
+                format!(
+                    "{v} m is more than 100 m from the instrument's origin (millimetres? use --length-unit mm)"
+                ),
+            ));
+        }
+        Ok(v * self.opts.length_unit.to_mm())
+    }
+
+    fn warn(&self, line: u64, column: &str, message: String) {
+        let w = ReadWarning { path: self.path.clone(), line, column: column.into(), message };
+        match self.warnings.lock() {
+            Ok(mut v) => v.push(w),
+            Err(poisoned) => poisoned.into_inner().push(w),
+        }
+    }
+
+    /// The warnings met, in line order.
+    fn take_warnings(&self) -> Vec<ReadWarning> {
+        let mut w = match self.warnings.lock() {
+            Ok(mut v) => std::mem::take(&mut *v),
+            Err(poisoned) => std::mem::take(&mut *poisoned.into_inner()),
+        };
+        w.sort_by(|a, b| (a.line, &a.column).cmp(&(b.line, &b.column)));
+        w
     }
 
     fn context(&self, line: u64, rec: &csv::StringRecord) -> Result<MeasurementContext, IoError> {
@@ -605,18 +789,7 @@ fn csv_error(path: &Path, e: &csv::Error) -> IoError {
 /// (not a number, an unknown TCP id, a joint outside its limits, a bad context value), and
 /// [`IoError::ModelNeedsColumn`] when the model's effects need context columns the file lacks.
 pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<JointRow>, IoError> {
-    let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
-    t.check_model_columns(model)?;
-    let tcps = model.tcp_ids();
-    t.convert(|line, rec| {
-        Ok(JointRow {
-            line,
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            context: t.context(line, rec)?,
-        })
-    })
+    read_joint_rows_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
 /// Reads probe measurements `position,tcp,q1..qN` with the optional `time_s`,
@@ -645,20 +818,7 @@ pub fn read_joint_rows(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Join
 /// # Errors
 /// As [`read_joint_rows`]; the `position` id is checked against the model too.
 pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
-    let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
-    t.check_model_columns(model)?;
-    let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    t.convert(|line, rec| {
-        let position = t.id(line, rec, "position", &positions)?;
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target: Target::Probe { position },
-            context: t.context(line, rec)?,
-            probe_offset_mm: t.probe_offset(line, rec)?,
-        })
-    })
+    read_probe_measurements_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
 /// Reads tracker measurements `tcp,q1..qN,x,y,z` (world, mm), with the same optional columns.
@@ -682,20 +842,7 @@ pub fn read_probe_measurements(path: impl AsRef<Path>, model: &Model) -> Result<
 /// # Errors
 /// As [`read_joint_rows`]; `x,y,z` must be finite numbers.
 pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
-    let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]))?;
-    t.check_model_columns(model)?;
-    let tcps = model.tcp_ids();
-    t.convert(|line, rec| {
-        let xyz = Vector3::new(t.float(line, rec, "x")?, t.float(line, rec, "y")?, t.float(line, rec, "z")?);
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target: Target::Tracker { xyz_mm: xyz },
-            context: t.context(line, rec)?,
-            probe_offset_mm: None,
-        })
-    })
+    read_tracker_measurements_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
 /// Reads a file that may hold probe rows (`position` column) or tracker rows (`x,y,z`), or
@@ -726,8 +873,192 @@ pub fn read_tracker_measurements(path: impl AsRef<Path>, model: &Model) -> Resul
 /// naming the header line when the file has neither `position` nor `x,y,z`, or the line of a
 /// row that has neither a `position` nor `x`.
 pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Measurement>, IoError> {
+    read_measurements_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
+}
+
+impl Table {
+    /// The file-level steps of a read with options: the unit plausibility of the whole file,
+    /// the directions derived from the row order, the warnings in line order.
+    fn finish<T>(
+        &self,
+        model: &Model,
+        mut rows: Vec<T>,
+        q_of: impl Fn(&T) -> &JointVector,
+        context_of: impl Fn(&mut T) -> &mut MeasurementContext,
+    ) -> Result<ReadOutcome<T>, IoError> {
+        let kinds = model.joint_kinds();
+        if self.opts.check_units && self.opts.angle_unit == AngleUnit::Deg && rows.len() >= 3 {
+            // every revolute value within ±2π "degrees": the file is in radians
+            let mut largest: Option<(f64, usize, usize)> = None; // (|deg|, row, joint)
+            for (r, row) in rows.iter().enumerate() {
+                let q = q_of(row);
+                for (k, kind) in kinds.iter().enumerate() {
+                    if kind.is_revolute() {
+                        let v = q[k].to_degrees().abs();
+                        if largest.is_none_or(|(m, ..)| v > m) {
+                            largest = Some((v, r, k));
+                        }
+                    }
+                }
+            }
+            if let Some((v, r, k)) = largest
+                && v > 0.0
+                && v <= std::f64::consts::TAU
+            {
+                return Err(self.err(
+                    self.rows[r].0,
+                    &format!("q{}", k + 1),
+                    format!(
+                        "every revolute joint value of the file is within ±{:.4} deg (the largest, {v}, is \
+                         here): these are radians (use --angle-unit rad)",
+                        std::f64::consts::TAU
+                    ),
+                ));
+            }
+        }
+        if self.opts.dir_from_row_order {
+            if let Some((_, col, _)) = self.cols.dirs.first() {
+                return Err(IoError::Options {
+                    path: self.path.clone(),
+                    reason: format!(
+                        "the file has its own direction column `{col}`: directions derived from the row \
+                         order would replace it (drop the option or the columns)"
+                    ),
+                });
+            }
+            let revolute: Vec<bool> = kinds.iter().map(|k| k.is_revolute()).collect();
+            let qs: Vec<&[f64]> = rows.iter().map(|r| q_of(r).as_slice()).collect();
+            let dirs = dirs_from_row_order(&qs, &revolute);
+            for (row, d) in rows.iter_mut().zip(dirs) {
+                let mut dir = [0i8; MAX_JOINTS];
+                dir[..d.len()].copy_from_slice(&d);
+                context_of(row).dir = Some(dir);
+            }
+        }
+        Ok(ReadOutcome { rows, warnings: self.take_warnings() })
+    }
+}
+
+/// [`read_joint_rows`] with reader options: units, limit tolerance (warnings instead of errors
+/// within it), directions from the row order.
+///
+/// # Examples
+/// Joint rows in radians, one of them 0.1 deg beyond the upper limit of the Meca500's joint 2
+/// (90 deg): read, with a warning naming the line and column; directions from the row order:
+/// ```
+/// use vatcal_core::CellFile;
+/// use vatcal_io::{AngleUnit, ReadOptions, read_joint_rows_with};
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-table.toml"))?)?;
+/// let path = std::env::temp_dir().join(format!("vatcal-doc-rad-{}.csv", std::process::id()));
+/// let beyond = 90.1f64.to_radians();
+/// std::fs::write(&path, format!("tcp,q1,q2,q3,q4,q5,q6\n1,0.5,{beyond},0,0,0,0\n1,0.25,0.5,0,0,0,0\n"))?;
+/// let options = ReadOptions { angle_unit: AngleUnit::Rad, dir_from_row_order: true, ..ReadOptions::default() };
+/// let read = read_joint_rows_with(&path, &model, &options);
+/// std::fs::remove_file(&path)?;
+/// let read = read?;
+/// assert!((read.rows[0].q[0] - 0.5).abs() < 1e-15);
+/// assert_eq!(read.warnings.len(), 1);
+/// assert!(read.warnings[0].to_string().contains(":2: column `q2`:"), "{}", read.warnings[0]);
+/// assert_eq!((read.rows[1].context.dir_of(1), read.rows[1].context.dir_of(2)), (-1, -1));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// As [`read_joint_rows`]; a joint beyond its limit by more than the tolerance, a value that
+/// cannot be in the stated unit (with a hint at the other one), and [`IoError::Options`] for
+/// derived directions on a file with `dir` columns.
+pub fn read_joint_rows_with(
+    path: impl AsRef<Path>,
+    model: &Model,
+    options: &ReadOptions,
+) -> Result<ReadOutcome<JointRow>, IoError> {
     let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
+    let t = Table::read_for_with(path, model, &required_columns(&["tcp"], model, &[]), *options)?;
+    t.check_model_columns(model)?;
+    let tcps = model.tcp_ids();
+    let rows = t.convert(|line, rec| {
+        Ok(JointRow {
+            line,
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
+            context: t.context(line, rec)?,
+        })
+    })?;
+    t.finish(model, rows, |r| &r.q, |r| &mut r.context)
+}
+
+/// [`read_probe_measurements`] with reader options (see [`read_joint_rows_with`]).
+///
+/// # Errors
+/// As [`read_probe_measurements`] and [`read_joint_rows_with`].
+pub fn read_probe_measurements_with(
+    path: impl AsRef<Path>,
+    model: &Model,
+    options: &ReadOptions,
+) -> Result<ReadOutcome<Measurement>, IoError> {
+    let path = path.as_ref();
+    let t = Table::read_for_with(path, model, &required_columns(&["position", "tcp"], model, &[]), *options)?;
+    t.check_model_columns(model)?;
+    let (tcps, positions) = (model.tcp_ids(), model.position_ids());
+    let rows = t.convert(|line, rec| {
+        let position = t.id(line, rec, "position", &positions)?;
+        Ok(Measurement {
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
+            target: Target::Probe { position },
+            context: t.context(line, rec)?,
+            probe_offset_mm: t.probe_offset(line, rec)?,
+        })
+    })?;
+    t.finish(model, rows, |m| &m.q, |m| &mut m.context)
+}
+
+/// [`read_tracker_measurements`] with reader options (see [`read_joint_rows_with`]); `x,y,z`
+/// are in the options' length unit.
+///
+/// # Errors
+/// As [`read_tracker_measurements`] and [`read_joint_rows_with`].
+pub fn read_tracker_measurements_with(
+    path: impl AsRef<Path>,
+    model: &Model,
+    options: &ReadOptions,
+) -> Result<ReadOutcome<Measurement>, IoError> {
+    let path = path.as_ref();
+    let t =
+        Table::read_for_with(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]), *options)?;
+    t.check_model_columns(model)?;
+    let tcps = model.tcp_ids();
+    let rows = t.convert(|line, rec| {
+        let xyz = Vector3::new(
+            t.length_mm(line, rec, "x")?,
+            t.length_mm(line, rec, "y")?,
+            t.length_mm(line, rec, "z")?,
+        );
+        Ok(Measurement {
+            tcp: t.id(line, rec, "tcp", &tcps)?,
+            q: t.joints(line, rec, model)?,
+            target: Target::Tracker { xyz_mm: xyz },
+            context: t.context(line, rec)?,
+            probe_offset_mm: None,
+        })
+    })?;
+    t.finish(model, rows, |m| &m.q, |m| &mut m.context)
+}
+
+/// [`read_measurements`] (probe and/or tracker rows) with reader options (see
+/// [`read_joint_rows_with`]); tracker `x,y,z` are in the options' length unit.
+///
+/// # Errors
+/// As [`read_measurements`] and [`read_joint_rows_with`].
+pub fn read_measurements_with(
+    path: impl AsRef<Path>,
+    model: &Model,
+    options: &ReadOptions,
+) -> Result<ReadOutcome<Measurement>, IoError> {
+    let path = path.as_ref();
+    let t = Table::read_for_with(path, model, &required_columns(&["tcp"], model, &[]), *options)?;
     t.check_model_columns(model)?;
     let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
@@ -741,7 +1072,7 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
             ),
         ));
     }
-    t.convert(|line, rec| {
+    let rows = t.convert(|line, rec| {
         let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
         if !has_pos && t.field(rec, "x").is_none_or(str::is_empty) {
             let column = if t.has("position") { "position" } else { "x" };
@@ -756,9 +1087,9 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
         } else {
             Target::Tracker {
                 xyz_mm: Vector3::new(
-                    t.float(line, rec, "x")?,
-                    t.float(line, rec, "y")?,
-                    t.float(line, rec, "z")?,
+                    t.length_mm(line, rec, "x")?,
+                    t.length_mm(line, rec, "y")?,
+                    t.length_mm(line, rec, "z")?,
                 ),
             }
         };
@@ -770,7 +1101,8 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
             context: t.context(line, rec)?,
             probe_offset_mm,
         })
-    })
+    })?;
+    t.finish(model, rows, |m| &m.q, |m| &mut m.context)
 }
 
 /// A candidate-pose table: the parsed measurements plus the raw rows, so a selection can be
@@ -1478,5 +1810,168 @@ mod tests {
         c.write_subset(out.path(), &[1]).expect("write");
         let text = std::fs::read_to_string(out.path()).expect("read");
         assert_eq!(text, "position,tcp,q1,q2,q3,q4,q5,q6,q7,note\n2,2,10,0,0,0,0,0,0,b\n");
+    }
+
+    /// Item 5 of issue 20: a measured joint slightly beyond its limit is a warning naming file,
+    /// line and joint; further than the tolerance, an error; the readers without options (and
+    /// so planning and compensation) keep the limits strict.
+    #[test]
+    fn limit_tolerance_warns_within_and_refuses_beyond() {
+        let m = model(); // canonical cell: q1 guide [0, 300] mm, q3 = Meca500 J2 [-70, 90] deg
+        let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,10,0,0,0,0\n1,1,300.2,0,90.3,0,0,0,0\n");
+        let read = read_probe_measurements_with(f.path(), &m, &ReadOptions::default()).expect("within");
+        assert_eq!(read.rows.len(), 2);
+        let w: Vec<String> = read.warnings.iter().map(ToString::to_string).collect();
+        assert_eq!(w.len(), 2, "{w:?}");
+        let name = f.path().display().to_string();
+        assert!(
+            w[0].starts_with(&format!("{name}:3: column `q1`: 300.2 mm is beyond the joint limits")),
+            "{w:?}"
+        );
+        assert!(w[1].starts_with(&format!("{name}:3: column `q3`: 90.3 deg is beyond")), "{w:?}");
+        assert!(w[1].contains("by 0.3000 deg") && w[1].contains("tolerance of 0.5 deg"), "{w:?}");
+        // the value is read as measured (not clamped)
+        assert!((read.rows[1].q[2] - 90.3f64.to_radians()).abs() < 1e-12);
+        // strict readers: an error, as before
+        let e = read_probe_measurements(f.path(), &m).expect_err("strict").to_string();
+        assert!(e.contains(":3: column `q1`") && e.contains("outside the joint limits"), "{e}");
+        // beyond the tolerance: an error naming file, line, joint and the tolerance
+        let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,10,0,0,0,0\n1,1,100,0,91,0,0,0,0\n");
+        let e = read_probe_measurements_with(f.path(), &m, &ReadOptions::default())
+            .expect_err("1 deg")
+            .to_string();
+        assert!(
+            e.contains(":3: column `q3`: 91 deg is outside the joint limits [-70, 90] deg (by 1.0000 deg")
+                && e.contains("tolerance of 0.5 deg"),
+            "{e}"
+        );
+        assert!(!e.contains("--angle-unit"), "no unit hint for a value that fits no other unit: {e}");
+        // a larger tolerance reads it
+        let wide = ReadOptions {
+            limit_tolerance: LimitTolerance { revolute_deg: 2.0, prismatic_mm: 0.5 },
+            ..ReadOptions::default()
+        };
+        assert_eq!(read_probe_measurements_with(f.path(), &m, &wide).expect("2 deg").warnings.len(), 1);
+    }
+
+    /// Item 6: metres and radians are read as mm and radians; a file that does not look like
+    /// the stated units is refused with a hint naming the other unit.
+    #[test]
+    fn units_are_options_and_mismatches_are_named() {
+        let ur = fixture_model("ur5e.toml");
+        let deg = file("tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,400,-100.5,250\n");
+        let (q, rad) = ([10.0f64, -80.0, 90.0, -100.0, -90.0, 30.0], "");
+        let rad_row: Vec<String> = q.iter().map(|v| v.to_radians().to_string()).collect();
+        let si =
+            file(&format!("tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,{},0.4,-0.1005,0.25\n{rad}", rad_row.join(",")));
+        let options =
+            ReadOptions { length_unit: LengthUnit::M, angle_unit: AngleUnit::Rad, ..ReadOptions::default() };
+        let a = read_tracker_measurements(deg.path(), &ur).expect("deg");
+        let b = read_tracker_measurements_with(si.path(), &ur, &options).expect("SI");
+        assert!(b.warnings.is_empty());
+        for k in 0..6 {
+            assert!((a[0].q[k] - b.rows[0].q[k]).abs() < 1e-12, "joint {k}");
+        }
+        let (Target::Tracker { xyz_mm: pa }, Target::Tracker { xyz_mm: pb }) =
+            (a[0].target, b.rows[0].target)
+        else {
+            panic!("tracker rows");
+        };
+        assert!((pa - pb).norm() < 1e-9, "{pa} vs {pb}");
+        // radians read as degrees: every angle within ±2π "degrees" on 3+ rows
+        let text = format!(
+            "tcp,q1,q2,q3,q4,q5,q6\n1,{}\n1,0.1,0.2,0.3,0.4,0.5,0.6\n1,0,0,0,0,0,0\n",
+            rad_row.join(",")
+        );
+        let f = file(&text);
+        let e =
+            read_joint_rows_with(f.path(), &ur, &ReadOptions::default()).expect_err("radians").to_string();
+        assert!(
+            e.contains(":2: column `q4`: every revolute joint value") && e.contains("--angle-unit rad"),
+            "{e}"
+        );
+        assert!(
+            read_joint_rows_with(
+                f.path(),
+                &ur,
+                &ReadOptions { angle_unit: AngleUnit::Rad, ..ReadOptions::default() }
+            )
+            .is_ok()
+        );
+        assert!(read_joint_rows(f.path(), &ur).is_ok(), "the readers without options have no heuristics");
+        // degrees read as radians: more than two turns
+        let f = file("tcp,q1,q2,q3,q4,q5,q6\n1,10,-80,90,-100,-90,30\n");
+        let e = read_joint_rows_with(
+            f.path(),
+            &ur,
+            &ReadOptions { angle_unit: AngleUnit::Rad, ..ReadOptions::default() },
+        )
+        .expect_err("degrees")
+        .to_string();
+        assert!(
+            e.contains(":2: column `q1`: 10 rad is outside the joint limits")
+                && e.contains("--angle-unit deg"),
+            "{e}"
+        );
+        // more than two turns: the magnitude alone tells
+        let f = file("tcp,q1,q2,q3,q4,q5,q6\n1,0.1,-80,0,0,0,0\n");
+        let e = read_joint_rows_with(
+            f.path(),
+            &ur,
+            &ReadOptions { angle_unit: AngleUnit::Rad, ..ReadOptions::default() },
+        )
+        .expect_err("degrees")
+        .to_string();
+        assert!(
+            e.contains(":2: column `q2`: -80 rad is implausible") && e.contains("--angle-unit deg"),
+            "{e}"
+        );
+        // millimetres read as metres
+        let e = read_tracker_measurements_with(
+            deg.path(),
+            &ur,
+            &ReadOptions { length_unit: LengthUnit::M, ..ReadOptions::default() },
+        )
+        .map(|_| ())
+        .expect_err("mm as m");
+        assert!(
+            e.to_string().contains(":2: column `x`: 400 m is more than 100 m")
+                && e.to_string().contains("--length-unit mm"),
+            "{e}"
+        );
+        // a guide in metres beyond its limit in mm hints at the unit
+        let m = model();
+        let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,150,0,10,0,0,0,0\n");
+        let e = read_probe_measurements_with(
+            f.path(),
+            &m,
+            &ReadOptions { length_unit: LengthUnit::M, ..ReadOptions::default() },
+        )
+        .expect_err("150 m")
+        .to_string();
+        assert!(e.contains(":2: column `q1`") && e.contains("--length-unit mm"), "{e}");
+    }
+
+    /// Item 6: the approach directions from the row order, on any chain; a file with its own
+    /// `dir` columns is refused; a backlash model reads a file without `dir` columns then.
+    #[test]
+    fn directions_derived_from_the_row_order() {
+        use vatcal_core::effects::EffectSpec;
+        let mut ur = fixture_model("ur5e.toml");
+        ur.enable_effect(EffectSpec::JointBacklash { joint: 4 }).expect("backlash on joint 4");
+        let f = file(
+            "tcp,q1,q2,q3,q4,q5,q6\n1,10,-80,90,-100,-90,30\n1,10,-80,90,-90,-90,30\n1,12,-80,90,-95,-90,30\n",
+        );
+        let e =
+            read_joint_rows_with(f.path(), &ur, &ReadOptions::default()).expect_err("no dir4").to_string();
+        assert!(e.contains("needs the column(s) dir4"), "{e}");
+        let options = ReadOptions { dir_from_row_order: true, ..ReadOptions::default() };
+        let rows = read_joint_rows_with(f.path(), &ur, &options).expect("derived").rows;
+        let dirs: Vec<(i8, i8, i8)> =
+            rows.iter().map(|r| (r.context.dir_of(1), r.context.dir_of(4), r.context.dir_of(6))).collect();
+        assert_eq!(dirs, vec![(0, 0, 0), (0, 1, 0), (1, -1, 0)]);
+        let f = file("tcp,q1,q2,q3,q4,q5,q6,dir4\n1,10,-80,90,-100,-90,30,1\n");
+        let e = read_joint_rows_with(f.path(), &ur, &options).expect_err("own dir4").to_string();
+        assert!(e.contains("has its own direction column `dir4`"), "{e}");
     }
 }

@@ -66,10 +66,17 @@ pub struct Args {
     /// included in the reported prediction uncertainty.
     #[arg(long, default_value_t = 0.002)]
     pub cmm_sigma_mm: f64,
+    /// Units, limit tolerance and directions of the measurement files.
+    #[command(flatten)]
+    pub read: super::read_args::ReadArgs,
 }
 
-fn read_all(path: &PathBuf, model: &Model) -> anyhow::Result<Vec<Measurement>> {
-    let m = vatcal_io::read_measurements(path, model)?;
+fn read_all(
+    path: &std::path::Path,
+    model: &Model,
+    read: &super::read_args::ReadArgs,
+) -> anyhow::Result<Vec<Measurement>> {
+    let m = read.measurements(path, model)?;
     anyhow::ensure!(!m.is_empty(), "{}: no measurement rows", path.display());
     Ok(m)
 }
@@ -183,8 +190,8 @@ fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_options(&args)?;
     let model = super::load_model(&args.model)?;
-    let measurements = read_all(&args.measurements, &model)?;
-    let validation = args.validation.as_ref().map(|p| read_all(p, &model)).transpose()?;
+    let measurements = read_all(&args.measurements, &model, &args.read)?;
+    let validation = args.validation.as_ref().map(|p| read_all(p, &model, &args.read)).transpose()?;
     let params = parameter_set(&args.params, &model, &measurements)?;
     let options = DiscoverOptions {
         alpha: args.alpha,

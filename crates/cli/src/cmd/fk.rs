@@ -17,13 +17,16 @@ pub struct Args {
     /// when the model has an effect that depends on them: backlash, thermal drift).
     #[arg(long)]
     pub input: PathBuf,
+    /// Units, limit tolerance and directions of the input file.
+    #[command(flatten)]
+    pub read: super::read_args::ReadArgs,
 }
 
 /// Prints `x,y,z` (world, mm) per input row, in order, with each row's context (approach
 /// directions, time, temperature) applied to the model's effects.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
-    let rows = vatcal_io::read_joint_rows(&args.input, &model)?;
+    let rows = args.read.joint_rows(&args.input, &model)?;
     let mut out = std::io::stdout().lock();
     writeln!(out, "x,y,z")?;
     for row in rows {

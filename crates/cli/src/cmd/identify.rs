@@ -77,6 +77,9 @@ pub struct Args {
     /// cross-validation (reported instead).
     #[arg(long, default_value_t = 1e3)]
     pub max_condition_number: f64,
+    /// Units, limit tolerance and directions of the measurement files.
+    #[command(flatten)]
+    pub read: super::read_args::ReadArgs,
 }
 
 /// Runs the identification, prints one line per iteration and a summary, writes the outputs.
@@ -254,7 +257,7 @@ fn read_all(args: &Args, model: &Model) -> anyhow::Result<Vec<Measurement>> {
     }
     let mut measurements = Vec::new();
     for path in [&args.measurements, &args.tracker].into_iter().flatten() {
-        measurements.extend(vatcal_io::read_measurements(path, model)?);
+        measurements.extend(args.read.measurements(path, model)?);
     }
     Ok(measurements)
 }

@@ -32,6 +32,9 @@ pub struct Args {
     /// Number of histogram bins.
     #[arg(long, default_value_t = 40)]
     pub bins: usize,
+    /// Units, limit tolerance and directions of the measurement file.
+    #[command(flatten)]
+    pub read: super::read_args::ReadArgs,
 }
 
 /// One validated model in the JSON report.
@@ -59,14 +62,15 @@ pub struct ValidateOutput {
 /// Validates the model(s), prints the statistics, writes the plot and the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
-    let tracker = vatcal_io::read_measurements(&args.tracker, &model)?;
+    let tracker = args.read.measurements(&args.tracker, &model)?;
     let tested =
         validate(&model, &tracker).with_context(|| format!("validating {}", args.model.display()))?;
     let baseline = match &args.baseline {
         Some(path) => {
             let base = super::load_model(path)?;
             // read again with the baseline: checks the context columns its effects need
-            let tracker = vatcal_io::read_measurements(&args.tracker, &base)?;
+            let tracker =
+                vatcal_io::read_measurements_with(&args.tracker, &base, &args.read.options()?)?.rows;
             Some((path, validate(&base, &tracker).with_context(|| format!("validating {}", path.display()))?))
         }
         None => None,

@@ -13,5 +13,6 @@ mod fk_context;
 mod fk_torque;
 mod identify_validate;
 mod import_urdf;
+mod real_data;
 mod select_observability;
 mod sim_cell;
