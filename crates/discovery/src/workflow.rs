@@ -47,6 +47,7 @@ use crate::folds::{screening_split, stratified_folds};
 use crate::linear::{ColumnSpace, EffectDirections, ScoreTest, score_test, unit_columns};
 use crate::location::{DriverSummary, PoseData, locate};
 use crate::noise::{NoiseReference, NoiseSource, ReplicateTolerance};
+use crate::power::{DEFAULT_POWER, Detectability};
 
 /// Settings of [`discover`].
 #[derive(Debug, Clone)]
@@ -117,6 +118,10 @@ pub struct DiscoverOptions {
     /// least `strong_z_factor` times the round's `z_r` is then added whatever σ̂ says (and
     /// kept by the backward check while its z stays above `strong_z_factor`)
     pub strong_z_factor: f64,
+    /// without a noise reference, compare with the lower of a refit's σ̂ and σ̂ of the round's
+    /// saturated linear model (current parameters plus every scored candidate's directions;
+    /// [`Round::sigma_saturated_mm`]), which holds only what no candidate can describe
+    pub saturated_noise: bool,
 }
 
 impl Default for DiscoverOptions {
@@ -141,7 +146,8 @@ impl Default for DiscoverOptions {
             instrument_noise_origin: None,
             use_replicates: true,
             replicate_tolerance: ReplicateTolerance::default(),
-            strong_z_factor: 2.0,
+            strong_z_factor: 1.5,
+            saturated_noise: true,
         }
     }
 }
@@ -276,6 +282,10 @@ pub struct CandidateScore {
     pub score: Option<ScoreTest>,
     /// result of the refit and confirmation (screened candidates only)
     pub refit: Option<RefitEvidence>,
+    /// for a borderline candidate (not added, but refitted or nominally significant at 1 %
+    /// alone): the minimum detectable size with these data and the measurements that would
+    /// decide it ([`crate::power`])
+    pub detectability: Option<Detectability>,
     /// outcome
     #[serde(flatten)]
     pub status: CandidateStatus,
@@ -318,6 +328,11 @@ pub struct Round {
     pub location: Vec<DriverSummary>,
     /// screening threshold `ln(alpha·s_r/m)`
     pub ln_threshold: f64,
+    /// without a noise reference: σ̂ per axis of the saturated linear model (the current
+    /// parameters plus every scored candidate's, on all data) [mm], an upper bound of the
+    /// noise that holds only the physics no candidate can describe; the size rule uses the
+    /// lower of it and the refit's σ̂
+    pub sigma_saturated_mm: Option<f64>,
     /// z the held-out improvement of a candidate had to exceed
     pub z_required: f64,
     /// every candidate, best screening score first
@@ -482,6 +497,7 @@ struct Candidate {
     score: Option<ScoreTest>,
     status: CandidateStatus,
     refit: Option<(RefitEvidence, Fit, CrossValidation)>,
+    detect: Option<Detectability>,
 }
 
 /// Held-out predictions of a cross-validation: one error per measurement (`None` = not
@@ -512,6 +528,9 @@ struct Context<'a> {
     /// σ per axis of each kind the size rule compares with (replicates or instruments);
     /// `None`: σ̂ of each fit ([`NoiseSource::Estimated`])
     reference: Option<KindSigmas>,
+    /// without a reference: σ̂ of the round's saturated linear model (bits of an f64, NaN =
+    /// unknown), the lower of it and a refit's σ̂ is the size rule's noise
+    saturated_bits: std::sync::atomic::AtomicU64,
 }
 
 impl Context<'_> {
@@ -589,7 +608,11 @@ impl Context<'_> {
         });
         match known {
             Some(s) if s > 0.0 && s.is_finite() => s,
-            _ => self.sigma_hat(f, ms, rank),
+            _ => {
+                let own = self.sigma_hat(f, ms, rank);
+                let sat = f64::from_bits(self.saturated_bits.load(std::sync::atomic::Ordering::Relaxed));
+                if sat.is_finite() && sat > 0.0 { own.min(sat) } else { own }
+            }
         }
     }
 }
@@ -744,7 +767,15 @@ fn score_candidates(
         } else {
             CandidateStatus::NotSignificant
         };
-        out.push(Candidate { spec, new_params, directions: None, score: None, status, refit: None });
+        out.push(Candidate {
+            spec,
+            new_params,
+            directions: None,
+            score: None,
+            status,
+            refit: None,
+            detect: None,
+        });
     }
     // one Jacobian for the parameters of every live candidate
     let mut all: Vec<ParamId> = Vec::new();
@@ -929,9 +960,15 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
     let waived = e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
     if h.change_rms_mm < e.negligible_below_mm && !waived {
         return CandidateStatus::DetectedNegligible(format!(
-            "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um)",
+            "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um){}",
             1e3 * h.change_rms_mm,
-            1e3 * e.negligible_below_mm
+            1e3 * e.negligible_below_mm,
+            e.size_rule_waived_above_z
+                .map(|z| format!(
+                    " estimated by sigma-hat, and the held-out z = {:.2} is below {z:.2}, at which the size rule is waived",
+                    h.z
+                ))
+                .unwrap_or_default()
         ));
     }
     if let Some(why) = &e.implausible {
@@ -1025,6 +1062,67 @@ fn confirm_screened(
     }
 }
 
+/// σ̂ per axis of the saturated linear model: the residual of the current fit with the
+/// current parameters' and every scored candidate's directions projected out, over its
+/// degrees of freedom (`None` when fewer than a quarter of the residuals stay free).
+fn saturated_sigma(
+    current: &Fit,
+    candidates: &[Candidate],
+    j0: &faer::Mat<f64>,
+    ctx: &Context<'_>,
+) -> Option<f64> {
+    let mut all: Vec<ParamId> = Vec::new();
+    for c in candidates.iter().filter(|c| c.score.is_some()) {
+        for p in &c.new_params {
+            if !all.contains(p) {
+                all.push(*p);
+            }
+        }
+    }
+    let w = ctx.options.identify.weights;
+    let mut z = assemble_jacobian(&current.model, ctx.measurements, &ParamSet(all)).ok()?;
+    weigh_rows(&mut z, ctx.measurements, &w);
+    let stacked = faer::Mat::from_fn(j0.nrows(), j0.ncols() + z.ncols(), |r, c| {
+        if c < j0.ncols() { j0[(r, c)] } else { z[(r, c - j0.ncols())] }
+    });
+    let (unit, _) = unit_columns(stacked.as_ref());
+    let space = ColumnSpace::of(unit.as_ref()).ok()?;
+    let n = j0.nrows();
+    let dof = n.checked_sub(space.rank())?;
+    if 4 * dof < n {
+        return None;
+    }
+    let r = weighted_residual(current, ctx.measurements, &w);
+    let rss: f64 = space.project_out_vec(&r).iter().map(|v| v * v).sum();
+    Some((rss / dof as f64).sqrt())
+}
+
+/// Attaches the minimum detectable size to every borderline candidate: scored, not added, and
+/// refitted or nominally significant at 1 % alone.
+fn mark_borderline(
+    candidates: &mut [Candidate],
+    sigma: f64,
+    ln_threshold: f64,
+    n_screen: usize,
+    total: usize,
+) {
+    for c in candidates.iter_mut() {
+        let (Some(score), Some(d)) = (c.score, c.directions.as_ref()) else { continue };
+        let refitted = c.refit.is_some();
+        if matches!(c.status, CandidateStatus::Added | CandidateStatus::PassedNotBest)
+            || !(refitted || score.ln_p_value < 0.01f64.ln())
+        {
+            continue;
+        }
+        let heldout = c.refit.as_ref().map(|(e, ..)| (e.heldout.z, e.z_required));
+        c.detect =
+            Some(
+                Detectability::new(d.dof, d.novelty, sigma, n_screen, ln_threshold, DEFAULT_POWER)
+                    .with_observed(score.statistic, heldout, total),
+            );
+    }
+}
+
 /// Index of the passing candidate with the largest held-out improvement.
 fn best_passing(candidates: &[Candidate]) -> Option<usize> {
     let key = |c: &Candidate| c.refit.as_ref().map_or(f64::NEG_INFINITY, |r| r.0.heldout.mean_reduction_mm2);
@@ -1048,7 +1146,8 @@ fn nothing_added(candidates: &[Candidate], ln_threshold: f64) -> String {
                     ln_threshold / std::f64::consts::LN_10
                 ),
             };
-            format!("nothing added: best candidate {} ({why})", c.spec.label())
+            let power = c.detect.map(|d| format!("; {}", d.sentence())).unwrap_or_default();
+            format!("nothing added: best candidate {} ({why}){power}", c.spec.label())
         }
         None => "nothing added: no candidate can be tested".to_string(),
     }
@@ -1251,7 +1350,8 @@ fn backward_check(
                 let base = rebuild(start, &specs, &current_ref.model, &params).ok()?;
                 let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
                 let h = HeldOutComparison::new(&without.errors, &with.errors);
-                let keep = h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+                let keep =
+                    h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
                 if keep {
                     return Some((h, None));
                 }
@@ -1260,7 +1360,8 @@ fn backward_check(
             .collect();
         for (&k, outcome) in checked.iter().zip(outcomes) {
             let Some((h, refit)) = outcome else { continue };
-            let keep = h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+            let keep =
+                h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
             if keep {
                 continue;
             }
@@ -1414,7 +1515,16 @@ pub fn discover(
     }
     let all_folds = stratified_folds(measurements, k, options.seed).into_iter().map(Some).collect();
     let split = [screen.len(), confirm_ms.len()];
-    let ctx = Context { measurements, validation, all_folds, confirm_folds, screen, options, reference };
+    let ctx = Context {
+        measurements,
+        validation,
+        all_folds,
+        confirm_folds,
+        screen,
+        options,
+        reference,
+        saturated_bits: std::sync::atomic::AtomicU64::new(f64::NAN.to_bits()),
+    };
     let options = &ctx.options;
     let mut skipped_folds = 0;
     let mut held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
@@ -1445,6 +1555,7 @@ pub fn discover(
                     fit: fit_summary,
                     location,
                     ln_threshold: f64::NAN,
+                    sigma_saturated_mm: None,
                     z_required: f64::NAN,
                     candidates: Vec::new(),
                     removed: Vec::new(),
@@ -1462,6 +1573,13 @@ pub fn discover(
         let space = ColumnSpace::of(js.as_ref())?;
         let mut candidates = score_candidates(&current, &screen_fit, &space, &ctx, &mut notes)?;
         let m = candidates.iter().filter(|c| c.score.is_some()).count().max(1);
+        let sigma_saturated = if ctx.reference.is_none() && options.saturated_noise {
+            saturated_sigma(&current, &candidates, &j0, &ctx)
+        } else {
+            None
+        };
+        ctx.saturated_bits
+            .store(sigma_saturated.unwrap_or(f64::NAN).to_bits(), std::sync::atomic::Ordering::Relaxed);
         let th = Thresholds {
             ln_screen: (options.alpha * spend / m as f64).ln(),
             z_required: normal_upper_quantile(
@@ -1487,6 +1605,8 @@ pub fn discover(
         confirm_screened(&mut candidates, &current, &j0, rank0, &held0, &th, &ctx, &mut fold_notes);
         skipped_folds += held0.skipped.len() + fold_notes.len();
         notes.extend(fold_notes);
+        let sigma_screen = ctx.sigma_hat(&screen_fit, &ctx.screen, space.rank());
+        mark_borderline(&mut candidates, sigma_screen, th.ln_screen, ctx.screen.len(), measurements.len());
         for c in &candidates {
             if let (CandidateStatus::DetectedNegligible(_), Some((e, ..))) = (&c.status, &c.refit) {
                 negligible_effects.push(NegligibleEffect {
@@ -1598,6 +1718,7 @@ pub fn discover(
             fit: fit_summary,
             location,
             ln_threshold: th.ln_screen,
+            sigma_saturated_mm: sigma_saturated,
             z_required: th.z_required,
             candidates: candidates.into_iter().map(candidate_score).collect(),
             removed: removed.clone(),
@@ -1696,7 +1817,7 @@ fn describe_noise(
             opts.instrument_noise_origin.as_deref().unwrap_or("given by the caller")
         ),
         (NoiseSource::Estimated, _) => format!(
-            "noise reference: none (no replicates in the data, no instrument noise recorded in the file or given): the size rule compares with sigma-hat of each refit, which contains the effects still missing, so it is waived for an effect whose held-out improvement is at least {} times the round's z. Effects that are real but only moderately significant may be called negligible; record the noise in the file (`# vatcal-noise: probe_sigma_mm=...`), repeat some poses, or pass --probe-sigma-mm / --tracker-sigma-mm.",
+            "noise reference: none (no replicates in the data, no instrument noise recorded in the file or given): the size rule compares with sigma-hat, which contains the effects still missing: the lower of the refit's and that of the round's saturated linear model (every scored candidate's directions projected out, so only what no candidate describes is left in it), and the rule is waived for an effect whose held-out improvement is at least {} times the round's z. Effects that are real but only moderately significant may be called negligible; record the noise in the file (`# vatcal-noise: probe_sigma_mm=...`), repeat some poses, or pass --probe-sigma-mm / --tracker-sigma-mm.",
             opts.strong_z_factor
         ),
     };
@@ -1741,6 +1862,7 @@ fn candidate_score(c: Candidate) -> CandidateScore {
         novelty: c.directions.as_ref().map(|d| d.novelty),
         score: c.score,
         refit: c.refit.map(|r| r.0),
+        detectability: c.detect,
         status: c.status,
     }
 }

@@ -9,5 +9,6 @@ mod common;
 mod campaign_like;
 mod effect_jacobians;
 mod hidden_effects;
+mod noise_reference;
 mod report_and_plots;
 mod sweep;
