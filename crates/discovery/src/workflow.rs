@@ -30,6 +30,7 @@ use std::collections::BTreeMap;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde::Serialize;
+use vatcal_core::canonical::bounds::{ChainScale, ScaledBound, scaled_bound};
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::params::ParamUnit;
 use vatcal_core::{Measurement, ParamId, ParamSet, rad_to_deg};
@@ -39,7 +40,7 @@ use vatcal_kinematics::effects::{DataAvailability, candidate_effects, missing_da
 use vatcal_observability::assemble_jacobian;
 
 use crate::DiscoveryError;
-use crate::catalog::{driver_of_in, meaning, plausibility};
+use crate::catalog::{driver_of_in, meaning};
 use crate::criteria::{HeldOutComparison, NestedComparison};
 use crate::distributions::{chi2_ln_sf, normal_upper_quantile};
 use crate::fit::{Fit, fit, residuals};
@@ -122,6 +123,11 @@ pub struct DiscoverOptions {
     /// saturated linear model (current parameters plus every scored candidate's directions;
     /// [`Round::sigma_saturated_mm`]), which holds only what no candidate can describe
     pub saturated_noise: bool,
+    /// plausibility bounds set by the user, per effect (catalog name, e.g. `joint-backlash`):
+    /// the largest plausible magnitude of each of its parameters in file units (deg for
+    /// angles, mm for lengths, the parameter's own unit otherwise); they replace the bounds
+    /// scaled to the chain ([`vatcal_core::canonical::bounds`])
+    pub bound_overrides: BTreeMap<String, f64>,
 }
 
 impl Default for DiscoverOptions {
@@ -148,6 +154,7 @@ impl Default for DiscoverOptions {
             replicate_tolerance: ReplicateTolerance::default(),
             strong_z_factor: 1.5,
             saturated_noise: true,
+            bound_overrides: BTreeMap::new(),
         }
     }
 }
@@ -304,6 +311,46 @@ pub struct RemovedEffect {
     pub heldout: HeldOutComparison,
 }
 
+/// Near-equivalent candidates of one round (their held-out predictions change alike and
+/// improve alike on the confirmation data) and how one was chosen.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Ambiguity {
+    /// round
+    pub round: usize,
+    /// the candidate added
+    pub chosen: String,
+    /// the near-equivalent ones not added
+    pub rivals: Vec<String>,
+    /// `validation` (the chosen one predicts the validation rows better, significantly),
+    /// `simpler` (fewer parameters; the data cannot tell), or `held-out` (same size: the
+    /// larger held-out improvement)
+    pub basis: String,
+    /// per rival: paired z of the chosen one's improvement over the rival's on the validation
+    /// rows (positive: the chosen one predicts better), when validation rows are given
+    pub validation_z: Vec<Option<f64>>,
+    /// one sentence for people, e.g. "joint-compliance (joint 2) or guide-carriage-tilt:
+    /// indistinguishable on these data; ..."
+    pub sentence: String,
+}
+
+/// A candidate refused because an identified value exceeded its plausibility bound (reported,
+/// never silently dropped: the bound may be wrong for this robot).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BoundHit {
+    /// round
+    pub round: usize,
+    /// catalog name (the key of a `--bound NAME=VALUE` override)
+    pub effect: String,
+    /// human label
+    pub label: String,
+    /// which value exceeded which bound, and where the bound comes from
+    pub reason: String,
+    /// the held-out z of the refit that was refused (how strongly the data ask for it)
+    pub heldout_z: f64,
+    /// whether it had passed every other check (significant, above the noise)
+    pub otherwise_passed: bool,
+}
+
 /// An effect that is real but too small to matter.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct NegligibleEffect {
@@ -452,6 +499,10 @@ pub struct Discovery {
     pub removed_effects: Vec<RemovedEffect>,
     /// effects detected but too small to matter (not added)
     pub negligible_effects: Vec<NegligibleEffect>,
+    /// candidates refused at a plausibility bound
+    pub bound_hits: Vec<BoundHit>,
+    /// rounds in which near-equivalent candidates competed, and how one was chosen
+    pub ambiguities: Vec<Ambiguity>,
     /// every round
     pub rounds: Vec<Round>,
     /// measurements used for screening / for confirmation
@@ -531,6 +582,8 @@ struct Context<'a> {
     /// without a reference: σ̂ of the round's saturated linear model (bits of an f64, NaN =
     /// unknown), the lower of it and a refit's σ̂ is the size rule's noise
     saturated_bits: std::sync::atomic::AtomicU64,
+    /// the chain's size as the data see it (plausibility bounds)
+    scale: ChainScale,
 }
 
 impl Context<'_> {
@@ -570,6 +623,51 @@ impl Context<'_> {
             }
         }
         cv
+    }
+
+    /// The plausibility bound of `id`: the user's override of its effect, else the larger of
+    /// the canonical bound and the one scaled to the chain.
+    fn bound(&self, id: &ParamId) -> Option<ScaledBound> {
+        let kind = vatcal_core::effects::kind_of_param(id)?;
+        if let Some(v) = self.options.bound_overrides.get(kind.name()) {
+            let (value, unit) = match id.unit() {
+                ParamUnit::Rad => (v.to_radians(), "deg"),
+                ParamUnit::Mm => (*v, "mm"),
+                _ => (*v, ""),
+            };
+            return Some(ScaledBound { value, text: format!("{v} {unit} (set by the user)") });
+        }
+        scaled_bound(id, vatcal_core::effects::bound_of(id), &self.scale)
+    }
+
+    /// Checks the identified changes of an effect's parameters against their bounds (a
+    /// compliance must also be positive). Returns why it is implausible.
+    fn plausibility(&self, spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
+        for (id, change) in changes {
+            if let ParamId::Compliance(j) = id
+                && *change <= 0.0
+            {
+                return Err(format!(
+                    "c_{j} came out {change:.3e} rad/(N*m): a joint cannot stiffen under load"
+                ));
+            }
+            if let Some(b) = self.bound(id)
+                && change.abs() > b.value
+            {
+                let shown = if id.unit() == ParamUnit::Rad {
+                    format!("{:.3e} deg", change.to_degrees())
+                } else {
+                    format!("{change:.3e}")
+                };
+                return Err(format!(
+                    "{} of {} changed by {shown}: more than the plausible {}",
+                    id.name(),
+                    spec.label(),
+                    b.text
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The held-out z from which the size rule is waived in a test at `z_required`: only
@@ -894,7 +992,7 @@ fn refit_effects(
         added.iter().map(|p| (*p, fit1.value(*p).unwrap_or(0.0) - before(*p))).collect();
     let implausible = effects.iter().find_map(|(spec, params)| {
         let own: Vec<(ParamId, f64)> = changes.iter().copied().filter(|(p, _)| params.contains(p)).collect();
-        plausibility(spec, &own)
+        ctx.plausibility(spec, &own)
             .err()
             .map(|why| if effects.len() > 1 { format!("{}: {why}", spec.label()) } else { why })
     });
@@ -939,6 +1037,9 @@ fn refit_effects(
     Ok((evidence, fit1, held1))
 }
 
+/// Start of the rejection reason of a candidate refused at a plausibility bound.
+const IMPLAUSIBLE: &str = "implausible: ";
+
 /// Start of the rejection reason of a candidate that failed the held-out z-test.
 const HELDOUT_NOT_LOWER: &str = "held-out error not lower by more than its uncertainty";
 
@@ -972,7 +1073,7 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
         ));
     }
     if let Some(why) = &e.implausible {
-        return CandidateStatus::Rejected(format!("implausible: {why}"));
+        return CandidateStatus::Rejected(format!("{IMPLAUSIBLE}{why}"));
     }
     CandidateStatus::PassedNotBest
 }
@@ -1095,6 +1196,137 @@ fn saturated_sigma(
     let r = weighted_residual(current, ctx.measurements, &w);
     let rss: f64 = space.project_out_vec(&r).iter().map(|v| v * v).sum();
     Some((rss / dof as f64).sqrt())
+}
+
+/// Cosine between two candidates' changes of the held-out predictions (`e0 − e_with`) over the
+/// points both predict: near 1 = they correct the same thing.
+fn change_cosine(base: &CrossValidation, a: &CrossValidation, b: &CrossValidation) -> f64 {
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for ((e0, ea), eb) in base.errors.iter().zip(&a.errors).zip(&b.errors) {
+        if let (Some(e0), Some(ea), Some(eb)) = (e0, ea, eb) {
+            let (da, db) = (e0 - ea, e0 - eb);
+            ab += da.dot(&db);
+            aa += da.norm_squared();
+            bb += db.norm_squared();
+        }
+    }
+    if aa > 0.0 && bb > 0.0 { ab / (aa * bb).sqrt() } else { 0.0 }
+}
+
+/// Cosine above which two candidates' held-out prediction changes count as the same
+/// correction (rivals).
+pub const RIVAL_COSINE: f64 = 0.8;
+
+/// Among the passing candidate `best` (largest held-out improvement) and its rivals — refitted
+/// candidates whose held-out prediction changes point the same way (cosine ≥ [`RIVAL_COSINE`])
+/// and whose held-out errors are not distinguishable from `best`'s (paired |z| < 2) — choose
+/// the one that predicts the validation rows significantly better (paired z > 2), else the
+/// simplest passing one (fewest fitted parameters), else `best`. Returns the chosen index and
+/// the ambiguity, if there were rivals.
+fn choose_among_rivals(
+    candidates: &mut [Candidate],
+    best: usize,
+    held0: &CrossValidation,
+    round: usize,
+    ctx: &Context<'_>,
+) -> Result<(usize, Option<Ambiguity>), DiscoveryError> {
+    let Some((_, _, cv_best)) = candidates[best].refit.as_ref() else { return Ok((best, None)) };
+    let mut rivals: Vec<usize> = Vec::new();
+    for (i, c) in candidates.iter().enumerate() {
+        let Some((e, f, cv)) = c.refit.as_ref() else { continue };
+        if i == best || !f.converged || e.implausible.is_some() {
+            continue;
+        }
+        let eligible = c.status == CandidateStatus::PassedNotBest
+            || matches!(&c.status, CandidateStatus::Rejected(w) if w.starts_with(HELDOUT_NOT_LOWER))
+                && e.heldout.z > 1.0;
+        if !eligible {
+            continue;
+        }
+        let versus = HeldOutComparison::new(&cv.errors, &cv_best.errors);
+        if versus.z.abs() < 2.0 && change_cosine(held0, cv_best, cv) >= RIVAL_COSINE {
+            rivals.push(i);
+        }
+    }
+    if rivals.is_empty() {
+        return Ok((best, None));
+    }
+    let mut chosen = best;
+    let mut basis = "held-out";
+    // validation rows: the one that generalises
+    let validation = ctx.validation.filter(|v| !v.is_empty());
+    let val_errors = |i: usize| -> Result<Option<Vec<Option<Vector3<f64>>>>, DiscoveryError> {
+        match (validation, candidates[i].refit.as_ref()) {
+            (Some(v), Some((_, f, _))) => Ok(Some(residuals(&f.model, v)?.into_iter().map(Some).collect())),
+            _ => Ok(None),
+        }
+    };
+    if let Some(vb) = val_errors(best)? {
+        let mut best_z = 2.0;
+        for &i in &rivals {
+            if let Some(vi) = val_errors(i)? {
+                let z = HeldOutComparison::new(&vb, &vi).z;
+                if z > best_z {
+                    best_z = z;
+                    chosen = i;
+                    basis = "validation";
+                }
+            }
+        }
+    }
+    if chosen == best {
+        // the data cannot tell: the simplest passing one
+        let size = |i: usize| candidates[i].refit.as_ref().map_or(usize::MAX, |r| r.0.fitted_params.len());
+        if let Some(&simpler) = rivals
+            .iter()
+            .filter(|i| candidates[**i].status == CandidateStatus::PassedNotBest)
+            .filter(|i| size(**i) < size(best))
+            .min_by_key(|i| size(**i))
+        {
+            chosen = simpler;
+            basis = "simpler";
+        }
+    }
+    let mut group: Vec<usize> = vec![best];
+    group.extend(&rivals);
+    let others: Vec<usize> = group.iter().copied().filter(|i| *i != chosen).collect();
+    let vc = val_errors(chosen)?;
+    let mut validation_z = Vec::new();
+    for &i in &others {
+        validation_z.push(match (&vc, val_errors(i)?) {
+            (Some(c), Some(o)) => Some(HeldOutComparison::new(&o, c).z),
+            _ => None,
+        });
+    }
+    let label = |i: usize| candidates[i].spec.label();
+    let names: Vec<String> = group.iter().map(|i| label(*i)).collect();
+    let why = match basis {
+        "validation" => format!("{} predicts the validation rows better", label(chosen)),
+        "simpler" => format!("the data cannot tell them apart, {} has fewer parameters", label(chosen)),
+        _ if validation.is_some() => {
+            format!(
+                "neither predicts the validation rows significantly better; kept {}, the larger held-out improvement",
+                label(chosen)
+            )
+        }
+        _ => format!(
+            "kept {}, the larger held-out improvement (no validation rows to tell them apart)",
+            label(chosen)
+        ),
+    };
+    let sentence = format!("{}: indistinguishable on these data; {why}", names.join(" or "));
+    let ambiguity = Ambiguity {
+        round,
+        chosen: label(chosen),
+        rivals: others.iter().map(|i| label(*i)).collect(),
+        basis: basis.to_string(),
+        validation_z,
+        sentence,
+    };
+    if chosen != best {
+        candidates[best].status = CandidateStatus::PassedNotBest;
+    }
+    Ok((chosen, Some(ambiguity)))
 }
 
 /// Attaches the minimum detectable size to every borderline candidate: scored, not added, and
@@ -1524,6 +1756,7 @@ pub fn discover(
         options,
         reference,
         saturated_bits: std::sync::atomic::AtomicU64::new(f64::NAN.to_bits()),
+        scale: chain_scale(start, measurements)?,
     };
     let options = &ctx.options;
     let mut skipped_folds = 0;
@@ -1536,6 +1769,8 @@ pub fn discover(
     let mut added_effects: Vec<AddedEffect> = Vec::new();
     let mut removed_effects = Vec::new();
     let mut negligible_effects = Vec::new();
+    let mut bound_hits = Vec::new();
+    let mut ambiguities = Vec::new();
     // confirmation-fold CV of the current model, when already known
     let mut confirm_cv: Option<CrossValidation> = None;
     for index in 1..=options.max_rounds.max(1) {
@@ -1608,6 +1843,18 @@ pub fn discover(
         let sigma_screen = ctx.sigma_hat(&screen_fit, &ctx.screen, space.rank());
         mark_borderline(&mut candidates, sigma_screen, th.ln_screen, ctx.screen.len(), measurements.len());
         for c in &candidates {
+            if let (CandidateStatus::Rejected(why), Some((e, ..))) = (&c.status, &c.refit)
+                && let Some(reason) = why.strip_prefix(IMPLAUSIBLE)
+            {
+                bound_hits.push(BoundHit {
+                    round: index,
+                    effect: c.spec.kind().name().to_string(),
+                    label: c.spec.label(),
+                    reason: reason.to_string(),
+                    heldout_z: e.heldout.z,
+                    otherwise_passed: true,
+                });
+            }
             if let (CandidateStatus::DetectedNegligible(_), Some((e, ..))) = (&c.status, &c.refit) {
                 negligible_effects.push(NegligibleEffect {
                     label: c.spec.label(),
@@ -1618,6 +1865,7 @@ pub fn discover(
             }
         }
         let mut block: Option<Vec<usize>> = None;
+        let mut ambiguity_line: Option<String> = None;
         let mut extra_added: Vec<AddedEffect> = Vec::new();
         let next = match best_passing(&candidates) {
             None if options.block_step => {
@@ -1652,7 +1900,12 @@ pub fn discover(
                 }
             }
             None => None,
-            Some(b) => {
+            Some(best) => {
+                let (b, rivalry) = choose_among_rivals(&mut candidates, best, &held0, index, &ctx)?;
+                if let Some(a) = rivalry {
+                    ambiguity_line = Some(a.sentence.clone());
+                    ambiguities.push(a);
+                }
                 candidates[b].status = CandidateStatus::Added;
                 let added = added_effect(&candidates[b], index, &current, &gap, &ctx)?;
                 // the confirmation CV of the refit is that of the new current model: reused by
@@ -1677,7 +1930,10 @@ pub fn discover(
                     added.gap_after_mm
                 )
             }
-            (Some((added, ..)), None) => added.summary_line(),
+            (Some((added, ..)), None) => match &ambiguity_line {
+                Some(a) => format!("{}; {a}", added.summary_line()),
+                None => added.summary_line(),
+            },
             (None, _) => nothing_added(&candidates, th.ln_screen),
         };
         let mut removed = Vec::new();
@@ -1749,6 +2005,8 @@ pub fn discover(
         added_effects,
         removed_effects,
         negligible_effects,
+        bound_hits,
+        ambiguities,
         rounds,
         split,
         kind_sigmas,
@@ -1761,6 +2019,27 @@ pub fn discover(
         uncertainty,
         notes,
     })
+}
+
+/// The chain's size as the measurements see it: each joint's largest gravity torque and lever
+/// arm over the poses (plausibility bounds, [`vatcal_core::canonical::bounds`]).
+fn chain_scale(model: &Model, ms: &[Measurement]) -> Result<ChainScale, DiscoveryError> {
+    let pose = PoseData::of(model, ms)?;
+    let mut scale = ChainScale {
+        max_torque_nm: [0.0; vatcal_core::MAX_JOINTS],
+        max_lever_mm: [0.0; vatcal_core::MAX_JOINTS],
+    };
+    for t in &pose.torques {
+        for (m, v) in scale.max_torque_nm.iter_mut().zip(t) {
+            *m = m.max(v.abs());
+        }
+    }
+    for d in pose.joint_directions.iter().flatten() {
+        for (m, v) in scale.max_lever_mm.iter_mut().zip(d) {
+            *m = m.max(v.norm());
+        }
+    }
+    Ok(scale)
 }
 
 /// The noise reference per kind: the replicates' pure error where the data has enough of it,
