@@ -12,4 +12,5 @@ mod effect_jacobians;
 mod hidden_effects;
 mod noise_reference;
 mod report_and_plots;
+mod rivals;
 mod sweep;
