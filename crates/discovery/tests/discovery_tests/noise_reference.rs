@@ -5,49 +5,21 @@
 
 use crate::common;
 
-use common::{Hidden, scenario};
-use vatcal_core::effects::EffectSpec;
-use vatcal_core::params::{EffectParam, ToolFrameDof};
-use vatcal_core::{ParamId, ParamSet};
+use common::{Hidden, cyclic_h, scenario, tool_frame};
+use vatcal_core::ParamSet;
 use vatcal_discovery::noise::NoiseSource;
 use vatcal_discovery::{DiscoverOptions, Discovery, discover};
 use vatcal_sim::truth::{ProbeNoise, probe_start_poses, synthetic_probe_measurements};
 
 const N_PROBE: usize = 180;
 
-fn cyclic(joint: u8, harmonic: u8, amplitude_deg: f64, phase_deg: f64) -> Hidden {
-    let a = amplitude_deg.to_radians();
-    let (s, c) = phase_deg.to_radians().sin_cos();
-    Hidden {
-        spec: EffectSpec::JointCyclic { joint, harmonic },
-        values: vec![
-            (ParamId::Effect(EffectParam::CyclicSin { joint, harmonic }), a * c),
-            (ParamId::Effect(EffectParam::CyclicCos { joint, harmonic }), a * s),
-        ],
-    }
-}
-
-fn tool_frame() -> Hidden {
-    use ToolFrameDof as T;
-    let id = |d| ParamId::Effect(EffectParam::ToolFrame(d));
-    Hidden {
-        spec: EffectSpec::ToolFrame,
-        values: vec![
-            (id(T::Tx), 0.030),
-            (id(T::Ty), -0.020),
-            (id(T::Rx), 0.02f64.to_radians()),
-            (id(T::Ry), -0.03f64.to_radians()),
-        ],
-    }
-}
-
 fn hidden() -> Vec<Hidden> {
     vec![
-        cyclic(2, 1, 0.012, 20.0),
-        cyclic(3, 2, 0.012, -70.0),
-        cyclic(5, 1, 0.015, 110.0),
+        cyclic_h(2, 1, 0.012, 20.0),
+        cyclic_h(3, 2, 0.012, -70.0),
+        cyclic_h(5, 1, 0.015, 110.0),
         tool_frame(),
-        cyclic(4, 3, 0.03, 45.0),
+        cyclic_h(4, 3, 0.03, 45.0),
     ]
 }
 
