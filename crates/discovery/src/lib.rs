@@ -12,6 +12,8 @@
 //! * [`criteria`] — F-test, AICc and BIC of nested fits;
 //! * [`folds`] — seeded K-fold splits stratified by calibration position;
 //! * [`location`] — residuals against every driving variable ("the where");
+//! * [`noise`] — the noise reference of the size rule (replicates, instruments, σ̂);
+//! * [`power`] — minimum detectable effect size and the measurements a decision needs;
 //! * [`catalog`] — driving variable, meaning and plausible range of each effect;
 //! * [`fit`] — the fits (through `vatcal-identification`);
 //! * [`plots`] — residual against an added effect's driving variable, before and after;
@@ -25,11 +27,14 @@ pub mod folds;
 pub mod html;
 pub mod linear;
 pub mod location;
+pub mod noise;
 pub mod plots;
+pub mod power;
 pub mod workflow;
 
 pub use html::html_report;
 pub use plots::write_effect_plots;
+pub use power::{Detectability, candidate_detectability};
 pub use workflow::{AddedEffect, DiscoverOptions, Discovery, Gap, discover};
 
 /// Everything that can go wrong in discovery.

@@ -11,7 +11,8 @@
 //! | pose requests | `tcp`, the given joints' `q{i}` (`q1` on the canonical cell, none on a six-joint arm), `x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir{i}`) | [`read_pose_requests`] | (`vatcal compensate`) |
 //!
 //! Rules: a header line, columns found by name in any order, unknown columns ignored, `#`
-//! comment lines and blank lines skipped. An N-joint model reads and writes the joint columns
+//! comment lines and blank lines skipped (a `# vatcal-noise:` metadata line is read by
+//! [`metadata::read_metadata`], written by [`write_measurements_with_noise`]). An N-joint model reads and writes the joint columns
 //! `q1..qN`, in mm for prismatic and degrees for revolute joints (the canonical cell: `q1` in
 //! mm, `q2..q7` in degrees), and the context columns `dir{i}` of its revolute joints i
 //! (`dir2..dir7` on the canonical cell). A file whose q-columns do not match the model's joint
@@ -19,6 +20,8 @@
 //! ([`IoError::JointColumns`]). A bad row is an error naming the file, the line, the column and
 //! the reason ([`IoError::Row`]); nothing is silently dropped. Numbers are written with Rust's
 //! shortest round-trip formatting.
+
+pub mod metadata;
 
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -1365,6 +1368,24 @@ pub fn write_measurements_for(
     let path = path.as_ref();
     std::fs::write(path, measurements_to_csv_for(measurements, kinds))
         .map_err(|source| IoError::File { path: path.into(), cause: source })
+}
+
+/// [`write_measurements_for`] with the instruments' noise recorded in a `# vatcal-noise:`
+/// comment line before the header ([`metadata`]); without any sigma the file is the same as
+/// [`write_measurements_for`]'s.
+///
+/// # Errors
+/// [`IoError::File`] when the file cannot be written.
+pub fn write_measurements_with_noise(
+    path: impl AsRef<Path>,
+    measurements: &[Measurement],
+    kinds: &[JointKind],
+    noise: &metadata::NoiseMetadata,
+) -> Result<(), IoError> {
+    let path = path.as_ref();
+    let mut text = noise.header_line();
+    text.push_str(&measurements_to_csv_for(measurements, kinds));
+    std::fs::write(path, text).map_err(|source| IoError::File { path: path.into(), cause: source })
 }
 
 /// One row of a pose-request file of any chain (`vatcal compensate`): TCP `tcp` must reach the

@@ -10,6 +10,8 @@
 //! `canonical::bounds`; the closed-form IK of planning is selected through
 //! [`is_canonical_chain`], via `vatcal_kinematics::Model::is_meca500_on_guide`.)
 
+pub mod bounds;
+
 use crate::params::ParamSet;
 use crate::units::{JointKind, MECA500_ON_GUIDE_KINDS};
 

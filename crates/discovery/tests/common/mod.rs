@@ -80,3 +80,31 @@ pub fn oracle_validation(s: &Scenario, params: &ParamSet, hidden: &[Hidden]) -> 
     let f = fit(&start, &s.probe, &set, &IdentifyOptions::default()).expect("oracle fit");
     ErrorStats::from_errors(&residuals(&f.model, &s.validation).expect("residuals"))
 }
+
+/// A tool-changer offset and tilt (30 / −20 µm, 0.02° / −0.03°).
+pub fn tool_frame() -> Hidden {
+    use vatcal_core::params::ToolFrameDof as T;
+    let id = |d| ParamId::Effect(vatcal_core::params::EffectParam::ToolFrame(d));
+    Hidden {
+        spec: EffectSpec::ToolFrame,
+        values: vec![
+            (id(T::Tx), 0.030),
+            (id(T::Ty), -0.020),
+            (id(T::Rx), 0.02f64.to_radians()),
+            (id(T::Ry), -0.03f64.to_radians()),
+        ],
+    }
+}
+
+/// Gear harmonic `harmonic` of `joint` with amplitude [deg] and phase [deg].
+pub fn cyclic_h(joint: u8, harmonic: u8, amplitude_deg: f64, phase_deg: f64) -> Hidden {
+    let a = amplitude_deg.to_radians();
+    let (s, c) = phase_deg.to_radians().sin_cos();
+    Hidden {
+        spec: EffectSpec::JointCyclic { joint, harmonic },
+        values: vec![
+            (ParamId::Effect(vatcal_core::params::EffectParam::CyclicSin { joint, harmonic }), a * c),
+            (ParamId::Effect(vatcal_core::params::EffectParam::CyclicCos { joint, harmonic }), a * s),
+        ],
+    }
+}

@@ -8,9 +8,9 @@
 
 use crate::common;
 
-use common::{Hidden, Scenario, oracle_validation, scenario, truth_validation};
+use common::{Hidden, Scenario, cyclic_h, oracle_validation, scenario, tool_frame, truth_validation};
 use vatcal_core::effects::{EffectKind, EffectSpec};
-use vatcal_core::params::{Axis, EffectParam, ToolFrameDof};
+use vatcal_core::params::{Axis, EffectParam};
 use vatcal_core::{ParamId, ParamSet};
 use vatcal_discovery::{DiscoverOptions, Discovery, discover};
 
@@ -144,20 +144,6 @@ fn hidden_guide_angular_error_is_found() {
     assert_gap_closed(&s, &d, &ParamSet::paper34(), &hidden);
 }
 
-fn tool_frame() -> Hidden {
-    use ToolFrameDof as T;
-    let id = |d| ParamId::Effect(EffectParam::ToolFrame(d));
-    Hidden {
-        spec: EffectSpec::ToolFrame,
-        values: vec![
-            (id(T::Tx), 0.030),
-            (id(T::Ty), -0.020),
-            (id(T::Rx), 0.02f64.to_radians()),
-            (id(T::Ry), -0.03f64.to_radians()),
-        ],
-    }
-}
-
 #[test]
 fn hidden_tool_frame_offset_is_found() {
     let hidden = [tool_frame()];
@@ -178,18 +164,6 @@ fn two_hidden_effects_are_both_found() {
     found.sort();
     assert_eq!(found, vec![("joint-cyclic".to_string(), Some(3)), ("tool-frame".to_string(), None)]);
     assert_gap_closed(&s, &d, &ParamSet::paper34(), &hidden);
-}
-
-fn cyclic_h(joint: u8, harmonic: u8, amplitude_deg: f64, phase_deg: f64) -> Hidden {
-    let a = amplitude_deg.to_radians();
-    let (s, c) = phase_deg.to_radians().sin_cos();
-    Hidden {
-        spec: EffectSpec::JointCyclic { joint, harmonic },
-        values: vec![
-            (ParamId::Effect(EffectParam::CyclicSin { joint, harmonic }), a * c),
-            (ParamId::Effect(EffectParam::CyclicCos { joint, harmonic }), a * s),
-        ],
-    }
 }
 
 /// Several effects at once, on top of one the catalog does not propose (a 3rd gear harmonic):

@@ -6,8 +6,11 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod bounds;
 mod campaign_like;
 mod effect_jacobians;
 mod hidden_effects;
+mod noise_reference;
 mod report_and_plots;
+mod rivals;
 mod sweep;
