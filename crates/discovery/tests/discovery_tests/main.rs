@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod benchmark;
 mod campaign_like;
 mod effect_jacobians;
 mod hidden_effects;
