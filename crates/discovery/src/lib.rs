@@ -14,6 +14,7 @@
 //! * [`location`] — residuals against every driving variable ("the where");
 //! * [`catalog`] — driving variable, meaning and plausible range of each effect;
 //! * [`fit`] — the fits (through `vatcal-identification`);
+//! * [`propose`] — the measurements that would decide a borderline or ambiguous candidate;
 //! * [`plots`] — residual against an added effect's driving variable, before and after;
 //! * [`html`] — the report as one self-contained HTML page.
 
@@ -26,6 +27,7 @@ pub mod html;
 pub mod linear;
 pub mod location;
 pub mod plots;
+pub mod propose;
 pub mod workflow;
 
 pub use html::html_report;
