@@ -12,6 +12,7 @@
 //! * [`criteria`] — F-test, AICc and BIC of nested fits;
 //! * [`folds`] — seeded K-fold splits stratified by calibration position;
 //! * [`location`] — residuals against every driving variable ("the where");
+//! * [`noise`] — the noise reference of the size rule (replicates, instruments, σ̂);
 //! * [`catalog`] — driving variable, meaning and plausible range of each effect;
 //! * [`fit`] — the fits (through `vatcal-identification`);
 //! * [`propose`] — the measurements that would decide a borderline or ambiguous candidate;
@@ -26,6 +27,7 @@ pub mod folds;
 pub mod html;
 pub mod linear;
 pub mod location;
+pub mod noise;
 pub mod plots;
 pub mod propose;
 pub mod workflow;

@@ -46,6 +46,7 @@ use crate::fit::{Fit, fit, residuals};
 use crate::folds::{screening_split, stratified_folds};
 use crate::linear::{ColumnSpace, EffectDirections, ScoreTest, score_test, unit_columns};
 use crate::location::{DriverSummary, PoseData, locate};
+use crate::noise::{NoiseReference, NoiseSource, ReplicateTolerance};
 
 /// Settings of [`discover`].
 #[derive(Debug, Clone)]
@@ -103,6 +104,19 @@ pub struct DiscoverOptions {
     pub cmm_sigma_mm: f64,
     /// options of every fit (the kind weights are replaced when `weight_by_kind`)
     pub identify: IdentifyOptions,
+    /// where `instrument_sigmas` came from, for the report (e.g. "recorded in probe.csv
+    /// (`# vatcal-noise:`)" or "--probe-sigma-mm"); `None`: "given by the caller"
+    pub instrument_noise_origin: Option<String>,
+    /// use the pure error of replicated measurements in the data as the noise reference of
+    /// the size rule (preferred over `instrument_sigmas`, [`crate::noise`])
+    pub use_replicates: bool,
+    /// joint tolerances below which two measurements count as replicates of one pose
+    pub replicate_tolerance: ReplicateTolerance,
+    /// without a noise reference (no replicates, no instrument noise) the size rule compares
+    /// with σ̂, which the effects still missing inflate: an effect whose held-out z is at
+    /// least `strong_z_factor` times the round's `z_r` is then added whatever σ̂ says (and
+    /// kept by the backward check while its z stays above `strong_z_factor`)
+    pub strong_z_factor: f64,
 }
 
 impl Default for DiscoverOptions {
@@ -124,6 +138,10 @@ impl Default for DiscoverOptions {
             weight_by_kind: true,
             cmm_sigma_mm: 0.002,
             identify: IdentifyOptions::default(),
+            instrument_noise_origin: None,
+            use_replicates: true,
+            replicate_tolerance: ReplicateTolerance::default(),
+            strong_z_factor: 2.0,
         }
     }
 }
@@ -228,6 +246,9 @@ pub struct RefitEvidence {
     pub z_required: f64,
     /// prediction change below which the effect counts as negligible [mm]
     pub negligible_below_mm: f64,
+    /// without a noise reference (σ̂ in the size rule): the held-out z from which the size
+    /// rule is waived (`strong_z_factor · z_r`); `None` when the noise is known
+    pub size_rule_waived_above_z: Option<f64>,
     /// identified values in file units (angles in degrees), keyed by parameter name with unit
     pub values: BTreeMap<String, f64>,
     /// their standard deviations in the same units
@@ -422,6 +443,8 @@ pub struct Discovery {
     pub split: [usize; 2],
     /// σ of probe and tracker residuals of the initial fit (used as weights when both exist)
     pub kind_sigmas: KindSigmas,
+    /// the noise the size rule compared with, where it came from and what follows from it
+    pub noise: NoiseReference,
     /// cross-validation folds skipped over the whole run (their fit failed)
     pub skipped_folds: usize,
     /// gap of the starting parameter set
@@ -486,6 +509,9 @@ struct Context<'a> {
     /// the screening measurements
     screen: Vec<Measurement>,
     options: DiscoverOptions,
+    /// σ per axis of each kind the size rule compares with (replicates or instruments);
+    /// `None`: σ̂ of each fit ([`NoiseSource::Estimated`])
+    reference: Option<KindSigmas>,
 }
 
 impl Context<'_> {
@@ -527,6 +553,12 @@ impl Context<'_> {
         cv
     }
 
+    /// The held-out z from which the size rule is waived in a test at `z_required`: only
+    /// without a noise reference (module docs of [`crate::noise`]).
+    fn strong_z(&self, z_required: f64) -> Option<f64> {
+        self.reference.is_none().then(|| self.options.strong_z_factor * z_required.max(1.0))
+    }
+
     fn gap(&self, model: &Model, heldout: &CrossValidation) -> Result<Gap, DiscoveryError> {
         let validation = match self.validation {
             Some(v) if !v.is_empty() => Some(ErrorStats::from_errors(&residuals(model, v)?)),
@@ -546,11 +578,12 @@ impl Context<'_> {
         (rss / (3 * ms.len()).saturating_sub(rank).max(1) as f64).sqrt()
     }
 
-    /// Per-axis noise the size rule compares a prediction change with: the instruments' known
-    /// noise of a weight-1 row (probe σ when the data has probe rows, else tracker σ) when
-    /// given, else [`Context::sigma_hat`] of the fit.
+    /// Per-axis noise the size rule compares a prediction change with: the noise reference of
+    /// a weight-1 row (probe σ when the data has probe rows, else tracker σ; from replicates
+    /// or the instruments, [`crate::noise`]) when there is one, else [`Context::sigma_hat`] of
+    /// the fit.
     fn noise_sigma(&self, f: &Fit, ms: &[Measurement], rank: usize) -> f64 {
-        let known = self.options.instrument_sigmas.and_then(|k| {
+        let known = self.reference.and_then(|k| {
             let has_probe = ms.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
             if has_probe { k.probe_mm } else { k.tracker_mm }
         });
@@ -866,6 +899,7 @@ fn refit_effects(
         negligible_below_mm: opts.negligible_factor
             * 3f64.sqrt()
             * ctx.noise_sigma(&fit1, ctx.measurements, rank0 + added.len()),
+        size_rule_waived_above_z: ctx.strong_z(th.z_required),
         values,
         std_errors,
         confounding,
@@ -892,7 +926,8 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
             h.rms_before_mm, h.rms_after_mm, h.mean_reduction_mm2, h.std_error_mm2, h.z, e.z_required
         ));
     }
-    if h.change_rms_mm < e.negligible_below_mm {
+    let waived = e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
+    if h.change_rms_mm < e.negligible_below_mm && !waived {
         return CandidateStatus::DetectedNegligible(format!(
             "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um)",
             1e3 * h.change_rms_mm,
@@ -1181,6 +1216,9 @@ fn backward_check(
         let _ = fresh;
         let negligible_below_mm =
             ctx.options.negligible_factor * 3f64.sqrt() * ctx.noise_sigma(current, ctx.measurements, rank);
+        // without a noise reference an effect that still lowers the held-out error by
+        // `strong_z_factor` standard errors is kept whatever σ̂ says
+        let strong = ctx.strong_z(1.0);
         let with = recomputed.as_ref().unwrap_or(with_current);
         let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
         // the newest effect was just confirmed; check the earlier ones
@@ -1213,7 +1251,7 @@ fn backward_check(
                 let base = rebuild(start, &specs, &current_ref.model, &params).ok()?;
                 let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
                 let h = HeldOutComparison::new(&without.errors, &with.errors);
-                let keep = h.z > 1.0 && h.change_rms_mm >= negligible_below_mm;
+                let keep = h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
                 if keep {
                     return Some((h, None));
                 }
@@ -1222,7 +1260,7 @@ fn backward_check(
             .collect();
         for (&k, outcome) in checked.iter().zip(outcomes) {
             let Some((h, refit)) = outcome else { continue };
-            let keep = h.z > 1.0 && h.change_rms_mm >= negligible_below_mm;
+            let keep = h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
             if keep {
                 continue;
             }
@@ -1336,7 +1374,14 @@ pub fn discover(
     // separate σ for probe and tracker residuals (inverse-variance weights)
     let first = fit(start, measurements, params, &options.identify)?;
     let estimated = KindSigmas::estimate(measurements, &first.residuals, params.len());
-    let known = options.instrument_sigmas.filter(|k| k.probe_mm.is_some() && k.tracker_mm.is_some());
+    let kinds = start.joint_kinds().to_vec();
+    let pure = if options.use_replicates {
+        crate::noise::pure_error(measurements, &first.residuals, &kinds, options.replicate_tolerance)
+    } else {
+        None
+    };
+    let (reference, source) = noise_reference(pure.as_ref(), options.instrument_sigmas, measurements);
+    let known = reference.filter(|k| k.probe_mm.is_some() && k.tracker_mm.is_some());
     let kind_sigmas = known.unwrap_or(estimated);
     let weighted =
         options.weight_by_kind && kind_sigmas.probe_mm.is_some() && kind_sigmas.tracker_mm.is_some();
@@ -1344,7 +1389,11 @@ pub fn discover(
         options.identify.weights = kind_sigmas.weights();
         notes.push(format!(
             "probe and tracker residuals weighted by their {} sigma ({:.4} / {:.4} mm per axis)",
-            if known.is_some() { "instruments' known" } else { "own estimated" },
+            match (known.is_some(), source) {
+                (true, NoiseSource::Replicates) => "replicates'",
+                (true, _) => "instruments' known",
+                (false, _) => "own estimated",
+            },
             kind_sigmas.probe_mm.unwrap_or(0.0),
             kind_sigmas.tracker_mm.unwrap_or(0.0)
         ));
@@ -1352,6 +1401,7 @@ pub fn discover(
     } else {
         first
     };
+    let start_residuals = current.residuals.clone();
     let is_screen = screening_split(measurements, options.screen_fraction, options.seed);
     let screen: Vec<Measurement> =
         measurements.iter().zip(&is_screen).filter(|(_, s)| **s).map(|(m, _)| *m).collect();
@@ -1364,7 +1414,7 @@ pub fn discover(
     }
     let all_folds = stratified_folds(measurements, k, options.seed).into_iter().map(Some).collect();
     let split = [screen.len(), confirm_ms.len()];
-    let ctx = Context { measurements, validation, all_folds, confirm_folds, screen, options };
+    let ctx = Context { measurements, validation, all_folds, confirm_folds, screen, options, reference };
     let options = &ctx.options;
     let mut skipped_folds = 0;
     let mut held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
@@ -1564,6 +1614,7 @@ pub fn discover(
             "{skipped_folds} cross-validation fold(s) skipped over the run (their fit failed)"
         ));
     }
+    let noise = describe_noise(source, reference, pure, &start_residuals, params.len(), &current, &ctx);
     let uncertainty = match predicted_uncertainty(&current.model, &current.params, &ctx) {
         Ok(u) => Some(u),
         Err(e) => {
@@ -1580,6 +1631,7 @@ pub fn discover(
         rounds,
         split,
         kind_sigmas,
+        noise,
         skipped_folds,
         initial_gap_mm: initial_gap.headline_mm(),
         initial_gap,
@@ -1588,6 +1640,96 @@ pub fn discover(
         uncertainty,
         notes,
     })
+}
+
+/// The noise reference per kind: the replicates' pure error where the data has enough of it,
+/// else the instruments' stated noise; `None` unless every kind in the data has one.
+fn noise_reference(
+    pure: Option<&crate::noise::PureError>,
+    stated: Option<KindSigmas>,
+    ms: &[Measurement],
+) -> (Option<KindSigmas>, NoiseSource) {
+    let from_pure = pure.map(|p| p.sigmas).unwrap_or_default();
+    let stated = stated.unwrap_or_default();
+    let merged = KindSigmas {
+        probe_mm: from_pure.probe_mm.or(stated.probe_mm),
+        tracker_mm: from_pure.tracker_mm.or(stated.tracker_mm),
+    };
+    if !crate::noise::covers(&merged, ms) {
+        return (None, NoiseSource::Estimated);
+    }
+    let used_pure = from_pure.probe_mm.is_some() || from_pure.tracker_mm.is_some();
+    (Some(merged), if used_pure { NoiseSource::Replicates } else { NoiseSource::Instrument })
+}
+
+/// The report's account of the noise reference (lack-of-fit tests of the starting and the
+/// final fit when the data has replicates).
+fn describe_noise(
+    source: NoiseSource,
+    reference: Option<KindSigmas>,
+    pure: Option<crate::noise::PureError>,
+    start_residuals: &[Vector3<f64>],
+    start_params: usize,
+    last: &Fit,
+    ctx: &Context<'_>,
+) -> NoiseReference {
+    use crate::noise::{lack_of_fit, lack_of_fit_sentence};
+    let opts = &ctx.options;
+    let ms = ctx.measurements;
+    let kinds = last.model.joint_kinds().to_vec();
+    let w = opts.identify.weights;
+    let lof = |r: &[Vector3<f64>], p: usize| {
+        lack_of_fit(ms, r, p, &kinds, opts.replicate_tolerance, |m| kind_weight(m, &w))
+    };
+    let lack_of_fit_start = lof(start_residuals, start_params);
+    let lack_of_fit_final = lof(&last.residuals, last.params.len());
+    let um = |s: Option<f64>| s.map_or("-".to_string(), |v| format!("{:.1} um", 1e3 * v));
+    let sigmas = reference.unwrap_or_default();
+    let per_kind = format!("probe {} / tracker {} per axis", um(sigmas.probe_mm), um(sigmas.tracker_mm));
+    let mut text = match (source, &pure) {
+        (NoiseSource::Replicates, Some(p)) => format!(
+            "noise reference: pure error of {} replicate groups ({} measurements, {} dof): {per_kind}. It holds no model error, so the size rule (prediction change above sqrt(3) sigma) does not shrink while effects are missing.",
+            p.groups, p.replicated, p.dof
+        ),
+        (NoiseSource::Instrument, _) | (NoiseSource::Replicates, None) => format!(
+            "noise reference: the instruments' stated noise ({}): {per_kind}. The size rule compares prediction changes with sqrt(3) sigma of it; if the statement is too low, small real effects are added, if too high, they are called negligible.",
+            opts.instrument_noise_origin.as_deref().unwrap_or("given by the caller")
+        ),
+        (NoiseSource::Estimated, _) => format!(
+            "noise reference: none (no replicates in the data, no instrument noise recorded in the file or given): the size rule compares with sigma-hat of each refit, which contains the effects still missing, so it is waived for an effect whose held-out improvement is at least {} times the round's z. Effects that are real but only moderately significant may be called negligible; record the noise in the file (`# vatcal-noise: probe_sigma_mm=...`), repeat some poses, or pass --probe-sigma-mm / --tracker-sigma-mm.",
+            opts.strong_z_factor
+        ),
+    };
+    if let Some(p) = &pure
+        && source != NoiseSource::Replicates
+    {
+        text.push_str(&format!(
+            " ({} replicate groups with {} dof were found, too few to estimate every kind's sigma.)",
+            p.groups, p.dof
+        ));
+    }
+    if let (Some(stated), NoiseSource::Replicates) = (opts.instrument_sigmas, source) {
+        text.push_str(&format!(
+            " The stated instrument noise (probe {} / tracker {}) was not used: the replicates measure it on these data.",
+            um(stated.probe_mm),
+            um(stated.tracker_mm)
+        ));
+    }
+    if let Some(l) = &lack_of_fit_start {
+        text.push_str(&format!(" Starting model: {}.", lack_of_fit_sentence(l)));
+    }
+    if let Some(l) = &lack_of_fit_final {
+        text.push_str(&format!(" Final model: {}.", lack_of_fit_sentence(l)));
+    }
+    NoiseReference {
+        source,
+        sigmas,
+        pure_error: pure,
+        lack_of_fit_start,
+        lack_of_fit_final,
+        stated: opts.instrument_sigmas,
+        explanation: text,
+    }
 }
 
 fn candidate_score(c: Candidate) -> CandidateScore {

@@ -20,6 +20,8 @@
 //! the reason ([`IoError::Row`]); nothing is silently dropped. Numbers are written with Rust's
 //! shortest round-trip formatting.
 
+pub mod metadata;
+
 use std::path::{Path, PathBuf};
 
 use nalgebra::Vector3;
@@ -1019,6 +1021,24 @@ pub fn write_measurements_for(
     let path = path.as_ref();
     std::fs::write(path, measurements_to_csv_for(measurements, kinds))
         .map_err(|source| IoError::File { path: path.into(), cause: source })
+}
+
+/// [`write_measurements_for`] with the instruments' noise recorded in a `# vatcal-noise:`
+/// comment line before the header ([`metadata`]); without any sigma the file is the same as
+/// [`write_measurements_for`]'s.
+///
+/// # Errors
+/// [`IoError::File`] when the file cannot be written.
+pub fn write_measurements_with_noise(
+    path: impl AsRef<Path>,
+    measurements: &[Measurement],
+    kinds: &[JointKind],
+    noise: &metadata::NoiseMetadata,
+) -> Result<(), IoError> {
+    let path = path.as_ref();
+    let mut text = noise.header_line();
+    text.push_str(&measurements_to_csv_for(measurements, kinds));
+    std::fs::write(path, text).map_err(|source| IoError::File { path: path.into(), cause: source })
 }
 
 /// One row of a pose-request file of any chain (`vatcal compensate`): TCP `tcp` must reach the
