@@ -151,7 +151,11 @@ pub fn replicate_groups(ms: &[Measurement], kinds: &[JointKind], tol: ReplicateT
 
 /// Pure-error sums of squares of `residuals` over `groups`: (probe SS [mm²], probe dof, tracker
 /// SS, tracker dof).
-fn pure_error_sums(ms: &[Measurement], residuals: &[Vector3<f64>], groups: &[Vec<usize>]) -> [(f64, usize); 2] {
+fn pure_error_sums(
+    ms: &[Measurement],
+    residuals: &[Vector3<f64>],
+    groups: &[Vec<usize>],
+) -> [(f64, usize); 2] {
     let mut out = [(0.0, 0usize); 2];
     for g in groups {
         let mean = g.iter().map(|i| residuals[*i]).sum::<Vector3<f64>>() / g.len() as f64;

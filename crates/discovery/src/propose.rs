@@ -32,7 +32,8 @@ pub struct Proposal {
     pub focus_params: Vec<String>,
     /// indices into the pool, in the order they were chosen
     pub selected: Vec<usize>,
-    /// `ln det` of the focus parameters' information given the others, with the data at hand
+    /// `ln det` of the focus parameters' information given the others (internal units, per unit
+    /// noise of a weight-1 row), with the data at hand
     pub ln_ds_before: f64,
     /// the same with the proposed measurements added
     pub ln_ds_after: f64,
@@ -46,7 +47,11 @@ pub struct Proposal {
 impl Proposal {
     /// The largest ratio of the focus parameters' predicted standard deviation after / before.
     pub fn worst_std_ratio(&self) -> f64 {
-        self.std_after.iter().zip(&self.std_before).map(|(a, b)| a / b.max(f64::MIN_POSITIVE)).fold(0.0, f64::max)
+        self.std_after
+            .iter()
+            .zip(&self.std_before)
+            .map(|(a, b)| a / b.max(f64::MIN_POSITIVE))
+            .fold(0.0, f64::max)
     }
 }
 
@@ -65,7 +70,9 @@ pub fn focus_effects(d: &Discovery, measurements: &[Measurement], max: usize) ->
     for c in &round.candidates {
         let borderline = matches!(
             c.status,
-            CandidateStatus::Rejected(_) | CandidateStatus::DetectedNegligible(_) | CandidateStatus::PassedNotBest
+            CandidateStatus::Rejected(_)
+                | CandidateStatus::DetectedNegligible(_)
+                | CandidateStatus::PassedNotBest
         ) && c.refit.as_ref().is_some_and(|r| r.implausible.is_none());
         if borderline && let Some(s) = spec_of_candidate(c, &specs_of) {
             out.push(s);
@@ -119,11 +126,12 @@ fn ln_det(m: &DMatrix<f64>) -> f64 {
 }
 
 /// The focus block of `M⁻¹`'s square roots of the diagonal: predicted standard deviations of
-/// the focus parameters (last `k` columns) per unit σ, unscaled by `scale`.
+/// the focus parameters (last `k` columns) per unit σ, in the parameters' own units (the
+/// columns were multiplied by `scale`).
 fn focus_std(m: &DMatrix<f64>, k: usize, scale: &[f64]) -> Vec<f64> {
     let p = m.nrows();
     match m.clone().try_inverse() {
-        Some(inv) => (p - k..p).map(|i| inv[(i, i)].max(0.0).sqrt() / scale[i]).collect(),
+        Some(inv) => (p - k..p).map(|i| inv[(i, i)].max(0.0).sqrt() * scale[i]).collect(),
         None => vec![f64::INFINITY; k],
     }
 }
@@ -176,7 +184,10 @@ pub fn propose(
     // a tiny ridge keeps M invertible where the data at hand cannot separate directions yet
     let ridge = 1e-10;
     let mut info = a0.transpose() * &a0 + DMatrix::identity(p, p) * ridge;
-    let ln_ds = |info: &DMatrix<f64>| ln_det(info) - ln_det(&info.view((0, 0), (nn, nn)).into_owned());
+    // in the parameters' own units: the scaled Ds is the raw one times Π scale² of the focus
+    let focus_scale: f64 = scale[nn..].iter().map(|s| 2.0 * s.ln()).sum();
+    let ln_ds =
+        |info: &DMatrix<f64>| ln_det(info) - ln_det(&info.view((0, 0), (nn, nn)).into_owned()) - focus_scale;
     let ln_ds_before = ln_ds(&info);
     let std_before = focus_std(&info, k, &scale);
     let block = |i: usize| b.rows(3 * i, 3).into_owned();

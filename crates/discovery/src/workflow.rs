@@ -1251,7 +1251,8 @@ fn backward_check(
                 let base = rebuild(start, &specs, &current_ref.model, &params).ok()?;
                 let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
                 let h = HeldOutComparison::new(&without.errors, &with.errors);
-                let keep = h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+                let keep =
+                    h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
                 if keep {
                     return Some((h, None));
                 }
@@ -1260,7 +1261,8 @@ fn backward_check(
             .collect();
         for (&k, outcome) in checked.iter().zip(outcomes) {
             let Some((h, refit)) = outcome else { continue };
-            let keep = h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+            let keep =
+                h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
             if keep {
                 continue;
             }

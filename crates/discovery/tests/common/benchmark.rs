@@ -655,6 +655,37 @@ impl CaseData {
     }
 }
 
+impl CaseData {
+    /// Measures `poses` (probe start poses or tracker poses, e.g. a proposal) on the truth, with
+    /// the instruments' noise and a context continuing the campaign's (seeded).
+    pub fn measure_more(&self, poses: &[Measurement], seed: u64) -> Vec<Measurement> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let t0 = self.measurements.iter().filter_map(|m| m.context.time_s).fold(0.0, f64::max);
+        let total_s = t0 + SECONDS_PER_ROW * (poses.len() + 1) as f64;
+        let mut out = Vec::with_capacity(poses.len());
+        for (k, m) in poses.iter().enumerate() {
+            let t = t0 + SECONDS_PER_ROW * (k + 1) as f64;
+            let ctx = context(&self.nominal, &mut rng, t, total_s);
+            let noise = Vector3::from_fn(|_, _| gaussian(&mut rng));
+            match m.target {
+                Target::Probe { position } => {
+                    let Some(p) = self.truth.model.position(position) else { continue };
+                    if let Some(q) = self.truth.reach(&m.q, &ctx, m.tcp, &(p + noise * PROBE_SIGMA_MM)) {
+                        out.push(Measurement { q, context: ctx, ..*m });
+                    }
+                }
+                Target::Tracker { .. } => {
+                    if let Some(p) = self.truth.position(&m.q, &ctx, m.tcp) {
+                        let xyz = p + noise * TRACKER_SIGMA_MM;
+                        out.push(Measurement { context: ctx, ..Measurement::tracker(m.tcp, m.q, xyz) });
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
 /// How one hidden effect was handled.
 #[derive(Debug, Clone, Serialize)]
 pub struct HiddenOutcome {
@@ -714,7 +745,9 @@ impl CaseResult {
 }
 
 /// Discovery's options for a case: the defaults, plus the instruments' noise when the case
-/// has noise metadata.
+/// has noise metadata (what `vatcal discover` passes when the measurement file has a
+/// `# vatcal-noise:` line). No noise flags: the replicates, when the data has them, are found
+/// by discovery itself.
 pub fn options_for(case: &Case, data: &CaseData) -> DiscoverOptions {
     let has_probe = data.measurements.iter().any(|m| matches!(m.target, Target::Probe { .. }));
     let has_tracker = data.measurements.iter().any(|m| matches!(m.target, Target::Tracker { .. }));
@@ -724,6 +757,9 @@ pub fn options_for(case: &Case, data: &CaseData) -> DiscoverOptions {
             probe_mm: has_probe.then_some(PROBE_SIGMA_MM),
             tracker_mm: has_tracker.then_some(TRACKER_SIGMA_MM),
         }),
+        instrument_noise_origin: case
+            .noise_metadata
+            .then(|| "recorded with the measurements (`# vatcal-noise:`)".to_string()),
         ..DiscoverOptions::default()
     }
 }

@@ -10,5 +10,6 @@ mod benchmark;
 mod campaign_like;
 mod effect_jacobians;
 mod hidden_effects;
+mod propose;
 mod report_and_plots;
 mod sweep;
