@@ -297,7 +297,8 @@ pub fn plan_selection(
     } else {
         opts
     };
-    let cands = Candidates::from_measurements(model, &measurements, &opts.params).map_err(PlanError::Selection)?;
+    let cands =
+        Candidates::from_measurements(model, &measurements, &opts.params).map_err(PlanError::Selection)?;
     let log_det = vatcal_observability::detmax::log_det(&cands, &selected, 0.0).unwrap_or(f64::NEG_INFINITY);
     let quality = selection_quality(&cands, &selected, log_det, &opts.params)?;
     let mut selected = selected;

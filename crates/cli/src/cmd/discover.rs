@@ -271,16 +271,21 @@ fn propose_plan(
         seed: args.seed,
         ..PlanOptions::default()
     };
-    let candidates = campaign_candidates(&d.model, &geometry, &opts).context("candidate poses of the proposal")?;
-    let pool: Vec<Measurement> = candidates
-        .candidates
-        .iter()
-        .map(|c| Measurement::probe(c.position, c.tcp, c.q))
-        .collect();
+    let candidates =
+        campaign_candidates(&d.model, &geometry, &opts).context("candidate poses of the proposal")?;
+    let pool: Vec<Measurement> =
+        candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
     anyhow::ensure!(!pool.is_empty(), "proposal: the planner found no measurable candidate pose");
     let weights = d.kind_sigmas.weights();
-    let proposal =
-        vatcal_discovery::propose::propose(&d.model, &d.params, measurements, &focus, &pool, count, &weights)?;
+    let proposal = vatcal_discovery::propose::propose(
+        &d.model,
+        &d.params,
+        measurements,
+        &focus,
+        &pool,
+        count,
+        &weights,
+    )?;
     let plan = plan_selection(&d.model, &geometry, candidates, proposal.selected.clone(), &opts)
         .context("planning the proposed measurements")?;
     let summary = vatcal_planning::output::write_plan(&plan, dir)?;
