@@ -221,8 +221,8 @@ pub fn propose(
         info += bi.transpose() * bi;
     }
     // one exchange pass: replace a chosen row by a better unchosen one while Ds grows
-    for slot in 0..chosen.len() {
-        let out = chosen[slot];
+    for slot in &mut chosen {
+        let out = *slot;
         let bo = block(out);
         let without = &info - bo.transpose() * &bo;
         let (inv, inv_nn) = inverses(&without)?;
@@ -236,7 +236,7 @@ pub fn propose(
         {
             taken[out] = false;
             taken[i] = true;
-            chosen[slot] = i;
+            *slot = i;
             let bi = block(i);
             info = without + bi.transpose() * bi;
         }

@@ -981,6 +981,9 @@ pub fn totals(results: &[CaseResult], keep: impl Fn(&CaseResult) -> bool) -> Tot
     t
 }
 
+/// A subset of the results (a row of the targets table).
+type Subset = Box<dyn Fn(&CaseResult) -> bool>;
+
 fn pct(a: usize, b: usize) -> String {
     if b == 0 { "—".into() } else { format!("{a}/{b} = {:.0} %", 100.0 * a as f64 / b as f64) }
 }
@@ -996,7 +999,7 @@ pub fn markdown(results: &[CaseResult]) -> String {
         "| subset | effects ≥ {MUST_NAME}× noise named with their driver (goal ≥ 95 %) | null cases with an addition (goal ≤ 1 %) | held-out ≤ {FLOOR_FACTOR}× floor (goal ≥ 90 %) |"
     );
     let _ = writeln!(s, "|---|---|---|---|");
-    let subsets: Vec<(&str, Box<dyn Fn(&CaseResult) -> bool>)> = vec![
+    let subsets: Vec<(&str, Subset)> = vec![
         ("all cases", Box::new(|_| true)),
         ("without noise metadata", Box::new(|r| !r.case.noise_metadata)),
         ("with noise metadata", Box::new(|r| r.case.noise_metadata)),
