@@ -86,6 +86,9 @@ pub struct CampaignConfig {
     /// one (a killed process loses nothing) and the journal is synced once at the end, but a
     /// power cut could lose the last records.
     pub sync_journal_each_step: bool,
+    /// the instruments' noise, recorded in `measurements_csv` as a `# vatcal-noise:` line
+    /// (none by default)
+    pub noise: vatcal_io::metadata::NoiseMetadata,
 }
 
 impl Default for CampaignConfig {
@@ -103,6 +106,7 @@ impl Default for CampaignConfig {
             note: String::new(),
             measurements_csv: None,
             sync_journal_each_step: true,
+            noise: vatcal_io::metadata::NoiseMetadata::default(),
         }
     }
 }
@@ -292,14 +296,24 @@ impl<'a> Campaign<'a> {
             if let Some(e) = fault {
                 journal.sync()?;
                 if let Some(csv) = &self.config.measurements_csv {
-                    write_csv_atomically(csv, &journal.measurements(), self.controller.joint_kinds())?;
+                    write_csv_atomically(
+                        csv,
+                        &journal.measurements(),
+                        self.controller.joint_kinds(),
+                        &self.config.noise,
+                    )?;
                 }
                 return Err(e);
             }
             if record.measurement().is_some()
                 && let Some(csv) = &self.config.measurements_csv
             {
-                write_csv_atomically(csv, &journal.measurements(), self.controller.joint_kinds())?;
+                write_csv_atomically(
+                    csv,
+                    &journal.measurements(),
+                    self.controller.joint_kinds(),
+                    &self.config.noise,
+                )?;
             }
             if let Some(f) = self.observer.as_mut() {
                 f(&record);
@@ -672,11 +686,12 @@ fn write_csv_atomically(
     path: &Path,
     measurements: &[Measurement],
     kinds: &[JointKind],
+    noise: &vatcal_io::metadata::NoiseMetadata,
 ) -> Result<(), CampaignError> {
     let mut tmp = path.as_os_str().to_owned();
     tmp.push(".tmp");
     let tmp = PathBuf::from(tmp);
-    vatcal_io::write_measurements_for(&tmp, measurements, kinds)?;
+    vatcal_io::write_measurements_with_noise(&tmp, measurements, kinds, noise)?;
     std::fs::rename(&tmp, path)
         .map_err(|source| vatcal_io::IoError::File { path: path.to_path_buf(), cause: source }.into())
 }

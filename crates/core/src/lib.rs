@@ -19,6 +19,7 @@
 //! Units: every public Rust API uses **mm, rad, N·m, rad/(N·m), kg**. Degrees appear only at the
 //! file and CLI boundary (the cell file, CSV files), and conversions happen here.
 
+pub mod canonical;
 pub mod cell;
 pub mod effects;
 pub mod frame;

@@ -197,6 +197,18 @@ pub struct ProbeSpec {
     pub range_mm: Option<Spanned<f64>>,
 }
 
+/// `[noise]` (optional): the measuring instruments' noise, σ per axis of one probe row and
+/// of one tracker row [mm]. `vatcal campaign` records it in the measurements CSV
+/// (`# vatcal-noise:` line, `docs/formats.md`), where `vatcal discover` finds it.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseSpec {
+    /// σ per axis of a probe row [mm] (robot and guide repeatability, gauge error)
+    pub probe_sigma_mm: Option<Spanned<f64>>,
+    /// σ per axis of a tracker row [mm]
+    pub tracker_sigma_mm: Option<Spanned<f64>>,
+}
+
 /// A parsed and validated devices file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -216,6 +228,8 @@ pub struct DevicesFile {
     pub probe: Option<ProbeSpec>,
     /// a thermometer (optional)
     pub thermometer: Option<ThermometerSpec>,
+    /// the instruments' noise (optional)
+    pub noise: Option<NoiseSpec>,
     #[serde(skip)]
     source: PathBuf,
 }
@@ -417,7 +431,28 @@ impl DevicesFile {
         {
             return Err(err(r.span(), "probe.range_mm", format!("{} must be > 0", r.get_ref())));
         }
+        if let Some(n) = &self.noise {
+            for (v, field) in
+                [(&n.probe_sigma_mm, "noise.probe_sigma_mm"), (&n.tracker_sigma_mm, "noise.tracker_sigma_mm")]
+            {
+                if let Some(v) = v
+                    && !(v.get_ref().is_finite() && *v.get_ref() > 0.0)
+                {
+                    return Err(err(
+                        v.span(),
+                        field,
+                        format!("{} must be a positive number of mm", v.get_ref()),
+                    ));
+                }
+            }
+        }
         Ok(())
+    }
+
+    /// The instruments' noise of the `[noise]` table: (probe σ, tracker σ) per axis [mm].
+    pub fn noise_sigmas_mm(&self) -> (Option<f64>, Option<f64>) {
+        let get = |v: &Option<Spanned<f64>>| v.as_ref().map(|s| *s.get_ref());
+        self.noise.as_ref().map_or((None, None), |n| (get(&n.probe_sigma_mm), get(&n.tracker_sigma_mm)))
     }
 
     fn check_thermometer(&self, text: &str, t: &ThermometerSpec) -> Result<(), DevicesError> {

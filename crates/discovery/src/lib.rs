@@ -13,6 +13,7 @@
 //! * [`folds`] — seeded K-fold splits stratified by calibration position;
 //! * [`location`] — residuals against every driving variable ("the where");
 //! * [`noise`] — the noise reference of the size rule (replicates, instruments, σ̂);
+//! * [`power`] — minimum detectable effect size and the measurements a decision needs;
 //! * [`catalog`] — driving variable, meaning and plausible range of each effect;
 //! * [`fit`] — the fits (through `vatcal-identification`);
 //! * [`propose`] — the measurements that would decide a borderline or ambiguous candidate;
@@ -29,11 +30,13 @@ pub mod linear;
 pub mod location;
 pub mod noise;
 pub mod plots;
+pub mod power;
 pub mod propose;
 pub mod workflow;
 
 pub use html::html_report;
 pub use plots::write_effect_plots;
+pub use power::{Detectability, candidate_detectability};
 pub use workflow::{AddedEffect, DiscoverOptions, Discovery, Gap, discover};
 
 /// Everything that can go wrong in discovery.

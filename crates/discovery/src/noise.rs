@@ -240,8 +240,10 @@ mod tests {
     use vatcal_core::JointVector;
 
     fn probe(q: [f64; 6], dir: i8) -> Measurement {
-        let mut m = Measurement::probe(1, JointVector::from_mm_deg(100.0, q), 2);
-        m.context.dir = Some([0, dir, dir, dir, dir, dir, dir]);
+        let mut m = Measurement::probe(2, 1, JointVector::from_mm_deg(100.0, q));
+        let mut d = [0i8; vatcal_core::MAX_JOINTS];
+        d[1..7].fill(dir);
+        m.context.dir = Some(d);
         m
     }
 

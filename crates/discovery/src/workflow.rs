@@ -30,6 +30,7 @@ use std::collections::BTreeMap;
 use nalgebra::Vector3;
 use rayon::prelude::*;
 use serde::Serialize;
+use vatcal_core::canonical::bounds::{ChainScale, ScaledBound, scaled_bound};
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::params::ParamUnit;
 use vatcal_core::{Measurement, ParamId, ParamSet, rad_to_deg};
@@ -39,7 +40,7 @@ use vatcal_kinematics::effects::{DataAvailability, candidate_effects, missing_da
 use vatcal_observability::assemble_jacobian;
 
 use crate::DiscoveryError;
-use crate::catalog::{driver_of_in, meaning, plausibility};
+use crate::catalog::{driver_of_in, meaning};
 use crate::criteria::{HeldOutComparison, NestedComparison};
 use crate::distributions::{chi2_ln_sf, normal_upper_quantile};
 use crate::fit::{Fit, fit, residuals};
@@ -47,6 +48,7 @@ use crate::folds::{screening_split, stratified_folds};
 use crate::linear::{ColumnSpace, EffectDirections, ScoreTest, score_test, unit_columns};
 use crate::location::{DriverSummary, PoseData, locate};
 use crate::noise::{NoiseReference, NoiseSource, ReplicateTolerance};
+use crate::power::{DEFAULT_POWER, Detectability};
 
 /// Settings of [`discover`].
 #[derive(Debug, Clone)]
@@ -117,6 +119,15 @@ pub struct DiscoverOptions {
     /// least `strong_z_factor` times the round's `z_r` is then added whatever σ̂ says (and
     /// kept by the backward check while its z stays above `strong_z_factor`)
     pub strong_z_factor: f64,
+    /// without a noise reference, compare with the lower of a refit's σ̂ and σ̂ of the round's
+    /// saturated linear model (current parameters plus every scored candidate's directions;
+    /// [`Round::sigma_saturated_mm`]), which holds only what no candidate can describe
+    pub saturated_noise: bool,
+    /// plausibility bounds set by the user, per effect (catalog name, e.g. `joint-backlash`):
+    /// the largest plausible magnitude of each of its parameters in file units (deg for
+    /// angles, mm for lengths, the parameter's own unit otherwise); they replace the bounds
+    /// scaled to the chain ([`vatcal_core::canonical::bounds`])
+    pub bound_overrides: BTreeMap<String, f64>,
 }
 
 impl Default for DiscoverOptions {
@@ -141,7 +152,9 @@ impl Default for DiscoverOptions {
             instrument_noise_origin: None,
             use_replicates: true,
             replicate_tolerance: ReplicateTolerance::default(),
-            strong_z_factor: 2.0,
+            strong_z_factor: 1.5,
+            saturated_noise: true,
+            bound_overrides: BTreeMap::new(),
         }
     }
 }
@@ -276,6 +289,10 @@ pub struct CandidateScore {
     pub score: Option<ScoreTest>,
     /// result of the refit and confirmation (screened candidates only)
     pub refit: Option<RefitEvidence>,
+    /// for a borderline candidate (not added, but refitted or nominally significant at 1 %
+    /// alone): the minimum detectable size with these data and the measurements that would
+    /// decide it ([`crate::power`])
+    pub detectability: Option<Detectability>,
     /// outcome
     #[serde(flatten)]
     pub status: CandidateStatus,
@@ -292,6 +309,46 @@ pub struct RemovedEffect {
     pub removed_in_round: usize,
     /// why: the held-out comparison without / with it, given the later effects
     pub heldout: HeldOutComparison,
+}
+
+/// Near-equivalent candidates of one round (their held-out predictions change alike and
+/// improve alike on the confirmation data) and how one was chosen.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Ambiguity {
+    /// round
+    pub round: usize,
+    /// the candidate added
+    pub chosen: String,
+    /// the near-equivalent ones not added
+    pub rivals: Vec<String>,
+    /// `validation` (the chosen one predicts the validation rows better, significantly),
+    /// `simpler` (fewer parameters; the data cannot tell), or `held-out` (same size: the
+    /// larger held-out improvement)
+    pub basis: String,
+    /// per rival: paired z of the chosen one's improvement over the rival's on the validation
+    /// rows (positive: the chosen one predicts better), when validation rows are given
+    pub validation_z: Vec<Option<f64>>,
+    /// one sentence for people, e.g. "joint-compliance (joint 2) or guide-carriage-tilt:
+    /// indistinguishable on these data; ..."
+    pub sentence: String,
+}
+
+/// A candidate refused because an identified value exceeded its plausibility bound (reported,
+/// never silently dropped: the bound may be wrong for this robot).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BoundHit {
+    /// round
+    pub round: usize,
+    /// catalog name (the key of a `--bound NAME=VALUE` override)
+    pub effect: String,
+    /// human label
+    pub label: String,
+    /// which value exceeded which bound, and where the bound comes from
+    pub reason: String,
+    /// the held-out z of the refit that was refused (how strongly the data ask for it)
+    pub heldout_z: f64,
+    /// whether it had passed every other check (significant, above the noise)
+    pub otherwise_passed: bool,
 }
 
 /// An effect that is real but too small to matter.
@@ -318,6 +375,11 @@ pub struct Round {
     pub location: Vec<DriverSummary>,
     /// screening threshold `ln(alpha·s_r/m)`
     pub ln_threshold: f64,
+    /// without a noise reference: σ̂ per axis of the saturated linear model (the current
+    /// parameters plus every scored candidate's, on all data) [mm], an upper bound of the
+    /// noise that holds only the physics no candidate can describe; the size rule uses the
+    /// lower of it and the refit's σ̂
+    pub sigma_saturated_mm: Option<f64>,
     /// z the held-out improvement of a candidate had to exceed
     pub z_required: f64,
     /// every candidate, best screening score first
@@ -437,6 +499,10 @@ pub struct Discovery {
     pub removed_effects: Vec<RemovedEffect>,
     /// effects detected but too small to matter (not added)
     pub negligible_effects: Vec<NegligibleEffect>,
+    /// candidates refused at a plausibility bound
+    pub bound_hits: Vec<BoundHit>,
+    /// rounds in which near-equivalent candidates competed, and how one was chosen
+    pub ambiguities: Vec<Ambiguity>,
     /// every round
     pub rounds: Vec<Round>,
     /// measurements used for screening / for confirmation
@@ -482,6 +548,7 @@ struct Candidate {
     score: Option<ScoreTest>,
     status: CandidateStatus,
     refit: Option<(RefitEvidence, Fit, CrossValidation)>,
+    detect: Option<Detectability>,
 }
 
 /// Held-out predictions of a cross-validation: one error per measurement (`None` = not
@@ -512,6 +579,11 @@ struct Context<'a> {
     /// σ per axis of each kind the size rule compares with (replicates or instruments);
     /// `None`: σ̂ of each fit ([`NoiseSource::Estimated`])
     reference: Option<KindSigmas>,
+    /// without a reference: σ̂ of the round's saturated linear model (bits of an f64, NaN =
+    /// unknown), the lower of it and a refit's σ̂ is the size rule's noise
+    saturated_bits: std::sync::atomic::AtomicU64,
+    /// the chain's size as the data see it (plausibility bounds)
+    scale: ChainScale,
 }
 
 impl Context<'_> {
@@ -553,6 +625,51 @@ impl Context<'_> {
         cv
     }
 
+    /// The plausibility bound of `id`: the user's override of its effect, else the larger of
+    /// the canonical bound and the one scaled to the chain.
+    fn bound(&self, id: &ParamId) -> Option<ScaledBound> {
+        let kind = vatcal_core::effects::kind_of_param(id)?;
+        if let Some(v) = self.options.bound_overrides.get(kind.name()) {
+            let (value, unit) = match id.unit() {
+                ParamUnit::Rad => (v.to_radians(), "deg"),
+                ParamUnit::Mm => (*v, "mm"),
+                _ => (*v, ""),
+            };
+            return Some(ScaledBound { value, text: format!("{v} {unit} (set by the user)") });
+        }
+        scaled_bound(id, vatcal_core::effects::bound_of(id), &self.scale)
+    }
+
+    /// Checks the identified changes of an effect's parameters against their bounds (a
+    /// compliance must also be positive). Returns why it is implausible.
+    fn plausibility(&self, spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
+        for (id, change) in changes {
+            if let ParamId::Compliance(j) = id
+                && *change <= 0.0
+            {
+                return Err(format!(
+                    "c_{j} came out {change:.3e} rad/(N*m): a joint cannot stiffen under load"
+                ));
+            }
+            if let Some(b) = self.bound(id)
+                && change.abs() > b.value
+            {
+                let shown = if id.unit() == ParamUnit::Rad {
+                    format!("{:.3e} deg", change.to_degrees())
+                } else {
+                    format!("{change:.3e}")
+                };
+                return Err(format!(
+                    "{} of {} changed by {shown}: more than the plausible {}",
+                    id.name(),
+                    spec.label(),
+                    b.text
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// The held-out z from which the size rule is waived in a test at `z_required`: only
     /// without a noise reference (module docs of [`crate::noise`]).
     fn strong_z(&self, z_required: f64) -> Option<f64> {
@@ -589,7 +706,11 @@ impl Context<'_> {
         });
         match known {
             Some(s) if s > 0.0 && s.is_finite() => s,
-            _ => self.sigma_hat(f, ms, rank),
+            _ => {
+                let own = self.sigma_hat(f, ms, rank);
+                let sat = f64::from_bits(self.saturated_bits.load(std::sync::atomic::Ordering::Relaxed));
+                if sat.is_finite() && sat > 0.0 { own.min(sat) } else { own }
+            }
         }
     }
 }
@@ -744,7 +865,15 @@ fn score_candidates(
         } else {
             CandidateStatus::NotSignificant
         };
-        out.push(Candidate { spec, new_params, directions: None, score: None, status, refit: None });
+        out.push(Candidate {
+            spec,
+            new_params,
+            directions: None,
+            score: None,
+            status,
+            refit: None,
+            detect: None,
+        });
     }
     // one Jacobian for the parameters of every live candidate
     let mut all: Vec<ParamId> = Vec::new();
@@ -863,7 +992,7 @@ fn refit_effects(
         added.iter().map(|p| (*p, fit1.value(*p).unwrap_or(0.0) - before(*p))).collect();
     let implausible = effects.iter().find_map(|(spec, params)| {
         let own: Vec<(ParamId, f64)> = changes.iter().copied().filter(|(p, _)| params.contains(p)).collect();
-        plausibility(spec, &own)
+        ctx.plausibility(spec, &own)
             .err()
             .map(|why| if effects.len() > 1 { format!("{}: {why}", spec.label()) } else { why })
     });
@@ -908,6 +1037,9 @@ fn refit_effects(
     Ok((evidence, fit1, held1))
 }
 
+/// Start of the rejection reason of a candidate refused at a plausibility bound.
+const IMPLAUSIBLE: &str = "implausible: ";
+
 /// Start of the rejection reason of a candidate that failed the held-out z-test.
 const HELDOUT_NOT_LOWER: &str = "held-out error not lower by more than its uncertainty";
 
@@ -929,13 +1061,19 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
     let waived = e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
     if h.change_rms_mm < e.negligible_below_mm && !waived {
         return CandidateStatus::DetectedNegligible(format!(
-            "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um)",
+            "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um){}",
             1e3 * h.change_rms_mm,
-            1e3 * e.negligible_below_mm
+            1e3 * e.negligible_below_mm,
+            e.size_rule_waived_above_z
+                .map(|z| format!(
+                    " estimated by sigma-hat, and the held-out z = {:.2} is below {z:.2}, at which the size rule is waived",
+                    h.z
+                ))
+                .unwrap_or_default()
         ));
     }
     if let Some(why) = &e.implausible {
-        return CandidateStatus::Rejected(format!("implausible: {why}"));
+        return CandidateStatus::Rejected(format!("{IMPLAUSIBLE}{why}"));
     }
     CandidateStatus::PassedNotBest
 }
@@ -1025,6 +1163,198 @@ fn confirm_screened(
     }
 }
 
+/// σ̂ per axis of the saturated linear model: the residual of the current fit with the
+/// current parameters' and every scored candidate's directions projected out, over its
+/// degrees of freedom (`None` when fewer than a quarter of the residuals stay free).
+fn saturated_sigma(
+    current: &Fit,
+    candidates: &[Candidate],
+    j0: &faer::Mat<f64>,
+    ctx: &Context<'_>,
+) -> Option<f64> {
+    let mut all: Vec<ParamId> = Vec::new();
+    for c in candidates.iter().filter(|c| c.score.is_some()) {
+        for p in &c.new_params {
+            if !all.contains(p) {
+                all.push(*p);
+            }
+        }
+    }
+    let w = ctx.options.identify.weights;
+    let mut z = assemble_jacobian(&current.model, ctx.measurements, &ParamSet(all)).ok()?;
+    weigh_rows(&mut z, ctx.measurements, &w);
+    let stacked = faer::Mat::from_fn(j0.nrows(), j0.ncols() + z.ncols(), |r, c| {
+        if c < j0.ncols() { j0[(r, c)] } else { z[(r, c - j0.ncols())] }
+    });
+    let (unit, _) = unit_columns(stacked.as_ref());
+    let space = ColumnSpace::of(unit.as_ref()).ok()?;
+    let n = j0.nrows();
+    let dof = n.checked_sub(space.rank())?;
+    if 4 * dof < n {
+        return None;
+    }
+    let r = weighted_residual(current, ctx.measurements, &w);
+    let rss: f64 = space.project_out_vec(&r).iter().map(|v| v * v).sum();
+    Some((rss / dof as f64).sqrt())
+}
+
+/// Cosine between two candidates' changes of the held-out predictions (`e0 − e_with`) over the
+/// points both predict: near 1 = they correct the same thing.
+fn change_cosine(base: &CrossValidation, a: &CrossValidation, b: &CrossValidation) -> f64 {
+    let (mut ab, mut aa, mut bb) = (0.0, 0.0, 0.0);
+    for ((e0, ea), eb) in base.errors.iter().zip(&a.errors).zip(&b.errors) {
+        if let (Some(e0), Some(ea), Some(eb)) = (e0, ea, eb) {
+            let (da, db) = (e0 - ea, e0 - eb);
+            ab += da.dot(&db);
+            aa += da.norm_squared();
+            bb += db.norm_squared();
+        }
+    }
+    if aa > 0.0 && bb > 0.0 { ab / (aa * bb).sqrt() } else { 0.0 }
+}
+
+/// Cosine above which two candidates' held-out prediction changes count as the same
+/// correction (rivals).
+pub const RIVAL_COSINE: f64 = 0.8;
+
+/// Among the passing candidate `best` (largest held-out improvement) and its rivals — refitted
+/// candidates whose held-out prediction changes point the same way (cosine ≥ [`RIVAL_COSINE`])
+/// and whose held-out errors are not distinguishable from `best`'s (paired |z| < 2) — choose
+/// the one that predicts the validation rows significantly better (paired z > 2), else the
+/// simplest passing one (fewest fitted parameters), else `best`. Returns the chosen index and
+/// the ambiguity, if there were rivals.
+fn choose_among_rivals(
+    candidates: &mut [Candidate],
+    best: usize,
+    held0: &CrossValidation,
+    round: usize,
+    ctx: &Context<'_>,
+) -> Result<(usize, Option<Ambiguity>), DiscoveryError> {
+    let Some((_, _, cv_best)) = candidates[best].refit.as_ref() else { return Ok((best, None)) };
+    let mut rivals: Vec<usize> = Vec::new();
+    for (i, c) in candidates.iter().enumerate() {
+        let Some((e, f, cv)) = c.refit.as_ref() else { continue };
+        if i == best || !f.converged || e.implausible.is_some() {
+            continue;
+        }
+        let eligible = c.status == CandidateStatus::PassedNotBest
+            || matches!(&c.status, CandidateStatus::Rejected(w) if w.starts_with(HELDOUT_NOT_LOWER))
+                && e.heldout.z > 1.0;
+        if !eligible {
+            continue;
+        }
+        let versus = HeldOutComparison::new(&cv.errors, &cv_best.errors);
+        if versus.z.abs() < 2.0 && change_cosine(held0, cv_best, cv) >= RIVAL_COSINE {
+            rivals.push(i);
+        }
+    }
+    if rivals.is_empty() {
+        return Ok((best, None));
+    }
+    let mut chosen = best;
+    let mut basis = "held-out";
+    // validation rows: the one that generalises
+    let validation = ctx.validation.filter(|v| !v.is_empty());
+    let val_errors = |i: usize| -> Result<Option<Vec<Option<Vector3<f64>>>>, DiscoveryError> {
+        match (validation, candidates[i].refit.as_ref()) {
+            (Some(v), Some((_, f, _))) => Ok(Some(residuals(&f.model, v)?.into_iter().map(Some).collect())),
+            _ => Ok(None),
+        }
+    };
+    if let Some(vb) = val_errors(best)? {
+        let mut best_z = 2.0;
+        for &i in &rivals {
+            if let Some(vi) = val_errors(i)? {
+                let z = HeldOutComparison::new(&vb, &vi).z;
+                if z > best_z {
+                    best_z = z;
+                    chosen = i;
+                    basis = "validation";
+                }
+            }
+        }
+    }
+    if chosen == best {
+        // the data cannot tell: the simplest passing one
+        let size = |i: usize| candidates[i].refit.as_ref().map_or(usize::MAX, |r| r.0.fitted_params.len());
+        if let Some(&simpler) = rivals
+            .iter()
+            .filter(|i| candidates[**i].status == CandidateStatus::PassedNotBest)
+            .filter(|i| size(**i) < size(best))
+            .min_by_key(|i| size(**i))
+        {
+            chosen = simpler;
+            basis = "simpler";
+        }
+    }
+    let mut group: Vec<usize> = vec![best];
+    group.extend(&rivals);
+    let others: Vec<usize> = group.iter().copied().filter(|i| *i != chosen).collect();
+    let vc = val_errors(chosen)?;
+    let mut validation_z = Vec::new();
+    for &i in &others {
+        validation_z.push(match (&vc, val_errors(i)?) {
+            (Some(c), Some(o)) => Some(HeldOutComparison::new(&o, c).z),
+            _ => None,
+        });
+    }
+    let label = |i: usize| candidates[i].spec.label();
+    let names: Vec<String> = group.iter().map(|i| label(*i)).collect();
+    let why = match basis {
+        "validation" => format!("{} predicts the validation rows better", label(chosen)),
+        "simpler" => format!("the data cannot tell them apart, {} has fewer parameters", label(chosen)),
+        _ if validation.is_some() => {
+            format!(
+                "neither predicts the validation rows significantly better; kept {}, the larger held-out improvement",
+                label(chosen)
+            )
+        }
+        _ => format!(
+            "kept {}, the larger held-out improvement (no validation rows to tell them apart)",
+            label(chosen)
+        ),
+    };
+    let sentence = format!("{}: indistinguishable on these data; {why}", names.join(" or "));
+    let ambiguity = Ambiguity {
+        round,
+        chosen: label(chosen),
+        rivals: others.iter().map(|i| label(*i)).collect(),
+        basis: basis.to_string(),
+        validation_z,
+        sentence,
+    };
+    if chosen != best {
+        candidates[best].status = CandidateStatus::PassedNotBest;
+    }
+    Ok((chosen, Some(ambiguity)))
+}
+
+/// Attaches the minimum detectable size to every borderline candidate: scored, not added, and
+/// refitted or nominally significant at 1 % alone.
+fn mark_borderline(
+    candidates: &mut [Candidate],
+    sigma: f64,
+    ln_threshold: f64,
+    n_screen: usize,
+    total: usize,
+) {
+    for c in candidates.iter_mut() {
+        let (Some(score), Some(d)) = (c.score, c.directions.as_ref()) else { continue };
+        let refitted = c.refit.is_some();
+        if matches!(c.status, CandidateStatus::Added | CandidateStatus::PassedNotBest)
+            || !(refitted || score.ln_p_value < 0.01f64.ln())
+        {
+            continue;
+        }
+        let heldout = c.refit.as_ref().map(|(e, ..)| (e.heldout.z, e.z_required));
+        c.detect =
+            Some(
+                Detectability::new(d.dof, d.novelty, sigma, n_screen, ln_threshold, DEFAULT_POWER)
+                    .with_observed(score.statistic, heldout, total),
+            );
+    }
+}
+
 /// Index of the passing candidate with the largest held-out improvement.
 fn best_passing(candidates: &[Candidate]) -> Option<usize> {
     let key = |c: &Candidate| c.refit.as_ref().map_or(f64::NEG_INFINITY, |r| r.0.heldout.mean_reduction_mm2);
@@ -1048,7 +1378,8 @@ fn nothing_added(candidates: &[Candidate], ln_threshold: f64) -> String {
                     ln_threshold / std::f64::consts::LN_10
                 ),
             };
-            format!("nothing added: best candidate {} ({why})", c.spec.label())
+            let power = c.detect.map(|d| format!("; {}", d.sentence())).unwrap_or_default();
+            format!("nothing added: best candidate {} ({why}){power}", c.spec.label())
         }
         None => "nothing added: no candidate can be tested".to_string(),
     }
@@ -1416,7 +1747,17 @@ pub fn discover(
     }
     let all_folds = stratified_folds(measurements, k, options.seed).into_iter().map(Some).collect();
     let split = [screen.len(), confirm_ms.len()];
-    let ctx = Context { measurements, validation, all_folds, confirm_folds, screen, options, reference };
+    let ctx = Context {
+        measurements,
+        validation,
+        all_folds,
+        confirm_folds,
+        screen,
+        options,
+        reference,
+        saturated_bits: std::sync::atomic::AtomicU64::new(f64::NAN.to_bits()),
+        scale: chain_scale(start, measurements)?,
+    };
     let options = &ctx.options;
     let mut skipped_folds = 0;
     let mut held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
@@ -1428,6 +1769,8 @@ pub fn discover(
     let mut added_effects: Vec<AddedEffect> = Vec::new();
     let mut removed_effects = Vec::new();
     let mut negligible_effects = Vec::new();
+    let mut bound_hits = Vec::new();
+    let mut ambiguities = Vec::new();
     // confirmation-fold CV of the current model, when already known
     let mut confirm_cv: Option<CrossValidation> = None;
     for index in 1..=options.max_rounds.max(1) {
@@ -1447,6 +1790,7 @@ pub fn discover(
                     fit: fit_summary,
                     location,
                     ln_threshold: f64::NAN,
+                    sigma_saturated_mm: None,
                     z_required: f64::NAN,
                     candidates: Vec::new(),
                     removed: Vec::new(),
@@ -1464,6 +1808,13 @@ pub fn discover(
         let space = ColumnSpace::of(js.as_ref())?;
         let mut candidates = score_candidates(&current, &screen_fit, &space, &ctx, &mut notes)?;
         let m = candidates.iter().filter(|c| c.score.is_some()).count().max(1);
+        let sigma_saturated = if ctx.reference.is_none() && options.saturated_noise {
+            saturated_sigma(&current, &candidates, &j0, &ctx)
+        } else {
+            None
+        };
+        ctx.saturated_bits
+            .store(sigma_saturated.unwrap_or(f64::NAN).to_bits(), std::sync::atomic::Ordering::Relaxed);
         let th = Thresholds {
             ln_screen: (options.alpha * spend / m as f64).ln(),
             z_required: normal_upper_quantile(
@@ -1489,7 +1840,21 @@ pub fn discover(
         confirm_screened(&mut candidates, &current, &j0, rank0, &held0, &th, &ctx, &mut fold_notes);
         skipped_folds += held0.skipped.len() + fold_notes.len();
         notes.extend(fold_notes);
+        let sigma_screen = ctx.sigma_hat(&screen_fit, &ctx.screen, space.rank());
+        mark_borderline(&mut candidates, sigma_screen, th.ln_screen, ctx.screen.len(), measurements.len());
         for c in &candidates {
+            if let (CandidateStatus::Rejected(why), Some((e, ..))) = (&c.status, &c.refit)
+                && let Some(reason) = why.strip_prefix(IMPLAUSIBLE)
+            {
+                bound_hits.push(BoundHit {
+                    round: index,
+                    effect: c.spec.kind().name().to_string(),
+                    label: c.spec.label(),
+                    reason: reason.to_string(),
+                    heldout_z: e.heldout.z,
+                    otherwise_passed: true,
+                });
+            }
             if let (CandidateStatus::DetectedNegligible(_), Some((e, ..))) = (&c.status, &c.refit) {
                 negligible_effects.push(NegligibleEffect {
                     label: c.spec.label(),
@@ -1500,6 +1865,7 @@ pub fn discover(
             }
         }
         let mut block: Option<Vec<usize>> = None;
+        let mut ambiguity_line: Option<String> = None;
         let mut extra_added: Vec<AddedEffect> = Vec::new();
         let next = match best_passing(&candidates) {
             None if options.block_step => {
@@ -1534,7 +1900,12 @@ pub fn discover(
                 }
             }
             None => None,
-            Some(b) => {
+            Some(best) => {
+                let (b, rivalry) = choose_among_rivals(&mut candidates, best, &held0, index, &ctx)?;
+                if let Some(a) = rivalry {
+                    ambiguity_line = Some(a.sentence.clone());
+                    ambiguities.push(a);
+                }
                 candidates[b].status = CandidateStatus::Added;
                 let added = added_effect(&candidates[b], index, &current, &gap, &ctx)?;
                 // the confirmation CV of the refit is that of the new current model: reused by
@@ -1559,7 +1930,10 @@ pub fn discover(
                     added.gap_after_mm
                 )
             }
-            (Some((added, ..)), None) => added.summary_line(),
+            (Some((added, ..)), None) => match &ambiguity_line {
+                Some(a) => format!("{}; {a}", added.summary_line()),
+                None => added.summary_line(),
+            },
             (None, _) => nothing_added(&candidates, th.ln_screen),
         };
         let mut removed = Vec::new();
@@ -1600,6 +1974,7 @@ pub fn discover(
             fit: fit_summary,
             location,
             ln_threshold: th.ln_screen,
+            sigma_saturated_mm: sigma_saturated,
             z_required: th.z_required,
             candidates: candidates.into_iter().map(candidate_score).collect(),
             removed: removed.clone(),
@@ -1630,6 +2005,8 @@ pub fn discover(
         added_effects,
         removed_effects,
         negligible_effects,
+        bound_hits,
+        ambiguities,
         rounds,
         split,
         kind_sigmas,
@@ -1642,6 +2019,27 @@ pub fn discover(
         uncertainty,
         notes,
     })
+}
+
+/// The chain's size as the measurements see it: each joint's largest gravity torque and lever
+/// arm over the poses (plausibility bounds, [`vatcal_core::canonical::bounds`]).
+fn chain_scale(model: &Model, ms: &[Measurement]) -> Result<ChainScale, DiscoveryError> {
+    let pose = PoseData::of(model, ms)?;
+    let mut scale = ChainScale {
+        max_torque_nm: [0.0; vatcal_core::MAX_JOINTS],
+        max_lever_mm: [0.0; vatcal_core::MAX_JOINTS],
+    };
+    for t in &pose.torques {
+        for (m, v) in scale.max_torque_nm.iter_mut().zip(t) {
+            *m = m.max(v.abs());
+        }
+    }
+    for d in pose.joint_directions.iter().flatten() {
+        for (m, v) in scale.max_lever_mm.iter_mut().zip(d) {
+            *m = m.max(v.norm());
+        }
+    }
+    Ok(scale)
 }
 
 /// The noise reference per kind: the replicates' pure error where the data has enough of it,
@@ -1698,7 +2096,7 @@ fn describe_noise(
             opts.instrument_noise_origin.as_deref().unwrap_or("given by the caller")
         ),
         (NoiseSource::Estimated, _) => format!(
-            "noise reference: none (no replicates in the data, no instrument noise recorded in the file or given): the size rule compares with sigma-hat of each refit, which contains the effects still missing, so it is waived for an effect whose held-out improvement is at least {} times the round's z. Effects that are real but only moderately significant may be called negligible; record the noise in the file (`# vatcal-noise: probe_sigma_mm=...`), repeat some poses, or pass --probe-sigma-mm / --tracker-sigma-mm.",
+            "noise reference: none (no replicates in the data, no instrument noise recorded in the file or given): the size rule compares with sigma-hat, which contains the effects still missing: the lower of the refit's and that of the round's saturated linear model (every scored candidate's directions projected out, so only what no candidate describes is left in it), and the rule is waived for an effect whose held-out improvement is at least {} times the round's z. Effects that are real but only moderately significant may be called negligible; record the noise in the file (`# vatcal-noise: probe_sigma_mm=...`), repeat some poses, or pass --probe-sigma-mm / --tracker-sigma-mm.",
             opts.strong_z_factor
         ),
     };
@@ -1743,6 +2141,7 @@ fn candidate_score(c: Candidate) -> CandidateScore {
         novelty: c.directions.as_ref().map(|d| d.novelty),
         score: c.score,
         refit: c.refit.map(|r| r.0),
+        detectability: c.detect,
         status: c.status,
     }
 }

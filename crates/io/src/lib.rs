@@ -11,7 +11,8 @@
 //! | pose requests | `tcp`, the given joints' `q{i}` (`q1` on the canonical cell, none on a six-joint arm), `x,y,z,alpha,beta,gamma` (+ `time_s`, `temperature_c`, `dir{i}`) | [`read_pose_requests`] | (`vatcal compensate`) |
 //!
 //! Rules: a header line, columns found by name in any order, unknown columns ignored, `#`
-//! comment lines and blank lines skipped. An N-joint model reads and writes the joint columns
+//! comment lines and blank lines skipped (a `# vatcal-noise:` metadata line is read by
+//! [`metadata::read_metadata`], written by [`write_measurements_with_noise`]). An N-joint model reads and writes the joint columns
 //! `q1..qN`, in mm for prismatic and degrees for revolute joints (the canonical cell: `q1` in
 //! mm, `q2..q7` in degrees), and the context columns `dir{i}` of its revolute joints i
 //! (`dir2..dir7` on the canonical cell). A file whose q-columns do not match the model's joint

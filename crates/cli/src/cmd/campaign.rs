@@ -282,6 +282,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         skip_failed_measurements: args.skip_failed,
         show_progress: false,
         note: format!("vatcal campaign, plan {}, devices {}", args.plan.display(), args.devices.display()),
+        noise: {
+            let (probe_sigma_mm, tracker_sigma_mm) = devices_file.noise_sigmas_mm();
+            vatcal_io::metadata::NoiseMetadata { probe_sigma_mm, tracker_sigma_mm }
+        },
         ..CampaignConfig::default()
     };
     let mut progress = BarProgress::new(!args.quiet && std::io::stderr().is_terminal());

@@ -1,10 +1,12 @@
 //! `vatcal discover`: find missing physical effects in a model, add them one at a time, and show
 //! how much the gap to the data shrinks (see `docs/discovery.md`).
 
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
+use vatcal_core::effects::EffectKind;
 use vatcal_core::{Measurement, ParamSet};
 use vatcal_discovery::{DiscoverOptions, Discovery, discover, write_effect_plots};
 use vatcal_kinematics::Model;
@@ -81,6 +83,11 @@ pub struct Args {
     /// candidate pool.
     #[arg(long, default_value_t = 24)]
     pub propose_orientations: usize,
+    /// Plausibility bound of an effect's parameters, `NAME=VALUE` in file units (deg for
+    /// angles, mm for lengths), e.g. `--bound joint-backlash=1.0`; repeatable. Overrides the
+    /// cell file's `[plausibility_bounds]` table and the bounds scaled to the chain.
+    #[arg(long = "bound", value_name = "NAME=VALUE")]
+    pub bounds: Vec<String>,
 }
 
 fn read_all(path: &PathBuf, model: &Model) -> anyhow::Result<Vec<Measurement>> {
@@ -121,25 +128,81 @@ fn instrument_sigmas(
     args: &Args,
     measurements: &[Measurement],
 ) -> anyhow::Result<Option<vatcal_identification::KindSigmas>> {
-    if args.probe_sigma_mm.is_none() && args.tracker_sigma_mm.is_none() {
+    let (probe_sigma_mm, tracker_sigma_mm, _) = recorded_noise(args)?;
+    if probe_sigma_mm.is_none() && tracker_sigma_mm.is_none() {
         return Ok(None);
     }
     let has_probe = measurements.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
     let has_tracker = measurements.iter().any(|m| matches!(m.target, vatcal_core::Target::Tracker { .. }));
     anyhow::ensure!(
-        !has_probe || args.probe_sigma_mm.is_some(),
-        "--tracker-sigma-mm given but {} holds probe rows: give --probe-sigma-mm too",
+        !has_probe || probe_sigma_mm.is_some(),
+        "the tracker sigma is known (--tracker-sigma-mm or the file's `# vatcal-noise:` line) but {} holds probe rows: give --probe-sigma-mm too",
         args.measurements.display()
     );
     anyhow::ensure!(
-        !has_tracker || args.tracker_sigma_mm.is_some(),
-        "--probe-sigma-mm given but {} holds tracker rows: give --tracker-sigma-mm too",
+        !has_tracker || tracker_sigma_mm.is_some(),
+        "the probe sigma is known (--probe-sigma-mm or the file's `# vatcal-noise:` line) but {} holds tracker rows: give --tracker-sigma-mm too",
         args.measurements.display()
     );
-    Ok(Some(vatcal_identification::KindSigmas {
-        probe_mm: args.probe_sigma_mm,
-        tracker_mm: args.tracker_sigma_mm,
-    }))
+    Ok(Some(vatcal_identification::KindSigmas { probe_mm: probe_sigma_mm, tracker_mm: tracker_sigma_mm }))
+}
+
+/// The plausibility-bound overrides: the cell file's optional `[plausibility_bounds]` table
+/// (`joint-backlash = 1.0`), then `--bound NAME=VALUE` (which wins).
+fn bound_overrides(args: &Args) -> anyhow::Result<BTreeMap<String, f64>> {
+    let mut out = BTreeMap::new();
+    let cell = vatcal_core::CellFile::load(&args.model)?;
+    let mut put = |name: &str, v: f64, what: &str| -> anyhow::Result<()> {
+        anyhow::ensure!(
+            EffectKind::from_name(name).is_some(),
+            "{what}: unknown effect `{name}` (catalog names: {})",
+            EffectKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
+        );
+        anyhow::ensure!(
+            v.is_finite() && v > 0.0,
+            "{what}: the bound of `{name}` must be a positive number, got {v}"
+        );
+        out.insert(name.to_string(), v);
+        Ok(())
+    };
+    if let Some(table) = cell.extra.get("plausibility_bounds") {
+        let what = format!("{}: [plausibility_bounds]", args.model.display());
+        let table = table.as_table().with_context(|| format!("{what} must be a table"))?;
+        for (name, v) in table {
+            let v = v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .with_context(|| format!("{what}: `{name}` must be a number"))?;
+            put(name, v, &what)?;
+        }
+    }
+    for b in &args.bounds {
+        let (name, v) = b.split_once('=').with_context(|| format!("--bound `{b}`: expected NAME=VALUE"))?;
+        let v: f64 = v.trim().parse().with_context(|| format!("--bound `{b}`: `{v}` is not a number"))?;
+        put(name.trim(), v, "--bound")?;
+    }
+    Ok(out)
+}
+
+/// The instruments' noise: `--probe-sigma-mm` / `--tracker-sigma-mm`, else what the
+/// measurement file records (`# vatcal-noise:`), with where it came from.
+fn recorded_noise(args: &Args) -> anyhow::Result<(Option<f64>, Option<f64>, Option<String>)> {
+    let meta = vatcal_io::metadata::read_metadata(&args.measurements)?.noise.unwrap_or_default();
+    let probe = args.probe_sigma_mm.or(meta.probe_sigma_mm);
+    let tracker = args.tracker_sigma_mm.or(meta.tracker_sigma_mm);
+    let from_file = (args.probe_sigma_mm.is_none() && meta.probe_sigma_mm.is_some())
+        || (args.tracker_sigma_mm.is_none() && meta.tracker_sigma_mm.is_some());
+    let from_flags = args.probe_sigma_mm.is_some() || args.tracker_sigma_mm.is_some();
+    let origin = match (from_flags, from_file) {
+        (true, true) => Some(format!(
+            "--probe-sigma-mm/--tracker-sigma-mm and the `# vatcal-noise:` line of {}",
+            args.measurements.display()
+        )),
+        (true, false) => Some("--probe-sigma-mm/--tracker-sigma-mm".to_string()),
+        (false, true) => Some(format!("recorded in {} (`# vatcal-noise:`)", args.measurements.display())),
+        (false, false) => None,
+    };
+    Ok((probe, tracker, origin))
 }
 
 fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
@@ -172,6 +235,21 @@ fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
             x.removed_in_round, x.label, x.added_in_round
         )?;
     }
+    for h in &d.bound_hits {
+        writeln!(
+            out,
+            "refused at a plausibility bound (round {}, held-out z = {:.1}): {}; if the bound is wrong for this robot, set it with --bound {}=VALUE",
+            h.round, h.heldout_z, h.reason, h.effect
+        )?;
+    }
+    if let Some(last) = d.rounds.last() {
+        for c in last.candidates.iter().filter(|c| c.detectability.is_some()).take(5) {
+            if let Some(p) = &c.detectability {
+                writeln!(out, "undecided: {}: {}", c.label, p.sentence())?;
+            }
+        }
+    }
+    writeln!(out, "{}", d.noise.explanation)?;
     for note in &d.notes {
         writeln!(out, "note: {note}")?;
     }
@@ -208,6 +286,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         known_sigma_mm: args.noise_mm,
         cmm_sigma_mm: args.cmm_sigma_mm,
         instrument_sigmas: instrument_sigmas(&args, &measurements)?,
+        instrument_noise_origin: recorded_noise(&args)?.2,
+        bound_overrides: bound_overrides(&args)?,
         ..DiscoverOptions::default()
     };
     let d = discover(&model, &measurements, &params, validation.as_deref(), &options)?;

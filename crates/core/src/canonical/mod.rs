@@ -1,0 +1,3 @@
+//! Knowledge of the canonical Meca500-on-guide cell kept in one place.
+
+pub mod bounds;

@@ -1,0 +1,137 @@
+//! The noise reference of the size rule (`vatcal_discovery::noise`): several effects hidden at
+//! once and no noise given. σ̂ of each fit then holds the effects still missing; before the
+//! noise reference existed the size rule compared with it and called real effects
+//! "detected, negligible" after two or three additions (issue 21, item 1).
+
+use crate::common;
+
+use common::{Hidden, scenario};
+use vatcal_core::effects::EffectSpec;
+use vatcal_core::params::{EffectParam, ToolFrameDof};
+use vatcal_core::{ParamId, ParamSet};
+use vatcal_discovery::noise::NoiseSource;
+use vatcal_discovery::{DiscoverOptions, Discovery, discover};
+use vatcal_sim::truth::{ProbeNoise, probe_start_poses, synthetic_probe_measurements};
+
+const N_PROBE: usize = 180;
+
+fn cyclic(joint: u8, harmonic: u8, amplitude_deg: f64, phase_deg: f64) -> Hidden {
+    let a = amplitude_deg.to_radians();
+    let (s, c) = phase_deg.to_radians().sin_cos();
+    Hidden {
+        spec: EffectSpec::JointCyclic { joint, harmonic },
+        values: vec![
+            (ParamId::Effect(EffectParam::CyclicSin { joint, harmonic }), a * c),
+            (ParamId::Effect(EffectParam::CyclicCos { joint, harmonic }), a * s),
+        ],
+    }
+}
+
+fn tool_frame() -> Hidden {
+    use ToolFrameDof as T;
+    let id = |d| ParamId::Effect(EffectParam::ToolFrame(d));
+    Hidden {
+        spec: EffectSpec::ToolFrame,
+        values: vec![
+            (id(T::Tx), 0.030),
+            (id(T::Ty), -0.020),
+            (id(T::Rx), 0.02f64.to_radians()),
+            (id(T::Ry), -0.03f64.to_radians()),
+        ],
+    }
+}
+
+fn hidden() -> Vec<Hidden> {
+    vec![
+        cyclic(2, 1, 0.012, 20.0),
+        cyclic(3, 2, 0.012, -70.0),
+        cyclic(5, 1, 0.015, 110.0),
+        tool_frame(),
+        cyclic(4, 3, 0.03, 45.0),
+    ]
+}
+
+fn show(d: &Discovery) {
+    for round in &d.rounds {
+        eprintln!("round {} (sigma-hat {:.4} mm): {}", round.index, round.fit.sigma_hat_mm, round.decision);
+    }
+    eprintln!("{}", d.noise.explanation);
+    eprintln!("gap {:.4} -> {:.4} mm", d.initial_gap_mm, d.final_gap_mm);
+}
+
+fn found(d: &Discovery) -> Vec<(String, Option<u8>)> {
+    d.added_effects.iter().map(|a| (a.effect.clone(), a.joint)).collect()
+}
+
+fn assert_catalog_effects_found(d: &Discovery) {
+    let found = found(d);
+    for want in [("joint-cyclic", 2), ("joint-cyclic", 3), ("joint-cyclic", 5)] {
+        assert!(found.contains(&(want.0.to_string(), Some(want.1))), "{want:?} not in {found:?}");
+    }
+    assert!(found.contains(&("tool-frame".to_string(), None)), "{found:?}");
+}
+
+/// Without any noise reference the size rule compares with σ̂ of the round's saturated model
+/// and is waived for effects whose held-out improvement is far above its uncertainty: the four
+/// catalog effects are added (with the old rule, σ̂ of the refit alone, it stops after one).
+#[test]
+fn without_a_noise_reference_strong_effects_pass_the_size_rule() {
+    let s = scenario(71, &hidden(), None, N_PROBE);
+    let d = discover(
+        &common::nominal(),
+        &s.probe,
+        &ParamSet::paper34(),
+        Some(&s.validation),
+        &DiscoverOptions::default(),
+    )
+    .expect("discovery runs");
+    show(&d);
+    assert_eq!(d.noise.source, NoiseSource::Estimated);
+    assert!(d.noise.explanation.contains("noise reference: none"), "{}", d.noise.explanation);
+    assert_catalog_effects_found(&d);
+    let old = DiscoverOptions {
+        strong_z_factor: f64::INFINITY,
+        saturated_noise: false,
+        ..DiscoverOptions::default()
+    };
+    let d_old = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &old)
+        .expect("discovery runs");
+    show(&d_old);
+    assert!(d_old.added_effects.len() < d.added_effects.len(), "{:?} vs {:?}", found(&d_old), found(&d));
+    assert!(d.final_gap_mm < d_old.final_gap_mm, "{} vs {}", d.final_gap_mm, d_old.final_gap_mm);
+}
+
+/// Replicated poses (30 poses measured twice) give the pure error: the reference is the
+/// noise itself (2 µm per axis), not σ̂, and the lack-of-fit test of the starting model says
+/// something is missing while that of the final model does not.
+#[test]
+fn replicates_give_the_noise_reference_and_the_lack_of_fit_test() {
+    let mut s = scenario(71, &hidden(), None, N_PROBE);
+    let starts = probe_start_poses(&common::nominal(), N_PROBE, 71u64.wrapping_add(101));
+    let again = synthetic_probe_measurements(&s.truth, &starts[..30], ProbeNoise::default(), 9_999);
+    s.probe.extend(again);
+    let d = discover(
+        &common::nominal(),
+        &s.probe,
+        &ParamSet::paper34(),
+        Some(&s.validation),
+        &DiscoverOptions::default(),
+    )
+    .expect("discovery runs");
+    show(&d);
+    assert_eq!(d.noise.source, NoiseSource::Replicates);
+    let pe = d.noise.pure_error.expect("pure error");
+    assert!(pe.groups >= 28 && pe.dof >= 84, "{pe:?}");
+    let sigma = d.noise.sigmas.probe_mm.expect("probe sigma");
+    assert!(sigma > 0.0013 && sigma < 0.003, "pure-error sigma {sigma}");
+    // every refit's size rule compares with the pure error, not with sigma-hat
+    for c in d.rounds.iter().flat_map(|r| &r.candidates) {
+        if let Some(r) = &c.refit {
+            assert!((r.negligible_below_mm - 3f64.sqrt() * sigma).abs() < 1e-12, "{}", c.label);
+            assert!(r.size_rule_waived_above_z.is_none());
+        }
+    }
+    let start = d.noise.lack_of_fit_start.expect("lack of fit");
+    assert!(start.ln_p_value < -20.0, "{start:?}");
+    assert_catalog_effects_found(&d);
+}

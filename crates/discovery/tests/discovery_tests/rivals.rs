@@ -1,0 +1,39 @@
+//! Near-equivalent candidates (issue 21, item 2): on the canonical cell the compliance of
+//! joint 2 and a carriage tilt correct nearly the same thing on probe data near the tank (the
+//! carriage's gravity moment is τ₂). With the compliance hidden, the rival with fewer
+//! parameters or the better validation predictions must be kept, and the report must name the
+//! ambiguity.
+
+use crate::common;
+
+use common::scenario;
+use vatcal_core::ParamSet;
+use vatcal_core::effects::{EffectKind, EffectSpec};
+use vatcal_discovery::{DiscoverOptions, discover};
+
+#[test]
+fn hidden_joint_2_compliance_is_not_replaced_by_a_carriage_tilt() {
+    // only joint 2 yields
+    let s = scenario(23, &[], Some([4e-4, 0.0, 0.0, 0.0, 0.0, 0.0]), 180);
+    let d = discover(
+        &common::nominal(),
+        &s.probe,
+        &ParamSet::geometric(),
+        Some(&s.validation),
+        &DiscoverOptions::default(),
+    )
+    .expect("discovery runs");
+    for r in &d.rounds {
+        eprintln!("round {}: {}", r.index, r.decision);
+    }
+    for a in &d.ambiguities {
+        eprintln!("ambiguity: {}", a.sentence);
+    }
+    let kinds: Vec<EffectKind> = d.added_effects.iter().map(|a| a.spec.kind()).collect();
+    assert!(
+        d.added_effects.iter().any(|a| a.spec == EffectSpec::JointCompliance { joint: 2 }),
+        "{:?}",
+        d.added_effects.iter().map(|a| &a.label).collect::<Vec<_>>()
+    );
+    assert!(!kinds.contains(&EffectKind::GuideCarriageTilt), "{kinds:?}");
+}
