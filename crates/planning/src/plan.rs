@@ -234,19 +234,26 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
             candidates.counts
         )));
     }
-    let resolved;
-    let opts = if opts.params.is_empty() {
-        let measurements: Vec<Measurement> =
-            candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
-        let params = vatcal_observability::identifiability::default_params(model, &measurements)
-            .map_err(PlanError::Selection)?;
-        resolved = PlanOptions { params, ..opts.clone() };
-        &resolved
-    } else {
-        opts
-    };
+    let measurements: Vec<Measurement> =
+        candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+    let opts = &with_resolved_params(model, &measurements, opts)?;
     let (selected, quality) = select(model, &candidates, opts)?;
     plan_tour(model, geometry, candidates, selected, quality, opts)
+}
+
+/// `opts` with an empty parameter set replaced by the chain's default set on `measurements`
+/// (`vatcal_observability::identifiability::default_params`).
+fn with_resolved_params(
+    model: &Model,
+    measurements: &[Measurement],
+    opts: &PlanOptions,
+) -> Result<PlanOptions, PlanError> {
+    if !opts.params.is_empty() {
+        return Ok(opts.clone());
+    }
+    let params = vatcal_observability::identifiability::default_params(model, measurements)
+        .map_err(PlanError::Selection)?;
+    Ok(PlanOptions { params, ..opts.clone() })
 }
 
 /// The candidate poses [`plan_campaign`] selects from (IK, limits, singularities, collisions),
@@ -288,15 +295,7 @@ pub fn plan_selection(
     }
     let measurements: Vec<Measurement> =
         candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
-    let resolved;
-    let opts = if opts.params.is_empty() {
-        let params = vatcal_observability::identifiability::default_params(model, &measurements)
-            .map_err(PlanError::Selection)?;
-        resolved = PlanOptions { params, ..opts.clone() };
-        &resolved
-    } else {
-        opts
-    };
+    let opts = &with_resolved_params(model, &measurements, opts)?;
     let cands =
         Candidates::from_measurements(model, &measurements, &opts.params).map_err(PlanError::Selection)?;
     let log_det = vatcal_observability::detmax::log_det(&cands, &selected, 0.0).unwrap_or(f64::NEG_INFINITY);
