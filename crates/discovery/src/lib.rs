@@ -16,6 +16,7 @@
 //! * [`power`] — minimum detectable effect size and the measurements a decision needs;
 //! * [`catalog`] — driving variable, meaning and plausible range of each effect;
 //! * [`fit`] — the fits (through `vatcal-identification`);
+//! * [`propose`] — the measurements that would decide a borderline or ambiguous candidate;
 //! * [`plots`] — residual against an added effect's driving variable, before and after;
 //! * [`html`] — the report as one self-contained HTML page.
 
@@ -30,6 +31,7 @@ pub mod location;
 pub mod noise;
 pub mod plots;
 pub mod power;
+pub mod propose;
 pub mod workflow;
 
 pub use html::html_report;

@@ -225,10 +225,7 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
     if opts.count == 0 {
         return Err(PlanError::Option { option: "count".into(), reason: "must be at least 1".into() });
     }
-    let timer = MotionTimer::for_model(&opts.motion, model)?;
-    let checker = CollisionChecker::new(model, geometry, opts.candidates.collision_margin_mm)?;
-    let cand_opts = CandidateOptions { seed: opts.seed, ..opts.candidates.clone() };
-    let candidates = generate_candidates(model, &checker, &cand_opts)?;
+    let candidates = campaign_candidates(model, geometry, opts)?;
     if candidates.candidates.len() < opts.count {
         return Err(PlanError::Empty(format!(
             "only {} measurable candidates for {} requested measurements (stage counts: {:?})",
@@ -237,18 +234,88 @@ pub fn plan_campaign(model: &Model, geometry: &CellGeometry, opts: &PlanOptions)
             candidates.counts
         )));
     }
-    let resolved;
-    let opts = if opts.params.is_empty() {
-        let measurements: Vec<Measurement> =
-            candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
-        let params = vatcal_observability::identifiability::default_params(model, &measurements)
-            .map_err(PlanError::Selection)?;
-        resolved = PlanOptions { params, ..opts.clone() };
-        &resolved
-    } else {
-        opts
-    };
+    let measurements: Vec<Measurement> =
+        candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+    let opts = &with_resolved_params(model, &measurements, opts)?;
     let (selected, quality) = select(model, &candidates, opts)?;
+    plan_tour(model, geometry, candidates, selected, quality, opts)
+}
+
+/// `opts` with an empty parameter set replaced by the chain's default set on `measurements`
+/// (`vatcal_observability::identifiability::default_params`).
+fn with_resolved_params(
+    model: &Model,
+    measurements: &[Measurement],
+    opts: &PlanOptions,
+) -> Result<PlanOptions, PlanError> {
+    if !opts.params.is_empty() {
+        return Ok(opts.clone());
+    }
+    let params = vatcal_observability::identifiability::default_params(model, measurements)
+        .map_err(PlanError::Selection)?;
+    Ok(PlanOptions { params, ..opts.clone() })
+}
+
+/// The candidate poses [`plan_campaign`] selects from (IK, limits, singularities, collisions),
+/// generated with `opts.candidates` and `opts.seed`.
+///
+/// # Errors
+/// As [`plan_campaign`]'s candidate stage.
+pub fn campaign_candidates(
+    model: &Model,
+    geometry: &CellGeometry,
+    opts: &PlanOptions,
+) -> Result<CandidateSet, PlanError> {
+    let checker = CollisionChecker::new(model, geometry, opts.candidates.collision_margin_mm)?;
+    let cand_opts = CandidateOptions { seed: opts.seed, ..opts.candidates.clone() };
+    generate_candidates(model, &checker, &cand_opts)
+}
+
+/// A plan of a selection made elsewhere (e.g. the measurements discovery proposes to decide a
+/// candidate effect, `vatcal discover --propose`): `selected` indexes `candidates` (from
+/// [`campaign_candidates`]); the visiting order, the collision-free paths and the timing are
+/// planned as [`plan_campaign`] plans them, and the quality indices are those of the selection
+/// for `opts.params` (the chain's default set when empty).
+///
+/// # Errors
+/// An index outside the candidates, an empty selection, or as [`plan_campaign`]'s tour and path
+/// stages.
+pub fn plan_selection(
+    model: &Model,
+    geometry: &CellGeometry,
+    candidates: CandidateSet,
+    selected: Vec<usize>,
+    opts: &PlanOptions,
+) -> Result<Plan, PlanError> {
+    if selected.is_empty() || selected.iter().any(|i| *i >= candidates.candidates.len()) {
+        return Err(PlanError::Option {
+            option: "selection".into(),
+            reason: format!("{} indices into {} candidates", selected.len(), candidates.candidates.len()),
+        });
+    }
+    let measurements: Vec<Measurement> =
+        candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+    let opts = &with_resolved_params(model, &measurements, opts)?;
+    let cands =
+        Candidates::from_measurements(model, &measurements, &opts.params).map_err(PlanError::Selection)?;
+    let log_det = vatcal_observability::detmax::log_det(&cands, &selected, 0.0).unwrap_or(f64::NEG_INFINITY);
+    let quality = selection_quality(&cands, &selected, log_det, &opts.params)?;
+    let mut selected = selected;
+    selected.sort_unstable();
+    plan_tour(model, geometry, candidates, selected, quality, opts)
+}
+
+/// Order, paths, steps and timing of a selection.
+fn plan_tour(
+    model: &Model,
+    geometry: &CellGeometry,
+    candidates: CandidateSet,
+    selected: Vec<usize>,
+    quality: SelectionQuality,
+    opts: &PlanOptions,
+) -> Result<Plan, PlanError> {
+    let timer = MotionTimer::for_model(&opts.motion, model)?;
+    let checker = CollisionChecker::new(model, geometry, opts.candidates.collision_margin_mm)?;
     let order = order_tour(&candidates, &selected, &timer, opts);
     let bounds = JointBounds::new(model, MOVE_MARGIN_DEG.min(opts.candidates.joint_margin_deg), 0.0)?;
     let legs = plan_legs(&checker, &bounds, &timer, &candidates, &order, opts)?;
@@ -270,15 +337,23 @@ fn select(
     d.restarts = opts.detmax_restarts.max(1);
     d.seed = opts.seed;
     let selection = detmax(&cands, &d).map_err(err)?;
-    let jac = cands.design_jacobian(&selection.selected);
-    let raw = observability_indices(jac.as_ref(), &opts.params, ColumnScaling::None).map_err(err)?;
-    let unit_norm =
-        observability_indices(jac.as_ref(), &opts.params, ColumnScaling::UnitNorm).map_err(err)?;
-    let all = observability_indices(cands.stacked(), &opts.params, ColumnScaling::None).map_err(err)?;
-    Ok((
-        selection.selected.clone(),
-        SelectionQuality { raw, unit_norm, candidates_o1: all.o1, log_det: selection.log_det },
-    ))
+    let quality = selection_quality(&cands, &selection.selected, selection.log_det, &opts.params)?;
+    Ok((selection.selected.clone(), quality))
+}
+
+/// Observability indices of the selection `selected` of `cands`.
+fn selection_quality(
+    cands: &Candidates,
+    selected: &[usize],
+    log_det: f64,
+    params: &ParamSet,
+) -> Result<SelectionQuality, PlanError> {
+    let err = PlanError::Selection;
+    let jac = cands.design_jacobian(selected);
+    let raw = observability_indices(jac.as_ref(), params, ColumnScaling::None).map_err(err)?;
+    let unit_norm = observability_indices(jac.as_ref(), params, ColumnScaling::UnitNorm).map_err(err)?;
+    let all = observability_indices(cands.stacked(), params, ColumnScaling::None).map_err(err)?;
+    Ok(SelectionQuality { raw, unit_norm, candidates_o1: all.o1, log_det })
 }
 
 /// Tour costs between the retreat poses of `nodes` (candidate indices).

@@ -71,6 +71,21 @@ pub struct Args {
     /// Units, limit tolerance and directions of the measurement files.
     #[command(flatten)]
     pub read: super::read_args::ReadArgs,
+    /// Propose this many extra probe measurements that would decide the borderline or
+    /// ambiguous candidates of the last round (Ds-optimal for their parameters given the
+    /// others, from the planner's collision-checked candidates of the cell); needs
+    /// `--out-plan`.
+    #[arg(long, requires = "out_plan")]
+    pub propose: Option<usize>,
+    /// Write the proposed measurements here as a plan folder (`vatcal campaign --plan DIR`
+    /// runs it), with `proposal.json` (the targeted effects, predicted standard deviations of
+    /// their parameters before and after).
+    #[arg(long, requires = "propose")]
+    pub out_plan: Option<PathBuf>,
+    /// Tool orientations per calibration position and TCP sampled for the proposal's
+    /// candidate pool.
+    #[arg(long, default_value_t = 24)]
+    pub propose_orientations: usize,
     /// Plausibility bound of an effect's parameters, `NAME=VALUE` in file units (deg for
     /// angles, mm for lengths), e.g. `--bound joint-backlash=1.0`; repeatable. Overrides the
     /// cell file's `[plausibility_bounds]` table and the bounds scaled to the chain.
@@ -305,5 +320,79 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(dir) = &args.plots {
         write_effect_plots(&d, dir).with_context(|| format!("writing plots to {}", dir.display()))?;
     }
+    if let (Some(count), Some(dir)) = (args.propose, &args.out_plan) {
+        propose_plan(&args, &d, &measurements, count, dir)?;
+    }
     Ok(())
+}
+
+/// `--propose N --out-plan DIR`: the measurements that decide the last round's borderline or
+/// rival candidates, planned as a campaign on the cell (`vatcal_discovery::propose`).
+fn propose_plan(
+    args: &Args,
+    d: &Discovery,
+    measurements: &[Measurement],
+    count: usize,
+    dir: &std::path::Path,
+) -> anyhow::Result<()> {
+    use vatcal_planning::candidates::CandidateOptions;
+    use vatcal_planning::plan::{PlanOptions, campaign_candidates, plan_selection};
+    anyhow::ensure!(count > 0, "--propose must be at least 1");
+    let focus = vatcal_discovery::propose::focus_effects(d, measurements, 2);
+    if focus.is_empty() {
+        println!("proposal: nothing to decide (the last round scored no candidate); no plan written");
+        return Ok(());
+    }
+    let cell = vatcal_core::CellFile::load(&args.model)?;
+    let geometry = vatcal_planning::geometry::CellGeometry::from_cell(&cell)
+        .with_context(|| format!("{}", args.model.display()))?;
+    let opts = PlanOptions {
+        candidates: CandidateOptions {
+            orientations: args.propose_orientations,
+            progress: false,
+            ..CandidateOptions::default()
+        },
+        count,
+        params: d.params.clone(),
+        motion: cell.motion_limits(),
+        seed: args.seed,
+        ..PlanOptions::default()
+    };
+    let candidates =
+        campaign_candidates(&d.model, &geometry, &opts).context("candidate poses of the proposal")?;
+    let pool: Vec<Measurement> =
+        candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+    anyhow::ensure!(!pool.is_empty(), "proposal: the planner found no measurable candidate pose");
+    let weights = d.kind_sigmas.weights();
+    let proposal = vatcal_discovery::propose::propose(
+        &d.model,
+        &d.params,
+        measurements,
+        &focus,
+        &pool,
+        count,
+        &weights,
+    )?;
+    let plan = plan_selection(&d.model, &geometry, candidates, proposal.selected.clone(), &opts)
+        .context("planning the proposed measurements")?;
+    let summary = vatcal_planning::output::write_plan(&plan, dir)?;
+    let json = serde_json::to_string_pretty(&proposal)?;
+    std::fs::write(dir.join("proposal.json"), json)
+        .with_context(|| format!("writing {}", dir.join("proposal.json").display()))?;
+    println!(
+        "proposal: {} measurements to decide {} (from {} candidate poses); predicted sigma of {}: {} -> {} (per unit noise); plan written to {}",
+        proposal.selected.len(),
+        proposal.focus.join(" / "),
+        pool.len(),
+        proposal.focus_params.join(", "),
+        fmt_list(&proposal.std_before),
+        fmt_list(&proposal.std_after),
+        dir.display()
+    );
+    println!("{}", summary.text());
+    Ok(())
+}
+
+fn fmt_list(v: &[f64]) -> String {
+    v.iter().map(|x| format!("{x:.3e}")).collect::<Vec<_>>().join(", ")
 }

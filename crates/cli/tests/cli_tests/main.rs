@@ -9,6 +9,7 @@ mod campaign_sim;
 mod compensate;
 mod demo;
 mod discover;
+mod discover_propose;
 mod fk_context;
 mod fk_torque;
 mod identify_validate;

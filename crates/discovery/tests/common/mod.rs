@@ -2,6 +2,7 @@
 
 #![allow(dead_code)]
 
+pub mod benchmark;
 pub mod campaign;
 
 use vatcal_core::effects::EffectSpec;

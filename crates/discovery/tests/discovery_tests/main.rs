@@ -6,11 +6,13 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod benchmark;
 mod bounds;
 mod campaign_like;
 mod effect_jacobians;
 mod hidden_effects;
 mod noise_reference;
+mod propose;
 mod report_and_plots;
 mod rivals;
 mod sweep;
