@@ -60,7 +60,9 @@ impl Operator for TcpOperator {
             OperatorInstruction::PlaceProbe { position } => format!("PLACE {position}"),
             OperatorInstruction::SeatMasterBall { position } => format!("MASTER {position}"),
             OperatorInstruction::RemoveMasterBall => "MASTER OFF".to_owned(),
-            OperatorInstruction::ConfirmMotion { .. } => return Ok(()),
+            OperatorInstruction::ConfirmMotion { .. }
+            | OperatorInstruction::SeatNestSmr { .. }
+            | OperatorInstruction::RemoveNestSmr => return Ok(()),
         };
         let answer = self.ask(&command);
         if answer.starts_with("OK ") {
