@@ -176,3 +176,71 @@ fn tracker_faults_are_retried_skipped_or_stop_the_campaign_safely() {
         run(&plan, &dir.path().join("cancel.journal"), &[1], ErrorKind::Cancelled, true).expect_err("cancel");
     assert!(e.to_string().contains("1 attempt)"), "{e}");
 }
+
+/// Random poses only (no printing path): a short plan for the trackers driven by hand.
+fn random_only(model: &Model, count: usize) -> ValidationPlan {
+    let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
+        .expect("fixture");
+    let geometry = CellGeometry::from_cell(&cell).expect("geometry");
+    let opts = ValidationPlanOptions {
+        random: RandomPoseOptions { count, ..RandomPoseOptions::default() },
+        printing: PrintingPathOptions { slices: 0, ..PrintingPathOptions::default() },
+        seed: 5,
+        ..ValidationPlanOptions::default()
+    };
+    build_validation_plan(model, &geometry, &[("nominal", model)], &opts).expect("plan")
+}
+
+fn validate_with(
+    plan: &ValidationPlan,
+    tracker: &mut dyn PositionTracker,
+    journal: &std::path::Path,
+) -> Vec<Vector3<f64>> {
+    let model = nominal();
+    let cell = paper_cell(SEED);
+    let mut d = SimDevices::of(&cell);
+    let devices = CellDevices { tracker: Some(tracker), ..d.devices() };
+    let records = plan.run(&mut Campaign::new(devices, &model, config(false)), journal).expect("validation");
+    let results = evaluate(&records, &plan.slices, &[("nominal", &model)], &[]).expect("evaluate");
+    results[0].random.errors_mm.clone()
+}
+
+#[test]
+fn a_command_tracker_backed_by_a_script_validates_a_short_plan() {
+    let model = nominal();
+    let plan = random_only(&model, 6);
+    // the "tracker": the SMR where the controller expects it, 0.25 mm further along x
+    let script =
+        "echo \"$VATCAL_TRACKER_NOMINAL_MM\" | awk '{ printf \"%.6f %.6f %.6f\\n\", $1 + 0.25, $2, $3 }'";
+    let mut tracker = vatcal_drivers_tracker::CommandTracker::new(
+        vatcal_drivers_tracker::CommandTrackerConfig::new("sh", vec!["-c".into(), script.into()]),
+    );
+    let dir = tempfile::tempdir().expect("tmp");
+    let errors = validate_with(&plan, &mut tracker, &dir.path().join("command.journal"));
+    assert_eq!(errors.len(), 6);
+    for e in errors {
+        assert!((e - Vector3::new(0.25, 0.0, 0.0)).amax() < 1e-5, "{e}");
+    }
+}
+
+#[test]
+fn a_console_tracker_fed_by_the_operator_validates_a_short_plan() {
+    let model = nominal();
+    let plan = random_only(&model, 5);
+    // what the operator pastes: the controller's prediction 0.1 mm lower, after one typo
+    let mut input = String::from("12.5 13\n");
+    for pose in &plan.random_poses {
+        let p = model.tcp_position(&pose.q, pose.tcp).expect("fk") - Vector3::new(0.0, 0.0, 0.1);
+        input.push_str(&format!("{:.6}, {:.6}, {:.6}\n", p.x, p.y, p.z));
+    }
+    let mut prompts = Vec::new();
+    let mut tracker = vatcal_drivers_tracker::ConsoleTracker::new(input.as_bytes(), &mut prompts);
+    let dir = tempfile::tempdir().expect("tmp");
+    let errors = validate_with(&plan, &mut tracker, &dir.path().join("console.journal"));
+    assert_eq!(errors.len(), 5);
+    for e in errors {
+        assert!((e - Vector3::new(0.0, 0.0, -0.1)).amax() < 1e-5, "{e}");
+    }
+    let prompts = String::from_utf8(prompts).expect("utf8");
+    assert!(prompts.contains("not a reading") && prompts.contains("expected near"), "{prompts}");
+}
