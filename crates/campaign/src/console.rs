@@ -1,8 +1,8 @@
 //! An [`Operator`] for a terminal: prints each instruction and waits for Enter.
 
-use std::io::{BufRead, BufReader, Stderr, Stdin, Write};
+use std::io::{Stderr, Write};
 
-use vatcal_hardware_traits::console::Console;
+use vatcal_hardware_traits::console::{Console, LineSource, SharedStdin};
 use vatcal_hardware_traits::{Operator, OperatorInstruction, Result};
 
 /// Prints the instruction to `output` and reads one line from `input`: an empty line (Enter)
@@ -13,21 +13,21 @@ pub struct ConsoleOperator<R, W> {
     console: Console<R, W>,
 }
 
-impl ConsoleOperator<BufReader<Stdin>, Stderr> {
+impl ConsoleOperator<SharedStdin, Stderr> {
     /// Instructions on stderr, confirmations from stdin.
     pub fn stdio() -> Self {
         Self { console: Console::stdio() }
     }
 }
 
-impl<R: BufRead + Send, W: Write + Send> ConsoleOperator<R, W> {
+impl<R: LineSource, W: Write + Send> ConsoleOperator<R, W> {
     /// An operator on any line-based input and output.
     pub fn new(input: R, output: W) -> Self {
         Self { console: Console::new(input, output) }
     }
 }
 
-impl<R: BufRead + Send, W: Write + Send> Operator for ConsoleOperator<R, W> {
+impl<R: LineSource, W: Write + Send> Operator for ConsoleOperator<R, W> {
     fn perform(&mut self, instruction: &OperatorInstruction) -> Result<()> {
         let prompt = format!("\n>>> {instruction}.\n    Press Enter when done, or type `abort`: ");
         self.console.ask("console operator", &instruction.to_string(), &prompt).map(|_| ())

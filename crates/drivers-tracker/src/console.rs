@@ -8,10 +8,10 @@
 //! input) to stop the campaign safely. Anything else is refused with the reason and asked
 //! again.
 
-use std::io::{BufRead, BufReader, Stderr, Stdin, Write};
+use std::io::{Stderr, Write};
 
 use nalgebra::Vector3;
-use vatcal_hardware_traits::console::Console;
+use vatcal_hardware_traits::console::{Console, LineSource, SharedStdin};
 use vatcal_hardware_traits::{Error, ErrorKind, PROBE_NEST_TARGET, PositionTracker, Result};
 
 use crate::codec::{format_xyz_mm, parse_xyz_mm};
@@ -24,21 +24,22 @@ pub struct ConsoleTracker<R, W> {
     console: Console<R, W>,
 }
 
-impl ConsoleTracker<BufReader<Stdin>, Stderr> {
-    /// Prompts on stderr, readings from stdin.
+impl ConsoleTracker<SharedStdin, Stderr> {
+    /// Prompts on stderr, readings from stdin (shared with a console operator: each reads
+    /// its own lines).
     pub fn stdio() -> Self {
         Self { console: Console::stdio() }
     }
 }
 
-impl<R: BufRead + Send, W: Write + Send> ConsoleTracker<R, W> {
+impl<R: LineSource, W: Write + Send> ConsoleTracker<R, W> {
     /// A console tracker on any line-based input and output.
     pub fn new(input: R, output: W) -> Self {
         Self { console: Console::new(input, output) }
     }
 }
 
-impl<R: BufRead + Send, W: Write + Send> PositionTracker for ConsoleTracker<R, W> {
+impl<R: LineSource, W: Write + Send> PositionTracker for ConsoleTracker<R, W> {
     fn measure_mm(&mut self, target: u32) -> Result<Vector3<f64>> {
         self.measure_near_mm(target, None)
     }

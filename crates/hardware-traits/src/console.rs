@@ -3,9 +3,36 @@
 //! console` and by the console laser tracker (the operator reads the tracker's software and
 //! types the coordinates).
 
-use std::io::{BufRead, BufReader, Stderr, Stdin, Write};
+use std::io::{BufRead, Stderr, Write};
 
 use crate::error::{Error, ErrorKind, Result};
+
+/// Where typed lines come from: any [`BufRead`], or [`SharedStdin`].
+pub trait LineSource: Send {
+    /// Appends the next line (with its terminator) to `buf`; `Ok(0)` at the end of input.
+    ///
+    /// # Errors
+    /// The input cannot be read.
+    fn read_line(&mut self, buf: &mut String) -> std::io::Result<usize>;
+}
+
+impl<R: BufRead + Send> LineSource for R {
+    fn read_line(&mut self, buf: &mut String) -> std::io::Result<usize> {
+        BufRead::read_line(self, buf)
+    }
+}
+
+/// The process's stdin, read through its one shared buffer (locked per line): several consoles
+/// (the operator and a console tracker) can read it in turn without one buffering lines
+/// meant for the other.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SharedStdin;
+
+impl LineSource for SharedStdin {
+    fn read_line(&mut self, buf: &mut String) -> std::io::Result<usize> {
+        std::io::stdin().read_line(buf)
+    }
+}
 
 /// One typed line per question: prints the prompt to `output`, reads a line from `input`.
 /// End of input, or a line `abort`, is [`ErrorKind::Cancelled`].
@@ -15,14 +42,14 @@ pub struct Console<R, W> {
     output: W,
 }
 
-impl Console<BufReader<Stdin>, Stderr> {
-    /// Prompts on stderr (stdout stays for results), answers from stdin.
+impl Console<SharedStdin, Stderr> {
+    /// Prompts on stderr (stdout stays for results), answers from stdin ([`SharedStdin`]).
     pub fn stdio() -> Self {
-        Self::new(BufReader::new(std::io::stdin()), std::io::stderr())
+        Self::new(SharedStdin, std::io::stderr())
     }
 }
 
-impl<R: BufRead + Send, W: Write + Send> Console<R, W> {
+impl<R: LineSource, W: Write + Send> Console<R, W> {
     /// A console on any line-based input and output.
     pub fn new(input: R, output: W) -> Self {
         Self { input, output }

@@ -52,6 +52,7 @@ fn registration_finds_the_tracker_pose_and_maps_readings_into_the_tank() {
     // the residual is the tracker's noise at three points (σ 6.7 µm per axis), not zero
     assert!(reg.rms_residual_mm > 1e-4 && reg.max_residual_mm < 0.05, "{}", reg.summary());
     assert!(reg.summary().contains("residual RMS"), "{}", reg.summary());
+    println!("{}", reg.summary());
     // registered readings are the in-process (tank-frame) tracker's, up to the registration
     // error over the workspace around the tank (points within 400 mm of the positions)
     let found = reg.tank_from_tracker();
