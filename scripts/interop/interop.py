@@ -23,11 +23,11 @@ def step(name):
 def start_sim_cell(binary):
     args = [binary, "sim-cell", "--bind", "127.0.0.1", "--seed", "1", "--time-scale", "20"]
     for flag in ("--meca500-control-port", "--meca500-monitoring-port", "--zaber-port",
-                 "--gauge1-port", "--gauge2-port", "--gauge3-port", "--control-port"):
+                 "--gauge1-port", "--gauge2-port", "--gauge3-port", "--control-port", "--tracker-port"):
         args += [flag, "0"]
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, text=True)
     ports = {}
-    while len(ports) < 7:
+    while len(ports) < 8:
         line = proc.stdout.readline()
         if not line:
             raise RuntimeError(f"vatcal sim-cell exited early (status {proc.wait()})")

@@ -1,53 +1,43 @@
 //! An [`Operator`] for a terminal: prints each instruction and waits for Enter.
 
-use std::io::{BufRead, BufReader, Stderr, Stdin, Write};
+use std::io::{Stderr, Write};
 
-use vatcal_hardware_traits::{Error, ErrorKind, Operator, OperatorInstruction, Result};
+use vatcal_hardware_traits::console::{Console, LineSource, SharedStdin};
+use vatcal_hardware_traits::{Operator, OperatorInstruction, Result};
 
 /// Prints the instruction to `output` and reads one line from `input`: an empty line (Enter)
-/// confirms, `abort` (or end of input) cancels with [`ErrorKind::Cancelled`].
+/// confirms, `abort` (or end of input) cancels with
+/// [`ErrorKind::Cancelled`](vatcal_hardware_traits::ErrorKind::Cancelled).
 #[derive(Debug)]
 pub struct ConsoleOperator<R, W> {
-    input: R,
-    output: W,
+    console: Console<R, W>,
 }
 
-impl ConsoleOperator<BufReader<Stdin>, Stderr> {
+impl ConsoleOperator<SharedStdin, Stderr> {
     /// Instructions on stderr, confirmations from stdin.
     pub fn stdio() -> Self {
-        Self { input: BufReader::new(std::io::stdin()), output: std::io::stderr() }
+        Self { console: Console::stdio() }
     }
 }
 
-impl<R: BufRead + Send, W: Write + Send> ConsoleOperator<R, W> {
+impl<R: LineSource, W: Write + Send> ConsoleOperator<R, W> {
     /// An operator on any line-based input and output.
     pub fn new(input: R, output: W) -> Self {
-        Self { input, output }
+        Self { console: Console::new(input, output) }
     }
 }
 
-impl<R: BufRead + Send, W: Write + Send> Operator for ConsoleOperator<R, W> {
+impl<R: LineSource, W: Write + Send> Operator for ConsoleOperator<R, W> {
     fn perform(&mut self, instruction: &OperatorInstruction) -> Result<()> {
-        let io = |e| Error::from_io("console operator", e);
-        writeln!(self.output, "\n>>> {instruction}.\n    Press Enter when done, or type `abort`: ")
-            .map_err(io)?;
-        self.output.flush().map_err(io)?;
-        let mut line = String::new();
-        let n = self.input.read_line(&mut line).map_err(io)?;
-        if n == 0 || line.trim().eq_ignore_ascii_case("abort") {
-            return Err(Error::new(
-                ErrorKind::Cancelled,
-                "console operator",
-                format!("operator cancelled: {instruction}"),
-            ));
-        }
-        Ok(())
+        let prompt = format!("\n>>> {instruction}.\n    Press Enter when done, or type `abort`: ");
+        self.console.ask("console operator", &instruction.to_string(), &prompt).map(|_| ())
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vatcal_hardware_traits::ErrorKind;
 
     #[test]
     fn enter_confirms_abort_and_eof_cancel() {

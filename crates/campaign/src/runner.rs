@@ -7,8 +7,8 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use vatcal_core::{JointKind, JointVector, Measurement};
 use vatcal_hardware_traits::{
-    ArmJoints, Clock, JointLayout, LinearAxis, MotionOptions, Operator, OperatorInstruction, PositionTracker,
-    Probe3d, RobotArm, Thermometer,
+    ArmJoints, Clock, ErrorKind, JointLayout, LinearAxis, MotionOptions, Operator, OperatorInstruction,
+    PositionTracker, Probe3d, RobotArm, Thermometer,
 };
 use vatcal_kinematics::Model;
 
@@ -81,6 +81,15 @@ pub struct CampaignConfig {
     /// time_s[,temperature_c],dir{j}` of the revolute joints j, mm/deg; the canonical cell:
     /// `q1..q7`, `dir2..dir7`; replaced atomically)
     pub measurements_csv: Option<PathBuf>,
+    /// a failed tracker reading of a `track` step (line of sight lost, timeout, garbled
+    /// answer, a tracker fault) is tried again up to this many times (default 2); a cancelled
+    /// or disconnected tracker is not retried
+    pub tracker_retries: u32,
+    /// when a `track` step still fails after its retries: record it as skipped and go on
+    /// (`true`; the validation evaluates what was measured and counts the skipped points), or
+    /// stop the campaign safely (`false`, the default; the journal keeps every completed step
+    /// and a resume measures the point again)
+    pub skip_failed_tracks: bool,
     /// `fsync` the journal after every step (default `true`). Set it to `false` only for
     /// simulated cells, whose steps take microseconds: the records are still written one by
     /// one (a killed process loses nothing) and the journal is synced once at the end, but a
@@ -93,7 +102,8 @@ pub struct CampaignConfig {
 
 impl Default for CampaignConfig {
     /// Default centering, 25 % speed with 120 s timeouts, no warm-up, stop on failures,
-    /// progress bar on, 0.01 rad recovery approach, no CSV, journal synced after every step.
+    /// progress bar on, 0.01 rad recovery approach, no CSV, tracker readings retried twice,
+    /// journal synced after every step.
     fn default() -> Self {
         Self {
             centering: CenteringConfig::default(),
@@ -105,6 +115,8 @@ impl Default for CampaignConfig {
             recovery_approach_rad: 0.01,
             note: String::new(),
             measurements_csv: None,
+            tracker_retries: 2,
+            skip_failed_tracks: false,
             sync_journal_each_step: true,
             noise: vatcal_io::metadata::NoiseMetadata::default(),
         }
@@ -597,13 +609,32 @@ impl<'a> Campaign<'a> {
                 Ok(StepOutcome::Moved)
             }
             CampaignStep::Measure { position, tcp } => self.measure(step, *position, *tcp, state),
-            CampaignStep::Track { tcp } => {
-                let tracker = self.devices.tracker.as_mut().ok_or(CampaignError::NoTracker { step })?;
-                let p =
-                    tracker.measure_mm(*tcp).map_err(device_err(label, format!("tracking target {tcp}")))?;
-                Ok(StepOutcome::Tracked { tcp: *tcp, xyz_mm: [p.x, p.y, p.z] })
-            }
+            CampaignStep::Track { tcp } => self.track(step, *tcp, state),
         }
+    }
+
+    /// One tracker reading of target `tcp` at the current pose, the controller model's
+    /// prediction given as the tracker's hint; retried and skipped as the configuration says.
+    fn track(&mut self, step: usize, tcp: u32, state: &State) -> Result<StepOutcome, CampaignError> {
+        let label = StepLabel::Step(step);
+        let hint = self.controller.tcp_position(&state.joints, tcp).ok();
+        let tracker = self.devices.tracker.as_mut().ok_or(CampaignError::NoTracker { step })?;
+        let attempts = self.config.tracker_retries.saturating_add(1);
+        let mut attempt = 0;
+        let error = loop {
+            attempt += 1;
+            match tracker.measure_near_mm(tcp, hint.as_ref()) {
+                Ok(p) => return Ok(StepOutcome::Tracked { tcp, xyz_mm: [p.x, p.y, p.z] }),
+                Err(e) if attempt < attempts && retryable(e.kind()) => continue,
+                Err(e) => break e,
+            }
+        };
+        let action =
+            format!("tracking target {tcp} ({attempt} attempt{})", if attempt == 1 { "" } else { "s" });
+        if self.config.skip_failed_tracks && retryable(error.kind()) {
+            return Ok(StepOutcome::Skipped { reason: format!("{action}: {error}") });
+        }
+        Err(CampaignError::Device { step: label, action, source: error })
     }
 
     fn measure(
@@ -657,6 +688,19 @@ impl<'a> Campaign<'a> {
             Err(source) => Err(CampaignError::Centering { step, position, tcp, source }),
         }
     }
+}
+
+/// Tracker faults worth another try: the SMR out of sight, silence, garbage, a device fault.
+/// A cancelled (operator) or gone (link) tracker is not.
+fn retryable(kind: ErrorKind) -> bool {
+    matches!(
+        kind,
+        ErrorKind::OutOfRange
+            | ErrorKind::Timeout
+            | ErrorKind::Protocol
+            | ErrorKind::DeviceFault { .. }
+            | ErrorKind::Busy
+    )
 }
 
 /// Signs of the arm joints that changed between `before` and `after` (cell joint vectors).

@@ -7,6 +7,9 @@ use serde::Deserialize;
 use toml::Spanned;
 use vatcal_drivers_meca500::driver::{Meca500, Meca500Config};
 use vatcal_drivers_sylvac::{SylvacConfig, SylvacGauge};
+use vatcal_drivers_tracker::{
+    CommandTracker, CommandTrackerConfig, ConsoleTracker, LineTracker, TrackerConfig,
+};
 use vatcal_drivers_zaber::driver::{AxisInfo, MicrostepSize, ZaberAxis, ZaberConfig};
 use vatcal_hardware_traits::{
     Gauge, JointLayout, LinearAxis, PositionTracker, ProbePlacement, RobotArm, Thermometer, TriCalConfig,
@@ -149,15 +152,28 @@ pub struct GaugeSpec {
     pub connect_timeout_ms: Option<Spanned<u64>>,
 }
 
-/// `tracker = { kind = "…", tcp = "…" }` (optional; no tracker driver exists yet, so any
-/// tracker entry is rejected with a clear message).
+/// `tracker = { kind = "sim-cell" | "command" | "console", … }` (optional): the laser tracker
+/// of the validation campaign (`vatcal_drivers_tracker`).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerSpec {
-    /// driver
+    /// `sim-cell` (the tracker line protocol over TCP: `vatcal sim-cell`'s tracker or a bridge
+    /// to a real one), `command` (a program run for every point) or `console` (the operator
+    /// types each reading)
     pub kind: Spanned<String>,
-    /// TCP `host:port`
+    /// `sim-cell`: TCP `host:port`
     pub tcp: Option<Spanned<String>>,
+    /// `command`: the program and its arguments; it prints `x y z` in mm
+    pub command: Option<Spanned<Vec<String>>>,
+    /// timeout of one measurement [ms] (default: `sim-cell` 10000, `command` 30000; a
+    /// `console` tracker waits for the operator)
+    pub io_timeout_ms: Option<Spanned<u64>>,
+    /// `sim-cell`: TCP connect timeout [ms] (default 5000)
+    pub connect_timeout_ms: Option<Spanned<u64>>,
+    /// the frame of the readings: `tracker` (default: the instrument's own frame, registered to
+    /// the tank by the validation's registration step) or `tank` (the tracker's software is
+    /// registered already; the registration step only checks it)
+    pub frame: Option<Spanned<String>>,
 }
 
 /// `sim_control = { tcp = "127.0.0.1:55570" }`: the cell-control port of `vatcal sim-cell`.
@@ -313,7 +329,7 @@ impl DevicesFile {
     /// [`DevicesError::Parse`] for invalid TOML, unknown keys, missing devices or wrong types;
     /// [`DevicesError::Field`] for an unknown `kind`, a bad address, not exactly three gauges,
     /// both or neither of `tcp`/`serial`, a serial link without the `serial` feature, a zero
-    /// timeout, or a tracker (no driver yet).
+    /// timeout, or a tracker entry of an unknown kind or without what its kind needs.
     pub fn parse(text: &str, source: impl AsRef<Path>) -> Result<Self, DevicesError> {
         let source = source.as_ref();
         let mut file: Self = toml::from_str(text).map_err(|e| DevicesError::Parse {
@@ -409,14 +425,9 @@ impl DevicesFile {
             timeout(&s.connect_timeout_ms, &format!("{field}.connect_timeout_ms"))?;
         }
         if let Some(t) = &self.tracker {
-            return Err(err(
-                t.kind.span(),
-                "tracker.kind",
-                format!(
-                    "no laser-tracker driver exists yet (kind `{}`); remove the `tracker` entry",
-                    t.kind.get_ref()
-                ),
-            ));
+            self.check_tracker(text, t)?;
+            timeout(&t.io_timeout_ms, "tracker.io_timeout_ms")?;
+            timeout(&t.connect_timeout_ms, "tracker.connect_timeout_ms")?;
         }
         if let Some(c) = &self.sim_control {
             address(&c.tcp, "sim_control.tcp")?;
@@ -453,6 +464,132 @@ impl DevicesFile {
     pub fn noise_sigmas_mm(&self) -> (Option<f64>, Option<f64>) {
         let get = |v: &Option<Spanned<f64>>| v.as_ref().map(|s| *s.get_ref());
         self.noise.as_ref().map_or((None, None), |n| (get(&n.probe_sigma_mm), get(&n.tracker_sigma_mm)))
+    }
+
+    fn check_tracker(&self, text: &str, t: &TrackerSpec) -> Result<(), DevicesError> {
+        let err = |span: std::ops::Range<usize>, field: &str, reason: String| {
+            self.field_error(text, span, field, reason)
+        };
+        let kind = t.kind.get_ref().as_str();
+        let (needs_tcp, needs_command) = match kind {
+            "sim-cell" => (true, false),
+            "command" => (false, true),
+            "console" => (false, false),
+            other => {
+                return Err(err(
+                    t.kind.span(),
+                    "tracker.kind",
+                    format!("unknown kind `{other}` (supported: `sim-cell`, `command`, `console`)"),
+                ));
+            }
+        };
+        match (&t.tcp, needs_tcp) {
+            (None, true) => {
+                return Err(err(
+                    t.kind.span(),
+                    "tracker.tcp",
+                    "a `sim-cell` tracker needs `tcp = \"host:port\"` (vatcal sim-cell: port 55580)".into(),
+                ));
+            }
+            (Some(a), true) => check_address(a.get_ref()).map_err(|r| err(a.span(), "tracker.tcp", r))?,
+            (Some(a), false) => {
+                return Err(err(a.span(), "tracker.tcp", format!("not used by a `{kind}` tracker")));
+            }
+            (None, false) => {}
+        }
+        match (&t.command, needs_command) {
+            (None, true) => {
+                return Err(err(
+                    t.kind.span(),
+                    "tracker.command",
+                    "a `command` tracker needs `command = [\"program\", \"arg\", …]`".into(),
+                ));
+            }
+            (Some(c), true) if c.get_ref().first().is_none_or(|p| p.trim().is_empty()) => {
+                return Err(err(c.span(), "tracker.command", "names no program".into()));
+            }
+            (Some(c), false) => {
+                return Err(err(c.span(), "tracker.command", format!("not used by a `{kind}` tracker")));
+            }
+            _ => {}
+        }
+        if let Some(c) = &t.connect_timeout_ms
+            && !needs_tcp
+        {
+            return Err(err(
+                c.span(),
+                "tracker.connect_timeout_ms",
+                format!("not used by a `{kind}` tracker"),
+            ));
+        }
+        if kind == "console"
+            && let Some(c) = &t.io_timeout_ms
+        {
+            return Err(err(
+                c.span(),
+                "tracker.io_timeout_ms",
+                "not used by a `console` tracker (it waits for the operator)".into(),
+            ));
+        }
+        match &t.frame {
+            Some(f) if !matches!(f.get_ref().as_str(), "tracker" | "tank") => Err(err(
+                f.span(),
+                "tracker.frame",
+                format!("`{}`: the readings' frame is `tracker` (default) or `tank`", f.get_ref()),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// True when the file's tracker reports in the tank frame already (`frame = "tank"`);
+    /// `false` for the default `tracker` frame (the registration step finds `tank ← tracker`)
+    /// or without a tracker.
+    pub fn tracker_reports_in_tank_frame(&self) -> bool {
+        self.tracker.as_ref().and_then(|t| t.frame.as_ref()).is_some_and(|f| f.get_ref() == "tank")
+    }
+
+    /// Connects the tracker of the file, if any (nothing is measured: a `command` tracker runs
+    /// its program at the first point, a `console` tracker asks at the first point).
+    fn connect_tracker(
+        &self,
+        found: &mut Vec<String>,
+    ) -> Result<Option<Box<dyn PositionTracker>>, DevicesError> {
+        let Some(t) = &self.tracker else { return Ok(None) };
+        let frame = if self.tracker_reports_in_tank_frame() { "tank frame" } else { "tracker frame" };
+        match t.kind.get_ref().as_str() {
+            "sim-cell" => {
+                let address = t.tcp.as_ref().map(|a| a.get_ref().clone()).unwrap_or_default();
+                let d = TrackerConfig::default();
+                let config = TrackerConfig {
+                    io_timeout: ms(&t.io_timeout_ms, d.io_timeout),
+                    connect_timeout: ms(&t.connect_timeout_ms, d.connect_timeout),
+                    ..d
+                };
+                let tracker = LineTracker::connect_tcp(address.as_str(), config).map_err(|e| {
+                    DevicesError::Connect {
+                        role: "tracker".into(),
+                        what: format!("sim-cell tracker at {address}"),
+                        cause: e.into_hw("tracker"),
+                    }
+                })?;
+                found.push(format!("tracker: sim-cell at {address}: `{}` ({frame})", tracker.identity()));
+                Ok(Some(Box::new(tracker)))
+            }
+            "command" => {
+                let command = t.command.as_ref().map(|c| c.get_ref().clone()).unwrap_or_default();
+                let (program, args) = command
+                    .split_first()
+                    .map_or((String::new(), Vec::new()), |(p, a)| (p.clone(), a.to_vec()));
+                let mut config = CommandTrackerConfig::new(program, args);
+                config.timeout = ms(&t.io_timeout_ms, config.timeout);
+                found.push(format!("tracker: command {} ({frame})", command.join(" ")));
+                Ok(Some(Box::new(CommandTracker::new(config))))
+            }
+            _ => {
+                found.push(format!("tracker: console (the operator types each reading; {frame})"));
+                Ok(Some(Box::new(ConsoleTracker::stdio())))
+            }
+        }
     }
 
     fn check_thermometer(&self, text: &str, t: &ThermometerSpec) -> Result<(), DevicesError> {
@@ -814,15 +951,8 @@ impl DevicesFile {
             }
         };
         let thermometer = self.connect_thermometer(sim_control.as_ref(), &mut found)?;
-        Ok(ConnectedDevices {
-            arm: Box::new(arm),
-            guide,
-            gauges,
-            tracker: None,
-            sim_control,
-            thermometer,
-            found,
-        })
+        let tracker = self.connect_tracker(&mut found)?;
+        Ok(ConnectedDevices { arm: Box::new(arm), guide, gauges, tracker, sim_control, thermometer, found })
     }
 }
 

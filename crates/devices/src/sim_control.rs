@@ -219,7 +219,10 @@ impl Operator for SimControlOperator {
             OperatorInstruction::PlaceProbe { position } => self.control.place(*position)?,
             OperatorInstruction::SeatMasterBall { position } => self.control.seat_master(*position)?,
             OperatorInstruction::RemoveMasterBall => self.control.remove_master()?,
-            OperatorInstruction::ConfirmMotion { .. } => {}
+            // `vatcal sim-cell`'s tracker sees the nest SMR whenever the plate is placed
+            OperatorInstruction::SeatNestSmr { .. }
+            | OperatorInstruction::RemoveNestSmr
+            | OperatorInstruction::ConfirmMotion { .. } => {}
         }
         self.log.push(instruction.to_string());
         Ok(())

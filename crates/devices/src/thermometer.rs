@@ -10,10 +10,8 @@
 //! range), so a missing, stale-empty or garbled sensor output is an error, never a made-up
 //! temperature.
 
-use std::io::Read;
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use vatcal_hardware_traits::{Error, ErrorKind, Result, Thermometer, parse_temperature_c};
 
@@ -104,33 +102,9 @@ impl CommandThermometer {
 impl Thermometer for CommandThermometer {
     fn read_c(&mut self) -> Result<f64> {
         let device = self.device();
-        let mut child = Command::new(&self.program)
-            .args(&self.args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .map_err(|e| Error::from_io(device.clone(), e).context("starting it"))?;
-        let start = Instant::now();
-        let status = loop {
-            match child.try_wait().map_err(|e| Error::from_io(device.clone(), e))? {
-                Some(status) => break status,
-                None if start.elapsed() > self.timeout => {
-                    let _ = child.kill();
-                    let _ = child.wait();
-                    return Err(Error::timeout(device, "reading", self.timeout));
-                }
-                None => std::thread::sleep(Duration::from_millis(5)),
-            }
-        };
-        let mut out = String::new();
-        if let Some(mut stdout) = child.stdout.take() {
-            stdout.read_to_string(&mut out).map_err(|e| Error::from_io(device.clone(), e))?;
-        }
-        if !status.success() {
-            return Err(Error::new(ErrorKind::Other, device, format!("exited with {status}")));
-        }
-        scaled(&device, &out, self.scale)
+        let output =
+            vatcal_hardware_traits::command::run(&device, &self.program, &self.args, &[], self.timeout)?;
+        scaled(&device, &output.stdout, self.scale)
     }
 }
 
@@ -170,7 +144,10 @@ mod tests {
             )
         };
         assert_eq!(sh("echo 23.25", 5000).read_c().expect("read"), 23.25);
-        assert_eq!(sh("echo nope; exit 3", 5000).read_c().expect_err("fails").kind(), ErrorKind::Other);
+        assert_eq!(
+            sh("echo nope; exit 3", 5000).read_c().expect_err("fails").kind(),
+            ErrorKind::DeviceFault { code: 3 }
+        );
         assert_eq!(sh("echo", 5000).read_c().expect_err("empty").kind(), ErrorKind::Protocol);
         assert!(sh("sleep 5", 100).read_c().expect_err("slow").is_timeout());
         let e = CommandThermometer::new("/nonexistent/sensor", vec![], 1.0, Duration::from_secs(1))

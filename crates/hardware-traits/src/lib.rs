@@ -12,6 +12,10 @@
 //! | [`Thermometer`] | the cell's temperature (°C), recorded as `temperature_c` |
 //! | [`Operator`] | the person who re-places the probe plate |
 //!
+//! [`command`] runs an external program as a device (timeouts, exit codes and stderr as
+//! errors) and [`console`] asks a person at a terminal for a line; [`RegisteredTracker`] maps a
+//! tracker's readings into the tank frame.
+//!
 //! plus a [`Clock`] ([`SystemClock`] on hardware, [`VirtualClock`] in simulation), and one
 //! concrete [`Error`] carrying a portable [`ErrorKind`].
 //!
@@ -38,6 +42,8 @@
 mod arm;
 mod axis;
 mod clock;
+pub mod command;
+pub mod console;
 mod error;
 mod gauge;
 mod operator;
@@ -56,5 +62,5 @@ pub use gauge::Gauge;
 pub use operator::{Operator, OperatorInstruction};
 pub use probe::{Probe3d, ProbePlacement, ProbeReading, TRICAL_MASTER_PRESET_MM, TriCal, TriCalConfig};
 pub use thermometer::{PLAUSIBLE_TEMPERATURE_C, Thermometer, parse_temperature_c};
-pub use tracker::PositionTracker;
+pub use tracker::{PROBE_NEST_TARGET, PositionTracker, RegisteredTracker};
 pub use transport::{Deadline, LinkError, Transport};

@@ -20,6 +20,14 @@ pub enum OperatorInstruction {
     },
     /// Remove the master ball.
     RemoveMasterBall,
+    /// Seat the laser tracker's SMR in the probe's trihedral nest (the probe is at
+    /// `position`): the tracker registration measures it there.
+    SeatNestSmr {
+        /// calibration position id
+        position: u32,
+    },
+    /// Remove the tracker's SMR from the probe's nest.
+    RemoveNestSmr,
     /// Make sure the way is clear before an unplanned motion (e.g. after a crash the arm
     /// returns to the last recorded pose).
     ConfirmMotion {
@@ -38,6 +46,13 @@ impl fmt::Display for OperatorInstruction {
                 write!(f, "seat the master ball in the probe (probe at calibration position {position})")
             }
             OperatorInstruction::RemoveMasterBall => f.write_str("remove the master ball from the probe"),
+            OperatorInstruction::SeatNestSmr { position } => write!(
+                f,
+                "seat the tracker's SMR in the probe's trihedral nest (probe at calibration position {position}) and make sure the tracker sees it"
+            ),
+            OperatorInstruction::RemoveNestSmr => {
+                f.write_str("remove the tracker's SMR from the probe's nest")
+            }
             OperatorInstruction::ConfirmMotion { description } => {
                 write!(f, "check that the way is clear: {description}")
             }

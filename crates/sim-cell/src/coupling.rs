@@ -1,15 +1,18 @@
 //! The backend hooks that couple the protocol simulators to the one virtual world.
 
-use std::sync::Weak;
 use std::sync::atomic::AtomicBool;
 use std::sync::atomic::Ordering;
+use std::sync::{Arc, Weak};
+use std::time::Duration;
 
 use nalgebra::Vector3;
+use vatcal_core::Frame;
 use vatcal_drivers_meca500::codec::Six;
 use vatcal_drivers_meca500::sim::{ArmBackend, Meca500Sim};
 use vatcal_drivers_sylvac::sim::PlungerSource;
+use vatcal_drivers_tracker::sim::{SimFault, TargetSource};
 use vatcal_drivers_zaber::sim::{AxisBackend, ZaberSim};
-use vatcal_hardware_traits::{ArmJoints, LinearFrame};
+use vatcal_hardware_traits::{ArmJoints, ErrorKind, LinearFrame};
 use vatcal_sim::VirtualCell;
 
 /// Meca500 simulator → world: motions, and relative linear moves solved on the nominal model.
@@ -132,5 +135,37 @@ impl PlungerSource for GaugeCoupling {
 
     fn reading_noise_mm(&self) -> f64 {
         self.cell.external_reading_noise_mm(self.index)
+    }
+}
+
+/// World → tracker simulator: the in-process tracker's reading of the true SMR (registration
+/// error, SMR-nest offsets, noise, line-of-sight losses), expressed in the tracker's own frame.
+#[derive(Debug)]
+pub(crate) struct TrackerCoupling {
+    pub cell: VirtualCell,
+    /// puts the world where the arm and guide simulators are (the gauges' sync)
+    pub sync: Arc<GaugeCoupling>,
+    /// tracker ← world
+    pub tracker_from_world: Frame,
+    /// wall time of one reading
+    pub read_time: Duration,
+}
+
+impl TargetSource for TrackerCoupling {
+    fn measure_mm(&self, target: u32) -> Result<Vector3<f64>, SimFault> {
+        self.sync.sync();
+        match self.cell.external_track_mm(target) {
+            Ok(p) => Ok(self.tracker_from_world.transform_point(&p)),
+            Err(e) if e.kind() == ErrorKind::OutOfRange && e.message().starts_with("unknown target") => {
+                Err(SimFault::UnknownTarget(e.message().to_owned()))
+            }
+            // a lost line of sight, or the nest SMR without a placed plate: nothing to see
+            Err(e) if e.kind() == ErrorKind::OutOfRange => Err(SimFault::LineOfSight(e.message().to_owned())),
+            Err(e) => Err(SimFault::Device(e.to_string())),
+        }
+    }
+
+    fn measure_duration(&self) -> Option<Duration> {
+        Some(self.read_time)
     }
 }

@@ -7,6 +7,7 @@
 //! | 10000, 10001 | Meca500 control and monitoring | `vatcal_drivers_meca500::sim` |
 //! | 55550 | Zaber ASCII (the guide; none when the cell has no guide) | `vatcal_drivers_zaber::sim` |
 //! | 55561, 55562, 55563 | Sylvac gauges 1–3 of the TriCal | `vatcal_drivers_sylvac::sim` |
+//! | 55580 | the laser tracker (tracker line protocol) | `vatcal_drivers_tracker::sim` |
 //! | 55570 | cell control (the operator), see [`control`] | this crate |
 //!
 //! The cell is the canonical Meca500 on its guide by default, or any cell whose arm has six
@@ -28,6 +29,11 @@
 //!   the Meca500 and Zaber simulators report, and the **true** ball is read against the
 //!   **true** probe plate at the current placement, along the gauge's true (tilted) axis, with
 //!   the noise budget of the in-process gauges;
+//! * the tracker simulator asks the world, at every `MEASURE`, what the in-process tracker
+//!   would read (the true SMR with the registration error, SMR-nest offsets, noise and
+//!   line-of-sight losses of [`SimConfig`]), and reports it in the tracker's own frame
+//!   ([`SimCellOptions::tracker_pose`]): the validation campaign registers it to the tank
+//!   frame by measuring the SMR in the probe's nest at the calibration positions;
 //! * the cell-control port moves the plate (the operator) and tells the cell's time (`TIME?`) and temperature (`TEMP?`).
 //!
 //! The world's physics (thermal drift, the time of its context) follows the cell's **virtual
@@ -54,9 +60,10 @@ use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 
-use vatcal_core::CellFile;
+use vatcal_core::{CellFile, Frame};
 use vatcal_drivers_meca500::sim::{Meca500Sim, SimConfig as MecaConfig};
 use vatcal_drivers_sylvac::sim::{SimConfig as SylvacConfig, SylvacSim};
+use vatcal_drivers_tracker::sim::{SimConfig as TrackerConfig, TrackerSim};
 use vatcal_drivers_zaber::sim::{SimConfig as ZaberConfig, ZaberSim};
 use vatcal_hardware_traits::JointLayout;
 use vatcal_hardware_traits::sim_server::SimServer;
@@ -66,7 +73,7 @@ use vatcal_sim::{CellPhysics, NoiseBudget, SimConfig, VirtualCell};
 
 pub use error::SimCellError;
 
-use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling, GuideLink};
+use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling, GuideLink, TrackerCoupling};
 
 /// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built in so that `vatcal
 /// sim-cell` runs from any directory (the same file as `vatcal demo`'s built-in cell).
@@ -85,17 +92,20 @@ pub struct Ports {
     pub gauges: [u16; 3],
     /// cell-control port (the operator)
     pub control: u16,
+    /// laser tracker (tracker line protocol)
+    pub tracker: u16,
 }
 
 impl Ports {
     /// Every port ephemeral (0): for tests that run several cells at once.
     pub fn ephemeral() -> Self {
-        Self { meca500_control: 0, meca500_monitoring: 0, zaber: 0, gauges: [0; 3], control: 0 }
+        Self { meca500_control: 0, meca500_monitoring: 0, zaber: 0, gauges: [0; 3], control: 0, tracker: 0 }
     }
 }
 
 impl Default for Ports {
-    /// The devices' usual ports: 10000, 10001, 55550, 55561–55563, and 55570.
+    /// The devices' usual ports: 10000, 10001, 55550, 55561–55563, 55570, and 55580 for the
+    /// tracker.
     fn default() -> Self {
         Self {
             meca500_control: 10000,
@@ -103,6 +113,7 @@ impl Default for Ports {
             zaber: 55550,
             gauges: [55561, 55562, 55563],
             control: 55570,
+            tracker: 55580,
         }
     }
 }
@@ -132,6 +143,23 @@ pub struct SimCellOptions {
     pub time_scale: f64,
     /// decimals of the gauges' display in mm (the S_Dial WORK Nano shows 4: 0.1 µm)
     pub gauge_decimals: usize,
+    /// where the laser tracker stands: `world ← tracker` (its readings are in its own frame;
+    /// [`Frame::identity`] for a tracker whose software is registered to the tank already).
+    /// Default: [`default_tracker_pose`]
+    pub tracker_pose: Frame,
+    /// probability that a tracker measurement finds no line of sight to its SMR
+    /// ([`vatcal_sim::SimFaults::tracker_line_of_sight_loss`]; default 0)
+    pub tracker_line_of_sight_loss: f64,
+}
+
+/// The simulated tracker's default stand, `world ← tracker`: 2.5 m from the tank, turned 150°
+/// about the vertical and tilted 1° about x, its origin at (2000, −1500, 300) mm in the world
+/// (tank) frame. Any pose works: the registration step finds it.
+pub fn default_tracker_pose() -> Frame {
+    Frame {
+        r: vatcal_core::frame::rot_z(150f64.to_radians()) * vatcal_core::frame::rot_x(1f64.to_radians()),
+        p: nalgebra::Vector3::new(2000.0, -1500.0, 300.0),
+    }
 }
 
 impl SimCellOptions {
@@ -168,6 +196,8 @@ impl SimCellOptions {
             noise: true,
             time_scale: 1.0,
             gauge_decimals: 4,
+            tracker_pose: default_tracker_pose(),
+            tracker_line_of_sight_loss: 0.0,
         })
     }
 
@@ -202,6 +232,7 @@ impl SimCellOptions {
         if !self.noise {
             config.noise = NoiseBudget::none();
         }
+        config.faults.tracker_line_of_sight_loss = self.tracker_line_of_sight_loss;
         config
     }
 
@@ -221,6 +252,12 @@ impl SimCellOptions {
             return Err(SimCellError::Option {
                 option: "time_scale".into(),
                 reason: format!("must be a positive number, got {}", self.time_scale),
+            });
+        }
+        if !(0.0..=1.0).contains(&self.tracker_line_of_sight_loss) {
+            return Err(SimCellError::Option {
+                option: "tracker_line_of_sight_loss".into(),
+                reason: format!("must be a probability in 0..=1, got {}", self.tracker_line_of_sight_loss),
             });
         }
         if self.gauge_decimals > 9 {
@@ -263,6 +300,8 @@ pub struct SimCellAddrs {
     pub gauges: [SocketAddr; 3],
     /// cell control
     pub control: SocketAddr,
+    /// laser tracker
+    pub tracker: SocketAddr,
 }
 
 impl SimCellAddrs {
@@ -277,6 +316,7 @@ impl SimCellAddrs {
             ("gauge-2", self.gauges[1]),
             ("gauge-3", self.gauges[2]),
             ("cell-control", self.control),
+            ("tracker", self.tracker),
         ]);
         named
     }
@@ -293,12 +333,16 @@ pub enum Device {
     Gauge(usize),
     /// the cell-control port
     Control,
+    /// the laser tracker
+    Tracker,
 }
 
 /// The running cell. Dropping it stops every server and closes every socket.
 #[derive(Debug)]
 pub struct SimCell {
-    // fields drop in order: the gauges (which read the arm and the guide) go first
+    // fields drop in order: the tracker and the gauges (which read the arm and the guide) go
+    // first
+    tracker: TrackerSim,
     gauges: Vec<SylvacSim>,
     gauge_couplings: Vec<Arc<GaugeCoupling>>,
     control: SimServer,
@@ -401,14 +445,30 @@ impl SimCell {
         )
         .map_err(bind_err("cell-control", options.ports.control))?;
 
+        let tracker = TrackerSim::start(TrackerConfig {
+            identity: format!("vatcal sim-cell tracker (seed {})", options.seed),
+            bind: at(options.ports.tracker),
+            source: Some(Arc::new(TrackerCoupling {
+                cell: cell.clone(),
+                sync: Arc::clone(&gauge_couplings[0]),
+                tracker_from_world: options.tracker_pose.inverse(),
+                read_time: std::time::Duration::from_secs_f64(
+                    cell.config().timing.tracker_read_s / options.time_scale,
+                ),
+            })),
+            ..TrackerConfig::default()
+        })
+        .map_err(bind_err("tracker", options.ports.tracker))?;
+
         let addrs = SimCellAddrs {
             meca500_control: meca500.control_addr(),
             meca500_monitoring: meca500.monitoring_addr().unwrap_or_else(|| at(0)),
             zaber: zaber.as_ref().map(|z| z.addr()),
             gauges: [gauges[0].addr(), gauges[1].addr(), gauges[2].addr()],
             control: control.addrs()[0],
+            tracker: tracker.addr(),
         };
-        Ok(Self { gauges, gauge_couplings, control, meca500, zaber, cell, addrs })
+        Ok(Self { tracker, gauges, gauge_couplings, control, meca500, zaber, cell, addrs })
     }
 
     /// The bound addresses.
@@ -430,6 +490,11 @@ impl SimCell {
     /// The Zaber simulator (`None`: the cell has no guide).
     pub fn zaber(&self) -> Option<&ZaberSim> {
         self.zaber.as_deref()
+    }
+
+    /// The tracker simulator (its own fault hooks: line of sight, garbled answers).
+    pub fn tracker(&self) -> &TrackerSim {
+        &self.tracker
     }
 
     /// Gauge simulator `index` (0, 1, 2).
@@ -454,6 +519,7 @@ impl SimCell {
                 }
             }
             Device::Control => self.control.drop_clients(),
+            Device::Tracker => self.tracker.drop_clients(),
         }
     }
 
@@ -472,6 +538,7 @@ impl SimCell {
                 }
             }
             Device::Control => self.control.set_stalled(stalled),
+            Device::Tracker => self.tracker.set_stalled(stalled),
         }
     }
 

@@ -149,11 +149,16 @@ pub struct SimFaults {
     pub linear_move_gain: f64,
     /// every gauge reading times out
     pub gauge_timeouts: bool,
+    /// probability that a tracker measurement finds no line of sight to its SMR (an
+    /// [`ErrorKind::OutOfRange`](vatcal_hardware_traits::ErrorKind::OutOfRange) error, like
+    /// the paper's "not measurable due to SMR visibility issues"); drawn from the reading's
+    /// own noise key, so a resumed campaign meets the same losses (0: never, the default)
+    pub tracker_line_of_sight_loss: f64,
 }
 
 impl Default for SimFaults {
     fn default() -> Self {
-        Self { linear_move_gain: 1.0, gauge_timeouts: false }
+        Self { linear_move_gain: 1.0, gauge_timeouts: false, tracker_line_of_sight_loss: 0.0 }
     }
 }
 

@@ -402,7 +402,11 @@ impl Operator for SimOperator {
                 w.master_ball = true;
             }
             OperatorInstruction::RemoveMasterBall => w.master_ball = false,
-            OperatorInstruction::ConfirmMotion { .. } => {}
+            // the nest SMR sits where the master ball's centre would: the tracker reads the
+            // probe origin whenever the plate is placed
+            OperatorInstruction::SeatNestSmr { .. }
+            | OperatorInstruction::RemoveNestSmr
+            | OperatorInstruction::ConfirmMotion { .. } => {}
         }
         Ok(())
     }

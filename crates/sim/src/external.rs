@@ -183,6 +183,23 @@ impl VirtualCell {
         uniform(&mut rng, max)
     }
 
+    /// One tracker reading of `target` (a TCP id, or the probe nest's SMR
+    /// [`PROBE_NEST_TARGET`](vatcal_hardware_traits::PROBE_NEST_TARGET)) at the state of the
+    /// last [`VirtualCell::external_sync`], exactly as the in-process
+    /// [`SimTracker`](crate::SimTracker) reads it — registration error, SMR-nest offsets,
+    /// noise keyed on the current epoch, line-of-sight losses — in the world frame [mm]. A
+    /// reading takes [`SimTiming::tracker_read_s`] of virtual time.
+    ///
+    /// # Errors
+    /// As the in-process tracker: [`ErrorKind::OutOfRange`](vatcal_hardware_traits::ErrorKind)
+    /// for an unknown target, a lost line of sight, or the nest SMR without a placed plate.
+    pub fn external_track_mm(&self, target: u32) -> vatcal_hardware_traits::Result<Vector3<f64>> {
+        let mut w = self.shared.lock();
+        let read = Duration::from_secs_f64(w.config.timing.tracker_read_s);
+        w.clock.advance(read);
+        w.track(target)
+    }
+
     /// The arm's joint limits J1.. in the controller's (nominal) model [rad] (a continuous
     /// joint: one turn, see `Model::joint_limits`).
     pub fn arm_joint_limits(&self) -> Vec<(f64, f64)> {

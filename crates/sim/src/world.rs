@@ -465,16 +465,41 @@ impl World {
     /// One noisy tracker measurement of ball/SMR `target`.
     /// With [`CellPhysics`](crate::CellPhysics) tracker errors, the SMR's optical centre sits
     /// off its nest centre and the reading carries the registration error.
+    /// Target [`PROBE_NEST_TARGET`](vatcal_hardware_traits::PROBE_NEST_TARGET) is the SMR
+    /// seated in the probe's trihedral nest: the true probe origin at the current placement
+    /// (the registration measurements).
     pub fn track(&mut self, target: u32) -> Result<Vector3<f64>, Error> {
-        let nest = self.smr_offsets_mm.get(&target).copied().unwrap_or_else(Vector3::zeros);
-        let p = if nest == Vector3::zeros() {
-            self.ball_world(target)
+        let p = if target == vatcal_hardware_traits::PROBE_NEST_TARGET {
+            let position = self.plate.ok_or_else(|| {
+                Error::new(
+                    ErrorKind::OutOfRange,
+                    "sim tracker",
+                    "the probe's nest SMR is not in view: the probe plate is not placed",
+                )
+            })?;
+            self.truth.position(position)
         } else {
-            self.tool_point_world(target, &nest)
+            let nest = self.smr_offsets_mm.get(&target).copied().unwrap_or_else(Vector3::zeros);
+            if nest == Vector3::zeros() {
+                self.ball_world(target)
+            } else {
+                self.tool_point_world(target, &nest)
+            }
         };
         let p = p.ok_or_else(|| {
             Error::new(ErrorKind::OutOfRange, "sim tracker", format!("unknown target {target}"))
         })?;
+        let loss = self.config.faults.tracker_line_of_sight_loss;
+        if loss > 0.0 {
+            let mut rng = self.reading_rng("tracker-line-of-sight", u64::from(target));
+            if uniform(&mut rng, 0.5) + 0.5 < loss {
+                return Err(Error::new(
+                    ErrorKind::OutOfRange,
+                    "sim tracker",
+                    format!("line of sight lost: SMR {target} not visible"),
+                ));
+            }
+        }
         let p = self.tracker_registration.map_or(p, |r| r.apply(&p));
         let mut rng = self.reading_rng("tracker", u64::from(target));
         Ok(p + gauss3(&mut rng, self.config.noise.tracker_error_mm / 3.0))

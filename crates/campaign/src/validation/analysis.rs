@@ -23,6 +23,14 @@ pub struct PathValidation {
     pub tip_stats: ErrorStats,
     /// statistics of the plate errors (without the lever effect)
     pub plate_stats: ErrorStats,
+    /// slices left out because fewer than three of their SMRs were measured (points the
+    /// campaign skipped after losing the line of sight)
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub skipped_slices: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl PathValidation {
@@ -55,7 +63,12 @@ pub fn evaluate_path(
     let mut tip_errors_mm = Vec::with_capacity(slices.len());
     let mut plate_errors_mm = Vec::with_capacity(slices.len());
     let mut orientation_errors_rad = Vec::with_capacity(slices.len());
+    let mut skipped_slices = 0;
     for (slice, record) in slices.iter().zip(&records.slices) {
+        if record.measurements.len() < 3 && record.measurements.len() < smrs_in_tool.len() {
+            skipped_slices += 1; // SMRs skipped by the campaign: no pose without three
+            continue;
+        }
         let registration_error =
             |reason| ValidationError::Registration { run: records.label.clone(), slice: slice.index, reason };
         let (mut local, mut world) = (Vec::new(), Vec::new());
@@ -74,8 +87,15 @@ pub fn evaluate_path(
         plate_errors_mm.push(measured.transform_point(&slice.plate_in_tool_mm) - slice.plate_world_mm());
         orientation_errors_rad.push(rotation_angle_between(&slice.tool_pose.r, &measured.r));
     }
+    if tip_errors_mm.is_empty() && skipped_slices > 0 {
+        return Err(ValidationError::Incomplete(format!(
+            "`{}`: every slice lost SMRs ({skipped_slices} skipped): no pose measured",
+            records.label
+        )));
+    }
     Ok(PathValidation {
         label: records.label.clone(),
+        skipped_slices,
         tip_stats: ErrorStats::from_errors(&tip_errors_mm),
         plate_stats: ErrorStats::from_errors(&plate_errors_mm),
         tip_errors_mm,

@@ -15,6 +15,10 @@
 //!    is `measured − intended` there, lever effect included — the paper's Figs. 9–10 (mean
 //!    1.192 mm nominal → 0.220 mm calibrated).
 //!
+//! Before either, the tracker is registered to the tank frame ([`register_tracker`], the
+//! paper's procedure: the SMR in the probe's trihedral nest measured at the three calibration
+//! positions, a rigid fit); its residual goes into the report.
+//!
 //! [`build_validation_plan`] turns both into a [`crate::CampaignPlan`] of `move` and `track`
 //! steps (collision-free legs between the random poses, ordered to shorten the tour), so the
 //! validation runs on the same crash-safe, resumable [`crate::Campaign`] runner as the
@@ -29,6 +33,7 @@ pub mod plots;
 mod poses;
 pub mod printing;
 mod registration;
+mod tracker_registration;
 
 pub use analysis::{ModelValidation, PathValidation, evaluate, evaluate_path};
 pub use plan::{
@@ -38,6 +43,9 @@ pub use plan::{
 pub use poses::{RandomPoseOptions, ValidationPose, random_validation_poses};
 pub use printing::{PrintingPathError, PrintingPathOptions, PrintingSlice, printing_path};
 pub use registration::{RegistrationError, fit_rigid_transform};
+pub use tracker_registration::{
+    RegistrationPoint, TrackerRegistration, TrackerRegistrationError, register_tracker,
+};
 
 use crate::CampaignError;
 

@@ -387,6 +387,14 @@ pub struct ValidationRecords {
     pub random: Vec<Measurement>,
     /// one record per printing-path run
     pub paths: Vec<PathRecords>,
+    /// tracker points the campaign skipped (line of sight lost after the retries, with
+    /// `skip_failed_tracks`): random poses left out, SMRs missing from their slice
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub skipped: usize,
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 impl ValidationRecords {
@@ -436,10 +444,21 @@ impl ValidationPlan {
                 slices: vec![SliceRecord { measurements: Vec::new() }; r.joints.len()],
             })
             .collect();
+        let mut skipped = 0;
+        let mut skipped_random = vec![false; self.random_poses.len()];
+        let mut skipped_smrs = 0;
         for r in records {
             let Some(Some(target)) = self.targets.get(r.step) else { continue };
             let m = match (&r.outcome, r.measurement()) {
                 (StepOutcome::Tracked { .. }, Some(m)) => m,
+                (StepOutcome::Skipped { .. }, _) => {
+                    skipped += 1;
+                    match *target {
+                        TrackTarget::Random(i) => skipped_random[i] = true,
+                        TrackTarget::Slice { .. } => skipped_smrs += 1,
+                    }
+                    continue;
+                }
                 (other, _) => {
                     return Err(ValidationError::Incomplete(format!(
                         "step {} should be a tracker measurement, the record holds {other:?}",
@@ -455,12 +474,16 @@ impl ValidationPlan {
         let random = random
             .into_iter()
             .enumerate()
+            .filter(|(i, _)| !skipped_random[*i])
             .map(|(i, m)| {
                 m.ok_or_else(|| ValidationError::Incomplete(format!("random pose {i} was not measured")))
             })
             .collect::<Result<Vec<_>, _>>()?;
+        let planned = self.slice_targets.len();
         for p in &paths {
-            if let Some(k) = p.slices.iter().position(|s| s.measurements.len() != self.slice_targets.len()) {
+            // a skipped SMR leaves its slice short (the slice is left out of the evaluation when
+            // fewer than three remain); an unrecorded one makes the records incomplete
+            if let Some(k) = p.slices.iter().position(|s| s.measurements.len() > planned) {
                 return Err(ValidationError::Incomplete(format!(
                     "`{}` slice {k}: {} of {} SMRs measured",
                     p.label,
@@ -469,7 +492,15 @@ impl ValidationPlan {
                 )));
             }
         }
-        Ok(ValidationRecords { random, paths })
+        let missing: usize =
+            paths.iter().flat_map(|p| &p.slices).map(|s| planned.saturating_sub(s.measurements.len())).sum();
+        if missing > skipped_smrs {
+            return Err(ValidationError::Incomplete(format!(
+                "{} printing-path SMR measurements were neither recorded nor skipped",
+                missing - skipped_smrs
+            )));
+        }
+        Ok(ValidationRecords { random, paths, skipped })
     }
 }
 

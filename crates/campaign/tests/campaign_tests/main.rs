@@ -9,4 +9,5 @@ mod common;
 mod campaign;
 mod centering;
 mod kill_resume;
+mod tracker;
 mod validation;

@@ -1,5 +1,6 @@
 //! `vatcal sim-cell`: the whole virtual cell over TCP — Meca500 control/monitoring, Zaber
-//! ASCII (when the cell has a guide), three Sylvac gauges and the cell-control port — driven by
+//! ASCII (when the cell has a guide), three Sylvac gauges, the laser tracker and the
+//! cell-control port — driven by
 //! one hidden true cell, until Ctrl-C or SIGTERM. The cell is the canonical one or, with
 //! `--model`, any arm of six revolute joints (with or without a guide) behind the Meca500
 //! protocol. The work is done by `vatcal_sim_cell::SimCell`; see `docs/drivers.md`.
@@ -63,6 +64,17 @@ pub struct Args {
     /// Cell-control port (the operator: `PLACE <n>`, `PLACEMENT?`, `MASTER <n>`, `MASTER OFF`).
     #[arg(long, default_value_t = Ports::default().control, value_name = "P")]
     pub control_port: u16,
+    /// Laser-tracker port (the tracker line protocol, docs/drivers.md).
+    #[arg(long, default_value_t = Ports::default().tracker, value_name = "P")]
+    pub tracker_port: u16,
+    /// The tracker reports in the tank (world) frame, as a tracker whose software is
+    /// registered already; by default it reports in its own frame (standing 2.5 m away) and the
+    /// validation's registration step finds its pose.
+    #[arg(long)]
+    pub tracker_registered: bool,
+    /// Probability that a tracker measurement loses the line of sight to its SMR (`ERR LOS`).
+    #[arg(long, default_value_t = 0.0, value_name = "P")]
+    pub tracker_los_loss: f64,
 }
 
 /// Runs the subcommand until Ctrl-C or SIGTERM.
@@ -82,7 +94,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         zaber: args.zaber_port,
         gauges: [args.gauge1_port, args.gauge2_port, args.gauge3_port],
         control: args.control_port,
+        tracker: args.tracker_port,
     };
+    if args.tracker_registered {
+        options.tracker_pose = vatcal_core::Frame::identity();
+    }
+    options.tracker_line_of_sight_loss = args.tracker_los_loss;
 
     let (stop_tx, stop_rx) = std::sync::mpsc::channel();
     ctrlc::set_handler(move || {

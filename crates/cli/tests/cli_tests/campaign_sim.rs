@@ -70,6 +70,7 @@ impl SimCellProcess {
             "--gauge2-port",
             "--gauge3-port",
             "--control-port",
+            "--tracker-port",
         ] {
             all.extend([flag, "0"]);
         }
@@ -115,6 +116,7 @@ impl SimCellProcess {
             ("127.0.0.1:55562", "gauge-2"),
             ("127.0.0.1:55563", "gauge-3"),
             ("127.0.0.1:55570", "cell-control"),
+            ("127.0.0.1:55580", "tracker"),
         ] {
             let quoted = format!("\"{default}\"");
             assert_eq!(text.matches(&quoted).count(), 1, "{fixture} names {default} once");

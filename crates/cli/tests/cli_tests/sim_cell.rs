@@ -6,7 +6,7 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ALL_EPHEMERAL: [&str; 14] = [
+const ALL_EPHEMERAL: [&str; 16] = [
     "--meca500-control-port",
     "0",
     "--meca500-monitoring-port",
@@ -20,6 +20,8 @@ const ALL_EPHEMERAL: [&str; 14] = [
     "--gauge3-port",
     "0",
     "--control-port",
+    "0",
+    "--tracker-port",
     "0",
 ];
 
@@ -68,7 +70,7 @@ fn prints_its_ports_serves_them_and_stops_on_sigterm() {
     let (mut guard, mut stdout) =
         spawn_sim_cell(&["--bind", "127.0.0.1", "--seed", "3", "--time-scale", "100", "--no-noise"]);
     let mut ports = std::collections::HashMap::new();
-    for _ in 0..7 {
+    for _ in 0..8 {
         let mut line = String::new();
         stdout.read_line(&mut line).expect("read a line");
         let words: Vec<&str> = line.split_whitespace().collect();
@@ -78,8 +80,16 @@ fn prints_its_ports_serves_them_and_stops_on_sigterm() {
         assert!(addr.ip().is_loopback() && addr.port() != 0, "{line:?}");
         ports.insert(words[1].to_owned(), addr);
     }
-    let names =
-        ["meca500-control", "meca500-monitoring", "zaber", "gauge-1", "gauge-2", "gauge-3", "cell-control"];
+    let names = [
+        "meca500-control",
+        "meca500-monitoring",
+        "zaber",
+        "gauge-1",
+        "gauge-2",
+        "gauge-3",
+        "cell-control",
+        "tracker",
+    ];
     for name in names {
         assert!(ports.contains_key(name), "no {name} in {ports:?}");
     }
@@ -138,7 +148,7 @@ fn a_six_joint_arm_cell_has_no_zaber_port() {
     }
     assert_eq!(
         names,
-        ["meca500-control", "meca500-monitoring", "gauge-1", "gauge-2", "gauge-3", "cell-control"]
+        ["meca500-control", "meca500-monitoring", "gauge-1", "gauge-2", "gauge-3", "cell-control", "tracker"]
     );
     let pid = guard.0.id().to_string();
     assert!(Command::new("kill").args(["-TERM", &pid]).status().expect("kill -TERM").success());

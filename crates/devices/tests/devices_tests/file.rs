@@ -93,7 +93,7 @@ fn bad_addresses_kinds_links_and_timeouts_name_the_field_and_line() {
     ));
     assert!(e.contains("`arm.io_timeout_ms`") && e.contains("0 ms"), "{e}");
     let e = error(&format!("{ARM}{GUIDE}{GAUGES}tracker = {{ kind = \"faro\", tcp = \"1.2.3.4:5\" }}\n"));
-    assert!(e.contains("`tracker.kind`") && e.contains("no laser-tracker driver"), "{e}");
+    assert!(e.contains("`tracker.kind`") && e.contains("unknown kind `faro`"), "{e}");
     let e = error(&format!("{ARM}{GUIDE}{GAUGES}sim_control = {{ tcp = \"localhost\" }}\n"));
     assert!(e.contains("`sim_control.tcp`"), "{e}");
 }
@@ -140,4 +140,35 @@ fn connecting_to_nothing_names_the_device() {
     );
     let e = parse(&text).expect("valid file").connect().expect_err("nobody listens").to_string();
     assert!(e.starts_with(&format!("connecting the arm (meca500 at {addr}): meca500: ")), "{e}");
+}
+
+#[test]
+fn tracker_entries_are_checked() {
+    let base = format!("{ARM}{GUIDE}{GAUGES}");
+    for (entry, expected) in [
+        ("{ kind = \"sim-cell\" }", "`tracker.tcp`: a `sim-cell` tracker needs `tcp"),
+        ("{ kind = \"sim-cell\", tcp = \"localhost\" }", "`tracker.tcp`: `localhost` is not `host:port`"),
+        ("{ kind = \"command\" }", "`tracker.command`: a `command` tracker needs `command"),
+        ("{ kind = \"command\", command = [\" \"] }", "`tracker.command`: names no program"),
+        ("{ kind = \"console\", tcp = \"1.2.3.4:5\" }", "`tracker.tcp`: not used by a `console` tracker"),
+        ("{ kind = \"console\", io_timeout_ms = 100 }", "`tracker.io_timeout_ms`: not used by a `console`"),
+        ("{ kind = \"command\", command = [\"x\"], connect_timeout_ms = 5 }", "`tracker.connect_timeout_ms`"),
+        ("{ kind = \"command\", command = [\"x\"], io_timeout_ms = 0 }", "`tracker.io_timeout_ms`: 0 ms"),
+        ("{ kind = \"console\", frame = \"world\" }", "`tracker.frame`: `world`"),
+        ("{ kind = \"laser\" }", "unknown kind `laser` (supported: `sim-cell`, `command`, `console`)"),
+    ] {
+        let e = error(&format!("{base}tracker = {entry}\n"));
+        assert!(e.starts_with("devices.toml:8: ") && e.contains(expected), "{entry}: {e}");
+    }
+    let file =
+        parse(&format!("{base}tracker = {{ kind = \"console\", frame = \"tank\" }}\n")).expect("console");
+    assert!(file.tracker_reports_in_tank_frame());
+    let file = parse(&format!("{base}tracker = {{ kind = \"command\", command = [\"faro-bridge\", \"--ip\", \"10.0.0.5\"], io_timeout_ms = 60000 }}\n"))
+        .expect("command");
+    assert!(!file.tracker_reports_in_tank_frame());
+    let sim = parse(SIM).expect("sim");
+    assert_eq!(
+        sim.tracker.as_ref().and_then(|t| t.tcp.as_ref()).map(|a| a.get_ref().as_str()),
+        Some("127.0.0.1:55580")
+    );
 }

@@ -60,7 +60,9 @@ impl Operator for TcpOperator {
             OperatorInstruction::PlaceProbe { position } => format!("PLACE {position}"),
             OperatorInstruction::SeatMasterBall { position } => format!("MASTER {position}"),
             OperatorInstruction::RemoveMasterBall => "MASTER OFF".to_owned(),
-            OperatorInstruction::ConfirmMotion { .. } => return Ok(()),
+            OperatorInstruction::ConfirmMotion { .. }
+            | OperatorInstruction::SeatNestSmr { .. }
+            | OperatorInstruction::RemoveNestSmr => return Ok(()),
         };
         let answer = self.ask(&command);
         if answer.starts_with("OK ") {
@@ -188,7 +190,7 @@ fn a_six_joint_arm_without_a_guide_is_served_behind_the_meca500_protocol() {
     let names: Vec<&str> = a.named().iter().map(|(n, _)| *n).collect();
     assert_eq!(
         names,
-        ["meca500-control", "meca500-monitoring", "gauge-1", "gauge-2", "gauge-3", "cell-control"]
+        ["meca500-control", "meca500-monitoring", "gauge-1", "gauge-2", "gauge-3", "cell-control", "tracker"]
     );
     let mut arm = ok(Meca500::connect_tcp(a.meca500_control, Meca500Config::default()));
     let mut gauges: Vec<SylvacGauge> =
