@@ -634,6 +634,14 @@ pub fn calibrate<S: ReportSetup>(
         book.progress.stage_started(Stage::Validate, Some(validation_plan.campaign.steps.len()));
         book.mark_running(Stage::Validate)?;
         let dev = devices.open()?;
+        if dev.devices().tracker.is_none() {
+            return Err(PipelineError::Option {
+                option: "devices".into(),
+                reason: "the validation stage measures with a laser tracker and the devices have none (add a \
+                         `tracker` entry to the devices file, or leave the validation and compensation stages out)"
+                    .into(),
+            });
+        }
         let start_s = dev.devices().clock.now_s();
         let validation = crate::validation_stage(
             dev,
