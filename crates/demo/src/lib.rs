@@ -35,7 +35,8 @@ use vatcal_identification::Identification;
 use vatcal_kinematics::Model;
 use vatcal_pipeline::report::ValidationSummary;
 use vatcal_pipeline::{
-    CalibrateOptions, CalibrateOutcome, DeviceSet, DiscoveryStageOptions, Progress, ReportSetup, RunOptions, RunReport, StageLog,
+    CalibrateOptions, CalibrateOutcome, DeviceSet, DiscoveryStageOptions, Progress, ReportSetup, RunOptions,
+    RunReport, StageLog,
 };
 use vatcal_sim::truth::ErrorBudget;
 pub use vatcal_sim::truth::TruthSpec;

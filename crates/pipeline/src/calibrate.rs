@@ -245,7 +245,12 @@ impl StagesFile {
 
     /// The run's options must be the folder's (a resume or a single stage continues the same
     /// run).
-    fn check(&self, opts: &RunOptions, discovery: Option<&DiscoveryStageOptions>, out: &Path) -> Result<(), PipelineError> {
+    fn check(
+        &self,
+        opts: &RunOptions,
+        discovery: Option<&DiscoveryStageOptions>,
+        out: &Path,
+    ) -> Result<(), PipelineError> {
         let differ = |what: String| PipelineError::Folder {
             path: out.join(STAGES_FILE),
             reason: format!(
@@ -527,8 +532,8 @@ pub fn calibrate<S: ReportSetup>(
 
     // 4. discovery (optional)
     let mut start = campaign.records.last().map(|r| r.state.joints);
-    let wanted = discovery.is_some()
-        && (cal.stages.contains(&Stage::Discover) || book.state.is_done(Stage::Discover));
+    let wanted =
+        discovery.is_some() && (cal.stages.contains(&Stage::Discover) || book.state.is_done(Stage::Discover));
     let discovered: Option<DiscoveryOutcome> = match discovery.filter(|_| wanted) {
         Some(stage) if run(&book, Stage::Discover) => {
             if restart(&book, Stage::Discover) {
@@ -554,7 +559,11 @@ pub fn calibrate<S: ReportSetup>(
             )?;
             let clock_delta = dev.devices().clock.now_s() - start_s;
             let t = if resumed {
-                folder.journal_report(discovery_stage::DISCOVERY_JOURNAL)?.records.last().map_or(clock_delta, |r| r.time_s)
+                folder
+                    .journal_report(discovery_stage::DISCOVERY_JOURNAL)?
+                    .records
+                    .last()
+                    .map_or(clock_delta, |r| r.time_s)
             } else {
                 book.fresh.push(Stage::Discover);
                 clock_delta
@@ -654,7 +663,10 @@ pub fn calibrate<S: ReportSetup>(
         )?;
         let end_s = dev.devices().clock.now_s();
         let own_s = if resumed {
-            Journal::open(folder.path(folders::VALIDATION_JOURNAL))?.records().last().map_or(end_s - start_s, |r| r.time_s)
+            Journal::open(folder.path(folders::VALIDATION_JOURNAL))?
+                .records()
+                .last()
+                .map_or(end_s - start_s, |r| r.time_s)
         } else {
             end_s - start_s
         };
@@ -794,7 +806,11 @@ impl CellRunSetup {
             nominal_cell: nominal_cell.into(),
             devices: devices.into(),
             sizes: opts.sizes.clone(),
-            parameters: format!("{} ({} parameters)", discovery_stage::parameter_set_name(&fit.params), fit.params.len()),
+            parameters: format!(
+                "{} ({} parameters)",
+                discovery_stage::parameter_set_name(&fit.params),
+                fit.params.len()
+            ),
             method: fit.method.to_string(),
         }
     }
@@ -823,7 +839,11 @@ impl ReportSetup for CellRunSetup {
     fn setup_markdown(&self, v: &crate::ValidationSummary) -> String {
         use std::fmt::Write as _;
         let mut m = String::new();
-        let _ = writeln!(m, "* nominal cell (what the robot controller believes): {} → `nominal.toml`", self.nominal_cell);
+        let _ = writeln!(
+            m,
+            "* nominal cell (what the robot controller believes): {} → `nominal.toml`",
+            self.nominal_cell
+        );
         let _ = writeln!(m, "* devices: `{}`", self.devices);
         let s = &self.sizes;
         let _ = writeln!(

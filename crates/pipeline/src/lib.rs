@@ -50,7 +50,9 @@ use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::output::PlanSummary;
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 
-pub use calibrate::{CalibrateOptions, CalibrateOutcome, DeviceSource, STAGES_FILE, StageStatus, StagesFile, calibrate};
+pub use calibrate::{
+    CalibrateOptions, CalibrateOutcome, DeviceSource, STAGES_FILE, StageStatus, StagesFile, calibrate,
+};
 pub use discovery_stage::{DISCOVERED, DiscoveryOutcome, DiscoveryStageOptions, TRUE_STRUCTURE};
 pub use error::PipelineError;
 pub use folders::{PlanFolder, RunFolder};

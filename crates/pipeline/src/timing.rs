@@ -119,7 +119,12 @@ impl RunTiming {
             .filter_map(|s| {
                 let e = state.entry(*s)?;
                 let wall = seconds.iter().find(|(n, _)| n == s.name()).map(|(_, w)| *w).or(e.wall_s);
-                Some(StageTime { stage: s.key().into(), wall_s: wall, device_s: e.device_s, attempts: e.attempts })
+                Some(StageTime {
+                    stage: s.key().into(),
+                    wall_s: wall,
+                    device_s: e.device_s,
+                    attempts: e.attempts,
+                })
             })
             .collect();
     }
@@ -226,7 +231,11 @@ pub(crate) fn measure(i: &TimingInputs<'_>) -> Result<RunTiming, PipelineError> 
 }
 
 /// The steps of one journal by kind, `plan` giving each step's kind and planned path.
-fn campaign_timing(journal: &Path, plan: &CampaignPlan, timer: &MotionTimer) -> Result<CampaignTiming, PipelineError> {
+fn campaign_timing(
+    journal: &Path,
+    plan: &CampaignPlan,
+    timer: &MotionTimer,
+) -> Result<CampaignTiming, PipelineError> {
     let j = Journal::open(journal)?;
     let mut t = CampaignTiming { journal: journal.display().to_string(), ..CampaignTiming::default() };
     let mut previous: Option<(f64, vatcal_core::JointVector)> = None;
@@ -248,7 +257,9 @@ fn campaign_timing(journal: &Path, plan: &CampaignPlan, timer: &MotionTimer) -> 
                 }
                 t.probe_measurements.add(dt, Some(timer.measurement_s));
             }
-            (Some(CampaignStep::PlaceProbe { .. }), _) => t.replacements.add(dt, Some(timer.probe_replacement_s)),
+            (Some(CampaignStep::PlaceProbe { .. }), _) => {
+                t.replacements.add(dt, Some(timer.probe_replacement_s))
+            }
             (Some(CampaignStep::Track { .. }), _) => t.tracker_points.add(dt, None),
             (Some(CampaignStep::ZeroProbe { .. }), _) => t.zeroing.add(dt, None),
             _ => {}

@@ -21,7 +21,8 @@ use vatcal_kinematics::Model;
 use vatcal_pipeline::calibrate::CellRunSetup;
 use vatcal_pipeline::stop::StopFlag;
 use vatcal_pipeline::{
-    CalibrateOptions, DeviceSet, DeviceSource, DiscoveryStageOptions, PipelineError, RunOptions, RunSizes, Stage,
+    CalibrateOptions, DeviceSet, DeviceSource, DiscoveryStageOptions, PipelineError, RunOptions, RunSizes,
+    Stage,
 };
 
 use super::campaign::{OperatorKind, RealCell, connect_cell, install_stop_handler, load_nominal, one_line};
@@ -159,13 +160,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let mut discovery_count = args.discovery_count;
     if args.quick {
-        sizes = RunSizes { orientations: 20, guide_steps: 3, count: 40, random_poses: 200, slices: args.slices };
+        sizes =
+            RunSizes { orientations: 20, guide_steps: 3, count: 40, random_poses: 200, slices: args.slices };
         discovery_count = 60;
     }
     let timeout = Duration::from_secs_f64(args.motion_timeout_s);
     let nominal_cell = match &args.model {
         Some(p) => vatcal_core::CellFile::load(p)?,
-        None => vatcal_core::CellFile::from_toml_str(vatcal_demo::BUILT_IN_CELL, vatcal_demo::BUILT_IN_CELL_NAME)?,
+        None => {
+            vatcal_core::CellFile::from_toml_str(vatcal_demo::BUILT_IN_CELL, vatcal_demo::BUILT_IN_CELL_NAME)?
+        }
     };
     let opts = RunOptions {
         seed: args.seed,
@@ -180,7 +184,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ..CampaignConfig::default()
         },
     };
-    let (probe_default, tracker_default) = vatcal_demo::instrument_noise_mm(&vatcal_sim::NoiseBudget::paper());
+    let (probe_default, tracker_default) =
+        vatcal_demo::instrument_noise_mm(&vatcal_sim::NoiseBudget::paper());
     let discovery = (!args.no_discovery).then(|| DiscoveryStageOptions {
         plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(&nominal),
         count: discovery_count,

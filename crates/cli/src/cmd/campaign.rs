@@ -16,8 +16,8 @@ use vatcal_campaign::{CampaignConfig, CellDevices, ConsoleOperator};
 use vatcal_core::CellFile;
 use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
 use vatcal_hardware_traits::{
-    Clock, ErrorKind, Gauge, JointLayout, LinearAxis, MotionOptions, Operator, PositionTracker, ProbePlacement, RobotArm,
-    SystemClock, Thermometer, TriCal,
+    Clock, ErrorKind, Gauge, JointLayout, LinearAxis, MotionOptions, Operator, PositionTracker,
+    ProbePlacement, RobotArm, SystemClock, Thermometer, TriCal,
 };
 use vatcal_kinematics::Model;
 use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};

@@ -14,7 +14,9 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use super::campaign_sim::{devices_file, journaled_measurements, ok, rows_without_time, s, start_cell, vatcal};
+use super::campaign_sim::{
+    devices_file, journaled_measurements, ok, rows_without_time, s, start_cell, vatcal,
+};
 
 fn calibrate_args<'a>(devices: &'a Path, out: &'a Path) -> Vec<&'a str> {
     vec![
@@ -109,7 +111,10 @@ fn kill_9_during_the_campaign_and_the_discovery_then_resume_gives_an_uninterrupt
     let k = only.iter().position(|a| *a == "plan,campaign,identify,discovery").expect("stages");
     only[k] = "identify";
     let stdout = ok(&vatcal(&only));
-    assert!(stdout.contains("stages run: identify; recomputed from the run folder: plan, campaign"), "{stdout}");
+    assert!(
+        stdout.contains("stages run: identify; recomputed from the run folder: plan, campaign"),
+        "{stdout}"
+    );
     let text = std::fs::read_to_string(out.join("stages.json")).expect("stages.json");
     assert!(!text.contains("\"discovery\""), "a re-run identification invalidates the discovery: {text}");
     only[k] = "validation";
@@ -122,5 +127,9 @@ fn kill_9_during_the_campaign_and_the_discovery_then_resume_gives_an_uninterrupt
     other_seed[k] = "4";
     let refused = vatcal(&other_seed);
     assert!(!refused.status.success());
-    assert!(String::from_utf8_lossy(&refused.stderr).contains("seed 3"), "{}", String::from_utf8_lossy(&refused.stderr));
+    assert!(
+        String::from_utf8_lossy(&refused.stderr).contains("seed 3"),
+        "{}",
+        String::from_utf8_lossy(&refused.stderr)
+    );
 }
