@@ -25,7 +25,9 @@ use vatcal_pipeline::{
     Stage,
 };
 
-use super::campaign::{OperatorKind, RealCell, connect_cell, install_stop_handler, load_nominal, one_line};
+use super::campaign::{
+    OperatorKind, RealCell, check_cell_options, connect_cell, install_stop_handler, load_nominal, one_line,
+};
 use super::demo::BarProgress;
 
 /// Arguments of `vatcal calibrate`.
@@ -134,18 +136,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
     let devices_file = DevicesFile::load(&args.devices)?;
     devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
-    if !(args.speed > 0.0 && args.speed <= 1.0) {
-        bail!("--speed must be in (0, 1], got {}", args.speed);
-    }
-    if !(args.motion_timeout_s.is_finite() && args.motion_timeout_s > 0.0) {
-        bail!("--motion-timeout-s must be > 0, got {}", args.motion_timeout_s);
-    }
-    if args.operator == OperatorKind::Auto && devices_file.sim_control.is_none() {
-        bail!(
-            "{}: `--operator auto` needs `sim_control = {{ tcp = \"host:port\" }}` (the simulator's cell-control port)",
-            args.devices.display()
-        );
-    }
+    check_cell_options(args.speed, args.motion_timeout_s, args.operator, &devices_file, &args.devices)?;
     let stages = match &args.stages {
         Some(list) => CalibrateOptions::parse_stages(list)?,
         None => Stage::ALL.to_vec(),

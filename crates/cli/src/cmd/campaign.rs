@@ -190,6 +190,30 @@ pub(crate) fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
     line
 }
 
+/// Checks the options shared by `vatcal campaign` and `vatcal calibrate`: the speed fraction,
+/// the motion timeout, and a simulator control port for the automatic operator.
+pub(crate) fn check_cell_options(
+    speed: f64,
+    motion_timeout_s: f64,
+    operator: OperatorKind,
+    devices_file: &DevicesFile,
+    devices: &std::path::Path,
+) -> anyhow::Result<()> {
+    if !(speed > 0.0 && speed <= 1.0) {
+        bail!("--speed must be in (0, 1], got {speed}");
+    }
+    if !(motion_timeout_s.is_finite() && motion_timeout_s > 0.0) {
+        bail!("--motion-timeout-s must be > 0, got {motion_timeout_s}");
+    }
+    if operator == OperatorKind::Auto && devices_file.sim_control.is_none() {
+        bail!(
+            "{}: `--operator auto` needs `sim_control = {{ tcp = \"host:port\" }}` (the simulator's cell-control port)",
+            devices.display()
+        );
+    }
+    Ok(())
+}
+
 /// Connects the devices of `devices_file` (printing what it found), builds the probe for the
 /// calibration positions of `nominal`, picks the operator and the clock, and checks every
 /// device ([`check_devices`]; on failure the motion is stopped).
@@ -262,18 +286,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: the plan does not fit {nominal_source}", args.plan.display()))?;
     let devices_file = DevicesFile::load(&args.devices)?;
     devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
-    if !(args.speed > 0.0 && args.speed <= 1.0) {
-        bail!("--speed must be in (0, 1], got {}", args.speed);
-    }
-    if !(args.motion_timeout_s.is_finite() && args.motion_timeout_s > 0.0) {
-        bail!("--motion-timeout-s must be > 0, got {}", args.motion_timeout_s);
-    }
-    if args.operator == OperatorKind::Auto && devices_file.sim_control.is_none() {
-        bail!(
-            "{}: `--operator auto` needs `sim_control = {{ tcp = \"host:port\" }}` (the simulator's cell-control port)",
-            args.devices.display()
-        );
-    }
+    check_cell_options(args.speed, args.motion_timeout_s, args.operator, &devices_file, &args.devices)?;
     let folder = RunFolder::new(&args.out);
     let journal = folder.journal();
     match (journal.exists(), args.resume) {
