@@ -42,6 +42,9 @@ enum Command {
     Compensate(cmd::compensate::Args),
     /// Run a planned measurement campaign on the cell named by a devices file.
     Campaign(cmd::campaign::Args),
+    /// The whole calibration (plan, campaign, identify, discovery, validation, compensation,
+    /// report) on the devices of a devices file, as resumable stages of one run folder.
+    Calibrate(cmd::calibrate::Args),
     /// Serve the whole virtual cell over TCP (Meca500, Zaber, Sylvac gauges, cell control).
     SimCell(cmd::sim_cell::Args),
     /// Write a cell file (format version 2) from the serial chain between two links of a URDF.
@@ -65,6 +68,7 @@ fn main() -> std::process::ExitCode {
         Command::Discover(a) => cmd::discover::run(a),
         Command::Compensate(a) => cmd::compensate::run(a),
         Command::Campaign(a) => cmd::campaign::run(a),
+        Command::Calibrate(a) => cmd::calibrate::run(a),
         Command::SimCell(a) => cmd::sim_cell::run(a),
         Command::ImportUrdf(a) => cmd::import_urdf::run(a),
         Command::EvaluateFixedPoints(a) => cmd::evaluate_fixed_points::run(a),

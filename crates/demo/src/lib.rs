@@ -35,7 +35,8 @@ use vatcal_identification::Identification;
 use vatcal_kinematics::Model;
 use vatcal_pipeline::report::ValidationSummary;
 use vatcal_pipeline::{
-    DeviceSet, DiscoveryStageOptions, Progress, ReportSetup, RunOptions, RunReport, StageLog,
+    CalibrateOptions, CalibrateOutcome, DeviceSet, DiscoveryStageOptions, Progress, ReportSetup, RunOptions,
+    RunReport, StageLog,
 };
 use vatcal_sim::truth::ErrorBudget;
 pub use vatcal_sim::truth::TruthSpec;
@@ -75,6 +76,9 @@ pub struct DemoOptions {
     /// extra probe measurements of the discovery stage (default 360,
     /// `DiscoveryStageOptions::new`)
     pub discovery_count: usize,
+    /// which stages run, and whether the report folder is resumed (default: every stage, a
+    /// fresh run; `vatcal demo --stages … --resume`)
+    pub calibrate: CalibrateOptions,
 }
 
 impl DemoOptions {
@@ -92,6 +96,7 @@ impl DemoOptions {
             truth: TruthSpec::PaperLike,
             discovery: true,
             discovery_count: DiscoveryStageOptions::new(seed).count,
+            calibrate: CalibrateOptions::default(),
         })
     }
 
@@ -439,12 +444,41 @@ pub fn run_demo(opts: &DemoOptions, out: &Path, log: &mut dyn FnMut(&str)) -> Re
 /// [`run_demo`] reporting every stage and step to `progress`.
 ///
 /// # Errors
-/// As [`run_demo`].
+/// As [`run_demo`]; also when [`DemoOptions::calibrate`] stops before the report.
 pub fn run_demo_with_progress(
     opts: &DemoOptions,
     out: &Path,
     progress: &mut dyn Progress,
 ) -> Result<DemoOutcome, DemoError> {
+    let (outcome, truth) = run_demo_stages(opts, out, progress)?;
+    let Some(run) = outcome.run else {
+        return Err(DemoError::Option {
+            option: "stages".into(),
+            reason: "the selected stages stop before the report (the compensation stage writes it)".into(),
+        });
+    };
+    Ok(DemoOutcome {
+        report: run.report,
+        identification: run.identification,
+        truth,
+        stage_seconds: run.stage_seconds,
+        files: run.files,
+        discovery: run.discovery,
+    })
+}
+
+/// The stages of [`DemoOptions::calibrate`] on the in-process virtual cell — the pipeline's
+/// `calibrate`, exactly what `vatcal calibrate` runs on real devices — and the hidden true
+/// model (oracle). A resumed run starts a new virtual cell of the same seed, as a restarted
+/// `vatcal sim-cell` would: its clock starts at zero.
+///
+/// # Errors
+/// As [`run_demo`].
+pub fn run_demo_stages(
+    opts: &DemoOptions,
+    out: &Path,
+    progress: &mut dyn Progress,
+) -> Result<(CalibrateOutcome<DemoSetup>, Model), DemoError> {
     opts.sizes.check()?;
     let nominal = Model::from_cell(&opts.nominal)?;
     let cell = opts
@@ -459,20 +493,14 @@ pub fn run_demo_with_progress(
         count: opts.discovery_count,
         ..DiscoveryStageOptions::new(opts.seed).with_instrument_noise(probe_sigma_mm, tracker_sigma_mm)
     });
-    let outcome = vatcal_pipeline::run_with_discovery(
+    let outcome = vatcal_pipeline::calibrate(
         &opts.run_options(),
         stage.as_ref(),
+        &opts.calibrate,
         &mut devices,
         |fit| DemoSetup::of(opts, fit),
         out,
         progress,
     )?;
-    Ok(DemoOutcome {
-        report: outcome.report,
-        identification: outcome.identification,
-        truth: cell.truth(),
-        stage_seconds: outcome.stage_seconds,
-        files: outcome.files,
-        discovery: outcome.discovery,
-    })
+    Ok((outcome, cell.truth()))
 }

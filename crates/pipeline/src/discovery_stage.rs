@@ -366,7 +366,9 @@ pub fn add_two_sided_repeats(
 
 /// Runs the whole discovery stage: plans and runs the extra probe campaign on `devices`
 /// (journal `discovery.journal`, `discovery_measurements.csv`), discovers missing effects from
-/// `calibrated` on all probe data, fits the true structure when it is known.
+/// `calibrated` on all probe data, fits the true structure when it is known. A
+/// `discovery.journal` of the same plan already in `out` is resumed (nothing measured twice);
+/// remove it to measure afresh.
 ///
 /// # Errors
 /// Planning, the campaign, or the discovery loop fails (a failed true-structure fit is only
@@ -388,18 +390,47 @@ pub fn discovery_stage(
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
     let plan_folder = PlanFolder::new(out.join(DISCOVERY_PLAN));
     plan_discovery(opts, stage, nominal, base, &geometry, start, &plan_folder)?;
-    let mut tour = plan_folder.read_tour(nominal.joint_kinds())?;
-    let repeats =
-        add_two_sided_repeats(&mut tour, nominal, stage.two_sided_repeats, stage.repeat_overshoot_rad);
-    let folder = RunFolder::new(out);
-    let journal = folder.path(DISCOVERY_JOURNAL);
-    if journal.exists() {
-        std::fs::remove_file(&journal)
-            .map_err(|source| PipelineError::Io { path: journal.clone(), source })?;
-    }
+    let (tour, repeats) = discovery_tour(stage, nominal, out)?;
+    let journal = RunFolder::new(out).path(DISCOVERY_JOURNAL);
     let campaign = crate::run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, progress)?;
     let csv = out.join(DISCOVERY_MEASUREMENTS_CSV);
     vatcal_io::write_measurements_for(&csv, &campaign.measurements, nominal.joint_kinds())?;
+    discovery_analysis(stage, nominal, calibrated, base, calibration, &campaign, repeats)
+}
+
+/// The discovery campaign of the plan folder `out/discovery_plan` (written by
+/// [`plan_discovery`]) with its two-sided repeats ([`add_two_sided_repeats`]), and the number
+/// of repeats.
+///
+/// # Errors
+/// A missing or bad `tour.csv`.
+pub fn discovery_tour(
+    stage: &DiscoveryStageOptions,
+    nominal: &Model,
+    out: &Path,
+) -> Result<(vatcal_campaign::CampaignPlan, usize), PipelineError> {
+    let mut tour = PlanFolder::new(out.join(DISCOVERY_PLAN)).read_tour(nominal.joint_kinds())?;
+    let repeats =
+        add_two_sided_repeats(&mut tour, nominal, stage.two_sided_repeats, stage.repeat_overshoot_rad);
+    Ok((tour, repeats))
+}
+
+/// The offline half of the discovery stage: the discovery loop on the calibration's and the
+/// discovery campaign's probe measurements, the true-structure fit when the oracle is given,
+/// one plot per added effect. Deterministic: a finished discovery campaign read back from its
+/// journal gives the same outcome.
+///
+/// # Errors
+/// The discovery loop fails (a failed true-structure fit is only noted).
+pub fn discovery_analysis(
+    stage: &DiscoveryStageOptions,
+    nominal: &Model,
+    calibrated: &Model,
+    base: &ParamSet,
+    calibration: &[Measurement],
+    campaign: &vatcal_campaign::CampaignReport,
+    repeats: usize,
+) -> Result<DiscoveryOutcome, PipelineError> {
     let mut all = calibration.to_vec();
     all.extend_from_slice(&campaign.measurements);
     let discovery = discover(calibrated, &all, base, None, &stage.discover)?;

@@ -12,7 +12,7 @@
 
 use std::path::{Path, PathBuf};
 
-use vatcal_campaign::{CampaignPlan, Journal};
+use vatcal_campaign::{CampaignPlan, CampaignReport, Journal, StepOutcome};
 use vatcal_core::{JointKind, Measurement};
 use vatcal_kinematics::Model;
 use vatcal_planning::output::{PlanSummary, write_plan};
@@ -161,18 +161,46 @@ impl RunFolder {
         Ok(Journal::open(self.journal())?.measurements())
     }
 
-    /// Removes the journals of an earlier run so that the next one starts afresh.
+    /// Removes the journals of an earlier run (measurement, discovery and validation campaigns)
+    /// so that the next one starts afresh.
     ///
     /// # Errors
     /// A journal that exists but cannot be removed.
     pub fn remove_journals(&self) -> Result<(), PipelineError> {
-        for name in [CAMPAIGN_JOURNAL, VALIDATION_JOURNAL] {
-            let path = self.path(name);
-            if path.exists() {
-                std::fs::remove_file(&path).map_err(|source| PipelineError::Io { path, source })?;
-            }
+        for name in [CAMPAIGN_JOURNAL, crate::discovery_stage::DISCOVERY_JOURNAL, VALIDATION_JOURNAL] {
+            self.remove(name)?;
         }
         Ok(())
+    }
+
+    /// Removes one file of the folder if it exists.
+    ///
+    /// # Errors
+    /// The file exists but cannot be removed.
+    pub fn remove(&self, name: &str) -> Result<(), PipelineError> {
+        let path = self.path(name);
+        if path.exists() {
+            std::fs::remove_file(&path).map_err(|source| PipelineError::Io { path, source })?;
+        }
+        Ok(())
+    }
+
+    /// What a finished campaign of the journal `name` recorded, read from the journal alone
+    /// (no device is touched): every measurement and record, the skipped measurements.
+    ///
+    /// # Errors
+    /// A missing or damaged journal.
+    pub fn journal_report(&self, name: &str) -> Result<CampaignReport, PipelineError> {
+        let journal = Journal::open(self.path(name))?;
+        let records = journal.records().to_vec();
+        let skipped = records.iter().filter(|r| matches!(r.outcome, StepOutcome::Skipped { .. })).count();
+        Ok(CampaignReport {
+            measurements: journal.measurements(),
+            records,
+            resumed_at_step: None,
+            torn_bytes_dropped: journal.torn_bytes_dropped(),
+            skipped,
+        })
     }
 }
 

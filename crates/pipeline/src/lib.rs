@@ -23,6 +23,7 @@
 //! (stage started/finished, step i of n with the time left); nothing here draws on a terminal.
 //! `vatcal demo` is this pipeline on the in-process virtual cell (`vatcal-demo`).
 
+pub mod calibrate;
 pub mod compensation;
 pub mod discovery_stage;
 mod error;
@@ -30,13 +31,13 @@ pub mod folders;
 mod progress;
 pub mod report;
 pub mod stop;
+pub mod timing;
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use vatcal_campaign::validation::{
     ModelValidation, PrintingPathOptions, RandomPoseOptions, ValidationPlan, ValidationPlanOptions,
-    ValidationRecords, build_validation_plan, evaluate,
+    ValidationRecords, evaluate,
 };
 use vatcal_campaign::{
     Campaign, CampaignConfig, CampaignPlan, CampaignReport, CellDevices, Journal, StepRecord,
@@ -49,6 +50,9 @@ use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::output::PlanSummary;
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
 
+pub use calibrate::{
+    CalibrateOptions, CalibrateOutcome, DeviceSource, STAGES_FILE, StageStatus, StagesFile, calibrate,
+};
 pub use discovery_stage::{DISCOVERED, DiscoveryOutcome, DiscoveryStageOptions, TRUE_STRUCTURE};
 pub use error::PipelineError;
 pub use folders::{PlanFolder, RunFolder};
@@ -73,7 +77,7 @@ pub trait DeviceSet {
 }
 
 /// Sizes of a run.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RunSizes {
     /// random tool orientations per TCP × calibration position (paper: 500)
     pub orientations: usize,
@@ -144,39 +148,15 @@ pub struct RunOutcome<S> {
     pub files: Vec<PathBuf>,
     /// the discovery stage, when it ran ([`run_with_discovery`])
     pub discovery: Option<DiscoveryOutcome>,
+    /// time on the devices: stages, and every kind of step measured against the planner's
+    /// estimate (`timing.json`)
+    pub timing: Option<timing::RunTiming>,
 }
 
 impl<S> RunOutcome<S> {
     /// The validation of the model labelled `label` ([`NOMINAL`] or [`CALIBRATED`]).
     pub fn validation(&self, label: &str) -> Option<&ModelValidation> {
         self.report.model(label)
-    }
-}
-
-/// Wall-clock stopwatch of the stages; forwards start/finish to the progress receiver.
-struct Stages<'p> {
-    start: Instant,
-    done: Vec<(String, f64)>,
-    progress: &'p mut dyn Progress,
-}
-
-impl<'p> Stages<'p> {
-    fn new(progress: &'p mut dyn Progress) -> Self {
-        Self { start: Instant::now(), done: Vec::new(), progress }
-    }
-
-    fn start(&mut self, stage: Stage, steps: Option<usize>) {
-        self.progress.stage_started(stage, steps);
-    }
-
-    /// Ends `stage`: `line` receives its duration [s] and returns the summary line.
-    fn finish(&mut self, stage: Stage, line: impl FnOnce(f64) -> Option<String>) -> f64 {
-        let s = self.start.elapsed().as_secs_f64();
-        self.start = Instant::now();
-        self.done.push((stage.name().to_string(), s));
-        let summary = line(s).unwrap_or_default();
-        self.progress.stage_finished(stage, &summary, s);
-        s
     }
 }
 
@@ -214,172 +194,13 @@ pub fn run_with_discovery<S: ReportSetup>(
     out: &Path,
     progress: &mut dyn Progress,
 ) -> Result<RunOutcome<S>, PipelineError> {
-    let mut stages = Stages::new(progress);
-    opts.sizes.check()?;
-    let folder = RunFolder::new(out);
-    folder.create()?;
-    folder.remove_journals()?;
-    let nominal = Model::from_cell(&opts.nominal)?;
-    let geometry = CellGeometry::from_cell(&opts.nominal)?;
-    let mut files = report::Files::new(out, nominal.joint_kinds());
-    files.cell("nominal.toml", &opts.nominal)?;
-
-    stages.start(Stage::Plan, None);
-    let plan_folder = PlanFolder::new(out.join("plan"));
-    let (candidates, plan, params) = plan_stage(opts, &nominal, &geometry, &plan_folder)?;
-    files.record_plan();
-    stages.finish(Stage::Plan, |s| {
-        Some(format!(
-            "plan: {candidates} candidates, {} measurements selected, tour of {} steps ({s:.1} s)",
-            plan.selected, plan.tour_steps
-        ))
-    });
-
-    let tour = plan_folder.read_tour(nominal.joint_kinds())?;
-    let clock_start_s = devices.devices().clock.now_s();
-    let campaign =
-        campaign_stage(devices, &nominal, &tour, &folder, opts.campaign.clone(), &mut *stages.progress)?;
-    files.note(folders::CAMPAIGN_JOURNAL);
-    files.note(folders::MEASUREMENTS_CSV);
-    let campaign_time_s = devices.devices().clock.now_s() - clock_start_s;
-    stages.finish(Stage::Campaign, |s| {
-        Some(format!(
-            "campaign: {} probe measurements ({} skipped), {:.0} min of virtual time ({s:.1} s)",
-            campaign.measurements.len(),
-            campaign.skipped,
-            campaign_time_s / 60.0
-        ))
-    });
-
-    stages.start(Stage::Identify, None);
-    let fit = identify_stage(&nominal, &campaign.measurements, &params)?;
-    files.cell(folders::CALIBRATED_CELL, &fit.model.to_cell())?;
-    stages.finish(Stage::Identify, |s| {
-        Some(format!(
-            "identification: {} parameters, {} iterations, residual mean {:.4} mm ({s:.1} s)",
-            fit.params.len(),
-            fit.iterations.len().saturating_sub(1),
-            fit.residual_stats.mean
-        ))
-    });
-
-    let mut start = campaign.records.last().map(|r| r.state.joints);
-    let discovered = match discovery {
-        Some(stage) => {
-            let d = discovery_stage::discovery_stage(
-                opts,
-                stage,
-                devices,
-                &nominal,
-                &fit.model,
-                &fit.params,
-                &campaign.measurements,
-                start,
-                out,
-                opts.campaign.clone(),
-                &mut *stages.progress,
-            )?;
-            files.note(discovery_stage::DISCOVERY_JOURNAL);
-            files.note(discovery_stage::DISCOVERY_MEASUREMENTS_CSV);
-            for p in &d.plots {
-                files.svg(&p.file, &p.svg)?;
-            }
-            start = d.last_joints.or(start);
-            stages.finish(Stage::Discover, |s| {
-                let names: Vec<&str> = d.discovery.added_effects.iter().map(|a| a.label.as_str()).collect();
-                Some(format!(
-                    "discovery: {} extra probe measurements, {} effect(s) added ({}), held-out gap {:.4} -> {:.4} mm ({s:.1} s)",
-                    d.extra_measurements,
-                    names.len(),
-                    names.join(", "),
-                    d.discovery.initial_gap_mm,
-                    d.discovery.final_gap_mm
-                ))
-            });
-            Some(d)
-        }
-        None => None,
-    };
-    let mut options = validation_options(opts, start);
-    if !has_printing_path(&nominal) {
-        options.printing.slices = 0;
-        // one turn per joint: the path planner connects the random poses of a ±360° arm
-        options.random.revolute_range_deg = Some(360.0);
-    }
-    let mut models: Vec<(&str, &Model)> = vec![(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
-    if let Some(d) = &discovered {
-        models.push((DISCOVERED, &d.discovery.model));
-        if let Some(t) = &d.true_structure {
-            models.push((TRUE_STRUCTURE, t));
-        }
-    }
-    let validation_plan = build_validation_plan(&nominal, &geometry, &models, &options)?;
-    let printing_targets = if validation_plan.slices.is_empty() {
-        None
-    } else {
-        Some(compensation::check_printing_path(&nominal, &fit.model, &validation_plan)?)
-    };
-    stages.start(Stage::Validate, Some(validation_plan.campaign.steps.len()));
-    let validation = validation_stage(
-        devices,
-        &nominal,
-        &models,
-        validation_plan,
-        &folder,
-        opts.campaign.clone(),
-        &mut *stages.progress,
-    )?;
-    let validation_time_s = devices.devices().clock.now_s() - clock_start_s - campaign_time_s;
-    stages.finish(Stage::Validate, |s| {
-        Some(format!(
-            "validation: {} random poses, {} slices × {} models, {} tracker measurements ({s:.1} s)",
-            validation.records.random.len(),
-            validation.plan.slices.len(),
-            validation.plan.path_runs.len(),
-            validation.plan.measurement_count()
-        ))
-    });
-
-    stages.start(Stage::Report, None);
-    files.note(folders::VALIDATION_JOURNAL);
-    files.validation_csvs(&validation.records, &validation.plan.slices, &validation.results)?;
-    files.plots(&fit, &validation.plan.slices, &validation.results)?;
-    let mut report = report::build_report(report::ReportInputs {
-        seed: opts.seed,
-        setup: setup(&fit),
-        plan,
-        campaign: &campaign,
-        campaign_time_s,
-        fit: &fit,
-        validation_plan: &validation.plan,
-        validation_options: &options,
-        validation_time_s,
-        compensation: printing_targets
-            .as_ref()
-            .map(|t| compensation::CompensationSummary::new(t, &validation.results)),
-        results: validation.results,
-    });
-    if let Some(d) = &discovered {
-        report.discovery = Some(discovery_stage::DiscoveryReport::of(d)?);
-    }
-    files.json("report.json", &report)?;
-    stages.finish(Stage::Report, |_| None);
-    files.note("summary.md");
-    if discovered.is_some() {
-        files.note("summary.html");
-    }
-    let outcome = RunOutcome {
-        report,
-        identification: fit,
-        stage_seconds: stages.done,
-        files: files.written().to_vec(),
-        discovery: discovered,
-    };
-    files.summary("summary.md", &outcome)?;
-    if outcome.discovery.is_some() {
-        report::write_summary_html(out)?;
-    }
-    Ok(outcome)
+    let mut source = calibrate::Lent(devices);
+    let outcome =
+        calibrate(opts, discovery, &CalibrateOptions::default(), &mut source, setup, out, progress)?;
+    outcome.run.ok_or_else(|| PipelineError::Option {
+        option: "stages".into(),
+        reason: "the run stopped before the report".into(),
+    })
 }
 
 /// Plans the campaign on the nominal cell and writes the plan folder; returns the number of

@@ -4,7 +4,7 @@
 use std::time::{Duration, Instant};
 
 /// The stages of a calibration run, in the order [`crate::run`] executes them.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[non_exhaustive]
 pub enum Stage {
     /// candidate poses, Detmax selection, tour (`plan/`)
@@ -32,6 +32,40 @@ impl Stage {
             Stage::Validate => "validation",
             Stage::Report => "report",
         }
+    }
+}
+
+impl Stage {
+    /// Every stage, in the order of a run.
+    pub const ALL: [Stage; 6] =
+        [Stage::Plan, Stage::Campaign, Stage::Identify, Stage::Discover, Stage::Validate, Stage::Report];
+
+    /// The stage's key on the command line (`--stages`) and in the run folder's stage state
+    /// file: `plan`, `campaign`, `identify`, `discovery`, `validation`, `compensation` (the
+    /// last stage checks the compensated printing path against the validation and writes the
+    /// report).
+    pub fn key(self) -> &'static str {
+        match self {
+            Stage::Plan => "plan",
+            Stage::Campaign => "campaign",
+            Stage::Identify => "identify",
+            Stage::Discover => "discovery",
+            Stage::Validate => "validation",
+            Stage::Report => "compensation",
+        }
+    }
+
+    /// The stage of a key ([`Stage::key`]; `report` is accepted for `compensation`).
+    pub fn from_key(key: &str) -> Option<Stage> {
+        match key.trim() {
+            "report" => Some(Stage::Report),
+            k => Stage::ALL.into_iter().find(|s| s.key() == k),
+        }
+    }
+
+    /// Whether the stage moves the devices (a campaign on the cell).
+    pub fn uses_devices(self) -> bool {
+        matches!(self, Stage::Campaign | Stage::Discover | Stage::Validate)
     }
 }
 

@@ -633,6 +633,9 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
         let _ = writeln!(m, "* {name}: {secs:.2} s");
     }
     let _ = writeln!(m, "* total: {total:.2} s");
+    if let Some(t) = &outcome.timing {
+        m.push_str(&t.markdown());
+    }
     m
 }
 

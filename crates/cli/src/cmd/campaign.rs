@@ -16,8 +16,8 @@ use vatcal_campaign::{CampaignConfig, CellDevices, ConsoleOperator};
 use vatcal_core::CellFile;
 use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
 use vatcal_hardware_traits::{
-    Clock, ErrorKind, Gauge, JointLayout, LinearAxis, MotionOptions, Operator, ProbePlacement, RobotArm,
-    SystemClock, Thermometer, TriCal,
+    Clock, ErrorKind, Gauge, JointLayout, LinearAxis, MotionOptions, Operator, PositionTracker,
+    ProbePlacement, RobotArm, SystemClock, Thermometer, TriCal,
 };
 use vatcal_kinematics::Model;
 use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};
@@ -71,17 +71,20 @@ pub struct Args {
     pub quiet: bool,
 }
 
-/// The connected devices, wrapped so that Ctrl-C stops the arm and the guide.
-struct RealCell {
-    arm: StoppableArm<Box<dyn RobotArm>>,
+/// The connected devices, wrapped so that Ctrl-C stops the arm and the guide (also the
+/// devices of `vatcal calibrate`).
+pub(crate) struct RealCell {
+    pub(crate) arm: StoppableArm<Box<dyn RobotArm>>,
     /// the guide, on a cell whose chain has one
-    guide: Option<StoppableAxis<Box<dyn LinearAxis>>>,
-    probe: TriCal<Box<dyn Gauge>>,
-    operator: Box<dyn Operator>,
+    pub(crate) guide: Option<StoppableAxis<Box<dyn LinearAxis>>>,
+    pub(crate) probe: TriCal<Box<dyn Gauge>>,
+    /// the devices file's tracker (the validation's)
+    pub(crate) tracker: Option<Box<dyn PositionTracker>>,
+    pub(crate) operator: Box<dyn Operator>,
     /// the wall clock, or the simulated cell's virtual time with `--operator auto`
-    clock: Box<dyn Clock>,
+    pub(crate) clock: Box<dyn Clock>,
     /// the devices file's thermometer: every measurement records `temperature_c`
-    thermometer: Option<Box<dyn Thermometer>>,
+    pub(crate) thermometer: Option<Box<dyn Thermometer>>,
 }
 
 impl DeviceSet for RealCell {
@@ -90,7 +93,7 @@ impl DeviceSet for RealCell {
             arm: &mut self.arm,
             guide: self.guide.as_mut().map(|g| g as &mut dyn LinearAxis),
             probe: &mut self.probe,
-            tracker: None,
+            tracker: self.tracker.as_mut().map(|t| t as &mut dyn PositionTracker),
             operator: &mut self.operator,
             clock: &*self.clock,
             thermometer: self.thermometer.as_mut().map(|t| t as &mut dyn Thermometer),
@@ -100,7 +103,7 @@ impl DeviceSet for RealCell {
 
 impl RealCell {
     /// Stops the arm and the guide (best effort; errors are printed).
-    fn stop_motion(&mut self) {
+    pub(crate) fn stop_motion(&mut self) {
         if let Err(e) = self.arm.inner_mut().stop() {
             eprintln!("warning: stopping the arm: {e}");
         }
@@ -110,7 +113,7 @@ impl RealCell {
     }
 }
 
-fn load_nominal(path: Option<&PathBuf>) -> anyhow::Result<(Model, String)> {
+pub(crate) fn load_nominal(path: Option<&PathBuf>) -> anyhow::Result<(Model, String)> {
     let (cell, source) = match path {
         Some(p) => (CellFile::load(p)?, p.display().to_string()),
         None => (
@@ -126,7 +129,7 @@ fn load_nominal(path: Option<&PathBuf>) -> anyhow::Result<(Model, String)> {
 /// (the fault that stopped the previous run) has its error reset; the arm is activated
 /// and homed and the guide homed if needed (the campaign would do it anyway; doing it here
 /// shows the operator the state of the cell first).
-fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
+pub(crate) fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
     let status = cell.arm.status().context("arm: reading the status")?;
     println!(
         "  arm: activated {}, homed {}, error {}",
@@ -173,7 +176,7 @@ fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
 
 /// The error and its causes on one line, without repeating a cause whose text an outer error
 /// already quotes (the campaign's errors carry their device error in their own message).
-fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
+pub(crate) fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
     let mut line = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {
@@ -187,61 +190,42 @@ fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
     line
 }
 
-/// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    // everything that can be checked without the cell, before connecting
-    let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
-    let tour = PlanFolder::new(&args.plan).read_tour(nominal.joint_kinds())?;
-    tour.validate(&nominal)
-        .with_context(|| format!("{}: the plan does not fit {nominal_source}", args.plan.display()))?;
-    let devices_file = DevicesFile::load(&args.devices)?;
-    devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
-    if !(args.speed > 0.0 && args.speed <= 1.0) {
-        bail!("--speed must be in (0, 1], got {}", args.speed);
+/// Checks the options shared by `vatcal campaign` and `vatcal calibrate`: the speed fraction,
+/// the motion timeout, and a simulator control port for the automatic operator.
+pub(crate) fn check_cell_options(
+    speed: f64,
+    motion_timeout_s: f64,
+    operator: OperatorKind,
+    devices_file: &DevicesFile,
+    devices: &std::path::Path,
+) -> anyhow::Result<()> {
+    if !(speed > 0.0 && speed <= 1.0) {
+        bail!("--speed must be in (0, 1], got {speed}");
     }
-    if !(args.motion_timeout_s.is_finite() && args.motion_timeout_s > 0.0) {
-        bail!("--motion-timeout-s must be > 0, got {}", args.motion_timeout_s);
+    if !(motion_timeout_s.is_finite() && motion_timeout_s > 0.0) {
+        bail!("--motion-timeout-s must be > 0, got {motion_timeout_s}");
     }
-    if args.operator == OperatorKind::Auto && devices_file.sim_control.is_none() {
+    if operator == OperatorKind::Auto && devices_file.sim_control.is_none() {
         bail!(
             "{}: `--operator auto` needs `sim_control = {{ tcp = \"host:port\" }}` (the simulator's cell-control port)",
-            args.devices.display()
+            devices.display()
         );
     }
-    let folder = RunFolder::new(&args.out);
-    let journal = folder.journal();
-    match (journal.exists(), args.resume) {
-        (true, false) => bail!(
-            "{} exists: pass --resume to continue that campaign, or choose another --out",
-            journal.display()
-        ),
-        (false, true) => bail!("--resume: {} does not exist (nothing to resume)", journal.display()),
-        _ => {}
-    }
-    folder.create()?;
+    Ok(())
+}
 
-    let flag = StopFlag::new();
-    let handler_flag = flag.clone();
-    ctrlc::set_handler(move || {
-        if handler_flag.is_raised() {
-            eprintln!("\nsecond interrupt: exiting now (the journal keeps every completed step)");
-            std::process::exit(130);
-        }
-        eprintln!("\ninterrupt: stopping the arm and the guide …");
-        handler_flag.raise();
-    })
-    .context("installing the Ctrl-C handler")?;
-
-    println!(
-        "vatcal campaign: {} measurements in {} steps from {}, devices {}, run folder {}",
-        tour.measurement_count(),
-        tour.steps.len(),
-        args.plan.display(),
-        args.devices.display(),
-        args.out.display()
-    );
+/// Connects the devices of `devices_file` (printing what it found), builds the probe for the
+/// calibration positions of `nominal`, picks the operator and the clock, and checks every
+/// device ([`check_devices`]; on failure the motion is stopped).
+pub(crate) fn connect_cell(
+    devices_file: &DevicesFile,
+    operator: OperatorKind,
+    nominal: &Model,
+    flag: &StopFlag,
+    timeout: Duration,
+) -> anyhow::Result<RealCell> {
     println!("connecting:");
-    let ConnectedDevices { arm, guide, gauges, sim_control, thermometer, found, .. } =
+    let ConnectedDevices { arm, guide, gauges, sim_control, thermometer, found, tracker } =
         devices_file.connect()?;
     for line in &found {
         println!("  {line}");
@@ -249,7 +233,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // with the simulated operator, `time_s` is the simulated cell's virtual time (what the
     // in-process demo records), not the wall clock of a run sped up by `--time-scale`
     let mut clock: Box<dyn Clock> = Box::new(SystemClock);
-    let operator: Box<dyn Operator> = match (args.operator, sim_control) {
+    let operator: Box<dyn Operator> = match (operator, sim_control) {
         (OperatorKind::Auto, Some(control)) => {
             clock = Box::new(control.clock().context("reading the simulated cell's clock (TIME?)")?);
             Box::new(SimControlOperator::new(control))
@@ -265,16 +249,69 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         arm: StoppableArm::new(arm, flag.clone()),
         guide: guide.map(|g| StoppableAxis::new(g, flag.clone())),
         probe,
+        tracker,
         operator,
         clock,
         thermometer,
     };
-    let timeout = Duration::from_secs_f64(args.motion_timeout_s);
     println!("checking:");
     if let Err(e) = check_devices(&mut cell, timeout) {
         cell.stop_motion();
         return Err(e);
     }
+    Ok(cell)
+}
+
+/// Installs the Ctrl-C handler: the first interrupt raises `flag` (the arm and the guide
+/// stop, the journal keeps every completed step), the second exits.
+pub(crate) fn install_stop_handler(flag: &StopFlag) -> anyhow::Result<()> {
+    let handler_flag = flag.clone();
+    ctrlc::set_handler(move || {
+        if handler_flag.is_raised() {
+            eprintln!("\nsecond interrupt: exiting now (the journal keeps every completed step)");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupt: stopping the arm and the guide …");
+        handler_flag.raise();
+    })
+    .context("installing the Ctrl-C handler")
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    // everything that can be checked without the cell, before connecting
+    let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
+    let tour = PlanFolder::new(&args.plan).read_tour(nominal.joint_kinds())?;
+    tour.validate(&nominal)
+        .with_context(|| format!("{}: the plan does not fit {nominal_source}", args.plan.display()))?;
+    let devices_file = DevicesFile::load(&args.devices)?;
+    devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
+    check_cell_options(args.speed, args.motion_timeout_s, args.operator, &devices_file, &args.devices)?;
+    let folder = RunFolder::new(&args.out);
+    let journal = folder.journal();
+    match (journal.exists(), args.resume) {
+        (true, false) => bail!(
+            "{} exists: pass --resume to continue that campaign, or choose another --out",
+            journal.display()
+        ),
+        (false, true) => bail!("--resume: {} does not exist (nothing to resume)", journal.display()),
+        _ => {}
+    }
+    folder.create()?;
+
+    let flag = StopFlag::new();
+    install_stop_handler(&flag)?;
+
+    println!(
+        "vatcal campaign: {} measurements in {} steps from {}, devices {}, run folder {}",
+        tour.measurement_count(),
+        tour.steps.len(),
+        args.plan.display(),
+        args.devices.display(),
+        args.out.display()
+    );
+    let timeout = Duration::from_secs_f64(args.motion_timeout_s);
+    let mut cell = connect_cell(&devices_file, args.operator, &nominal, &flag, timeout)?;
 
     let config = CampaignConfig {
         motion: MotionOptions { speed_fraction: args.speed, timeout },

@@ -132,6 +132,14 @@ pub struct Args {
     /// Never draw progress bars (they are drawn only when stdout is a terminal).
     #[arg(long)]
     pub quiet: bool,
+    /// Continue the report folder (`stages.json`): skip the stages done, continue the
+    /// interrupted one on a new virtual cell of the same seed (as `vatcal calibrate --resume`).
+    #[arg(long)]
+    pub resume: bool,
+    /// Stages to run, a comma list of plan, campaign, identify, discovery, validation,
+    /// compensation (default: all; as `vatcal calibrate --stages`).
+    #[arg(long, value_name = "LIST")]
+    pub stages: Option<String>,
 }
 
 /// Runs the subcommand.
@@ -166,6 +174,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         opts.truth,
         args.out.display()
     );
+    if let Some(list) = &args.stages {
+        opts.calibrate.stages = vatcal_pipeline::CalibrateOptions::parse_stages(list)?;
+    }
+    opts.calibrate.resume = args.resume;
+    if opts.calibrate.resume || opts.calibrate.stages.last() != Some(&vatcal_pipeline::Stage::Report) {
+        let (outcome, _) = vatcal_demo::run_demo_stages(&opts, &args.out, &mut progress)
+            .with_context(|| format!("demo (seed {}, report folder {})", args.seed, args.out.display()))?;
+        let names = |v: &[vatcal_pipeline::Stage]| v.iter().map(|s| s.key()).collect::<Vec<_>>().join(", ");
+        println!("stages run: {}; recomputed: {}", names(&outcome.ran), names(&outcome.recomputed));
+        if let Some(run) = &outcome.run {
+            println!();
+            print!("{}", vatcal_pipeline::comparison_table(&run.report));
+        }
+        return Ok(());
+    }
     let outcome = run_demo_with_progress(&opts, &args.out, &mut progress)
         .with_context(|| format!("demo (seed {}, report folder {})", args.seed, args.out.display()))?;
     println!();

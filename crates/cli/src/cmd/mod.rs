@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod calibrate;
 pub mod campaign;
 pub mod compensate;
 pub mod demo;

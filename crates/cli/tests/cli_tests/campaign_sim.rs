@@ -27,21 +27,21 @@ use vatcal_sim_cell::{Device, Ports, SimCell, SimCellOptions};
 
 const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml");
 
-fn vatcal(args: &[&str]) -> Output {
+pub(crate) fn vatcal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vatcal")).args(args).output().expect("run vatcal")
 }
 
-fn ok(o: &Output) -> String {
+pub(crate) fn ok(o: &Output) -> String {
     let stdout = String::from_utf8_lossy(&o.stdout).to_string();
     assert!(o.status.success(), "stdout:\n{stdout}\nstderr:\n{}", String::from_utf8_lossy(&o.stderr));
     stdout
 }
 
-fn s(p: &Path) -> &str {
+pub(crate) fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
-fn start_cell(seed: u64) -> SimCell {
+pub(crate) fn start_cell(seed: u64) -> SimCell {
     let options = SimCellOptions {
         ports: Ports::ephemeral(),
         time_scale: 1000.0,
@@ -136,7 +136,7 @@ impl Drop for SimCellProcess {
 }
 
 /// A devices file pointing at the running in-process cell.
-fn devices_file(cell: &SimCell, dir: &Path) -> PathBuf {
+pub(crate) fn devices_file(cell: &SimCell, dir: &Path) -> PathBuf {
     let a = cell.addrs();
     let text = format!(
         "arm = {{ kind = \"meca500\", address = \"{}\", monitoring = \"{}\" }}\n\
@@ -202,7 +202,7 @@ fn campaign_args<'a>(devices: &'a Path, plan: &'a Path, out: &'a Path) -> Vec<&'
 /// Data rows of a measurements CSV without the `time_s` column (the simulated cell's clock
 /// also counts the moves that put the cell back after a crash, so a resumed run's times are
 /// later; everything else must not differ).
-fn rows_without_time(csv: &Path) -> Vec<String> {
+pub(crate) fn rows_without_time(csv: &Path) -> Vec<String> {
     let text = std::fs::read_to_string(csv).unwrap_or_else(|e| panic!("{}: {e}", csv.display()));
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
@@ -241,7 +241,7 @@ fn temperatures(csv: &Path) -> Vec<f64> {
 }
 
 /// Measurement records in a journal so far.
-fn journaled_measurements(journal: &Path) -> usize {
+pub(crate) fn journaled_measurements(journal: &Path) -> usize {
     std::fs::read_to_string(journal).map_or(0, |t| t.matches("\"outcome\":\"measured\"").count())
 }
 
