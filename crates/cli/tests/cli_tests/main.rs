@@ -6,6 +6,7 @@
 mod any_robot;
 mod campaign_sim;
 mod compensate;
+mod compensate_each;
 mod demo;
 mod discover;
 mod fk_context;
