@@ -1,4 +1,6 @@
-//! # vatcal-compensation
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Puts a calibration to work: turns requested world poses into joint targets under the
 //! **calibrated** model (issue 13), so that the cell physically lands where it is asked to, and

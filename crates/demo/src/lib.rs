@@ -1,4 +1,6 @@
-//! # vatcal-demo
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The whole calibration of the paper, simulated end to end in one call ([`run_demo`]; the
 //! `vatcal demo` command): the pipeline of `vatcal-pipeline` (plan → measurement campaign →
@@ -50,7 +52,7 @@ pub use vatcal_pipeline::{
 
 /// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built into the binary so that
 /// the demo runs from any directory.
-pub const BUILT_IN_CELL: &str = include_str!("../../../fixtures/meca500-zaber.toml");
+pub const BUILT_IN_CELL: &str = vatcal_core::CANONICAL_CELL_TOML;
 
 /// Name of the built-in cell in messages and in the report.
 pub const BUILT_IN_CELL_NAME: &str = "fixtures/meca500-zaber.toml (built in)";

@@ -1,4 +1,6 @@
-//! # vatcal-gravity-torque
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Static gravity torques `tau_i` [N·m] on the revolute joints of a serial chain of N joints
 //! (on the canonical cell: `tau_2..tau_7` on the six Meca500 joints), computed by Craig's

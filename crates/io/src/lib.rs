@@ -1,4 +1,6 @@
-//! # vatcal-io
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Reading and writing the CSV files of `docs/formats.md`:
 //!

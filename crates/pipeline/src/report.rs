@@ -510,7 +510,7 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
     }
     let _ = writeln!(
         m,
-        "\nresiduals at the solution: {}; σ̂ = {:.4} mm (dof {}), condition number {:.1}.\n",
+        "\nConvergence: `identification_convergence.svg`. Residuals at the solution: {}; σ̂ = {:.4} mm (dof {}), condition number {:.1}.\n",
         id.residual_stats.one_line(),
         id.sigma_hat_mm,
         id.dof,

@@ -1,4 +1,6 @@
-//! # vatcal-urdf
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Reads a URDF file (with [`urdf_rs`]) and converts the serial chain from a base link `B` to a
 //! tip link `T` into the representation every other vatcal crate uses: one MDH + Hayati-β row

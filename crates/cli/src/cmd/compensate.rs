@@ -16,7 +16,7 @@ use vatcal_drivers_meca500::codec::format_number;
 use vatcal_kinematics::Model;
 
 /// The canonical nominal cell, used when neither `--nominal` nor the calibrated file names one.
-const BUILT_IN_NOMINAL: &str = include_str!("../../../../fixtures/meca500-zaber.toml");
+const BUILT_IN_NOMINAL: &str = vatcal_core::CANONICAL_CELL_TOML;
 
 /// What `vatcal compensate` writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
