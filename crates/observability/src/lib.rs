@@ -10,8 +10,9 @@
 //!   (background.md §5);
 //! * [`indices`] — the observability indices O1..O5, always reported together with rank,
 //!   condition number and σ_min (background.md §3);
-//! * `detmax` (feature `detmax`, on by default) — D-optimal selection of `n` poses out of `N` candidates with rank-3
-//!   determinant-lemma / Woodbury updates (background.md §4), plus a naive reference.
+//! * `detmax` (feature `detmax`, on by default; rayon and rand) — D-optimal selection of `n`
+//!   poses out of `N` candidates with rank-3 determinant-lemma / Woodbury updates
+//!   (background.md §4), plus a naive reference.
 //!
 //! Units inside: mm, rad, rad/(N·m). Jacobian columns are `d(FK − target)/dρ` in those units.
 
