@@ -174,7 +174,10 @@ fn branch_column_near_and_errors() {
     assert_eq!(on_six + skipped.len(), 6, "{text}");
     assert!(on_six > 0, "{text}");
     for l in skipped {
-        assert!(l.contains("named.csv:") && (l.contains("branch 6") || l.contains("leaves its limits")), "{l}");
+        assert!(
+            l.contains("named.csv:") && (l.contains("branch 6") || l.contains("leaves its limits")),
+            "{l}"
+        );
     }
 
     // --near the generating joints of row 1 gives them back

@@ -59,7 +59,9 @@ fn every_figure_sits_in_the_section_that_names_it() {
                         toc_links.push(String::from_utf8_lossy(&a.value).trim_start_matches('#').to_string());
                     }
                 }
-                b"script" | b"link" | b"img" | b"iframe" => panic!("external or active content in summary.html"),
+                b"script" | b"link" | b"img" | b"iframe" => {
+                    panic!("external or active content in summary.html")
+                }
                 _ => {}
             },
             Event::End(e) => match e.name().as_ref() {
