@@ -8,7 +8,7 @@
 //! 4. `identify` the 34 parameters; print them and the error on 40 other poses, before and
 //!    after. Exits with an error when the calibration does not bring the error down.
 
-use vatcal_identification::{IdentifyOptions, identify, validate};
+use vatcal_identification::{IdentifyOptions, file_unit_label, identify, to_file_units, validate};
 use vatcal_kinematics::{CellFile, JointVector, Measurement, Model, ParamSet};
 
 /// The nominal cell (in a real project: the robot's own cell file).
@@ -55,7 +55,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let errors: Vec<f64> = params
         .iter()
         .enumerate()
-        .map(|(k, id)| if k % 2 == 0 { 1.0 } else { -1.0 } * (0.5 + 0.1 * (k % 5) as f64) * id.typical_scale())
+        .map(
+            |(k, id)| if k % 2 == 0 { 1.0 } else { -1.0 } * (0.5 + 0.1 * (k % 5) as f64) * id.typical_scale(),
+        )
         .collect();
     let true_values: Vec<f64> = start.iter().zip(&errors).map(|(v, e)| v + e).collect();
     truth.set_params(&params, &true_values)?;
@@ -65,9 +67,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let fit = identify(&nominal, &fit_data, &params, &IdentifyOptions::default())?;
 
     println!("identified {} parameters from {} tracker measurements:", params.len(), fit_data.len());
-    println!("{:<16} {:>14} {:>14} {:>12}", "parameter", "nominal", "identified", "true - id.");
-    for (k, name) in params.names().iter().enumerate() {
-        println!("{name:<16} {:>14.6} {:>14.6} {:>12.2e}", start[k], fit.values[k], true_values[k] - fit.values[k]);
+    println!("{:<16} {:<9} {:>14} {:>14} {:>12}", "parameter", "unit", "nominal", "identified", "true - id.");
+    for (k, id) in params.iter().enumerate() {
+        let file = |v: f64| to_file_units(*id, v);
+        println!(
+            "{:<16} {:<9} {:>14.6} {:>14.6} {:>12.2e}",
+            id.name(),
+            file_unit_label(*id),
+            file(start[k]),
+            file(fit.values[k]),
+            file(true_values[k]) - file(fit.values[k])
+        );
     }
     let before = validate(&nominal, &check_data)?.stats;
     let after = validate(&fit.model, &check_data)?.stats;
@@ -80,7 +90,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         after.max
     );
     if !(fit.converged && after.mean < 1e-3 * before.mean) {
-        return Err(format!("the calibration did not converge to the truth: {} -> {} mm", before.mean, after.mean).into());
+        return Err(format!(
+            "the calibration did not converge to the truth: {} -> {} mm",
+            before.mean, after.mean
+        )
+        .into());
     }
     Ok(())
 }
