@@ -77,9 +77,9 @@ pub enum CompensationError {
         row: usize,
         /// joint (1..=N; a joint the pose determines)
         joint: usize,
-        /// the jump [deg]
+        /// the jump \[deg\]
         step_deg: f64,
-        /// the allowed step [deg]
+        /// the allowed step \[deg\]
         max_deg: f64,
     },
     /// Compensation does not handle this chain (fewer than six joints, or more than six whose

@@ -4,14 +4,14 @@ use nalgebra::Vector3;
 
 use crate::error::Result;
 
-/// Measures the world position [mm] of a target (an SMR nest identified by the TCP id it
+/// Measures the world position \[mm\] of a target (an SMR nest identified by the TCP id it
 /// stands for), in the cell's world (tank) frame — the tracker driver owns the registration.
 ///
 /// # Implementation
 /// A target that cannot be seen is [`crate::ErrorKind::OutOfRange`]; calls use the driver's
 /// I/O timeout.
 pub trait PositionTracker: Send {
-    /// World position of `target` [mm].
+    /// World position of `target` \[mm\].
     fn measure_mm(&mut self, target: u32) -> Result<Vector3<f64>>;
 }
 

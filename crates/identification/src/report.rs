@@ -75,9 +75,9 @@ pub struct IdentificationReport {
     pub n_parameters: usize,
     /// degrees of freedom 3n − L
     pub dof: usize,
-    /// weighted residual sum of squares [mm²]
+    /// weighted residual sum of squares \[mm²\]
     pub rss_mm2: f64,
-    /// estimated noise of one coordinate of a weight-1 measurement [mm]
+    /// estimated noise of one coordinate of a weight-1 measurement \[mm\]
     pub sigma_hat_mm: f64,
     /// condition number of the weighted, column-normalised Jacobian at the solution
     pub condition_number: f64,

@@ -61,7 +61,7 @@ pub struct DiscoveryStageOptions {
     /// backlash is excited explicitly
     pub two_sided_repeats: usize,
     /// how far past the measurement pose each joint is taken before the opposite-side
-    /// approach of a repeat [rad] (well above any lost motion of the gears)
+    /// approach of a repeat \[rad\] (well above any lost motion of the gears)
     pub repeat_overshoot_rad: f64,
 }
 
@@ -84,7 +84,7 @@ impl DiscoveryStageOptions {
     }
 
     /// The same with the instruments' known noise per axis: probe measurements (after
-    /// centring, the offset read by the gauges) and tracker measurements [mm].
+    /// centring, the offset read by the gauges) and tracker measurements \[mm\].
     pub fn with_instrument_noise(mut self, probe_mm: f64, tracker_mm: f64) -> Self {
         self.discover.instrument_sigmas = Some(vatcal_identification::KindSigmas {
             probe_mm: Some(probe_mm),
@@ -209,9 +209,9 @@ pub struct DiscoveryReport {
     pub negligible_effects: serde_json::Value,
     /// effects removed by the backward check
     pub removed_effects: serde_json::Value,
-    /// cross-validated gap of the 34-parameter model on the probe data [mm]
+    /// cross-validated gap of the 34-parameter model on the probe data \[mm\]
     pub initial_gap_mm: f64,
-    /// cross-validated gap of the discovered model on the probe data [mm]
+    /// cross-validated gap of the discovered model on the probe data \[mm\]
     pub final_gap_mm: f64,
     /// how the true-structure model was fitted, or why it is missing
     pub true_structure: String,

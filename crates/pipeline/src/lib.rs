@@ -171,7 +171,7 @@ impl<'p> Stages<'p> {
         self.progress.stage_started(stage, steps);
     }
 
-    /// Ends `stage`: `line` receives its duration [s] and returns the summary line.
+    /// Ends `stage`: `line` receives its duration \[s\] and returns the summary line.
     fn finish(&mut self, stage: Stage, line: impl FnOnce(f64) -> Option<String>) -> f64 {
         let s = self.start.elapsed().as_secs_f64();
         self.start = Instant::now();

@@ -59,7 +59,7 @@ pub struct Args {
     /// instead of failing.
     #[arg(long)]
     pub skip_unreachable: bool,
-    /// Largest change of an arm joint between consecutive rows [deg].
+    /// Largest change of an arm joint between consecutive rows \[deg\].
     #[arg(long, default_value_t = 30.0)]
     pub max_joint_step_deg: f64,
     /// IK branch of the path (with --each: of every row whose `branch` field is empty): on the
