@@ -56,7 +56,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .enumerate()
         .map(
-            |(k, id)| if k % 2 == 0 { 1.0 } else { -1.0 } * (0.5 + 0.1 * (k % 5) as f64) * id.typical_scale(),
+            |(k, id)| if k.is_multiple_of(2) { 1.0 } else { -1.0 } * (0.5 + 0.1 * (k % 5) as f64) * id.typical_scale(),
         )
         .collect();
     let true_values: Vec<f64> = start.iter().zip(&errors).map(|(v, e)| v + e).collect();

@@ -88,7 +88,7 @@ fn each_reproduces_300_random_independent_poses() {
     let dir = tempfile::tempdir().expect("tmp");
     let (model_path, cal) = calibrated(&dir);
     let rows = random_requests(&cal, 300, 23);
-    let requests: Vec<PoseRequest> = rows.iter().map(|(_, r)| r.clone()).collect();
+    let requests: Vec<PoseRequest> = rows.iter().map(|(_, r)| *r).collect();
     let poses = dir.path().join("poses.csv").display().to_string();
     std::fs::write(&poses, poses_csv(&requests, None)).expect("write");
     let out = dir.path().join("targets.csv").display().to_string();
@@ -143,7 +143,7 @@ fn branch_column_near_and_errors() {
     let dir = tempfile::tempdir().expect("tmp");
     let (model_path, cal) = calibrated(&dir);
     let rows = random_requests(&cal, 12, 5);
-    let requests: Vec<PoseRequest> = rows.iter().map(|(_, r)| r.clone()).collect();
+    let requests: Vec<PoseRequest> = rows.iter().map(|(_, r)| *r).collect();
     let out = dir.path().join("out.csv").display().to_string();
     let write = |name: &str, text: &str| {
         let p = dir.path().join(name).display().to_string();
@@ -162,7 +162,7 @@ fn branch_column_near_and_errors() {
     let mut on_six = 0;
     for row in &lines_solved {
         let line: usize = row[0].parse().expect("line");
-        if (line - 2) % 2 == 0 {
+        if (line - 2).is_multiple_of(2) {
             assert_eq!(row[9], "6", "{row:?}");
             on_six += 1;
         }
