@@ -309,7 +309,7 @@ pub struct Round {
 
 /// Data for a plot of the residual against the effect's driving variable: for effects of a
 /// revolute joint j the residual expressed as an angle error of joint j (its component along
-/// `∂p/∂θ_j` divided by the lever arm) [µrad], otherwise the residual norm \[µm\].
+/// `∂p/∂θ_j` divided by the lever arm) \[µrad\], otherwise the residual norm \[µm\].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DriverPlot {
     /// x-axis label with unit

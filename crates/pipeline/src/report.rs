@@ -1,4 +1,4 @@
-//! The report folder of a calibration run: `report.json` (one writer: [`Files::json`]),
+//! The report folder of a calibration run: `report.json` (one writer: `Files::json`),
 //! `summary.md`, the measurement and error CSVs and the SVG plots.
 
 use std::fmt::Write as _;

@@ -162,7 +162,7 @@ impl VirtualCell {
 
     /// Noise-free reading of gauge `gauge` (0..3) at the state of the last
     /// [`VirtualCell::external_sync`], relative to the probe's zero at the start of the session
-    /// (the master-ball preset the probe came with) [mm]: a simulated gauge whose own zero
+    /// (the master-ball preset the probe came with) \[mm\]: a simulated gauge whose own zero
     /// sits there displays the in-process reading. `None` when nothing touches the plunger
     /// (it rests on its stop, fully extended).
     pub fn external_plunger_mm(&self, gauge: usize) -> Option<f64> {
