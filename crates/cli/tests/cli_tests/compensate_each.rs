@@ -185,18 +185,10 @@ fn branch_column_near_and_errors() {
     let one = write("one.csv", &poses_csv(std::slice::from_ref(req), None));
     let near: Vec<String> = q.to_mm_deg().iter().map(|v| format!("{v}")).collect();
     let near = near.join(",");
-    let (ok, err) = run(&[
-        "compensate",
-        "--model",
-        &model_path,
-        "--poses",
-        &one,
-        "--out",
-        &out,
-        "--each",
-        "--near",
-        &near,
-    ]);
+    let each_near = |near: &str| {
+        run(&["compensate", "--model", &model_path, "--poses", &one, "--out", &out, "--each", "--near", near])
+    };
+    let (ok, err) = each_near(&near);
     assert!(ok, "{err}");
     let row = &data_rows(&std::fs::read_to_string(&out).expect("out"))[0];
     let got: Vec<f64> = row[2..9].iter().map(|x| x.parse().expect("number")).collect();
@@ -212,18 +204,7 @@ fn branch_column_near_and_errors() {
     let sign = write("sign.csv", &poses_csv(&requests[..1], Some(&["+"])));
     let (ok, err) = run(&["compensate", "--model", &model_path, "--poses", &sign, "--out", &out]);
     assert!(!ok && err.contains("sign.csv:2") && err.contains("0..=7"), "{err}");
-    let (ok, err) = run(&[
-        "compensate",
-        "--model",
-        &model_path,
-        "--poses",
-        &one,
-        "--out",
-        &out,
-        "--each",
-        "--near",
-        "1,2",
-    ]);
+    let (ok, err) = each_near("1,2");
     assert!(!ok && err.contains("--near") && err.contains("7 finite joint values"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
