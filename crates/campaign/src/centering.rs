@@ -31,23 +31,23 @@ use vatcal_kinematics::Model;
 /// Settings of [`auto_center`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CenteringConfig {
-    /// stop when the composite error is below this [mm] (paper: 0.005)
+    /// stop when the composite error is below this \[mm\] (paper: 0.005)
     pub tolerance_mm: f64,
     /// maximum number of corrective moves
     pub max_iterations: usize,
-    /// a corrective move longer than this is shortened to it (same direction) [mm]
+    /// a corrective move longer than this is shortened to it (same direction) \[mm\]
     pub max_step_mm: f64,
-    /// noise allowance of the divergence test [mm] (robot repeatability + gauge error): abort
+    /// noise allowance of the divergence test \[mm\] (robot repeatability + gauge error): abort
     /// when the composite error exceeds the first reading by more than this, or grows by more
     /// than this on two consecutive moves
     pub growth_allowance_mm: f64,
-    /// abort when any gauge reading comes within this margin of the probe's range [mm]
+    /// abort when any gauge reading comes within this margin of the probe's range \[mm\]
     pub range_margin_mm: f64,
     /// speed and timeout of the corrective moves
     pub motion: MotionOptions,
     /// after a linear correction, every joint it moved against its approach direction is
     /// taken this far past its target and brought back, so each joint ends on the backlash side
-    /// of the pose's planned approach [rad]; 0 disables it (the linear move alone). It must
+    /// of the pose's planned approach \[rad\]; 0 disables it (the linear move alone). It must
     /// exceed the joints' lost motion (strain-wave gears: ≤ 1 arcmin = 0.29 mrad)
     pub approach_overshoot_rad: f64,
 }
@@ -84,9 +84,9 @@ pub enum CenteringError {
     OutOfRange {
         /// the readings (empty when the probe itself refused to read)
         readings_mm: Vec<f64>,
-        /// probe range [mm]
+        /// probe range \[mm\]
         range_mm: f64,
-        /// safety margin [mm]
+        /// safety margin \[mm\]
         margin_mm: f64,
         /// the readings or the probe's own message
         detail: String,
@@ -97,9 +97,9 @@ pub enum CenteringError {
         "the composite error grew from {previous_mm:.4} mm to {current_mm:.4} mm after corrective move {iteration}: the loop diverges, stopped"
     )]
     ErrorGrew {
-        /// before the move [mm]
+        /// before the move \[mm\]
         previous_mm: f64,
-        /// after the move [mm]
+        /// after the move \[mm\]
         current_mm: f64,
         /// 1-based index of the move that made it grow
         iteration: usize,
@@ -109,7 +109,7 @@ pub enum CenteringError {
     IterationCap {
         /// moves made
         iterations: usize,
-        /// last composite error [mm]
+        /// last composite error \[mm\]
         composite_mm: f64,
     },
     /// A device failed.
@@ -123,16 +123,16 @@ pub struct CenteringOutcome {
     /// the last reading (below the tolerance); an option worth keeping is to correct the
     /// target by its offset instead of treating it as noise
     pub final_reading: ProbeReading,
-    /// the final offset in world axes (through the nominal placement orientation) [mm]
+    /// the final offset in world axes (through the nominal placement orientation) \[mm\]
     pub final_offset_world_mm: Vector3<f64>,
     /// corrective moves made
     pub iterations: usize,
-    /// composite error of every reading, first to last [mm]
+    /// composite error of every reading, first to last \[mm\]
     pub composite_history_mm: Vec<f64>,
-    /// the corrective moves commanded, in world axes [mm]
+    /// the corrective moves commanded, in world axes \[mm\]
     pub steps_world_mm: Vec<Vector3<f64>>,
     /// arm joints read before each corrective move, then the final joints
-    /// (`iterations + 1` entries) [rad]
+    /// (`iterations + 1` entries) \[rad\]
     pub joint_trace: Vec<ArmJoints>,
     /// sign of the last motion of each arm joint (J1.., the cell joints of
     /// [`JointLayout::arm_cell_joints`]) when the ball was centred: the `approach` given to
@@ -142,7 +142,7 @@ pub struct CenteringOutcome {
     /// arm motions made: the corrective linear moves plus the joint moves that restored the
     /// approach side (two per correction that reversed a joint)
     pub arm_motions: usize,
-    /// the joints the last arm motion started from (`None` when nothing moved) [rad]
+    /// the joints the last arm motion started from (`None` when nothing moved) \[rad\]
     pub last_motion_from: Option<ArmJoints>,
 }
 

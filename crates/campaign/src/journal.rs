@@ -74,7 +74,7 @@ pub struct CellState {
     /// arm joints (internal units) before the last arm motion (the motion that reached
     /// `joints`)
     pub arm_from: JointVector,
-    /// guide position [mm] before the last guide motion (`None`: the cell has no guide)
+    /// guide position \[mm\] before the last guide motion (`None`: the cell has no guide)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub guide_from_mm: Option<f64>,
     /// sign of the last motion of each arm joint (0 = not moved since homing)
@@ -118,24 +118,24 @@ pub enum StepOutcome {
         position: u32,
         /// TCP id
         tcp: u32,
-        /// final gauge readings [mm]
+        /// final gauge readings \[mm\]
         readings_mm: [f64; 3],
-        /// final offset in the probe frame (nominal axes) [mm]
+        /// final offset in the probe frame (nominal axes) \[mm\]
         offset_mm: [f64; 3],
-        /// the same offset in world axes (through the nominal placement) [mm]; the
+        /// the same offset in world axes (through the nominal placement) \[mm\]; the
         /// measurement's target is the calibration position plus this (absent in old journals)
         #[serde(default, skip_serializing_if = "Option::is_none")]
         offset_world_mm: Option<[f64; 3]>,
         /// corrective moves made
         iterations: usize,
-        /// composite error after each reading [mm]
+        /// composite error after each reading \[mm\]
         composite_history_mm: Vec<f64>,
     },
     /// the tracker measured target `tcp`
     Tracked {
         /// TCP / SMR id
         tcp: u32,
-        /// measured world position [mm]
+        /// measured world position \[mm\]
         xyz_mm: [f64; 3],
     },
     /// the measurement was skipped (auto-centering refused) and the campaign went on
@@ -152,7 +152,7 @@ pub struct StepRecord {
     pub step: usize,
     /// seconds since the campaign start when the step completed
     pub time_s: f64,
-    /// cell temperature read by the thermometer when the step completed [°C] (measuring steps
+    /// cell temperature read by the thermometer when the step completed \[°C\] (measuring steps
     /// of a cell with a thermometer; absent in journals written without one)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature_c: Option<f64>,

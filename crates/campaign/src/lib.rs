@@ -1,4 +1,6 @@
-//! # vatcal-campaign
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Runs the measurement campaign of the paper (§2.4, §4.3) on **any** devices implementing the
 //! traits of `vatcal-hardware-traits` — real drivers or the virtual cell of `vatcal-sim`:

@@ -73,7 +73,7 @@ pub struct CampaignConfig {
     /// draw a progress bar with ETA on stderr
     pub show_progress: bool,
     /// after a crash the arm re-approaches the last recorded pose from this far on the side
-    /// each joint last moved from [rad], restoring every joint's backlash side
+    /// each joint last moved from \[rad\], restoring every joint's backlash side
     pub recovery_approach_rad: f64,
     /// free text stored in the journal header
     pub note: String,
@@ -399,7 +399,7 @@ impl<'a> Campaign<'a> {
         Ok((last.state.clone(), time_offset_s, Some(journal.next_step())))
     }
 
-    /// The thermometer's reading [°C], `None` without a thermometer.
+    /// The thermometer's reading \[°C\], `None` without a thermometer.
     fn read_temperature(&mut self, step: StepLabel) -> Result<Option<f64>, CampaignError> {
         match self.devices.thermometer.as_mut() {
             Some(t) => t.read_c().map(Some).map_err(device_err(step, "reading the thermometer")),

@@ -18,9 +18,9 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Forward kinematics: world x,y,z [mm] of each row's TCP.
+    /// Forward kinematics: world x,y,z \[mm\] of each row's TCP.
     Fk(cmd::fk::Args),
-    /// Gravity torques tau{i} [N·m] of every revolute joint i, for each row (tau2..tau7 on the
+    /// Gravity torques tau{i} \[N·m\] of every revolute joint i, for each row (tau2..tau7 on the
     /// canonical cell).
     Torque(cmd::torque::Args),
     /// Identifiability report (rank, redundant parameters, O1..O5) of a measurement set.

@@ -58,6 +58,16 @@ pub enum CompensationError {
         /// branch the pose needs
         to: crate::Branch,
     },
+    /// An independent pose has no solution on the branch it asks for (other branches reach it).
+    #[error("row {row}: no solution on branch {branch} (the pose is reached on branch(es) {available})")]
+    BranchUnreachable {
+        /// row index
+        row: usize,
+        /// the branch asked for
+        branch: crate::Branch,
+        /// the branches that reach the pose, as in the `branch` column
+        available: String,
+    },
     /// A joint would jump between consecutive rows by more than allowed.
     #[error(
         "row {row}: joint q{joint} jumps by {step_deg:.3} deg from the previous row (at most {max_deg} deg)"
@@ -67,9 +77,9 @@ pub enum CompensationError {
         row: usize,
         /// joint (1..=N; a joint the pose determines)
         joint: usize,
-        /// the jump [deg]
+        /// the jump \[deg\]
         step_deg: f64,
-        /// the allowed step [deg]
+        /// the allowed step \[deg\]
         max_deg: f64,
     },
     /// Compensation does not handle this chain (fewer than six joints, or more than six whose
@@ -100,6 +110,7 @@ impl CompensationError {
             | Self::Unreachable { row, .. }
             | Self::JointLimit { row, .. }
             | Self::BranchChange { row, .. }
+            | Self::BranchUnreachable { row, .. }
             | Self::JointJump { row, .. } => Some(*row),
             _ => None,
         }

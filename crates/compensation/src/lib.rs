@@ -1,4 +1,6 @@
-//! # vatcal-compensation
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Puts a calibration to work: turns requested world poses into joint targets under the
 //! **calibrated** model (issue 13), so that the cell physically lands where it is asked to, and
@@ -20,6 +22,9 @@
 //!   from the previous solution, branch changes, joint jumps, limit violations and unreachable
 //!   rows named, or skipped and reported), and [`Compensator::corrected_pose`] —
 //!   `FK_nominal(IK_calibrated(request))`, the pose a `MovePose` program must send.
+//!   [`Compensator::compensate_each`] solves independent poses, each row on its own (on the
+//!   branch it names, nearest a given configuration, or farthest from the limits:
+//!   [`EachOptions`]).
 //! * [`path_accuracy`] — the proof on a virtual cell: the true error along a path commanded
 //!   with compensated targets and with uncompensated (nominal) targets.
 //!
@@ -35,12 +40,14 @@
 //! See `docs/compensation.md`.
 
 mod accuracy;
+mod each;
 mod error;
 mod path;
 mod pose;
 pub mod solve;
 
 pub use accuracy::{ErrorSummary, PathAccuracy, path_accuracy};
+pub use each::{EachOptions, Preference};
 pub use error::CompensationError;
 pub use path::{Compensated, Compensator, CorrectedPose, PathOptions, PathResult, RowOutcome, SkippedRow};
 pub use pose::{

@@ -510,7 +510,7 @@ impl<'a> Compensator<'a> {
         Ok(PathResult { rows, branch: if path_branch_fixed { branch } else { None } })
     }
 
-    fn limits_ok(&self, row: usize, q: &JointVector) -> Result<(), CompensationError> {
+    pub(crate) fn limits_ok(&self, row: usize, q: &JointVector) -> Result<(), CompensationError> {
         if let Some((joint, value, min, max)) = self.calibrated.limit_violation(q) {
             let (f, unit): (fn(f64) -> f64, _) = if joint == 1 { (|v| v, "mm") } else { (rad_to_deg, "deg") };
             return Err(CompensationError::JointLimit {
@@ -525,7 +525,7 @@ impl<'a> Compensator<'a> {
         Ok(())
     }
 
-    fn accept(&self, s: Solved, target: &ToolTarget) -> Compensated {
+    pub(crate) fn accept(&self, s: Solved, target: &ToolTarget) -> Compensated {
         Compensated {
             q: s.q,
             branch: self.branch_at(&s.q, &target.context),
@@ -581,7 +581,7 @@ impl<'a> Compensator<'a> {
 
     /// Smallest distance of a solved joint to its limits (rad or mm; continuous joints have
     /// none).
-    fn clearance(&self, q: &JointVector) -> f64 {
+    pub(crate) fn clearance(&self, q: &JointVector) -> f64 {
         self.split
             .free()
             .iter()

@@ -119,16 +119,16 @@ pub struct JointRow {
     pub name: String,
     /// `"prismatic"` or `"revolute"` (version 1: row 1 prismatic, rows 2..7 revolute)
     pub kind: String,
-    /// alpha_{i-1} [deg]
+    /// alpha_{i-1} \[deg\]
     pub alpha_deg: f64,
-    /// a_{i-1} [mm]
+    /// a_{i-1} \[mm\]
     pub a_mm: f64,
-    /// Hayati beta_{i-1} [deg] (optional, default 0)
+    /// Hayati beta_{i-1} \[deg\] (optional, default 0)
     #[serde(default)]
     pub beta_deg: f64,
-    /// theta offset of joint i [deg]
+    /// theta offset of joint i \[deg\]
     pub theta_deg: f64,
-    /// d offset of joint i [mm]
+    /// d offset of joint i \[mm\]
     pub d_mm: f64,
     /// lower joint limit (mm for prismatic, deg for revolute joints); required except on
     /// revolute rows of version 2, where absent limits mean a continuous joint
@@ -137,7 +137,7 @@ pub struct JointRow {
     /// upper joint limit (see `q_min`)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub q_max: Option<f64>,
-    /// joint compliance c_i [rad/(N·m)] (optional, default 0; must be 0 on prismatic rows of
+    /// joint compliance c_i \[rad/(N·m)\] (optional, default 0; must be 0 on prismatic rows of
     /// version 2, unused on the guide of version 1)
     #[serde(default)]
     pub compliance_rad_per_n_m: f64,
@@ -158,17 +158,17 @@ impl JointRow {
 /// `[base_in_world]`: `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BaseInWorld {
-    /// x [mm]
+    /// x \[mm\]
     pub x_mm: f64,
-    /// y [mm]
+    /// y \[mm\]
     pub y_mm: f64,
-    /// z [mm]
+    /// z \[mm\]
     pub z_mm: f64,
-    /// alpha [deg]
+    /// alpha \[deg\]
     pub alpha_deg: f64,
-    /// beta [deg]
+    /// beta \[deg\]
     pub beta_deg: f64,
-    /// gamma [deg]
+    /// gamma \[deg\]
     pub gamma_deg: f64,
 }
 
@@ -177,18 +177,18 @@ pub struct BaseInWorld {
 pub struct PointEntry {
     /// id
     pub id: u32,
-    /// x [mm]
+    /// x \[mm\]
     pub x_mm: f64,
-    /// y [mm]
+    /// y \[mm\]
     pub y_mm: f64,
-    /// z [mm]
+    /// z \[mm\]
     pub z_mm: f64,
 }
 
 /// `[gravity]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Gravity {
-    /// gravity vector in the world frame [m/s²]
+    /// gravity vector in the world frame \[m/s²\]
     pub vector_m_per_s2: [f64; 3],
 }
 
@@ -200,9 +200,9 @@ pub struct LinkInertial {
     /// informational URDF link name
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub urdf_link: Option<String>,
-    /// mass [kg]
+    /// mass \[kg\]
     pub mass_kg: f64,
-    /// centre of mass in frame `frame` [mm]
+    /// centre of mass in frame `frame` \[mm\]
     pub com_mm: [f64; 3],
 }
 
@@ -212,9 +212,9 @@ pub struct LinkInertial {
 pub struct ToolInertial {
     /// must be N, the last frame
     pub frame: u8,
-    /// mass [kg]
+    /// mass \[kg\]
     pub mass_kg: f64,
-    /// COM in frame N [mm]
+    /// COM in frame N \[mm\]
     pub com_mm: [f64; 3],
 }
 
@@ -230,35 +230,35 @@ pub struct Inertials {
 /// A vertical cylinder on the world z axis (or, for `trical`, below the active position).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CylinderObstacle {
-    /// radius [mm]
+    /// radius \[mm\]
     pub radius_mm: f64,
-    /// bottom [mm]
+    /// bottom \[mm\]
     pub z_min_mm: f64,
-    /// top [mm]
+    /// top \[mm\]
     pub z_max_mm: f64,
 }
 
 /// An axis-aligned box in frame-0 coordinates.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BoxObstacle {
-    /// x min [mm]
+    /// x min \[mm\]
     pub x_min_mm: f64,
-    /// x max [mm]
+    /// x max \[mm\]
     pub x_max_mm: f64,
-    /// y min [mm]
+    /// y min \[mm\]
     pub y_min_mm: f64,
-    /// y max [mm]
+    /// y max \[mm\]
     pub y_max_mm: f64,
-    /// z min [mm]
+    /// z min \[mm\]
     pub z_min_mm: f64,
-    /// z max [mm]
+    /// z max \[mm\]
     pub z_max_mm: f64,
 }
 
 /// A horizontal plane (world z).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlaneObstacle {
-    /// height [mm]
+    /// height \[mm\]
     pub z_mm: f64,
 }
 
@@ -305,7 +305,7 @@ pub struct EffectEntry {
     /// `time` or `temperature` for `thermal-drift`
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub driver: Option<String>,
-    /// reference temperature [°C] for a temperature-driven `thermal-drift` (default 20)
+    /// reference temperature \[°C\] for a temperature-driven `thermal-drift` (default 20)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference_temperature_c: Option<f64>,
     /// TCP id for `tcp-offset`
@@ -325,17 +325,17 @@ pub struct EffectEntry {
 /// `[motion]` (optional): speed limits used to estimate motion time when planning a tour.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MotionLimits {
-    /// maximum speed of the Meca500 joints J1..J6 [deg/s]
+    /// maximum speed of the Meca500 joints J1..J6 \[deg/s\]
     pub joint_speed_deg_per_s: [f64; 6],
-    /// maximum speed of the linear guide [mm/s]
+    /// maximum speed of the linear guide \[mm/s\]
     pub guide_speed_mm_per_s: f64,
     /// fraction of the maximum speed used for planned moves (0..1]
     #[serde(default = "default_speed_fraction")]
     pub speed_fraction: f64,
-    /// time to settle + auto-centre at each measurement [s]
+    /// time to settle + auto-centre at each measurement \[s\]
     #[serde(default = "default_measure_s")]
     pub measurement_s: f64,
-    /// time for the operator to re-place the probe plate [s]
+    /// time for the operator to re-place the probe plate \[s\]
     #[serde(default = "default_replacement_s")]
     pub probe_replacement_s: f64,
 }

@@ -5,19 +5,19 @@
 
 use nalgebra::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion, Vector3};
 
-/// Rotation matrix about x by `a` [rad].
+/// Rotation matrix about x by `a` \[rad\].
 pub fn rot_x(a: f64) -> Matrix3<f64> {
     let (s, c) = a.sin_cos();
     Matrix3::new(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
 }
 
-/// Rotation matrix about y by `a` [rad].
+/// Rotation matrix about y by `a` \[rad\].
 pub fn rot_y(a: f64) -> Matrix3<f64> {
     let (s, c) = a.sin_cos();
     Matrix3::new(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
 }
 
-/// Rotation matrix about z by `a` [rad].
+/// Rotation matrix about z by `a` \[rad\].
 pub fn rot_z(a: f64) -> Matrix3<f64> {
     let (s, c) = a.sin_cos();
     Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
@@ -28,7 +28,7 @@ pub fn rot_z(a: f64) -> Matrix3<f64> {
 pub struct Frame {
     /// rotation (columns = child axes expressed in the parent frame)
     pub r: Matrix3<f64>,
-    /// origin of the child frame in the parent frame [mm]
+    /// origin of the child frame in the parent frame \[mm\]
     pub p: Vector3<f64>,
 }
 

@@ -1,4 +1,6 @@
-//! # vatcal-core
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The small crate every other vatcal crate depends on. It holds types (and the effect
 //! catalog's scalar definitions):
@@ -30,6 +32,18 @@ pub mod params;
 pub mod units;
 
 pub use cell::{CellError, CellFile};
+
+/// The canonical nominal cell file (TOML): a Meca500 R3 on a Zaber X-LRQ300AP guide, the
+/// TriCal probe and the resin tank of the paper. The repository's
+/// `fixtures/meca500-zaber.toml` is this file (a link to `crates/core/cells/`, so that the
+/// packaged crate carries it); the demo, the virtual cell and `vatcal compensate` build it in.
+///
+/// ```
+/// let cell = vatcal_core::CellFile::from_toml_str(vatcal_core::CANONICAL_CELL_TOML, "canonical cell")?;
+/// assert_eq!(cell.joints.len(), 7);
+/// # Ok::<(), vatcal_core::CellError>(())
+/// ```
+pub const CANONICAL_CELL_TOML: &str = include_str!("../cells/meca500-zaber.toml");
 pub use effects::{EffectKind, EffectSpec, ThermalDriver};
 pub use frame::Frame;
 pub use measurement::{Measurement, MeasurementContext, PointDistance, Target};

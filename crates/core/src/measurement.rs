@@ -22,7 +22,7 @@ pub struct MeasurementContext {
     pub dir: Option<[i8; MAX_JOINTS]>,
     /// seconds since the campaign start
     pub time_s: Option<f64>,
-    /// temperature [°C]
+    /// temperature \[°C\]
     pub temperature_c: Option<f64>,
 }
 
@@ -48,7 +48,7 @@ pub enum Target {
     },
     /// The TCP was measured at `xyz_mm` in the world frame (residual `measured - FK`).
     Tracker {
-        /// measured world position [mm]
+        /// measured world position \[mm\]
         xyz_mm: Vector3<f64>,
     },
 }
@@ -65,7 +65,7 @@ pub struct Measurement {
     /// optional per-sample data
     pub context: MeasurementContext,
     /// probe measurements: the final centring offset read by the gauges, in world axes
-    /// (ball centre − probe origin, at most the centring tolerance, ~5 µm) [mm]. The observed
+    /// (ball centre − probe origin, at most the centring tolerance, ~5 µm) \[mm\]. The observed
     /// target is then `calibration position + offset` instead of the position itself. `None`
     /// (or a tracker measurement) = no offset.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -104,7 +104,7 @@ impl Measurement {
 
     /// What to add to the model's residual ([`Target`]: `position − FK` / `measured − FK`) to
     /// get the residual against the observed target: the recorded centring offset of a probe
-    /// measurement, zero otherwise [mm].
+    /// measurement, zero otherwise \[mm\].
     pub fn target_offset_mm(&self) -> Vector3<f64> {
         match (self.target, self.probe_offset_mm) {
             (Target::Probe { .. }, Some(o)) => o,
@@ -130,14 +130,14 @@ pub struct PointDistance {
     pub a: u32,
     /// second calibration position id
     pub b: u32,
-    /// the known distance between their centres [mm]
+    /// the known distance between their centres \[mm\]
     pub distance_mm: f64,
-    /// its standard deviation [mm]
+    /// its standard deviation \[mm\]
     pub sigma_mm: f64,
 }
 
 impl PointDistance {
-    /// Default standard deviation of a known distance [mm]: a machined fixture, ~10 µm.
+    /// Default standard deviation of a known distance \[mm\]: a machined fixture, ~10 µm.
     pub const DEFAULT_SIGMA_MM: f64 = 0.01;
 
     /// Parses `a,b,distance_mm` or `a,b,distance_mm,sigma_mm` (the CLI's `--point-distance`).

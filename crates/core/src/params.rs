@@ -71,17 +71,17 @@ impl Axis {
 /// One of the six base-pose parameters `H_0^W = T(x,y,z) Rx(alpha) Ry(beta) Rz(gamma)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum BaseParam {
-    /// x translation [mm]
+    /// x translation \[mm\]
     X,
-    /// y translation [mm]
+    /// y translation \[mm\]
     Y,
-    /// z translation [mm]
+    /// z translation \[mm\]
     Z,
-    /// rotation about x [rad]
+    /// rotation about x \[rad\]
     Alpha,
-    /// rotation about the new y [rad]
+    /// rotation about the new y \[rad\]
     Beta,
-    /// rotation about the new z [rad]
+    /// rotation about the new z \[rad\]
     Gamma,
 }
 
@@ -106,13 +106,13 @@ impl BaseParam {
 /// `H_7 -> H_7 · T(tx, ty, 0) · Rx(rx) · Ry(ry)`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum ToolFrameDof {
-    /// lateral offset along x7 [mm]
+    /// lateral offset along x7 \[mm\]
     Tx,
-    /// lateral offset along y7 [mm]
+    /// lateral offset along y7 \[mm\]
     Ty,
-    /// tilt about x [rad]
+    /// tilt about x \[rad\]
     Rx,
-    /// tilt about y [rad]
+    /// tilt about y \[rad\]
     Ry,
 }
 
@@ -137,7 +137,7 @@ impl ToolFrameDof {
 /// Meca500 joints of the canonical cell).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum EffectParam {
-    /// `joint-cyclic`: sine amplitude [rad] of harmonic `harmonic` of joint `joint`
+    /// `joint-cyclic`: sine amplitude \[rad\] of harmonic `harmonic` of joint `joint`
     /// (`theta_i += s sin(k q_i) + c cos(k q_i)`). Name `cyclic{joint}_h{k}_sin`.
     CyclicSin {
         /// revolute joint 1..=N (2..=7 on the canonical cell)
@@ -145,7 +145,7 @@ pub enum EffectParam {
         /// harmonic k >= 1
         harmonic: u8,
     },
-    /// `joint-cyclic`: cosine amplitude [rad]. Name `cyclic{joint}_h{k}_cos`.
+    /// `joint-cyclic`: cosine amplitude \[rad\]. Name `cyclic{joint}_h{k}_cos`.
     CyclicCos {
         /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
@@ -157,12 +157,12 @@ pub enum EffectParam {
         /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
     },
-    /// `joint-backlash`: `theta_i += b_i dir_i` [rad]. Name `backlash{joint}`.
+    /// `joint-backlash`: `theta_i += b_i dir_i` \[rad\]. Name `backlash{joint}`.
     Backlash {
         /// revolute joint 1..=N (2..=7 on the canonical cell)
         joint: u8,
     },
-    /// `guide-angular`: rotation of the carriage about its `axis` [rad], coefficient of the
+    /// `guide-angular`: rotation of the carriage about its `axis` \[rad\], coefficient of the
     /// Legendre polynomial `P_order(u)`, `u = (q1 - mid) / half_stroke`. Name
     /// `guide_angular_{x,y,z}_p{order}`.
     GuideAngular {
@@ -171,7 +171,7 @@ pub enum EffectParam {
         /// polynomial order (1 = linear, 2 = quadratic, ...)
         order: u8,
     },
-    /// `guide-straightness`: lateral carriage deviation along `axis` (x or y) [mm], coefficient
+    /// `guide-straightness`: lateral carriage deviation along `axis` (x or y) \[mm\], coefficient
     /// of `P_order(u)`. Name `guide_straightness_{x,y}_p{order}`.
     GuideStraightness {
         /// carriage axis (x or y)
@@ -181,7 +181,7 @@ pub enum EffectParam {
     },
     /// `guide-scale`: `d_1 += s q1` [mm/mm]. Name `guide_scale`.
     GuideScale,
-    /// `guide-carriage-tilt`: compliance [rad/(N·m)] of the guide carriage about its `axis`
+    /// `guide-carriage-tilt`: compliance \[rad/(N·m)\] of the guide carriage about its `axis`
     /// (x or y, the carriage axes across the guide): the carriage rotates by
     /// `k_axis · M_axis`, `M` the gravity moment of the arm and its load about the carriage
     /// origin. Name `carriage_tilt_{x,y}`.
@@ -192,10 +192,10 @@ pub enum EffectParam {
     /// `tool-frame`: offset/tilt of the tool-changer frame. Names `tool_tx`, `tool_ty`,
     /// `tool_rx`, `tool_ry`.
     ToolFrame(ToolFrameDof),
-    /// `thermal-drift` driven by time: arm lengths scale by `1 + k t` [1/s]. Name
+    /// `thermal-drift` driven by time: arm lengths scale by `1 + k t` \[1/s\]. Name
     /// `thermal_per_s`.
     ThermalPerSecond,
-    /// `thermal-drift` driven by temperature: arm lengths scale by `1 + k (T - T_ref)` [1/K].
+    /// `thermal-drift` driven by temperature: arm lengths scale by `1 + k (T - T_ref)` \[1/K\].
     /// Name `thermal_per_k`.
     ThermalPerKelvin,
     /// a parameter of an effect added after the original catalog (name and unit come from
@@ -233,28 +233,28 @@ impl EffectParam {
 /// A stable identifier of one model parameter. See the module docs for names and units.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum ParamId {
-    /// `alpha_{i-1}` of MDH row i (1..=N) [rad]
+    /// `alpha_{i-1}` of MDH row i (1..=N) \[rad\]
     Alpha(u8),
-    /// `a_{i-1}` of MDH row i [mm]
+    /// `a_{i-1}` of MDH row i \[mm\]
     A(u8),
-    /// Hayati `beta_{i-1}` of MDH row i [rad]
+    /// Hayati `beta_{i-1}` of MDH row i \[rad\]
     Beta(u8),
-    /// `theta_offset_i` of row i [rad]
+    /// `theta_offset_i` of row i \[rad\]
     ThetaOffset(u8),
-    /// `d_i` of row i [mm] (row 1: the guide offset)
+    /// `d_i` of row i \[mm\] (row 1: the guide offset)
     D(u8),
-    /// joint compliance `c_i` of revolute joint i [rad/(N·m)]
+    /// joint compliance `c_i` of revolute joint i \[rad/(N·m)\]
     Compliance(u8),
     /// base pose in the world
     Base(BaseParam),
-    /// TCP coordinate in the flange frame N (7 on the canonical cell) [mm]
+    /// TCP coordinate in the flange frame N (7 on the canonical cell) \[mm\]
     Tcp {
         /// TCP id
         id: u32,
         /// axis
         axis: Axis,
     },
-    /// calibration-position coordinate in the world [mm]
+    /// calibration-position coordinate in the world \[mm\]
     Position {
         /// calibration position id
         id: u32,

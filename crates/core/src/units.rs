@@ -293,7 +293,7 @@ impl JointVector {
         out
     }
 
-    /// Guide position q1 [mm] — the canonical 7-joint Meca500-on-guide cell only (the first
+    /// Guide position q1 \[mm\] — the canonical 7-joint Meca500-on-guide cell only (the first
     /// value otherwise).
     #[inline]
     pub fn guide_mm(&self) -> f64 {

@@ -1,4 +1,6 @@
-//! # vatcal-demo
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The whole calibration of the paper, simulated end to end in one call ([`run_demo`]; the
 //! `vatcal demo` command): the pipeline of `vatcal-pipeline` (plan → measurement campaign →
@@ -51,7 +53,7 @@ pub use vatcal_pipeline::{
 
 /// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built into the binary so that
 /// the demo runs from any directory.
-pub const BUILT_IN_CELL: &str = include_str!("../../../fixtures/meca500-zaber.toml");
+pub const BUILT_IN_CELL: &str = vatcal_core::CANONICAL_CELL_TOML;
 
 /// Name of the built-in cell in messages and in the report.
 pub const BUILT_IN_CELL_NAME: &str = "fixtures/meca500-zaber.toml (built in)";
@@ -148,27 +150,27 @@ pub struct DemoSetup {
     /// (`paper-like`, [`vatcal_sim::truth::signed_truth`]) instead of Gaussian with these σ
     pub truth_errors_fixed_size: bool,
     /// standard deviation (or, with `truth_errors_fixed_size`, the fixed size) of the MDH
-    /// length errors of the truth [mm]
+    /// length errors of the truth \[mm\]
     pub truth_length_sigma_mm: f64,
-    /// standard deviation of the MDH angle errors of the truth [deg]
+    /// standard deviation of the MDH angle errors of the truth \[deg\]
     pub truth_angle_sigma_deg: f64,
-    /// standard deviation of the base translation errors [mm]
+    /// standard deviation of the base translation errors \[mm\]
     pub truth_base_translation_sigma_mm: f64,
-    /// standard deviation of the base rotation errors [deg]
+    /// standard deviation of the base rotation errors \[deg\]
     pub truth_base_angle_sigma_deg: f64,
-    /// range of the joint compliances of the truth [rad/(N·m)]
+    /// range of the joint compliances of the truth \[rad/(N·m)\]
     pub truth_compliance_range_rad_per_n_m: (f64, f64),
-    /// robot repeatability (3σ) [mm]
+    /// robot repeatability (3σ) \[mm\]
     pub robot_repeatability_mm: f64,
-    /// guide repeatability (3σ) [mm]
+    /// guide repeatability (3σ) \[mm\]
     pub guide_repeatability_mm: f64,
-    /// tool-changer repeatability (3σ) [mm]
+    /// tool-changer repeatability (3σ) \[mm\]
     pub tool_changer_repeatability_mm: f64,
-    /// gauge maximum error (uniform) [mm]
+    /// gauge maximum error (uniform) \[mm\]
     pub gauge_max_error_mm: f64,
-    /// tracker error per axis (3σ) [mm]
+    /// tracker error per axis (3σ) \[mm\]
     pub tracker_error_mm: f64,
-    /// largest tilt of a true gauge axis from its nominal direction [deg]
+    /// largest tilt of a true gauge axis from its nominal direction \[deg\]
     pub gauge_axis_tilt_deg: f64,
     /// candidate orientations per TCP × position
     pub orientations: usize,
@@ -417,7 +419,7 @@ impl DeviceSet for SimDevices {
     }
 }
 
-/// The instruments' noise per axis [mm] that a cell with the device budget `noise` declares
+/// The instruments' noise per axis \[mm\] that a cell with the device budget `noise` declares
 /// (its data sheets; 3σ figures): a probe measurement — the ball where the recorded centring
 /// offset says — carries the robot's and the guide's repeatability of that motion and the
 /// gauge error (uniform, σ = max/√3); a tracker measurement the tracker's error. The

@@ -105,9 +105,9 @@ pub struct ArmSpec {
     pub address: Spanned<String>,
     /// monitoring port `host:port` (Meca500: 10001); optional, checked but not used yet
     pub monitoring: Option<Spanned<String>>,
-    /// timeout of every request [ms] (default 2000)
+    /// timeout of every request \[ms\] (default 2000)
     pub io_timeout_ms: Option<Spanned<u64>>,
-    /// timeout of the connection and the banner [ms] (default 5000)
+    /// timeout of the connection and the banner \[ms\] (default 5000)
     pub connect_timeout_ms: Option<Spanned<u64>>,
 }
 
@@ -130,9 +130,9 @@ pub struct GuideSpec {
     /// lead of the screw [mm per revolution] for the mm ↔ microstep conversion (default: the
     /// driver's)
     pub lead_mm: Option<Spanned<f64>>,
-    /// timeout of every reply [ms] (default 1000)
+    /// timeout of every reply \[ms\] (default 1000)
     pub io_timeout_ms: Option<Spanned<u64>>,
-    /// TCP connect timeout [ms] (default 5000)
+    /// TCP connect timeout \[ms\] (default 5000)
     pub connect_timeout_ms: Option<Spanned<u64>>,
 }
 
@@ -146,9 +146,9 @@ pub struct GaugeSpec {
     pub tcp: Option<Spanned<String>>,
     /// serial port path (4800 7E2, fixed by the driver)
     pub serial: Option<Spanned<String>>,
-    /// timeout of every query [ms] (default 500)
+    /// timeout of every query \[ms\] (default 500)
     pub io_timeout_ms: Option<Spanned<u64>>,
-    /// TCP connect timeout [ms] (default 2000)
+    /// TCP connect timeout \[ms\] (default 2000)
     pub connect_timeout_ms: Option<Spanned<u64>>,
 }
 
@@ -165,10 +165,10 @@ pub struct TrackerSpec {
     pub tcp: Option<Spanned<String>>,
     /// `command`: the program and its arguments; it prints `x y z` in mm
     pub command: Option<Spanned<Vec<String>>>,
-    /// timeout of one measurement [ms] (default: `sim-cell` 10000, `command` 30000; a
+    /// timeout of one measurement `ms` (default: `sim-cell` 10000, `command` 30000; a
     /// `console` tracker waits for the operator)
     pub io_timeout_ms: Option<Spanned<u64>>,
-    /// `sim-cell`: TCP connect timeout [ms] (default 5000)
+    /// `sim-cell`: TCP connect timeout `ms` (default 5000)
     pub connect_timeout_ms: Option<Spanned<u64>>,
     /// the frame of the readings: `tracker` (default: the instrument's own frame, registered to
     /// the tank by the validation's registration step) or `tank` (the tracker's software is
@@ -182,7 +182,7 @@ pub struct TrackerSpec {
 pub struct SimControlSpec {
     /// TCP `host:port`
     pub tcp: Spanned<String>,
-    /// timeout of every answer [ms] (default 5000)
+    /// timeout of every answer \[ms\] (default 5000)
     pub io_timeout_ms: Option<Spanned<u64>>,
 }
 
@@ -200,7 +200,7 @@ pub struct ThermometerSpec {
     pub command: Option<Spanned<Vec<String>>>,
     /// reading × scale = °C (default 1; 0.001 for a file in m°C)
     pub scale: Option<Spanned<f64>>,
-    /// `command`: longest run [ms] (default 5000); `sim-cell`: answer timeout (default the
+    /// `command`: longest run \[ms\] (default 5000); `sim-cell`: answer timeout (default the
     /// `sim_control` one)
     pub io_timeout_ms: Option<Spanned<u64>>,
 }
@@ -209,7 +209,7 @@ pub struct ThermometerSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProbeSpec {
-    /// each gauge reading must stay within ±range [mm] (default 6)
+    /// each gauge reading must stay within ±range \[mm\] (default 6)
     pub range_mm: Option<Spanned<f64>>,
 }
 
@@ -460,7 +460,7 @@ impl DevicesFile {
         Ok(())
     }
 
-    /// The instruments' noise of the `[noise]` table: (probe σ, tracker σ) per axis [mm].
+    /// The instruments' noise of the `[noise]` table: (probe σ, tracker σ) per axis \[mm\].
     pub fn noise_sigmas_mm(&self) -> (Option<f64>, Option<f64>) {
         let get = |v: &Option<Spanned<f64>>| v.as_ref().map(|s| *s.get_ref());
         self.noise.as_ref().map_or((None, None), |n| (get(&n.probe_sigma_mm), get(&n.tracker_sigma_mm)))

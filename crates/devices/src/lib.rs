@@ -1,4 +1,6 @@
-//! # vatcal-devices
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The **devices file** (TOML, `docs/formats.md`): which driver implements each device trait
 //! of `vatcal-hardware-traits`, where the device is, and the driver's timeouts.

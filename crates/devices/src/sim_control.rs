@@ -39,7 +39,7 @@ impl SimControl {
         })
     }
 
-    /// The simulated cell's virtual time (`TIME?` → `TIME <s>`) [s].
+    /// The simulated cell's virtual time (`TIME?` → `TIME <s>`) \[s\].
     ///
     /// # Errors
     /// An answer that is not `TIME <seconds>`.
@@ -53,7 +53,7 @@ impl SimControl {
     }
 
     /// The simulated cell's temperature as its thermometer reads it (`TEMP?` → `TEMP <°C>`;
-    /// `TEMP NONE` when the cell has no temperature channel) [°C].
+    /// `TEMP NONE` when the cell has no temperature channel) \[°C\].
     ///
     /// # Errors
     /// `TEMP NONE` ([`ErrorKind::Disconnected`]: no thermometer), or an answer that is not

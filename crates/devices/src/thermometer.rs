@@ -59,7 +59,7 @@ pub struct FileThermometer {
 }
 
 impl FileThermometer {
-    /// Reads `path`; each reading is its first non-empty line × `scale` [°C].
+    /// Reads `path`; each reading is its first non-empty line × `scale` \[°C\].
     pub fn new(path: impl Into<PathBuf>, scale: f64) -> Self {
         Self { path: path.into(), scale }
     }
@@ -77,7 +77,7 @@ impl Thermometer for FileThermometer {
     }
 }
 
-/// A sensor read by running a program: its first output line × `scale` [°C]. A program that
+/// A sensor read by running a program: its first output line × `scale` \[°C\]. A program that
 /// fails, prints nothing or runs longer than the timeout is an error (and is killed).
 #[derive(Debug, Clone)]
 pub struct CommandThermometer {

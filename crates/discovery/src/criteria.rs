@@ -34,9 +34,9 @@ pub struct NestedComparison {
     pub p0: usize,
     /// identified parameters of model 1
     pub p1: usize,
-    /// residual sum of squares of model 0 [mm²]
+    /// residual sum of squares of model 0 \[mm²\]
     pub rss0_mm2: f64,
-    /// residual sum of squares of model 1 [mm²]
+    /// residual sum of squares of model 1 \[mm²\]
     pub rss1_mm2: f64,
     /// `F = [(RSS₀ − RSS₁)/k] / [RSS₁/(N − p₁)]`
     pub f: f64,
@@ -85,7 +85,7 @@ impl NestedComparison {
 /// model predicts better).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PairedImprovement {
-    /// mean reduction of the squared held-out error per measurement [mm²]
+    /// mean reduction of the squared held-out error per measurement \[mm²\]
     pub mean_reduction_mm2: f64,
     /// the z statistic
     pub z: f64,
@@ -128,19 +128,19 @@ pub struct HeldOutComparison {
     pub points: usize,
     /// measurements without a held-out prediction (skipped folds)
     pub missing: usize,
-    /// RMS held-out error norm without the change [mm]
+    /// RMS held-out error norm without the change \[mm\]
     pub rms_before_mm: f64,
-    /// RMS held-out error norm with the change [mm]
+    /// RMS held-out error norm with the change \[mm\]
     pub rms_after_mm: f64,
-    /// mean reduction of the squared held-out error per measurement [mm²] (> 0: better)
+    /// mean reduction of the squared held-out error per measurement \[mm²\] (> 0: better)
     pub mean_reduction_mm2: f64,
-    /// standard error of that mean [mm²]
+    /// standard error of that mean \[mm²\]
     pub std_error_mm2: f64,
     /// `mean_reduction / std_error`
     pub z: f64,
     /// `ln P(Z > z)` under "no improvement" (one-sided)
     pub ln_p_value: f64,
-    /// RMS of the change of the predictions `‖e_before,k − e_after,k‖` [mm]
+    /// RMS of the change of the predictions `‖e_before,k − e_after,k‖` \[mm\]
     pub change_rms_mm: f64,
 }
 

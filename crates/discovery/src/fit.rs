@@ -16,9 +16,9 @@ pub struct Fit {
     pub model: Model,
     /// the fitted parameters
     pub params: ParamSet,
-    /// residual vector of every measurement [mm] (`target − FK`)
+    /// residual vector of every measurement \[mm\] (`target − FK`)
     pub residuals: Vec<Vector3<f64>>,
-    /// residual sum of squares [mm²]
+    /// residual sum of squares \[mm²\]
     pub rss_mm2: f64,
     /// Gauss–Newton / LM iterations used
     pub iterations: usize,
@@ -55,7 +55,7 @@ impl Fit {
     }
 }
 
-/// Residual vectors of `measurements` under `model` [mm] (against the observed target: the
+/// Residual vectors of `measurements` under `model` \[mm\] (against the observed target: the
 /// recorded centring offset of a probe measurement included).
 pub fn residuals(model: &Model, measurements: &[Measurement]) -> Result<Vec<Vector3<f64>>, DiscoveryError> {
     measurements

@@ -1,4 +1,6 @@
-//! # vatcal-discovery
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Missing-effect discovery (background.md §8): fit the current model, locate where it
 //! disagrees with the data, screen every catalog effect that is not yet in the model on one part

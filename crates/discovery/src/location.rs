@@ -25,7 +25,7 @@ pub enum Driver {
     /// joint 1..=N (mm for prismatic, degrees for revolute joints; canonical cell: q1 in mm,
     /// the others in degrees)
     Joint(u8),
-    /// gravity torque of revolute joint j [N·m] (on the fitted model)
+    /// gravity torque of revolute joint j \[N·m\] (on the fitted model)
     Torque(u8),
     /// the TCP id
     Tcp,
@@ -144,9 +144,9 @@ pub struct Bin {
     pub hi: f64,
     /// number of measurements
     pub count: usize,
-    /// mean residual norm [mm]
+    /// mean residual norm \[mm\]
     pub mean_mm: f64,
-    /// RMS residual norm [mm]
+    /// RMS residual norm \[mm\]
     pub rms_mm: f64,
 }
 
@@ -249,10 +249,10 @@ fn bins(kind: DriverKind, v: &[f64], norms: &[f64]) -> Vec<Bin> {
 /// Per-measurement quantities the drivers need besides the measurement itself.
 #[derive(Debug, Clone, Default)]
 pub struct PoseData {
-    /// gravity torques [N·m], `[i - 1]` for joint i
+    /// gravity torques \[N·m\], `[i - 1]` for joint i
     pub torques: Vec<[f64; MAX_JOINTS]>,
     /// `∂p/∂θ_j` of every joint, `[j - 1]` for revolute joint j (zero for prismatic joints)
-    /// [mm/rad] (the direction an angle error of joint j moves the TCP), when known
+    /// \[mm/rad\] (the direction an angle error of joint j moves the TCP), when known
     pub joint_directions: Option<Vec<[Vector3<f64>; MAX_JOINTS]>>,
     /// joint kinds of the chain (empty = the canonical Meca500-on-guide cell)
     pub joint_kinds: Vec<JointKind>,
@@ -379,7 +379,7 @@ pub fn summarize_driver(
     }))
 }
 
-/// A gravity torque below this on every measurement is round-off (no load on the joint) [N·m].
+/// A gravity torque below this on every measurement is round-off (no load on the joint) \[N·m\].
 const NO_LOAD_N_M: f64 = 1e-9;
 
 /// Summaries of every available driver, most significant first (torques of joints that carry

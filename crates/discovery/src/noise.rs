@@ -48,7 +48,7 @@ pub struct PureError {
     pub replicated: usize,
     /// degrees of freedom `3 Σ(m_g − 1)` (all kinds)
     pub dof: usize,
-    /// σ per axis of the probe / tracker rows from their own groups [mm] (`None` when that
+    /// σ per axis of the probe / tracker rows from their own groups \[mm\] (`None` when that
     /// kind has fewer than [`MIN_PURE_ERROR_DOF`] degrees of freedom)
     pub sigmas: KindSigmas,
 }
@@ -74,7 +74,7 @@ pub struct LackOfFit {
 pub struct NoiseReference {
     /// which reference the size rule used
     pub source: NoiseSource,
-    /// σ per axis of a probe / tracker row the size rule compares with [mm] (`None` with
+    /// σ per axis of a probe / tracker row the size rule compares with \[mm\] (`None` with
     /// [`NoiseSource::Estimated`]: σ̂ of each refit)
     pub sigmas: KindSigmas,
     /// the pure error of the replicates, when the data has any
@@ -92,9 +92,9 @@ pub struct NoiseReference {
 /// Tolerances below which two measurements count as the same pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReplicateTolerance {
-    /// revolute joints [rad]
+    /// revolute joints \[rad\]
     pub revolute_rad: f64,
-    /// prismatic joints [mm]
+    /// prismatic joints \[mm\]
     pub prismatic_mm: f64,
 }
 

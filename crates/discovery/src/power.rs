@@ -111,7 +111,7 @@ pub struct Detectability {
     pub power: f64,
     /// non-centrality needed: `λ_min`
     pub noncentrality_needed: f64,
-    /// σ per axis the test uses [mm]
+    /// σ per axis the test uses \[mm\]
     pub sigma_mm: f64,
     /// measurements the test sees
     pub measurements: usize,
@@ -119,9 +119,9 @@ pub struct Detectability {
     /// parameters cannot mimic)
     pub novelty: f64,
     /// smallest detectable RMS of the novel part of the prediction change per measurement
-    /// [mm]: `σ √(λ_min / n)`
+    /// \[mm\]: `σ √(λ_min / n)`
     pub min_novel_change_mm: f64,
-    /// smallest detectable RMS of the whole prediction change [mm]: the novel part over the
+    /// smallest detectable RMS of the whole prediction change \[mm\]: the novel part over the
     /// novelty
     pub min_change_mm: f64,
     /// λ̂ = max(LM − k, 0) from the observed score (`None` when not scored)

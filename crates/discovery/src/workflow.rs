@@ -90,10 +90,10 @@ pub struct DiscoverOptions {
     /// in the fit with both): an effect can only be made redundant by one that shares its
     /// directions
     pub redundancy_correlation: f64,
-    /// known noise σ per axis [mm] for the score test; when `None` σ̂ of the screening fit is used
+    /// known noise σ per axis \[mm\] for the score test; when `None` σ̂ of the screening fit is used
     pub known_sigma_mm: Option<f64>,
     /// the instruments' known measurement noise per kind (σ per axis of probe and of tracker
-    /// rows [mm], e.g. from the device specifications). When given, the size rule compares an
+    /// rows \[mm\], e.g. from the device specifications). When given, the size rule compares an
     /// effect's prediction change with this noise instead of σ̂ of the refit (which effects
     /// still unmodelled inflate), and probe/tracker rows are weighted by it; the score test
     /// keeps σ̂ (conservative while effects are missing). `None`: σ̂ everywhere.
@@ -102,7 +102,7 @@ pub struct DiscoverOptions {
     /// (only matters when both kinds are in the data)
     pub weight_by_kind: bool,
     /// standard deviation of the systematic CMM errors of the TCP and calibration-position
-    /// coordinates [mm] (per coordinate), included in the reported prediction uncertainty
+    /// coordinates \[mm\] (per coordinate), included in the reported prediction uncertainty
     pub cmm_sigma_mm: f64,
     /// options of every fit (the kind weights are replaced when `weight_by_kind`)
     pub identify: IdentifyOptions,
@@ -173,7 +173,7 @@ pub struct Gap {
 
 impl Gap {
     /// The headline number: the mean validation error when a validation set is given, else the
-    /// mean held-out error [mm].
+    /// mean held-out error \[mm\].
     pub fn headline_mm(&self) -> f64 {
         self.validation.as_ref().map_or(self.heldout.mean, |v| v.mean)
     }
@@ -195,11 +195,11 @@ pub struct FitSummary {
     pub residuals: usize,
     /// numerical rank of the fitted Jacobian (identified directions)
     pub rank: usize,
-    /// residual sum of squares [mm²] (unweighted)
+    /// residual sum of squares \[mm²\] (unweighted)
     pub rss_mm2: f64,
-    /// σ̂ = sqrt(weighted RSS / (N − rank)) per axis of a weight-1 (probe) measurement [mm]
+    /// σ̂ = sqrt(weighted RSS / (N − rank)) per axis of a weight-1 (probe) measurement \[mm\]
     pub sigma_hat_mm: f64,
-    /// mean / RMS / max residual norm of the fit [mm]
+    /// mean / RMS / max residual norm of the fit \[mm\]
     pub fit_errors: ErrorStats,
     /// with a known σ: `ln P(χ²_{N−rank} > RSS/σ²)` (very negative = something is missing)
     pub chi2_ln_p_value: Option<f64>,
@@ -257,7 +257,7 @@ pub struct RefitEvidence {
     pub heldout: HeldOutComparison,
     /// z the held-out improvement had to exceed this round
     pub z_required: f64,
-    /// prediction change below which the effect counts as negligible [mm]
+    /// prediction change below which the effect counts as negligible \[mm\]
     pub negligible_below_mm: f64,
     /// without a noise reference (σ̂ in the size rule): the held-out z from which the size
     /// rule is waived (`strong_z_factor · z_r`); `None` when the noise is known
@@ -358,7 +358,7 @@ pub struct NegligibleEffect {
     pub label: String,
     /// round
     pub round: usize,
-    /// RMS change of the held-out predictions it would make [µm]
+    /// RMS change of the held-out predictions it would make \[µm\]
     pub change_um: f64,
     /// the held-out comparison
     pub heldout: HeldOutComparison,
@@ -376,7 +376,7 @@ pub struct Round {
     /// screening threshold `ln(alpha·s_r/m)`
     pub ln_threshold: f64,
     /// without a noise reference: σ̂ per axis of the saturated linear model (the current
-    /// parameters plus every scored candidate's, on all data) [mm], an upper bound of the
+    /// parameters plus every scored candidate's, on all data) \[mm\], an upper bound of the
     /// noise that holds only the physics no candidate can describe; the size rule uses the
     /// lower of it and the refit's σ̂
     pub sigma_saturated_mm: Option<f64>,
@@ -392,7 +392,7 @@ pub struct Round {
 
 /// Data for a plot of the residual against the effect's driving variable: for effects of a
 /// revolute joint j the residual expressed as an angle error of joint j (its component along
-/// `∂p/∂θ_j` divided by the lever arm) [µrad], otherwise the residual norm [µm].
+/// `∂p/∂θ_j` divided by the lever arm) \[µrad\], otherwise the residual norm \[µm\].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct DriverPlot {
     /// x-axis label with unit
@@ -436,9 +436,9 @@ pub struct AddedEffect {
     pub heldout: HeldOutComparison,
     /// largest correlations with existing parameters
     pub confounding: Vec<Confounding>,
-    /// headline gap before adding it [mm]
+    /// headline gap before adding it \[mm\]
     pub gap_before_mm: f64,
-    /// headline gap after adding it [mm]
+    /// headline gap after adding it \[mm\]
     pub gap_after_mm: f64,
     /// held-out and validation errors before
     pub gap_before: Gap,
@@ -476,11 +476,11 @@ pub struct PredictedUncertainty {
     pub poses: String,
     /// number of poses
     pub count: usize,
-    /// mean of `‖σ‖` (per-axis σ as a vector) from the parameter covariance alone [mm]
+    /// mean of `‖σ‖` (per-axis σ as a vector) from the parameter covariance alone \[mm\]
     pub statistical_mean_mm: f64,
-    /// the same with the systematic CMM errors of TCP and position coordinates [mm]
+    /// the same with the systematic CMM errors of TCP and position coordinates \[mm\]
     pub with_cmm_mean_mm: f64,
-    /// the CMM standard deviation per coordinate used [mm]
+    /// the CMM standard deviation per coordinate used \[mm\]
     pub cmm_sigma_mm: f64,
 }
 
@@ -517,9 +517,9 @@ pub struct Discovery {
     pub initial_gap: Gap,
     /// gap of the final model
     pub final_gap: Gap,
-    /// headline gap of the starting parameter set [mm]
+    /// headline gap of the starting parameter set \[mm\]
     pub initial_gap_mm: f64,
-    /// headline final gap [mm]
+    /// headline final gap \[mm\]
     pub final_gap_mm: f64,
     /// predicted uncertainty of the final model (statistical, and with CMM errors)
     pub uncertainty: Option<PredictedUncertainty>,

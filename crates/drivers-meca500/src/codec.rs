@@ -1081,7 +1081,7 @@ fn parse_version(text: &str) -> Option<(u32, u32, u32)> {
 pub use vatcal_hardware_traits::transport::FrameError;
 
 /// Cuts a byte stream into NUL-terminated frames: the shared
-/// [`LineDeframer`](vatcal_hardware_traits::transport::LineDeframer) configured for the
+/// [`LineDeframer`] configured for the
 /// Meca500 (frames up to [`MAX_FRAME_LEN`] bytes, empty frames kept). TCP may split or
 /// coalesce messages: push whatever arrived, then pop complete frames with `next_frame`; the
 /// unterminated tail is kept for the next push. Every method of the shared deframer is

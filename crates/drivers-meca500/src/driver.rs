@@ -49,7 +49,7 @@ pub struct Meca500Config {
     pub connect_timeout: Duration,
     /// which joints `joints()` reads
     pub joint_readback: JointReadback,
-    /// Cartesian speed [mm/s] that `MotionOptions::speed_fraction = 1` maps to
+    /// Cartesian speed \[mm/s\] that `MotionOptions::speed_fraction = 1` maps to
     /// (`SetCartLinVel` accepts up to 1000 mm/s)
     pub max_linear_speed_mm_s: f64,
     /// pause between two `GetStatusRobot` polls while waiting for end-of-block
@@ -531,7 +531,7 @@ fn finite_or_err(values: &[f64], what: &str) -> Result<(), Meca500Error> {
     }
 }
 
-/// The Meca500's six joint targets [deg], or an error naming the joint count it was given.
+/// The Meca500's six joint targets \[deg\], or an error naming the joint count it was given.
 fn six_joints_deg(target: &ArmJoints) -> Result<[f64; 6], Meca500Error> {
     <[f64; 6]>::try_from(target.to_deg().as_slice()).map_err(|_| {
         Meca500Error::InvalidArgument(format!(

@@ -1,4 +1,6 @@
-//! # vatcal-drivers-meca500
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! A [`RobotArm`](vatcal_hardware_traits::RobotArm) driver for the Mecademic Meca500 over its
 //! TCP text API (control port 10000), and a protocol simulator of the robot for tests and dry

@@ -142,7 +142,7 @@ pub fn decode_parameters(payload: &[u8]) -> Result<Parameters, BleDecodeError> {
 }
 
 /// Reassembles RemoteResponse notifications into CR-terminated answers (the shared
-/// [`LineDeframer`](vatcal_hardware_traits::transport::LineDeframer) on CR, empty answers
+/// [`LineDeframer`] on CR, empty answers
 /// kept).
 #[derive(Debug, Clone)]
 pub struct ResponseReassembler {

@@ -1,4 +1,6 @@
-//! # vatcal-drivers-sylvac
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! A [`Gauge`](vatcal_hardware_traits::Gauge) driver for Sylvac digital indicators (the cell's
 //! S_Dial WORK Nano Smart) using the Sylvac ASCII command set over a byte transport, the

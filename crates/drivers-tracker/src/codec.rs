@@ -22,7 +22,7 @@ use vatcal_hardware_traits::transport::Framing;
 pub const MAX_LINE: usize = 256;
 /// Largest request id (ids cycle 1..=MAX_ID).
 pub const MAX_ID: u16 = 9999;
-/// Largest plausible coordinate of a reading [mm] (100 m: beyond any tracker's range).
+/// Largest plausible coordinate of a reading \[mm\] (100 m: beyond any tracker's range).
 pub const MAX_COORDINATE_MM: f64 = 1.0e5;
 
 /// LF-terminated lines (CR before LF removed), blank lines skipped, [`MAX_LINE`] bytes.
@@ -192,7 +192,7 @@ pub fn format_xyz_mm(p: &Vector3<f64>) -> String {
     format!("{:.6} {:.6} {:.6}", p.x, p.y, p.z)
 }
 
-/// Parses a reading `x y z` [mm]: three numbers separated by spaces, tabs, commas or
+/// Parses a reading `x y z` \[mm\]: three numbers separated by spaces, tabs, commas or
 /// semicolons (a pasted spreadsheet row works), optionally followed by `mm`.
 ///
 /// # Errors

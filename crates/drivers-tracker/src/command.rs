@@ -14,7 +14,7 @@
 //! semicolons between the numbers; a trailing `mm` is accepted), then exit with status 0. A
 //! line `LOS [reason]` says the SMR cannot be seen now.
 //!
-//! | outcome | [`ErrorKind`](vatcal_hardware_traits::ErrorKind) |
+//! | outcome | [`ErrorKind`] |
 //! |---|---|
 //! | `LOS …` | `OutOfRange` (line of sight lost) |
 //! | anything else that is not `x y z` (or nothing) | `Protocol`, the output quoted |

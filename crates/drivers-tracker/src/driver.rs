@@ -113,7 +113,7 @@ impl<T: Transport> LineTracker<T> {
         &self.label
     }
 
-    /// One reading of `target` in the tracker's frame [mm].
+    /// One reading of `target` in the tracker's frame \[mm\].
     ///
     /// # Errors
     /// The tracker refuses ([`TrackerError::Refused`]: line of sight, unknown target, fault),

@@ -1,4 +1,6 @@
-//! # vatcal-drivers-tracker
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! [`PositionTracker`](vatcal_hardware_traits::PositionTracker) drivers for the laser tracker
 //! of the validation campaign (paper §5), one per way a tracker is reached

@@ -39,7 +39,7 @@ pub enum SimFault {
 /// Where the targets are, when a simulated world decides it. Called from the server thread
 /// for every `MEASURE`.
 pub trait TargetSource: Send + Sync + std::fmt::Debug {
-    /// One reading of `target` in the tracker's frame [mm] (noise included).
+    /// One reading of `target` in the tracker's frame \[mm\] (noise included).
     ///
     /// # Errors
     /// The fault the tracker answers instead.
@@ -116,7 +116,7 @@ impl TrackerSim {
         self.addr
     }
 
-    /// Puts `target` at `p` [mm] (exact readings; without a [`TargetSource`]).
+    /// Puts `target` at `p` \[mm\] (exact readings; without a [`TargetSource`]).
     pub fn set_target_mm(&self, target: u32, p: Vector3<f64>) {
         lock(&self.shared.targets).insert(target, p);
     }

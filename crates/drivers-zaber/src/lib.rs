@@ -1,4 +1,6 @@
-//! # vatcal-drivers-zaber
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! A [`LinearAxis`](vatcal_hardware_traits::LinearAxis) driver for the Zaber X-LRQ300AP linear
 //! guide over the Zaber ASCII protocol, and a protocol simulator of the device. Reference:

@@ -1,6 +1,8 @@
-//! # vatcal-gravity-torque
+#![doc = include_str!("../README.md")]
 //!
-//! Static gravity torques `tau_i` [N·m] on the revolute joints of a serial chain of N joints
+//! ## Overview
+//!
+//! Static gravity torques `tau_i` \[N·m\] on the revolute joints of a serial chain of N joints
 //! (on the canonical cell: `tau_2..tau_7` on the six Meca500 joints), computed by Craig's
 //! static outward/inward recursion (background.md §2.2):
 //!
@@ -28,9 +30,9 @@ use vatcal_core::{Frame, JointKind, MAX_JOINTS};
 /// Mass and centre of mass of one body.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Body {
-    /// mass [kg]
+    /// mass \[kg\]
     pub mass_kg: f64,
-    /// centre of mass in the body's MDH frame [mm]
+    /// centre of mass in the body's MDH frame \[mm\]
     pub com_mm: Vector3<f64>,
 }
 
@@ -76,7 +78,7 @@ impl MassModel {
         if (1..=self.n).contains(&frame) { self.links[frame - 1] } else { Body::default() }
     }
 
-    /// Total moving mass [kg].
+    /// Total moving mass \[kg\].
     pub fn total_mass_kg(&self) -> f64 {
         self.bodies().iter().map(|b| b.mass_kg).sum()
     }
@@ -124,17 +126,17 @@ pub fn combine(a: Body, b: Body) -> Body {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GravityModel {
-    /// gravity in frame 0, `R_0^Wᵀ g^W` [m/s²]
+    /// gravity in frame 0, `R_0^Wᵀ g^W` \[m/s²\]
     pub gravity_frame0: Vector3<f64>,
     /// `first_moment_kg_mm[i - 1] = m_i c_i` of the body of frame i [kg·mm]; zero from `n` on
     pub first_moment_kg_mm: [Vector3<f64>; MAX_JOINTS],
-    /// `mass_kg[i - 1]` = mass of the body of frame i [kg]; zero from `n` on
+    /// `mass_kg[i - 1]` = mass of the body of frame i \[kg\]; zero from `n` on
     pub mass_kg: [f64; MAX_JOINTS],
 }
 
 impl GravityModel {
     /// The constants of `masses` (frames 1..=`masses.n`; later links are massless) under
-    /// `gravity_world` [m/s²] for a chain whose frame 0 has the world orientation
+    /// `gravity_world` \[m/s²\] for a chain whose frame 0 has the world orientation
     /// `base_rotation` (`R_0^W`).
     pub fn new(masses: &MassModel, base_rotation: &Matrix3<f64>, gravity_world: &Vector3<f64>) -> Self {
         let mut first_moment_kg_mm = [Vector3::zeros(); MAX_JOINTS];
@@ -146,7 +148,7 @@ impl GravityModel {
         Self { gravity_frame0: base_rotation.tr_mul(gravity_world), first_moment_kg_mm, mass_kg }
     }
 
-    /// Gravity torques `tau[i - 1]` [N·m] about `+z_i` of the chain of exactly `N` joints with
+    /// Gravity torques `tau[i - 1]` \[N·m\] about `+z_i` of the chain of exactly `N` joints with
     /// link transforms `links[i - 1] = H_i^{i-1}` (mm) and joint kinds `kinds`; 0 for
     /// prismatic joints. Bodies of frames beyond N are ignored. The same quantity as
     /// [`gravity_torques_n`] (equal to round-off).
@@ -182,7 +184,7 @@ impl GravityModel {
 }
 
 /// The first-moment recursion (see [`GravityModel`]) on `links.len() == tau.len()` joints:
-/// `revolute(k)`, `first_moment(k)` [kg·mm] and `mass(k)` [kg] describe row / body k + 1,
+/// `revolute(k)`, `first_moment(k)` [kg·mm] and `mass(k)` \[kg\] describe row / body k + 1,
 /// `g0` is gravity in frame 0.
 #[inline(always)]
 fn recursion(
@@ -246,7 +248,7 @@ pub fn gravity_torques_n<const N: usize>(
     tau
 }
 
-/// Gravity torques `tau[i - 1]` [N·m] about `+z_i` for every revolute joint i = 1..=N, exerted
+/// Gravity torques `tau[i - 1]` \[N·m\] about `+z_i` for every revolute joint i = 1..=N, exerted
 /// by gravity on everything distal to joint i; 0 for prismatic joints and beyond N.
 ///
 /// * `links[i-1]` = `H_i^{i-1}` for rows i = 1..=N (translation in mm), evaluated on the
@@ -256,7 +258,7 @@ pub fn gravity_torques_n<const N: usize>(
 /// * `base_rotation` = `R_0^W`;
 /// * `masses` = bodies of frames 1..=N (`masses.n` should equal N; links beyond it are
 ///   massless);
-/// * `gravity_world` = gravity vector in the world frame [m/s²].
+/// * `gravity_world` = gravity vector in the world frame \[m/s²\].
 ///
 /// Cost: well under 0.1 µs for 7 joints (no allocation); [`GravityModel`] keeps the
 /// per-model constants for repeated calls.

@@ -35,7 +35,7 @@ impl fmt::Debug for ArmJoints {
 }
 
 impl ArmJoints {
-    /// From `N` values [rad] (`N` in 1..=[`MAX_JOINTS`], checked at compile time).
+    /// From `N` values \[rad\] (`N` in 1..=[`MAX_JOINTS`], checked at compile time).
     pub fn new<const N: usize>(rad: [f64; N]) -> Self {
         Self(JointVector::new(rad))
     }
@@ -45,7 +45,7 @@ impl ArmJoints {
         Self(JointVector::zeros(n))
     }
 
-    /// From a slice of values [rad].
+    /// From a slice of values \[rad\].
     ///
     /// # Errors
     /// The slice is empty or longer than [`MAX_JOINTS`].
@@ -81,12 +81,12 @@ impl ArmJoints {
         self.0.len()
     }
 
-    /// The values [rad].
+    /// The values \[rad\].
     pub fn as_slice(&self) -> &[f64] {
         self.0.as_slice()
     }
 
-    /// The values, mutable [rad].
+    /// The values, mutable \[rad\].
     pub fn as_mut_slice(&mut self) -> &mut [f64] {
         self.0.as_mut_slice()
     }
@@ -102,7 +102,7 @@ impl ArmJoints {
         Self(values)
     }
 
-    /// Largest absolute joint difference [rad] (over the joints both have).
+    /// Largest absolute joint difference \[rad\] (over the joints both have).
     pub fn max_abs_diff(&self, other: &ArmJoints) -> f64 {
         self.as_slice().iter().zip(other.as_slice()).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
     }
@@ -200,7 +200,7 @@ impl JointLayout {
         a
     }
 
-    /// The guide's value in a cell joint vector [mm] (`None` without a guide).
+    /// The guide's value in a cell joint vector \[mm\] (`None` without a guide).
     pub fn guide_mm(&self, q: &JointVector) -> Option<f64> {
         if self.guide { q.as_slice().first().copied() } else { None }
     }
@@ -347,10 +347,10 @@ pub trait RobotArm: Send {
     /// Controller state.
     fn status(&mut self) -> Result<ArmStatus>;
 
-    /// Current joint positions [rad].
+    /// Current joint positions \[rad\].
     fn joints(&mut self) -> Result<ArmJoints>;
 
-    /// Starts a joint-space move to `target` [rad].
+    /// Starts a joint-space move to `target` \[rad\].
     fn move_joints(&mut self, target: &ArmJoints, options: &MotionOptions) -> Result<()>;
 
     /// Starts a straight-line translation of the tool by `displacement_mm`, expressed in the

@@ -21,7 +21,7 @@ pub trait LinearAxis: Send {
     /// True when the axis knows its position (homed since power-up).
     fn is_homed(&mut self) -> Result<bool>;
 
-    /// Current position [mm].
+    /// Current position \[mm\].
     fn position_mm(&mut self) -> Result<f64>;
 
     /// Starts a move to `target_mm`.

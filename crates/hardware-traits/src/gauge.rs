@@ -11,7 +11,7 @@ use crate::error::Result;
 ///   value.
 /// * `preset_mm(v)` makes the current plunger position read `v` from now on.
 pub trait Gauge: Send {
-    /// Current reading [mm].
+    /// Current reading \[mm\].
     fn read_mm(&mut self) -> Result<f64>;
 
     /// Sets the current position to read `value_mm`.

@@ -1,4 +1,6 @@
-//! # vatcal-hardware-traits
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The device traits every vatcal driver implements, and the only thing campaign code sees:
 //!

@@ -58,15 +58,15 @@ impl ProbePlacement {
 /// One reading of a 3D probe.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProbeReading {
-    /// the three gauge readings [mm]
+    /// the three gauge readings \[mm\]
     pub gauges_mm: [f64; 3],
     /// ball-centre offset from the probe origin in the probe frame, computed through the
-    /// nominal gauge axes (`Â⁻¹ g`) [mm]
+    /// nominal gauge axes (`Â⁻¹ g`) \[mm\]
     pub offset_mm: Vector3<f64>,
 }
 
 impl ProbeReading {
-    /// Composite error: the length of the offset [mm] (the paper stops auto-centering when it
+    /// Composite error: the length of the offset \[mm\] (the paper stops auto-centering when it
     /// is below 0.005 mm).
     pub fn composite_mm(&self) -> f64 {
         self.offset_mm.norm()
@@ -89,7 +89,7 @@ pub trait Probe3d: Send {
     /// Orientation of the probe frame at calibration position `position`, if configured.
     fn placement(&self, position: u32) -> Option<ProbePlacement>;
 
-    /// Measuring range: each gauge reading must stay within ±range [mm].
+    /// Measuring range: each gauge reading must stay within ±range \[mm\].
     fn range_mm(&self) -> f64;
 }
 
@@ -124,7 +124,7 @@ impl<T: Probe3d + ?Sized> Probe3d for Box<T> {
 }
 
 /// Master ball 1.5 in minus calibration ball 1 in, as radii: the preset that makes a centred
-/// 1-inch ball read zero [mm].
+/// 1-inch ball read zero \[mm\].
 pub const TRICAL_MASTER_PRESET_MM: f64 = 6.35;
 
 /// Configuration of a [`TriCal`].
@@ -135,9 +135,9 @@ pub struct TriCalConfig {
     pub gauge_axes: [Vector3<f64>; 3],
     /// probe orientation at each calibration position
     pub placements: Vec<ProbePlacement>,
-    /// each reading must stay within ±range [mm] (TriCal: 6 mm)
+    /// each reading must stay within ±range \[mm\] (TriCal: 6 mm)
     pub range_mm: f64,
-    /// preset applied with the master ball seated [mm]
+    /// preset applied with the master ball seated \[mm\]
     pub master_preset_mm: f64,
 }
 
@@ -191,7 +191,7 @@ impl<G: Gauge> TriCal<G> {
         self.gauges
     }
 
-    /// Offset `Â⁻¹ g` of three readings [mm].
+    /// Offset `Â⁻¹ g` of three readings \[mm\].
     pub fn offset_of(&self, gauges_mm: &[f64; 3]) -> Vector3<f64> {
         self.axes_inverse * Vector3::from(*gauges_mm)
     }

@@ -13,7 +13,7 @@ use crate::error::{Error, ErrorKind, Result};
 /// * A reading must not move anything and should take little time (the campaign reads it once
 ///   per measurement).
 pub trait Thermometer: Send {
-    /// Current temperature [°C].
+    /// Current temperature \[°C\].
     fn read_c(&mut self) -> Result<f64>;
 }
 

@@ -10,7 +10,7 @@ use crate::error::Result;
 /// paper's §5). TCP ids of a cell start at 1, so 0 never names a TCP.
 pub const PROBE_NEST_TARGET: u32 = 0;
 
-/// Measures the position [mm] of a target: an SMR in a nest of the end-effector (identified by
+/// Measures the position \[mm\] of a target: an SMR in a nest of the end-effector (identified by
 /// the TCP id it stands for), or [`PROBE_NEST_TARGET`].
 ///
 /// A driver reports the tracker's readings in the frame it measures in: the tracker's own
@@ -22,10 +22,10 @@ pub const PROBE_NEST_TARGET: u32 = 0;
 /// A target that cannot be seen (line of sight lost, beam broken, unknown target) is
 /// [`crate::ErrorKind::OutOfRange`]; calls use the driver's I/O timeout.
 pub trait PositionTracker: Send {
-    /// Position of `target` [mm].
+    /// Position of `target` \[mm\].
     fn measure_mm(&mut self, target: u32) -> Result<Vector3<f64>>;
 
-    /// Position of `target` [mm], where the caller expects it at `nominal_mm` (in the frame of
+    /// Position of `target` \[mm\], where the caller expects it at `nominal_mm` (in the frame of
     /// the readings; `None`: unknown). A real tracker points its beam there to find the SMR;
     /// the default ignores the hint.
     fn measure_near_mm(&mut self, target: u32, nominal_mm: Option<&Vector3<f64>>) -> Result<Vector3<f64>> {

@@ -80,15 +80,15 @@ pub struct CandidateScore {
     /// its identifiable basis on all rows
     pub params: ParamSet,
     /// RMS of the held-out residual norms, `√(mean over folds of the fold's mean squared
-    /// residual)` [mm] (`NaN` when rejected)
+    /// residual)` \[mm\] (`NaN` when rejected)
     pub cv_rms_mm: f64,
-    /// standard error of the fold mean squared residuals, `sd / √K` [mm²]
+    /// standard error of the fold mean squared residuals, `sd / √K` \[mm²\]
     pub cv_se_mm2: f64,
-    /// mean over folds of the fold's mean squared residual [mm²]
+    /// mean over folds of the fold's mean squared residual \[mm²\]
     pub cv_mse_mm2: f64,
-    /// RMS of the held-out residual norms of every fold [mm]
+    /// RMS of the held-out residual norms of every fold \[mm\]
     pub fold_rms_mm: Vec<f64>,
-    /// RMS of the residual norms of the fit on all rows [mm]
+    /// RMS of the residual norms of the fit on all rows \[mm\]
     pub train_rms_mm: f64,
     /// condition number of the fit on all rows
     pub condition_number: f64,

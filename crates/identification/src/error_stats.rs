@@ -4,7 +4,7 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-/// Statistics of a set of 3-D position errors [mm].
+/// Statistics of a set of 3-D position errors \[mm\].
 ///
 /// `mean`, `rms`, `median`, `p95` and `max` are statistics of the error *magnitudes*
 /// `‖e_k‖`; `axis_mean` / `axis_rms` are the signed mean and the RMS of each world coordinate
@@ -14,31 +14,31 @@ use serde::{Deserialize, Serialize};
 pub struct ErrorStats {
     /// number of errors
     pub n: usize,
-    /// mean magnitude [mm]
+    /// mean magnitude \[mm\]
     #[serde(rename = "mean_mm")]
     pub mean: f64,
-    /// root mean square magnitude [mm]
+    /// root mean square magnitude \[mm\]
     #[serde(rename = "rms_mm")]
     pub rms: f64,
-    /// median magnitude [mm]
+    /// median magnitude \[mm\]
     #[serde(rename = "median_mm")]
     pub median: f64,
-    /// 95th percentile of the magnitude [mm]
+    /// 95th percentile of the magnitude \[mm\]
     #[serde(rename = "p95_mm")]
     pub p95: f64,
-    /// largest magnitude [mm]
+    /// largest magnitude \[mm\]
     #[serde(rename = "max_mm")]
     pub max: f64,
-    /// signed mean of the x, y, z components [mm]
+    /// signed mean of the x, y, z components \[mm\]
     #[serde(rename = "axis_mean_mm")]
     pub axis_mean: [f64; 3],
-    /// RMS of the x, y, z components [mm]
+    /// RMS of the x, y, z components \[mm\]
     #[serde(rename = "axis_rms_mm")]
     pub axis_rms: [f64; 3],
 }
 
 impl ErrorStats {
-    /// Statistics of `errors` [mm]. An empty slice gives all zeros with `n = 0`.
+    /// Statistics of `errors` \[mm\]. An empty slice gives all zeros with `n = 0`.
     pub fn from_errors(errors: &[Vector3<f64>]) -> Self {
         let n = errors.len();
         if n == 0 {

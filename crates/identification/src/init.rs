@@ -72,9 +72,9 @@ impl InitOptions {
 pub struct Initialisation {
     /// the initialised model (the start of the fit)
     pub model: Model,
-    /// RMS of the residual norms before [mm]
+    /// RMS of the residual norms before \[mm\]
     pub rms_before_mm: f64,
-    /// RMS of the residual norms after [mm]
+    /// RMS of the residual norms after \[mm\]
     pub rms_after_mm: f64,
     /// rounds of registration + linear solve that were run
     pub rounds: usize,

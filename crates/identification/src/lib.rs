@@ -1,4 +1,6 @@
-//! # vatcal-identification
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Least-squares identification of the cell's parameters from probe and/or tracker
 //! measurements, the statistics of the result, and validation on independent data

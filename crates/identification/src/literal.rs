@@ -24,7 +24,7 @@ use crate::problem::Problem;
 use crate::solver::{Outcome, log_entry, step_measure, sum_sq, typical_scales};
 use crate::{IdentifyError, IdentifyOptions, Termination};
 
-/// The paper's stop rule threshold on the change of the mean residual [mm].
+/// The paper's stop rule threshold on the change of the mean residual \[mm\].
 pub const PAPER_ERROR_CHANGE_MM: f64 = 1e-6;
 
 /// Relative cut-off below which singular values of a per-pose block are treated as zero.

@@ -120,7 +120,7 @@ pub struct IdentifyOptions {
     /// leaves a parameter free. With finite priors on every unidentifiable parameter a
     /// rank-deficient problem is accepted.
     pub priors: Option<Vec<f64>>,
-    /// standard deviation [mm] of one coordinate of a weight-1 measurement; used only to
+    /// standard deviation \[mm\] of one coordinate of a weight-1 measurement; used only to
     /// balance priors against the data (the prior row of parameter j is
     /// `(σ_meas / σ_j)(ρ_j − ρ_start,j)`). Default 0.003 mm.
     pub measurement_sigma_mm: f64,

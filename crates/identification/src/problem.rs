@@ -189,7 +189,7 @@ pub(crate) fn row_weights(measurements: &[Measurement], weights: &KindWeights) -
 }
 
 /// The stacked, weighted residual vector `√w_k (target_k − FK_k)` of all measurements
-/// (3 entries per measurement, x y z) [mm]. The stacked Jacobian with the same row layout is
+/// (3 entries per measurement, x y z) \[mm\]. The stacked Jacobian with the same row layout is
 /// `vatcal_observability::assemble_jacobian` (unweighted: multiply row block k by `√w_k`).
 pub fn residual_vector(
     model: &Model,

@@ -75,9 +75,9 @@ pub struct IdentificationReport {
     pub n_parameters: usize,
     /// degrees of freedom 3n − L
     pub dof: usize,
-    /// weighted residual sum of squares [mm²]
+    /// weighted residual sum of squares \[mm²\]
     pub rss_mm2: f64,
-    /// estimated noise of one coordinate of a weight-1 measurement [mm]
+    /// estimated noise of one coordinate of a weight-1 measurement \[mm\]
     pub sigma_hat_mm: f64,
     /// condition number of the weighted, column-normalised Jacobian at the solution
     pub condition_number: f64,
@@ -104,9 +104,9 @@ pub struct IdentificationReport {
 /// What the initialisation did ([`crate::initialise`]).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct InitialisationReport {
-    /// RMS residual norm of the nominal model [mm]
+    /// RMS residual norm of the nominal model \[mm\]
     pub rms_before_mm: f64,
-    /// RMS residual norm after the initialisation [mm]
+    /// RMS residual norm after the initialisation \[mm\]
     pub rms_after_mm: f64,
     /// rounds of registration + linear solve
     pub rounds: usize,
@@ -121,13 +121,13 @@ pub struct CandidateReport {
     pub set: String,
     /// its identifiable parameters on these data
     pub n_parameters: usize,
-    /// RMS held-out residual norm over the folds [mm] (null when rejected)
+    /// RMS held-out residual norm over the folds \[mm\] (null when rejected)
     pub cv_rms_mm: Option<f64>,
-    /// standard error of the fold mean squared residuals [mm²]
+    /// standard error of the fold mean squared residuals \[mm²\]
     pub cv_se_mm2: Option<f64>,
-    /// RMS held-out residual norm of each fold [mm]
+    /// RMS held-out residual norm of each fold \[mm\]
     pub fold_rms_mm: Vec<f64>,
-    /// RMS residual norm of the fit on all rows [mm]
+    /// RMS residual norm of the fit on all rows \[mm\]
     pub train_rms_mm: Option<f64>,
     /// condition number of the fit on all rows
     pub condition_number: Option<f64>,

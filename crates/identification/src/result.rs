@@ -12,13 +12,13 @@ use crate::{ErrorStats, IdentifyError, Method};
 pub struct IterationLog {
     /// iteration number (0 = start)
     pub iteration: usize,
-    /// mean residual magnitude over the measurements [mm]
+    /// mean residual magnitude over the measurements \[mm\]
     pub mean_mm: f64,
-    /// RMS residual magnitude [mm]
+    /// RMS residual magnitude \[mm\]
     pub rms_mm: f64,
-    /// largest residual magnitude [mm]
+    /// largest residual magnitude \[mm\]
     pub max_mm: f64,
-    /// weighted cost `Σ w_k ‖r_k‖²` plus the prior terms [mm²]
+    /// weighted cost `Σ w_k ‖r_k‖²` plus the prior terms \[mm²\]
     pub cost: f64,
     /// damping λ of the accepted step (0 for Gauss–Newton and the paper-literal method)
     pub lambda: f64,
@@ -112,13 +112,13 @@ pub struct Identification {
     pub correlation_threshold: f64,
     /// per-iteration log (iteration 0 = start)
     pub iterations: Vec<IterationLog>,
-    /// residuals `target − FK` of every measurement at the solution [mm] (unweighted)
+    /// residuals `target − FK` of every measurement at the solution \[mm\] (unweighted)
     pub residuals: Vec<Vector3<f64>>,
     /// statistics of `residuals`
     pub residual_stats: ErrorStats,
-    /// weighted residual sum of squares of the measurements at the solution [mm²]
+    /// weighted residual sum of squares of the measurements at the solution \[mm²\]
     pub rss: f64,
-    /// σ̂ = √(RSS / dof): estimated noise of one coordinate of a weight-1 measurement [mm]
+    /// σ̂ = √(RSS / dof): estimated noise of one coordinate of a weight-1 measurement \[mm\]
     pub sigma_hat_mm: f64,
     /// degrees of freedom 3n − L
     pub dof: usize,
@@ -137,7 +137,7 @@ pub struct Identification {
 }
 
 impl Identification {
-    /// Covariance [mm²] of the predicted world position of TCP `tcp` at joints `q`:
+    /// Covariance \[mm²\] of the predicted world position of TCP `tcp` at joints `q`:
     /// `J_q Cov J_qᵀ` with `J_q` the 3 × L Jacobian of the calibrated model.
     pub fn predicted_position_covariance(
         &self,
@@ -148,7 +148,7 @@ impl Identification {
         Ok(&j * &self.covariance * j.transpose())
     }
 
-    /// Standard deviation [mm] of each world coordinate of the predicted position of TCP `tcp`
+    /// Standard deviation \[mm\] of each world coordinate of the predicted position of TCP `tcp`
     /// at `q` (square roots of the diagonal of [`Self::predicted_position_covariance`]).
     pub fn predicted_position_sigma(&self, q: &JointVector, tcp: u32) -> Result<Vector3<f64>, IdentifyError> {
         let c = self.predicted_position_covariance(q, tcp)?;

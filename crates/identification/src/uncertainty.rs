@@ -18,12 +18,12 @@ use vatcal_observability::assemble_jacobian;
 
 use crate::{Identification, IdentifyError, KindWeights};
 
-/// σ per axis of probe and tracker residuals [mm] (`None` for a kind without measurements).
+/// σ per axis of probe and tracker residuals \[mm\] (`None` for a kind without measurements).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct KindSigmas {
-    /// probe residuals, per axis [mm]
+    /// probe residuals, per axis \[mm\]
     pub probe_mm: Option<f64>,
-    /// tracker residuals, per axis [mm]
+    /// tracker residuals, per axis \[mm\]
     pub tracker_mm: Option<f64>,
 }
 
@@ -63,7 +63,7 @@ impl KindSigmas {
 /// the predictions of a fitted model (module docs).
 #[derive(Debug, Clone)]
 pub struct CmmUncertainty {
-    /// σ of every CMM coordinate [mm]
+    /// σ of every CMM coordinate \[mm\]
     pub sigma_mm: f64,
     /// the CMM coordinates that were not fitted
     pub coordinates: ParamSet,
@@ -141,7 +141,7 @@ impl CmmUncertainty {
         Ok(&p_c - &p_rho * &self.transfer)
     }
 
-    /// Systematic covariance [mm²] of the predicted world position of TCP `tcp` at `q`.
+    /// Systematic covariance \[mm²\] of the predicted world position of TCP `tcp` at `q`.
     pub fn covariance(
         &self,
         fit: &Identification,
@@ -153,7 +153,7 @@ impl CmmUncertainty {
         Ok(Matrix3::from_fn(|r, k| c[(r, k)]))
     }
 
-    /// Standard deviation [mm] of each world coordinate of the predicted position, statistical
+    /// Standard deviation \[mm\] of each world coordinate of the predicted position, statistical
     /// ([`Identification::predicted_position_covariance`]) plus systematic.
     pub fn total_sigma(
         &self,

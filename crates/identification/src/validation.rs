@@ -13,12 +13,12 @@ pub struct ValidationReport {
     /// statistics of the errors
     pub stats: ErrorStats,
     /// error of every measurement, `measured − FK` (tracker) or `calibration_position − FK`
-    /// (probe), world frame [mm]
+    /// (probe), world frame \[mm\]
     pub errors_mm: Vec<Vector3<f64>>,
 }
 
 impl ValidationReport {
-    /// Error magnitudes [mm], in measurement order.
+    /// Error magnitudes \[mm\], in measurement order.
     pub fn magnitudes(&self) -> Vec<f64> {
         self.errors_mm.iter().map(|e| e.norm()).collect()
     }

@@ -1,4 +1,6 @@
-//! # vatcal-io
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Reading and writing the CSV files of `docs/formats.md`:
 //!
@@ -1407,12 +1409,17 @@ pub struct PoseRequestRow {
     pub abc_deg: [f64; 3],
     /// optional `time_s`, `temperature_c`, `dir{i}` of the model's revolute joints
     pub context: MeasurementContext,
+    /// the optional `branch` column (trimmed; `None` when absent or empty): the IK branch the
+    /// row asks for, as `vatcal compensate` writes it (`0..7` on the canonical cell, `+`/`-`
+    /// on another chain) — the caller parses it
+    pub branch: Option<String>,
 }
 
 /// Reads pose requests of any chain: the columns `tcp`, `q{i}` for each joint `i` of `given`
 /// (1-based; the joints the request fixes, e.g. `[1]` for the canonical cell's guide, none for
-/// a six-joint arm), `x,y,z,alpha,beta,gamma`, and the optional context columns `time_s`,
-/// `temperature_c`, `dir{i}` of the model's revolute joints. TCP ids are checked against the
+/// a six-joint arm), `x,y,z,alpha,beta,gamma`, the optional context columns `time_s`,
+/// `temperature_c`, `dir{i}` of the model's revolute joints, and the optional `branch` column
+/// (kept as text). TCP ids are checked against the
 /// model, the given joints against their limits; a `q` column of a joint that is not given is
 /// an error (the pose determines that joint); context columns the model's effects need must be
 /// present ([`IoError::ModelNeedsColumn`]).
@@ -1497,6 +1504,7 @@ pub fn read_pose_requests(
             xyz_mm: [f("x")?, f("y")?, f("z")?],
             abc_deg: [f("alpha")?, f("beta")?, f("gamma")?],
             context: t.context(line, rec)?,
+            branch: t.field(rec, "branch").map(str::trim).filter(|b| !b.is_empty()).map(String::from),
         })
     })
 }

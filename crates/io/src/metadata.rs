@@ -4,7 +4,7 @@
 //! reader that wants it asks for it with [`read_metadata`]. One kind exists:
 //!
 //! * `# vatcal-noise: probe_sigma_mm=0.002 tracker_sigma_mm=0.0067` — the measuring
-//!   instruments' noise, σ per axis of one probe row / one tracker row [mm] (either key may be
+//!   instruments' noise, σ per axis of one probe row / one tracker row \[mm\] (either key may be
 //!   left out). `vatcal campaign` writes it from the devices file's `[noise]` table;
 //!   `vatcal discover` uses it as the noise reference of its size rule when no replicate
 //!   measurements are in the data (flags given on the command line take precedence).
@@ -24,9 +24,9 @@ pub const NOISE_TAG: &str = "vatcal-noise:";
 /// The instruments' noise recorded in a measurement file (`# vatcal-noise: ...`).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct NoiseMetadata {
-    /// σ per axis of one probe row [mm]
+    /// σ per axis of one probe row \[mm\]
     pub probe_sigma_mm: Option<f64>,
-    /// σ per axis of one tracker row [mm]
+    /// σ per axis of one tracker row \[mm\]
     pub tracker_sigma_mm: Option<f64>,
 }
 

@@ -64,16 +64,16 @@ pub struct Chain {
     /// The tool-changer frame in which TCPs are given: frame N, times the `tool-frame` effect
     /// transform when that effect is on.
     pub tool: Frame,
-    /// Gravity torques [N·m] used for the compliance, `torques[i - 1]` for joint i (0 for
+    /// Gravity torques \[N·m\] used for the compliance, `torques[i - 1]` for joint i (0 for
     /// prismatic joints; all zeros when not evaluated).
     pub torques: [f64; MAX_JOINTS],
     /// Whether `torques` were evaluated.
     pub torques_evaluated: bool,
-    /// Gravity moment [N·m] of the arm and its load about the carriage origin, components
+    /// Gravity moment \[N·m\] of the arm and its load about the carriage origin, components
     /// along the carriage x and y axes (evaluated when `guide-carriage-tilt` is on or when
     /// given; `None` otherwise).
     pub carriage_moment: Option<[f64; 2]>,
-    /// Joint angles theta_1..theta_N [rad] that entered Eq. (1), `theta[i - 1]` for row i.
+    /// Joint angles theta_1..theta_N \[rad\] that entered Eq. (1), `theta[i - 1]` for row i.
     pub theta: [f64; MAX_JOINTS],
     pub(crate) axes: [RowAxes; MAX_JOINTS],
     pub(crate) guide: Option<InsertAxes>,
@@ -82,7 +82,7 @@ pub struct Chain {
 }
 
 impl Chain {
-    /// World position of a point given in the tool-changer frame (e.g. a TCP) [mm].
+    /// World position of a point given in the tool-changer frame (e.g. a TCP) \[mm\].
     pub fn tool_point(&self, t: &Vector3<f64>) -> Vector3<f64> {
         self.tool.transform_point(t)
     }
@@ -103,9 +103,9 @@ impl Chain {
 /// derivatives the analytic Jacobian computes (second-order terms dropped).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct GravityLoads {
-    /// gravity torques [N·m], `torques[i - 1]` for joint i (0 for prismatic joints)
+    /// gravity torques \[N·m\], `torques[i - 1]` for joint i (0 for prismatic joints)
     pub torques: [f64; MAX_JOINTS],
-    /// gravity moment about the carriage origin along the carriage x and y axes [N·m]
+    /// gravity moment about the carriage origin along the carriage x and y axes \[N·m\]
     pub carriage_moment: [f64; 2],
 }
 
@@ -126,7 +126,7 @@ fn rz_tz_trig(fixed: &Frame, (s, c): (f64, f64), d: f64) -> Frame {
 }
 
 impl Model {
-    /// Gravity torques [N·m] at `q`, `tau[i - 1]` for joint i (0 for prismatic joints and
+    /// Gravity torques \[N·m\] at `q`, `tau[i - 1]` for joint i (0 for prismatic joints and
     /// beyond N), on this model's own geometry (its MDH rows incl. beta, its base
     /// orientation), with all compliances zero and no iteration.
     ///
@@ -201,7 +201,7 @@ impl Model {
         self.gravity_model.torques_n(&links, kinds)
     }
 
-    /// Gravity moment [N·m] of everything distal to the guide joint g ([`Model::guide_joint`];
+    /// Gravity moment \[N·m\] of everything distal to the guide joint g ([`Model::guide_joint`];
     /// on the canonical cell: links 2..7 and the tool) about the origin of the carriage frame
     /// g, as components along the carriage x and y axes, on this model's own undeflected
     /// geometry (no effect, no compliance). With a vertical guide the moment about the guide
@@ -501,7 +501,7 @@ impl Model {
         self.chain_full(q, &MeasurementContext::default(), false, None)
     }
 
-    /// World position [mm] of TCP `tcp` at `q` with per-sample context `ctx`.
+    /// World position \[mm\] of TCP `tcp` at `q` with per-sample context `ctx`.
     pub fn tcp_position_ctx(
         &self,
         q: &JointVector,
@@ -516,7 +516,7 @@ impl Model {
         Ok(self.chain_full(q, ctx, false, None).tool_point(&t))
     }
 
-    /// World position [mm] of TCP `tcp` at `q`.
+    /// World position \[mm\] of TCP `tcp` at `q`.
     ///
     /// # Errors
     /// [`ModelError::UnknownTcp`] when the model has no TCP `tcp`.

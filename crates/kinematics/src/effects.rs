@@ -14,18 +14,18 @@
 //! | effect | change to forward kinematics | parameters |
 //! |---|---|---|
 //! | `joint-compliance` | `theta_i += c_i tau_i` | `c_i` |
-//! | `joint-cyclic` | `theta_i += s sin(k q_i) + c cos(k q_i)` | `cyclic{i}_h{k}_sin`, `_cos` [rad] |
+//! | `joint-cyclic` | `theta_i += s sin(k q_i) + c cos(k q_i)` | `cyclic{i}_h{k}_sin`, `_cos` \[rad\] |
 //! | `joint-scale` | `theta_i += g_i q_i` | `scale{i}` |
-//! | `joint-backlash` | `theta_i += b_i dir_i` (dir = sign of the last motion, ±1; 0 when unknown) | `backlash{i}` [rad] |
-//! | `guide-angular` | after frame g: `Rx(e_x(u)) Ry(e_y(u)) Rz(e_z(u))`, `e(u) = Σ_o e_o P_o(u)` | `guide_angular_{x,y,z}_p{o}` [rad] |
-//! | `guide-straightness` | after frame g: `T(s_x(u), s_y(u), 0)`, orders ≥ 2 | `guide_straightness_{x,y}_p{o}` [mm] |
+//! | `joint-backlash` | `theta_i += b_i dir_i` (dir = sign of the last motion, ±1; 0 when unknown) | `backlash{i}` \[rad\] |
+//! | `guide-angular` | after frame g: `Rx(e_x(u)) Ry(e_y(u)) Rz(e_z(u))`, `e(u) = Σ_o e_o P_o(u)` | `guide_angular_{x,y,z}_p{o}` \[rad\] |
+//! | `guide-straightness` | after frame g: `T(s_x(u), s_y(u), 0)`, orders ≥ 2 | `guide_straightness_{x,y}_p{o}` \[mm\] |
 //! | `guide-scale` | `d_g = (1 + s) q_g + d_offset` | `guide_scale` |
-//! | `guide-carriage-tilt` | after frame g: `Rx(k_x M_x) Ry(k_y M_y)`, `M` = gravity moment of links g+1..N + tool about the carriage origin (carriage axes, undeflected geometry) | `carriage_tilt_{x,y}` [rad/(N·m)] |
-//! | `tool-frame` | tool-changer frame = frame N · `T(tx, ty, 0) Rx(rx) Ry(ry)` | `tool_tx`, `tool_ty` [mm], `tool_rx`, `tool_ry` [rad] |
-//! | `tcp-offset` | TCP coordinates | `tcp{k}_{x,y,z}` [mm] |
-//! | `position-offset` | calibration-position coordinates | `position{k}_{x,y,z}` [mm] |
+//! | `guide-carriage-tilt` | after frame g: `Rx(k_x M_x) Ry(k_y M_y)`, `M` = gravity moment of links g+1..N + tool about the carriage origin (carriage axes, undeflected geometry) | `carriage_tilt_{x,y}` \[rad/(N·m)\] |
+//! | `tool-frame` | tool-changer frame = frame N · `T(tx, ty, 0) Rx(rx) Ry(ry)` | `tool_tx`, `tool_ty` \[mm\], `tool_rx`, `tool_ry` \[rad\] |
+//! | `tcp-offset` | TCP coordinates | `tcp{k}_{x,y,z}` \[mm\] |
+//! | `position-offset` | calibration-position coordinates | `position{k}_{x,y,z}` \[mm\] |
 //! | `thermal-drift` | `a_{i-1}, d_i` of the revolute rows (2..7 on the canonical cell) scale by `1 + k v`, v = `time_s` or `temperature_c - T_ref` | `thermal_per_s` / `thermal_per_k` |
-//! | `hayati-beta` | `beta_{i-1}` on row i | `beta_{i-1}` [rad] |
+//! | `hayati-beta` | `beta_{i-1}` on row i | `beta_{i-1}` \[rad\] |
 //!
 //! `u = (q_g - mid) / half_stroke` is the guide position normalised to [-1, 1] over its limits,
 //! and `P_o` the Legendre polynomials. Gravity torques are evaluated on the MDH geometry

@@ -223,7 +223,7 @@ impl Model {
     }
 
     /// What the model predicts a measurement should read: `FK - calibration_position` for a
-    /// probe measurement (ideally 0), `FK` for a tracker measurement [mm].
+    /// probe measurement (ideally 0), `FK` for a tracker measurement \[mm\].
     pub fn predict(&self, m: &Measurement) -> Result<Vector3<f64>, ModelError> {
         let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
         Ok(match m.target {
@@ -232,7 +232,7 @@ impl Model {
         })
     }
 
-    /// Residual of a measurement [mm]: `calibration_position - FK` (probe) or
+    /// Residual of a measurement \[mm\]: `calibration_position - FK` (probe) or
     /// `measured_xyz - FK` (tracker).
     pub fn residual(&self, m: &Measurement) -> Result<Vector3<f64>, ModelError> {
         let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;

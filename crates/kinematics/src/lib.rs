@@ -1,4 +1,6 @@
-//! # vatcal-kinematics
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The geometric model of a serial chain of 1..=12 joints (paper Section 3, generalised) with
 //! joint compliance and a catalog of further error effects, in internal units (mm, rad):
@@ -25,4 +27,7 @@ mod model;
 pub use chain::{Chain, GravityLoads};
 pub use model::{MdhRow, Model, ModelError};
 pub use vatcal_core::Frame;
+/// The cell file a [`Model`] is built from ([`Model::from_cell`]), re-exported so that a user of
+/// this crate needs no other.
+pub use vatcal_core::{CellError, CellFile};
 pub use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, ParamSet, Target};

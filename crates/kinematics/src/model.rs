@@ -15,15 +15,15 @@ use vatcal_core::frame::{rot_x, rot_y, rot_z};
 /// One MDH row in internal units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MdhRow {
-    /// alpha_{i-1} [rad]
+    /// alpha_{i-1} \[rad\]
     pub alpha: f64,
-    /// a_{i-1} [mm]
+    /// a_{i-1} \[mm\]
     pub a: f64,
-    /// beta_{i-1} [rad]
+    /// beta_{i-1} \[rad\]
     pub beta: f64,
-    /// theta offset of joint i [rad]
+    /// theta offset of joint i \[rad\]
     pub theta_offset: f64,
-    /// d offset of joint i [mm]
+    /// d offset of joint i \[mm\]
     pub d: f64,
 }
 
@@ -84,7 +84,7 @@ pub struct Model {
     pub(crate) rows: [MdhRow; MAX_JOINTS],
     /// c_i for joint i at index i-1 (0 for prismatic joints)
     pub(crate) compliance: [f64; MAX_JOINTS],
-    /// x, y, z [mm], alpha, beta, gamma [rad]
+    /// x, y, z \[mm\], alpha, beta, gamma \[rad\]
     pub(crate) base: [f64; 6],
     pub(crate) tcps: Vec<(u32, Vector3<f64>)>,
     pub(crate) positions: Vec<(u32, Vector3<f64>)>,
@@ -427,7 +427,7 @@ impl Model {
         self.base_frame
     }
 
-    /// Compliance `c_i` of joint `i` (1..=N; 0 for prismatic joints) [rad/(N·m)].
+    /// Compliance `c_i` of joint `i` (1..=N; 0 for prismatic joints) \[rad/(N·m)\].
     ///
     /// # Panics
     /// If `i` is not in 1..=N.
@@ -472,12 +472,12 @@ impl Model {
         self.positions.iter().map(|t| t.0).collect()
     }
 
-    /// TCP `id` in the tool-changer frame [mm].
+    /// TCP `id` in the tool-changer frame \[mm\].
     pub fn tcp(&self, id: u32) -> Option<Vector3<f64>> {
         self.tcps.iter().find(|t| t.0 == id).map(|t| t.1)
     }
 
-    /// Calibration position `id` in the world [mm].
+    /// Calibration position `id` in the world \[mm\].
     pub fn position(&self, id: u32) -> Option<Vector3<f64>> {
         self.positions.iter().find(|t| t.0 == id).map(|t| t.1)
     }
@@ -490,7 +490,7 @@ impl Model {
         self.position(id).ok_or_else(|| ModelError::UnknownPosition(id, self.position_ids()))
     }
 
-    /// Gravity vector in the world [m/s²].
+    /// Gravity vector in the world \[m/s²\].
     pub fn gravity(&self) -> Vector3<f64> {
         self.gravity
     }
@@ -522,7 +522,7 @@ impl Model {
         self.refresh_caches();
     }
 
-    /// Sets the reference temperature [°C] of a temperature-driven thermal drift.
+    /// Sets the reference temperature \[°C\] of a temperature-driven thermal drift.
     pub fn set_thermal_reference_c(&mut self, t_c: f64) {
         self.thermal_reference_c = t_c;
     }
@@ -532,7 +532,7 @@ impl Model {
         &self.effects
     }
 
-    /// Reference temperature [°C] of a temperature-driven thermal drift.
+    /// Reference temperature \[°C\] of a temperature-driven thermal drift.
     pub fn thermal_reference_c(&self) -> f64 {
         self.thermal_reference_c
     }
@@ -713,7 +713,7 @@ impl Model {
         if half > 0.0 { (q_guide_mm - 0.5 * (hi + lo)) / half } else { 0.0 }
     }
 
-    /// Value of the guide joint in `q` [mm] (0 when the chain has no guide).
+    /// Value of the guide joint in `q` \[mm\] (0 when the chain has no guide).
     #[inline]
     pub(crate) fn guide_q(&self, q: &JointVector) -> f64 {
         self.guide.and_then(|g| q.as_slice().get(g).copied()).unwrap_or(0.0)

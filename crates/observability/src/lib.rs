@@ -1,4 +1,6 @@
-//! # vatcal-observability
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Which parameters a set of measurements can identify, how well, and which poses to measure.
 //!
@@ -11,11 +13,13 @@
 //! * [`sets`] — the robot-agnostic parameter sets (`registration` ⊂ `joint-offsets` ⊂
 //!   `kinematic` ⊂ `kinematic+compliance`), unknown fixed points and known distances between
 //!   them ([`sets::DataDesign`]), and the resolution of `--params` specifications;
-//! * [`detmax`] — D-optimal selection of `n` poses out of `N` candidates with rank-3
-//!   determinant-lemma / Woodbury updates (background.md §4), plus a naive reference.
+//! * `detmax` (feature `detmax`, on by default; rayon and rand) — D-optimal selection of `n`
+//!   poses out of `N` candidates with rank-3 determinant-lemma / Woodbury updates
+//!   (background.md §4), plus a naive reference.
 //!
 //! Units inside: mm, rad, rad/(N·m). Jacobian columns are `d(FK − target)/dρ` in those units.
 
+#[cfg(feature = "detmax")]
 pub mod detmax;
 mod error;
 pub mod identifiability;

@@ -61,7 +61,7 @@ pub struct DiscoveryStageOptions {
     /// backlash is excited explicitly
     pub two_sided_repeats: usize,
     /// how far past the measurement pose each joint is taken before the opposite-side
-    /// approach of a repeat [rad] (well above any lost motion of the gears)
+    /// approach of a repeat \[rad\] (well above any lost motion of the gears)
     pub repeat_overshoot_rad: f64,
 }
 
@@ -84,7 +84,7 @@ impl DiscoveryStageOptions {
     }
 
     /// The same with the instruments' known noise per axis: probe measurements (after
-    /// centring, the offset read by the gauges) and tracker measurements [mm].
+    /// centring, the offset read by the gauges) and tracker measurements \[mm\].
     pub fn with_instrument_noise(mut self, probe_mm: f64, tracker_mm: f64) -> Self {
         self.discover.instrument_sigmas = Some(vatcal_identification::KindSigmas {
             probe_mm: Some(probe_mm),
@@ -209,9 +209,9 @@ pub struct DiscoveryReport {
     pub negligible_effects: serde_json::Value,
     /// effects removed by the backward check
     pub removed_effects: serde_json::Value,
-    /// cross-validated gap of the 34-parameter model on the probe data [mm]
+    /// cross-validated gap of the 34-parameter model on the probe data \[mm\]
     pub initial_gap_mm: f64,
-    /// cross-validated gap of the discovered model on the probe data [mm]
+    /// cross-validated gap of the discovered model on the probe data \[mm\]
     pub final_gap_mm: f64,
     /// how the true-structure model was fitted, or why it is missing
     pub true_structure: String,
@@ -646,17 +646,32 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
     m
 }
 
-/// `summary.html`: the text of `summary.md` as one self-contained page (headings, tables,
-/// code blocks, paragraphs), with the SVG plots of the run inline.
+/// `summary.html`: the text of `summary.md` as one self-contained page (headings as nested
+/// sections with a table of contents, tables, code blocks, paragraphs), each SVG plot of the
+/// run (`(file name, svg)`) inline right after the first paragraph, list item or table that
+/// names its file — beside the text it illustrates; a plot the text never names goes to a last
+/// section "Other plots".
 pub fn summary_html(markdown: &str, svgs: &[(String, String)]) -> vatcal_report::html::HtmlReport {
+    use vatcal_report::html::HtmlReport;
     let mut lines = markdown.lines().peekable();
     let title = lines.peek().map_or("vatcal", |l| l.trim_start_matches('#').trim()).to_string();
     lines.next();
-    let mut r = vatcal_report::html::HtmlReport::new(title);
+    let mut r = HtmlReport::new(title);
+    let mut placed = vec![false; svgs.len()];
+    // the plots `text` names (not placed yet), as figures after it
+    let mut figures = |r: &mut HtmlReport, text: &str| {
+        for ((name, svg), done) in svgs.iter().zip(placed.iter_mut()) {
+            if !*done && text.contains(name.as_str()) {
+                r.svg(svg.clone(), name.clone());
+                *done = true;
+            }
+        }
+    };
     let mut para = String::new();
-    let flush = |r: &mut vatcal_report::html::HtmlReport, para: &mut String| {
+    let flush = |r: &mut HtmlReport, para: &mut String, figures: &mut dyn FnMut(&mut HtmlReport, &str)| {
         if !para.trim().is_empty() {
             r.paragraph(para.trim().to_string());
+            figures(r, para);
         }
         para.clear();
     };
@@ -665,10 +680,15 @@ pub fn summary_html(markdown: &str, svgs: &[(String, String)]) -> vatcal_report:
     };
     while let Some(line) = lines.next() {
         if let Some(h) = line.strip_prefix('#') {
-            flush(&mut r, &mut para);
-            r.heading(h.trim_start_matches('#').trim());
+            flush(&mut r, &mut para, &mut figures);
+            let text = h.trim_start_matches('#').trim();
+            if h.starts_with('#') {
+                r.subheading(text);
+            } else {
+                r.heading(text);
+            }
         } else if line.starts_with("```") {
-            flush(&mut r, &mut para);
+            flush(&mut r, &mut para, &mut figures);
             let mut block = String::new();
             for l in lines.by_ref() {
                 if l.starts_with("```") {
@@ -677,11 +697,13 @@ pub fn summary_html(markdown: &str, svgs: &[(String, String)]) -> vatcal_report:
                 block.push_str(l);
                 block.push('\n');
             }
-            r.preformatted(block);
+            r.preformatted(block.clone());
+            figures(&mut r, &block);
         } else if line.starts_with('|') {
-            flush(&mut r, &mut para);
+            flush(&mut r, &mut para, &mut figures);
             let header = cells(line);
             let mut rows = Vec::new();
+            let mut text = line.to_string();
             while let Some(l) = lines.peek() {
                 if !l.starts_with('|') {
                     break;
@@ -690,24 +712,29 @@ pub fn summary_html(markdown: &str, svgs: &[(String, String)]) -> vatcal_report:
                 if !row.iter().all(|c| c.chars().all(|ch| matches!(ch, '-' | ':'))) {
                     rows.push(row);
                 }
+                text.push_str(l);
                 lines.next();
             }
             let h: Vec<&str> = header.iter().map(String::as_str).collect();
             r.table(&h, &rows);
+            figures(&mut r, &text);
         } else if line.starts_with("* ") {
-            flush(&mut r, &mut para);
+            flush(&mut r, &mut para, &mut figures);
             r.paragraph(line.to_string());
+            figures(&mut r, line);
         } else if line.trim().is_empty() {
-            flush(&mut r, &mut para);
+            flush(&mut r, &mut para, &mut figures);
         } else {
             para.push_str(line);
             para.push('\n');
         }
     }
-    flush(&mut r, &mut para);
-    if !svgs.is_empty() {
-        r.heading("Plots");
-        for (name, svg) in svgs {
+    flush(&mut r, &mut para, &mut figures);
+    let rest: Vec<&(String, String)> =
+        svgs.iter().zip(&placed).filter(|(_, done)| !**done).map(|(s, _)| s).collect();
+    if !rest.is_empty() {
+        r.heading("Other plots");
+        for (name, svg) in rest {
             r.svg(svg.clone(), name.clone());
         }
     }

@@ -1,4 +1,6 @@
-//! # vatcal-pipeline
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The single composition root of a calibration run, generic over the device traits of
 //! `vatcal-hardware-traits` (it depends on no driver and on no simulator):

@@ -1,4 +1,4 @@
-//! The report folder of a calibration run: `report.json` (one writer: [`Files::json`]),
+//! The report folder of a calibration run: `report.json` (one writer: `Files::json`),
 //! `summary.md`, the measurement and error CSVs and the SVG plots.
 
 use std::fmt::Write as _;
@@ -49,15 +49,15 @@ pub trait ReportSetup: Serialize {
 pub struct PaperFigures {
     /// random poses measured
     pub random_poses: usize,
-    /// mean error at the random poses, nominal model [mm]
+    /// mean error at the random poses, nominal model \[mm\]
     pub random_nominal_mean_mm: f64,
-    /// mean error at the random poses, calibrated model [mm]
+    /// mean error at the random poses, calibrated model \[mm\]
     pub random_calibrated_mean_mm: f64,
     /// slices of the printing path
     pub path_slices: usize,
-    /// mean error along the printing path, nominal model [mm]
+    /// mean error along the printing path, nominal model \[mm\]
     pub path_nominal_mean_mm: f64,
-    /// mean error along the printing path, calibrated model [mm]
+    /// mean error along the printing path, calibrated model \[mm\]
     pub path_calibrated_mean_mm: f64,
 }
 
@@ -86,9 +86,9 @@ pub struct CampaignSummary {
     pub centering_moves_mean: f64,
     /// largest number of auto-centering moves
     pub centering_moves_max: usize,
-    /// mean composite offset left after centering (final gauge reading) [mm]
+    /// mean composite offset left after centering (final gauge reading) \[mm\]
     pub final_offset_mean_mm: f64,
-    /// virtual time of the campaign (motions, readings, plate re-placements) [s]
+    /// virtual time of the campaign (motions, readings, plate re-placements) \[s\]
     pub virtual_time_s: f64,
 }
 
@@ -101,7 +101,7 @@ pub struct ValidationSummary {
     pub random_options: RandomPoseOptions,
     /// the printing path
     pub printing_path: PrintingPathOptions,
-    /// guide position at the first slice [mm]
+    /// guide position at the first slice \[mm\]
     pub guide_start_mm: f64,
     /// steps of the validation campaign
     pub campaign_steps: usize,
@@ -109,7 +109,7 @@ pub struct ValidationSummary {
     pub tracker_measurements: usize,
     /// legs between random poses that needed RRT-Connect
     pub rrt_legs: usize,
-    /// virtual time of the validation [s]
+    /// virtual time of the validation \[s\]
     pub virtual_time_s: f64,
     /// errors of each model (random poses and the path it commanded), with every error vector
     pub models: Vec<ModelValidation>,
@@ -510,7 +510,7 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
     }
     let _ = writeln!(
         m,
-        "\nresiduals at the solution: {}; σ̂ = {:.4} mm (dof {}), condition number {:.1}.\n",
+        "\nConvergence: `identification_convergence.svg`. Residuals at the solution: {}; σ̂ = {:.4} mm (dof {}), condition number {:.1}.\n",
         id.residual_stats.one_line(),
         id.sigma_hat_mm,
         id.dof,

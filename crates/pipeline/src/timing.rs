@@ -30,9 +30,9 @@ pub const TIMING_FILE: &str = "timing.json";
 pub struct StepTimes {
     /// steps of this kind
     pub count: usize,
-    /// measured on the devices' clock [s]
+    /// measured on the devices' clock \[s\]
     pub measured_s: f64,
-    /// the planner's estimate for the same steps [s] (`None`: the planner has no model of it)
+    /// the planner's estimate for the same steps \[s\] (`None`: the planner has no model of it)
     pub estimated_s: Option<f64>,
 }
 
@@ -56,7 +56,7 @@ impl StepTimes {
 pub struct CampaignTiming {
     /// the journal
     pub journal: String,
-    /// span of the journal on the devices' clock [s]
+    /// span of the journal on the devices' clock \[s\]
     pub total_s: f64,
     /// joint moves between measurement poses (planner: synchronised joint moves at the
     /// `[motion]` speeds × `speed_fraction`, no settling; the first move, from wherever the
@@ -94,7 +94,7 @@ pub struct RunTiming {
     /// each stage
     pub stages: Vec<StageTime>,
     /// the planner's estimate of the measurement campaign along its planned paths (its
-    /// `summary.json` → `timing.planned_paths_s`) [s]
+    /// `summary.json` → `timing.planned_paths_s`) \[s\]
     pub planner_campaign_estimate_s: f64,
     /// the `[motion]` table the planner used
     pub planner_measurement_s: f64,

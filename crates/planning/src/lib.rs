@@ -1,4 +1,6 @@
-//! # vatcal-planning
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Planning of a measurement campaign (paper Sections 2.4, 4.1 and 4.2): which joint
 //! configurations to measure, in which order, and how to move between them.

@@ -7,7 +7,7 @@
 //!
 //! `t(a, b) = max_j |b_j - a_j| / (v_j · fraction)`
 //!
-//! with `v_1` the guide speed (mm/s), `v_2..v_7` the Meca500 joint speeds [deg/s] and `fraction`
+//! with `v_1` the guide speed (mm/s), `v_2..v_7` the Meca500 joint speeds \[deg/s\] and `fraction`
 //! the planned fraction of the maximum speed, all from the cell's `[motion]` table
 //! ([`vatcal_core::CellFile::motion_limits`]). Acceleration phases are ignored (the Meca500 and
 //! the Zaber guide accelerate in a few tens of ms, small next to moves of seconds).

@@ -1,6 +1,13 @@
 //! A small builder of self-contained HTML reports: one file, inline CSS and SVGs, no scripts and
 //! no external resources, readable offline in any browser.
 //!
+//! Every heading opens a `<section id="…">` that holds what follows it up to the next heading
+//! of the same or a higher level (a level-3 heading's section nests in its level-2 one), so a
+//! figure added after a paragraph sits in that paragraph's section; a table of contents of
+//! links to the sections follows the title when the document has two headings or more. The
+//! document is also well-formed XML (void elements are self-closed), so it can be checked
+//! with an XML parser.
+//!
 //! ```
 //! use vatcal_report::html::HtmlReport;
 //! let mut r = HtmlReport::new("Discovery");
@@ -23,7 +30,7 @@ use crate::PlotError;
 /// One block of the document.
 #[derive(Debug, Clone, PartialEq)]
 enum Block {
-    Heading(String),
+    Heading { level: u8, text: String },
     Paragraph(String),
     Preformatted(String),
     Table { header: Vec<String>, rows: Vec<Vec<String>> },
@@ -94,7 +101,34 @@ h1{font-size:1.6rem;border-bottom:2px solid #ccc}h2{font-size:1.25rem;margin-top
 table{border-collapse:collapse;margin:1rem 0}th,td{border:1px solid #bbb;padding:.25rem .6rem;\
 text-align:left;vertical-align:top}th{background:#f0f0f0}code,pre{background:#f6f6f6;\
 font-family:ui-monospace,Menlo,Consolas,monospace}pre{padding:.6rem;overflow-x:auto}\
-figure{margin:1rem 0}figcaption{font-size:.9rem;color:#555}svg{max-width:100%;height:auto}";
+figure{margin:1rem 0}figcaption{font-size:.9rem;color:#555}svg{max-width:100%;height:auto}\
+h3{font-size:1.05rem;margin-top:1.5rem}nav.toc{background:#f8f8f8;border:1px solid #ddd;\
+padding:.4rem 1rem;margin:1rem 0}nav.toc h2{font-size:1rem;margin:.3rem 0}nav.toc ul{margin:.2rem 0;\
+padding-left:1.2rem}nav.toc a{text-decoration:none}";
+
+/// An `id` for a heading: lower-case letters and digits of `text` joined by `-`, made unique
+/// among `taken` by a numeric suffix.
+fn slug(text: &str, taken: &[String]) -> String {
+    let mut base = String::new();
+    for c in text.chars() {
+        if c.is_ascii_alphanumeric() {
+            base.push(c.to_ascii_lowercase());
+        } else if !base.is_empty() && !base.ends_with('-') {
+            base.push('-');
+        }
+    }
+    let base = match base.trim_end_matches('-') {
+        "" => "section".to_string(),
+        b => b.to_string(),
+    };
+    let mut id = base.clone();
+    let mut k = 2;
+    while taken.contains(&id) {
+        id = format!("{base}-{k}");
+        k += 1;
+    }
+    id
+}
 
 impl HtmlReport {
     /// An empty document with a title (shown as the page title and the first heading).
@@ -102,9 +136,16 @@ impl HtmlReport {
         Self { title: title.into(), blocks: Vec::new() }
     }
 
-    /// A section heading.
+    /// A section heading (`<h2>`): opens a section that ends at the next section heading.
     pub fn heading(&mut self, text: impl Into<String>) -> &mut Self {
-        self.blocks.push(Block::Heading(text.into()));
+        self.blocks.push(Block::Heading { level: 2, text: text.into() });
+        self
+    }
+
+    /// A subsection heading (`<h3>`): opens a subsection of the current section that ends at
+    /// the next heading of either level.
+    pub fn subheading(&mut self, text: impl Into<String>) -> &mut Self {
+        self.blocks.push(Block::Heading { level: 3, text: text.into() });
         self
     }
 
@@ -137,20 +178,64 @@ impl HtmlReport {
         self
     }
 
-    /// The complete document.
+    /// The complete document: title, table of contents (two headings or more), then the
+    /// blocks, each heading opening a `<section>`.
     pub fn render(&self) -> String {
         let mut out = String::new();
         let title = escape(&self.title);
         let _ = write!(
             out,
-            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-             <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\" />\n\
+             <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\" />\n\
              <title>{title}</title>\n<style>{STYLE}</style>\n</head>\n<body>\n<h1>{title}</h1>\n"
         );
+        let mut ids: Vec<String> = Vec::new();
+        for block in &self.blocks {
+            if let Block::Heading { text, .. } = block {
+                let id = slug(text, &ids);
+                ids.push(id);
+            }
+        }
+        let headings: Vec<(u8, &str)> = self
+            .blocks
+            .iter()
+            .filter_map(|b| match b {
+                Block::Heading { level, text } => Some((*level, text.as_str())),
+                _ => None,
+            })
+            .collect();
+        if headings.len() >= 2 {
+            out.push_str("<nav class=\"toc\">\n<h2>Contents</h2>\n<ul>\n");
+            let mut in_sub = false;
+            for (k, ((level, text), id)) in headings.iter().zip(&ids).enumerate() {
+                if *level > 2 && !in_sub && k > 0 {
+                    out.push_str("<ul>\n");
+                    in_sub = true;
+                } else if *level <= 2 && in_sub {
+                    out.push_str("</li>\n</ul></li>\n");
+                    in_sub = false;
+                } else if k > 0 {
+                    out.push_str("</li>\n");
+                }
+                let _ = write!(out, "<li><a href=\"#{id}\">{}</a>", inline_markup(text));
+            }
+            out.push_str(if in_sub { "</li>\n</ul></li>\n" } else { "</li>\n" });
+            out.push_str("</ul>\n</nav>\n");
+        }
+        // levels of the open sections
+        let mut open: Vec<u8> = Vec::new();
+        let mut next_id = ids.iter();
         for block in &self.blocks {
             match block {
-                Block::Heading(t) => {
-                    let _ = writeln!(out, "<h2>{}</h2>", inline_markup(t));
+                Block::Heading { level, text } => {
+                    while open.last().is_some_and(|l| l >= level) {
+                        open.pop();
+                        out.push_str("</section>\n");
+                    }
+                    open.push(*level);
+                    let id = next_id.next().map_or("section", String::as_str);
+                    let _ =
+                        writeln!(out, "<section id=\"{id}\">\n<h{level}>{}</h{level}>", inline_markup(text));
                 }
                 Block::Paragraph(t) => {
                     for para in t.split("\n\n").map(str::trim).filter(|p| !p.is_empty()) {
@@ -186,6 +271,9 @@ impl HtmlReport {
                     );
                 }
             }
+        }
+        for _ in open {
+            out.push_str("</section>\n");
         }
         out.push_str("</body>\n</html>\n");
         out
@@ -260,5 +348,36 @@ mod tests {
             assert!(!html.contains(external), "{external}");
         }
         assert!(!html.contains("<?xml"));
+    }
+
+    #[test]
+    fn headings_open_nested_sections_listed_in_the_contents() {
+        let mut r = HtmlReport::new("T");
+        r.heading("Setup & data")
+            .paragraph("a")
+            .subheading("Probe")
+            .svg("<svg></svg>", "probe plot")
+            .subheading("Probe")
+            .heading("Result")
+            .paragraph("b");
+        let html = r.render();
+        let toc = "<nav class=\"toc\">\n<h2>Contents</h2>\n<ul>\n<li><a href=\"#setup-data\">Setup &amp; data</a><ul>\n\
+                   <li><a href=\"#probe\">Probe</a></li>\n<li><a href=\"#probe-2\">Probe</a></li>\n</ul></li>\n\
+                   <li><a href=\"#result\">Result</a></li>\n</ul>\n</nav>\n";
+        assert!(html.contains(toc), "{html}");
+        let body = "<section id=\"setup-data\">\n<h2>Setup &amp; data</h2>\n<p>a</p>\n\
+                    <section id=\"probe\">\n<h3>Probe</h3>\n<figure>\n<svg></svg>\n<figcaption>probe plot</figcaption>\n</figure>\n\
+                    </section>\n<section id=\"probe-2\">\n<h3>Probe</h3>\n</section>\n</section>\n\
+                    <section id=\"result\">\n<h2>Result</h2>\n<p>b</p>\n</section>\n</body>";
+        assert!(html.contains(body), "{html}");
+        // one heading: no contents
+        let mut one = HtmlReport::new("T");
+        one.heading("Only");
+        assert!(!one.render().contains("<nav"));
+        assert_eq!(slug("  ", &[]), "section");
+        assert_eq!(
+            slug("Printing by `vatcal compensate`'s targets", &[]),
+            "printing-by-vatcal-compensate-s-targets"
+        );
     }
 }

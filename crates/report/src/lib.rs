@@ -1,4 +1,6 @@
-//! # vatcal-report
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Generic SVG plots for calibration reports, built on `plotters` with the SVG backend only (no
 //! system fonts: text is written as SVG `<text>` elements and rendered by the viewer).

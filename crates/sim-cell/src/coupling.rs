@@ -75,7 +75,7 @@ pub(crate) struct GuideLink {
 pub(crate) struct GaugeCoupling {
     cell: VirtualCell,
     index: usize,
-    /// the plunger position that reads zero before any preset [mm] (mid-travel)
+    /// the plunger position that reads zero before any preset \[mm\] (mid-travel)
     zero_mm: f64,
     arm: Weak<Meca500Sim>,
     /// `None`: the cell has no guide

@@ -1,4 +1,6 @@
-//! # vatcal-sim-cell
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The whole virtual cell over TCP (`vatcal sim-cell`): one process serves
 //!
@@ -77,7 +79,7 @@ use crate::coupling::{ArmCoupling, GaugeCoupling, GuideCoupling, GuideLink, Trac
 
 /// The canonical nominal cell (`fixtures/meca500-zaber.toml`), built in so that `vatcal
 /// sim-cell` runs from any directory (the same file as `vatcal demo`'s built-in cell).
-pub const BUILT_IN_CELL: &str = include_str!("../../../fixtures/meca500-zaber.toml");
+pub const BUILT_IN_CELL: &str = vatcal_core::CANONICAL_CELL_TOML;
 
 /// The TCP ports of the cell.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -145,13 +145,13 @@ impl VirtualCell {
         self.shared.lock().context()
     }
 
-    /// Oracle: the true world position of ball `tcp` now (with all physical errors) [mm].
+    /// Oracle: the true world position of ball `tcp` now (with all physical errors) \[mm\].
     pub fn true_ball_position_mm(&self, tcp: u32) -> Option<Vector3<f64>> {
         self.shared.lock().ball_world(tcp)
     }
 
     /// Oracle: true offset of ball `tcp` from the true probe origin of the current plate
-    /// placement, in world axes [mm]; `None` without a plate.
+    /// placement, in world axes \[mm\]; `None` without a plate.
     pub fn true_ball_offset_mm(&self, tcp: u32) -> Option<Vector3<f64>> {
         let w = self.shared.lock();
         let origin = w.truth.position(w.plate?)?;
@@ -169,7 +169,7 @@ impl VirtualCell {
         self.shared.lock().arm_dirs().to_vec()
     }
 
-    /// Oracle: the world displacements requested by every relative linear move so far [mm].
+    /// Oracle: the world displacements requested by every relative linear move so far \[mm\].
     pub fn linear_moves(&self) -> Vec<Vector3<f64>> {
         self.shared.lock().linear_moves.clone()
     }

@@ -9,15 +9,15 @@ use vatcal_core::{JointKind, MAX_JOINTS};
 /// ± its maximum error.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NoiseBudget {
-    /// robot position repeatability: a fresh random TCP offset after every arm motion [mm]
+    /// robot position repeatability: a fresh random TCP offset after every arm motion \[mm\]
     pub robot_repeatability_mm: f64,
-    /// guide repeatability: a fresh random position error after every guide motion [mm]
+    /// guide repeatability: a fresh random position error after every guide motion \[mm\]
     pub guide_repeatability_mm: f64,
-    /// tool-changer repeatability: a random tool offset drawn once per session [mm]
+    /// tool-changer repeatability: a random tool offset drawn once per session \[mm\]
     pub tool_changer_repeatability_mm: f64,
-    /// gauge maximum error (uniform) [mm]
+    /// gauge maximum error (uniform) \[mm\]
     pub gauge_max_error_mm: f64,
-    /// laser-tracker error per axis (3σ) [mm]
+    /// laser-tracker error per axis (3σ) \[mm\]
     pub tracker_error_mm: f64,
 }
 
@@ -55,13 +55,13 @@ impl Default for NoiseBudget {
 /// Imperfections of the TriCal probe that the campaign does not know about.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProbeImperfections {
-    /// each true gauge axis is tilted from its nominal direction by up to this angle [rad]
+    /// each true gauge axis is tilted from its nominal direction by up to this angle \[rad\]
     /// (uniform in a cone): the nominal axes are "slightly non-orthogonal" to the truth
     pub gauge_axis_tilt_rad: f64,
     /// the true orientation of each placement differs from the configured one by up to this
-    /// angle about a random axis [rad]
+    /// angle about a random axis \[rad\]
     pub placement_rotation_rad: f64,
-    /// radius error of each ball (master and calibration balls), uniform within ± [mm]
+    /// radius error of each ball (master and calibration balls), uniform within ± \[mm\]
     /// (half the paper's 2.5 µm diameter tolerance)
     pub ball_radius_tolerance_mm: f64,
 }
@@ -80,20 +80,20 @@ impl Default for ProbeImperfections {
 /// How long things take in virtual time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimTiming {
-    /// maximum speed of each arm joint J1.. [rad/s] (mm/s for a prismatic arm joint); index
+    /// maximum speed of each arm joint J1.. \[rad/s\] (mm/s for a prismatic arm joint); index
     /// k is arm joint J(k+1), entries beyond the arm's joints are unused
     pub joint_speed_rad_per_s: [f64; MAX_JOINTS],
-    /// maximum guide speed [mm/s]
+    /// maximum guide speed \[mm/s\]
     pub guide_speed_mm_per_s: f64,
-    /// added to every motion (acceleration, settling) [s]
+    /// added to every motion (acceleration, settling) \[s\]
     pub settle_s: f64,
-    /// one gauge reading [s]
+    /// one gauge reading \[s\]
     pub gauge_read_s: f64,
-    /// one tracker measurement [s]
+    /// one tracker measurement \[s\]
     pub tracker_read_s: f64,
-    /// activation + homing of the arm [s]
+    /// activation + homing of the arm \[s\]
     pub homing_s: f64,
-    /// the operator re-placing the probe plate [s]
+    /// the operator re-placing the probe plate \[s\]
     pub operator_s: f64,
 }
 
@@ -166,20 +166,20 @@ impl Default for SimFaults {
 /// `T(t) = start + rise (1 − e^(−t/τ)) + cycle_amplitude sin(2π t / cycle_period)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ThermalProfile {
-    /// temperature at t = 0 [°C]
+    /// temperature at t = 0 \[°C\]
     pub start_c: f64,
-    /// warm-up rise reached for t ≫ τ [K]
+    /// warm-up rise reached for t ≫ τ \[K\]
     pub rise_k: f64,
-    /// warm-up time constant τ [s]
+    /// warm-up time constant τ \[s\]
     pub time_constant_s: f64,
-    /// amplitude of the room's air-conditioning cycle [K]
+    /// amplitude of the room's air-conditioning cycle \[K\]
     pub cycle_amplitude_k: f64,
-    /// period of that cycle [s]
+    /// period of that cycle \[s\]
     pub cycle_period_s: f64,
 }
 
 impl ThermalProfile {
-    /// Temperature at virtual time `t_s` [°C].
+    /// Temperature at virtual time `t_s` \[°C\].
     pub fn at(&self, t_s: f64) -> f64 {
         let warm = if self.time_constant_s > 0.0 { 1.0 - (-t_s / self.time_constant_s).exp() } else { 1.0 };
         let cycle = if self.cycle_period_s > 0.0 {
@@ -198,9 +198,9 @@ impl ThermalProfile {
 /// resumed campaign reads the same values and the other devices' noise is unaffected.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ThermometerSpec {
-    /// σ of the reading noise [K]
+    /// σ of the reading noise \[K\]
     pub sigma_k: f64,
-    /// display resolution [K] (0: none)
+    /// display resolution \[K\] (0: none)
     pub resolution_k: f64,
 }
 
@@ -228,14 +228,14 @@ impl ThermometerSpec {
 pub struct CellPhysics {
     /// cell temperature; `None`: no temperature channel (context `temperature_c` is empty)
     pub thermal: Option<ThermalProfile>,
-    /// σ per axis of the translation error of the tracker's registration to the world [mm]
+    /// σ per axis of the translation error of the tracker's registration to the world \[mm\]
     /// (drawn once per cell)
     pub tracker_registration_mm: f64,
-    /// σ per axis of the rotation error of that registration [rad], about the centroid of the
+    /// σ per axis of the rotation error of that registration \[rad\], about the centroid of the
     /// calibration positions (the points the registration was measured on)
     pub tracker_registration_rad: f64,
     /// σ per axis of the offset of each SMR's optical centre from its nest centre, constant per
-    /// SMR (they are not re-oriented in their nests) [mm]
+    /// SMR (they are not re-oriented in their nests) \[mm\]
     pub smr_nest_mm: f64,
 }
 
@@ -257,11 +257,11 @@ pub struct SimConfig {
     pub timing: SimTiming,
     /// injected faults
     pub faults: SimFaults,
-    /// gauge measuring range: readings beyond ± this are errors [mm]
+    /// gauge measuring range: readings beyond ± this are errors \[mm\]
     pub gauge_range_mm: f64,
-    /// master ball radius (1.5 in) [mm]
+    /// master ball radius (1.5 in) \[mm\]
     pub master_ball_radius_mm: f64,
-    /// calibration ball radius (1 in) [mm]
+    /// calibration ball radius (1 in) \[mm\]
     pub ball_radius_mm: f64,
     /// temperature and tracker systematics ([`CellPhysics::none`] by default)
     pub physics: CellPhysics,

@@ -47,7 +47,7 @@ pub(crate) fn world_displacement(
 
 /// Geometric Jacobian (6×n) of the flange (MDH frame N) with respect to the n arm joints of
 /// the model's [`JointLayout`] (the six Meca500 joints on the canonical cell): rows 0..3 the
-/// linear velocity [mm/rad] (mm/mm for a prismatic joint), rows 3..6 the angular velocity.
+/// linear velocity \[mm/rad\] (mm/mm for a prismatic joint), rows 3..6 the angular velocity.
 /// Near a singularity a small translation needs large joint motions (the simulated controller
 /// refuses linear moves there, like the real one); see [`translation_joint_gain`].
 pub fn flange_jacobian(model: &Model, q: &JointVector) -> Matrix6xX<f64> {

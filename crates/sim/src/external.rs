@@ -54,7 +54,7 @@ impl SimConfig {
 }
 
 impl VirtualCell {
-    /// An external arm motion from `from` to `to` [rad] starts: the backlash direction of every
+    /// An external arm motion from `from` to `to` \[rad\] starts: the backlash direction of every
     /// joint that moves, a fresh repeatability offset and a new noise epoch, keyed on the two
     /// joint vectors like [`SimArm`](crate::SimArm)'s joint moves.
     pub fn external_motion_started(&self, from: &ArmJoints, to: &ArmJoints) {
@@ -92,7 +92,7 @@ impl VirtualCell {
         w.pending.push(PendingSegment { arm: None, guide: Some((from_mm, to_mm)) });
     }
 
-    /// Where the external simulators have the joints now (arm [rad], guide as reported [mm]),
+    /// Where the external simulators have the joints now (arm \[rad\], guide as reported \[mm\]),
     /// and the speed fractions in force (arm joint speed, guide speed; those of the motions
     /// since the last sync): the physics puts the cell there (the guide's repeatability error
     /// is added physically), and the clock advances by the virtual time of the motions started
@@ -124,7 +124,7 @@ impl VirtualCell {
         w.guide.motion = Motion::at_rest([guide_mm]);
     }
 
-    /// Joints [rad] that the cell's robot controller (which believes the **nominal** model)
+    /// Joints \[rad\] that the cell's robot controller (which believes the **nominal** model)
     /// commands for a relative linear move of `translation_mm` in the axes of `frame`, from
     /// `from` with the guide at its last target, exactly as [`SimArm`](crate::SimArm) solves it
     /// (including the injected [`SimFaults::linear_move_gain`](crate::SimFaults)); or the
@@ -162,7 +162,7 @@ impl VirtualCell {
 
     /// Noise-free reading of gauge `gauge` (0..3) at the state of the last
     /// [`VirtualCell::external_sync`], relative to the probe's zero at the start of the session
-    /// (the master-ball preset the probe came with) [mm]: a simulated gauge whose own zero
+    /// (the master-ball preset the probe came with) \[mm\]: a simulated gauge whose own zero
     /// sits there displays the in-process reading. `None` when nothing touches the plunger
     /// (it rests on its stop, fully extended).
     pub fn external_plunger_mm(&self, gauge: usize) -> Option<f64> {
@@ -172,7 +172,7 @@ impl VirtualCell {
     }
 
     /// The reading error of the next reading of gauge `gauge` (uniform within the gauge's
-    /// maximum error, keyed on the current noise epoch like the in-process gauges) [mm]. A
+    /// maximum error, keyed on the current noise epoch like the in-process gauges) \[mm\]. A
     /// reading takes [`SimTiming::gauge_read_s`] of virtual time, like an in-process one.
     pub fn external_reading_noise_mm(&self, gauge: usize) -> f64 {
         let mut w = self.shared.lock();
@@ -187,7 +187,7 @@ impl VirtualCell {
     /// [`PROBE_NEST_TARGET`](vatcal_hardware_traits::PROBE_NEST_TARGET)) at the state of the
     /// last [`VirtualCell::external_sync`], exactly as the in-process
     /// [`SimTracker`](crate::SimTracker) reads it — registration error, SMR-nest offsets,
-    /// noise keyed on the current epoch, line-of-sight losses — in the world frame [mm]. A
+    /// noise keyed on the current epoch, line-of-sight losses — in the world frame \[mm\]. A
     /// reading takes [`SimTiming::tracker_read_s`] of virtual time.
     ///
     /// # Errors
@@ -200,7 +200,7 @@ impl VirtualCell {
         w.track(target)
     }
 
-    /// The arm's joint limits J1.. in the controller's (nominal) model [rad] (a continuous
+    /// The arm's joint limits J1.. in the controller's (nominal) model \[rad\] (a continuous
     /// joint: one turn, see `Model::joint_limits`).
     pub fn arm_joint_limits(&self) -> Vec<(f64, f64)> {
         let w = self.shared.lock();
@@ -208,7 +208,7 @@ impl VirtualCell {
         w.layout.arm_cell_joints().map(|j| limits[j - 1]).collect()
     }
 
-    /// The guide's stroke in the controller's (nominal) model [mm] (`None`: no guide).
+    /// The guide's stroke in the controller's (nominal) model \[mm\] (`None`: no guide).
     pub fn guide_limits_mm(&self) -> Option<(f64, f64)> {
         let w = self.shared.lock();
         w.layout.guide_joint().map(|g| w.nominal.joint_limits()[g - 1])

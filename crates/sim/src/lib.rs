@@ -1,4 +1,6 @@
-//! # vatcal-sim
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! The virtual cell. [`truth`] builds a hidden "true" cell (nominal model + realistic random
 //! errors + any catalog effects) and synthesises measurements from it: probe measurements

@@ -28,22 +28,22 @@ use crate::config::{CellPhysics, SimConfig, ThermalProfile};
 /// Standard deviations of the random errors of the true cell (internal units).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ErrorBudget {
-    /// MDH lengths a, d [mm]
+    /// MDH lengths a, d \[mm\]
     pub length_mm: f64,
-    /// MDH angles alpha, beta_3, theta offsets [rad]
+    /// MDH angles alpha, beta_3, theta offsets \[rad\]
     pub angle_rad: f64,
-    /// base translation [mm]
+    /// base translation \[mm\]
     pub base_translation_mm: f64,
-    /// base rotation [rad]
+    /// base rotation \[rad\]
     pub base_angle_rad: f64,
-    /// joint compliances are drawn uniformly in this range [rad/(N·m)] (positive: joints yield)
+    /// joint compliances are drawn uniformly in this range \[rad/(N·m)\] (positive: joints yield)
     pub compliance_range: (f64, f64),
     /// also perturb the redundant parameters (a_1, d_2, d_3, alpha_0, a_0, theta_offset_1,
     /// d_1): harmless, they are absorbed by equivalent parameters
     pub perturb_redundant: bool,
-    /// errors of the TCP coordinates (CMM) [mm]; 0 = perfect CMM
+    /// errors of the TCP coordinates (CMM) \[mm\]; 0 = perfect CMM
     pub tcp_mm: f64,
-    /// errors of the calibration positions (CMM) [mm]
+    /// errors of the calibration positions (CMM) \[mm\]
     pub position_mm: f64,
 }
 
@@ -284,35 +284,35 @@ pub struct PaperLikePhysics {
     /// each error is exactly ± its size ([`signed_truth`])
     pub geometry: ErrorBudget,
     /// amplitude of the 1st and 2nd harmonic transmission errors of each strain-wave gear
-    /// [rad]; phases uniform
+    /// \[rad\]; phases uniform
     pub cyclic_low_rad: f64,
-    /// amplitude of harmonics 3 and 4 [rad]; phases uniform
+    /// amplitude of harmonics 3 and 4 \[rad\]; phases uniform
     pub cyclic_mid_rad: f64,
     /// amplitude of the harmonic at twice the wave-generator turns per output turn
-    /// ([`PaperLikePhysics::gear_ratio`] × 2) [rad]; phases uniform
+    /// ([`PaperLikePhysics::gear_ratio`] × 2) \[rad\]; phases uniform
     pub cyclic_high_rad: f64,
     /// gear ratio of the strain-wave gears (harmonic `2 × ratio`, at most 255)
     pub gear_ratio: u8,
-    /// half the lost motion of each joint [rad] (`θ += b dir`, b > 0)
+    /// half the lost motion of each joint \[rad\] (`θ += b dir`, b > 0)
     pub backlash_rad: f64,
-    /// each of the guide's pitch/yaw/roll Legendre coefficients, orders 1..=3, is ± this [rad]
+    /// each of the guide's pitch/yaw/roll Legendre coefficients, orders 1..=3, is ± this \[rad\]
     pub guide_angular_rad: f64,
-    /// each of the guide's straightness coefficients, orders 2..=3, is ± this [mm]
+    /// each of the guide's straightness coefficients, orders 2..=3, is ± this \[mm\]
     pub guide_straightness_mm: f64,
-    /// carriage tilt compliance about its x and y axes [rad/(N·m)] (positive: the carriage
+    /// carriage tilt compliance about its x and y axes \[rad/(N·m)\] (positive: the carriage
     /// yields to the moment)
     pub carriage_tilt_rad_per_n_m: f64,
     /// each link mass (and the tool mass) is off by ± this fraction
     pub mass_relative: f64,
-    /// each centre-of-mass coordinate is off by ± this [mm]
+    /// each centre-of-mass coordinate is off by ± this \[mm\]
     pub com_mm: f64,
-    /// the tool changer's lateral offsets tx, ty on the flange are ± this [mm]
+    /// the tool changer's lateral offsets tx, ty on the flange are ± this \[mm\]
     pub tool_offset_mm: f64,
-    /// the tool changer's tilts rx, ry on the flange are ± this [rad]
+    /// the tool changer's tilts rx, ry on the flange are ± this \[rad\]
     pub tool_tilt_rad: f64,
-    /// linear expansion coefficient of the arm [1/K] (aluminium: 23e-6)
+    /// linear expansion coefficient of the arm \[1/K\] (aluminium: 23e-6)
     pub thermal_per_k: f64,
-    /// reference temperature of the nominal lengths [°C]
+    /// reference temperature of the nominal lengths \[°C\]
     pub reference_c: f64,
     /// the cell's temperature over the virtual time
     pub temperature: ThermalProfile,
@@ -461,7 +461,7 @@ fn with_paper_like_physics(mut truth: Model, seed: u64, physics: &PaperLikePhysi
     truth
 }
 
-/// Gravity torque [N·m] of the paper's cell that sets the size of the joint compliances of
+/// Gravity torque \[N·m\] of the paper's cell that sets the size of the joint compliances of
 /// the error budgets (`ErrorBudget::compliance_range`, up to 4·10⁻⁴ rad/(N·m)): about the
 /// largest torque on the Meca500's joints (shoulder, arm stretched out).
 pub const REFERENCE_TORQUE_N_M: f64 = 5.0;
@@ -649,7 +649,7 @@ pub enum ReachError {
     /// The iteration did not converge.
     #[error("position IK did not converge: {residual_mm} mm left after {iterations} iterations")]
     NoConvergence {
-        /// remaining distance [mm]
+        /// remaining distance \[mm\]
         residual_mm: f64,
         /// iterations used
         iterations: usize,
@@ -785,7 +785,7 @@ pub fn probe_start_poses(model: &Model, count: usize, seed: u64) -> Vec<Measurem
 /// gauge 1.2 µm). Default σ = 2 µm per axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ProbeNoise {
-    /// standard deviation per axis [mm]
+    /// standard deviation per axis \[mm\]
     pub sigma_mm: f64,
 }
 

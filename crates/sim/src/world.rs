@@ -52,7 +52,7 @@ pub(crate) struct ArmState {
     pub homed: bool,
     pub error: Option<(i32, String)>,
     pub motion: Motion<MAX_JOINTS>,
-    /// repeatability: world offset of the tool, re-drawn at every motion [mm]
+    /// repeatability: world offset of the tool, re-drawn at every motion \[mm\]
     pub offset_mm: Vector3<f64>,
     /// sign of the last motion of each arm joint (J1.. = entries `0..n`)
     pub dir: [i8; MAX_JOINTS],
@@ -72,7 +72,7 @@ pub(crate) fn padded(arm: &ArmJoints) -> [f64; MAX_JOINTS] {
 pub(crate) struct GuideState {
     pub homed: bool,
     pub motion: Motion<1>,
-    /// repeatability: physical minus reported position [mm]
+    /// repeatability: physical minus reported position \[mm\]
     pub offset_mm: f64,
 }
 
@@ -85,7 +85,7 @@ pub(crate) struct ProbeTruth {
     pub axes: [Vector3<f64>; 3],
     pub master_radius_mm: f64,
     pub ball_radius_mm: BTreeMap<u32, f64>,
-    /// plunger position that reads zero, per gauge [mm]
+    /// plunger position that reads zero, per gauge \[mm\]
     pub zero_plunger_mm: [f64; 3],
 }
 
@@ -103,7 +103,7 @@ pub(crate) struct World {
     pub guide: GuideState,
     pub plate: Option<u32>,
     pub master_ball: bool,
-    /// tool-changer offset of this session, in the tool frame [mm]
+    /// tool-changer offset of this session, in the tool frame \[mm\]
     pub tool_offset_mm: Vector3<f64>,
     pub probe: ProbeTruth,
     /// nominal placements given to the campaign's TriCal
@@ -115,7 +115,7 @@ pub(crate) struct World {
     pub linear_moves: Vec<Vector3<f64>>,
     /// tracker registration error: reported = pivot + rotation (p − pivot) + translation
     pub tracker_registration: Option<TrackerRegistration>,
-    /// offset of each SMR's optical centre from its nest centre, tool frame [mm]
+    /// offset of each SMR's optical centre from its nest centre, tool frame \[mm\]
     pub smr_offsets_mm: BTreeMap<u32, Vector3<f64>>,
     /// motions started by external simulators whose virtual time is not yet on the clock
     pub pending: Vec<PendingSegment>,
@@ -126,9 +126,9 @@ pub(crate) struct World {
 /// segment is the longer of the two.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub(crate) struct PendingSegment {
-    /// arm motion from, to [rad] (J1.. = entries `0..n`)
+    /// arm motion from, to \[rad\] (J1.. = entries `0..n`)
     pub arm: Option<([f64; MAX_JOINTS], [f64; MAX_JOINTS])>,
-    /// guide motion from, to [mm]
+    /// guide motion from, to \[mm\]
     pub guide: Option<(f64, f64)>,
 }
 
@@ -277,7 +277,7 @@ impl World {
         self.layout.arm_joint_count()
     }
 
-    /// Joints the arm reports now [rad].
+    /// Joints the arm reports now \[rad\].
     pub fn arm_joints(&self) -> ArmJoints {
         self.to_arm(&self.arm.motion.position(self.now()))
     }
@@ -308,7 +308,7 @@ impl World {
         q
     }
 
-    /// Position the guide reports now [mm].
+    /// Position the guide reports now \[mm\].
     pub fn guide_mm(&self) -> f64 {
         self.guide.motion.position(self.now())[0]
     }
@@ -387,7 +387,7 @@ impl World {
         Some(self.config.thermometer.reading_c(true_c, gauss(&mut rng, 1.0)))
     }
 
-    /// True world position of the centre of ball (TCP) `tcp` [mm].
+    /// True world position of the centre of ball (TCP) `tcp` \[mm\].
     pub fn ball_world(&self, tcp: u32) -> Option<Vector3<f64>> {
         self.tool_point_world(tcp, &Vector3::zeros())
     }
@@ -417,7 +417,7 @@ impl World {
             .min_by(|a, b| a.0.norm().total_cmp(&b.0.norm()))
     }
 
-    /// Plunger position of gauge `i` (tip plane distance from the origin along its axis) [mm];
+    /// Plunger position of gauge `i` (tip plane distance from the origin along its axis) \[mm\];
     /// `None` when nothing touches it.
     pub fn plunger_mm(&self, i: usize) -> Option<f64> {
         let position = self.plate?;

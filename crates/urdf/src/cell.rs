@@ -13,7 +13,7 @@ use crate::ImportedChain;
 pub const DEFAULT_GRAVITY_M_PER_S2: [f64; 3] = [0.0, 0.0, -9.81];
 
 impl ImportedChain {
-    /// Where TCP 1 is at `q = 0`, in the base link's frame [mm].
+    /// Where TCP 1 is at `q = 0`, in the base link's frame \[mm\].
     pub fn tcp_at_zero_mm(&self) -> [f64; 3] {
         let p: Vector3<f64> = crate::convert::chain_tip(self, &vec![0.0; self.joints.len()]);
         [p.x, p.y, p.z]

@@ -18,11 +18,11 @@ use crate::{
 /// URDF lengths are metres; vatcal's are millimetres.
 const M_TO_MM: f64 = 1000.0;
 
-/// Largest FK deviation the self-check accepts [mm] (the construction is exact; anything near
+/// Largest FK deviation the self-check accepts \[mm\] (the construction is exact; anything near
 /// this is a bug).
 const SELF_CHECK_MM: f64 = 1e-6;
 
-/// A joint axis at q = 0, in the frame of the base link [mm].
+/// A joint axis at q = 0, in the frame of the base link \[mm\].
 #[derive(Debug, Clone, Copy)]
 struct Line {
     point: Vector3<f64>,
@@ -77,7 +77,7 @@ fn decompose(t: &Frame) -> [f64; 5] {
     [alpha, a, beta, theta, d]
 }
 
-/// `R = Rx(alpha) Ry(beta) Rz(gamma)` → (alpha, beta, gamma) [rad]; `|beta|` must be well below
+/// `R = Rx(alpha) Ry(beta) Rz(gamma)` → (alpha, beta, gamma) \[rad\]; `|beta|` must be well below
 /// 90° for full precision (the caller makes sure).
 fn xyz_euler(r: &nalgebra::Matrix3<f64>) -> [f64; 3] {
     let beta = r[(0, 2)].atan2(r[(1, 2)].hypot(r[(2, 2)]));

@@ -1,4 +1,6 @@
-//! # vatcal-urdf
+#![doc = include_str!("../README.md")]
+//!
+//! ## Overview
 //!
 //! Reads a URDF file (with [`urdf_rs`]) and converts the serial chain from a base link `B` to a
 //! tip link `T` into the representation every other vatcal crate uses: one MDH + Hayati-β row
@@ -106,7 +108,7 @@ pub const MAX_IMPORTED_JOINTS: usize = vatcal_core::MAX_JOINTS;
 pub const DEFAULT_LINK_RADIUS_MM: f64 = 30.0;
 
 /// Consecutive joint axes closer than this to parallel (or anti-parallel) use the Hayati
-/// construction (`beta`) instead of the common normal [deg].
+/// construction (`beta`) instead of the common normal \[deg\].
 pub const PARALLEL_AXES_TOLERANCE_DEG: f64 = 1.0;
 
 /// One MDH + Hayati-β row, i.e. one actuated URDF joint, in file units.
@@ -120,15 +122,15 @@ pub struct ImportedJoint {
     pub kind: JointKind,
     /// true for a URDF `continuous` joint (a revolute joint without limits)
     pub continuous: bool,
-    /// alpha_{i-1} [deg]
+    /// alpha_{i-1} \[deg\]
     pub alpha_deg: f64,
-    /// a_{i-1} [mm]
+    /// a_{i-1} \[mm\]
     pub a_mm: f64,
-    /// Hayati beta_{i-1} [deg] (non-zero only after a (nearly) parallel axis)
+    /// Hayati beta_{i-1} \[deg\] (non-zero only after a (nearly) parallel axis)
     pub beta_deg: f64,
-    /// theta offset of joint i [deg]
+    /// theta offset of joint i \[deg\]
     pub theta_deg: f64,
-    /// d offset of joint i [mm]
+    /// d offset of joint i \[mm\]
     pub d_mm: f64,
     /// lower limit (deg for revolute, mm for prismatic); `None` = unlimited
     pub q_min: Option<f64>,
@@ -154,7 +156,7 @@ pub struct ImportedChain {
     pub joints: Vec<ImportedJoint>,
     /// pose of MDH frame 0 in the frame of `B`
     pub base_in_world: BaseInWorld,
-    /// origin of `T` in MDH frame N [mm] (the TCP with id 1)
+    /// origin of `T` in MDH frame N \[mm\] (the TCP with id 1)
     pub tcp_mm: [f64; 3],
     /// masses and centres of mass of the moving links, in the MDH frame (1..=N) that moves them
     /// (one entry per frame that carries mass, frames ascending)
@@ -290,7 +292,7 @@ pub enum UrdfImportError {
     SelfCheck {
         /// file path or `<string>`
         origin: String,
-        /// largest deviation found [mm]
+        /// largest deviation found \[mm\]
         deviation_mm: f64,
     },
 }
@@ -381,7 +383,7 @@ impl UrdfFk {
         self.kinds.len()
     }
 
-    /// Tip origin in the base link's frame [mm] for joint values in file units (degrees for
+    /// Tip origin in the base link's frame \[mm\] for joint values in file units (degrees for
     /// revolute joints, mm for prismatic ones, in chain order); `None` when `q_file` does not
     /// have [`UrdfFk::joint_count`] values.
     pub fn tip_position_mm(&self, q_file: &[f64]) -> Option<[f64; 3]> {

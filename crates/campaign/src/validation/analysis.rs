@@ -13,11 +13,11 @@ use super::{PathRecords, PrintingSlice, ValidationError, ValidationRecords, fit_
 pub struct PathValidation {
     /// label of the commanding model
     pub label: String,
-    /// `measured − intended` position of the part's end (tank bottom), per slice, world [mm]
+    /// `measured − intended` position of the part's end (tank bottom), per slice, world \[mm\]
     pub tip_errors_mm: Vec<Vector3<f64>>,
-    /// `measured − intended` position of the build-plate face centre, per slice, world [mm]
+    /// `measured − intended` position of the build-plate face centre, per slice, world \[mm\]
     pub plate_errors_mm: Vec<Vector3<f64>>,
-    /// angle between the measured and the intended plate orientation, per slice [rad]
+    /// angle between the measured and the intended plate orientation, per slice \[rad\]
     pub orientation_errors_rad: Vec<f64>,
     /// statistics of the part-end errors (the paper's Fig. 10)
     pub tip_stats: ErrorStats,
@@ -34,7 +34,7 @@ fn is_zero(n: &usize) -> bool {
 }
 
 impl PathValidation {
-    /// Part-end error magnitudes [mm], slice by slice.
+    /// Part-end error magnitudes \[mm\], slice by slice.
     pub fn tip_magnitudes(&self) -> Vec<f64> {
         self.tip_errors_mm.iter().map(|e| e.norm()).collect()
     }

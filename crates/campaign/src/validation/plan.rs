@@ -28,13 +28,13 @@ pub struct ValidationPlanOptions {
     pub random: RandomPoseOptions,
     /// the printing path
     pub printing: PrintingPathOptions,
-    /// inflation of the robot bodies in collision checks [mm]
+    /// inflation of the robot bodies in collision checks \[mm\]
     pub collision_margin_mm: f64,
-    /// distance kept from the arm joint limits along the printing path [deg]
+    /// distance kept from the arm joint limits along the printing path \[deg\]
     pub printing_joint_margin_deg: f64,
     /// singularity margins along the printing path
     pub printing_singularity: SingularityMargins,
-    /// largest arm-joint change between consecutive slices [deg] (no IK branch flips)
+    /// largest arm-joint change between consecutive slices \[deg\] (no IK branch flips)
     pub printing_max_joint_step_deg: f64,
     /// guide start positions tried for the printing path
     pub printing_guide_candidates: usize,

@@ -16,14 +16,14 @@ use super::ValidationError;
 pub struct RandomPoseOptions {
     /// number of poses (paper: 573)
     pub count: usize,
-    /// distance kept from every arm joint limit [deg]
+    /// distance kept from every arm joint limit \[deg\]
     pub joint_margin_deg: f64,
-    /// distance kept from the guide's stroke ends [mm]
+    /// distance kept from the guide's stroke ends \[mm\]
     pub guide_margin_mm: f64,
     /// draws allowed per accepted pose before giving up
     pub max_draws_per_pose: usize,
     /// when given, each revolute joint is drawn within at most this range centred on the
-    /// middle of its limits [deg] (e.g. 360: one turn of a ±360° UR joint, whose two turns
+    /// middle of its limits \[deg\] (e.g. 360: one turn of a ±360° UR joint, whose two turns
     /// reach the same poses and make the legs between random poses too long for the path
     /// planner); `None` (the default): the whole range
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -112,19 +112,19 @@ pub enum PrintingPathError {
 pub struct PrintingPathOptions {
     /// number of slices (paper: 300)
     pub slices: usize,
-    /// layer thickness [mm]
+    /// layer thickness \[mm\]
     pub layer_mm: f64,
-    /// distance from the tool-changer frame origin to the build-plate face, along tool z [mm]
+    /// distance from the tool-changer frame origin to the build-plate face, along tool z \[mm\]
     pub plate_offset_mm: f64,
-    /// first printing point on the tank bottom, world frame [mm]
+    /// first printing point on the tank bottom, world frame \[mm\]
     pub start_mm: [f64; 3],
-    /// radius of the half circle the printing point follows [mm]
+    /// radius of the half circle the printing point follows \[mm\]
     pub lateral_radius_mm: f64,
-    /// largest tilt of the plate from horizontal, reached mid-print [deg]
+    /// largest tilt of the plate from horizontal, reached mid-print \[deg\]
     pub tilt_max_deg: f64,
-    /// rotation of the part about the vertical over the whole print [deg]
+    /// rotation of the part about the vertical over the whole print \[deg\]
     pub spin_deg: f64,
-    /// heading of the tool about the vertical at the first slice [deg]
+    /// heading of the tool about the vertical at the first slice \[deg\]
     pub heading_deg: f64,
 }
 
@@ -184,13 +184,13 @@ impl PrintingPathOptions {
 pub struct PrintingSlice {
     /// 0-based slice index
     pub index: usize,
-    /// part height: build-plate face to the part's end [mm]
+    /// part height: build-plate face to the part's end \[mm\]
     pub part_height_mm: f64,
-    /// intended printing point (the part's end) on the tank bottom, world [mm]
+    /// intended printing point (the part's end) on the tank bottom, world \[mm\]
     pub tip_world_mm: Vector3<f64>,
-    /// the part's end in the tool-changer frame [mm]
+    /// the part's end in the tool-changer frame \[mm\]
     pub tip_in_tool_mm: Vector3<f64>,
-    /// centre of the build-plate face in the tool-changer frame [mm]
+    /// centre of the build-plate face in the tool-changer frame \[mm\]
     pub plate_in_tool_mm: Vector3<f64>,
     /// intended world pose of the tool-changer frame (rotation + translation in mm)
     #[serde(with = "frame_serde")]
@@ -198,7 +198,7 @@ pub struct PrintingSlice {
 }
 
 impl PrintingSlice {
-    /// Intended world position of the build-plate face centre [mm].
+    /// Intended world position of the build-plate face centre \[mm\].
     pub fn plate_world_mm(&self) -> Vector3<f64> {
         self.tool_pose.transform_point(&self.plate_in_tool_mm)
     }
@@ -238,7 +238,7 @@ pub struct PrintingJointRules<'a> {
     pub singularity: SingularityMargins,
     /// collision checker (its model places the bodies)
     pub checker: &'a CollisionChecker<'a>,
-    /// largest change of any arm joint between consecutive slices [rad] (no branch flips)
+    /// largest change of any arm joint between consecutive slices \[rad\] (no branch flips)
     pub max_joint_step_rad: f64,
     /// guide start positions tried, evenly spaced over the usable stroke
     pub guide_candidates: usize,
@@ -323,7 +323,7 @@ fn slice_is_feasible(model: &Model, q: &JointVector, rules: &PrintingJointRules<
         && rules.checker.is_free(q, ProbeState::Absent)
 }
 
-/// Smallest distance of an arm joint to its (shrunk) limits [rad].
+/// Smallest distance of an arm joint to its (shrunk) limits \[rad\].
 fn limit_clearance(bounds: &JointBounds, q: &JointVector) -> f64 {
     (1..7).map(|k| (q[k] - bounds.bounds[k].0).min(bounds.bounds[k].1 - q[k])).fold(f64::INFINITY, f64::min)
 }

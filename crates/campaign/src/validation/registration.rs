@@ -36,7 +36,7 @@ pub enum RegistrationError {
 }
 
 /// The rigid transform `world ← body` that best maps `local[k]` onto `world[k]` (least
-/// squares, see the module docs) [mm].
+/// squares, see the module docs) \[mm\].
 ///
 /// # Errors
 /// Different lengths, fewer than 3 points, collinear body points, non-finite coordinates.

@@ -62,11 +62,11 @@ pub enum TrackerRegistrationError {
 pub struct RegistrationPoint {
     /// calibration position id
     pub position: u32,
-    /// the probe origin in the tank frame (cell file) [mm]
+    /// the probe origin in the tank frame (cell file) \[mm\]
     pub tank_mm: [f64; 3],
-    /// the nest SMR as the tracker measured it, tracker frame [mm]
+    /// the nest SMR as the tracker measured it, tracker frame \[mm\]
     pub tracker_mm: [f64; 3],
-    /// distance between `tank_mm` and the registered measurement [mm]
+    /// distance between `tank_mm` and the registered measurement \[mm\]
     pub residual_mm: f64,
 }
 
@@ -77,11 +77,11 @@ pub struct TrackerRegistration {
     pub points: Vec<RegistrationPoint>,
     /// rotation of `tank ← tracker`, row by row
     pub rotation: [[f64; 3]; 3],
-    /// translation of `tank ← tracker` [mm]
+    /// translation of `tank ← tracker` \[mm\]
     pub translation_mm: [f64; 3],
-    /// root-mean-square residual [mm]
+    /// root-mean-square residual \[mm\]
     pub rms_residual_mm: f64,
-    /// largest residual [mm]
+    /// largest residual \[mm\]
     pub max_residual_mm: f64,
 }
 

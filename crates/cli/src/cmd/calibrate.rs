@@ -84,18 +84,18 @@ pub struct Args {
     /// model only).
     #[arg(long)]
     pub no_discovery: bool,
-    /// Probe measurement noise per axis the discovery's size rule assumes [mm] (default: the
+    /// Probe measurement noise per axis the discovery's size rule assumes \[mm\] (default: the
     /// paper's device budget: robot and guide repeatability, gauge error).
     #[arg(long)]
     pub probe_sigma_mm: Option<f64>,
-    /// Tracker noise per axis the discovery's size rule assumes [mm] (default: the paper's
+    /// Tracker noise per axis the discovery's size rule assumes \[mm\] (default: the paper's
     /// tracker, 20 µm 3σ).
     #[arg(long)]
     pub tracker_sigma_mm: Option<f64>,
     /// Speed of the planned moves as a fraction of each device's maximum.
     #[arg(long, default_value_t = 0.25)]
     pub speed: f64,
-    /// Timeout of every move and of homing [s].
+    /// Timeout of every move and of homing \[s\].
     #[arg(long, default_value_t = 120.0)]
     pub motion_timeout_s: f64,
     /// Stop on a measurement whose auto-centering is refused instead of skipping it (the

@@ -59,7 +59,7 @@ pub struct Args {
     /// Speed of the planned moves as a fraction of each device's maximum.
     #[arg(long, default_value_t = 0.25)]
     pub speed: f64,
-    /// Timeout of every move and of homing [s].
+    /// Timeout of every move and of homing \[s\].
     #[arg(long, default_value_t = 120.0)]
     pub motion_timeout_s: f64,
     /// Skip a measurement whose auto-centering is refused (recorded in the journal) instead

@@ -6,14 +6,17 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use vatcal_compensation::{Branch, CompensationError, Compensator, PathOptions, PoseRequest, SolveOptions};
-use vatcal_core::CellFile;
+use vatcal_compensation::{
+    Branch, CompensationError, Compensator, EachOptions, PathOptions, PathResult, PoseRequest, Preference,
+    SolveOptions,
+};
+use vatcal_core::{CellFile, JointVector};
 use vatcal_drivers_meca500::Command as MecaCommand;
 use vatcal_drivers_meca500::codec::format_number;
 use vatcal_kinematics::Model;
 
 /// The canonical nominal cell, used when neither `--nominal` nor the calibrated file names one.
-const BUILT_IN_NOMINAL: &str = include_str!("../../../../fixtures/meca500-zaber.toml");
+const BUILT_IN_NOMINAL: &str = vatcal_core::CANONICAL_CELL_TOML;
 
 /// What `vatcal compensate` writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -56,14 +59,24 @@ pub struct Args {
     /// instead of failing.
     #[arg(long)]
     pub skip_unreachable: bool,
-    /// Largest change of an arm joint between consecutive rows [deg].
+    /// Largest change of an arm joint between consecutive rows \[deg\].
     #[arg(long, default_value_t = 30.0)]
     pub max_joint_step_deg: f64,
-    /// IK branch of the path: on the canonical cell 0..=7 (bit 0 shoulder, bit 1 elbow, bit 2
-    /// wrist); on another chain `+` or `-` (sign of det J of the solved joints); default: the
-    /// first row's solution farthest from the joint limits.
+    /// IK branch of the path (with --each: of every row whose `branch` field is empty): on the
+    /// canonical cell 0..=7 (bit 0 shoulder, bit 1 elbow, bit 2 wrist); on another chain `+`
+    /// or `-` (sign of det J of the solved joints); default: the first row's solution farthest
+    /// from the joint limits (with --each: each row's).
     #[arg(long, value_parser = parse_branch, allow_hyphen_values = true)]
     pub branch: Option<Branch>,
+    /// Independent poses: solve every row on its own (no joint-jump limit, no branch kept from
+    /// row to row). Implied by a `branch` column with a value on some row.
+    #[arg(long)]
+    pub each: bool,
+    /// A joint configuration `q1,...,qN` (mm for prismatic, deg for revolute joints): with
+    /// --each every row takes its solution nearest it; on a path the first row does (and so
+    /// fixes the path's branch). Default: the solution farthest from the joint limits.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, num_args = 1)]
+    pub near: Option<Vec<f64>>,
 }
 
 fn parse_branch(s: &str) -> Result<Branch, String> {
@@ -75,6 +88,49 @@ fn parse_branch(s: &str) -> Result<Branch, String> {
             _ => Err(format!("`{s}`: expected 0..=7 (canonical cell) or + / - (sign of det J)")),
         },
     }
+}
+
+/// The `--near` configuration (file units, one value per joint) in internal units.
+fn near_joints(values: &[f64], model: &Model) -> anyhow::Result<JointVector> {
+    let kinds = model.joint_kinds();
+    if values.len() != kinds.len() || values.iter().any(|v| !v.is_finite()) {
+        anyhow::bail!(
+            "--near: expected {} finite joint values q1..q{} (mm / deg) of {}, got {values:?}",
+            kinds.len(),
+            kinds.len(),
+            model.describe_chain()
+        );
+    }
+    JointVector::from_file_units(values, kinds).map_err(|e| anyhow::anyhow!("--near: {e}"))
+}
+
+/// The branch each row's `branch` column names (`None` for an empty field or no column),
+/// checked against the chain: `0..7` on the canonical cell, `+` / `-` on another chain.
+fn row_branches(
+    rows: &[vatcal_io::PoseRequestRow],
+    compensator: &Compensator<'_>,
+    poses: &Path,
+) -> anyhow::Result<Vec<Option<Branch>>> {
+    rows.iter()
+        .map(|r| {
+            let Some(text) = &r.branch else { return Ok(None) };
+            let b = parse_branch(text)
+                .map_err(|e| anyhow::anyhow!("{}:{}: column `branch`: {e}", poses.display(), r.line))?;
+            if b.is_determinant_class() == compensator.is_closed_form() {
+                anyhow::bail!(
+                    "{}:{}: column `branch`: `{text}`: {}",
+                    poses.display(),
+                    r.line,
+                    if compensator.is_closed_form() {
+                        "the canonical cell's branches are 0..=7"
+                    } else {
+                        "on this chain the branch is the sign of det J: + or -"
+                    }
+                );
+            }
+            Ok(Some(b))
+        })
+        .collect()
 }
 
 /// The nominal model and a description of where it came from; `None` for a chain other than
@@ -176,14 +232,52 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             None => anyhow::anyhow!("{}: {e}", args.poses.display()),
         }
     };
-    let opts = PathOptions {
-        solve: SolveOptions::default(),
-        skip_unreachable: args.skip_unreachable,
-        max_joint_step_deg: args.max_joint_step_deg,
-        start: None,
-        branch: args.branch,
+    let near = match &args.near {
+        Some(values) => Some(near_joints(values, &calibrated)?),
+        None => None,
     };
-    let result = compensator.compensate_requests(&requests, &opts).map_err(name_row)?;
+    let row_branches = row_branches(&rows, &compensator, &args.poses)?;
+    let each = args.each || row_branches.iter().any(Option::is_some);
+    let result = if each {
+        let targets = requests
+            .iter()
+            .enumerate()
+            .map(|(row, r)| r.tool_target(&calibrated, row))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(name_row)?;
+        let opts = EachOptions {
+            solve: SolveOptions::default(),
+            skip_unreachable: args.skip_unreachable,
+            branch: args.branch,
+            prefer: near.map_or(Preference::Clearance, Preference::Near),
+        };
+        compensator.compensate_each(&targets, &row_branches, &opts).map_err(name_row)?
+    } else {
+        let mut opts = PathOptions {
+            solve: SolveOptions::default(),
+            skip_unreachable: args.skip_unreachable,
+            max_joint_step_deg: args.max_joint_step_deg,
+            start: None,
+            branch: args.branch,
+        };
+        if let (Some(near), Some(first)) = (near, requests.first()) {
+            // the first row's solution nearest the configuration starts the path on its branch
+            let target = first.tool_target(&calibrated, 0).map_err(name_row)?;
+            let each_opts = EachOptions {
+                solve: opts.solve,
+                skip_unreachable: false,
+                branch: args.branch,
+                prefer: Preference::Near(near),
+            };
+            let start: PathResult =
+                compensator.compensate_each(&[target], &[], &each_opts).map_err(name_row)?;
+            if let Some((_, c)) = start.solved().next() {
+                opts.start = Some(c.q);
+                opts.branch = Some(c.branch);
+            }
+        }
+        compensator.compensate_requests(&requests, &opts).map_err(name_row)?
+    };
 
     let mut header = String::new();
     let _ = writeln!(header, "# vatcal compensate: {} poses from {}", requests.len(), args.poses.display());
@@ -194,7 +288,27 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         vatcal_campaign::fnv1a64(&model_bytes)
     );
     let _ = writeln!(header, "# nominal (controller) model: {nominal_desc}");
-    if let Some(b) = result.branch {
+    if each {
+        let how = if args.near.is_some() {
+            "the solution nearest --near"
+        } else {
+            "the solution farthest from the joint limits"
+        };
+        let named = if row_branches.iter().any(Option::is_some) {
+            " on the branch its `branch` column names"
+        } else {
+            ""
+        };
+        let _ = writeln!(header, "# independent poses (--each): every row solved on its own{named}, {how}");
+        match result.branch {
+            Some(b) => {
+                let _ = writeln!(header, "# IK branch: {b} (every row)");
+            }
+            None => {
+                let _ = writeln!(header, "# IK branch: per row (the `branch` column)");
+            }
+        }
+    } else if let Some(b) = result.branch {
         let _ = writeln!(header, "# IK branch: {b}");
     }
     let mut skipped = String::new();

@@ -51,20 +51,20 @@ pub struct Args {
     /// Number of cross-validation folds.
     #[arg(long, default_value_t = 5)]
     pub folds: usize,
-    /// Known measurement noise per axis [mm]; by default it is estimated from each fit.
+    /// Known measurement noise per axis \[mm\]; by default it is estimated from each fit.
     #[arg(long)]
     pub noise_mm: Option<f64>,
-    /// The probe's known measurement noise, σ per axis of a probe row [mm] (device
+    /// The probe's known measurement noise, σ per axis of a probe row \[mm\] (device
     /// specifications: robot and guide repeatability and gauge error). With
     /// `--tracker-sigma-mm` (or alone, on probe-only data) the size rule compares an effect's
     /// prediction change with it instead of the fit's σ̂, which unmodelled effects inflate.
     #[arg(long)]
     pub probe_sigma_mm: Option<f64>,
-    /// The tracker's known measurement noise, σ per axis of a tracker row [mm]; with both
+    /// The tracker's known measurement noise, σ per axis of a tracker row \[mm\]; with both
     /// sigmas the probe and tracker rows are weighted by them.
     #[arg(long)]
     pub tracker_sigma_mm: Option<f64>,
-    /// Standard deviation of the CMM coordinates of the TCPs and calibration positions [mm],
+    /// Standard deviation of the CMM coordinates of the TCPs and calibration positions \[mm\],
     /// included in the reported prediction uncertainty.
     #[arg(long, default_value_t = 0.002)]
     pub cmm_sigma_mm: f64,

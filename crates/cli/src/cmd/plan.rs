@@ -39,13 +39,13 @@ pub struct Args {
     /// Restarts of Detmax.
     #[arg(long, default_value_t = 8)]
     pub detmax_restarts: usize,
-    /// Half-angle of the cone around world +z holding the ball-to-flange direction [deg].
+    /// Half-angle of the cone around world +z holding the ball-to-flange direction \[deg\].
     #[arg(long, default_value_t = 60.0)]
     pub cone_deg: f64,
-    /// Margin kept from the arm joint limits at measurement poses [deg].
+    /// Margin kept from the arm joint limits at measurement poses \[deg\].
     #[arg(long, default_value_t = 5.0)]
     pub joint_margin_deg: f64,
-    /// Safety distance added around every robot body in collision checks [mm].
+    /// Safety distance added around every robot body in collision checks \[mm\].
     #[arg(long, default_value_t = 2.0)]
     pub collision_margin_mm: f64,
     /// Parameters the selection must identify: `default` (`paper34` on the canonical

@@ -20,11 +20,11 @@ pub struct ReadArgs {
     /// `sensor_msgs/JointState` is in radians).
     #[arg(long, default_value = "deg", value_parser = parse_angle_unit)]
     pub angle_unit: AngleUnit,
-    /// A revolute joint read beyond its limit by at most this much [deg] is a warning naming
+    /// A revolute joint read beyond its limit by at most this much \[deg\] is a warning naming
     /// file, line and joint; further beyond, an error.
     #[arg(long, default_value_t = LimitTolerance::MEASURED.revolute_deg)]
     pub limit_tolerance_deg: f64,
-    /// A prismatic joint read beyond its limit by at most this much [mm] is a warning; further
+    /// A prismatic joint read beyond its limit by at most this much \[mm\] is a warning; further
     /// beyond, an error.
     #[arg(long, default_value_t = LimitTolerance::MEASURED.prismatic_mm)]
     pub limit_tolerance_mm: f64,

@@ -5,7 +5,7 @@ use std::io::Write;
 /// Arguments of `vatcal torque` (the same as `vatcal fk`).
 pub type Args = super::fk::Args;
 
-/// Prints `tau{i}` [N·m] of every revolute joint i (moment of gravity about +z_i, on the
+/// Prints `tau{i}` \[N·m\] of every revolute joint i (moment of gravity about +z_i, on the
 /// model's own geometry with zero compliance; `tau2..tau7` on the canonical cell) per input
 /// row, in order.
 pub fn run(args: Args) -> anyhow::Result<()> {

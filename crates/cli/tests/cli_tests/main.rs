@@ -8,6 +8,7 @@ mod any_robot;
 mod calibrate;
 mod campaign_sim;
 mod compensate;
+mod compensate_each;
 mod demo;
 mod discover;
 mod discover_propose;

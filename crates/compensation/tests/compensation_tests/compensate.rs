@@ -14,7 +14,7 @@ use vatcal_kinematics::Model;
 use vatcal_planning::ik::rotation_angle_between;
 use vatcal_sim::truth::{ErrorBudget, perturbed_truth, random_joints};
 
-fn nominal() -> Model {
+pub(crate) fn nominal() -> Model {
     let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
         .expect("cell");
     Model::from_cell(&cell).expect("model")
@@ -23,7 +23,7 @@ fn nominal() -> Model {
 /// A "calibrated" model with every kind of error the compensation must honour: perturbed
 /// geometry, compliance, and switched-on effects with non-zero values (joint cyclic error,
 /// scale, backlash, guide angular and straightness errors, tool frame, thermal drift).
-fn calibrated_with_effects() -> Model {
+pub(crate) fn calibrated_with_effects() -> Model {
     let mut m = perturbed_truth(&nominal(), 11, &ErrorBudget::realistic());
     let specs = [
         EffectSpec::JointCyclic { joint: 3, harmonic: 1 },
@@ -49,7 +49,7 @@ fn calibrated_with_effects() -> Model {
     m
 }
 
-fn context() -> MeasurementContext {
+pub(crate) fn context() -> MeasurementContext {
     MeasurementContext {
         dir: Some(vatcal_core::measurement::dirs_from_meca500_arm([1, -1, 1, -1, 1, -1])),
         time_s: Some(1800.0),
@@ -58,7 +58,7 @@ fn context() -> MeasurementContext {
 }
 
 /// Position [mm] and orientation [rad] error of the calibrated model at `q` for `req`.
-fn fk_error(model: &Model, q: &JointVector, req: &PoseRequest) -> (f64, f64) {
+pub(crate) fn fk_error(model: &Model, q: &JointVector, req: &PoseRequest) -> (f64, f64) {
     let chain = model.chain_full(q, &req.context, false, None);
     let target = req.tool_target(model, 0).expect("target");
     let tcp = model.tcp(req.tcp).expect("tcp");
@@ -67,7 +67,7 @@ fn fk_error(model: &Model, q: &JointVector, req: &PoseRequest) -> (f64, f64) {
 }
 
 /// Joint vectors away from the singularities (wrist |q6| >= 15 deg, elbow bent, shoulder).
-fn reachable_joints(model: &Model, seed: u64) -> JointVector {
+pub(crate) fn reachable_joints(model: &Model, seed: u64) -> JointVector {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     loop {
         let q = random_joints(model, &mut rng, 0.1);

@@ -5,4 +5,5 @@
 
 mod any_chain;
 mod compensate;
+mod each;
 mod virtual_cell;

@@ -24,11 +24,11 @@
 use crate::params::{EffectParam, ParamId};
 use crate::units::MAX_JOINTS;
 
-/// Largest plausible gravity deflection of a joint [rad] (1°).
+/// Largest plausible gravity deflection of a joint \[rad\] (1°).
 pub const COMPLIANCE_DEFLECTION_RAD: f64 = 1.0 * std::f64::consts::PI / 180.0;
 
 /// Largest plausible TCP displacement caused by one joint's angle error (a gear harmonic, the
-/// lost motion) [mm].
+/// lost motion) \[mm\].
 pub const JOINT_ERROR_DISPLACEMENT_MM: f64 = 3.0;
 
 /// The size of a chain as the data see it.

@@ -1,6 +1,6 @@
 //! `guide-angular`: the carriage pitches/yaws/rolls along the guide. After the guide joint's
 //! frame g: `Rx(e_x(u)) Ry(e_y(u)) Rz(e_z(u))`, `e(u) = Σ_o e_o P_o(u)` for orders 1..=`order`
-//! (parameters `guide_angular_{x,y,z}_p{o}` [rad]), `u` the guide position normalised to
+//! (parameters `guide_angular_{x,y,z}_p{o}` \[rad\]), `u` the guide position normalised to
 //! [-1, 1] over its limits and `P_o` the Legendre polynomials.
 
 use super::{

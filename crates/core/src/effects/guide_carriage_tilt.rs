@@ -1,7 +1,7 @@
 //! `guide-carriage-tilt`: the guide carriage tilts under the moving weight of the arm. After
 //! the guide joint's frame g: `Rx(k_x M_x) Ry(k_y M_y)`, `M` the gravity moment of links
 //! g+1..N and the tool about the carriage origin (carriage axes, undeflected geometry;
-//! parameters `carriage_tilt_{x,y}` [rad/(N·m)]).
+//! parameters `carriage_tilt_{x,y}` \[rad/(N·m)\]).
 
 use super::guide_angular::check_guide;
 use super::{ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect, Hook};

@@ -1,7 +1,7 @@
 //! `guide-straightness`: the carriage path bows sideways along the guide. After the guide
 //! joint's frame g: `T(s_x(u), s_y(u), 0)`, `s(u) = Σ_o s_o P_o(u)` for orders 2..=`order`
 //! (order 1 is a tilted guide, absorbed by the base pose; parameters
-//! `guide_straightness_{x,y}_p{o}` [mm]).
+//! `guide_straightness_{x,y}_p{o}` \[mm\]).
 
 use super::guide_angular::{axis_order, check_guide};
 use super::{

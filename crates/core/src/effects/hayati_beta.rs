@@ -1,5 +1,5 @@
 //! `hayati-beta`: two consecutive joint axes are not exactly as the MDH row assumes: the
-//! built-in parameter `beta_{i-1}` [rad] of MDH row i (row 4, `beta_3`, is in the paper's set
+//! built-in parameter `beta_{i-1}` \[rad\] of MDH row i (row 4, `beta_3`, is in the paper's set
 //! on the canonical cell).
 
 use super::{ChainInfo, DataUse, EffectDriver, EffectKind, EffectSpec, ErrorEffect};

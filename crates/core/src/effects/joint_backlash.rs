@@ -1,6 +1,6 @@
 //! `joint-backlash`: lost motion of a revolute joint i, `theta_i += b_i dir_i` with `dir_i`
 //! the sign of the joint's last motion (±1; 0 when unknown) from the `dir{i}` column
-//! (parameter `backlash{i}` [rad]).
+//! (parameter `backlash{i}` \[rad\]).
 
 use super::{
     DIR_COLUMNS, DataAvailability, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect, Hook,
@@ -21,7 +21,7 @@ const INSTANCES: PerJoint = PerJoint {
     },
 };
 
-/// The parameter of each instance: `backlash{i}` [rad].
+/// The parameter of each instance: `backlash{i}` \[rad\].
 const PARAM: JointParam = JointParam {
     prefix: "backlash",
     unit: ParamUnit::Rad,

@@ -1,6 +1,6 @@
 //! `joint-cyclic`: periodic transmission error of a revolute joint i,
 //! `theta_i += s sin(k q_i) + c cos(k q_i)` for harmonic k (parameters
-//! `cyclic{i}_h{k}_sin`, `cyclic{i}_h{k}_cos` [rad]).
+//! `cyclic{i}_h{k}_sin`, `cyclic{i}_h{k}_cos` \[rad\]).
 
 use super::{
     CandidateScope, ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect,

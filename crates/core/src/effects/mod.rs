@@ -351,17 +351,17 @@ impl EffectSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Hook {
     /// joint-space offset of joint `j` (1..=N) before forward kinematics: added to `theta_j`
-    /// of a revolute joint [rad], to `d_j` of a prismatic joint [mm]
+    /// of a revolute joint \[rad\], to `d_j` of a prismatic joint \[mm\]
     Joint(u8),
     /// translation of the guide carriage frame (after the guide joint's row) along its x or
-    /// y axis [mm]; the carriage correction is `T(sx, sy, 0) Rx(ex) Ry(ey) Rz(ez)`
+    /// y axis \[mm\]; the carriage correction is `T(sx, sy, 0) Rx(ex) Ry(ey) Rz(ez)`
     GuideShift(Axis),
-    /// rotation of the guide carriage frame about its x, y or z axis (in that order) [rad]
+    /// rotation of the guide carriage frame about its x, y or z axis (in that order) \[rad\]
     GuideRotation(Axis),
-    /// translation of the tool-changer frame along its x or y axis [mm]; the tool correction
+    /// translation of the tool-changer frame along its x or y axis \[mm\]; the tool correction
     /// is `T(tx, ty, 0) Rx(rx) Ry(ry)` after frame N
     ToolShift(Axis),
-    /// rotation of the tool-changer frame about its x or y axis [rad]
+    /// rotation of the tool-changer frame about its x or y axis \[rad\]
     ToolRotation(Axis),
     /// relative change of the lengths `a_{i-1}`, `d_i` of every revolute row
     LengthScale,
@@ -378,10 +378,10 @@ pub struct EffectInputs<'a> {
     pub guide: Option<u8>,
     /// guide position normalised to [-1, 1] over its limits (0 without a guide)
     pub guide_u: f64,
-    /// gravity moment about the carriage origin along the carriage x and y axes [N·m]
+    /// gravity moment about the carriage origin along the carriage x and y axes \[N·m\]
     /// (zeros unless an effect that [`ErrorEffect::needs_carriage_moment`] is evaluated)
     pub carriage_moment: [f64; 2],
-    /// reference temperature [°C] of a temperature-driven drift
+    /// reference temperature \[°C\] of a temperature-driven drift
     pub thermal_reference_c: f64,
 }
 

@@ -1,5 +1,5 @@
 //! `position-offset`: the CMM coordinates of one calibration position are wrong. Its
-//! parameters are the built-in position coordinates `position{k}_{x,y,z}` [mm].
+//! parameters are the built-in position coordinates `position{k}_{x,y,z}` \[mm\].
 
 use super::{ChainInfo, DataUse, EffectDriver, EffectKind, EffectSpec, ErrorEffect};
 use crate::cell::EffectEntry;

@@ -1,5 +1,5 @@
 //! `tcp-offset`: the CMM coordinates of one TCP are wrong. Its parameters are the built-in
-//! TCP coordinates `tcp{k}_{x,y,z}` [mm].
+//! TCP coordinates `tcp{k}_{x,y,z}` \[mm\].
 
 use super::{ChainInfo, DataUse, EffectDriver, EffectKind, EffectSpec, ErrorEffect};
 use crate::cell::EffectEntry;

@@ -1,6 +1,6 @@
 //! `thermal-drift`: the arm grows or shrinks. The lengths `a_{i-1}`, `d_i` of the revolute
 //! rows (2..7 on the canonical cell) scale by `1 + k v`, v = `time_s` (parameter
-//! `thermal_per_s` [1/s]) or `temperature_c - T_ref` (parameter `thermal_per_k` [1/K]).
+//! `thermal_per_s` \[1/s\]) or `temperature_c - T_ref` (parameter `thermal_per_k` \[1/K\]).
 
 use super::{
     ChainInfo, DataAvailability, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect,

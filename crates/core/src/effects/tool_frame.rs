@@ -1,6 +1,6 @@
 //! `tool-frame`: the tool changer sits offset/tilted on the flange. Tool-changer frame =
-//! frame N · `T(tx, ty, 0) Rx(rx) Ry(ry)` (parameters `tool_tx`, `tool_ty` [mm], `tool_rx`,
-//! `tool_ry` [rad]).
+//! frame N · `T(tx, ty, 0) Rx(rx) Ry(ry)` (parameters `tool_tx`, `tool_ty` \[mm\], `tool_rx`,
+//! `tool_ry` \[rad\]).
 
 use super::{ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect, Hook};
 use crate::cell::EffectEntry;

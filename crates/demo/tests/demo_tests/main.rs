@@ -10,3 +10,4 @@ mod compensation;
 mod demo;
 mod discovery;
 mod paper_like;
+mod summary_html;

@@ -35,19 +35,19 @@ const NOT_RESETTABLE: [u16; 6] = [
 /// Motion-parameter defaults restored by every activation (§1.5).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionParams {
-    /// `SetJointVel` [%]
+    /// `SetJointVel` \[%\]
     pub joint_vel_pct: f64,
-    /// `SetJointAcc` [%]
+    /// `SetJointAcc` \[%\]
     pub joint_acc_pct: f64,
-    /// `SetCartLinVel` [mm/s]
+    /// `SetCartLinVel` \[mm/s\]
     pub cart_lin_vel_mm_s: f64,
     /// `SetCartAngVel` [°/s]
     pub cart_ang_vel_deg_s: f64,
-    /// `SetCartAcc` [%]
+    /// `SetCartAcc` \[%\]
     pub cart_acc_pct: f64,
-    /// `SetBlending` [%]
+    /// `SetBlending` \[%\]
     pub blending_pct: f64,
-    /// `SetJointVelLimit` [%]
+    /// `SetJointVelLimit` \[%\]
     pub joint_vel_limit_pct: f64,
 }
 
