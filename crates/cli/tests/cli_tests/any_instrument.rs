@@ -183,4 +183,44 @@ fn any_instrument_errors_name_file_line_and_field() {
     let e = with_tracker(&["--params", "paper34"]);
     assert!(e.contains("canonical Meca500-on-guide cell") && e.contains("6 joints (RRRRRR)"), "{e}");
     assert!(!e.contains("three calibration positions"), "{e}");
+    // units-flag mismatches and a row far beyond a limit: one line naming file, line, column
+    // and the flag that is probably missing
+    let cases: [(&str, &str, &[&str], &str); 4] = [
+        (
+            "rad.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,0.1,-1.5,1.2,0.3,1.5,0.2,400,100,300\n\
+             1,0.2,-1.4,1.1,0.2,1.4,0.1,410,120,310\n1,0.3,-1.3,1.0,0.1,1.3,0.4,420,140,320\n",
+            &[],
+            "rad.csv:2: column `q2`: every revolute joint value of the file is within",
+        ),
+        (
+            "metres.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,0.4,0.1,0.3\n\
+             1,12,-80,90,-100,-90,30,0.41,0.12,0.3\n1,14,-80,90,-100,-90,30,0.42,0.14,-0.52\n",
+            &[],
+            "metres.csv:4: column `z`: every tracker coordinate of the file is within",
+        ),
+        (
+            "mm.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,400,100,300\n",
+            &["--length-unit", "m"],
+            "mm.csv:2: column `x`: 400 m is more than 100 m",
+        ),
+        (
+            "beyond.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,400,100,300\n1,10,-80,90,-100,-90,390,400,100,300\n",
+            &[],
+            "beyond.csv:3: column `q6`: 390 deg is outside the joint limits",
+        ),
+    ];
+    for (name, text, extra, expected) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).expect("write");
+        let p = s(&path);
+        let mut args = vec!["identify", "--model", &fixture_path, "--tracker", &p, "--out", &out];
+        args.extend_from_slice(extra);
+        let e = fail(&args);
+        assert!(e.contains(expected), "{name}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{name}: {e}");
+    }
 }
