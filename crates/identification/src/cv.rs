@@ -277,7 +277,17 @@ pub fn cross_validate_sets(
             None => vec![None],
         };
         for scale in scales {
-            candidates.push(score_candidate(start, measurements, options, *set, &params, scale, unusable.clone(), &fold_of, k)?);
+            candidates.push(score_candidate(
+                start,
+                measurements,
+                options,
+                *set,
+                &params,
+                scale,
+                unusable.clone(),
+                &fold_of,
+                k,
+            )?);
         }
     }
     choose(candidates, k, groups, cv.seed)
@@ -350,7 +360,12 @@ fn score_candidate(
 }
 
 /// The 1-SE choice among scored candidates (simplest first).
-fn choose(candidates: Vec<CandidateScore>, k: usize, groups: usize, seed: u64) -> Result<CvSelection, IdentifyError> {
+fn choose(
+    candidates: Vec<CandidateScore>,
+    k: usize,
+    groups: usize,
+    seed: u64,
+) -> Result<CvSelection, IdentifyError> {
     let scored: Vec<usize> = (0..candidates.len()).filter(|i| candidates[*i].rejected.is_none()).collect();
     let Some(&best) =
         scored.iter().min_by(|a, b| candidates[**a].cv_mse_mm2.total_cmp(&candidates[**b].cv_mse_mm2))
@@ -370,7 +385,8 @@ fn choose(candidates: Vec<CandidateScore>, k: usize, groups: usize, seed: u64) -
     let reason = if chosen == best {
         format!(
             "`{}` has the lowest cross-validated error ({:.4} mm RMS over {k} folds) and no simpler candidate is within one standard error of it",
-            c.label(), c.cv_rms_mm
+            c.label(),
+            c.cv_rms_mm
         )
     } else {
         format!(

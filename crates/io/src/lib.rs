@@ -2016,12 +2016,14 @@ mod tests {
              1,12,-80,90,-100,-90,30,0.41,0.12,0.3\n1,14,-80,90,-100,-90,30,0.42,0.14,-0.52\n",
         );
         for read in [read_tracker_measurements_with, read_measurements_with] {
-            let e = read(f.path(), &ur, &ReadOptions::default()).map(|_| ()).expect_err("m as mm").to_string();
+            let e =
+                read(f.path(), &ur, &ReadOptions::default()).map(|_| ()).expect_err("m as mm").to_string();
             assert!(
                 e.contains(":4: column `z`: every tracker coordinate") && e.contains("--length-unit m"),
                 "{e}"
             );
-            let ok = read(f.path(), &ur, &ReadOptions { length_unit: LengthUnit::M, ..ReadOptions::default() });
+            let ok =
+                read(f.path(), &ur, &ReadOptions { length_unit: LengthUnit::M, ..ReadOptions::default() });
             assert!(ok.is_ok(), "read in metres");
         }
         // a guide in metres beyond its limit in mm hints at the unit
