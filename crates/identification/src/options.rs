@@ -252,10 +252,10 @@ impl IdentifyOptions {
                 ));
             }
         }
-        if let Some(v) = self.distance_data_sigma_mm {
-            if !(v.is_finite() && v > 0.0) {
-                return bad(format!("distance_data_sigma_mm must be finite and > 0, got {v}"));
-            }
+        if let Some(v) = self.distance_data_sigma_mm
+            && !(v.is_finite() && v > 0.0)
+        {
+            return bad(format!("distance_data_sigma_mm must be finite and > 0, got {v}"));
         }
         if self.method == Method::PaperLiteral && !self.point_distances.is_empty() {
             return bad("point distances are not supported by the paper-literal method".into());
