@@ -79,7 +79,12 @@ fn identify_defaults_calibrate_a_tracker_frame_anywhere_to_the_noise_floor() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     let candidates = json["selection"]["candidates"].as_array().expect("candidates");
-    assert_eq!(candidates.len(), 4);
+    // registration, then joint-offsets, kinematic and kinematic+compliance each with priors
+    // x1, x3, x10 and none toward nominal
+    assert_eq!(candidates.len(), 13);
+    for set in ["registration", "joint-offsets", "kinematic", "kinematic+compliance"] {
+        assert!(candidates.iter().any(|c| c["set"] == set && c["prior_scale"].is_null()), "{set}");
+    }
     assert!(json["parameters"].as_array().expect("params").iter().any(|p| p["name"] == "tcp1_x"));
     run(&["validate", "--model", &s(&cal), "--tracker", &s(&held), "--report", &s(&val)]);
     let after = mean_of(&std::fs::read_to_string(&val).expect("validate report"));
