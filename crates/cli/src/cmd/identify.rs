@@ -55,7 +55,8 @@ pub struct Args {
     #[arg(long)]
     pub unknown_positions: Option<String>,
     /// A known distance between two fixed points, `A,B,MM` or `A,B,MM,SIGMA_MM` (default sigma
-    /// 0.01 mm): a measurement of its own that fixes the scale. Repeatable.
+    /// 0.01 mm, the fixture's): a measurement of its own that fixes the scale, weighed against
+    /// the data rows by their own fitted scatter. Repeatable.
     #[arg(long = "point-distance")]
     pub point_distances: Vec<String>,
     /// `--params default` on a chain other than the canonical cell: number of folds of the
