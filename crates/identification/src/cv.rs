@@ -40,13 +40,25 @@ pub struct CvOptions {
     /// optional regularisation toward the starting (nominal) values: every parameter of the
     /// robot (MDH values, compliances) gets a Gaussian prior of standard deviation
     /// `prior_scale × ParamId::typical_scale` (0.1 mm, 0.001 rad, 1e-4 rad/(N·m) at 1); the
-    /// base pose, TCP and fixed-point coordinates stay free. `None` (default): no priors
+    /// base pose, TCP and fixed-point coordinates stay free. The prior rows are weighed against
+    /// the data's own σ̂ (`IdentifyOptions::prior_sigma_from_fit`). `None` (default): the
+    /// scale is chosen by cross-validation among no priors and [`CvOptions::prior_scales`]
     pub prior_scale: Option<f64>,
+    /// the prior scales cross-validated with every candidate set that has parameters of the
+    /// robot, besides no priors, when `prior_scale` is `None` (default 10, 3, 1: plausible
+    /// spreads of 1 mm / 0.01 rad down to 0.1 mm / 0.001 rad); empty: no priors
+    pub prior_scales: Vec<f64>,
 }
 
 impl Default for CvOptions {
     fn default() -> Self {
-        Self { folds: 5, seed: 1, candidates: GenericSet::ALL.to_vec(), prior_scale: None }
+        Self {
+            folds: 5,
+            seed: 1,
+            candidates: GenericSet::ALL.to_vec(),
+            prior_scale: None,
+            prior_scales: vec![10.0, 3.0, 1.0],
+        }
     }
 }
 
@@ -57,7 +69,16 @@ impl CvOptions {
     /// combination the data barely see shows there (or, with priors, stays at its nominal
     /// value).
     pub fn fit_options(&self, params: &ParamSet, options: &IdentifyOptions) -> IdentifyOptions {
-        let priors = self.prior_scale.map(|k| {
+        Self::fit_options_with(self.prior_scale, params, options)
+    }
+
+    /// [`CvOptions::fit_options`] with the prior scale `prior_scale` (`None`: no priors).
+    pub fn fit_options_with(
+        prior_scale: Option<f64>,
+        params: &ParamSet,
+        options: &IdentifyOptions,
+    ) -> IdentifyOptions {
+        let priors = prior_scale.map(|k| {
             params
                 .iter()
                 .map(|p| match p {
@@ -68,7 +89,22 @@ impl CvOptions {
                 })
                 .collect()
         });
-        IdentifyOptions { priors, max_condition_number: f64::INFINITY, ..options.clone() }
+        IdentifyOptions {
+            priors,
+            prior_sigma_from_fit: true,
+            max_condition_number: f64::INFINITY,
+            ..options.clone()
+        }
+    }
+}
+
+impl CandidateScore {
+    /// The set's name, with its prior scale when it has one (`kinematic, priors x3`).
+    pub fn label(&self) -> String {
+        match self.prior_scale {
+            Some(k) => format!("{}, priors x{k}", self.set),
+            None => self.set.to_string(),
+        }
     }
 }
 
@@ -79,6 +115,8 @@ pub struct CandidateScore {
     pub set: GenericSet,
     /// its identifiable basis on all rows
     pub params: ParamSet,
+    /// the scale of its priors toward nominal ([`CvOptions::prior_scale`]; `None`: none)
+    pub prior_scale: Option<f64>,
     /// RMS of the held-out residual norms, `√(mean over folds of the fold's mean squared
     /// residual)` \[mm\] (`NaN` when rejected)
     pub cv_rms_mm: f64,
@@ -220,8 +258,58 @@ pub fn cross_validate_sets(
             }
             Err(e) => return Err(e.into()),
         };
+        let robot_params = params.iter().any(|p| {
+            !matches!(
+                p,
+                vatcal_core::ParamId::Base(_)
+                    | vatcal_core::ParamId::Tcp { .. }
+                    | vatcal_core::ParamId::Position { .. }
+            )
+        });
+        // simplest first: the strongest priors, then weaker, then none
+        let scales: Vec<Option<f64>> = match cv.prior_scale {
+            Some(k) => vec![Some(k)],
+            None if robot_params && unusable.is_none() => {
+                let mut v: Vec<f64> = cv.prior_scales.clone();
+                v.sort_by(f64::total_cmp);
+                v.into_iter().map(Some).chain([None]).collect()
+            }
+            None => vec![None],
+        };
+        for scale in scales {
+            candidates.push(score_candidate(
+                start,
+                measurements,
+                options,
+                *set,
+                &params,
+                scale,
+                unusable.clone(),
+                &fold_of,
+                k,
+            )?);
+        }
+    }
+    choose(candidates, k, groups, cv.seed)
+}
+
+/// Fits one candidate on all rows and on every fold.
+#[allow(clippy::too_many_arguments)]
+fn score_candidate(
+    start: &Model,
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+    set: GenericSet,
+    params: &ParamSet,
+    prior_scale: Option<f64>,
+    unusable: Option<String>,
+    fold_of: &[usize],
+    k: usize,
+) -> Result<CandidateScore, IdentifyError> {
+    {
         let mut score = CandidateScore {
-            set: *set,
+            set,
+            prior_scale,
             params: params.clone(),
             cv_rms_mm: f64::NAN,
             cv_se_mm2: f64::NAN,
@@ -232,27 +320,25 @@ pub fn cross_validate_sets(
             rejected: unusable,
         };
         if score.rejected.is_some() {
-            candidates.push(score);
-            continue;
+            return Ok(score);
         }
-        let fit_options = cv.fit_options(&params, options);
-        match identify(start, measurements, &params, &fit_options) {
+        let fit_options = CvOptions::fit_options_with(prior_scale, params, options);
+        match identify(start, measurements, params, &fit_options) {
             Ok(fit) => {
                 score.train_rms_mm = fit.residual_stats.rms;
                 score.condition_number = fit.condition_number;
             }
             Err(e) => {
                 score.rejected = Some(format!("fit on all rows: {e}"));
-                candidates.push(score);
-                continue;
+                return Ok(score);
             }
         }
         let mut fold_mse = Vec::with_capacity(k);
         for fold in 0..k {
             let train: Vec<Measurement> =
-                measurements.iter().zip(&fold_of).filter(|(_, f)| **f != fold).map(|(m, _)| *m).collect();
+                measurements.iter().zip(fold_of).filter(|(_, f)| **f != fold).map(|(m, _)| *m).collect();
             let test: Vec<usize> = (0..measurements.len()).filter(|i| fold_of[*i] == fold).collect();
-            match identify(start, &train, &params, &fit_options) {
+            match identify(start, &train, params, &fit_options) {
                 Ok(fit) => fold_mse.push(mean_squared(&fit.model, measurements, &test, options)?),
                 Err(e) => {
                     score.rejected = Some(format!("fold {}: {e}", fold + 1));
@@ -269,15 +355,24 @@ pub fn cross_validate_sets(
             score.cv_rms_mm = mean.sqrt();
             score.fold_rms_mm = fold_mse.iter().map(|v| v.sqrt()).collect();
         }
-        candidates.push(score);
+        Ok(score)
     }
+}
+
+/// The 1-SE choice among scored candidates (simplest first).
+fn choose(
+    candidates: Vec<CandidateScore>,
+    k: usize,
+    groups: usize,
+    seed: u64,
+) -> Result<CvSelection, IdentifyError> {
     let scored: Vec<usize> = (0..candidates.len()).filter(|i| candidates[*i].rejected.is_none()).collect();
     let Some(&best) =
         scored.iter().min_by(|a, b| candidates[**a].cv_mse_mm2.total_cmp(&candidates[**b].cv_mse_mm2))
     else {
         let reasons: Vec<String> = candidates
             .iter()
-            .map(|c| format!("{}: {}", c.set, c.rejected.as_deref().unwrap_or("?")))
+            .map(|c| format!("{}: {}", c.label(), c.rejected.as_deref().unwrap_or("?")))
             .collect();
         return Err(IdentifyError::InvalidOptions(format!(
             "no candidate parameter set could be fitted: {}",
@@ -289,20 +384,21 @@ pub fn cross_validate_sets(
     let (b, c) = (&candidates[best], &candidates[chosen]);
     let reason = if chosen == best {
         format!(
-            "`{}` has the lowest cross-validated error ({:.4} mm RMS over {k} folds) and no smaller set is within one standard error of it",
-            c.set, c.cv_rms_mm
+            "`{}` has the lowest cross-validated error ({:.4} mm RMS over {k} folds) and no simpler candidate is within one standard error of it",
+            c.label(),
+            c.cv_rms_mm
         )
     } else {
         format!(
-            "`{}` ({:.4} mm RMS) is the smallest set within one standard error of the best, `{}` ({:.4} mm RMS, threshold {:.4} mm = √(MSE + SE)): the 1-SE rule prefers the smaller model",
-            c.set,
+            "`{}` ({:.4} mm RMS) is the simplest candidate within one standard error of the best, `{}` ({:.4} mm RMS, threshold {:.4} mm = √(MSE + SE)): the 1-SE rule prefers the simpler model",
+            c.label(),
             c.cv_rms_mm,
-            b.set,
+            b.label(),
             b.cv_rms_mm,
             threshold.sqrt()
         )
     };
-    Ok(CvSelection { candidates, chosen, reason, folds: k, groups, seed: cv.seed })
+    Ok(CvSelection { candidates, chosen, reason, folds: k, groups, seed })
 }
 
 /// Everything [`calibrate`] did.
@@ -319,24 +415,43 @@ pub struct Calibration {
     pub fit: Identification,
 }
 
-/// Calibrates `nominal` from `measurements`: resolves `spec` (`default`, a [`GenericSet`] name,
-/// `paper34`/`geometric` on the canonical cell, `all-identifiable`, or a list of names;
-/// [`resolve_spec`]), initialises the base pose, measured TCPs and unknown fixed points
-/// ([`initialise`]) unless the canonical cell is fitted with its own sets, chooses the set by
-/// [`cross_validate_sets`] for `default` on any other chain, and fits. The known distances of
-/// `design` are used as measurements (they override `options.point_distances`).
+/// What a fit of external data starts from ([`prepare_calibration`]): the initialised start
+/// model, the parameter set and the options of the fit.
+#[derive(Debug, Clone)]
+pub struct CalibrationStart {
+    /// the initialisation (None when the canonical cell is fitted with a canonical set)
+    pub init: Option<Initialisation>,
+    /// the model the fit starts from (the initialised model, or the nominal one)
+    pub start: Model,
+    /// the parameters to identify
+    pub params: ParamSet,
+    /// the cross-validated choice (only for `default` on a chain other than the canonical cell)
+    pub selection: Option<CvSelection>,
+    /// the options of the fit (`options` with the distances of the design and, for a set
+    /// chosen by cross-validation, [`CvOptions::fit_options`])
+    pub fit_options: IdentifyOptions,
+}
+
+/// Everything of [`calibrate`] before the final fit — the one code path of every command that
+/// fits a model to external data (`vatcal identify`, `vatcal discover`): resolves `spec`
+/// (`default`, a [`GenericSet`] name, `paper34`/`geometric` on the canonical cell,
+/// `all-identifiable`, or a list of names; [`resolve_spec`]), initialises the base pose,
+/// measured TCPs and unknown fixed points ([`initialise`]) unless the canonical cell is fitted
+/// with its own sets, and chooses the set by [`cross_validate_sets`] for `default` on any other
+/// chain. The known distances of `design` are used as measurements (they override
+/// `options.point_distances`).
 ///
 /// # Errors
 /// The errors of [`resolve_spec`] (an unknown name, a canonical-only set on another chain, a
-/// distance naming an unknown point), [`initialise`], [`cross_validate_sets`] and [`identify`].
-pub fn calibrate(
+/// distance naming an unknown point), [`initialise`] and [`cross_validate_sets`].
+pub fn prepare_calibration(
     nominal: &Model,
     measurements: &[Measurement],
     spec: &str,
     design: &DataDesign,
     options: &IdentifyOptions,
     cv: &CvOptions,
-) -> Result<Calibration, IdentifyError> {
+) -> Result<CalibrationStart, IdentifyError> {
     design.check(nominal)?;
     let options = IdentifyOptions { point_distances: design.distances.clone(), ..options.clone() };
     let trimmed = spec.trim();
@@ -346,23 +461,46 @@ pub fn calibrate(
         && (trimmed == "default" || vatcal_core::canonical::is_canonical_only_set(trimmed));
     if canonical_fit {
         let params = resolve_spec(spec, nominal, measurements, design)?;
-        let fit = identify(nominal, measurements, &params, &options)?;
-        return Ok(Calibration { init: None, params, selection: None, fit });
+        return Ok(CalibrationStart {
+            init: None,
+            start: nominal.clone(),
+            params,
+            selection: None,
+            fit_options: options,
+        });
     }
     // the registration set does not need the distances (and unknown points may still coincide
     // at their placeholder coordinates, where a distance row is undefined)
     let points_only = DataDesign { free_positions: design.free_positions.clone(), distances: Vec::new() };
     let registration = generic_set(nominal, measurements, GenericSet::Registration, &points_only)?;
     let init = initialise(nominal, measurements, &InitOptions::for_params(&registration))?;
-    let start = &init.model;
+    let start = init.model.clone();
     let (params, selection, fit_options) = if trimmed == "default" {
-        let sel = cross_validate_sets(start, measurements, design, &options, cv)?;
+        let sel = cross_validate_sets(&start, measurements, design, &options, cv)?;
         let params = sel.chosen().params.clone();
-        let fit_options = cv.fit_options(&params, &options);
+        let fit_options = CvOptions::fit_options_with(sel.chosen().prior_scale, &params, &options);
         (params, Some(sel), fit_options)
     } else {
-        (resolve_spec(spec, start, measurements, design)?, None, options)
+        (resolve_spec(spec, &start, measurements, design)?, None, options)
     };
-    let fit = identify(start, measurements, &params, &fit_options)?;
-    Ok(Calibration { init: Some(init), params, selection, fit })
+    Ok(CalibrationStart { init: Some(init), start, params, selection, fit_options })
+}
+
+/// Calibrates `nominal` from `measurements`: [`prepare_calibration`] (initialisation, the
+/// parameter set — named, or chosen by cross-validation for `default` on a chain other than
+/// the canonical cell), then the fit on all rows.
+///
+/// # Errors
+/// The errors of [`prepare_calibration`] and [`identify`].
+pub fn calibrate(
+    nominal: &Model,
+    measurements: &[Measurement],
+    spec: &str,
+    design: &DataDesign,
+    options: &IdentifyOptions,
+    cv: &CvOptions,
+) -> Result<Calibration, IdentifyError> {
+    let prepared = prepare_calibration(nominal, measurements, spec, design, options, cv)?;
+    let fit = identify(&prepared.start, measurements, &prepared.params, &prepared.fit_options)?;
+    Ok(Calibration { init: prepared.init, params: prepared.params, selection: prepared.selection, fit })
 }

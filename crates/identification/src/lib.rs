@@ -19,7 +19,8 @@
 //!   fixed points are unknown (Kabsch registration + linear least squares);
 //!   [`cross_validate_sets`] — the model size chosen by K-fold cross-validation over posture
 //!   groups (1-SE rule); [`calibrate`] — initialise, choose, fit in one call (what
-//!   `vatcal identify` runs);
+//!   `vatcal identify` runs); [`prepare_calibration`] — the same without the final fit (the
+//!   start and the set `vatcal discover` begins from);
 //! * [`IdentificationReport`] — the JSON report (file units).
 //! * [`KindSigmas`] — σ of probe and tracker residuals estimated separately (inverse-variance
 //!   weights); [`CmmUncertainty`] — systematic CMM errors of the TCP and calibration-position
@@ -53,7 +54,8 @@ use vatcal_kinematics::Model;
 use vatcal_observability::ObservabilityError;
 
 pub use cv::{
-    Calibration, CandidateScore, CvOptions, CvSelection, calibrate, cross_validate_sets, posture_folds,
+    Calibration, CalibrationStart, CandidateScore, CvOptions, CvSelection, calibrate, cross_validate_sets,
+    posture_folds, prepare_calibration,
 };
 pub use error::{FailureReport, IdentifyError};
 pub use error_stats::ErrorStats;
@@ -114,6 +116,62 @@ use problem::Problem;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub fn identify(
+    start: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+    options: &IdentifyOptions,
+) -> Result<Identification, IdentifyError> {
+    let mut fit = identify_once(start, measurements, params, options)?;
+    let has_priors = options.priors.as_ref().is_some_and(|p| p.iter().any(|s| s.is_finite()));
+    let reweight = (options.distance_sigma_from_fit && !options.point_distances.is_empty())
+        || (options.prior_sigma_from_fit && has_priors);
+    if !reweight {
+        return Ok(fit);
+    }
+    // The known distances (and priors) are weighed against the data's own scatter
+    // (`IdentifyOptions::distance_sigma_from_fit`, `prior_sigma_from_fit`): refit from `start`
+    // with the data σ̂ of the previous fit until it settles.
+    let mut data_sigma_mm = options.measurement_sigma_mm;
+    for _ in 0..DISTANCE_REWEIGHT_ROUNDS {
+        let estimated = data_sigma_hat_mm(&fit, measurements, &options.weights);
+        if !(estimated.is_finite() && estimated > 0.0)
+            || (estimated / data_sigma_mm - 1.0).abs() <= DISTANCE_REWEIGHT_TOLERANCE
+        {
+            break;
+        }
+        data_sigma_mm = estimated;
+        let reweighted = IdentifyOptions { distance_data_sigma_mm: Some(data_sigma_mm), ..options.clone() };
+        fit = identify_once(start, measurements, params, &reweighted)?;
+    }
+    Ok(fit)
+}
+
+/// Refits of [`identify`] that re-weigh the known distances by the data's σ̂ (at most).
+const DISTANCE_REWEIGHT_ROUNDS: usize = 5;
+/// The re-weighting stops when σ̂ changes by less than this fraction.
+const DISTANCE_REWEIGHT_TOLERANCE: f64 = 0.05;
+
+/// σ̂ of one coordinate of a weight-1 measurement row from a fit's data residuals alone:
+/// `√(Σ_k w_k ‖e_k‖² / (3n − L))` (the distance and prior rows left out) \[mm\].
+fn data_sigma_hat_mm(fit: &Identification, measurements: &[Measurement], weights: &KindWeights) -> f64 {
+    let rss: f64 = fit
+        .residuals
+        .iter()
+        .zip(measurements)
+        .map(|(e, m)| {
+            let w = match m.target {
+                Target::Probe { .. } => weights.probe,
+                Target::Tracker { .. } => weights.tracker,
+            };
+            w * e.norm_squared()
+        })
+        .sum();
+    let dof = (3 * measurements.len()).saturating_sub(fit.params.len()).max(1);
+    (rss / dof as f64).sqrt()
+}
+
+/// One fit with the weights of `options` as given (no re-weighting of the distances).
+fn identify_once(
     start: &Model,
     measurements: &[Measurement],
     params: &ParamSet,

@@ -145,9 +145,30 @@ pub struct IdentifyOptions {
     /// exceeds this factor times the starting mean residual (default 100)
     pub divergence_factor: f64,
     /// known distances between fixed points (calibration positions): one residual row each,
-    /// `distance − |p_a − p_b|` weighted by `measurement_sigma_mm / sigma_mm`, so that the
+    /// `distance − |p_a − p_b|` weighted by `σ_data / sigma_mm` (see
+    /// `distance_sigma_from_fit`), so that the
     /// positions identified as parameters keep the scale (default none)
     pub point_distances: Vec<PointDistance>,
+    /// weigh the known distances against the data's own scatter (default true): a distance
+    /// row is weighted `σ_data / σ_d`, where `σ_data` is first `measurement_sigma_mm` and then,
+    /// refit by refit, σ̂ of the data rows of the previous fit (`√(Σ w_k‖e_k‖² / (3n − L))`),
+    /// until it changes by less than 5 % (at most 5 refits, each from the start). The σ of a
+    /// distance is a property of the fixture (`PointDistance::sigma_mm`); how much one distance
+    /// row counts against hundreds of data rows then follows from how well the data rows
+    /// actually fit — not from the a-priori σ of an instrument the data may not come from.
+    /// Without distances it changes nothing. `false`: `σ_data = measurement_sigma_mm`
+    pub distance_sigma_from_fit: bool,
+    /// weigh the priors against the data's own scatter as the distances
+    /// (`distance_sigma_from_fit`): the prior row of parameter j is `(σ_data / σ_j)(ρ_j −
+    /// ρ_start,j)` with `σ_data` the data σ̂ of the previous fit, so that a prior of σ_j means
+    /// σ_j whatever the instrument's noise. Default false (`σ_data = measurement_sigma_mm`);
+    /// the cross-validated path ([`CvOptions::fit_options`](crate::CvOptions::fit_options))
+    /// sets it
+    pub prior_sigma_from_fit: bool,
+    /// the `σ_data` of the distance rows (and, with `prior_sigma_from_fit`, of the prior rows)
+    /// when set (what [`identify`](crate::identify)'s re-weighting sets; `None`:
+    /// `measurement_sigma_mm`)
+    pub distance_data_sigma_mm: Option<f64>,
 }
 
 impl Default for IdentifyOptions {
@@ -169,6 +190,9 @@ impl Default for IdentifyOptions {
             accept_iteration_cap: false,
             divergence_factor: 100.0,
             point_distances: Vec::new(),
+            distance_sigma_from_fit: true,
+            prior_sigma_from_fit: false,
+            distance_data_sigma_mm: None,
         }
     }
 }
@@ -227,6 +251,11 @@ impl IdentifyOptions {
                     d.a, d.b, d.distance_mm, d.sigma_mm
                 ));
             }
+        }
+        if let Some(v) = self.distance_data_sigma_mm
+            && !(v.is_finite() && v > 0.0)
+        {
+            return bad(format!("distance_data_sigma_mm must be finite and > 0, got {v}"));
         }
         if self.method == Method::PaperLiteral && !self.point_distances.is_empty() {
             return bad("point distances are not supported by the paper-literal method".into());

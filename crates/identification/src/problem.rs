@@ -28,7 +28,7 @@ pub(crate) struct Problem<'a> {
     pub start: Vec<f64>,
     /// known distances between fixed points: one row each after the measurement rows
     pub distances: Vec<PointDistance>,
-    /// `σ_meas / σ_d` of every distance row
+    /// `σ_data / σ_d` of every distance row
     pub distance_weight: Vec<f64>,
 }
 
@@ -39,6 +39,11 @@ impl<'a> Problem<'a> {
         start: Vec<f64>,
         options: &IdentifyOptions,
     ) -> Self {
+        let prior_data_sigma_mm = if options.prior_sigma_from_fit {
+            options.distance_data_sigma_mm.unwrap_or(options.measurement_sigma_mm)
+        } else {
+            options.measurement_sigma_mm
+        };
         let priors = options
             .priors
             .as_ref()
@@ -46,7 +51,7 @@ impl<'a> Problem<'a> {
                 p.iter()
                     .enumerate()
                     .filter(|(_, s)| s.is_finite())
-                    .map(|(j, s)| (j, options.measurement_sigma_mm / s))
+                    .map(|(j, s)| (j, prior_data_sigma_mm / s))
                     .collect()
             })
             .unwrap_or_default();
@@ -60,7 +65,7 @@ impl<'a> Problem<'a> {
             distance_weight: options
                 .point_distances
                 .iter()
-                .map(|d| options.measurement_sigma_mm / d.sigma_mm)
+                .map(|d| options.distance_data_sigma_mm.unwrap_or(options.measurement_sigma_mm) / d.sigma_mm)
                 .collect(),
         }
     }

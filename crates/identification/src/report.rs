@@ -119,6 +119,8 @@ pub struct InitialisationReport {
 pub struct CandidateReport {
     /// set name (`registration`, `joint-offsets`, `kinematic`, `kinematic+compliance`)
     pub set: String,
+    /// the scale of its priors toward nominal (null: none)
+    pub prior_scale: Option<f64>,
     /// its identifiable parameters on these data
     pub n_parameters: usize,
     /// RMS held-out residual norm over the folds \[mm\] (null when rejected)
@@ -168,6 +170,7 @@ impl SelectionReport {
                 .iter()
                 .map(|c| CandidateReport {
                     set: c.set.name().to_string(),
+                    prior_scale: c.prior_scale,
                     n_parameters: c.params.len(),
                     cv_rms_mm: finite(c.cv_rms_mm),
                     cv_se_mm2: finite(c.cv_se_mm2),
@@ -177,7 +180,7 @@ impl SelectionReport {
                     rejected: c.rejected.clone(),
                 })
                 .collect(),
-            chosen: sel.chosen().set.name().to_string(),
+            chosen: sel.chosen().label(),
             reason: sel.reason.clone(),
         }
     }

@@ -881,7 +881,47 @@ pub fn read_measurements(path: impl AsRef<Path>, model: &Model) -> Result<Vec<Me
     read_measurements_with(path, model, &ReadOptions::strict()).map(|r| r.rows)
 }
 
+/// Below this largest |x|, |y|, |z| \[mm\] over every tracker row of a file (3 rows or more),
+/// the coordinates are taken for metres read as millimetres: an instrument that saw a robot
+/// move, with every point within 10 mm of its origin, is implausible.
+const TRACKER_METRES_AS_MM_BOUND_MM: f64 = 10.0;
+
 impl Table {
+    /// Refuses tracker coordinates that are plainly metres read as millimetres (every
+    /// coordinate of 3+ tracker rows within ±10 mm of the instrument's origin), naming the line
+    /// and column of the largest.
+    fn check_tracker_length_unit(&self, rows: &[Measurement]) -> Result<(), IoError> {
+        if !self.opts.check_units || self.opts.length_unit != LengthUnit::Mm {
+            return Ok(());
+        }
+        let mut largest: Option<(f64, usize, usize)> = None; // (|mm|, row, axis)
+        let mut tracker_rows = 0;
+        for (r, m) in rows.iter().enumerate() {
+            if let Target::Tracker { xyz_mm } = m.target {
+                tracker_rows += 1;
+                for a in 0..3 {
+                    if largest.is_none_or(|(v, ..)| xyz_mm[a].abs() > v) {
+                        largest = Some((xyz_mm[a].abs(), r, a));
+                    }
+                }
+            }
+        }
+        match largest {
+            Some((v, r, a)) if tracker_rows >= 3 && v > 0.0 && v < TRACKER_METRES_AS_MM_BOUND_MM => {
+                Err(self.err(
+                    self.rows[r].0,
+                    ["x", "y", "z"][a],
+                    format!(
+                        "every tracker coordinate of the file is within ±{TRACKER_METRES_AS_MM_BOUND_MM} mm of \
+                         the instrument's origin (the largest, {v}, is here): these are metres (use \
+                         --length-unit m)"
+                    ),
+                ))
+            }
+            _ => Ok(()),
+        }
+    }
+
     /// The file-level steps of a read with options: the unit plausibility of the whole file,
     /// the directions derived from the row order, the warnings in line order.
     fn finish<T>(
@@ -1049,6 +1089,7 @@ pub fn read_tracker_measurements_with(
             probe_offset_mm: None,
         })
     })?;
+    t.check_tracker_length_unit(&rows)?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
 }
 
@@ -1107,6 +1148,7 @@ pub fn read_measurements_with(
             probe_offset_mm,
         })
     })?;
+    t.check_tracker_length_unit(&rows)?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
 }
 
@@ -1968,6 +2010,22 @@ mod tests {
                 && e.to_string().contains("--length-unit mm"),
             "{e}"
         );
+        // metres read as millimetres: every tracker coordinate within ±10 mm
+        let f = file(
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,0.4,0.1,0.3\n\
+             1,12,-80,90,-100,-90,30,0.41,0.12,0.3\n1,14,-80,90,-100,-90,30,0.42,0.14,-0.52\n",
+        );
+        for read in [read_tracker_measurements_with, read_measurements_with] {
+            let e =
+                read(f.path(), &ur, &ReadOptions::default()).map(|_| ()).expect_err("m as mm").to_string();
+            assert!(
+                e.contains(":4: column `z`: every tracker coordinate") && e.contains("--length-unit m"),
+                "{e}"
+            );
+            let ok =
+                read(f.path(), &ur, &ReadOptions { length_unit: LengthUnit::M, ..ReadOptions::default() });
+            assert!(ok.is_ok(), "read in metres");
+        }
         // a guide in metres beyond its limit in mm hints at the unit
         let m = model();
         let f = file("position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,150,0,10,0,0,0,0\n");

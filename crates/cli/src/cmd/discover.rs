@@ -25,9 +25,11 @@ pub struct Args {
     /// Independent validation measurements (e.g. tracker rows), used only to report the gap.
     #[arg(long)]
     pub validation: Option<PathBuf>,
-    /// Starting parameter set: `default` (`paper34` on the canonical Meca500-on-guide cell,
-    /// `all-identifiable` on any other chain), `paper34`, `geometric`, `all-identifiable`, or a
-    /// comma-separated list of parameter names.
+    /// Starting parameter set, resolved as by `vatcal identify` (same initialisation of the base
+    /// pose and measured TCPs on a chain other than the canonical cell): `default` (`paper34` on
+    /// the canonical Meca500-on-guide cell; on any other chain the set chosen by
+    /// cross-validation), `registration`, `joint-offsets`, `kinematic`, `paper34`, `geometric`,
+    /// `all-identifiable`, or a comma-separated list of parameter names.
     #[arg(long, default_value = "default")]
     pub params: String,
     /// Write the final model (with the added effects) here.
@@ -103,9 +105,25 @@ fn read_all(
     Ok(m)
 }
 
-fn parameter_set(spec: &str, model: &Model, measurements: &[Measurement]) -> anyhow::Result<ParamSet> {
-    vatcal_observability::identifiability::param_set_from_spec(spec, model, measurements)
-        .with_context(|| format!("--params `{spec}`"))
+/// The start model and the starting set: the same initialisation and default choice as
+/// `vatcal identify` (`vatcal_identification::prepare_calibration`; the canonical cell with its
+/// own sets starts from its nominal model).
+fn start_and_parameter_set(
+    args: &Args,
+    model: &Model,
+    measurements: &[Measurement],
+) -> anyhow::Result<(Model, ParamSet)> {
+    let cv = vatcal_identification::CvOptions { folds: args.folds, seed: args.seed, ..Default::default() };
+    let prepared = vatcal_identification::prepare_calibration(
+        model,
+        measurements,
+        &args.params,
+        &Default::default(),
+        &Default::default(),
+        &cv,
+    )
+    .with_context(|| format!("--params `{}`", args.params))?;
+    Ok((prepared.start, prepared.params))
 }
 
 fn check_options(args: &Args) -> anyhow::Result<()> {
@@ -285,7 +303,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
     let measurements = read_all(&args.measurements, &model, &args.read)?;
     let validation = args.validation.as_ref().map(|p| read_all(p, &model, &args.read)).transpose()?;
-    let params = parameter_set(&args.params, &model, &measurements)?;
+    let (model, params) = start_and_parameter_set(&args, &model, &measurements)?;
     let options = DiscoverOptions {
         alpha: args.alpha,
         folds: args.folds,

@@ -55,7 +55,8 @@ pub struct Args {
     #[arg(long)]
     pub unknown_positions: Option<String>,
     /// A known distance between two fixed points, `A,B,MM` or `A,B,MM,SIGMA_MM` (default sigma
-    /// 0.01 mm): a measurement of its own that fixes the scale. Repeatable.
+    /// 0.01 mm, the fixture's): a measurement of its own that fixes the scale, weighed against
+    /// the data rows by their own fitted scatter. Repeatable.
     #[arg(long = "point-distance")]
     pub point_distances: Vec<String>,
     /// `--params default` on a chain other than the canonical cell: number of folds of the
@@ -67,6 +68,7 @@ pub struct Args {
     pub cv_seed: u64,
     /// `--params default` on another chain: regularise the robot's parameters toward their
     /// nominal values with priors of this many typical spreads (0.1 mm, 0.001 rad per unit).
+    /// Without it the scale is chosen by cross-validation among none, 10, 3 and 1.
     #[arg(long)]
     pub prior_scale: Option<f64>,
     /// Iteration cap.
@@ -188,22 +190,22 @@ fn print_selection(sel: &CvSelection) {
         sel.folds, sel.groups, sel.seed
     );
     println!(
-        "{:<22} {:>7} {:>14} {:>15} {:>12}  note",
+        "{:<32} {:>7} {:>14} {:>15} {:>12}  note",
         "set", "params", "CV RMS [mm]", "train RMS [mm]", "condition"
     );
     for (k, c) in sel.candidates.iter().enumerate() {
         match &c.rejected {
             Some(why) => println!(
-                "{:<22} {:>7} {:>14} {:>15} {:>12}  rejected: {why}",
-                c.set.name(),
+                "{:<32} {:>7} {:>14} {:>15} {:>12}  rejected: {why}",
+                c.label(),
                 c.params.len(),
                 "-",
                 "-",
                 "-"
             ),
             None => println!(
-                "{:<22} {:>7} {:>14.5} {:>15.5} {:>12.1}  {}",
-                c.set.name(),
+                "{:<32} {:>7} {:>14.5} {:>15.5} {:>12.1}  {}",
+                c.label(),
                 c.params.len(),
                 c.cv_rms_mm,
                 c.train_rms_mm,
@@ -213,7 +215,7 @@ fn print_selection(sel: &CvSelection) {
         }
     }
     println!("{}", sel.reason);
-    println!("{}: {}", sel.chosen().set.name(), sel.chosen().params.names().join(","));
+    println!("{}: {}", sel.chosen().label(), sel.chosen().params.names().join(","));
 }
 
 /// Marks the positions of `--unknown-positions` as unknown: a position the cell file lacks is

@@ -79,7 +79,12 @@ fn identify_defaults_calibrate_a_tracker_frame_anywhere_to_the_noise_floor() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     let candidates = json["selection"]["candidates"].as_array().expect("candidates");
-    assert_eq!(candidates.len(), 4);
+    // registration, then joint-offsets, kinematic and kinematic+compliance each with priors
+    // x1, x3, x10 and none toward nominal
+    assert_eq!(candidates.len(), 13);
+    for set in ["registration", "joint-offsets", "kinematic", "kinematic+compliance"] {
+        assert!(candidates.iter().any(|c| c["set"] == set && c["prior_scale"].is_null()), "{set}");
+    }
     assert!(json["parameters"].as_array().expect("params").iter().any(|p| p["name"] == "tcp1_x"));
     run(&["validate", "--model", &s(&cal), "--tracker", &s(&held), "--report", &s(&val)]);
     let after = mean_of(&std::fs::read_to_string(&val).expect("validate report"));
@@ -183,4 +188,44 @@ fn any_instrument_errors_name_file_line_and_field() {
     let e = with_tracker(&["--params", "paper34"]);
     assert!(e.contains("canonical Meca500-on-guide cell") && e.contains("6 joints (RRRRRR)"), "{e}");
     assert!(!e.contains("three calibration positions"), "{e}");
+    // units-flag mismatches and a row far beyond a limit: one line naming file, line, column
+    // and the flag that is probably missing
+    let cases: [(&str, &str, &[&str], &str); 4] = [
+        (
+            "rad.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,0.1,-1.5,1.2,0.3,1.5,0.2,400,100,300\n\
+             1,0.2,-1.4,1.1,0.2,1.4,0.1,410,120,310\n1,0.3,-1.3,1.0,0.1,1.3,0.4,420,140,320\n",
+            &[],
+            "rad.csv:2: column `q2`: every revolute joint value of the file is within",
+        ),
+        (
+            "metres.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,0.4,0.1,0.3\n\
+             1,12,-80,90,-100,-90,30,0.41,0.12,0.3\n1,14,-80,90,-100,-90,30,0.42,0.14,-0.52\n",
+            &[],
+            "metres.csv:4: column `z`: every tracker coordinate of the file is within",
+        ),
+        (
+            "mm.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,400,100,300\n",
+            &["--length-unit", "m"],
+            "mm.csv:2: column `x`: 400 m is more than 100 m",
+        ),
+        (
+            "beyond.csv",
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,400,100,300\n1,10,-80,90,-100,-90,390,400,100,300\n",
+            &[],
+            "beyond.csv:3: column `q6`: 390 deg is outside the joint limits",
+        ),
+    ];
+    for (name, text, extra, expected) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).expect("write");
+        let p = s(&path);
+        let mut args = vec!["identify", "--model", &fixture_path, "--tracker", &p, "--out", &out];
+        args.extend_from_slice(extra);
+        let e = fail(&args);
+        assert!(e.contains(expected), "{name}: {e}");
+        assert_eq!(e.trim().lines().count(), 1, "{name}: {e}");
+    }
 }

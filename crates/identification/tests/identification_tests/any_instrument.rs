@@ -142,11 +142,9 @@ fn registration_initialisation_converges_for_random_rotations() {
     }
 }
 
-/// Two sockets 50 mm apart at unknown places, the measured ball centre unknown: with the known
-/// distance as a measurement, `default` predicts held-out postures at the sockets to noise level
-/// and keeps the distance; the base pose is absorbed by the points (not identified).
-#[test]
-fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
+/// The UR5e with two sockets 50 mm apart (unknown to the nominal model: placeholder
+/// coordinates) and its perturbed truth; the socket ids.
+fn two_socket_cell() -> (Model, Model, Vec<u32>) {
     let mut cell = ur5e_cell();
     cell.calibration_positions.truncate(2);
     let ids: Vec<u32> = cell.calibration_positions.iter().map(|p| p.id).collect();
@@ -162,16 +160,26 @@ fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
         (p.x_mm, p.y_mm, p.z_mm) = (100.0 * k as f64, 0.0, 0.0);
     }
     let nominal = Model::from_cell(&cell).expect("model");
-    let noise = ProbeNoise { sigma_mm: 0.01 };
-    let rows = |count: usize, seed: u64| -> Vec<Measurement> {
-        // start poses reach the socket with the TCP they drew; the synthetic step re-reaches
-        // with the measured point (TCP 1)
-        let starts: Vec<Measurement> =
-            probe_start_poses(&truth, count, seed).into_iter().map(|m| Measurement { tcp: 1, ..m }).collect();
-        synthetic_probe_measurements(&truth, &starts, noise, seed + 1)
-    };
-    let train = rows(300, 7);
-    let held_out = rows(200, 8);
+    (nominal, truth, ids)
+}
+
+/// Socket rows of `truth` (the measured point is TCP 1) with probe noise `sigma_mm`.
+fn socket_rows(truth: &Model, count: usize, seed: u64, sigma_mm: f64) -> Vec<Measurement> {
+    // start poses reach the socket with the TCP they drew; the synthetic step re-reaches with
+    // the measured point (TCP 1)
+    let starts: Vec<Measurement> =
+        probe_start_poses(truth, count, seed).into_iter().map(|m| Measurement { tcp: 1, ..m }).collect();
+    synthetic_probe_measurements(truth, &starts, ProbeNoise { sigma_mm }, seed + 1)
+}
+
+/// Two sockets 50 mm apart at unknown places, the measured ball centre unknown: with the known
+/// distance as a measurement, `default` predicts held-out postures at the sockets to noise level
+/// and keeps the distance; the base pose is absorbed by the points (not identified).
+#[test]
+fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
+    let (nominal, truth, ids) = two_socket_cell();
+    let train = socket_rows(&truth, 300, 7, 0.01);
+    let held_out = socket_rows(&truth, 200, 8, 0.01);
     assert!(train.len() > 250 && held_out.len() > 150, "{} / {}", train.len(), held_out.len());
     let design = DataDesign {
         free_positions: ids.clone(),
@@ -214,6 +222,53 @@ fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
         after_reg.mean
     );
     assert!(after_reg.mean < 0.03, "regularised held-out mean {} mm", after_reg.mean);
+}
+
+/// The known distance is weighed against the data's own σ̂, not the a-priori
+/// `measurement_sigma_mm`: on noisy socket data (0.2 mm, like the MUKCa rows) the fit is the same
+/// whatever a-priori σ is given, and the distance is held to its own σ; with the re-weighting
+/// off, the a-priori σ changes the fit (the test can tell).
+#[test]
+fn a_known_distance_is_weighed_by_the_fits_own_sigma() {
+    let (nominal, truth, ids) = two_socket_cell();
+    let train = socket_rows(&truth, 120, 17, 0.2);
+    let probe = socket_rows(&truth, 60, 18, 0.0);
+    let design = DataDesign {
+        free_positions: ids.clone(),
+        distances: vec![PointDistance { a: ids[0], b: ids[1], distance_mm: 50.0, sigma_mm: 0.01 }],
+    };
+    let fit_with = |sigma_mm: f64, from_fit: bool| {
+        let options = IdentifyOptions {
+            measurement_sigma_mm: sigma_mm,
+            distance_sigma_from_fit: from_fit,
+            max_condition_number: f64::INFINITY,
+            ..IdentifyOptions::default()
+        };
+        let cal = calibrate(&nominal, &train, "kinematic", &design, &options, &CvOptions::default())
+            .expect("calibration");
+        let m = cal.fit.model;
+        let d = (m.position(ids[0]).expect("p") - m.position(ids[1]).expect("p")).norm();
+        (m, d)
+    };
+    let largest_difference = |a: &Model, b: &Model| {
+        probe
+            .iter()
+            .map(|r| (a.tcp_position(&r.q, 1).expect("a") - b.tcp_position(&r.q, 1).expect("b")).norm())
+            .fold(0.0f64, f64::max)
+    };
+    let (small, d_small) = fit_with(0.003, true);
+    let (large, d_large) = fit_with(0.3, true);
+    let reweighted = largest_difference(&small, &large);
+    let (fixed_small, d_fixed_small) = fit_with(0.003, false);
+    let (fixed_large, d_fixed_large) = fit_with(0.3, false);
+    let fixed = largest_difference(&fixed_small, &fixed_large);
+    eprintln!(
+        "sigma from the fit: distances {d_small:.5} / {d_large:.5} mm, predictions differ by {reweighted:.2e} mm; \
+         a-priori sigma: distances {d_fixed_small:.5} / {d_fixed_large:.5} mm, predictions differ by {fixed:.2e} mm"
+    );
+    assert!((d_small - 50.0).abs() < 0.01 && (d_large - 50.0).abs() < 0.01, "{d_small} / {d_large}");
+    assert!(reweighted < 1e-3, "the a-priori sigma changed the fit by {reweighted} mm");
+    assert!(fixed > 10.0 * reweighted.max(1e-6), "without re-weighting the fits should differ: {fixed} mm");
 }
 
 /// Folds keep repeated readings of one posture together and depend only on the seed.
