@@ -112,6 +112,7 @@ catalog! {
     position_offset::PositionOffset,
     thermal_drift::ThermalDrift,
     hayati_beta::HayatiBeta,
+    joint_cyclic_half::JointCyclicHalf,
 }
 
 #[cfg(test)]
