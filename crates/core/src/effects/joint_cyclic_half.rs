@@ -8,9 +8,8 @@
 //! cable wrap whose ratio to the joint is not an integer, or any smooth error on a joint that
 //! turns through more than one revolution (±360° on many arms) — is not periodic over one
 //! turn; the Fourier series over **two** turns is: its terms are the integer harmonics plus
-//! the odd half-integer ones this effect adds. On a joint whose range is under a turn these
-//! terms are the half-range expansion of a smooth error over the range, which the integer
-//! harmonics alone represent only with many terms.
+//! the odd half-integer ones this effect adds. Discovery proposes it only on joints whose
+//! range spans more than one turn ([`multi_turn`]); a cell file may switch it on anywhere.
 
 use super::{
     CandidateScope, ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect,
@@ -50,6 +49,19 @@ fn of(spec: &EffectSpec) -> (u8, u8) {
 /// The sine (`slot` 0) or cosine (`slot` 1) parameter of the instance on `joint`, multiple `m`.
 pub fn param(joint: u8, m: u8, slot: u8) -> EffectParam {
     EffectParam::Extension { kind: KIND, joint, index: m, slot }
+}
+
+/// Whether joint `joint`'s range spans more than one turn. Only there does discovery propose
+/// the two-turn terms: on a joint whose range is at most one turn, an error that is smooth over
+/// the range extends to a smooth once-per-turn periodic function through the arc the joint never
+/// visits, so the one-turn harmonics (`joint-cyclic`) already describe it; beyond one turn the
+/// joint reaches the same angle modulo 2π at different positions of a gear stage or cable
+/// wrap, and the one-turn series is incomplete.
+pub fn multi_turn(chain: &ChainInfo<'_>, joint: u8) -> bool {
+    chain
+        .ranges
+        .get(joint as usize - 1)
+        .is_some_and(|(lo, hi)| hi - lo > std::f64::consts::TAU * (1.0 + 1e-6))
 }
 
 impl ErrorEffect for JointCyclicHalf {
@@ -134,8 +146,11 @@ impl ErrorEffect for JointCyclicHalf {
     fn scope(&self) -> CandidateScope {
         CandidateScope::PerRevoluteJoint
     }
-    fn candidates(&self, _chain: &ChainInfo<'_>, _data: &DataUse, joint: Option<u8>) -> Vec<EffectSpec> {
+    fn candidates(&self, chain: &ChainInfo<'_>, _data: &DataUse, joint: Option<u8>) -> Vec<EffectSpec> {
         let Some(joint) = joint else { return Vec::new() };
+        if !multi_turn(chain, joint) {
+            return Vec::new();
+        }
         PROPOSED_M.iter().map(|m| spec(joint, *m)).collect()
     }
     fn follow_ups(&self, enabled: &EffectSpec) -> Vec<EffectSpec> {

@@ -180,6 +180,29 @@ fn two_and_a_half_per_turn_sinusoid_is_named_by_the_two_turn_terms() {
     assert!(ratio <= FLOOR_FACTOR, "held-out {ratio:.2}× the floor");
 }
 
+/// The two-turn terms are candidates on the UR5e (±360° joints) and not on the Meca500 of the
+/// canonical cell (every joint within one turn), whose one-turn harmonics already describe any
+/// smooth error over its ranges.
+#[test]
+fn two_turn_terms_are_proposed_on_multi_turn_joints_only() {
+    use vatcal_core::effects::EffectKind;
+    use vatcal_core::effects::joint_cyclic_half::ID;
+    let half = |robot: Robot| {
+        let model = robot.nominal();
+        let ms: Vec<vatcal_core::Measurement> = model
+            .tcp_ids()
+            .iter()
+            .map(|t| vatcal_core::Measurement::tracker(*t, vatcal_core::JointVector::default(), Default::default()))
+            .collect();
+        vatcal_discovery::workflow::candidates(&model, &ms)
+            .into_iter()
+            .filter(|s| s.kind() == EffectKind::Extension(ID))
+            .count()
+    };
+    assert_eq!(half(Robot::Canonical), 0);
+    assert_eq!(half(Robot::Ur5e), 6 * vatcal_core::effects::joint_cyclic_half::PROPOSED_M.len());
+}
+
 /// The whole benchmark (100 cases, seed 21); prints the tables of `docs/discovery-benchmark.md`.
 /// It asserts nothing about the targets: it measures them.
 #[test]
