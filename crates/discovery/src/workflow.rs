@@ -134,8 +134,9 @@ pub struct DiscoverOptions {
     /// that pass the held-out test (a model that far from the noise is missing something
     /// that matters); `f64::INFINITY` switches this off
     pub floor_gap_factor: f64,
-    /// refuse an addition that makes the validation rows' error larger (when validation rows
-    /// are given): an effect is real only if it shrinks the gap on data the fit never saw
+    /// refuse an addition that makes the validation rows' error significantly larger (paired
+    /// z below `-`[`VETO_Z`], when validation rows are given): an effect is real only if it
+    /// shrinks the gap on data the fit never saw
     pub validation_veto: bool,
 }
 
@@ -164,7 +165,7 @@ impl Default for DiscoverOptions {
             strong_z_factor: 1.5,
             saturated_noise: true,
             bound_overrides: BTreeMap::new(),
-            floor_gap_factor: 1.3,
+            floor_gap_factor: 1.5,
             validation_veto: true,
         }
     }
@@ -273,6 +274,9 @@ pub struct RefitEvidence {
     /// without a noise reference (σ̂ in the size rule): the held-out z from which the size
     /// rule is waived (`strong_z_factor · z_r`); `None` when the noise is known
     pub size_rule_waived_above_z: Option<f64>,
+    /// the round's held-out gap was far above its floor ([`Round::far_from_floor`]): the size
+    /// rule is waived for a candidate that passes the held-out test
+    pub size_rule_waived_far_from_floor: bool,
     /// identified values in file units (angles in degrees), keyed by parameter name with unit
     pub values: BTreeMap<String, f64>,
     /// their standard deviations in the same units
@@ -773,8 +777,9 @@ fn gap_over_floor(
 }
 
 /// Refuses (status `Rejected`) every passing candidate whose refit predicts the validation
-/// rows worse than the current model (mean squared error larger): an addition that does not
-/// shrink the gap on data the fit never saw is not kept.
+/// rows significantly worse than the current model (paired z of the squared errors below
+/// `-`[`VETO_Z`]): an addition that makes the gap on data the fit never saw larger is not
+/// kept.
 fn veto_on_validation(
     candidates: &mut [Candidate],
     current: &Fit,
@@ -788,7 +793,7 @@ fn veto_on_validation(
         let Some((_, f, _)) = c.refit.as_ref() else { continue };
         let after: Vec<Option<Vector3<f64>>> = residuals(&f.model, v)?.into_iter().map(Some).collect();
         let h = HeldOutComparison::new(&before, &after);
-        if h.mean_reduction_mm2 < 0.0 {
+        if h.z < -VETO_Z {
             c.status = CandidateStatus::Rejected(format!(
                 "{VALIDATION_WORSE} (RMS {:.4} -> {:.4} mm over {} rows, z = {:.2})",
                 h.rms_before_mm, h.rms_after_mm, h.points, h.z
@@ -798,20 +803,24 @@ fn veto_on_validation(
     Ok(())
 }
 
-/// Whether `fit1` predicts the validation rows worse than `current` (false without validation
-/// rows or with the veto off).
+/// Whether `fit1` predicts the validation rows significantly worse than `current` (paired z
+/// below `-`[`VETO_Z`]; false without validation rows or with the veto off).
 fn validation_worse(current: &Fit, fit1: &Fit, ctx: &Context<'_>) -> bool {
     let Some(v) = ctx.validation.filter(|v| !v.is_empty() && ctx.options.validation_veto) else {
         return false;
     };
     match (residuals(&current.model, v), residuals(&fit1.model, v)) {
         (Ok(b), Ok(a)) => {
-            let mse = |r: &[Vector3<f64>]| r.iter().map(|e| e.norm_squared()).sum::<f64>();
-            mse(&a) > mse(&b)
+            let wrap = |r: Vec<Vector3<f64>>| r.into_iter().map(Some).collect::<Vec<_>>();
+            HeldOutComparison::new(&wrap(b), &wrap(a)).z < -VETO_Z
         }
         _ => false,
     }
 }
+
+/// Paired z below `-VETO_Z` on the validation rows refuses an addition: the rows must be
+/// significantly worse with it, not merely worse by chance.
+pub const VETO_Z: f64 = 2.0;
 
 /// Start of the rejection reason of a candidate refused by [`veto_on_validation`].
 const VALIDATION_WORSE: &str = "the validation rows' error grows with it";
@@ -1139,11 +1148,8 @@ fn refit_effects(
         negligible_below_mm: opts.negligible_factor
             * 3f64.sqrt()
             * ctx.noise_sigma(&fit1, ctx.measurements, rank0 + added.len()),
-        size_rule_waived_above_z: if th.far_from_floor {
-            Some(th.z_required)
-        } else {
-            ctx.strong_z(th.z_required)
-        },
+        size_rule_waived_above_z: ctx.strong_z(th.z_required),
+        size_rule_waived_far_from_floor: th.far_from_floor,
         values,
         std_errors,
         confounding,
@@ -1316,7 +1322,7 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
             h.rms_before_mm, h.rms_after_mm, h.mean_reduction_mm2, h.std_error_mm2, h.z, e.z_required
         ));
     }
-    let waived = e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
+    let waived = e.size_rule_waived_far_from_floor || e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
     if h.change_rms_mm < e.negligible_below_mm && !waived {
         return CandidateStatus::DetectedNegligible(format!(
             "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um){}",
