@@ -192,7 +192,9 @@ fn two_turn_terms_are_proposed_on_multi_turn_joints_only() {
         let ms: Vec<vatcal_core::Measurement> = model
             .tcp_ids()
             .iter()
-            .map(|t| vatcal_core::Measurement::tracker(*t, vatcal_core::JointVector::default(), Default::default()))
+            .map(|t| {
+                vatcal_core::Measurement::tracker(*t, vatcal_core::JointVector::default(), Default::default())
+            })
             .collect();
         vatcal_discovery::workflow::candidates(&model, &ms)
             .into_iter()
