@@ -13,7 +13,7 @@
 
 use super::{
     CandidateScope, ChainInfo, DataUse, EffectDriver, EffectInputs, EffectKind, EffectSpec, ErrorEffect,
-    Hook, entry_joint,
+    Hook, entry_joint, revolute_joint,
 };
 use crate::cell::EffectEntry;
 use crate::params::{EffectParam, ParamId, ParamUnit};
@@ -134,14 +134,8 @@ impl ErrorEffect for JointCyclicHalf {
     }
     fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
         let (joint, m) = of(spec);
-        if chain.is_revolute(joint) && m % 2 == 1 {
-            Ok(())
-        } else {
-            Err(format!(
-                "joint must be a revolute joint of this chain of {}, and harmonic odd (periods per two turns)",
-                chain.describe()
-            ))
-        }
+        revolute_joint(joint, chain)?;
+        if m % 2 == 1 { Ok(()) } else { Err(format!("harmonic must be odd (periods per two turns), got {m}")) }
     }
     fn scope(&self) -> CandidateScope {
         CandidateScope::PerRevoluteJoint
