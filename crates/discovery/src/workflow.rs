@@ -128,6 +128,16 @@ pub struct DiscoverOptions {
     /// angles, mm for lengths, the parameter's own unit otherwise); they replace the bounds
     /// scaled to the chain ([`vatcal_core::canonical::bounds`])
     pub bound_overrides: BTreeMap<String, f64>,
+    /// discovery keeps going while the held-out gap is more than this many times its floor
+    /// estimate ([`Round::gap_over_floor`]): such a round confirms its best-scored candidates
+    /// even when none passes the screening threshold and waives the size rule for the ones
+    /// that pass the held-out test (a model that far from the noise is missing something
+    /// that matters); `f64::INFINITY` switches this off
+    pub floor_gap_factor: f64,
+    /// refuse an addition that makes the validation rows' error significantly larger (paired
+    /// z below `-`[`VETO_Z`], when validation rows are given): an effect is real only if it
+    /// shrinks the gap on data the fit never saw
+    pub validation_veto: bool,
 }
 
 impl Default for DiscoverOptions {
@@ -155,6 +165,8 @@ impl Default for DiscoverOptions {
             strong_z_factor: 1.5,
             saturated_noise: true,
             bound_overrides: BTreeMap::new(),
+            floor_gap_factor: 1.5,
+            validation_veto: true,
         }
     }
 }
@@ -262,6 +274,9 @@ pub struct RefitEvidence {
     /// without a noise reference (σ̂ in the size rule): the held-out z from which the size
     /// rule is waived (`strong_z_factor · z_r`); `None` when the noise is known
     pub size_rule_waived_above_z: Option<f64>,
+    /// the round's held-out gap was far above its floor ([`Round::far_from_floor`]): the size
+    /// rule is waived for a candidate that passes the held-out test
+    pub size_rule_waived_far_from_floor: bool,
     /// identified values in file units (angles in degrees), keyed by parameter name with unit
     pub values: BTreeMap<String, f64>,
     /// their standard deviations in the same units
@@ -270,6 +285,9 @@ pub struct RefitEvidence {
     pub confounding: Vec<Confounding>,
     /// `None` if plausible, else why not
     pub implausible: Option<String>,
+    /// when the candidate's parameters and some already in the model were indistinguishable
+    /// on the data (the plain refit was ill-conditioned): how that was resolved
+    pub rival: Option<Ambiguity>,
 }
 
 /// Every candidate's scores in one round.
@@ -382,6 +400,15 @@ pub struct Round {
     pub sigma_saturated_mm: Option<f64>,
     /// z the held-out improvement of a candidate had to exceed
     pub z_required: f64,
+    /// held-out gap of the current model (all-data cross-validation, rows weighted by kind)
+    /// over its floor estimate `√(3σ²(1 + p/N))`, σ the noise reference (replicates or
+    /// instruments) or, without one, the saturated σ̂; `None` when no σ is known. Above
+    /// [`DiscoverOptions::floor_gap_factor`] the round keeps going ([`Round::far_from_floor`])
+    pub gap_over_floor: Option<f64>,
+    /// whether the gap was well above its floor: the round then confirms the best-scored
+    /// candidates even when none passes the screening threshold, and waives the size rule for
+    /// those that pass the held-out test
+    pub far_from_floor: bool,
     /// every candidate, best screening score first
     pub candidates: Vec<CandidateScore>,
     /// effects removed by the backward check after this round's addition
@@ -715,6 +742,89 @@ impl Context<'_> {
     }
 }
 
+/// The held-out gap of the current model (`held`: its all-data cross-validation) over the
+/// floor estimate `√(3σ₁²(1 + p/N))`: σ₁ the per-axis noise of a weight-1 row — the noise
+/// reference (replicates or instruments) or, without one, the round's saturated σ̂ — `p`
+/// the fitted rank and `N` the scalar residuals (the cross-validated prediction of a correct
+/// model misses by the noise plus its own estimation error). Rows are weighted by kind as in
+/// the fits. `None` when no σ is known.
+fn gap_over_floor(
+    held: &CrossValidation,
+    sigma_saturated: Option<f64>,
+    rank: usize,
+    ctx: &Context<'_>,
+) -> Option<f64> {
+    let ms = ctx.measurements;
+    let known = ctx.reference.and_then(|k| {
+        let has_probe = ms.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
+        if has_probe { k.probe_mm } else { k.tracker_mm }
+    });
+    let sigma = known.or(sigma_saturated).filter(|s| s.is_finite() && *s > 0.0)?;
+    let w = &ctx.options.identify.weights;
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (m, e) in ms.iter().zip(&held.errors) {
+        if let Some(e) = e {
+            sum += kind_weight(m, w) * e.norm_squared();
+            count += 1;
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    let n = 3.0 * ms.len() as f64;
+    let floor2 = 3.0 * sigma * sigma * (1.0 + rank as f64 / n);
+    Some((sum / count as f64 / floor2).sqrt())
+}
+
+/// Refuses (status `Rejected`) every passing candidate whose refit predicts the validation
+/// rows significantly worse than the current model (paired z of the squared errors below
+/// `-`[`VETO_Z`]): an addition that makes the gap on data the fit never saw larger is not
+/// kept.
+fn veto_on_validation(
+    candidates: &mut [Candidate],
+    current: &Fit,
+    ctx: &Context<'_>,
+) -> Result<(), DiscoveryError> {
+    let Some(v) = ctx.validation.filter(|v| !v.is_empty() && ctx.options.validation_veto) else {
+        return Ok(());
+    };
+    let before: Vec<Option<Vector3<f64>>> = residuals(&current.model, v)?.into_iter().map(Some).collect();
+    for c in candidates.iter_mut().filter(|c| c.status == CandidateStatus::PassedNotBest) {
+        let Some((_, f, _)) = c.refit.as_ref() else { continue };
+        let after: Vec<Option<Vector3<f64>>> = residuals(&f.model, v)?.into_iter().map(Some).collect();
+        let h = HeldOutComparison::new(&before, &after);
+        if h.z < -VETO_Z {
+            c.status = CandidateStatus::Rejected(format!(
+                "{VALIDATION_WORSE} (RMS {:.4} -> {:.4} mm over {} rows, z = {:.2})",
+                h.rms_before_mm, h.rms_after_mm, h.points, h.z
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `fit1` predicts the validation rows significantly worse than `current` (paired z
+/// below `-`[`VETO_Z`]; false without validation rows or with the veto off).
+fn validation_worse(current: &Fit, fit1: &Fit, ctx: &Context<'_>) -> bool {
+    let Some(v) = ctx.validation.filter(|v| !v.is_empty() && ctx.options.validation_veto) else {
+        return false;
+    };
+    match (residuals(&current.model, v), residuals(&fit1.model, v)) {
+        (Ok(b), Ok(a)) => {
+            let wrap = |r: Vec<Vector3<f64>>| r.into_iter().map(Some).collect::<Vec<_>>();
+            HeldOutComparison::new(&wrap(b), &wrap(a)).z < -VETO_Z
+        }
+        _ => false,
+    }
+}
+
+/// Paired z below `-VETO_Z` on the validation rows refuses an addition: the rows must be
+/// significantly worse with it, not merely worse by chance.
+pub const VETO_Z: f64 = 2.0;
+
+/// Start of the rejection reason of a candidate refused by [`veto_on_validation`].
+const VALIDATION_WORSE: &str = "the validation rows' error grows with it";
+
 /// Share of the false-alarm probability spent in round `r` (1-based): `6/(π² r²)`, which sums
 /// to 1 over all rounds, so spending `alpha · spend(r)` per round keeps the family-wise level
 /// over every round below `alpha` while later rounds (needed when a cell has many missing
@@ -919,6 +1029,8 @@ fn score_candidates(
 struct Thresholds {
     ln_screen: f64,
     z_required: f64,
+    /// the held-out gap is well above its floor estimate ([`Round::far_from_floor`])
+    far_from_floor: bool,
 }
 
 /// Refits with one candidate on all data, confirms it on the held-out confirmation data and
@@ -978,10 +1090,18 @@ fn refit_effects(
     }
     let mut params1 = current.params.clone();
     params1.0.extend(added.iter().copied());
-    let fit1 =
-        fit(&start, ctx.measurements, &params1, &opts.identify).map_err(|e| format!("refit failed: {e}"))?;
-    let comparison =
-        NestedComparison::new(current.n(), rank0, current.rss_mm2, rank0 + added.len(), fit1.rss_mm2);
+    let (fit1, params1, added, rival) = fit_resolving_rivals(&start, current, params1, added, &label, ctx)?;
+    if added.is_empty() {
+        return Err("no identifiable parameter".into());
+    }
+    let dropped = current.params.len() + added.len() - params1.len();
+    let comparison = NestedComparison::new(
+        current.n(),
+        rank0,
+        current.rss_mm2,
+        (rank0 + added.len()).saturating_sub(dropped),
+        fit1.rss_mm2,
+    );
     let held1 = ctx.cross_validate(&start, &params1, &ctx.confirm_folds);
     for s in &held1.skipped {
         notes.push(format!("confirmation of {label}: skipped {s}"));
@@ -1006,13 +1126,13 @@ fn refit_effects(
         }
     }
     let mut confounding = Vec::new();
-    let existing = current.params.len();
+    let existing = params1.len() - added.len();
     for (a, p) in added.iter().enumerate() {
         for e in 0..existing {
             if let Some(c) = fit1.correlation(existing + a, e) {
                 confounding.push(Confounding {
                     added: p.name(),
-                    existing: current.params.0[e].name(),
+                    existing: params1.0[e].name(),
                     correlation: c,
                 });
             }
@@ -1029,12 +1149,156 @@ fn refit_effects(
             * 3f64.sqrt()
             * ctx.noise_sigma(&fit1, ctx.measurements, rank0 + added.len()),
         size_rule_waived_above_z: ctx.strong_z(th.z_required),
+        size_rule_waived_far_from_floor: th.far_from_floor,
         values,
         std_errors,
         confounding,
         implausible,
+        rival,
     };
     Ok((evidence, fit1, held1))
+}
+
+/// |Correlation| at which an added parameter and one already in the model count as the same
+/// direction on the data: near-equivalent rivals ([`fit_resolving_rivals`]).
+pub const RIVAL_CORRELATION: f64 = 0.99;
+
+/// Fits `params1` (the current parameters followed by the `added` ones). When the fit is
+/// refused as ill-conditioned because added parameters and parameters already in the model
+/// are near-equivalent on the data (|correlation| ≥ [`RIVAL_CORRELATION`]; e.g. `c_2` and
+/// `carriage_tilt_y`), the data cannot tell them apart, so instead of failing it fits both
+/// resolutions — **keep** the model's parameters and add only the rest of the candidate's,
+/// or **swap**: the candidate's parameters replace the model's rivals — and keeps the swap
+/// only when it predicts the validation rows significantly better (paired z > 2), else the
+/// simpler resolution (the model as it was, plus the candidate's other directions). The
+/// choice is returned as an [`Ambiguity`] (round 0: set by the caller) naming both.
+fn fit_resolving_rivals(
+    start: &Model,
+    current: &Fit,
+    params1: ParamSet,
+    added: Vec<ParamId>,
+    label: &str,
+    ctx: &Context<'_>,
+) -> Result<(Fit, ParamSet, Vec<ParamId>, Option<Ambiguity>), String> {
+    let opts = &ctx.options;
+    let refused = match fit(start, ctx.measurements, &params1, &opts.identify) {
+        Ok(f) => return Ok((f, params1, added, None)),
+        Err(DiscoveryError::Fit(e)) => match *e {
+            vatcal_identification::IdentifyError::IllConditioned(id) => id,
+            other => return Err(format!("refit failed: {other}")),
+        },
+        Err(e) => return Err(format!("refit failed: {e}")),
+    };
+    let n_old = current.params.len();
+    let corr = &refused.correlation;
+    let mut pairs: Vec<(ParamId, ParamId, f64)> = Vec::new();
+    for (a, pa) in added.iter().enumerate() {
+        for e in 0..n_old {
+            let (i, k) = (n_old + a, e);
+            if i < corr.nrows() && k < corr.ncols() {
+                let c = corr[(i, k)];
+                if c.is_finite() && c.abs() >= RIVAL_CORRELATION {
+                    pairs.push((*pa, current.params.0[e], c));
+                }
+            }
+        }
+    }
+    if pairs.is_empty() {
+        return Err(format!(
+            "refit failed: {}",
+            vatcal_identification::IdentifyError::IllConditioned(refused)
+        ));
+    }
+    let new_rivals: Vec<ParamId> =
+        added.iter().copied().filter(|p| pairs.iter().any(|(a, _, _)| a == p)).collect();
+    let old_rivals: Vec<ParamId> =
+        current.params.iter().copied().filter(|p| pairs.iter().any(|(_, e, _)| e == p)).collect();
+    // keep: the model's parameters, the candidate's other ones
+    let keep_added: Vec<ParamId> = added.iter().copied().filter(|p| !new_rivals.contains(p)).collect();
+    let keep_params = ParamSet(current.params.iter().copied().chain(keep_added.iter().copied()).collect());
+    let keep = if keep_added.is_empty() {
+        None
+    } else {
+        fit(start, ctx.measurements, &keep_params, &opts.identify).ok()
+    };
+    // swap: the candidate's parameters in place of the model's rivals
+    let swap_params = ParamSet(
+        current
+            .params
+            .iter()
+            .copied()
+            .filter(|p| !old_rivals.contains(p))
+            .chain(added.iter().copied())
+            .collect(),
+    );
+    let swap = fit(start, ctx.measurements, &swap_params, &opts.identify).ok();
+    let names = |v: &[ParamId]| v.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ");
+    let shown: Vec<String> =
+        pairs.iter().map(|(a, e, c)| format!("{}/{} ({c:+.4})", a.name(), e.name())).collect();
+    let validation = ctx.validation.filter(|v| !v.is_empty());
+    let val_errors = |f: &Fit| -> Option<Vec<Option<Vector3<f64>>>> {
+        validation.and_then(|v| residuals(&f.model, v).ok()).map(|r| r.into_iter().map(Some).collect())
+    };
+    let swap_z = match (&keep, &swap, validation) {
+        (Some(k), Some(s), Some(_)) => match (val_errors(k), val_errors(s)) {
+            (Some(vk), Some(vs)) => Some(HeldOutComparison::new(&vk, &vs).z),
+            _ => None,
+        },
+        (None, Some(s), Some(_)) => match (val_errors(current), val_errors(s)) {
+            (Some(vc), Some(vs)) => Some(HeldOutComparison::new(&vc, &vs).z),
+            _ => None,
+        },
+        _ => None,
+    };
+    let use_swap = swap.is_some() && (keep.is_none() || swap_z.is_some_and(|z| z > 2.0));
+    let (chosen_fit, chosen_params, chosen_added, basis, chosen_name, rival_name) = if use_swap {
+        let Some(f) = swap else {
+            return Err("refit failed: no resolution of the rivals could be fitted".into());
+        };
+        let basis = if swap_z.is_some_and(|z| z > 2.0) { "validation" } else { "only-fit" };
+        (f, swap_params, added.clone(), basis, format!("{label} ({})", names(&added)), names(&old_rivals))
+    } else {
+        let Some(f) = keep else {
+            return Err(format!(
+                "refit failed: {label} and the model's {} are indistinguishable on these data ({}) and neither resolution could be fitted",
+                names(&old_rivals),
+                shown.join(", ")
+            ));
+        };
+        (
+            f,
+            keep_params,
+            keep_added,
+            "simpler",
+            names(&old_rivals),
+            format!("{label} ({})", names(&new_rivals)),
+        )
+    };
+    let why = match basis {
+        "validation" => format!(
+            "{chosen_name} predicts the validation rows better (paired z = {:.2})",
+            swap_z.unwrap_or(f64::NAN)
+        ),
+        "only-fit" => format!("{chosen_name} kept: the other resolution could not be fitted"),
+        _ => format!(
+            "kept {chosen_name}, already in the model{}",
+            swap_z.map_or(" (no validation rows to tell them apart)".to_string(), |z| format!(
+                " (the swap is not significantly better on the validation rows: z = {z:.2})"
+            ))
+        ),
+    };
+    let ambiguity = Ambiguity {
+        round: 0,
+        chosen: chosen_name.clone(),
+        rivals: vec![rival_name.clone()],
+        basis: basis.to_string(),
+        validation_z: vec![swap_z],
+        sentence: format!(
+            "{chosen_name} or {rival_name}: indistinguishable on these data (correlation {}); {why}",
+            shown.join(", ")
+        ),
+    };
+    Ok((chosen_fit, chosen_params, chosen_added, Some(ambiguity)))
 }
 
 /// Start of the rejection reason of a candidate refused at a plausibility bound.
@@ -1058,7 +1322,7 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
             h.rms_before_mm, h.rms_after_mm, h.mean_reduction_mm2, h.std_error_mm2, h.z, e.z_required
         ));
     }
-    let waived = e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
+    let waived = e.size_rule_waived_far_from_floor || e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
     if h.change_rms_mm < e.negligible_below_mm && !waived {
         return CandidateStatus::DetectedNegligible(format!(
             "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um){}",
@@ -1132,7 +1396,9 @@ fn confirm_screened(
     let mut chosen = Vec::new();
     for (i, c) in candidates.iter_mut().enumerate() {
         let Some(score) = c.score else { continue };
-        if score.ln_p_value.is_nan() || score.ln_p_value >= th.ln_screen {
+        // far from the floor: the best-scored candidates are confirmed whatever their screening
+        // score (the held-out test still decides)
+        if score.ln_p_value.is_nan() || (score.ln_p_value >= th.ln_screen && !th.far_from_floor) {
             continue;
         }
         if chosen.len() >= ctx.options.max_refits {
@@ -1477,9 +1743,13 @@ fn block_step(
     }
     let effects: Vec<(EffectSpec, Vec<ParamId>)> =
         members.iter().map(|i| (candidates[*i].spec, candidates[*i].new_params.clone())).collect();
-    let th = Thresholds { ln_screen: f64::NAN, z_required: z_block };
+    let th = Thresholds { ln_screen: f64::NAN, z_required: z_block, far_from_floor: false };
     match refit_effects(current, j0, rank0, held0, &effects, &th, ctx, notes) {
         Ok((evidence, fit1, held1)) => match decide(&evidence, &fit1) {
+            CandidateStatus::PassedNotBest if validation_worse(current, &fit1, ctx) => {
+                notes.push(format!("block not added: {VALIDATION_WORSE}"));
+                None
+            }
             CandidateStatus::PassedNotBest => Some((members, evidence, fit1, held1)),
             other => {
                 let label = effects.iter().map(|(s, _)| s.label()).collect::<Vec<_>>().join(" + ");
@@ -1792,6 +2062,8 @@ pub fn discover(
                     ln_threshold: f64::NAN,
                     sigma_saturated_mm: None,
                     z_required: f64::NAN,
+                    gap_over_floor: None,
+                    far_from_floor: false,
                     candidates: Vec::new(),
                     removed: Vec::new(),
                     decision: format!(
@@ -1815,15 +2087,19 @@ pub fn discover(
         };
         ctx.saturated_bits
             .store(sigma_saturated.unwrap_or(f64::NAN).to_bits(), std::sync::atomic::Ordering::Relaxed);
+        let gap_over_floor = gap_over_floor(&held_all, sigma_saturated, rank0, &ctx);
         let th = Thresholds {
             ln_screen: (options.alpha * spend / m as f64).ln(),
             z_required: normal_upper_quantile(
                 options.confirm_alpha * spend / options.max_refits.max(1) as f64,
             ),
+            far_from_floor: gap_over_floor.is_some_and(|r| r > options.floor_gap_factor),
         };
         let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
         candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
-        let any_screened = candidates.iter().any(|c| c.score.is_some_and(|s| s.ln_p_value < th.ln_screen));
+        let any_screened = candidates
+            .iter()
+            .any(|c| c.score.is_some_and(|s| th.far_from_floor || s.ln_p_value < th.ln_screen));
         let cached = confirm_cv.take();
         let held0 = if !any_screened {
             CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
@@ -1864,6 +2140,7 @@ pub fn discover(
                 });
             }
         }
+        veto_on_validation(&mut candidates, &current, &ctx)?;
         let mut block: Option<Vec<usize>> = None;
         let mut ambiguity_line: Option<String> = None;
         let mut extra_added: Vec<AddedEffect> = Vec::new();
@@ -1904,6 +2181,14 @@ pub fn discover(
                 let (b, rivalry) = choose_among_rivals(&mut candidates, best, &held0, index, &ctx)?;
                 if let Some(a) = rivalry {
                     ambiguity_line = Some(a.sentence.clone());
+                    ambiguities.push(a);
+                }
+                if let Some(mut a) = candidates[b].refit.as_ref().and_then(|r| r.0.rival.clone()) {
+                    a.round = index;
+                    ambiguity_line = Some(match ambiguity_line.take() {
+                        Some(l) => format!("{l}; {}", a.sentence),
+                        None => a.sentence.clone(),
+                    });
                     ambiguities.push(a);
                 }
                 candidates[b].status = CandidateStatus::Added;
@@ -1976,6 +2261,8 @@ pub fn discover(
             ln_threshold: th.ln_screen,
             sigma_saturated_mm: sigma_saturated,
             z_required: th.z_required,
+            gap_over_floor,
+            far_from_floor: th.far_from_floor,
             candidates: candidates.into_iter().map(candidate_score).collect(),
             removed: removed.clone(),
             decision,

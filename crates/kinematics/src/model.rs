@@ -581,6 +581,7 @@ impl Model {
             tcps,
             positions,
             canonical: self.is_meca500_on_guide(),
+            ranges: self.joint_limits(),
         }
     }
 

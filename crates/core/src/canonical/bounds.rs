@@ -11,7 +11,8 @@
 //!
 //! * **compliance** `c_j`: the deflection at the joint's largest gravity torque on the data,
 //!   `c_j · max|τ_j| ≤` [`COMPLIANCE_DEFLECTION_RAD`] (1°);
-//! * **joint angle errors** (gear harmonics, backlash): the TCP displacement at the joint's
+//! * **joint angle errors** (gear harmonics, the two-turn `joint-cyclic-half` terms,
+//!   backlash): the TCP displacement at the joint's
 //!   largest lever arm on the data, `|a| · max‖∂p/∂θ_j‖ ≤` [`JOINT_ERROR_DISPLACEMENT_MM`]
 //!   (3 mm);
 //!
@@ -21,6 +22,7 @@
 //! bound (`vatcal discover --bound NAME=VALUE`, or the cell file's `[plausibility_bounds]`
 //! table).
 
+use crate::effects::{EffectKind, joint_cyclic_half};
 use crate::params::{EffectParam, ParamId};
 use crate::units::MAX_JOINTS;
 
@@ -72,7 +74,8 @@ pub fn scaled_bound(id: &ParamId, canonical: Option<(f64, &str)>, scale: &ChainS
         ParamId::Effect(
             EffectParam::CyclicSin { joint: j, .. }
             | EffectParam::CyclicCos { joint: j, .. }
-            | EffectParam::Backlash { joint: j },
+            | EffectParam::Backlash { joint: j }
+            | EffectParam::Extension { kind: EffectKind::Extension(joint_cyclic_half::ID), joint: j, .. },
         ) => joint(*j).and_then(|k| {
             let lever = scale.max_lever_mm[k];
             (lever > 0.0).then(|| {
@@ -133,5 +136,20 @@ mod tests {
         .expect("bound");
         assert_eq!(b3.value, half);
         assert!(scaled_bound(&ParamId::Compliance(7), None, &scale).is_none());
+        // the two-turn cyclic terms scale like the gear harmonics
+        let h7 = scaled_bound(
+            &ParamId::Effect(joint_cyclic_half::param(7, 3, 0)),
+            Some((half, "0.5 deg")),
+            &scale,
+        )
+        .expect("bound");
+        assert_eq!(h7.value, b7.value);
+        let h3 = scaled_bound(
+            &ParamId::Effect(joint_cyclic_half::param(3, 3, 1)),
+            Some((half, "0.5 deg")),
+            &scale,
+        )
+        .expect("bound");
+        assert_eq!(h3.value, half);
     }
 }

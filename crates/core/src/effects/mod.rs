@@ -112,6 +112,7 @@ catalog! {
     position_offset::PositionOffset,
     thermal_drift::ThermalDrift,
     hayati_beta::HayatiBeta,
+    joint_cyclic_half::JointCyclicHalf,
 }
 
 #[cfg(test)]
@@ -398,6 +399,9 @@ pub struct ChainInfo<'a> {
     pub positions: &'a [u32],
     /// the canonical 7-joint Meca500-on-guide chain (prismatic guide + 6 revolute joints)
     pub canonical: bool,
+    /// the joints' ranges (lower, upper) in internal units (rad, mm), 1..=N; empty when
+    /// unknown (a continuous joint's range is one turn)
+    pub ranges: &'a [(f64, f64)],
 }
 
 impl ChainInfo<'_> {
@@ -816,7 +820,14 @@ mod tests {
         assert!(plausibility(&spec, &[(params[0], 2e-4)]).is_ok());
         // the chain check and the candidates
         let kinds = [P, R, R, R, R, R, R];
-        let chain = ChainInfo { kinds: &kinds, guide: Some(1), tcps: &[1], positions: &[1], canonical: true };
+        let chain = ChainInfo {
+            kinds: &kinds,
+            guide: Some(1),
+            tcps: &[1],
+            positions: &[1],
+            canonical: true,
+            ranges: &[],
+        };
         let effect = spec.effect().expect("registered");
         assert!(effect.check(&spec, &chain).is_ok());
         let on_guide = EffectSpec::Extension { kind, joint: 1, index: 0 };
@@ -890,8 +901,14 @@ mod tests {
     fn every_candidate_parameter_has_an_owner_and_a_round_tripping_name() {
         use JointKind::{Prismatic as P, Revolute as R};
         let kinds = [P, R, R, R, R, R, R];
-        let chain =
-            ChainInfo { kinds: &kinds, guide: Some(1), tcps: &[1, 2], positions: &[1], canonical: true };
+        let chain = ChainInfo {
+            kinds: &kinds,
+            guide: Some(1),
+            tcps: &[1, 2],
+            positions: &[1],
+            canonical: true,
+            ranges: &[],
+        };
         let data = DataUse { tcps: vec![1, 2], positions: vec![1] };
         let mut specs = candidates(&chain, &data);
         specs.push(EffectSpec::GuideAngular { order: 4 });

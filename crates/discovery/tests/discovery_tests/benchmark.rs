@@ -138,6 +138,73 @@ fn fast_subset() {
     }
 }
 
+/// A carriage tilt hidden on the canonical cell, mixed data: on these poses `carriage_tilt_y`
+/// and the model's `c_2` are indistinguishable (correlation ≈ −1), which used to make the refit
+/// fail as ill-conditioned so that the effect was never added. The refit now resolves the pair
+/// (keeps `c_2`, or swaps it when the validation rows prefer that) and the tilt is named.
+#[test]
+fn carriage_tilt_correlated_with_c2_is_resolved_and_named() {
+    let r = run_case(case(
+        3,
+        50,
+        Robot::Canonical,
+        DataKind::Mixed,
+        &[(Shape::Catalog(EffectSpec::GuideCarriageTilt), 6.0)],
+    ));
+    eprintln!("{}", markdown(std::slice::from_ref(&r)));
+    assert!(r.error.is_none(), "{:?}", r.error);
+    let h = &r.hidden[0];
+    assert!(h.multiple >= MUST_NAME, "{h:?}");
+    assert!(h.named_driver, "{} not named ({}); added {:?}", h.label, h.why, r.added);
+    let ratio = r.ratio().expect("floor");
+    assert!(ratio <= FLOOR_FACTOR, "held-out {ratio:.2}× the floor");
+}
+
+/// A sinusoid of 2.5 periods per joint turn on a UR5e joint (±360°): not a harmonic of one
+/// turn, a term of the two-turn series (`joint-cyclic-half`), which names it with its joint.
+#[test]
+fn two_and_a_half_per_turn_sinusoid_is_named_by_the_two_turn_terms() {
+    let r = run_case(case(
+        4,
+        77,
+        Robot::Ur5e,
+        DataKind::Tracker,
+        &[(Shape::FractionalCyclic { joint: 2, k: 2.5, phase: 0.4 }, 8.0)],
+    ));
+    eprintln!("{}", markdown(std::slice::from_ref(&r)));
+    assert!(r.error.is_none(), "{:?}", r.error);
+    let h = &r.hidden[0];
+    assert!(h.named_driver, "{} not named ({}); added {:?}", h.label, h.why, r.added);
+    assert!(r.added.iter().any(|a| a.starts_with("joint-cyclic-half (joint 2")), "{:?}", r.added);
+    let ratio = r.ratio().expect("floor");
+    assert!(ratio <= FLOOR_FACTOR, "held-out {ratio:.2}× the floor");
+}
+
+/// The two-turn terms are candidates on the UR5e (±360° joints) and not on the Meca500 of the
+/// canonical cell (every joint within one turn), whose one-turn harmonics already describe any
+/// smooth error over its ranges.
+#[test]
+fn two_turn_terms_are_proposed_on_multi_turn_joints_only() {
+    use vatcal_core::effects::EffectKind;
+    use vatcal_core::effects::joint_cyclic_half::ID;
+    let half = |robot: Robot| {
+        let model = robot.nominal();
+        let ms: Vec<vatcal_core::Measurement> = model
+            .tcp_ids()
+            .iter()
+            .map(|t| {
+                vatcal_core::Measurement::tracker(*t, vatcal_core::JointVector::default(), Default::default())
+            })
+            .collect();
+        vatcal_discovery::workflow::candidates(&model, &ms)
+            .into_iter()
+            .filter(|s| s.kind() == EffectKind::Extension(ID))
+            .count()
+    };
+    assert_eq!(half(Robot::Canonical), 0);
+    assert_eq!(half(Robot::Ur5e), 6 * vatcal_core::effects::joint_cyclic_half::PROPOSED_M.len());
+}
+
 /// The whole benchmark (100 cases, seed 21); prints the tables of `docs/discovery-benchmark.md`.
 /// It asserts nothing about the targets: it measures them.
 #[test]

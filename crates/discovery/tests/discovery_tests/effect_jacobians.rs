@@ -82,6 +82,10 @@ fn all_specs(model: &Model) -> Vec<EffectSpec> {
     specs.push(EffectSpec::GuideStraightness { order: 3 });
     specs.push(EffectSpec::HayatiBeta { row: 4 });
     specs.push(EffectSpec::HayatiBeta { row: 1 });
+    // the two-turn terms are proposed on multi-turn joints only (not the Meca500's): switched
+    // on here explicitly, on a wrist and a shoulder joint
+    specs.push(vatcal_core::effects::joint_cyclic_half::spec(6, 5));
+    specs.push(vatcal_core::effects::joint_cyclic_half::spec(3, 1));
     specs
 }
 
