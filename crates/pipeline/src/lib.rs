@@ -58,9 +58,9 @@ pub use calibrate::{
 };
 pub use discovery_stage::{DISCOVERED, DiscoveryOutcome, DiscoveryStageOptions, TRUE_STRUCTURE};
 pub use error::PipelineError;
-pub use registration::{RegistrationReport, TRACKER_REGISTRATION_FILE};
 pub use folders::{PlanFolder, RunFolder};
 pub use progress::{NoProgress, Progress, Stage, StageLog, StepProgress};
+pub use registration::{RegistrationReport, TRACKER_REGISTRATION_FILE};
 pub use report::{
     CampaignSummary, PAPER, PaperFigures, REPORT_FORMAT, ReportSetup, RunReport, ValidationSummary,
     comparison_table,

@@ -49,9 +49,11 @@ impl RegistrationReport {
         if !path.exists() {
             return Ok(None);
         }
-        let text =
-            std::fs::read_to_string(&path).map_err(|source| PipelineError::Io { path: path.clone(), source })?;
-        serde_json::from_str(&text).map(Some).map_err(|e| PipelineError::Folder { path, reason: e.to_string() })
+        let text = std::fs::read_to_string(&path)
+            .map_err(|source| PipelineError::Io { path: path.clone(), source })?;
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| PipelineError::Folder { path, reason: e.to_string() })
     }
 
     fn save(&self, out: &Path) -> Result<(), PipelineError> {
@@ -79,7 +81,9 @@ impl RegistrationReport {
                  compared with the calibration positions as they are, and the validation uses the readings unchanged"
             }
         );
-        m.push_str("| position | tank x, y, z [mm] | tracker x, y, z [mm] | residual [µm] |\n|---|---|---|---|\n");
+        m.push_str(
+            "| position | tank x, y, z [mm] | tracker x, y, z [mm] | residual [µm] |\n|---|---|---|---|\n",
+        );
         for p in &r.points {
             let _ = writeln!(
                 m,
@@ -132,7 +136,9 @@ pub fn registration_step(
     };
     let fitted = register_tracker(tracker, cell.operator, controller, &[], retries)?;
     let report = match mode {
-        TrackerRegistrationMode::Check => RegistrationReport { mode: "check".into(), registration: fitted.checked() },
+        TrackerRegistrationMode::Check => {
+            RegistrationReport { mode: "check".into(), registration: fitted.checked() }
+        }
         _ => RegistrationReport { mode: "register".into(), registration: fitted },
     };
     report.save(out)?;

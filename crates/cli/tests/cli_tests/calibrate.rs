@@ -155,7 +155,8 @@ const SMALL: [&str; 15] = [
 ];
 
 fn report(out: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json")
+    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json"))
+        .expect("json")
 }
 
 /// `(random-pose mean, printing-path tip mean)` of the model `label` \[mm\].
@@ -219,7 +220,9 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     }
     let summary = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
     assert!(summary.contains("## Tracker registration"), "{summary}");
-    assert!(std::fs::read_to_string(out.join("summary.html")).expect("html").contains("Tracker registration"));
+    assert!(
+        std::fs::read_to_string(out.join("summary.html")).expect("html").contains("Tracker registration")
+    );
     assert!(out.join("tracker-registration.json").exists());
 
     for label in ["nominal", "calibrated", "discovered"] {
@@ -231,4 +234,84 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     }
     // the calibration is real: the calibrated model is far better than the nominal one
     assert!(means(&c, "calibrated").0 < 0.5 * means(&c, "nominal").0);
+
+    // kill -9 during the plan, `--resume`, kill -9 during the validation (after the
+    // registration), `--resume`: the same measurements as the uninterrupted run, none twice
+    let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
+    let devices = cell.devices_file(dir.path());
+    let killed = dir.path().join("killed");
+    let mut args = vec!["calibrate", "--devices", s(&devices), "--operator", "auto", "--out", s(&killed)];
+    args.extend(SMALL);
+    kill_in(&args, || stage_running(&killed, "plan"));
+    args.push("--resume");
+    let tracked = |out: &Path| {
+        std::fs::read_to_string(out.join("validation.journal"))
+            .map_or(0, |t| t.matches("\"outcome\":\"tracked\"").count())
+    };
+    let planned = tracked(&out);
+    kill_in(&args, || tracked(&killed) >= planned / 3);
+    assert!(tracked(&killed) < planned, "killed after the end of the validation");
+    let stdout = ok(&vatcal(&args));
+    assert!(stdout.contains("stages run: validation, compensation"), "{stdout}");
+    for csv in ["measurements.csv", "discovery_measurements.csv"] {
+        assert_eq!(rows_without_time(&killed.join(csv)), rows_without_time(&out.join(csv)), "{csv}");
+    }
+    // the tracker points: the same poses and approach directions, the same readings up to the
+    // simulated thermal drift of the longer clock (the moves that restored the cell): < 0.1 µm
+    for csv in [
+        "validation_random.csv",
+        "validation_path_nominal.csv",
+        "validation_path_calibrated.csv",
+        "validation_path_discovered.csv",
+    ] {
+        let (a, b) = (rows_without_time(&killed.join(csv)), rows_without_time(&out.join(csv)));
+        assert_eq!(a.len(), b.len(), "{csv}");
+        for (ra, rb) in a.iter().zip(&b) {
+            let (fa, fb): (Vec<&str>, Vec<&str>) = (ra.split(',').collect(), rb.split(',').collect());
+            assert_eq!(fa.len(), fb.len(), "{csv}");
+            for (k, (x, y)) in fa.iter().zip(&fb).enumerate() {
+                let (k0, k1) = (fa.len() - 9, fa.len() - 6); // x, y, z before dir2..dir7
+                if (k0..k1).contains(&k) {
+                    let d = (x.parse::<f64>().expect("mm") - y.parse::<f64>().expect("mm")).abs();
+                    assert!(d < 1e-4, "{csv}: {ra} vs {rb}");
+                } else {
+                    assert_eq!(x, y, "{csv}: {ra} vs {rb}");
+                }
+            }
+        }
+    }
+    assert_eq!(tracked(&killed), planned, "a tracker point measured twice or lost");
+    assert_eq!(attempts(&killed, "plan"), 2);
+    assert_eq!(attempts(&killed, "validation"), 2);
+    assert_eq!(attempts(&killed, "campaign"), 1);
+    assert_eq!(
+        report(&killed)["tracker_registration"]["points"],
+        c["tracker_registration"]["points"],
+        "the resumed validation reuses the registration"
+    );
+}
+
+/// Whether `stages.json` of `out` says `stage` is running.
+fn stage_running(out: &Path, stage: &str) -> bool {
+    let Ok(text) = std::fs::read_to_string(out.join("stages.json")) else { return false };
+    let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else { return false };
+    v["stages"].as_array().is_some_and(|a| a.iter().any(|e| e["stage"] == stage && e["status"] == "running"))
+}
+
+/// Starts `vatcal` with `args` and kills it with SIGKILL as soon as `when` holds.
+fn kill_in(args: &[&str], when: impl Fn() -> bool) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn");
+    let deadline = Instant::now() + Duration::from_secs(180);
+    while !when() {
+        assert!(Instant::now() < deadline, "the kill condition never held");
+        assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().expect("SIGKILL");
+    child.wait().expect("reap");
 }
