@@ -331,6 +331,7 @@ pub struct ValidationStage {
 ///
 /// # Errors
 /// The campaign or the evaluation fails.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each from a different stage
 pub fn validation_stage(
     devices: &mut dyn DeviceSet,
     nominal: &Model,
