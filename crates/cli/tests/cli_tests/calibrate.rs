@@ -41,20 +41,7 @@ fn calibrate_args<'a>(devices: &'a Path, out: &'a Path) -> Vec<&'a str> {
 /// Starts `vatcal calibrate` with `args`, kills it with SIGKILL once `journal` holds
 /// `measurements` measurements.
 fn kill_when(args: &[&str], journal: &Path, measurements: usize) -> usize {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn");
-    let deadline = Instant::now() + Duration::from_secs(180);
-    while journaled_measurements(journal) < measurements {
-        assert!(Instant::now() < deadline, "the child recorded too few measurements");
-        assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    child.kill().expect("SIGKILL");
-    child.wait().expect("reap");
+    kill_in(args, || journaled_measurements(journal) >= measurements);
     journaled_measurements(journal)
 }
 
