@@ -12,7 +12,7 @@
 //! | `campaign` | `plan/tour.csv` | `campaign.journal`, `measurements.csv` |
 //! | `identify` | `campaign.journal` | `calibrated.toml` |
 //! | `discovery` | `campaign.journal`, the calibrated model | `discovery_plan/`, `discovery.journal`, `discovery_measurements.csv`, effect plots |
-//! | `validation` | the models (nominal, calibrated, discovered), where the last campaign left the arm | `validation.journal` |
+//! | `validation` | the models (nominal, calibrated, discovered), where the last campaign left the arm | `tracker-registration.json` ([`crate::registration`], unless the devices skip it), `validation.journal` |
 //! | `compensation` | `validation.journal`, the compensated printing path | `report.json`, `summary.md` (and `.html`), CSVs, SVG plots, `timing.json` |
 //!
 //! The journals are the only measured data; everything derived from them (the plan, the
