@@ -12,7 +12,7 @@
 //! | `campaign` | `plan/tour.csv` | `campaign.journal`, `measurements.csv` |
 //! | `identify` | `campaign.journal` | `calibrated.toml` |
 //! | `discovery` | `campaign.journal`, the calibrated model | `discovery_plan/`, `discovery.journal`, `discovery_measurements.csv`, effect plots |
-//! | `validation` | the models (nominal, calibrated, discovered), where the last campaign left the arm | `validation.journal` |
+//! | `validation` | the models (nominal, calibrated, discovered), where the last campaign left the arm | `tracker-registration.json` ([`crate::registration`], unless the devices skip it), `validation.journal` |
 //! | `compensation` | `validation.journal`, the compensated printing path | `report.json`, `summary.md` (and `.html`), CSVs, SVG plots, `timing.json` |
 //!
 //! The journals are the only measured data; everything derived from them (the plan, the
@@ -652,6 +652,8 @@ pub fn calibrate<S: ReportSetup>(
             });
         }
         let start_s = dev.devices().clock.now_s();
+        let registration =
+            crate::registration::registration_step(dev, &nominal, out, opts.campaign.tracker_retries)?;
         let validation = crate::validation_stage(
             dev,
             &nominal,
@@ -659,6 +661,7 @@ pub fn calibrate<S: ReportSetup>(
             validation_plan,
             &folder,
             opts.campaign.clone(),
+            registration.as_ref().and_then(|r| r.tank_from_tracker()).as_ref(),
             &mut *book.progress,
         )?;
         let end_s = dev.devices().clock.now_s();
@@ -680,7 +683,8 @@ pub fn calibrate<S: ReportSetup>(
         };
         book.finish(Stage::Validate, Some(own_s), |s| {
             Some(format!(
-                "validation: {} random poses, {} slices × {} models, {} tracker measurements ({s:.1} s)",
+                "validation: {}{} random poses, {} slices × {} models, {} tracker measurements ({s:.1} s)",
+                registration.as_ref().map_or(String::new(), |r| format!("{}; ", r.registration.summary())),
                 validation.records.random.len(),
                 validation.plan.slices.len(),
                 validation.plan.path_runs.len(),
@@ -725,6 +729,10 @@ pub fn calibrate<S: ReportSetup>(
     });
     if let Some(d) = &discovered {
         report.discovery = Some(discovery_stage::DiscoveryReport::of(d)?);
+    }
+    report.tracker_registration = crate::registration::RegistrationReport::load(out)?;
+    if report.tracker_registration.is_some() {
+        files.note(crate::registration::TRACKER_REGISTRATION_FILE);
     }
     files.json("report.json", &report)?;
     let discovery_tour = match discovery.filter(|_| discovered.is_some()) {

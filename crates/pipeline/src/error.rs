@@ -70,6 +70,9 @@ pub enum PipelineError {
     /// The journal of a run folder cannot be read.
     #[error(transparent)]
     Journal(#[from] vatcal_campaign::JournalError),
+    /// The tracker cannot be registered to the tank frame.
+    #[error(transparent)]
+    TrackerRegistration(#[from] vatcal_campaign::validation::TrackerRegistrationError),
     /// The discovery stage failed.
     #[error("discovery failed")]
     Discovery(#[from] vatcal_discovery::DiscoveryError),

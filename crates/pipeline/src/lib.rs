@@ -31,6 +31,7 @@ pub mod discovery_stage;
 mod error;
 pub mod folders;
 mod progress;
+pub mod registration;
 pub mod report;
 pub mod stop;
 pub mod timing;
@@ -59,6 +60,7 @@ pub use discovery_stage::{DISCOVERED, DiscoveryOutcome, DiscoveryStageOptions, T
 pub use error::PipelineError;
 pub use folders::{PlanFolder, RunFolder};
 pub use progress::{NoProgress, Progress, Stage, StageLog, StepProgress};
+pub use registration::{RegistrationReport, TRACKER_REGISTRATION_FILE};
 pub use report::{
     CampaignSummary, PAPER, PaperFigures, REPORT_FORMAT, ReportSetup, RunReport, ValidationSummary,
     comparison_table,
@@ -76,6 +78,30 @@ pub const CALIBRATED: &str = "calibrated";
 pub trait DeviceSet {
     /// The devices, borrowed for one campaign.
     fn devices(&mut self) -> CellDevices<'_>;
+
+    /// How the validation stage brings the tracker's readings into the tank frame (default
+    /// [`TrackerRegistrationMode::Skip`]: an in-process tracker that reports in the tank frame).
+    fn tracker_registration(&self) -> TrackerRegistrationMode {
+        TrackerRegistrationMode::Skip
+    }
+}
+
+/// How the validation stage relates the tracker's frame to the tank frame, before its first
+/// tracker measurement (`vatcal_campaign::validation::register_tracker`, paper §5: the SMR
+/// seated in the probe's nest at each calibration position).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrackerRegistrationMode {
+    /// the tracker reports in its own frame: register it (measure the nest at every
+    /// calibration position, fit `tank ← tracker`) and map every validation reading through the
+    /// fit
+    Register,
+    /// the tracker reports in the tank frame already (its software is registered): measure the
+    /// nest at every calibration position and report how far the readings are from the known
+    /// positions, readings used as they are
+    Check,
+    /// no registration measurement (the in-process virtual tracker of `vatcal demo`, which
+    /// reports in the tank frame with its simulated registration error)
+    Skip,
 }
 
 /// Sizes of a run.
@@ -300,10 +326,12 @@ pub struct ValidationStage {
 }
 
 /// Runs the tracker validation `plan` of `models` on the same devices (the session
-/// continues), journaling into `validation.journal`.
+/// continues), journaling into `validation.journal`; with `tank_from_tracker` (a
+/// registration) every tracker reading is mapped into the tank frame.
 ///
 /// # Errors
 /// The campaign or the evaluation fails.
+#[allow(clippy::too_many_arguments)] // the stage's inputs, each from a different stage
 pub fn validation_stage(
     devices: &mut dyn DeviceSet,
     nominal: &Model,
@@ -311,6 +339,7 @@ pub fn validation_stage(
     plan: ValidationPlan,
     folder: &RunFolder,
     config: CampaignConfig,
+    tank_from_tracker: Option<&vatcal_core::Frame>,
     progress: &mut dyn Progress,
 ) -> Result<ValidationStage, PipelineError> {
     let mut counter = StepCounter::new(plan.campaign.steps.len(), plan.campaign.measurement_count());
@@ -318,7 +347,18 @@ pub fn validation_stage(
         let p = counter.record(record.step, record.measurement().is_some());
         progress.step_done(Stage::Validate, p);
     };
-    let mut campaign = Campaign::new(devices.devices(), nominal, config).on_record(observer);
+    let mut cell = devices.devices();
+    let mut registered = match (tank_from_tracker, cell.tracker.take()) {
+        (Some(frame), Some(t)) => Some(vatcal_hardware_traits::RegisteredTracker::new(t, *frame)),
+        (_, t) => {
+            cell.tracker = t;
+            None
+        }
+    };
+    if let Some(r) = registered.as_mut() {
+        cell.tracker = Some(r);
+    }
+    let mut campaign = Campaign::new(cell, nominal, config).on_record(observer);
     let records = plan.run(&mut campaign, folder.path(folders::VALIDATION_JOURNAL))?;
     drop(campaign);
     let smrs: Vec<_> =

@@ -143,6 +143,10 @@ pub struct RunReport<S> {
     /// the discovery stage, when it ran
     #[serde(skip_serializing_if = "Option::is_none")]
     pub discovery: Option<crate::discovery_stage::DiscoveryReport>,
+    /// the tracker registration of the validation (per calibration position residual, RMS, the
+    /// transform); `None` when the tracker was not registered (the demo's in-process tracker)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tracker_registration: Option<crate::registration::RegistrationReport>,
 }
 
 impl<S> RunReport<S> {
@@ -190,6 +194,7 @@ pub(crate) fn build_report<S: ReportSetup>(i: ReportInputs<'_, S>) -> RunReport<
         compensation: i.compensation,
         paper: PAPER,
         discovery: None,
+        tracker_registration: None,
     }
 }
 
@@ -614,6 +619,10 @@ fn summary_markdown<S: ReportSetup>(outcome: &RunOutcome<S>) -> String {
     );
     if let Some(c) = &r.compensation {
         m.push_str(&crate::compensation::summary_markdown(c));
+    }
+    if let Some(reg) = &r.tracker_registration {
+        let _ = writeln!(m);
+        m.push_str(&reg.markdown());
     }
     if let Some(d) = &outcome.discovery {
         m.push_str(&crate::discovery_stage::summary_section(r, d));

@@ -121,6 +121,28 @@ impl TrackerRegistration {
         })
     }
 
+    /// The same measurements taken as they are (`tank ← tracker` the identity): the check of a
+    /// tracker that reports in the tank frame already (its software is registered) — each
+    /// residual is then how far the tracker's reading of the nest is from the known position.
+    pub fn checked(&self) -> Self {
+        let points: Vec<_> = self
+            .points
+            .iter()
+            .map(|p| RegistrationPoint {
+                residual_mm: (Vector3::from(p.tracker_mm) - Vector3::from(p.tank_mm)).norm(),
+                ..p.clone()
+            })
+            .collect();
+        let n = points.len().max(1) as f64;
+        Self {
+            rms_residual_mm: (points.iter().map(|p| p.residual_mm.powi(2)).sum::<f64>() / n).sqrt(),
+            max_residual_mm: points.iter().map(|p| p.residual_mm).fold(0.0, f64::max),
+            points,
+            rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            translation_mm: [0.0; 3],
+        }
+    }
+
     /// The transform `tank ← tracker`.
     pub fn tank_from_tracker(&self) -> Frame {
         let r = self.rotation;

@@ -76,6 +76,33 @@ fn registration_finds_the_tracker_pose_and_maps_readings_into_the_tank() {
     assert!(e.contains("tracker-registration.json") && e.contains("line 1"), "{e}");
 }
 
+/// A tracker that reports in the tank frame (`frame = "tank"`) is checked, not registered:
+/// the residuals are the raw distances of the nest readings from the calibration positions
+/// (no fit absorbs them), the transform is the identity; a displaced tracker fails the check
+/// by its displacement.
+#[test]
+fn the_check_of_a_tank_frame_tracker_keeps_the_readings_as_they_are() {
+    let model = nominal();
+    let cell = paper_cell(SEED);
+    let mut tracker = cell.tracker();
+    let mut operator = cell.operator();
+    let reg = register_tracker(&mut tracker, &mut operator, &model, &[], 2).expect("registration");
+    let check = reg.checked();
+    assert_eq!(check.tank_from_tracker().p, Vector3::zeros());
+    assert_eq!(check.tank_from_tracker().r, nalgebra::Matrix3::identity());
+    for (p, c) in reg.points.iter().zip(&check.points) {
+        let raw = (Vector3::from(p.tracker_mm) - Vector3::from(p.tank_mm)).norm();
+        assert_eq!(c.residual_mm, raw);
+        // the in-process tracker is in the tank frame up to its noise and registration error
+        assert!(raw < 0.1, "position {}: {raw} mm", p.position);
+    }
+    // the fit absorbs part of the raw error: its RMS is not larger than the check's
+    assert!(reg.rms_residual_mm <= check.rms_residual_mm + 1e-12);
+    let mut moved = Displaced { inner: cell.tracker(), tracker_from_world: tracker_pose().inverse() };
+    let far = register_tracker(&mut moved, &mut operator, &model, &[], 2).expect("registration").checked();
+    assert!(far.max_residual_mm > 1000.0, "{}", far.summary());
+}
+
 /// Loses the line of sight (or answers garbage, or times out) on the given calls.
 struct Flaky<T> {
     inner: T,

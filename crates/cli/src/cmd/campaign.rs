@@ -80,6 +80,9 @@ pub(crate) struct RealCell {
     pub(crate) probe: TriCal<Box<dyn Gauge>>,
     /// the devices file's tracker (the validation's)
     pub(crate) tracker: Option<Box<dyn PositionTracker>>,
+    /// the devices file says the tracker reports in the tank frame (`frame = "tank"`): the
+    /// validation checks its registration instead of registering it
+    pub(crate) tracker_in_tank_frame: bool,
     pub(crate) operator: Box<dyn Operator>,
     /// the wall clock, or the simulated cell's virtual time with `--operator auto`
     pub(crate) clock: Box<dyn Clock>,
@@ -88,6 +91,14 @@ pub(crate) struct RealCell {
 }
 
 impl DeviceSet for RealCell {
+    fn tracker_registration(&self) -> vatcal_pipeline::TrackerRegistrationMode {
+        if self.tracker_in_tank_frame {
+            vatcal_pipeline::TrackerRegistrationMode::Check
+        } else {
+            vatcal_pipeline::TrackerRegistrationMode::Register
+        }
+    }
+
     fn devices(&mut self) -> CellDevices<'_> {
         CellDevices {
             arm: &mut self.arm,
@@ -250,6 +261,7 @@ pub(crate) fn connect_cell(
         guide: guide.map(|g| StoppableAxis::new(g, flag.clone())),
         probe,
         tracker,
+        tracker_in_tank_frame: devices_file.tracker_reports_in_tank_frame(),
         operator,
         clock,
         thermometer,

@@ -121,6 +121,10 @@ pub struct Args {
     /// Slices of the validation printing path.
     #[arg(long, default_value_t = 300)]
     pub slices: usize,
+    /// Extra probe measurements of the discovery stage (default: the discovery's own, 360; as
+    /// `vatcal calibrate --discovery-count`).
+    #[arg(long)]
+    pub discovery_count: Option<usize>,
     /// Hidden truth of the virtual cell: `ideal` (errors of the 34 parameters only),
     /// `paper-like` (plus the physics they miss, docs/virtual-cell.md) or a cell file of the truth.
     #[arg(long, default_value = "paper-like", value_name = "ideal|paper-like|FILE")]
@@ -162,6 +166,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     opts.sizes.slices = args.slices;
     if chain.is_some() && args.quick {
         opts = opts.quick();
+    }
+    if let Some(count) = args.discovery_count {
+        opts.discovery_count = count;
     }
     let mut progress = BarProgress::new(!args.quiet && std::io::stdout().is_terminal());
     opts.truth = args.truth.clone();

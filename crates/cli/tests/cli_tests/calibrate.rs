@@ -15,7 +15,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use super::campaign_sim::{
-    devices_file, journaled_measurements, ok, rows_without_time, s, start_cell, vatcal,
+    SimCellProcess, devices_file, journaled_measurements, ok, rows_without_time, s, start_cell, vatcal,
 };
 
 fn calibrate_args<'a>(devices: &'a Path, out: &'a Path) -> Vec<&'a str> {
@@ -41,20 +41,7 @@ fn calibrate_args<'a>(devices: &'a Path, out: &'a Path) -> Vec<&'a str> {
 /// Starts `vatcal calibrate` with `args`, kills it with SIGKILL once `journal` holds
 /// `measurements` measurements.
 fn kill_when(args: &[&str], journal: &Path, measurements: usize) -> usize {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
-        .args(args)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn");
-    let deadline = Instant::now() + Duration::from_secs(180);
-    while journaled_measurements(journal) < measurements {
-        assert!(Instant::now() < deadline, "the child recorded too few measurements");
-        assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    child.kill().expect("SIGKILL");
-    child.wait().expect("reap");
+    kill_in(args, || journaled_measurements(journal) >= measurements);
     journaled_measurements(journal)
 }
 
@@ -132,4 +119,186 @@ fn kill_9_during_the_campaign_and_the_discovery_then_resume_gives_an_uninterrupt
         "{}",
         String::from_utf8_lossy(&refused.stderr)
     );
+}
+
+/// Small sizes shared by the demo and `vatcal calibrate` (seed 3): the same plan, discovery
+/// and validation poses.
+const SMALL: [&str; 15] = [
+    "--seed",
+    "3",
+    "--orientations",
+    "20",
+    "--guide-steps",
+    "3",
+    "--count",
+    "40",
+    "--random-poses",
+    "40",
+    "--slices",
+    "40",
+    "--discovery-count",
+    "24",
+    "--quiet",
+];
+
+fn report(out: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json"))
+        .expect("json")
+}
+
+/// `(random-pose mean, printing-path tip mean)` of the model `label` \[mm\].
+fn means(report: &serde_json::Value, label: &str) -> (f64, f64) {
+    let m = report["validation"]["models"]
+        .as_array()
+        .expect("models")
+        .iter()
+        .find(|m| m["label"] == label)
+        .unwrap_or_else(|| panic!("no model {label}"));
+    (
+        m["random"]["stats"]["mean_mm"].as_f64().expect("random mean"),
+        m["path"]["tip_stats"]["mean_mm"].as_f64().expect("path mean"),
+    )
+}
+
+/// Issue 22's "done means": `vatcal sim-cell --seed 3 --time-scale 1000` and `vatcal calibrate
+/// --devices fixtures/sim-cell-devices.toml --operator auto`, both real child processes over
+/// TCP, every stage; the tracker stands 2.5 m away in its own frame and is registered on the
+/// three calibration positions. The validation errors of the nominal, calibrated and
+/// discovered models agree with `vatcal demo --seed 3` (same sizes, in process) within the
+/// tracker's noise, 20 µm (3σ per axis): measured 2–14 µm apart.
+#[test]
+fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let demo = dir.path().join("demo");
+    let mut args = vec!["demo", "--out", s(&demo)];
+    args.extend(SMALL);
+    ok(&vatcal(&args));
+
+    let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
+    let devices = cell.devices_file(dir.path());
+    let out = dir.path().join("run");
+    let mut args = vec!["calibrate", "--devices", s(&devices), "--operator", "auto", "--out", s(&out)];
+    args.extend(SMALL);
+    let stdout = ok(&vatcal(&args));
+    assert!(
+        stdout.contains("stages run: plan, campaign, identify, discovery, validation, compensation"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("tracker registered to the tank on 3 calibration positions"), "{stdout}");
+
+    let (d, c) = (report(&demo), report(&out));
+    assert!(d.get("tracker_registration").is_none(), "the demo's in-process tracker is not registered");
+    let reg = &c["tracker_registration"];
+    assert_eq!(reg["mode"], "register");
+    let points = reg["points"].as_array().expect("points");
+    assert_eq!(points.len(), 3);
+    let rms = reg["rms_residual_mm"].as_f64().expect("rms");
+    assert!(rms > 0.0 && rms < 0.02, "registration residual RMS {rms} mm");
+    // the fitted `tank <- tracker` is the simulator's tracker pose (up to its registration
+    // error and the true calibration positions)
+    let pose = vatcal_sim_cell::default_tracker_pose();
+    for k in 0..3 {
+        let t = reg["translation_mm"][k].as_f64().expect("translation");
+        assert!((t - pose.p[k]).abs() < 1.0, "translation {k}: {t} vs {}", pose.p[k]);
+        for j in 0..3 {
+            let r = reg["rotation"][k][j].as_f64().expect("rotation");
+            assert!((r - pose.r[(k, j)]).abs() < 1e-3, "rotation ({k}, {j}): {r} vs {}", pose.r[(k, j)]);
+        }
+    }
+    let summary = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
+    assert!(summary.contains("## Tracker registration"), "{summary}");
+    assert!(
+        std::fs::read_to_string(out.join("summary.html")).expect("html").contains("Tracker registration")
+    );
+    assert!(out.join("tracker-registration.json").exists());
+
+    for label in ["nominal", "calibrated", "discovered"] {
+        let (dr, dp) = means(&d, label);
+        let (cr, cp) = means(&c, label);
+        println!("{label}: random {dr:.4} (demo) vs {cr:.4} mm, path {dp:.4} vs {cp:.4} mm");
+        assert!((dr - cr).abs() < 0.020, "{label} random poses: demo {dr:.4} vs calibrate {cr:.4} mm");
+        assert!((dp - cp).abs() < 0.020, "{label} printing path: demo {dp:.4} vs calibrate {cp:.4} mm");
+    }
+    // the calibration is real: the calibrated model is far better than the nominal one
+    assert!(means(&c, "calibrated").0 < 0.5 * means(&c, "nominal").0);
+
+    // kill -9 during the plan, `--resume`, kill -9 during the validation (after the
+    // registration), `--resume`: the same measurements as the uninterrupted run, none twice
+    let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
+    let devices = cell.devices_file(dir.path());
+    let killed = dir.path().join("killed");
+    let mut args = vec!["calibrate", "--devices", s(&devices), "--operator", "auto", "--out", s(&killed)];
+    args.extend(SMALL);
+    kill_in(&args, || stage_running(&killed, "plan"));
+    args.push("--resume");
+    let tracked = |out: &Path| {
+        std::fs::read_to_string(out.join("validation.journal"))
+            .map_or(0, |t| t.matches("\"outcome\":\"tracked\"").count())
+    };
+    let planned = tracked(&out);
+    kill_in(&args, || tracked(&killed) >= planned / 3);
+    assert!(tracked(&killed) < planned, "killed after the end of the validation");
+    let stdout = ok(&vatcal(&args));
+    assert!(stdout.contains("stages run: validation, compensation"), "{stdout}");
+    for csv in ["measurements.csv", "discovery_measurements.csv"] {
+        assert_eq!(rows_without_time(&killed.join(csv)), rows_without_time(&out.join(csv)), "{csv}");
+    }
+    // the tracker points: the same poses and approach directions, the same readings up to the
+    // simulated thermal drift of the longer clock (the moves that restored the cell): < 0.1 µm
+    for csv in [
+        "validation_random.csv",
+        "validation_path_nominal.csv",
+        "validation_path_calibrated.csv",
+        "validation_path_discovered.csv",
+    ] {
+        let (a, b) = (rows_without_time(&killed.join(csv)), rows_without_time(&out.join(csv)));
+        assert_eq!(a.len(), b.len(), "{csv}");
+        for (ra, rb) in a.iter().zip(&b) {
+            let (fa, fb): (Vec<&str>, Vec<&str>) = (ra.split(',').collect(), rb.split(',').collect());
+            assert_eq!(fa.len(), fb.len(), "{csv}");
+            for (k, (x, y)) in fa.iter().zip(&fb).enumerate() {
+                let (k0, k1) = (fa.len() - 9, fa.len() - 6); // x, y, z before dir2..dir7
+                if (k0..k1).contains(&k) {
+                    let d = (x.parse::<f64>().expect("mm") - y.parse::<f64>().expect("mm")).abs();
+                    assert!(d < 1e-4, "{csv}: {ra} vs {rb}");
+                } else {
+                    assert_eq!(x, y, "{csv}: {ra} vs {rb}");
+                }
+            }
+        }
+    }
+    assert_eq!(tracked(&killed), planned, "a tracker point measured twice or lost");
+    assert_eq!(attempts(&killed, "plan"), 2);
+    assert_eq!(attempts(&killed, "validation"), 2);
+    assert_eq!(attempts(&killed, "campaign"), 1);
+    assert_eq!(
+        report(&killed)["tracker_registration"]["points"],
+        c["tracker_registration"]["points"],
+        "the resumed validation reuses the registration"
+    );
+}
+
+/// Whether `stages.json` of `out` says `stage` is running.
+fn stage_running(out: &Path, stage: &str) -> bool {
+    let Ok(text) = std::fs::read_to_string(out.join("stages.json")) else { return false };
+    let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else { return false };
+    v["stages"].as_array().is_some_and(|a| a.iter().any(|e| e["stage"] == stage && e["status"] == "running"))
+}
+
+/// Starts `vatcal` with `args` and kills it with SIGKILL as soon as `when` holds.
+fn kill_in(args: &[&str], when: impl Fn() -> bool) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("spawn");
+    let deadline = Instant::now() + Duration::from_secs(180);
+    while !when() {
+        assert!(Instant::now() < deadline, "the kill condition never held");
+        assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().expect("SIGKILL");
+    child.wait().expect("reap");
 }

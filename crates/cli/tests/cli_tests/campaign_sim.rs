@@ -51,7 +51,7 @@ pub(crate) fn start_cell(seed: u64) -> SimCell {
 }
 
 /// `vatcal sim-cell` as a child process on ephemeral ports; killed when dropped.
-struct SimCellProcess {
+pub(crate) struct SimCellProcess {
     child: Child,
     /// `(name, address)` from its `listening NAME ADDRESS` lines
     listening: Vec<(String, String)>,
@@ -59,7 +59,7 @@ struct SimCellProcess {
 }
 
 impl SimCellProcess {
-    fn start(args: &[&str]) -> Self {
+    pub(crate) fn start(args: &[&str]) -> Self {
         let mut all = vec!["sim-cell", "--bind", "127.0.0.1"];
         all.extend_from_slice(args);
         for flag in [
@@ -105,7 +105,7 @@ impl SimCellProcess {
     }
 
     /// `fixtures/sim-cell-devices.toml` with the default ports replaced by the actual ones.
-    fn devices_file(&self, dir: &Path) -> PathBuf {
+    pub(crate) fn devices_file(&self, dir: &Path) -> PathBuf {
         let fixture = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/sim-cell-devices.toml");
         let mut text = std::fs::read_to_string(fixture).expect("fixture");
         for (default, name) in [
