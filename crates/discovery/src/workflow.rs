@@ -1160,7 +1160,7 @@ fn refit_effects(
 }
 
 /// |Correlation| at which an added parameter and one already in the model count as the same
-/// direction on the data: near-equivalent rivals ([`fit_resolving_rivals`]).
+/// direction on the data: near-equivalent rivals (`fit_resolving_rivals`).
 pub const RIVAL_CORRELATION: f64 = 0.99;
 
 /// Fits `params1` (the current parameters followed by the `added` ones). When the fit is
