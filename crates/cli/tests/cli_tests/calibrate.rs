@@ -165,7 +165,8 @@ fn means(report: &serde_json::Value, label: &str) -> (f64, f64) {
 /// TCP, every stage; the tracker stands 2.5 m away in its own frame and is registered on the
 /// three calibration positions. The validation errors of the nominal, calibrated and
 /// discovered models agree with `vatcal demo --seed 3` (same sizes, in process) within the
-/// tracker's noise, 20 µm (3σ per axis): measured 2–14 µm apart.
+/// tracker's noise, 20 µm (3σ per axis): measured 2–14 µm apart (the discovered model: when
+/// both runs' discovery added the same effects; else each must improve on its 34 parameters).
 #[test]
 fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     let dir = tempfile::tempdir().expect("tmp");
@@ -212,10 +213,32 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     );
     assert!(out.join("tracker-registration.json").exists());
 
+    // Discovery's additions are discrete decisions (a held-out z against its threshold); at these
+    // small sizes a decision near its threshold can fall either way on two noise realisations
+    // (measured: the same block at z = 2.41 < 2.96 in the demo, accepted over TCP), so the
+    // discovered model is compared like the others only when both runs added the same effects.
+    let same_effects = d["discovery"]["added_effects"] == c["discovery"]["added_effects"];
     for label in ["nominal", "calibrated", "discovered"] {
         let (dr, dp) = means(&d, label);
         let (cr, cp) = means(&c, label);
         println!("{label}: random {dr:.4} (demo) vs {cr:.4} mm, path {dp:.4} vs {cp:.4} mm");
+        if label == "discovered" && !same_effects {
+            let labels = |r: &serde_json::Value| {
+                let added = r["discovery"]["added_effects"].as_array().cloned().unwrap_or_default();
+                added.iter().map(|e| e["label"].to_string()).collect::<Vec<_>>().join(", ")
+            };
+            println!(
+                "discovery added different effects: demo [{}] vs calibrate [{}]",
+                labels(&d),
+                labels(&c)
+            );
+            for (report, run) in [(&d, "demo"), (&c, "calibrate")] {
+                let (r, p) = means(report, label);
+                let (r34, p34) = means(report, "calibrated");
+                assert!(r <= r34 && p <= p34, "{run}: discovery made the validation worse");
+            }
+            continue;
+        }
         assert!((dr - cr).abs() < 0.020, "{label} random poses: demo {dr:.4} vs calibrate {cr:.4} mm");
         assert!((dp - cp).abs() < 0.020, "{label} printing path: demo {dp:.4} vs calibrate {cp:.4} mm");
     }
@@ -253,14 +276,24 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     ] {
         let (a, b) = (rows_without_time(&killed.join(csv)), rows_without_time(&out.join(csv)));
         assert_eq!(a.len(), b.len(), "{csv}");
+        // the columns of the rows without `time_s`: the readings x, y, z [mm] may differ by the
+        // drift, the recorded temperature by the warming of the longer clock (measured 0.02 °C);
+        // the rest is equal
+        let header = std::fs::read_to_string(out.join(csv)).expect("csv");
+        let columns: Vec<&str> =
+            header.lines().next().expect("header").split(',').filter(|c| *c != "time_s").collect();
+        let tolerance = |k: usize| match columns.get(k) {
+            Some(&"x" | &"y" | &"z") => Some(1e-4),
+            Some(&"temperature_c") => Some(0.05),
+            _ => None,
+        };
         for (ra, rb) in a.iter().zip(&b) {
             let (fa, fb): (Vec<&str>, Vec<&str>) = (ra.split(',').collect(), rb.split(',').collect());
             assert_eq!(fa.len(), fb.len(), "{csv}");
             for (k, (x, y)) in fa.iter().zip(&fb).enumerate() {
-                let (k0, k1) = (fa.len() - 9, fa.len() - 6); // x, y, z before dir2..dir7
-                if (k0..k1).contains(&k) {
-                    let d = (x.parse::<f64>().expect("mm") - y.parse::<f64>().expect("mm")).abs();
-                    assert!(d < 1e-4, "{csv}: {ra} vs {rb}");
+                if let Some(tol) = tolerance(k) {
+                    let d = (x.parse::<f64>().expect("number") - y.parse::<f64>().expect("number")).abs();
+                    assert!(d < tol, "{csv}: {ra} vs {rb}");
                 } else {
                     assert_eq!(x, y, "{csv}: {ra} vs {rb}");
                 }
