@@ -113,7 +113,7 @@ pub fn borderline_effects(d: &Discovery, measurements: &[Measurement], max: usiz
         for c in &round.candidates {
             let why = match &c.status {
                 CandidateStatus::Rejected(r) => format!("rejected: {r}"),
-                CandidateStatus::DetectedNegligible(r) => format!("detected, negligible: {r}"),
+                CandidateStatus::DetectedNegligible(r) => r.clone(),
                 CandidateStatus::PassedNotBest => "passed, not best".to_string(),
                 _ => continue,
             };

@@ -294,7 +294,7 @@ fn decision_of<'a>(d: &'a Discovery, label: &str) -> (String, Option<Values<'a>>
                 CandidateStatus::NotSignificant => "not significant on the screening data".into(),
                 CandidateStatus::NotRefitted => "significant, not refitted (others scored higher)".into(),
                 CandidateStatus::Rejected(r) => format!("rejected: {r}"),
-                CandidateStatus::DetectedNegligible(r) => format!("detected, negligible: {r}"),
+                CandidateStatus::DetectedNegligible(r) => r.clone(),
                 CandidateStatus::PassedNotBest => "passed, not best".into(),
                 CandidateStatus::Added => "added".into(),
             };
