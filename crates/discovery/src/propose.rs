@@ -30,6 +30,9 @@ pub struct Proposal {
     pub focus: Vec<String>,
     /// their parameters that were not fitted yet (names)
     pub focus_params: Vec<String>,
+    /// the same as parameter ids (not serialised: `focus_params` names them)
+    #[serde(skip)]
+    pub focus_ids: Vec<ParamId>,
     /// indices into the pool, in the order they were chosen
     pub selected: Vec<usize>,
     /// `ln det` of the focus parameters' information given the others (internal units, per unit
@@ -62,38 +65,74 @@ impl Proposal {
 /// scored nothing. `measurements` are the data discovery ran on (they decide which candidates
 /// exist, e.g. backlash needs `dir` columns).
 pub fn focus_effects(d: &Discovery, measurements: &[Measurement], max: usize) -> Vec<EffectSpec> {
-    let Some(round) = d.rounds.last() else { return Vec::new() };
-    let pool = crate::workflow::candidates(&d.model, measurements);
-    let specs_of = |label: &str| pool.iter().copied().find(|s| s.label() == label);
-    let mut out: Vec<EffectSpec> = Vec::new();
-    // candidates are sorted by screening score already
-    for c in &round.candidates {
-        let borderline = matches!(
-            c.status,
-            CandidateStatus::Rejected(_)
-                | CandidateStatus::DetectedNegligible(_)
-                | CandidateStatus::PassedNotBest
-        ) && c.refit.as_ref().is_some_and(|r| r.implausible.is_none());
-        if borderline && let Some(s) = spec_of_candidate(c, &specs_of) {
-            out.push(s);
-        }
-    }
+    let mut out: Vec<EffectSpec> =
+        borderline_effects(d, measurements, max).into_iter().map(|b| b.spec).collect();
     if out.is_empty()
+        && let Some(round) = d.rounds.last()
         && let Some(c) =
             round.candidates.iter().find(|c| c.score.is_some() && !matches!(c.status, CandidateStatus::Added))
-        && let Some(s) = spec_of_candidate(c, &specs_of)
     {
-        out.push(s);
+        let pool = crate::workflow::candidates(&d.model, measurements);
+        if let Some(s) = pool.iter().copied().find(|s| s.label() == c.label) {
+            out.push(s);
+        }
     }
     out.truncate(max);
     out
 }
 
-fn spec_of_candidate(
-    c: &crate::workflow::CandidateScore,
-    specs_of: &impl Fn(&str) -> Option<EffectSpec>,
-) -> Option<EffectSpec> {
-    specs_of(&c.label)
+/// A candidate effect the data at hand left undecided (see [`borderline_effects`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Borderline {
+    /// the effect
+    pub spec: EffectSpec,
+    /// why it is undecided, e.g. `rejected: held-out z 1.9 < 2.9` or `rival of tool-frame
+    /// (simpler)`
+    pub why: String,
+}
+
+/// The candidates a discovery run left **undecided**, strictly (no fallback, unlike
+/// [`focus_effects`]): the last round's candidates that were refitted (plausible values) but
+/// not added — rejected by the held-out test, detected but negligible, passed but not best —
+/// best screening score first, then the rivals of ambiguities that the validation rows did not
+/// settle (basis `simpler` or `held-out`) and that are not in the final model, latest round
+/// first; at most `max`, no effect twice. Empty when nothing is borderline: a further campaign
+/// then has nothing to decide.
+pub fn borderline_effects(d: &Discovery, measurements: &[Measurement], max: usize) -> Vec<Borderline> {
+    let pool = crate::workflow::candidates(&d.model, measurements);
+    let spec_of = |label: &str| pool.iter().copied().find(|s| s.label() == label);
+    let in_model = |s: &EffectSpec| d.model.effects().contains(s);
+    let mut out: Vec<Borderline> = Vec::new();
+    let push = |out: &mut Vec<Borderline>, spec: EffectSpec, why: String| {
+        if !in_model(&spec) && !out.iter().any(|b| b.spec == spec) {
+            out.push(Borderline { spec, why });
+        }
+    };
+    if let Some(round) = d.rounds.last() {
+        // candidates are sorted by screening score already
+        for c in &round.candidates {
+            let why = match &c.status {
+                CandidateStatus::Rejected(r) => format!("rejected: {r}"),
+                CandidateStatus::DetectedNegligible(r) => r.clone(),
+                CandidateStatus::PassedNotBest => "passed, not best".to_string(),
+                _ => continue,
+            };
+            if c.refit.as_ref().is_some_and(|r| r.implausible.is_none())
+                && let Some(s) = spec_of(&c.label)
+            {
+                push(&mut out, s, why);
+            }
+        }
+    }
+    for a in d.ambiguities.iter().rev().filter(|a| a.basis != "validation") {
+        for r in &a.rivals {
+            if let Some(s) = spec_of(r) {
+                push(&mut out, s, format!("rival of {} (round {}, chosen: {})", a.chosen, a.round, a.basis));
+            }
+        }
+    }
+    out.truncate(max);
+    out
 }
 
 /// Information-matrix rows (3 per measurement, weighted by `√w` of the kind, columns scaled by
@@ -244,6 +283,7 @@ pub fn propose(
     Ok(Proposal {
         focus: focus.iter().map(EffectSpec::label).collect(),
         focus_params: focus_ids.iter().map(|id| id.name()).collect(),
+        focus_ids,
         selected: chosen,
         ln_ds_before,
         ln_ds_after: ln_ds(&info),

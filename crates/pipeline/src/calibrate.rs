@@ -570,6 +570,7 @@ pub fn calibrate<S: ReportSetup>(
             };
             files.note(discovery_stage::DISCOVERY_JOURNAL);
             files.note(discovery_stage::DISCOVERY_MEASUREMENTS_CSV);
+            discovery_stage::note_loop_files(&d, &mut files);
             for p in &d.plots {
                 files.svg(&p.file, &p.svg)?;
             }
@@ -588,19 +589,18 @@ pub fn calibrate<S: ReportSetup>(
         }
         Some(stage) => {
             book.recompute(Stage::Discover)?;
-            let (_, repeats) = discovery_stage::discovery_tour(stage, &nominal, out)?;
-            let report = folder.journal_report(discovery_stage::DISCOVERY_JOURNAL)?;
-            let d = discovery_stage::discovery_analysis(
+            let d = discovery_stage::discovery_recompute(
+                opts,
                 stage,
                 &nominal,
                 &fit.model,
                 &fit.params,
                 &campaign.measurements,
-                &report,
-                repeats,
+                out,
             )?;
             files.note(discovery_stage::DISCOVERY_JOURNAL);
             files.note(discovery_stage::DISCOVERY_MEASUREMENTS_CSV);
+            discovery_stage::note_loop_files(&d, &mut files);
             for p in &d.plots {
                 files.note(&p.file);
             }

@@ -30,6 +30,7 @@ use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::output::PlanSummary;
 use vatcal_planning::plan::plan_campaign;
 
+use crate::discovery_loop::{LOOP_JOURNAL, LOOP_MEASUREMENTS_CSV, LOOP_PLAN, LoopReport, propose_plan};
 use crate::folders::{PlanFolder, RunFolder};
 use crate::{CALIBRATED, DeviceSet, NOMINAL, PipelineError, Progress, RunOptions, RunReport, Stage};
 
@@ -63,6 +64,11 @@ pub struct DiscoveryStageOptions {
     /// how far past the measurement pose each joint is taken before the opposite-side
     /// approach of a repeat \[rad\] (well above any lost motion of the gears)
     pub repeat_overshoot_rad: f64,
+    /// measurements the **loop** proposes when the discovery ends with borderline or rival
+    /// candidates (`crate::discovery_loop`); 0: no loop
+    pub loop_count: usize,
+    /// at most this many undecided candidates are targeted by the loop
+    pub loop_targets: usize,
 }
 
 impl DiscoveryStageOptions {
@@ -80,6 +86,8 @@ impl DiscoveryStageOptions {
             discover: DiscoverOptions { seed, ..DiscoverOptions::default() },
             two_sided_repeats: 12,
             repeat_overshoot_rad: 1e-3,
+            loop_count: 12,
+            loop_targets: 2,
         }
     }
 
@@ -148,6 +156,9 @@ pub struct DiscoveryOutcome {
     pub two_sided_repeats: usize,
     /// probe measurements the discovery used in all
     pub total_measurements: usize,
+    /// the measurement loop (`crate::discovery_loop`): `None` when the stage has no loop
+    /// (`loop_count` 0)
+    pub measurement_loop: Option<LoopReport>,
     /// the model fitted with the true effect structure, when the oracle was given and the fit
     /// succeeded
     pub true_structure: Option<Model>,
@@ -199,8 +210,12 @@ pub struct DiscoveryReport {
     /// of those, two-sided repeats (a planned pose approached again from the opposite side
     /// on every revolute joint)
     pub two_sided_repeats: usize,
-    /// probe measurements the discovery used in all
+    /// probe measurements the discovery used in all (the loop's included)
     pub total_measurements: usize,
+    /// the measurement loop: the candidates it targeted, predicted vs achieved standard
+    /// deviations, their decisions, the gap before / after (`None`: no loop configured)
+    #[serde(rename = "loop")]
+    pub measurement_loop: Option<LoopReport>,
     /// fitted parameters of the discovered model
     pub params: Vec<String>,
     /// the effects added, as `vatcal discover --report` writes them
@@ -230,6 +245,7 @@ impl DiscoveryReport {
             extra_measurements: o.extra_measurements,
             two_sided_repeats: o.two_sided_repeats,
             total_measurements: o.total_measurements,
+            measurement_loop: o.measurement_loop.clone(),
             params: d.params.names(),
             added_effects: serde_json::to_value(&d.added_effects)?,
             negligible_effects: serde_json::to_value(&d.negligible_effects)?,
@@ -392,10 +408,66 @@ pub fn discovery_stage(
     plan_discovery(opts, stage, nominal, base, &geometry, start, &plan_folder)?;
     let (tour, repeats) = discovery_tour(stage, nominal, out)?;
     let journal = RunFolder::new(out).path(DISCOVERY_JOURNAL);
-    let campaign = crate::run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, progress)?;
+    let campaign =
+        crate::run_campaign(devices, nominal, &tour, &journal, config.clone(), Stage::Discover, progress)?;
     let csv = out.join(DISCOVERY_MEASUREMENTS_CSV);
     vatcal_io::write_measurements_for(&csv, &campaign.measurements, nominal.joint_kinds())?;
-    discovery_analysis(stage, nominal, calibrated, base, calibration, &campaign, repeats)
+    let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
+    discovery_analysis(&inputs, &campaign, repeats, Some(LoopDevices { devices, config, progress }))
+}
+
+/// The discovery stage of a finished run recomputed from its journals (`discovery.journal`
+/// and, when the loop ran, `discovery_loop.journal` in `out`): the same outcome as the run
+/// that measured them.
+///
+/// # Errors
+/// A missing or bad journal or plan, or the discovery loop fails.
+#[allow(clippy::too_many_arguments)]
+pub fn discovery_recompute(
+    opts: &RunOptions,
+    stage: &DiscoveryStageOptions,
+    nominal: &Model,
+    calibrated: &Model,
+    base: &ParamSet,
+    calibration: &[Measurement],
+    out: &Path,
+) -> Result<DiscoveryOutcome, PipelineError> {
+    let (_, repeats) = discovery_tour(stage, nominal, out)?;
+    let campaign = RunFolder::new(out).journal_report(DISCOVERY_JOURNAL)?;
+    let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
+    discovery_analysis(&inputs, &campaign, repeats, None)
+}
+
+/// What the offline half of the discovery stage works on ([`discovery_analysis`]).
+#[derive(Clone, Copy)]
+#[allow(missing_debug_implementations)]
+pub struct AnalysisInputs<'a> {
+    /// the run's options (cell, sizes, seed)
+    pub opts: &'a RunOptions,
+    /// the stage's options
+    pub stage: &'a DiscoveryStageOptions,
+    /// the nominal model (plans and campaigns run on it)
+    pub nominal: &'a Model,
+    /// the calibrated model discovery starts from
+    pub calibrated: &'a Model,
+    /// the calibration's parameters (the paper's 34 on the canonical cell)
+    pub base: &'a ParamSet,
+    /// the calibration's probe measurements
+    pub calibration: &'a [Measurement],
+    /// the run folder
+    pub out: &'a Path,
+}
+
+/// The devices the measurement loop measures on (`None` in [`discovery_analysis`]: read the
+/// loop's journal instead).
+#[allow(missing_debug_implementations)]
+pub struct LoopDevices<'a> {
+    /// the cell's devices
+    pub devices: &'a mut dyn DeviceSet,
+    /// campaign settings
+    pub config: CampaignConfig,
+    /// progress reports
+    pub progress: &'a mut dyn Progress,
 }
 
 /// The discovery campaign of the plan folder `out/discovery_plan` (written by
@@ -416,24 +488,75 @@ pub fn discovery_tour(
 }
 
 /// The offline half of the discovery stage: the discovery loop on the calibration's and the
-/// discovery campaign's probe measurements, the true-structure fit when the oracle is given,
-/// one plot per added effect. Deterministic: a finished discovery campaign read back from its
-/// journal gives the same outcome.
+/// discovery campaign's probe measurements; when it ends with borderline or rival candidates
+/// and `stage.loop_count > 0`, the **measurement loop** (`crate::discovery_loop`): the
+/// proposed measurements are planned into `discovery_loop_plan/`, measured on `devices`
+/// (journal `discovery_loop.journal`, resumed when present) or, without devices, read from
+/// that journal, and discovery runs again on all data; then the true-structure fit (oracle
+/// given) on the same data and one plot per added effect. Deterministic: a finished run read
+/// back from its journals gives the same outcome.
 ///
 /// # Errors
-/// The discovery loop fails (a failed true-structure fit is only noted).
+/// The discovery loop fails, the proposal cannot be planned, the loop's campaign fails or (no
+/// devices) its journal is missing (a failed true-structure fit is only noted).
 pub fn discovery_analysis(
-    stage: &DiscoveryStageOptions,
-    nominal: &Model,
-    calibrated: &Model,
-    base: &ParamSet,
-    calibration: &[Measurement],
+    inputs: &AnalysisInputs<'_>,
     campaign: &vatcal_campaign::CampaignReport,
     repeats: usize,
+    devices: Option<LoopDevices<'_>>,
 ) -> Result<DiscoveryOutcome, PipelineError> {
+    let AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out } = *inputs;
     let mut all = calibration.to_vec();
     all.extend_from_slice(&campaign.measurements);
-    let discovery = discover(calibrated, &all, base, None, &stage.discover)?;
+    let first = discover(calibrated, &all, base, None, &stage.discover)?;
+    let mut last_joints = campaign.records.last().map(|r| r.state.joints);
+    let (discovery, measurement_loop) = if stage.loop_count == 0 {
+        (first, None)
+    } else {
+        let targets = vatcal_discovery::propose::borderline_effects(&first, &all, stage.loop_targets);
+        if targets.is_empty() {
+            let report = LoopReport::not_run(
+                &first,
+                "nothing borderline: no candidate of the last round was refitted and left undecided, no unsettled rivals",
+            );
+            (first, Some(report))
+        } else {
+            let geometry = CellGeometry::from_cell(&opts.nominal)?;
+            let mut plan_opts = crate::plan_options(opts);
+            plan_opts.count = stage.loop_count;
+            plan_opts.params = first.params.clone();
+            plan_opts.start = last_joints;
+            plan_opts.seed = opts.seed ^ 0x000d_15c0_100b_0004;
+            let focus: Vec<EffectSpec> = targets.iter().map(|t| t.spec).collect();
+            let proposed = propose_plan(&first, &all, &focus, nominal, &geometry, &plan_opts)?;
+            let folder = PlanFolder::new(out.join(LOOP_PLAN));
+            folder.write(&proposed.plan)?;
+            std::fs::write(
+                out.join(LOOP_PLAN).join("proposal.json"),
+                serde_json::to_string_pretty(&proposed.proposal)?,
+            )
+            .map_err(|e| PipelineError::Io { path: out.join(LOOP_PLAN).join("proposal.json"), source: e })?;
+            let tour = folder.read_tour(nominal.joint_kinds())?;
+            let journal = RunFolder::new(out).path(LOOP_JOURNAL);
+            let made = match devices {
+                Some(LoopDevices { devices, config, progress }) => {
+                    crate::run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, progress)?
+                }
+                None => RunFolder::new(out).journal_report(LOOP_JOURNAL)?,
+            };
+            vatcal_io::write_measurements_for(
+                &out.join(LOOP_MEASUREMENTS_CSV),
+                &made.measurements,
+                nominal.joint_kinds(),
+            )?;
+            let before = all.clone();
+            all.extend_from_slice(&made.measurements);
+            last_joints = made.records.last().map(|r| r.state.joints).or(last_joints);
+            let second = discover(calibrated, &all, base, None, &stage.discover)?;
+            let report = LoopReport::of(&first, &before, &targets, &proposed, &made.measurements, &second)?;
+            (second, Some(report))
+        }
+    };
     let (true_structure, true_structure_note) = match &stage.true_effects {
         None => (None, "no true structure known (a real cell)".to_string()),
         Some(effects) => match true_structure_fit(calibrated, &all, base, effects) {
@@ -456,15 +579,27 @@ pub fn discovery_analysis(
         two_sided_repeats: repeats,
         extra_measurements: campaign.measurements.len(),
         total_measurements: all.len(),
+        measurement_loop,
         discovery,
         true_structure,
         true_structure_note,
         plots,
-        last_joints: campaign.records.last().map(|r| r.state.joints),
+        last_joints,
         base_params: base.len(),
         base_name: parameter_set_name(base),
         dir_columns: dir_columns_text(nominal.joint_kinds()),
     })
+}
+
+/// Notes the measurement loop's files in the run's file list, when the loop ran.
+pub(crate) fn note_loop_files(o: &DiscoveryOutcome, files: &mut crate::report::Files) {
+    if o.measurement_loop.as_ref().is_some_and(|l| l.ran) {
+        files.note(LOOP_JOURNAL);
+        files.note(LOOP_MEASUREMENTS_CSV);
+        for name in ["candidates.csv", "selected.csv", "tour.csv", "summary.json", "proposal.json"] {
+            files.note(Path::new(LOOP_PLAN).join(name));
+        }
+    }
 }
 
 fn error_chain(e: &dyn std::error::Error) -> String {
@@ -632,6 +767,14 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
             );
         }
         let _ = writeln!(m);
+    }
+    if let Some(l) = &o.measurement_loop {
+        let lines = l.lines();
+        let _ = writeln!(
+            m,
+            "**Measurement loop** (`{LOOP_PLAN}/`, `{LOOP_JOURNAL}`): {}\n",
+            lines.join("\n").trim_start_matches("measurement loop: ")
+        );
     }
     for n in &d.negligible_effects {
         let _ = writeln!(m, "* detected, negligible ({:.1} µm): {} (not added)", n.change_um, n.label);

@@ -27,6 +27,7 @@
 
 pub mod calibrate;
 pub mod compensation;
+pub mod discovery_loop;
 pub mod discovery_stage;
 mod error;
 pub mod folders;

@@ -345,7 +345,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 }
 
 /// `--propose N --out-plan DIR`: the measurements that decide the last round's borderline or
-/// rival candidates, planned as a campaign on the cell (`vatcal_discovery::propose`).
+/// rival candidates, planned as a campaign on the cell (`vatcal_pipeline::discovery_loop::
+/// propose_plan`, the same the demo's measurement loop runs).
 fn propose_plan(
     args: &Args,
     d: &Discovery,
@@ -354,7 +355,7 @@ fn propose_plan(
     dir: &std::path::Path,
 ) -> anyhow::Result<()> {
     use vatcal_planning::candidates::CandidateOptions;
-    use vatcal_planning::plan::{PlanOptions, campaign_candidates, plan_selection};
+    use vatcal_planning::plan::PlanOptions;
     anyhow::ensure!(count > 0, "--propose must be at least 1");
     let focus = vatcal_discovery::propose::focus_effects(d, measurements, 2);
     if focus.is_empty() {
@@ -376,32 +377,19 @@ fn propose_plan(
         seed: args.seed,
         ..PlanOptions::default()
     };
-    let candidates =
-        campaign_candidates(&d.model, &geometry, &opts).context("candidate poses of the proposal")?;
-    let pool: Vec<Measurement> =
-        candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
-    anyhow::ensure!(!pool.is_empty(), "proposal: the planner found no measurable candidate pose");
-    let weights = d.kind_sigmas.weights();
-    let proposal = vatcal_discovery::propose::propose(
-        &d.model,
-        &d.params,
-        measurements,
-        &focus,
-        &pool,
-        count,
-        &weights,
-    )?;
-    let plan = plan_selection(&d.model, &geometry, candidates, proposal.selected.clone(), &opts)
-        .context("planning the proposed measurements")?;
-    let summary = vatcal_planning::output::write_plan(&plan, dir)?;
-    let json = serde_json::to_string_pretty(&proposal)?;
+    let proposed =
+        vatcal_pipeline::discovery_loop::propose_plan(d, measurements, &focus, &d.model, &geometry, &opts)
+            .context("proposing measurements")?;
+    let proposal = &proposed.proposal;
+    let summary = vatcal_planning::output::write_plan(&proposed.plan, dir)?;
+    let json = serde_json::to_string_pretty(proposal)?;
     std::fs::write(dir.join("proposal.json"), json)
         .with_context(|| format!("writing {}", dir.join("proposal.json").display()))?;
     println!(
         "proposal: {} measurements to decide {} (from {} candidate poses); predicted sigma of {}: {} -> {} (per unit noise); plan written to {}",
         proposal.selected.len(),
         proposal.focus.join(" / "),
-        pool.len(),
+        proposed.pool,
         proposal.focus_params.join(", "),
         fmt_list(&proposal.std_before),
         fmt_list(&proposal.std_after),

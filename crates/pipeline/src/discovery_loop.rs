@@ -1,0 +1,309 @@
+//! Discovery that asks for the data it needs, in the main job (issue 21 item 3): when the
+//! discovery loop ends with a **borderline** candidate (refitted but not added: rejected by the
+//! held-out test, detected but negligible, passed but not best) or with **rivals** the
+//! validation rows did not settle ([`vatcal_discovery::propose::borderline_effects`]), the
+//! discovery stage proposes `N` extra probe measurements that decide it
+//! ([`vatcal_discovery::propose::propose`]: Ds-optimal for the undecided effects' parameters,
+//! from the planner's collision-checked candidates), plans them as a campaign
+//! (`discovery_loop_plan/`), measures them on the same devices with the campaign runner
+//! (`discovery_loop.journal`, resumable like every campaign), runs discovery again on all
+//! data and reports before / after ([`LoopReport`]). With nothing borderline no loop runs and
+//! the report says so.
+//!
+//! [`propose_plan`] is also what `vatcal discover --propose N --out-plan DIR` runs.
+
+use serde::Serialize;
+use vatcal_core::effects::EffectSpec;
+use vatcal_core::{Measurement, ParamId};
+use vatcal_discovery::Discovery;
+use vatcal_discovery::propose::{Borderline, Proposal, design_quality, propose};
+use vatcal_discovery::workflow::{CandidateStatus, file_value};
+use vatcal_kinematics::Model;
+use vatcal_planning::geometry::CellGeometry;
+use vatcal_planning::plan::{Plan, PlanOptions, campaign_candidates, plan_selection};
+
+use crate::PipelineError;
+
+/// Journal of the measurements the loop proposed (in the run folder).
+pub const LOOP_JOURNAL: &str = "discovery_loop.journal";
+/// Probe measurements of the loop's campaign (in the run folder).
+pub const LOOP_MEASUREMENTS_CSV: &str = "discovery_loop_measurements.csv";
+/// Plan folder of the loop's campaign, with `proposal.json` (in the run folder).
+pub const LOOP_PLAN: &str = "discovery_loop_plan";
+
+/// The measurements proposed to decide some candidate effects, planned as a campaign.
+#[derive(Debug, Clone)]
+pub struct ProposedPlan {
+    /// what was selected and the predicted standard deviations before / after
+    pub proposal: Proposal,
+    /// the campaign plan of the selection (order, collision-free paths, timing)
+    pub plan: Plan,
+    /// size of the candidate pool the selection was made from
+    pub pool: usize,
+}
+
+/// Proposes `opts.count` probe measurements that best determine the parameters of `focus`
+/// given the parameters `d` fitted, with `measurements` (the data `d` ran on) held fixed: the
+/// pool is the planner's collision-checked candidate poses for `plan_model` on `geometry`
+/// (`opts.candidates`), the selection [`vatcal_discovery::propose::propose`] (Jacobians of
+/// `d.model`, rows weighted by `d`'s noise per kind), the plan
+/// [`vatcal_planning::plan::plan_selection`] (order and paths from `opts.start`).
+///
+/// # Errors
+/// No measurable candidate pose, an effect the model cannot take, or a planning failure.
+pub fn propose_plan(
+    d: &Discovery,
+    measurements: &[Measurement],
+    focus: &[EffectSpec],
+    plan_model: &Model,
+    geometry: &CellGeometry,
+    opts: &PlanOptions,
+) -> Result<ProposedPlan, PipelineError> {
+    let candidates = campaign_candidates(plan_model, geometry, opts)?;
+    let pool: Vec<Measurement> =
+        candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
+    if pool.is_empty() {
+        return Err(PipelineError::Option {
+            option: "proposal".into(),
+            reason: "the planner found no measurable candidate pose".into(),
+        });
+    }
+    let weights = d.kind_sigmas.weights();
+    let proposal = propose(&d.model, &d.params, measurements, focus, &pool, opts.count, &weights)?;
+    let n = pool.len();
+    let plan = plan_selection(plan_model, geometry, candidates, proposal.selected.clone(), opts)?;
+    Ok(ProposedPlan { proposal, plan, pool: n })
+}
+
+/// One parameter of a targeted effect: predicted and achieved standard deviation, in file
+/// units (degrees, mm; the key names the unit).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoopParam {
+    /// parameter name with its unit, e.g. `cyclic_sin_j5_h1_deg`
+    pub name: String,
+    /// predicted σ with the data before the loop (design, at the loop's noise σ)
+    pub std_before: f64,
+    /// predicted σ with the proposed measurements added (as planned)
+    pub std_predicted: f64,
+    /// σ of the same design formula on the measurements actually made (centring moves the
+    /// poses; skipped measurements are missing)
+    pub std_achieved: f64,
+    /// σ of the identified value when the second discovery refitted the effect (its fit's own
+    /// σ̂, which includes any physics still unmodelled)
+    pub std_fitted: Option<f64>,
+    /// the identified value, when refitted
+    pub value: Option<f64>,
+}
+
+/// A candidate effect the loop targeted and what became of it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoopTarget {
+    /// the effect
+    pub label: String,
+    /// why it was undecided before the loop
+    pub before: String,
+    /// the decision of the discovery on all data (`added in round r`, or the status of the
+    /// last round it was scored in)
+    pub decision: String,
+    /// its parameters not fitted before the loop
+    pub params: Vec<LoopParam>,
+}
+
+/// `report.json`'s `discovery.loop`: the measurements discovery asked for, and the before /
+/// after of the discovery on all data.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LoopReport {
+    /// whether a loop ran
+    pub ran: bool,
+    /// one sentence: why it ran (which candidates) or why not
+    pub reason: String,
+    /// the targeted candidates
+    pub targets: Vec<LoopTarget>,
+    /// measurements proposed
+    pub proposed: usize,
+    /// of those, measured (auto-centering may skip some)
+    pub measured: usize,
+    /// candidate poses the proposal chose from
+    pub pool: usize,
+    /// σ per axis of a probe row the standard deviations are scaled with \[mm\] (the noise
+    /// reference of the first discovery)
+    pub noise_mm: f64,
+    /// effects in the discovered model before the loop
+    pub effects_before: Vec<String>,
+    /// effects in the discovered model after the loop
+    pub effects_after: Vec<String>,
+    /// cross-validated gap of the discovered model before the loop (its data) \[mm\]
+    pub gap_before_mm: f64,
+    /// cross-validated gap of the discovered model after the loop (all data) \[mm\]
+    pub gap_after_mm: f64,
+}
+
+impl LoopReport {
+    /// The report when no loop ran, with the reason.
+    pub fn not_run(d: &Discovery, reason: impl Into<String>) -> Self {
+        Self {
+            ran: false,
+            reason: reason.into(),
+            targets: Vec::new(),
+            proposed: 0,
+            measured: 0,
+            pool: 0,
+            noise_mm: noise_mm(d),
+            effects_before: labels(d),
+            effects_after: labels(d),
+            gap_before_mm: d.final_gap_mm,
+            gap_after_mm: d.final_gap_mm,
+        }
+    }
+
+    /// The report of a loop: `first` on `before` (the data at hand), the proposal `proposed`
+    /// for `targets`, the measurements made `made`, `second` on all data.
+    ///
+    /// # Errors
+    /// The design of the measurements made cannot be evaluated (a Jacobian fails).
+    pub fn of(
+        first: &Discovery,
+        before: &[Measurement],
+        targets: &[Borderline],
+        proposed: &ProposedPlan,
+        made: &[Measurement],
+        second: &Discovery,
+    ) -> Result<Self, PipelineError> {
+        let sigma = noise_mm(first);
+        let specs: Vec<EffectSpec> = targets.iter().map(|t| t.spec).collect();
+        let weights = first.kind_sigmas.weights();
+        let (_, achieved) = design_quality(&first.model, &first.params, before, &specs, made, &weights)?;
+        let p = &proposed.proposal;
+        let std_of = |ids: &[ParamId]| -> Vec<(ParamId, usize)> {
+            ids.iter().filter_map(|id| p.focus_ids.iter().position(|f| f == id).map(|k| (*id, k))).collect()
+        };
+        let mut out = Vec::new();
+        for t in targets {
+            let label = t.spec.label();
+            let (decision, fitted) = decision_of(second, &label);
+            let params = std_of(&t.spec.params())
+                .into_iter()
+                .map(|(id, k)| {
+                    let (name, _) = file_value(id, 0.0);
+                    let scaled = |v: &[f64]| v.get(k).map_or(f64::NAN, |s| file_value(id, s * sigma).1);
+                    LoopParam {
+                        std_before: scaled(&p.std_before),
+                        std_predicted: scaled(&p.std_after),
+                        std_achieved: scaled(&achieved),
+                        std_fitted: fitted.and_then(|(_, s)| s.get(&name).copied()),
+                        value: fitted.and_then(|(v, _)| v.get(&name).copied()),
+                        name,
+                    }
+                })
+                .collect();
+            out.push(LoopTarget { label, before: t.why.clone(), decision, params });
+        }
+        Ok(Self {
+            ran: true,
+            reason: format!(
+                "undecided after discovery: {}",
+                targets
+                    .iter()
+                    .map(|t| format!("{} ({})", t.spec.label(), t.why))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            ),
+            targets: out,
+            proposed: p.selected.len(),
+            measured: made.len(),
+            pool: proposed.pool,
+            noise_mm: sigma,
+            effects_before: labels(first),
+            effects_after: labels(second),
+            gap_before_mm: first.final_gap_mm,
+            gap_after_mm: second.final_gap_mm,
+        })
+    }
+
+    /// Lines for people (text output, `summary.md`).
+    pub fn lines(&self) -> Vec<String> {
+        let mut v = vec![if self.ran {
+            format!(
+                "measurement loop: {}; {} measurements proposed from {} candidate poses, {} measured; discovery on all data: \
+                 cross-validated gap {:.4} -> {:.4} mm, {} -> {} effect(s)",
+                self.reason,
+                self.proposed,
+                self.pool,
+                self.measured,
+                self.gap_before_mm,
+                self.gap_after_mm,
+                self.effects_before.len(),
+                self.effects_after.len()
+            )
+        } else {
+            format!("measurement loop: not run ({})", self.reason)
+        }];
+        for t in &self.targets {
+            let stds: Vec<String> = t
+                .params
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{}: sigma {:.3e} -> predicted {:.3e}, achieved {:.3e}{}",
+                        p.name,
+                        p.std_before,
+                        p.std_predicted,
+                        p.std_achieved,
+                        p.std_fitted.map_or(String::new(), |s| format!(", fitted {s:.3e}"))
+                    )
+                })
+                .collect();
+            v.push(format!("  {}: {} -> {}; {}", t.label, t.before, t.decision, stds.join("; ")));
+        }
+        v
+    }
+}
+
+/// σ per axis of a probe row of `d`'s noise reference (the instruments' when known, else the
+/// last fit's σ̂) \[mm\].
+fn noise_mm(d: &Discovery) -> f64 {
+    d.noise
+        .sigmas
+        .probe_mm
+        .or(d.kind_sigmas.probe_mm)
+        .or_else(|| d.rounds.last().map(|r| r.fit.sigma_hat_mm))
+        .unwrap_or(f64::NAN)
+}
+
+fn labels(d: &Discovery) -> Vec<String> {
+    d.added_effects.iter().map(|a| a.label.clone()).collect()
+}
+
+type Values<'a> = (&'a std::collections::BTreeMap<String, f64>, &'a std::collections::BTreeMap<String, f64>);
+
+/// What discovery decided about `label`, and its identified values and σ when refitted.
+fn decision_of<'a>(d: &'a Discovery, label: &str) -> (String, Option<Values<'a>>) {
+    if let Some(a) = d.added_effects.iter().find(|a| a.label == label) {
+        return (format!("added in round {}", a.round), Some((&a.values, &a.std_errors)));
+    }
+    let mut text = "not scored (its data columns are missing)".to_string();
+    let mut fitted = None;
+    for round in &d.rounds {
+        if let Some(c) = round.candidates.iter().find(|c| c.label == label) {
+            let status = match &c.status {
+                CandidateStatus::MissingData(r) => format!("not tested: {r}"),
+                CandidateStatus::AlreadyInModel => "already in the model".to_string(),
+                CandidateStatus::NotDiscoverable => {
+                    "not discoverable (absorbed by the fitted parameters)".into()
+                }
+                CandidateStatus::NotSignificant => "not significant on the screening data".into(),
+                CandidateStatus::NotRefitted => "significant, not refitted (others scored higher)".into(),
+                CandidateStatus::Rejected(r) => format!("rejected: {r}"),
+                CandidateStatus::DetectedNegligible(r) => r.clone(),
+                CandidateStatus::PassedNotBest => "passed, not best".into(),
+                CandidateStatus::Added => "added".into(),
+            };
+            text = format!("round {} (last scored): {status}", round.index);
+            fitted = c.refit.as_ref().map(|r| (&r.values, &r.std_errors));
+        }
+    }
+    if let Some(a) = d.ambiguities.iter().find(|a| a.rivals.iter().any(|r| r == label)) {
+        text.push_str(&format!("; {}", a.sentence));
+    }
+    (text, fitted)
+}
