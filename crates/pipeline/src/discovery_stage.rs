@@ -545,7 +545,7 @@ pub fn discovery_analysis(
                 None => RunFolder::new(out).journal_report(LOOP_JOURNAL)?,
             };
             vatcal_io::write_measurements_for(
-                &out.join(LOOP_MEASUREMENTS_CSV),
+                out.join(LOOP_MEASUREMENTS_CSV),
                 &made.measurements,
                 nominal.joint_kinds(),
             )?;
