@@ -8,7 +8,9 @@
 //! ```text
 //! cargo run --release -p vatcal-discovery --example discovery_benchmark -- [CASES] [SEED] [JSON_OUT]
 //! ```
-//! (defaults: 100 cases, seed 21). Prints one line per case, then the Markdown tables.
+//! (defaults: 100 cases, seed 21). Prints one line per case, then the Markdown tables. With
+//! `DISCOVERY_BENCHMARK_REPORTS=DIR` it also writes each case's full discovery report
+//! (`DIR/case-N.json`, as `vatcal discover --report` writes it), for reading a case in detail.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -23,6 +25,27 @@ fn main() {
     let count: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(100);
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(21);
     let cases = generate(count, seed);
+    if let Ok(dir) = std::env::var("DISCOVERY_BENCHMARK_REPORTS") {
+        std::fs::create_dir_all(&dir).unwrap();
+        cases.clone().into_par_iter().for_each(|mut c| {
+            let Some(data) = common::benchmark::CaseData::build(&mut c) else { return };
+            let options = common::benchmark::options_for(&c, &data);
+            let path = std::path::Path::new(&dir);
+            if let Ok(d) = vatcal_discovery::discover(
+                &data.nominal,
+                &data.measurements,
+                &data.params,
+                Some(&data.validation),
+                &options,
+            ) {
+                std::fs::write(
+                    path.join(format!("case-{}.json", c.id)),
+                    serde_json::to_string_pretty(&d).unwrap(),
+                )
+                .unwrap();
+            }
+        });
+    }
     let t0 = std::time::Instant::now();
     let results: Vec<_> = cases
         .into_par_iter()

@@ -74,3 +74,90 @@ fn discover_proposes_a_plan_for_its_borderline_candidate() {
         String::from_utf8_lossy(&bad.stderr)
     );
 }
+
+/// The whole loop with child processes, as a user runs it: `vatcal plan` + `vatcal campaign`
+/// on the simulated cell (paper-like truth, served over TCP), `vatcal discover --propose 8
+/// --out-plan DIR` on the measurements, then `vatcal campaign --plan DIR` on the same cell
+/// measures every proposed pose.
+#[test]
+fn the_proposed_plan_runs_as_a_campaign_on_the_simulated_cell() {
+    use crate::campaign_sim::{devices_file, ok, s, start_cell, vatcal};
+    let dir = tempfile::tempdir().expect("tmp");
+    let plan = dir.path().join("plan");
+    ok(&vatcal(&[
+        "plan",
+        "--model",
+        FIXTURE,
+        "--seed",
+        "4",
+        "--orientations",
+        "40",
+        "--guide-steps",
+        "4",
+        "--count",
+        "40",
+        "--out",
+        s(&plan),
+        "--quiet",
+    ]));
+    let cell = start_cell(4);
+    let devices = devices_file(&cell, dir.path());
+    let campaign = |plan: &std::path::Path, out: &std::path::Path| {
+        ok(&vatcal(&[
+            "campaign",
+            "--devices",
+            s(&devices),
+            "--plan",
+            s(plan),
+            "--out",
+            s(out),
+            "--operator",
+            "auto",
+            "--quiet",
+        ]))
+    };
+    let run = dir.path().join("run");
+    campaign(&plan, &run);
+    let proposal = dir.path().join("proposal");
+    let stdout = ok(&vatcal(&[
+        "discover",
+        "--model",
+        FIXTURE,
+        "--measurements",
+        s(&run.join("measurements.csv")),
+        "--seed",
+        "2",
+        "--probe-sigma-mm",
+        "0.002",
+        "--propose",
+        "8",
+        "--propose-orientations",
+        "6",
+        "--out-plan",
+        s(&proposal),
+    ]));
+    eprintln!("{stdout}");
+    assert!(stdout.contains("proposal: 8 measurements to decide"), "{stdout}");
+    let selected = std::fs::read_to_string(proposal.join("selected.csv")).expect("selected.csv");
+    assert_eq!(selected.lines().count(), 1 + 8, "{selected}");
+    // the proposed campaign on the same cell: every proposed pose measured
+    let more = dir.path().join("more");
+    campaign(&proposal, &more);
+    let rows = std::fs::read_to_string(more.join("measurements.csv")).expect("measurements.csv");
+    let data: Vec<&str> =
+        rows.lines().skip(1).filter(|l| !l.starts_with('#') && !l.trim().is_empty()).collect();
+    assert_eq!(data.len(), 8, "{rows}");
+    // the proposed rows are probe rows of the planned (position, tcp) pairs
+    let pairs = |lines: Vec<&str>| {
+        let mut v: Vec<(String, String)> = lines
+            .iter()
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').map(str::trim).collect();
+                (f[0].to_string(), f[1].to_string())
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(pairs(selected.lines().skip(1).collect()), pairs(data), "{selected}\n{rows}");
+}
