@@ -106,10 +106,7 @@ impl DemoOptions {
     /// guide steps, 40 measurements, 200 random validation poses, 60 discovery measurements
     /// (the printing path's slices as given).
     pub fn quick(mut self) -> Self {
-        self.sizes.orientations = 20;
-        self.sizes.guide_steps = 3;
-        self.sizes.count = 40;
-        self.sizes.random_poses = 200;
+        self.sizes = self.sizes.quick();
         self.discovery_count = 60;
         self
     }

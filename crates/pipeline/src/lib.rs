@@ -141,6 +141,12 @@ impl RunSizes {
         at_least("random_poses", self.random_poses, 1)?;
         at_least("slices", self.slices, 2)
     }
+
+    /// The small sizes of a quick look (`--quick`): 20 orientations, 3 guide steps, 40
+    /// measurements, 200 random validation poses; the slices are kept.
+    pub fn quick(self) -> Self {
+        Self { orientations: 20, guide_steps: 3, count: 40, random_poses: 200, ..self }
+    }
 }
 
 impl Default for RunSizes {

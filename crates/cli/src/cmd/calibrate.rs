@@ -21,8 +21,7 @@ use vatcal_kinematics::Model;
 use vatcal_pipeline::calibrate::CellRunSetup;
 use vatcal_pipeline::stop::StopFlag;
 use vatcal_pipeline::{
-    CalibrateOptions, DeviceSet, DeviceSource, DiscoveryStageOptions, PipelineError, RunOptions, RunSizes,
-    Stage,
+    CalibrateOptions, DeviceSet, DeviceSource, DiscoveryStageOptions, PipelineError, RunOptions, Stage,
 };
 
 use super::campaign::{
@@ -62,21 +61,9 @@ pub struct Args {
     /// options are then ignored except --slices).
     #[arg(long)]
     pub quick: bool,
-    /// Random tool orientations per TCP × calibration position for the candidates.
-    #[arg(long, default_value_t = 500)]
-    pub orientations: usize,
-    /// Guide positions of the candidates.
-    #[arg(long, default_value_t = 10)]
-    pub guide_steps: usize,
-    /// Measurements selected by Detmax.
-    #[arg(long, default_value_t = 40)]
-    pub count: usize,
-    /// Random validation poses measured by the tracker.
-    #[arg(long, default_value_t = 573)]
-    pub random_poses: usize,
-    /// Slices of the validation printing path.
-    #[arg(long, default_value_t = 300)]
-    pub slices: usize,
+    /// Sizes of the run.
+    #[command(flatten)]
+    pub sizes: super::size_args::SizeArgs,
     /// Extra probe measurements of the discovery stage.
     #[arg(long, default_value_t = 360)]
     pub discovery_count: usize,
@@ -142,17 +129,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         None => Stage::ALL.to_vec(),
     };
     let cal = CalibrateOptions { stages, resume: args.resume };
-    let mut sizes = RunSizes {
-        orientations: args.orientations,
-        guide_steps: args.guide_steps,
-        count: args.count,
-        random_poses: args.random_poses,
-        slices: args.slices,
-    };
+    let mut sizes = args.sizes.run_sizes();
     let mut discovery_count = args.discovery_count;
     if args.quick {
-        sizes =
-            RunSizes { orientations: 20, guide_steps: 3, count: 40, random_poses: 200, slices: args.slices };
+        sizes = sizes.quick();
         discovery_count = 60;
     }
     let timeout = Duration::from_secs_f64(args.motion_timeout_s);

@@ -106,21 +106,9 @@ pub struct Args {
     /// ignored, give the sizes).
     #[arg(long)]
     pub quick: bool,
-    /// Random tool orientations per TCP × calibration position for the candidates.
-    #[arg(long, default_value_t = 500)]
-    pub orientations: usize,
-    /// Guide positions of the candidates.
-    #[arg(long, default_value_t = 10)]
-    pub guide_steps: usize,
-    /// Measurements selected by Detmax.
-    #[arg(long, default_value_t = 40)]
-    pub count: usize,
-    /// Random validation poses measured by the tracker.
-    #[arg(long, default_value_t = 573)]
-    pub random_poses: usize,
-    /// Slices of the validation printing path.
-    #[arg(long, default_value_t = 300)]
-    pub slices: usize,
+    /// Sizes of the run.
+    #[command(flatten)]
+    pub sizes: super::size_args::SizeArgs,
     /// Extra probe measurements of the discovery stage (default: the discovery's own, 360; as
     /// `vatcal calibrate --discovery-count`).
     #[arg(long)]
@@ -159,11 +147,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             chain = Some(model.describe_chain());
         }
     }
-    opts.sizes.orientations = args.orientations;
-    opts.sizes.guide_steps = args.guide_steps;
-    opts.sizes.count = args.count;
-    opts.sizes.random_poses = args.random_poses;
-    opts.sizes.slices = args.slices;
+    opts.sizes = args.sizes.run_sizes();
     if chain.is_some() && args.quick {
         opts = opts.quick();
     }

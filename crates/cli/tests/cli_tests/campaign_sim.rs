@@ -156,7 +156,8 @@ pub(crate) fn devices_file(cell: &SimCell, dir: &Path) -> PathBuf {
     path
 }
 
-fn plan(seed: u64, dir: &Path) -> PathBuf {
+/// `vatcal plan` of the canonical cell at small sizes into `dir/plan`.
+pub(crate) fn plan(seed: u64, dir: &Path) -> PathBuf {
     let out = dir.join("plan");
     let seed = seed.to_string();
     ok(&vatcal(&[

@@ -81,25 +81,9 @@ fn discover_proposes_a_plan_for_its_borderline_candidate() {
 /// measures every proposed pose.
 #[test]
 fn the_proposed_plan_runs_as_a_campaign_on_the_simulated_cell() {
-    use crate::campaign_sim::{devices_file, ok, s, start_cell, vatcal};
+    use crate::campaign_sim::{devices_file, ok, plan, s, start_cell, vatcal};
     let dir = tempfile::tempdir().expect("tmp");
-    let plan = dir.path().join("plan");
-    ok(&vatcal(&[
-        "plan",
-        "--model",
-        FIXTURE,
-        "--seed",
-        "4",
-        "--orientations",
-        "40",
-        "--guide-steps",
-        "4",
-        "--count",
-        "40",
-        "--out",
-        s(&plan),
-        "--quiet",
-    ]));
+    let plan = plan(4, dir.path());
     let cell = start_cell(4);
     let devices = devices_file(&cell, dir.path());
     let campaign = |plan: &std::path::Path, out: &std::path::Path| {

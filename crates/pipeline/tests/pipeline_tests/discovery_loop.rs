@@ -118,7 +118,13 @@ fn the_loop_measures_what_decides_a_borderline_gear_error() {
     assert!(l.ran, "{}", l.reason);
     let label = EffectSpec::JointCyclic { joint: 5, harmonic: 1 }.label();
     let t = l.targets.iter().find(|t| t.label == label).expect("the gear error is targeted");
-    assert!(t.before.starts_with("detected, negligible"), "borderline before the loop: {}", t.before);
+    // undecided either by the size rule or, since rival resolution, as the simpler-chosen rival of
+    // the joint's scale error (the two are near-equivalent on the screening data)
+    assert!(
+        t.before.starts_with("detected, negligible") || t.before.starts_with("rival of"),
+        "borderline before the loop: {}",
+        t.before
+    );
     assert!(!l.effects_before.contains(&label), "undecided before the loop: {:?}", l.effects_before);
     assert!(l.measured > 0 && l.measured <= l.proposed && l.proposed == 40);
     assert!(dir.path().join(LOOP_JOURNAL).exists());
