@@ -35,7 +35,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
-use vatcal_campaign::validation::{ValidationRecords, build_validation_plan, evaluate};
+use vatcal_campaign::validation::{ValidationRecords, evaluate};
 use vatcal_campaign::{CampaignReport, Journal};
 use vatcal_identification::Identification;
 use vatcal_kinematics::Model;
@@ -616,12 +616,6 @@ pub fn calibrate<S: ReportSetup>(
     }
 
     // 5. validation
-    let mut options = crate::validation_options(opts, start);
-    if !crate::has_printing_path(&nominal) {
-        options.printing.slices = 0;
-        // one turn per joint: the path planner connects the random poses of a ±360° arm
-        options.random.revolute_range_deg = Some(360.0);
-    }
     let mut models: Vec<(&str, &Model)> = vec![(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
     if let Some(d) = &discovered {
         models.push((DISCOVERED, &d.discovery.model));
@@ -629,7 +623,8 @@ pub fn calibrate<S: ReportSetup>(
             models.push((TRUE_STRUCTURE, t));
         }
     }
-    let validation_plan = build_validation_plan(&nominal, &geometry, &models, &options)?;
+    let (validation_plan, options) =
+        crate::plans::validation_plan(opts, &nominal, &geometry, &models, start)?;
     let printing_targets = if validation_plan.slices.is_empty() {
         None
     } else {
@@ -652,16 +647,13 @@ pub fn calibrate<S: ReportSetup>(
             });
         }
         let start_s = dev.devices().clock.now_s();
-        let registration =
-            crate::registration::registration_step(dev, &nominal, out, opts.campaign.tracker_retries)?;
-        let validation = crate::validation_stage(
+        let (validation, registration) = crate::validation_stage(
             dev,
             &nominal,
             &models,
             validation_plan,
             &folder,
             opts.campaign.clone(),
-            registration.as_ref().and_then(|r| r.tank_from_tracker()).as_ref(),
             &mut *book.progress,
         )?;
         let end_s = dev.devices().clock.now_s();
