@@ -83,7 +83,8 @@ pub struct ZaberConfig {
     /// mm ↔ microstep conversion
     pub microstep: MicrostepSize,
     /// scale the move speed with `MotionOptions::speed_fraction` by setting `maxspeed` to
-    /// that fraction of the value read at connection (the setting stays changed afterwards)
+    /// that fraction of the value read at connection for the move (set back to that value
+    /// when the move has ended: a wait that sees IDLE, or a stop)
     pub speed_control: bool,
 }
 
@@ -431,6 +432,7 @@ impl<T: Transport> ZaberAxis<T> {
         loop {
             let reply = self.command(self.config.axis, "")?;
             if reply.status == Status::Idle {
+                self.restore_speed()?;
                 return self.check_motion_flags();
             }
             match wait.remaining() {
@@ -442,6 +444,18 @@ impl<T: Transport> ZaberAxis<T> {
                 }
             }
         }
+    }
+
+    /// Puts `maxspeed` back to the value read at connection once the axis is idle: the next
+    /// session (a resume, another command) reads the full speed again instead of this move's
+    /// fraction of it, so the fractions do not compound from one connection to the next.
+    fn restore_speed(&mut self) -> Result<(), ZaberError> {
+        let Some(base) = self.info.base_maxspeed.filter(|_| self.config.speed_control) else { return Ok(()) };
+        if self.speed_set != Some(base) {
+            self.command(self.config.axis, &format!("set maxspeed {base}"))?;
+            self.speed_set = Some(base);
+        }
+        Ok(())
     }
 
     fn check_motion_flags(&mut self) -> Result<(), ZaberError> {
@@ -459,6 +473,7 @@ impl<T: Transport> ZaberAxis<T> {
         let wait = Wait::new(self.config.io_timeout);
         loop {
             if self.command(self.config.axis, "")?.status == Status::Idle {
+                self.restore_speed()?;
                 return self.clear_warnings();
             }
             match wait.remaining() {

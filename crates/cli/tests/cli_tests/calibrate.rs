@@ -322,7 +322,7 @@ fn stage_running(out: &Path, stage: &str) -> bool {
 }
 
 /// Starts `vatcal` with `args` and kills it with SIGKILL as soon as `when` holds.
-fn kill_in(args: &[&str], when: impl Fn() -> bool) {
+pub(crate) fn kill_in(args: &[&str], when: impl Fn() -> bool) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
         .args(args)
         .stdout(Stdio::null())
