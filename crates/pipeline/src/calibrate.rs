@@ -633,6 +633,7 @@ pub fn calibrate<S: ReportSetup>(
     let (validation, validation_time_s) = if run(&book, Stage::Validate) {
         if restart(&book, Stage::Validate) {
             folder.remove(folders::VALIDATION_JOURNAL)?;
+            folder.remove_registration()?;
         }
         let resumed = folder.path(folders::VALIDATION_JOURNAL).exists();
         book.progress.stage_started(Stage::Validate, Some(validation_plan.campaign.steps.len()));
@@ -731,6 +732,12 @@ pub fn calibrate<S: ReportSetup>(
         Some(stage) => Some(discovery_stage::discovery_tour(stage, &nominal, out)?.0),
         None => None,
     };
+    let loop_tour = match discovered.as_ref().and_then(|d| d.measurement_loop.as_ref()).filter(|l| l.ran) {
+        Some(_) => Some(
+            PlanFolder::new(out.join(crate::discovery_loop::LOOP_PLAN)).read_tour(nominal.joint_kinds())?,
+        ),
+        None => None,
+    };
     let timing = timing::measure(&timing::TimingInputs {
         out,
         nominal: &nominal,
@@ -738,6 +745,7 @@ pub fn calibrate<S: ReportSetup>(
         tour: &tour,
         plan: &report.plan,
         discovery_tour: discovery_tour.as_ref(),
+        loop_tour: loop_tour.as_ref(),
         validation_steps: &validation.plan.campaign,
     })?;
     book.finish(Stage::Report, None, |_| None)?;

@@ -335,10 +335,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let folder = RunFolder::new(&args.out);
     let journal = folder.path(kind.journal());
-    match (journal.exists(), args.resume) {
+    // a validation campaign starts with the tracker registration, journaled too
+    let started = journal.exists() || (kind == PlanKind::Validation && folder.validation_started());
+    match (started, args.resume) {
         (true, false) => bail!(
             "{} exists: pass --resume to continue that campaign, or choose another --out",
-            journal.display()
+            if journal.exists() { journal.display().to_string() } else { format!("{}'s registration", args.out.display()) }
         ),
         (false, true) => bail!("--resume: {} does not exist (nothing to resume)", journal.display()),
         _ => {}
