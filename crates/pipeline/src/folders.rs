@@ -186,9 +186,13 @@ impl RunFolder {
     /// Whether a validation campaign was started in the folder: its journal, the tracker
     /// registration or journaled nest readings exist.
     pub fn validation_started(&self) -> bool {
-        [VALIDATION_JOURNAL, crate::registration::TRACKER_REGISTRATION_FILE, crate::registration::TRACKER_READINGS_FILE]
-            .iter()
-            .any(|name| self.path(name).exists())
+        [
+            VALIDATION_JOURNAL,
+            crate::registration::TRACKER_REGISTRATION_FILE,
+            crate::registration::TRACKER_READINGS_FILE,
+        ]
+        .iter()
+        .any(|name| self.path(name).exists())
     }
 
     /// Removes one file of the folder if it exists.

@@ -143,7 +143,8 @@ pub fn registration_step(
         taken.push((position, reading));
         save_readings(&partial, &taken)
     };
-    let fitted = register_tracker_resuming(tracker, cell.operator, controller, &[], retries, &already, &mut journal)?;
+    let fitted =
+        register_tracker_resuming(tracker, cell.operator, controller, &[], retries, &already, &mut journal)?;
     let report = match mode {
         TrackerRegistrationMode::Check => {
             RegistrationReport { mode: "check".into(), registration: fitted.checked() }
@@ -152,7 +153,8 @@ pub fn registration_step(
     };
     report.save(out)?;
     if partial.exists() {
-        std::fs::remove_file(&partial).map_err(|source| PipelineError::Io { path: partial.clone(), source })?;
+        std::fs::remove_file(&partial)
+            .map_err(|source| PipelineError::Io { path: partial.clone(), source })?;
     }
     Ok(Some(report))
 }
@@ -173,19 +175,25 @@ fn load_readings(path: &Path) -> Result<Vec<(u32, nalgebra::Vector3<f64>)>, Pipe
     if !path.exists() {
         return Ok(Vec::new());
     }
-    let text =
-        std::fs::read_to_string(path).map_err(|source| PipelineError::Io { path: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| PipelineError::Io { path: path.to_path_buf(), source })?;
     let readings: Vec<NestReading> = serde_json::from_str(&text)
         .map_err(|e| PipelineError::Folder { path: path.to_path_buf(), reason: e.to_string() })?;
     Ok(readings.into_iter().map(|r| (r.position, r.tracker_mm.into())).collect())
 }
 
 /// Writes the readings atomically (temporary file, `fsync`, rename).
-fn save_readings(path: &Path, readings: &[(u32, nalgebra::Vector3<f64>)]) -> Result<(), TrackerRegistrationError> {
+fn save_readings(
+    path: &Path,
+    readings: &[(u32, nalgebra::Vector3<f64>)],
+) -> Result<(), TrackerRegistrationError> {
     use std::io::Write as _;
     let list: Vec<NestReading> =
         readings.iter().map(|(p, v)| NestReading { position: *p, tracker_mm: [v.x, v.y, v.z] }).collect();
-    let file_err = |e: &dyn std::fmt::Display| TrackerRegistrationError::File { path: path.to_path_buf(), message: e.to_string() };
+    let file_err = |e: &dyn std::fmt::Display| TrackerRegistrationError::File {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
     let text = serde_json::to_string_pretty(&list).map_err(|e| file_err(&e))?;
     let tmp = path.with_extension("json.tmp");
     let mut f = std::fs::File::create(&tmp).map_err(|e| file_err(&e))?;

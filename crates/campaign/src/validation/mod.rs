@@ -44,7 +44,8 @@ pub use poses::{RandomPoseOptions, ValidationPose, random_validation_poses};
 pub use printing::{PrintingPathError, PrintingPathOptions, PrintingSlice, printing_path};
 pub use registration::{RegistrationError, fit_rigid_transform};
 pub use tracker_registration::{
-    RegistrationPoint, TrackerRegistration, TrackerRegistrationError, register_tracker, register_tracker_resuming,
+    RegistrationPoint, TrackerRegistration, TrackerRegistrationError, register_tracker,
+    register_tracker_resuming,
 };
 
 use crate::CampaignError;

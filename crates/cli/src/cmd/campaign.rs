@@ -340,7 +340,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     match (started, args.resume) {
         (true, false) => bail!(
             "{} exists: pass --resume to continue that campaign, or choose another --out",
-            if journal.exists() { journal.display().to_string() } else { format!("{}'s registration", args.out.display()) }
+            if journal.exists() {
+                journal.display().to_string()
+            } else {
+                format!("{}'s registration", args.out.display())
+            }
         ),
         (false, true) => bail!("--resume: {} does not exist (nothing to resume)", journal.display()),
         _ => {}
