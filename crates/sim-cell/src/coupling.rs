@@ -1,7 +1,7 @@
 //! The backend hooks that couple the protocol simulators to the one virtual world.
 
-use std::sync::atomic::{AtomicBool, AtomicI64};
 use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, AtomicI64};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
@@ -129,7 +129,10 @@ impl GaugeCoupling {
                 0 => guide_state.maxspeed,
                 m => m,
             };
-            (guide_state.pos_microsteps * link.microstep_mm, maxspeed as f64 / link.full_maxspeed.max(1) as f64)
+            (
+                guide_state.pos_microsteps * link.microstep_mm,
+                maxspeed as f64 / link.full_maxspeed.max(1) as f64,
+            )
         });
         self.cell.external_sync(&joints, guide_mm, arm_speed, guide_speed);
     }

@@ -396,7 +396,8 @@ impl SimCell {
             }));
             let sim =
                 Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
-            guide_link = Some(GuideLink { sim: Arc::downgrade(&sim), microstep_mm, full_maxspeed, motion_maxspeed });
+            guide_link =
+                Some(GuideLink { sim: Arc::downgrade(&sim), microstep_mm, full_maxspeed, motion_maxspeed });
             zaber = Some(sim);
         }
 

@@ -15,23 +15,12 @@
 use std::path::Path;
 
 use super::calibrate::kill_in;
-use super::campaign_sim::{SimCellProcess, ok, plan, s, vatcal};
+use super::campaign_sim::{SimCellProcess, campaign_args, ok, plan, s, vatcal};
 
 const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml");
 
 fn campaign(devices: &Path, plan: &Path, out: &Path, resume: bool) -> String {
-    let mut args = vec![
-        "campaign",
-        "--devices",
-        s(devices),
-        "--plan",
-        s(plan),
-        "--out",
-        s(out),
-        "--operator",
-        "auto",
-        "--quiet",
-    ];
+    let mut args = campaign_args(devices, plan, out);
     if resume {
         args.push("--resume");
     }
@@ -101,18 +90,8 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     let text = std::fs::read_to_string(&devices).expect("devices");
     let kept: Vec<&str> = text.lines().filter(|l| !l.starts_with("tracker")).collect();
     std::fs::write(&no_tracker, kept.join("\n")).expect("write");
-    let refused = vatcal(&[
-        "campaign",
-        "--devices",
-        s(&no_tracker),
-        "--plan",
-        s(&vplan),
-        "--out",
-        s(&dir.path().join("never")),
-        "--operator",
-        "auto",
-        "--quiet",
-    ]);
+    let never = dir.path().join("never");
+    let refused = vatcal(&campaign_args(&no_tracker, &vplan, &never));
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success() && err.contains("no `tracker`"), "{err}");
 
@@ -121,19 +100,7 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     let journal = vrun.join("validation.journal");
     let tracked =
         || std::fs::read_to_string(&journal).map_or(0, |t| t.matches("\"outcome\":\"tracked\"").count());
-    let args = [
-        "campaign",
-        "--devices",
-        s(&devices),
-        "--plan",
-        s(&vplan),
-        "--out",
-        s(&vrun),
-        "--operator",
-        "auto",
-        "--quiet",
-    ];
-    kill_in(&args, || tracked() >= planned / 2);
+    kill_in(&campaign_args(&devices, &vplan, &vrun), || tracked() >= planned / 2);
     let before_resume = tracked();
     assert!(before_resume >= planned / 2 && before_resume < planned, "{before_resume} of {planned}");
     let registration = std::fs::read_to_string(vrun.join("tracker-registration.json")).expect("registration");
