@@ -187,8 +187,12 @@ impl CampaignPlan {
     /// name); [`CampaignPlan::read_tour_for`] reads any chain's. Consecutive `move` rows become
     /// one [`CampaignStep::Move`] through their waypoints; a `measure` row adds its joints as
     /// the last waypoint (the straight move from the approach pose down to the measurement
-    /// pose) and then a [`CampaignStep::Measure`]; a `replace_probe` row becomes a
-    /// [`CampaignStep::PlaceProbe`]. Validate the result with [`CampaignPlan::validate`].
+    /// pose) and then a [`CampaignStep::Measure`]; a `track` row likewise ends the move with
+    /// its joints and adds a [`CampaignStep::Track`] (a `track` row right after another
+    /// measurement at the same joints adds no move: another SMR at the same pose); a
+    /// `replace_probe` row becomes a [`CampaignStep::PlaceProbe`], a `zero_probe` row a
+    /// [`CampaignStep::ZeroProbe`]. [`CampaignPlan::tour_csv_for`] writes any plan in this
+    /// format. Validate the result with [`CampaignPlan::validate`].
     ///
     /// # Errors
     /// [`TourFileError`] naming the file (and the line and column of a bad field).

@@ -303,3 +303,34 @@ pub fn tracker_campaign_stage(
     )?;
     Ok((report, registration))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_plan_folder_says_its_kind_and_a_discovery_plan_its_repeats() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let folder = PlanFolder::new(dir.path());
+        // no summary, or a planner's summary without `kind`: a calibration plan
+        assert_eq!(folder.read_header().expect("none").kind, PlanKind::Calibration);
+        std::fs::write(folder.path("summary.json"), r#"{"selected": 40, "timing": {}}"#).expect("write");
+        assert_eq!(folder.read_header().expect("planner's").kind, PlanKind::Calibration);
+        folder
+            .mark(&PlanHeader {
+                kind: PlanKind::Discovery,
+                two_sided_repeats: Some(4),
+                repeat_overshoot_deg: Some(0.0573),
+            })
+            .expect("mark");
+        let header = folder.read_header().expect("discovery");
+        assert_eq!((header.kind, header.two_sided_repeats), (PlanKind::Discovery, Some(4)));
+        assert_eq!(folder.read_summary().expect("summary")["selected"], 40, "the planner's fields are kept");
+        std::fs::write(folder.path("summary.json"), r#"{"kind": "discovery"}"#).expect("write");
+        let e = folder.read_header().expect_err("no repeats").to_string();
+        assert!(e.contains("summary.json") && e.contains("two_sided_repeats"), "{e}");
+        std::fs::write(folder.path("summary.json"), r#"{"kind": "survey"}"#).expect("write");
+        let e = folder.read_header().expect_err("unknown kind").to_string();
+        assert!(e.contains("summary.json") && e.contains("kind") && e.contains("survey"), "{e}");
+    }
+}
