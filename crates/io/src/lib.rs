@@ -628,6 +628,53 @@ impl Table {
 
     /// The optional final centring offset `offset_x_mm,offset_y_mm,offset_z_mm` (world axes) of
     /// a probe row: all three present or all three empty/absent.
+    /// A probe row's measurement: `position`, `tcp`, the joints, the context columns and the
+    /// optional probe offset.
+    fn probe_measurement(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        model: &Model,
+    ) -> Result<Measurement, IoError> {
+        let position = self.id(line, rec, "position", &model.position_ids())?;
+        let mut m = self.measurement(line, rec, model, Target::Probe { position })?;
+        m.probe_offset_mm = self.probe_offset(line, rec)?;
+        Ok(m)
+    }
+
+    /// A tracker row's measurement: `tcp`, the joints, the context columns and `x,y,z` in the
+    /// table's length unit.
+    fn tracker_measurement(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        model: &Model,
+    ) -> Result<Measurement, IoError> {
+        let xyz_mm = Vector3::new(
+            self.length_mm(line, rec, "x")?,
+            self.length_mm(line, rec, "y")?,
+            self.length_mm(line, rec, "z")?,
+        );
+        self.measurement(line, rec, model, Target::Tracker { xyz_mm })
+    }
+
+    /// The columns every measurement row has (`tcp`, the joints, the context) around `target`.
+    fn measurement(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        model: &Model,
+        target: Target,
+    ) -> Result<Measurement, IoError> {
+        Ok(Measurement {
+            tcp: self.id(line, rec, "tcp", &model.tcp_ids())?,
+            q: self.joints(line, rec, model)?,
+            target,
+            context: self.context(line, rec)?,
+            probe_offset_mm: None,
+        })
+    }
+
     fn probe_offset(&self, line: u64, rec: &csv::StringRecord) -> Result<Option<Vector3<f64>>, IoError> {
         let mut v = [None; 3];
         for ((value, c), index) in v.iter_mut().zip(OFFSET_COLUMNS).zip(self.cols.offsets) {
@@ -1046,17 +1093,7 @@ pub fn read_probe_measurements_with(
     let path = path.as_ref();
     let t = Table::read_for_with(path, model, &required_columns(&["position", "tcp"], model, &[]), *options)?;
     t.check_model_columns(model)?;
-    let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    let rows = t.convert(|line, rec| {
-        let position = t.id(line, rec, "position", &positions)?;
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target: Target::Probe { position },
-            context: t.context(line, rec)?,
-            probe_offset_mm: t.probe_offset(line, rec)?,
-        })
-    })?;
+    let rows = t.convert(|line, rec| t.probe_measurement(line, rec, model))?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
 }
 
@@ -1074,21 +1111,7 @@ pub fn read_tracker_measurements_with(
     let t =
         Table::read_for_with(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]), *options)?;
     t.check_model_columns(model)?;
-    let tcps = model.tcp_ids();
-    let rows = t.convert(|line, rec| {
-        let xyz = Vector3::new(
-            t.length_mm(line, rec, "x")?,
-            t.length_mm(line, rec, "y")?,
-            t.length_mm(line, rec, "z")?,
-        );
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target: Target::Tracker { xyz_mm: xyz },
-            context: t.context(line, rec)?,
-            probe_offset_mm: None,
-        })
-    })?;
+    let rows = t.convert(|line, rec| t.tracker_measurement(line, rec, model))?;
     t.check_tracker_length_unit(&rows)?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
 }
@@ -1106,7 +1129,6 @@ pub fn read_measurements_with(
     let path = path.as_ref();
     let t = Table::read_for_with(path, model, &required_columns(&["tcp"], model, &[]), *options)?;
     t.check_model_columns(model)?;
-    let (tcps, positions) = (model.tcp_ids(), model.position_ids());
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
     if !t.has("position") && !has_xyz {
         return Err(t.err(
@@ -1128,25 +1150,7 @@ pub fn read_measurements_with(
                 "empty: a probe row needs `position`, a tracker row `x,y,z` (this row has neither)",
             ));
         }
-        let target = if has_pos {
-            Target::Probe { position: t.id(line, rec, "position", &positions)? }
-        } else {
-            Target::Tracker {
-                xyz_mm: Vector3::new(
-                    t.length_mm(line, rec, "x")?,
-                    t.length_mm(line, rec, "y")?,
-                    t.length_mm(line, rec, "z")?,
-                ),
-            }
-        };
-        let probe_offset_mm = if has_pos { t.probe_offset(line, rec)? } else { None };
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target,
-            context: t.context(line, rec)?,
-            probe_offset_mm,
-        })
+        if has_pos { t.probe_measurement(line, rec, model) } else { t.tracker_measurement(line, rec, model) }
     })?;
     t.check_tracker_length_unit(&rows)?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
@@ -1194,17 +1198,7 @@ pub struct CandidateTable {
 pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<CandidateTable, IoError> {
     let path = path.as_ref();
     let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
-    let (tcps, positions) = (model.tcp_ids(), model.position_ids());
-    let measurements = t.convert(|line, rec| {
-        let position = t.id(line, rec, "position", &positions)?;
-        Ok(Measurement {
-            tcp: t.id(line, rec, "tcp", &tcps)?,
-            q: t.joints(line, rec, model)?,
-            target: Target::Probe { position },
-            context: t.context(line, rec)?,
-            probe_offset_mm: t.probe_offset(line, rec)?,
-        })
-    })?;
+    let measurements = t.convert(|line, rec| t.probe_measurement(line, rec, model))?;
     Ok(CandidateTable {
         headers: t.headers.clone(),
         lines: t.rows.iter().map(|r| r.0).collect(),

@@ -321,18 +321,23 @@ fn stage_running(out: &Path, stage: &str) -> bool {
     v["stages"].as_array().is_some_and(|a| a.iter().any(|e| e["stage"] == stage && e["status"] == "running"))
 }
 
-/// Starts `vatcal` with `args` and kills it with SIGKILL as soon as `when` holds.
+/// Starts `vatcal` with `args` and kills it with SIGKILL as soon as `when` holds. The child's
+/// stderr goes to a file so that a child that ended early says why.
 pub(crate) fn kill_in(args: &[&str], when: impl Fn() -> bool) {
+    let log = tempfile::NamedTempFile::new().expect("stderr file");
     let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
         .args(args)
         .stdout(Stdio::null())
-        .stderr(Stdio::null())
+        .stderr(log.reopen().expect("stderr file"))
         .spawn()
         .expect("spawn");
     let deadline = Instant::now() + Duration::from_secs(180);
     while !when() {
         assert!(Instant::now() < deadline, "the kill condition never held");
-        assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
+        if let Some(status) = child.try_wait().expect("wait") {
+            let stderr = std::fs::read_to_string(log.path()).unwrap_or_default();
+            panic!("the child ended ({status}) before it was killed; its stderr:\n{stderr}");
+        }
         std::thread::sleep(Duration::from_millis(2));
     }
     child.kill().expect("SIGKILL");
