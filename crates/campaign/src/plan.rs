@@ -187,8 +187,12 @@ impl CampaignPlan {
     /// name); [`CampaignPlan::read_tour_for`] reads any chain's. Consecutive `move` rows become
     /// one [`CampaignStep::Move`] through their waypoints; a `measure` row adds its joints as
     /// the last waypoint (the straight move from the approach pose down to the measurement
-    /// pose) and then a [`CampaignStep::Measure`]; a `replace_probe` row becomes a
-    /// [`CampaignStep::PlaceProbe`]. Validate the result with [`CampaignPlan::validate`].
+    /// pose) and then a [`CampaignStep::Measure`]; a `track` row likewise ends the move with
+    /// its joints and adds a [`CampaignStep::Track`] (a `track` row right after another
+    /// measurement at the same joints adds no move: another SMR at the same pose); a
+    /// `replace_probe` row becomes a [`CampaignStep::PlaceProbe`], a `zero_probe` row a
+    /// [`CampaignStep::ZeroProbe`]. [`CampaignPlan::tour_csv_for`] writes any plan in this
+    /// format. Validate the result with [`CampaignPlan::validate`].
     ///
     /// # Errors
     /// [`TourFileError`] naming the file (and the line and column of a bad field).
@@ -231,6 +235,9 @@ impl CampaignPlan {
         }
         let mut steps = Vec::new();
         let mut pending: Vec<JointVector> = Vec::new();
+        // the last waypoint read: a `track` row at these joints with no move before it is
+        // one more tracker measurement at the same pose (several SMRs per pose)
+        let mut last_q: Option<JointVector> = None;
         for rec in rdr.records() {
             let rec = rec.map_err(|e| file_err(e.to_string()))?;
             let line = rec.position().map_or(0, |p| p.line());
@@ -256,22 +263,40 @@ impl CampaignPlan {
             let q = JointVector::from_file_units(&values, kinds)
                 .map_err(|e| file_err(format!("line {line}: {e}")))?;
             match field(0) {
-                "move" => pending.push(q),
+                "move" => {
+                    pending.push(q);
+                    last_q = Some(q);
+                }
                 "measure" => {
                     pending.push(q);
+                    last_q = Some(q);
                     steps.push(CampaignStep::Move { path: std::mem::take(&mut pending) });
                     steps.push(CampaignStep::Measure { position: id(1)?, tcp: id(2)? });
                 }
-                "replace_probe" => {
+                "track" => {
+                    let tcp = id(2)?;
+                    if !(pending.is_empty() && last_q == Some(q)) {
+                        pending.push(q);
+                        last_q = Some(q);
+                        steps.push(CampaignStep::Move { path: std::mem::take(&mut pending) });
+                    }
+                    steps.push(CampaignStep::Track { tcp });
+                }
+                kind @ ("replace_probe" | "zero_probe") => {
                     if !pending.is_empty() {
                         steps.push(CampaignStep::Move { path: std::mem::take(&mut pending) });
                     }
-                    steps.push(CampaignStep::PlaceProbe { position: id(1)? });
+                    let position = id(1)?;
+                    steps.push(if kind == "zero_probe" {
+                        CampaignStep::ZeroProbe { position }
+                    } else {
+                        CampaignStep::PlaceProbe { position }
+                    });
                 }
                 other => {
                     return Err(row_err(
                         0,
-                        format!("unknown kind `{other}` (move, measure or replace_probe)"),
+                        format!("unknown kind `{other}` (move, measure, track, replace_probe or zero_probe)"),
                     ));
                 }
             }
@@ -280,6 +305,87 @@ impl CampaignPlan {
             steps.push(CampaignStep::Move { path: pending });
         }
         Ok(Self { steps })
+    }
+
+    /// The plan as tour CSV text of a chain with joints `kinds`
+    /// (`step,kind,position,tcp,q1..qN`, mm for prismatic and degrees for revolute joints,
+    /// shortest round-trip decimals), which [`CampaignPlan::read_tour_for`] reads back into
+    /// the same steps (up to the degree conversion's last bit; consecutive moves become one
+    /// move through their waypoints). A move's last waypoint is written on the row of the
+    /// measurement that follows it (`measure`, `track`); further `track` rows at the same pose
+    /// repeat its joints; `replace_probe` and `zero_probe` rows carry the current joints (the
+    /// first waypoint of the plan before any move), which the reader ignores.
+    pub fn tour_csv_for(&self, kinds: &[JointKind]) -> String {
+        use std::fmt::Write as _;
+        let mut text = String::from("step,kind,position,tcp");
+        for j in 1..=kinds.len() {
+            let _ = write!(text, ",q{j}");
+        }
+        text.push('\n');
+        let first = self.steps.iter().find_map(|s| match s {
+            CampaignStep::Move { path } => path.first().copied(),
+            _ => None,
+        });
+        let mut current = first;
+        let mut held: Option<JointVector> = None;
+        let mut row = 0usize;
+        let mut push =
+            |text: &mut String, kind: &str, position: String, tcp: String, q: Option<JointVector>| {
+                let _ = write!(text, "{row},{kind},{position},{tcp}");
+                let values = q.map_or_else(|| vec![0.0; kinds.len()], |q| q.to_file_units(kinds));
+                for v in values {
+                    let _ = write!(text, ",{v}");
+                }
+                text.push('\n');
+                row += 1;
+            };
+        let mut placed: Option<u32> = None;
+        let at = |p: Option<u32>| p.map_or(String::new(), |p| p.to_string());
+        for step in &self.steps {
+            let measuring = matches!(step, CampaignStep::Measure { .. } | CampaignStep::Track { .. });
+            if !measuring && let Some(q) = held.take() {
+                push(&mut text, "move", at(placed), String::new(), Some(q));
+            }
+            match step {
+                CampaignStep::Move { path } => {
+                    let Some((last, before)) = path.split_last() else { continue };
+                    for q in before {
+                        push(&mut text, "move", at(placed), String::new(), Some(*q));
+                    }
+                    held = Some(*last);
+                    current = Some(*last);
+                }
+                CampaignStep::Measure { position, tcp } => {
+                    let q = held.take().or(current);
+                    push(&mut text, "measure", position.to_string(), tcp.to_string(), q);
+                }
+                CampaignStep::Track { tcp } => {
+                    let q = held.take().or(current);
+                    push(&mut text, "track", String::new(), tcp.to_string(), q);
+                }
+                CampaignStep::PlaceProbe { position } => {
+                    placed = Some(*position);
+                    push(&mut text, "replace_probe", position.to_string(), String::new(), current);
+                }
+                CampaignStep::ZeroProbe { position } => {
+                    push(&mut text, "zero_probe", position.to_string(), String::new(), current);
+                }
+            }
+        }
+        if let Some(q) = held {
+            push(&mut text, "move", at(placed), String::new(), Some(q));
+        }
+        text
+    }
+
+    /// Writes [`CampaignPlan::tour_csv_for`] to `path`.
+    ///
+    /// # Errors
+    /// [`TourFileError::File`] when the file cannot be written.
+    pub fn write_tour_for(&self, path: impl AsRef<Path>, kinds: &[JointKind]) -> Result<(), TourFileError> {
+        let path = path.as_ref();
+        std::fs::write(path, self.tour_csv_for(kinds))
+            .map_err(|e| TourFileError::File { path: path.into(), reason: e.to_string() })
     }
 
     /// Number of steps that record a measurement.
@@ -389,6 +495,49 @@ mod tests {
             ]
         );
         assert_eq!(plan.measurement_count(), 2);
+    }
+
+    #[test]
+    fn written_tours_read_back_into_the_same_steps() {
+        let q = |g: f64, a: [f64; 6]| JointVector::from_mm_deg(g, a);
+        let (a, b, c) = (
+            q(110.0, [10.0, 0.0, 0.0, 0.0, 30.0, 0.0]),
+            q(120.5, [20.25, -3.0, 1.0, 0.0, 30.0, 7.0]),
+            q(130.0, [21.0, -2.0, 1.5, 0.5, 31.0, 7.5]),
+        );
+        let plan = CampaignPlan {
+            steps: vec![
+                CampaignStep::PlaceProbe { position: 1 },
+                CampaignStep::ZeroProbe { position: 1 },
+                CampaignStep::Move { path: vec![a, b] },
+                CampaignStep::Measure { position: 1, tcp: 2 },
+                CampaignStep::Move { path: vec![c] },
+                CampaignStep::Track { tcp: 1 },
+                CampaignStep::Track { tcp: 2 },
+                CampaignStep::Track { tcp: 3 },
+                CampaignStep::Move { path: vec![a] },
+                CampaignStep::Track { tcp: 1 },
+                CampaignStep::Move { path: vec![b] },
+            ],
+        };
+        let dir = tempfile::tempdir().expect("tmp");
+        let path = dir.path().join("tour.csv");
+        plan.write_tour_for(&path, &vatcal_io::MECA500_ON_GUIDE_KINDS).expect("write");
+        let back = CampaignPlan::read_tour(&path).expect("read");
+        assert_eq!(back.steps.len(), plan.steps.len(), "{:#?}", back.steps);
+        for (got, want) in back.steps.iter().zip(&plan.steps) {
+            match (got, want) {
+                (CampaignStep::Move { path: g }, CampaignStep::Move { path: w }) => {
+                    assert_eq!(g.len(), w.len());
+                    for (x, y) in g.iter().zip(w) {
+                        let d: f64 = x.as_slice().iter().zip(y.as_slice()).map(|(u, v)| (u - v).abs()).sum();
+                        assert!(d < 1e-12, "{x:?} vs {y:?}");
+                    }
+                }
+                _ => assert_eq!(got, want),
+            }
+        }
+        assert_eq!(back.measurement_count(), 5);
     }
 
     #[test]

@@ -52,7 +52,8 @@ pub struct Meca500Config {
     /// Cartesian speed \[mm/s\] that `MotionOptions::speed_fraction = 1` maps to
     /// (`SetCartLinVel` accepts up to 1000 mm/s)
     pub max_linear_speed_mm_s: f64,
-    /// pause between two `GetStatusRobot` polls while waiting for end-of-block
+    /// longest pause between two `GetStatusRobot` polls while waiting for end-of-block (the
+    /// first pauses are 1, 2, 4, … ms)
     pub status_poll_interval: Duration,
     /// send `SetTrf(0,0,0,0,0,0)` after activation so that [`LinearFrame::Tool`] is the flange
     /// frame (see `docs/drivers.md`)
@@ -299,6 +300,9 @@ impl<T: Transport> Meca500<T> {
                 return Err(err);
             }
         }
+        // the end of block follows the checkpoint within milliseconds: poll after 1, 2, 4, …
+        // ms, at most every `status_poll_interval`
+        let mut next = Duration::from_millis(1).min(self.config.status_poll_interval);
         loop {
             let status = self.query_status(&wait)?;
             if status.error {
@@ -307,7 +311,8 @@ impl<T: Transport> Meca500<T> {
             if status.end_of_block {
                 return Ok(());
             }
-            let pause = wait.remaining().map(|r| r.min(self.config.status_poll_interval));
+            let pause = wait.remaining().map(|r| r.min(next));
+            next = (next * 2).min(self.config.status_poll_interval);
             match pause {
                 Some(p) => std::thread::sleep(p),
                 None => return Err(self.timeout_error(&wait, "the end of the motion (end of block)")),

@@ -59,6 +59,10 @@ impl MicrostepSize {
     }
 }
 
+/// The first pause of a wait for IDLE; each next pause doubles up to
+/// [`ZaberConfig::poll_interval`].
+const FIRST_POLL: Duration = Duration::from_millis(1);
+
 /// Connection settings and timeouts.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ZaberConfig {
@@ -72,7 +76,8 @@ pub struct ZaberConfig {
     pub io_timeout: Duration,
     /// TCP connect timeout
     pub connect_timeout: Duration,
-    /// pause between two status polls while waiting for IDLE (zaber-motion: ~50 ms)
+    /// longest pause between two status polls while waiting for IDLE (zaber-motion: ~50 ms;
+    /// the first pauses are 1, 2, 4, … ms)
     pub poll_interval: Duration,
     /// append `:CC` checksums to commands (zaber-motion always does)
     pub checksums: bool,
@@ -83,12 +88,14 @@ pub struct ZaberConfig {
     /// mm ↔ microstep conversion
     pub microstep: MicrostepSize,
     /// scale the move speed with `MotionOptions::speed_fraction` by setting `maxspeed` to
-    /// that fraction of the value read at connection (the setting stays changed afterwards)
+    /// that fraction of the value read at connection for the move (set back to that value
+    /// when the move has ended: a wait that sees IDLE, or a stop)
     pub speed_control: bool,
 }
 
 impl Default for ZaberConfig {
-    /// Address 1, axis 1, 1 s I/O timeout, 50 ms polls, checksums and ids on, LF, lead
+    /// Address 1, axis 1, 1 s I/O timeout, polls while moving every 1, 2, 4, … ms up to 50 ms,
+    /// checksums and ids on, LF, lead
     /// 2.5 mm \[unverified\], speed control on.
     fn default() -> Self {
         Self {
@@ -428,13 +435,20 @@ impl<T: Transport> ZaberAxis<T> {
     }
 
     fn wait_idle_until(&mut self, wait: &Wait) -> Result<(), ZaberError> {
+        // the first polls come quickly (a short move, or a move to where the axis already is,
+        // ends within milliseconds), then every `poll_interval`
+        let mut pause = FIRST_POLL.min(self.config.poll_interval);
         loop {
             let reply = self.command(self.config.axis, "")?;
             if reply.status == Status::Idle {
+                self.restore_speed()?;
                 return self.check_motion_flags();
             }
             match wait.remaining() {
-                Some(r) => std::thread::sleep(r.min(self.config.poll_interval)),
+                Some(r) => {
+                    std::thread::sleep(r.min(pause));
+                    pause = (pause * 2).min(self.config.poll_interval);
+                }
                 None => {
                     return Err(
                         LinkError::Timeout { waiting_for: "IDLE".to_owned(), after: wait.timeout() }.into()
@@ -442,6 +456,18 @@ impl<T: Transport> ZaberAxis<T> {
                 }
             }
         }
+    }
+
+    /// Puts `maxspeed` back to the value read at connection once the axis is idle: the next
+    /// session (a resume, another command) reads the full speed again instead of this move's
+    /// fraction of it, so the fractions do not compound from one connection to the next.
+    fn restore_speed(&mut self) -> Result<(), ZaberError> {
+        let Some(base) = self.info.base_maxspeed.filter(|_| self.config.speed_control) else { return Ok(()) };
+        if self.speed_set != Some(base) {
+            self.command(self.config.axis, &format!("set maxspeed {base}"))?;
+            self.speed_set = Some(base);
+        }
+        Ok(())
     }
 
     fn check_motion_flags(&mut self) -> Result<(), ZaberError> {
@@ -459,6 +485,7 @@ impl<T: Transport> ZaberAxis<T> {
         let wait = Wait::new(self.config.io_timeout);
         loop {
             if self.command(self.config.axis, "")?.status == Status::Idle {
+                self.restore_speed()?;
                 return self.clear_warnings();
             }
             match wait.remaining() {

@@ -2,9 +2,9 @@
 //! port): one background thread owns some TCP listeners and their clients and feeds a
 //! [`SimService`] — the protocol's state machine — with connections, received bytes and time.
 //!
-//! The loop is the same for every device: accept new clients, read each client for at most
-//! [`TICK`], hand the bytes to the service, write what the service answers to the right
-//! clients, repeat. A [`SimServer`] handle injects the socket-level faults every simulator
+//! The loop is the same for every device: accept new clients, read what each client sent
+//! (without blocking), hand the bytes to the service, write what the service answers to the
+//! right clients, sleep one [`TICK`] when nothing arrived, repeat. A [`SimServer`] handle injects the socket-level faults every simulator
 //! offers: drop every client, stall (keep the connections open but answer nothing), stop.
 
 use std::io::{self, Read, Write};
@@ -14,7 +14,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-/// Granularity of the loop: how long one client read waits, and the idle sleep.
+/// Granularity of the loop: the sleep of a turn in which no client sent anything (client reads
+/// do not block).
 pub const TICK: Duration = Duration::from_millis(1);
 /// A client that does not read its answers for this long is dropped.
 pub const WRITE_TIMEOUT: Duration = Duration::from_millis(500);
@@ -174,9 +175,9 @@ impl<S: SimService> Server<S> {
                 std::thread::sleep(TICK);
                 continue;
             }
-            self.serve_once();
+            let busy = self.serve_once();
             self.reap();
-            if self.clients.is_empty() {
+            if !busy {
                 std::thread::sleep(TICK);
             }
         }
@@ -215,15 +216,26 @@ impl<S: SimService> Server<S> {
         }
     }
 
-    fn serve_once(&mut self) {
+    /// One turn: every client's waiting bytes (read without blocking: a socket read timeout
+    /// is rounded up to the kernel's tick, 4–10 ms, which every delayed answer — a tracker
+    /// reading, the end of a motion — would wait on), the service's timed answers. Returns
+    /// whether any bytes arrived (else the loop sleeps one [`TICK`]).
+    fn serve_once(&mut self) -> bool {
         let mut out = Vec::new();
+        let mut busy = false;
         for i in 0..self.clients.len() {
             let mut buf = [0u8; 4096];
             let client = &mut self.clients[i];
             let mut input = std::mem::take(&mut client.held);
-            match client.stream.read(&mut buf) {
+            let _ = client.stream.set_nonblocking(true);
+            let read = client.stream.read(&mut buf);
+            let _ = client.stream.set_nonblocking(false);
+            match read {
                 Ok(0) => client.open = false,
-                Ok(n) => input.extend_from_slice(&buf[..n]),
+                Ok(n) => {
+                    busy = true;
+                    input.extend_from_slice(&buf[..n]);
+                }
                 Err(e) if is_transient(&e) => {}
                 Err(_) => client.open = false,
             }
@@ -239,6 +251,7 @@ impl<S: SimService> Server<S> {
         }
         out.extend(self.service.poll());
         self.deliver(out);
+        busy
     }
 
     fn deliver(&mut self, out: Vec<(Audience, Vec<u8>)>) {

@@ -35,7 +35,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
-use vatcal_campaign::validation::{ValidationRecords, build_validation_plan, evaluate};
+use vatcal_campaign::validation::{ValidationRecords, evaluate};
 use vatcal_campaign::{CampaignReport, Journal};
 use vatcal_identification::Identification;
 use vatcal_kinematics::Model;
@@ -616,12 +616,6 @@ pub fn calibrate<S: ReportSetup>(
     }
 
     // 5. validation
-    let mut options = crate::validation_options(opts, start);
-    if !crate::has_printing_path(&nominal) {
-        options.printing.slices = 0;
-        // one turn per joint: the path planner connects the random poses of a ±360° arm
-        options.random.revolute_range_deg = Some(360.0);
-    }
     let mut models: Vec<(&str, &Model)> = vec![(NOMINAL, &nominal), (CALIBRATED, &fit.model)];
     if let Some(d) = &discovered {
         models.push((DISCOVERED, &d.discovery.model));
@@ -629,7 +623,8 @@ pub fn calibrate<S: ReportSetup>(
             models.push((TRUE_STRUCTURE, t));
         }
     }
-    let validation_plan = build_validation_plan(&nominal, &geometry, &models, &options)?;
+    let (validation_plan, options) =
+        crate::plans::validation_plan(opts, &nominal, &geometry, &models, start)?;
     let printing_targets = if validation_plan.slices.is_empty() {
         None
     } else {
@@ -638,6 +633,7 @@ pub fn calibrate<S: ReportSetup>(
     let (validation, validation_time_s) = if run(&book, Stage::Validate) {
         if restart(&book, Stage::Validate) {
             folder.remove(folders::VALIDATION_JOURNAL)?;
+            folder.remove_registration()?;
         }
         let resumed = folder.path(folders::VALIDATION_JOURNAL).exists();
         book.progress.stage_started(Stage::Validate, Some(validation_plan.campaign.steps.len()));
@@ -652,16 +648,13 @@ pub fn calibrate<S: ReportSetup>(
             });
         }
         let start_s = dev.devices().clock.now_s();
-        let registration =
-            crate::registration::registration_step(dev, &nominal, out, opts.campaign.tracker_retries)?;
-        let validation = crate::validation_stage(
+        let (validation, registration) = crate::validation_stage(
             dev,
             &nominal,
             &models,
             validation_plan,
             &folder,
             opts.campaign.clone(),
-            registration.as_ref().and_then(|r| r.tank_from_tracker()).as_ref(),
             &mut *book.progress,
         )?;
         let end_s = dev.devices().clock.now_s();
@@ -739,6 +732,12 @@ pub fn calibrate<S: ReportSetup>(
         Some(stage) => Some(discovery_stage::discovery_tour(stage, &nominal, out)?.0),
         None => None,
     };
+    let loop_tour = match discovered.as_ref().and_then(|d| d.measurement_loop.as_ref()).filter(|l| l.ran) {
+        Some(_) => Some(
+            PlanFolder::new(out.join(crate::discovery_loop::LOOP_PLAN)).read_tour(nominal.joint_kinds())?,
+        ),
+        None => None,
+    };
     let timing = timing::measure(&timing::TimingInputs {
         out,
         nominal: &nominal,
@@ -746,6 +745,7 @@ pub fn calibrate<S: ReportSetup>(
         tour: &tour,
         plan: &report.plan,
         discovery_tour: discovery_tour.as_ref(),
+        loop_tour: loop_tour.as_ref(),
         validation_steps: &validation.plan.campaign,
     })?;
     book.finish(Stage::Report, None, |_| None)?;

@@ -32,6 +32,7 @@ use vatcal_planning::plan::plan_campaign;
 
 use crate::discovery_loop::{LOOP_JOURNAL, LOOP_MEASUREMENTS_CSV, LOOP_PLAN, LoopReport, propose_plan};
 use crate::folders::{PlanFolder, RunFolder};
+use crate::plans::{PlanHeader, PlanKind};
 use crate::{CALIBRATED, DeviceSet, NOMINAL, PipelineError, Progress, RunOptions, RunReport, Stage};
 
 /// Label of the discovered model in the validation.
@@ -289,7 +290,13 @@ pub fn plan_discovery(
     options.start = start;
     options.seed = opts.seed ^ 0x000d_15c0_7e11_0003;
     let plan = plan_campaign(&model, geometry, &options)?;
-    folder.write(&plan)
+    let summary = folder.write(&plan)?;
+    folder.mark(&PlanHeader {
+        kind: PlanKind::Discovery,
+        two_sided_repeats: Some(stage.two_sided_repeats),
+        repeat_overshoot_deg: Some(stage.repeat_overshoot_rad.to_degrees()),
+    })?;
+    Ok(summary)
 }
 
 /// Adds up to `count` **two-sided repeats** to a campaign plan: measure steps spread evenly
@@ -407,11 +414,14 @@ pub fn discovery_stage(
     let plan_folder = PlanFolder::new(out.join(DISCOVERY_PLAN));
     plan_discovery(opts, stage, nominal, base, &geometry, start, &plan_folder)?;
     let (tour, repeats) = discovery_tour(stage, nominal, out)?;
-    let journal = RunFolder::new(out).path(DISCOVERY_JOURNAL);
-    let campaign =
-        crate::run_campaign(devices, nominal, &tour, &journal, config.clone(), Stage::Discover, progress)?;
-    let csv = out.join(DISCOVERY_MEASUREMENTS_CSV);
-    vatcal_io::write_measurements_for(&csv, &campaign.measurements, nominal.joint_kinds())?;
+    let campaign = crate::plans::discovery_campaign_stage(
+        devices,
+        nominal,
+        &tour,
+        &RunFolder::new(out),
+        config.clone(),
+        progress,
+    )?;
     let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
     discovery_analysis(&inputs, &campaign, repeats, Some(LoopDevices { devices, config, progress }))
 }
@@ -481,10 +491,12 @@ pub fn discovery_tour(
     nominal: &Model,
     out: &Path,
 ) -> Result<(vatcal_campaign::CampaignPlan, usize), PipelineError> {
-    let mut tour = PlanFolder::new(out.join(DISCOVERY_PLAN)).read_tour(nominal.joint_kinds())?;
-    let repeats =
-        add_two_sided_repeats(&mut tour, nominal, stage.two_sided_repeats, stage.repeat_overshoot_rad);
-    Ok((tour, repeats))
+    crate::plans::discovery_tour_of(
+        &PlanFolder::new(out.join(DISCOVERY_PLAN)),
+        nominal,
+        stage.two_sided_repeats,
+        stage.repeat_overshoot_rad,
+    )
 }
 
 /// The offline half of the discovery stage: the discovery loop on the calibration's and the
@@ -539,9 +551,16 @@ pub fn discovery_analysis(
             let tour = folder.read_tour(nominal.joint_kinds())?;
             let journal = RunFolder::new(out).path(LOOP_JOURNAL);
             let made = match devices {
-                Some(LoopDevices { devices, config, progress }) => {
-                    crate::run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, progress)?
-                }
+                Some(LoopDevices { devices, config, progress }) => crate::run_campaign(
+                    devices,
+                    nominal,
+                    &tour,
+                    &journal,
+                    config,
+                    Stage::Discover,
+                    None,
+                    progress,
+                )?,
                 None => RunFolder::new(out).journal_report(LOOP_JOURNAL)?,
             };
             vatcal_io::write_measurements_for(

@@ -161,8 +161,8 @@ impl RunFolder {
         Ok(Journal::open(self.journal())?.measurements())
     }
 
-    /// Removes the journals of an earlier run (measurement, discovery and validation campaigns)
-    /// so that the next one starts afresh.
+    /// Removes the journals of an earlier run (measurement, discovery and validation campaigns,
+    /// the tracker registration) so that the next one starts afresh.
     ///
     /// # Errors
     /// A journal that exists but cannot be removed.
@@ -170,7 +170,29 @@ impl RunFolder {
         for name in [CAMPAIGN_JOURNAL, crate::discovery_stage::DISCOVERY_JOURNAL, VALIDATION_JOURNAL] {
             self.remove(name)?;
         }
-        Ok(())
+        self.remove_registration()
+    }
+
+    /// Removes the tracker registration and its journaled nest readings (a validation measured
+    /// afresh registers the tracker again).
+    ///
+    /// # Errors
+    /// A file exists but cannot be removed.
+    pub fn remove_registration(&self) -> Result<(), PipelineError> {
+        self.remove(crate::registration::TRACKER_REGISTRATION_FILE)?;
+        self.remove(crate::registration::TRACKER_READINGS_FILE)
+    }
+
+    /// Whether a validation campaign was started in the folder: its journal, the tracker
+    /// registration or journaled nest readings exist.
+    pub fn validation_started(&self) -> bool {
+        [
+            VALIDATION_JOURNAL,
+            crate::registration::TRACKER_REGISTRATION_FILE,
+            crate::registration::TRACKER_READINGS_FILE,
+        ]
+        .iter()
+        .any(|name| self.path(name).exists())
     }
 
     /// Removes one file of the folder if it exists.

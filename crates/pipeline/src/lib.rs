@@ -31,6 +31,7 @@ pub mod discovery_loop;
 pub mod discovery_stage;
 mod error;
 pub mod folders;
+pub mod plans;
 mod progress;
 pub mod registration;
 pub mod report;
@@ -60,6 +61,7 @@ pub use calibrate::{
 pub use discovery_stage::{DISCOVERED, DiscoveryOutcome, DiscoveryStageOptions, TRUE_STRUCTURE};
 pub use error::PipelineError;
 pub use folders::{PlanFolder, RunFolder};
+pub use plans::{PlanHeader, PlanKind};
 pub use progress::{NoProgress, Progress, Stage, StageLog, StepProgress};
 pub use registration::{RegistrationReport, TRACKER_REGISTRATION_FILE};
 pub use report::{
@@ -279,12 +281,15 @@ pub fn campaign_stage(
 ) -> Result<CampaignReport, PipelineError> {
     progress.stage_started(Stage::Campaign, Some(tour.steps.len()));
     let journal = folder.journal();
-    let report = run_campaign(devices, nominal, tour, &journal, config, Stage::Campaign, progress)?;
+    let report = run_campaign(devices, nominal, tour, &journal, config, Stage::Campaign, None, progress)?;
     folder.write_measurements(&report.measurements, nominal.joint_kinds())?;
     Ok(report)
 }
 
-/// Runs a campaign plan with progress reporting (steps, measurements, time left).
+/// Runs a campaign plan with progress reporting (steps, measurements, time left); with
+/// `tank_from_tracker` (a tracker registration) every tracker reading is mapped into the tank
+/// frame before it is journaled.
+#[allow(clippy::too_many_arguments)] // the campaign's inputs
 fn run_campaign(
     devices: &mut dyn DeviceSet,
     nominal: &Model,
@@ -292,6 +297,7 @@ fn run_campaign(
     journal: &Path,
     config: CampaignConfig,
     stage: Stage,
+    tank_from_tracker: Option<&vatcal_core::Frame>,
     progress: &mut dyn Progress,
 ) -> Result<CampaignReport, PipelineError> {
     let mut counter = StepCounter::new(plan.steps.len(), plan.measurement_count());
@@ -304,7 +310,18 @@ fn run_campaign(
         let p = counter.record(record.step, record.measurement().is_some());
         progress.step_done(stage, p);
     };
-    let report = Campaign::new(devices.devices(), nominal, config).on_record(observer).run(plan, journal)?;
+    let mut cell = devices.devices();
+    let mut registered = match (tank_from_tracker, cell.tracker.take()) {
+        (Some(frame), Some(t)) => Some(vatcal_hardware_traits::RegisteredTracker::new(t, *frame)),
+        (_, t) => {
+            cell.tracker = t;
+            None
+        }
+    };
+    if let Some(r) = registered.as_mut() {
+        cell.tracker = Some(r);
+    }
+    let report = Campaign::new(cell, nominal, config).on_record(observer).run(plan, journal)?;
     Ok(report)
 }
 
@@ -333,12 +350,12 @@ pub struct ValidationStage {
 }
 
 /// Runs the tracker validation `plan` of `models` on the same devices (the session
-/// continues), journaling into `validation.journal`; with `tank_from_tracker` (a
-/// registration) every tracker reading is mapped into the tank frame.
+/// continues): the tracker registration and the campaign ([`plans::tracker_campaign_stage`],
+/// journal `validation.journal`), then the evaluation of every model; returns the stage and
+/// the registration (`None` when the devices skip it).
 ///
 /// # Errors
-/// The campaign or the evaluation fails.
-#[allow(clippy::too_many_arguments)] // the stage's inputs, each from a different stage
+/// The devices have no tracker, the registration, the campaign or the evaluation fails.
 pub fn validation_stage(
     devices: &mut dyn DeviceSet,
     nominal: &Model,
@@ -346,32 +363,15 @@ pub fn validation_stage(
     plan: ValidationPlan,
     folder: &RunFolder,
     config: CampaignConfig,
-    tank_from_tracker: Option<&vatcal_core::Frame>,
     progress: &mut dyn Progress,
-) -> Result<ValidationStage, PipelineError> {
-    let mut counter = StepCounter::new(plan.campaign.steps.len(), plan.campaign.measurement_count());
-    let observer = |record: &StepRecord| {
-        let p = counter.record(record.step, record.measurement().is_some());
-        progress.step_done(Stage::Validate, p);
-    };
-    let mut cell = devices.devices();
-    let mut registered = match (tank_from_tracker, cell.tracker.take()) {
-        (Some(frame), Some(t)) => Some(vatcal_hardware_traits::RegisteredTracker::new(t, *frame)),
-        (_, t) => {
-            cell.tracker = t;
-            None
-        }
-    };
-    if let Some(r) = registered.as_mut() {
-        cell.tracker = Some(r);
-    }
-    let mut campaign = Campaign::new(cell, nominal, config).on_record(observer);
-    let records = plan.run(&mut campaign, folder.path(folders::VALIDATION_JOURNAL))?;
-    drop(campaign);
+) -> Result<(ValidationStage, Option<RegistrationReport>), PipelineError> {
+    let (report, registration) =
+        plans::tracker_campaign_stage(devices, nominal, &plan.campaign, folder, config, progress)?;
+    let records = plan.collect(&report.records)?;
     let smrs: Vec<_> =
         nominal.tcp_ids().into_iter().filter_map(|id| nominal.tcp(id).map(|t| (id, t))).collect();
     let results = evaluate(&records, &plan.slices, models, &smrs)?;
-    Ok(ValidationStage { plan, records, results })
+    Ok((ValidationStage { plan, records, results }, registration))
 }
 
 /// The planning options of a run.

@@ -7,12 +7,14 @@
 //!
 //! The result is kept in the run folder ([`TRACKER_REGISTRATION_FILE`]): a resumed validation
 //! reuses it (the nest is not measured again) and the report's "Tracker registration" section
-//! reads it.
+//! reads it. Until the fit is saved, every nest reading is journaled
+//! ([`TRACKER_READINGS_FILE`]): a registration interrupted between two readings continues with
+//! the next calibration position.
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
-use vatcal_campaign::validation::{TrackerRegistration, TrackerRegistrationError, register_tracker};
+use vatcal_campaign::validation::{TrackerRegistration, TrackerRegistrationError, register_tracker_resuming};
 use vatcal_core::Frame;
 use vatcal_kinematics::Model;
 
@@ -134,7 +136,15 @@ pub fn registration_step(
     let Some(tracker) = cell.tracker else {
         return Err(TrackerRegistrationError::Positions("the devices have no tracker".into()).into());
     };
-    let fitted = register_tracker(tracker, cell.operator, controller, &[], retries)?;
+    let partial = out.join(TRACKER_READINGS_FILE);
+    let mut taken = load_readings(&partial)?;
+    let already = taken.clone();
+    let mut journal = |position: u32, reading: nalgebra::Vector3<f64>| {
+        taken.push((position, reading));
+        save_readings(&partial, &taken)
+    };
+    let fitted =
+        register_tracker_resuming(tracker, cell.operator, controller, &[], retries, &already, &mut journal)?;
     let report = match mode {
         TrackerRegistrationMode::Check => {
             RegistrationReport { mode: "check".into(), registration: fitted.checked() }
@@ -142,5 +152,51 @@ pub fn registration_step(
         _ => RegistrationReport { mode: "register".into(), registration: fitted },
     };
     report.save(out)?;
+    if partial.exists() {
+        std::fs::remove_file(&partial)
+            .map_err(|source| PipelineError::Io { path: partial.clone(), source })?;
+    }
     Ok(Some(report))
+}
+
+/// The nest readings of an unfinished registration (JSON list of `{"position": n,
+/// "tracker_mm": [x, y, z]}`), written after every reading and removed once the fit is saved:
+/// a registration interrupted between two readings (kill -9, a fault) continues with the next
+/// position instead of measuring the nest again.
+pub const TRACKER_READINGS_FILE: &str = "tracker-registration.readings.json";
+
+#[derive(Serialize, Deserialize)]
+struct NestReading {
+    position: u32,
+    tracker_mm: [f64; 3],
+}
+
+fn load_readings(path: &Path) -> Result<Vec<(u32, nalgebra::Vector3<f64>)>, PipelineError> {
+    if !path.exists() {
+        return Ok(Vec::new());
+    }
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| PipelineError::Io { path: path.to_path_buf(), source })?;
+    let readings: Vec<NestReading> = serde_json::from_str(&text)
+        .map_err(|e| PipelineError::Folder { path: path.to_path_buf(), reason: e.to_string() })?;
+    Ok(readings.into_iter().map(|r| (r.position, r.tracker_mm.into())).collect())
+}
+
+/// Writes the readings atomically (temporary file, `fsync`, rename).
+fn save_readings(
+    path: &Path,
+    readings: &[(u32, nalgebra::Vector3<f64>)],
+) -> Result<(), TrackerRegistrationError> {
+    use std::io::Write as _;
+    let list: Vec<NestReading> =
+        readings.iter().map(|(p, v)| NestReading { position: *p, tracker_mm: [v.x, v.y, v.z] }).collect();
+    let file_err = |e: &dyn std::fmt::Display| TrackerRegistrationError::File {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let text = serde_json::to_string_pretty(&list).map_err(|e| file_err(&e))?;
+    let tmp = path.with_extension("json.tmp");
+    let mut f = std::fs::File::create(&tmp).map_err(|e| file_err(&e))?;
+    f.write_all(text.as_bytes()).and_then(|()| f.sync_all()).map_err(|e| file_err(&e))?;
+    std::fs::rename(&tmp, path).map_err(|e| file_err(&e))
 }

@@ -106,6 +106,9 @@ pub struct RunTiming {
     pub campaign: CampaignTiming,
     /// the discovery campaign, when it ran
     pub discovery: Option<CampaignTiming>,
+    /// the discovery's measurement loop (propose → measure → rediscover,
+    /// `crate::discovery_loop`), when it measured
+    pub discovery_loop: Option<CampaignTiming>,
     /// the validation campaign
     pub validation: CampaignTiming,
 }
@@ -189,6 +192,9 @@ impl RunTiming {
         if let Some(d) = &self.discovery {
             row("discovery", d);
         }
+        if let Some(d) = &self.discovery_loop {
+            row("discovery loop", d);
+        }
         row("validation", &self.validation);
         m
     }
@@ -202,6 +208,8 @@ pub(crate) struct TimingInputs<'a> {
     pub tour: &'a CampaignPlan,
     pub plan: &'a PlanSummary,
     pub discovery_tour: Option<&'a CampaignPlan>,
+    /// the measurement loop's tour, when the loop measured
+    pub loop_tour: Option<&'a CampaignPlan>,
     pub validation_steps: &'a CampaignPlan,
 }
 
@@ -216,6 +224,10 @@ pub(crate) fn measure(i: &TimingInputs<'_>) -> Result<RunTiming, PipelineError> 
         }
         None => None,
     };
+    let discovery_loop = match i.loop_tour {
+        Some(tour) => Some(campaign_timing(&i.out.join(crate::discovery_loop::LOOP_JOURNAL), tour, &timer)?),
+        None => None,
+    };
     let validation =
         campaign_timing(&i.out.join(crate::folders::VALIDATION_JOURNAL), i.validation_steps, &timer)?;
     Ok(RunTiming {
@@ -226,6 +238,7 @@ pub(crate) fn measure(i: &TimingInputs<'_>) -> Result<RunTiming, PipelineError> 
         planner_speed_fraction: i.motion.speed_fraction,
         campaign,
         discovery,
+        discovery_loop,
         validation,
     })
 }

@@ -1,7 +1,7 @@
 //! The backend hooks that couple the protocol simulators to the one virtual world.
 
-use std::sync::atomic::AtomicBool;
 use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, AtomicI64};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
@@ -50,6 +50,8 @@ impl ArmBackend for ArmCoupling {
 pub(crate) struct GuideCoupling {
     pub cell: VirtualCell,
     pub microstep_mm: f64,
+    /// the `maxspeed` of the last motion started (shared with [`GuideLink`])
+    pub motion_maxspeed: Arc<AtomicI64>,
 }
 
 impl AxisBackend for GuideCoupling {
@@ -58,6 +60,11 @@ impl AxisBackend for GuideCoupling {
             from_microsteps * self.microstep_mm,
             to_microsteps * self.microstep_mm,
         );
+    }
+
+    fn motion_started_at(&self, from_microsteps: f64, to_microsteps: f64, maxspeed: i64) {
+        self.motion_maxspeed.store(maxspeed, Ordering::SeqCst);
+        self.motion_started(from_microsteps, to_microsteps);
     }
 }
 
@@ -68,6 +75,10 @@ pub(crate) struct GuideLink {
     pub microstep_mm: f64,
     /// the guide's `maxspeed` at full speed (the driver sets a fraction of it per move)
     pub full_maxspeed: i64,
+    /// the `maxspeed` of the last motion started (0: none yet): the speed the world times the
+    /// motion with, whatever the setting is when it syncs (the driver sets the full speed back
+    /// once a move has ended)
+    pub motion_maxspeed: Arc<AtomicI64>,
 }
 
 /// World → Sylvac simulator: where the true ball pushes the plunger of one gauge.
@@ -114,9 +125,13 @@ impl GaugeCoupling {
         // without a guide the world has no guide joint: its position and speed are unused
         let (guide_mm, guide_speed) = guide.map_or((0.0, 1.0), |(sim, link)| {
             let guide_state = sim.state();
+            let maxspeed = match link.motion_maxspeed.load(Ordering::SeqCst) {
+                0 => guide_state.maxspeed,
+                m => m,
+            };
             (
                 guide_state.pos_microsteps * link.microstep_mm,
-                guide_state.maxspeed as f64 / link.full_maxspeed.max(1) as f64,
+                maxspeed as f64 / link.full_maxspeed.max(1) as f64,
             )
         });
         self.cell.external_sync(&joints, guide_mm, arm_speed, guide_speed);

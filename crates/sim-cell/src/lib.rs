@@ -388,10 +388,16 @@ impl SimCell {
             let microstep_mm = zaber_config.microstep_mm;
             let full_maxspeed = zaber_config.maxspeed;
             zaber_config.bind = at(options.ports.zaber);
-            zaber_config.backend = Some(Arc::new(GuideCoupling { cell: cell.clone(), microstep_mm }));
+            let motion_maxspeed = Arc::new(std::sync::atomic::AtomicI64::new(0));
+            zaber_config.backend = Some(Arc::new(GuideCoupling {
+                cell: cell.clone(),
+                microstep_mm,
+                motion_maxspeed: Arc::clone(&motion_maxspeed),
+            }));
             let sim =
                 Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
-            guide_link = Some(GuideLink { sim: Arc::downgrade(&sim), microstep_mm, full_maxspeed });
+            guide_link =
+                Some(GuideLink { sim: Arc::downgrade(&sim), microstep_mm, full_maxspeed, motion_maxspeed });
             zaber = Some(sim);
         }
 

@@ -45,6 +45,7 @@ pub use printing::{PrintingPathError, PrintingPathOptions, PrintingSlice, printi
 pub use registration::{RegistrationError, fit_rigid_transform};
 pub use tracker_registration::{
     RegistrationPoint, TrackerRegistration, TrackerRegistrationError, register_tracker,
+    register_tracker_resuming,
 };
 
 use crate::CampaignError;

@@ -208,6 +208,25 @@ pub fn register_tracker(
     positions: &[u32],
     retries: u32,
 ) -> Result<TrackerRegistration, TrackerRegistrationError> {
+    register_tracker_resuming(tracker, operator, controller, positions, retries, &[], &mut |_, _| Ok(()))
+}
+
+/// [`register_tracker`] continuing an interrupted registration: the nest readings `taken`
+/// (`(position, tracker reading [mm])`, e.g. from a journal) are used as they are and their
+/// positions are not measured again; every new reading is handed to `on_reading` (which
+/// journals it) before the next position is measured.
+///
+/// # Errors
+/// As [`register_tracker`]; `on_reading`'s error stops the registration.
+pub fn register_tracker_resuming(
+    tracker: &mut dyn PositionTracker,
+    operator: &mut dyn Operator,
+    controller: &Model,
+    positions: &[u32],
+    retries: u32,
+    taken: &[(u32, Vector3<f64>)],
+    on_reading: &mut dyn FnMut(u32, Vector3<f64>) -> Result<(), TrackerRegistrationError>,
+) -> Result<TrackerRegistration, TrackerRegistrationError> {
     let positions = if positions.is_empty() { controller.position_ids() } else { positions.to_vec() };
     if positions.len() < 3 {
         return Err(TrackerRegistrationError::Positions(format!(
@@ -220,6 +239,10 @@ pub fn register_tracker(
         let tank = controller.position(position).ok_or_else(|| {
             TrackerRegistrationError::Positions(format!("the cell has no calibration position {position}"))
         })?;
+        if let Some((_, measured)) = taken.iter().find(|(p, _)| *p == position) {
+            points.push((position, tank, *measured));
+            continue;
+        }
         let device = |source| TrackerRegistrationError::Device { position, source };
         operator.perform(&OperatorInstruction::PlaceProbe { position }).map_err(device)?;
         operator.perform(&OperatorInstruction::SeatNestSmr { position }).map_err(device)?;
@@ -238,6 +261,7 @@ pub fn register_tracker(
                 Err(e) => return Err(device(e.context(format_args!("nest SMR, attempt {attempt}")))),
             }
         };
+        on_reading(position, measured)?;
         points.push((position, tank, measured));
     }
     operator.perform(&OperatorInstruction::RemoveNestSmr).map_err(|source| {

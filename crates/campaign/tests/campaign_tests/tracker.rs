@@ -11,7 +11,7 @@ use common::{SimDevices, nominal, paper_cell, quiet_config};
 use nalgebra::{Rotation3, Vector3};
 use vatcal_campaign::validation::{
     PrintingPathOptions, RandomPoseOptions, TrackerRegistration, ValidationError, ValidationPlan,
-    ValidationPlanOptions, build_validation_plan, evaluate, register_tracker,
+    ValidationPlanOptions, build_validation_plan, evaluate, register_tracker, register_tracker_resuming,
 };
 use vatcal_campaign::{Campaign, CampaignConfig, CampaignError, CellDevices};
 use vatcal_core::{CellFile, Frame};
@@ -74,6 +74,55 @@ fn registration_finds_the_tracker_pose_and_maps_readings_into_the_tank() {
     std::fs::write(&path, "{ not json").expect("write");
     let e = TrackerRegistration::load(&path).expect_err("garbage").to_string();
     assert!(e.contains("tracker-registration.json") && e.contains("line 1"), "{e}");
+}
+
+/// Counts the tracker's readings.
+struct Counting<T> {
+    inner: T,
+    reads: usize,
+}
+
+impl<T: PositionTracker> PositionTracker for Counting<T> {
+    fn measure_mm(&mut self, target: u32) -> HwResult<Vector3<f64>> {
+        self.reads += 1;
+        self.inner.measure_mm(target)
+    }
+}
+
+/// A registration interrupted after its first nest reading (the reading journaled by the
+/// callback) continues with the other positions: the first is not measured again, its reading
+/// is used as journaled, and every new reading reaches the callback.
+#[test]
+fn an_interrupted_registration_continues_without_measuring_a_nest_twice() {
+    let model = nominal();
+    let cell = paper_cell(SEED);
+    let mut tracker = Counting {
+        inner: Displaced { inner: cell.tracker(), tracker_from_world: tracker_pose().inverse() },
+        reads: 0,
+    };
+    let mut operator = cell.operator();
+    let positions = model.position_ids();
+    // the first run stops after one reading (the callback's error stands for the kill)
+    let mut journal = Vec::new();
+    let stopped = register_tracker_resuming(&mut tracker, &mut operator, &model, &[], 0, &[], &mut |p, v| {
+        journal.push((p, v));
+        Err(vatcal_campaign::validation::TrackerRegistrationError::Positions("killed".into()))
+    });
+    assert!(stopped.is_err());
+    assert_eq!((tracker.reads, journal.len()), (1, 1));
+    let mut added = Vec::new();
+    let reg =
+        register_tracker_resuming(&mut tracker, &mut operator, &model, &[], 0, &journal, &mut |p, v| {
+            added.push((p, v));
+            Ok(())
+        })
+        .expect("registration");
+    assert_eq!(tracker.reads, positions.len(), "one reading per position in all");
+    assert_eq!(added.iter().map(|(p, _)| *p).collect::<Vec<_>>(), positions[1..].to_vec());
+    let first = &reg.points[0];
+    assert_eq!(first.position, journal[0].0);
+    assert_eq!(first.tracker_mm, [journal[0].1.x, journal[0].1.y, journal[0].1.z], "the journaled reading");
+    assert!(reg.max_residual_mm < 0.05, "{}", reg.summary());
 }
 
 /// A tracker that reports in the tank frame (`frame = "tank"`) is checked, not registered:

@@ -4,6 +4,14 @@
 //! Order: read the model, the plan folder and the devices file (every error before anything
 //! connects) → connect → check every device and print what was found → run the tour with
 //! auto-centering and the operator prompts, journaling every step → `measurements.csv`.
+//!
+//! The plan folder says its kind (`summary.json`, `vatcal plan --kind`): a calibration plan
+//! writes `campaign.journal` and `measurements.csv`; a discovery plan runs with its two-sided
+//! repeats into `discovery.journal` and `discovery_measurements.csv`; a validation plan needs
+//! the devices file's tracker, registers it first (`tracker-registration.json`, as `vatcal
+//! calibrate` does) and writes `validation.journal` and `validation_measurements.csv`
+//! (tracker rows in the tank frame). The same functions as `vatcal calibrate`'s stages
+//! (`vatcal_pipeline::plans`).
 //! Ctrl-C (or SIGTERM) stops the arm and the guide and leaves a journal that `--resume`
 //! continues. See `docs/campaign.md`.
 
@@ -20,8 +28,9 @@ use vatcal_hardware_traits::{
     ProbePlacement, RobotArm, SystemClock, Thermometer, TriCal,
 };
 use vatcal_kinematics::Model;
+use vatcal_pipeline::plans::{discovery_campaign_stage, discovery_tour_of, tracker_campaign_stage};
 use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};
-use vatcal_pipeline::{DeviceSet, PlanFolder, RunFolder};
+use vatcal_pipeline::{DeviceSet, PlanFolder, PlanKind, RunFolder};
 
 use super::demo::BarProgress;
 
@@ -40,10 +49,14 @@ pub struct Args {
     /// Devices file (TOML): which driver and address for the arm, guide and gauges.
     #[arg(long, value_name = "DEVICES.toml")]
     pub devices: PathBuf,
-    /// Plan folder written by `vatcal plan` (its `tour.csv` is run).
+    /// Plan folder written by `vatcal plan` (its `tour.csv` is run; `summary.json` says whether
+    /// it is a calibration, discovery or validation plan).
     #[arg(long, value_name = "DIR")]
     pub plan: PathBuf,
-    /// Run folder: `campaign.journal`, `measurements.csv` (created if missing).
+    /// Run folder (created if missing): `campaign.journal`, `measurements.csv` (calibration
+    /// plans), `discovery.journal`, `discovery_measurements.csv` (discovery plans),
+    /// `tracker-registration.json`, `validation.journal`, `validation_measurements.csv`
+    /// (validation plans).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Continue the journal in `--out` (after a crash, Ctrl-C or a device fault).
@@ -293,18 +306,45 @@ pub(crate) fn install_stop_handler(flag: &StopFlag) -> anyhow::Result<()> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     // everything that can be checked without the cell, before connecting
     let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
-    let tour = PlanFolder::new(&args.plan).read_tour(nominal.joint_kinds())?;
+    let plan_folder = PlanFolder::new(&args.plan);
+    let header = plan_folder.read_header()?;
+    let kind = header.kind;
+    let tour = match kind {
+        PlanKind::Discovery => {
+            discovery_tour_of(
+                &plan_folder,
+                &nominal,
+                header.two_sided_repeats.unwrap_or(0),
+                header.repeat_overshoot_deg.unwrap_or(0.0).to_radians(),
+            )?
+            .0
+        }
+        PlanKind::Calibration | PlanKind::Validation => plan_folder.read_tour(nominal.joint_kinds())?,
+    };
     tour.validate(&nominal)
         .with_context(|| format!("{}: the plan does not fit {nominal_source}", args.plan.display()))?;
     let devices_file = DevicesFile::load(&args.devices)?;
     devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
     check_cell_options(args.speed, args.motion_timeout_s, args.operator, &devices_file, &args.devices)?;
+    if kind == PlanKind::Validation && devices_file.tracker.is_none() {
+        bail!(
+            "{}: {} is a validation plan and the devices file has no `tracker` (docs/formats.md, devices file)",
+            args.devices.display(),
+            args.plan.display()
+        );
+    }
     let folder = RunFolder::new(&args.out);
-    let journal = folder.journal();
-    match (journal.exists(), args.resume) {
+    let journal = folder.path(kind.journal());
+    // a validation campaign starts with the tracker registration, journaled too
+    let started = journal.exists() || (kind == PlanKind::Validation && folder.validation_started());
+    match (started, args.resume) {
         (true, false) => bail!(
             "{} exists: pass --resume to continue that campaign, or choose another --out",
-            journal.display()
+            if journal.exists() {
+                journal.display().to_string()
+            } else {
+                format!("{}'s registration", args.out.display())
+            }
         ),
         (false, true) => bail!("--resume: {} does not exist (nothing to resume)", journal.display()),
         _ => {}
@@ -315,7 +355,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     install_stop_handler(&flag)?;
 
     println!(
-        "vatcal campaign: {} measurements in {} steps from {}, devices {}, run folder {}",
+        "vatcal campaign: {} plan, {} measurements in {} steps from {}, devices {}, run folder {}",
+        kind.key(),
         tour.measurement_count(),
         tour.steps.len(),
         args.plan.display(),
@@ -338,22 +379,46 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ..CampaignConfig::default()
     };
     let mut progress = BarProgress::new(!args.quiet && std::io::stderr().is_terminal());
-    let result = vatcal_pipeline::campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress);
+    let result = match kind {
+        PlanKind::Calibration => {
+            vatcal_pipeline::campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress)
+                .map(|r| (r, None))
+        }
+        PlanKind::Discovery => {
+            discovery_campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress)
+                .map(|r| (r, None))
+        }
+        PlanKind::Validation => {
+            tracker_campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress).and_then(
+                |(report, registration)| {
+                    vatcal_io::write_measurements_for(
+                        folder.path(kind.measurements()),
+                        &report.measurements,
+                        nominal.joint_kinds(),
+                    )?;
+                    Ok((report, registration))
+                },
+            )
+        }
+    };
     progress.clear();
     match result {
-        Ok(report) => {
+        Ok((report, registration)) => {
+            if let Some(r) = registration {
+                println!("tracker registration ({}): {}", r.mode, r.registration.summary());
+            }
             println!(
                 "campaign complete: {} measurements ({} skipped){}; wrote {}",
                 report.measurements.len(),
                 report.skipped,
                 report.resumed_at_step.map_or(String::new(), |s| format!(", resumed at step {s}")),
-                folder.measurements().display()
+                folder.path(kind.measurements()).display()
             );
             Ok(())
         }
         Err(e) => {
             cell.stop_motion();
-            let done = folder.journal_measurements().map(|m| m.len()).unwrap_or(0);
+            let done = vatcal_campaign::Journal::open(&journal).map(|j| j.measurements().len()).unwrap_or(0);
             let hint = format!(
                 "{done} measurements are safe in {}; fix the cause and run the same command with --resume",
                 journal.display()

@@ -323,7 +323,7 @@ fn stage_running(out: &Path, stage: &str) -> bool {
 
 /// Starts `vatcal` with `args` and kills it with SIGKILL as soon as `when` holds. The child's
 /// stderr goes to a file so that a child that ended early says why.
-fn kill_in(args: &[&str], when: impl Fn() -> bool) {
+pub(crate) fn kill_in(args: &[&str], when: impl Fn() -> bool) {
     let log = tempfile::NamedTempFile::new().expect("stderr file");
     let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
         .args(args)

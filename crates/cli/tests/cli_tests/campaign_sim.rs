@@ -185,7 +185,7 @@ fn planned_measurements(plan: &Path) -> usize {
     tour.lines().filter(|l| l.split(',').nth(1) == Some("measure")).count()
 }
 
-fn campaign_args<'a>(devices: &'a Path, plan: &'a Path, out: &'a Path) -> Vec<&'a str> {
+pub(crate) fn campaign_args<'a>(devices: &'a Path, plan: &'a Path, out: &'a Path) -> Vec<&'a str> {
     vec![
         "campaign",
         "--devices",

@@ -16,6 +16,7 @@ mod fk_context;
 mod fk_torque;
 mod identify_validate;
 mod import_urdf;
+mod plan_kinds;
 mod real_data;
 mod select_observability;
 mod sim_cell;

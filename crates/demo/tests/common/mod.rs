@@ -24,6 +24,8 @@ pub struct DefaultDemo {
     pub out: DemoOutcome,
     /// `report.json`
     pub report_json: serde_json::Value,
+    /// `timing.json`
+    pub timing_json: serde_json::Value,
     /// `summary.md`
     pub summary_md: String,
     /// `summary.html`
@@ -44,6 +46,7 @@ pub fn default_demo() -> &'static DefaultDemo {
             opts,
             out,
             report_json,
+            timing_json: serde_json::from_str(&read("timing.json")).expect("timing.json parses"),
             summary_md: read("summary.md"),
             summary_html: read("summary.html"),
         }

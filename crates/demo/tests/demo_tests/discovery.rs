@@ -36,6 +36,16 @@ fn the_demo_discovers_on_the_paper_like_truth_and_validates_four_models() {
     let d = out.discovery.as_ref().expect("discovery outcome");
     assert_eq!(d.plots.len(), d.discovery.added_effects.len());
     assert!(demo.summary_md.contains("| true structure (floor) |"));
+    // the measurement loop's campaign is timed like the others (timing.json, summary.md)
+    let measurement_loop = d.measurement_loop.as_ref().expect("the loop's report");
+    let timing = &demo.timing_json["discovery_loop"];
+    if measurement_loop.ran {
+        assert_eq!(timing["probe_measurements"]["count"].as_u64(), Some(measurement_loop.proposed as u64));
+        assert!(timing["probe_measurements"]["measured_s"].as_f64().is_some_and(|s| s > 0.0), "{timing}");
+        assert!(demo.summary_md.contains("| discovery loop |"));
+    } else {
+        assert!(timing.is_null(), "no loop measured and timing.json has {timing}");
+    }
     let html = &demo.summary_html;
     assert!(html.contains("<svg") && html.contains("true structure (floor)"));
 }

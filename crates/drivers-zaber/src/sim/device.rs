@@ -260,7 +260,7 @@ impl SimDevice {
         }
         let from = self.position(now);
         if let Some(backend) = &self.config.backend {
-            backend.motion_started(from, target);
+            backend.motion_started_at(from, target, self.maxspeed);
         }
         self.motion = Some(Profile {
             from,

@@ -40,6 +40,13 @@ use crate::driver::{DEFAULT_LEAD_MM, DEFAULT_RESOLUTION, FULL_STEPS_PER_REV};
 pub trait AxisBackend: Send + Sync + std::fmt::Debug {
     /// A motion (move or homing) from `from_microsteps` to `to_microsteps` starts.
     fn motion_started(&self, from_microsteps: f64, to_microsteps: f64);
+
+    /// The same with the `maxspeed` the motion runs at (the driver may set it back when the
+    /// motion has ended); the default forwards to [`AxisBackend::motion_started`].
+    fn motion_started_at(&self, from_microsteps: f64, to_microsteps: f64, maxspeed: i64) {
+        let _ = maxspeed;
+        self.motion_started(from_microsteps, to_microsteps);
+    }
 }
 
 /// Simulator settings.
