@@ -219,3 +219,63 @@ fn a_stage_on_its_own_needs_the_stages_before_it_and_clears_the_ones_after() {
     .expect_err("another seed");
     assert!(e.to_string().contains("seed 5"), "{e}");
 }
+
+/// A `kill -9` inside the two stages that take milliseconds (identify, compensation) cannot be
+/// timed from outside the process (the kill tests of the measuring stages are in the CLI's
+/// tests); the state such a kill leaves is built here exactly: the stage `running` in
+/// `stages.json` with its attempt counted (what `calibrate` saves before the stage's first
+/// step) and the stage's output file cut off half-way (a write interrupted). `--resume` runs
+/// the stage again and gives the outputs of the same two calls without the kill, measuring
+/// nothing again. (The reference is split at the same stage because a new process starts the
+/// validation from the arm's home, not from where the campaign left it.)
+#[test]
+fn the_state_a_kill_inside_identify_or_compensation_leaves_resumes_to_the_uninterrupted_outputs() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let read = |path: &Path| std::fs::read_to_string(path).expect("output file");
+    let json = |p: &Path| serde_json::from_str::<serde_json::Value>(&read(p)).expect("a whole report.json");
+    let all = "plan,campaign,identify,validation,compensation";
+    for (stage, before, output) in [
+        (Stage::Identify, "plan,campaign", "calibrated.toml"),
+        (Stage::Report, "plan,campaign,identify,validation", "report.json"),
+    ] {
+        let reference = dir.path().join(format!("{}-reference", stage.key()));
+        run(&mut Devices::new(None), &stages(before, false), &reference).expect("the stages before");
+        let uninterrupted = run(&mut Devices::new(None), &stages(all, true), &reference)
+            .expect("the rest")
+            .run
+            .expect("report");
+
+        let out = dir.path().join(stage.key());
+        run(&mut Devices::new(None), &stages(before, false), &out).expect("the stages before");
+        // the kill: the stage started (one attempt, running), its output half written
+        let path = out.join("stages.json");
+        let mut state: serde_json::Value = serde_json::from_str(&read(&path)).expect("stages.json");
+        state["stages"].as_array_mut().expect("stages").push(serde_json::json!({
+            "stage": stage.key(), "status": "running", "attempts": 1, "wall_s": null, "device_s": null
+        }));
+        std::fs::write(&path, serde_json::to_string_pretty(&state).expect("json")).expect("write");
+        let whole = read(&reference.join(output));
+        std::fs::write(out.join(output), &whole[..whole.len() / 2]).expect("cut off");
+        let journal = out.join("validation.journal");
+        let measured_before = if journal.exists() { tracked(&journal).len() } else { 0 };
+
+        let resumed = run(&mut Devices::new(None), &stages(all, true), &out)
+            .unwrap_or_else(|e| panic!("resume after a kill in {}: {e}", stage.key()));
+        assert_eq!(resumed.ran.first(), Some(&stage), "{}: ran {:?}", stage.key(), resumed.ran);
+        assert_eq!(resumed.state.entry(stage).map(|e| (e.status, e.attempts)), Some((StageStatus::Done, 2)));
+        assert_eq!(read(&out.join("measurements.csv")), read(&reference.join("measurements.csv")));
+        assert_eq!(read(&out.join("calibrated.toml")), read(&reference.join("calibrated.toml")));
+        if stage == Stage::Report {
+            assert!(measured_before > 0);
+            assert_eq!(tracked(&journal).len(), measured_before, "nothing measured again");
+        }
+        let again = resumed.run.expect("report").report;
+        assert_eq!(again.identification, uninterrupted.report.identification, "{}", stage.key());
+        assert_eq!(again.validation.models, uninterrupted.report.validation.models, "{}", stage.key());
+        // the report file is whole again and says what the uninterrupted one says
+        let (written, expected) = (json(&out.join("report.json")), json(&reference.join("report.json")));
+        assert!(expected["validation"].is_object(), "{expected}");
+        assert_eq!(written["validation"], expected["validation"]);
+        assert_eq!(written["identification"], expected["identification"]);
+    }
+}
