@@ -2308,14 +2308,20 @@ pub fn discover(
     })
 }
 
-/// The chain's size as the measurements see it: each joint's largest gravity torque and lever
-/// arm over the poses (plausibility bounds, [`vatcal_core::canonical::bounds`]).
+/// The chain's size as the measurements see it: each joint's largest gravity torque, bending
+/// moment and lever arm over the poses (plausibility bounds, [`vatcal_core::canonical::bounds`]).
 fn chain_scale(model: &Model, ms: &[Measurement]) -> Result<ChainScale, DiscoveryError> {
     let pose = PoseData::of(model, ms)?;
     let mut scale = ChainScale {
         max_torque_nm: [0.0; vatcal_core::MAX_JOINTS],
         max_lever_mm: [0.0; vatcal_core::MAX_JOINTS],
+        max_bending_nm: [0.0; vatcal_core::MAX_JOINTS],
     };
+    for m in ms {
+        for (b, v) in scale.max_bending_nm.iter_mut().zip(model.link_bending_moments(&m.q)) {
+            *b = b.max(v[0].hypot(v[1]));
+        }
+    }
     for t in &pose.torques {
         for (m, v) in scale.max_torque_nm.iter_mut().zip(t) {
             *m = m.max(v.abs());

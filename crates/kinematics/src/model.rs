@@ -110,6 +110,8 @@ pub struct Model {
     pub(crate) any_compliance: bool,
     /// a switched-on effect needs the carriage moment
     pub(crate) effects_need_moment: bool,
+    /// a switched-on effect needs the links' gravity bending moments
+    pub(crate) effects_need_link_moments: bool,
     /// the registered implementation of each switched-on effect, `effect_impls[k]` for
     /// `effects[k]` (looked up once, not per sample)
     pub(crate) effect_impls: Vec<&'static dyn ErrorEffect>,
@@ -230,6 +232,7 @@ impl Model {
             base_frame: Frame::identity(),
             any_compliance: false,
             effects_need_moment: false,
+            effects_need_link_moments: false,
             effect_impls: Vec::new(),
             template: cell.clone(),
         };
@@ -568,6 +571,7 @@ impl Model {
         // every effect in `effects` passed this function, so it is registered
         self.effect_impls = self.effects.iter().filter_map(|e| e.effect()).collect();
         self.effects_need_moment = self.effect_impls.iter().any(|e| e.needs_carriage_moment());
+        self.effects_need_link_moments = self.effect_impls.iter().any(|e| e.needs_link_moments());
         self.refresh_caches();
         Ok(())
     }
