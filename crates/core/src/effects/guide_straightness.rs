@@ -2,6 +2,16 @@
 //! joint's frame g: `T(s_x(u), s_y(u), 0)`, `s(u) = Σ_o s_o P_o(u)` for orders 2..=`order`
 //! (order 1 is a tilted guide, absorbed by the base pose; parameters
 //! `guide_straightness_{x,y}_p{o}` \[mm\]).
+//!
+//! **Order chosen by the data.** A real guide's sideways error is not only a bow: rail
+//! waviness, the joints between rail segments and the ball recirculation give profiles with
+//! several periods over the travel, which a quadratic misses entirely (it is nearly
+//! orthogonal to them). Discovery therefore proposes the profile at a ladder of sizes,
+//! [`PROPOSED_ORDERS`] (2, 4, 8, 16: each doubling the resolution along the travel, up to 16
+//! — a period down to about an eighth of the travel — and nothing tuned to a particular
+//! period); each is scored with its own number of new parameters (its price in the score
+//! test), and an addition must then shrink the held-out error, so the size kept is the one
+//! the data support. A cell file may give any order in 2..=[`MAX_ORDER`].
 
 use super::guide_angular::{axis_order, check_guide};
 use super::{
@@ -9,6 +19,12 @@ use super::{
 };
 use crate::cell::EffectEntry;
 use crate::params::{Axis, EffectParam, ParamId, ParamUnit};
+
+/// Highest polynomial order of a straightness profile (cell file and discovery).
+pub const MAX_ORDER: u8 = 16;
+
+/// The orders discovery proposes (module docs).
+pub const PROPOSED_ORDERS: [u8; 4] = [2, 4, 8, MAX_ORDER];
 
 /// The `guide-straightness` effect.
 #[derive(Debug, Clone, Copy)]
@@ -82,14 +98,19 @@ impl ErrorEffect for GuideStraightness {
     }
     fn check(&self, spec: &EffectSpec, chain: &ChainInfo<'_>) -> Result<(), String> {
         check_guide(chain)?;
-        if (2..=4).contains(&order_of(spec)) {
+        if (2..=MAX_ORDER).contains(&order_of(spec)) {
             Ok(())
         } else {
-            Err("order must be 2..=4 (order 1 is a tilted guide, absorbed by the base pose)".to_string())
+            Err(format!(
+                "order must be 2..={MAX_ORDER} (order 1 is a tilted guide, absorbed by the base pose)"
+            ))
         }
     }
     fn candidates(&self, chain: &ChainInfo<'_>, _data: &DataUse, _joint: Option<u8>) -> Vec<EffectSpec> {
-        chain.guide.map(|_| EffectSpec::GuideStraightness { order: 2 }).into_iter().collect()
+        match chain.guide {
+            Some(_) => PROPOSED_ORDERS.map(|order| EffectSpec::GuideStraightness { order }).to_vec(),
+            None => Vec::new(),
+        }
     }
     fn driver(&self, _spec: &EffectSpec, guide: u8, _n: u8) -> EffectDriver {
         EffectDriver::Joint(guide)
