@@ -670,7 +670,13 @@ impl Context<'_> {
     /// Checks the identified changes of an effect's parameters against their bounds (a
     /// compliance must also be positive). Returns why it is implausible.
     fn plausibility(&self, spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
-        for (id, change) in changes {
+        // a profile's bound applies to its excursion, not to its coefficients
+        let named: Vec<(ParamId, f64, String)> =
+            spec.effect().and_then(|e| e.bounded_magnitudes(spec, changes)).unwrap_or_else(|| {
+                changes.iter().map(|(id, c)| (*id, *c, format!("{} of {}", id.name(), spec.label()))).collect()
+            });
+        for (id, change, name) in &named {
+            let (id, change) = (id, change);
             if let ParamId::Compliance(j) = id
                 && *change <= 0.0
             {
@@ -686,12 +692,7 @@ impl Context<'_> {
                 } else {
                     format!("{change:.3e}")
                 };
-                return Err(format!(
-                    "{} of {} changed by {shown}: more than the plausible {}",
-                    id.name(),
-                    spec.label(),
-                    b.text
-                ));
+                return Err(format!("{name} changed by {shown}: more than the plausible {}", b.text));
             }
         }
         Ok(())

@@ -88,7 +88,45 @@ impl ErrorEffect for GuideStraightness {
         ParamUnit::Mm
     }
     fn bound(&self, _param: &ParamId) -> Option<(f64, &'static str)> {
+        // of the profile's largest sideways excursion over the travel (`bounded_magnitudes`)
         Some((0.5, "0.5 mm"))
+    }
+    fn bounded_magnitudes(
+        &self,
+        spec: &EffectSpec,
+        changes: &[(ParamId, f64)],
+    ) -> Option<Vec<(ParamId, f64, String)>> {
+        let peak = |axis: Axis| {
+            let profile = |u: f64| {
+                changes
+                    .iter()
+                    .filter_map(|(id, c)| match id {
+                        ParamId::Effect(EffectParam::GuideStraightness { axis: a, order }) if *a == axis => {
+                            Some(c * legendre(*order, u))
+                        }
+                        _ => None,
+                    })
+                    .sum::<f64>()
+            };
+            // the largest magnitude on a fine grid over the travel (u in [-1, 1]; 400 points
+            // resolve the order-16 polynomial's extrema to well under a percent)
+            (0..=400).map(|k| profile(-1.0 + f64::from(k) / 200.0).abs()).fold(0.0, f64::max)
+        };
+        Some(
+            [Axis::X, Axis::Y]
+                .map(|axis| {
+                    (
+                        ParamId::Effect(EffectParam::GuideStraightness { axis, order: 2 }),
+                        peak(axis),
+                        format!(
+                            "the {} profile of {} (largest over the travel)",
+                            axis.letter(),
+                            self.label(spec)
+                        ),
+                    )
+                })
+                .to_vec(),
+        )
     }
     fn read_entry(&self, entry: &EffectEntry) -> Result<EffectSpec, String> {
         Ok(EffectSpec::GuideStraightness { order: entry.order.unwrap_or(2) })

@@ -570,8 +570,25 @@ pub trait ErrorEffect: Sync + fmt::Debug {
     }
     /// Checks the identified changes of the instance's parameters (default: the bounds of
     /// every parameter, see [`plausibility`]).
-    fn plausibility(&self, _spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
-        check_bounds(changes)
+    fn plausibility(&self, spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
+        match self.bounded_magnitudes(spec, changes) {
+            Some(peaks) => check_bounds(&peaks.iter().map(|(id, v, _)| (*id, *v)).collect::<Vec<_>>()),
+            None => check_bounds(changes),
+        }
+    }
+    /// For an effect whose parameters are the coefficients of a profile (the guide
+    /// polynomials), what its plausibility bound applies to: per profile, the parameter whose
+    /// bound is used, the profile's largest magnitude over the travel, and a name for people
+    /// (e.g. "the x profile of guide-straightness (orders up to 8), peak over the travel").
+    /// `None` (the default): the bound applies to every parameter on its own. A high-order
+    /// polynomial has large coefficients that cancel, so its coefficients are no measure of
+    /// how far it moves the carriage.
+    fn bounded_magnitudes(
+        &self,
+        _spec: &EffectSpec,
+        _changes: &[(ParamId, f64)],
+    ) -> Option<Vec<(ParamId, f64, String)>> {
+        None
     }
 
     /// Reads an instance from a cell file's `[[effects]]` entry (its `values` are read by the
