@@ -1542,9 +1542,22 @@ fn choose_among_rivals(
         }
     }
     if chosen == best {
-        // the data cannot tell: the simplest passing one
+        // the data cannot tell: the simplest passing one — among the rivals the validation
+        // rows do not show significantly worse than the best one (a simpler rival that
+        // predicts them worse at z > 2 is not "indistinguishable")
         let size = |i: usize| candidates[i].refit.as_ref().map_or(usize::MAX, |r| r.0.fitted_params.len());
-        if let Some(&simpler) = rivals
+        let vb = val_errors(best)?;
+        let mut eligible = Vec::new();
+        for &i in &rivals {
+            let worse = match (&vb, val_errors(i)?) {
+                (Some(b), Some(vi)) => HeldOutComparison::new(&vi, b).z > 2.0,
+                _ => false,
+            };
+            if !worse {
+                eligible.push(i);
+            }
+        }
+        if let Some(&simpler) = eligible
             .iter()
             .filter(|i| candidates[**i].status == CandidateStatus::PassedNotBest)
             .filter(|i| size(**i) < size(best))
@@ -1552,6 +1565,9 @@ fn choose_among_rivals(
         {
             chosen = simpler;
             basis = "simpler";
+        } else if eligible.is_empty() && !rivals.is_empty() {
+            // the best one predicts the validation rows significantly better than every rival
+            basis = "validation";
         }
     }
     let mut group: Vec<usize> = vec![best];
