@@ -673,7 +673,10 @@ impl Context<'_> {
         // a profile's bound applies to its excursion, not to its coefficients
         let named: Vec<(ParamId, f64, String)> =
             spec.effect().and_then(|e| e.bounded_magnitudes(spec, changes)).unwrap_or_else(|| {
-                changes.iter().map(|(id, c)| (*id, *c, format!("{} of {}", id.name(), spec.label()))).collect()
+                changes
+                    .iter()
+                    .map(|(id, c)| (*id, *c, format!("{} of {}", id.name(), spec.label())))
+                    .collect()
             });
         for (id, change, name) in &named {
             let (id, change) = (id, change);

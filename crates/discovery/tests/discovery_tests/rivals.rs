@@ -49,7 +49,10 @@ fn a_simpler_rival_the_validation_rows_reject_is_not_kept() {
     use crate::common::benchmark::{generate, run_case};
     let case = generate(36, 21).remove(35);
     let r = run_case(case);
-    eprintln!("added {:?}; validation {:.4} -> {:.4} mm, floor {:?}", r.added, r.start_mm, r.discovered_mm, r.floor_mm);
+    eprintln!(
+        "added {:?}; validation {:.4} -> {:.4} mm, floor {:?}",
+        r.added, r.start_mm, r.discovered_mm, r.floor_mm
+    );
     assert!(r.error.is_none(), "{:?}", r.error);
     assert!(r.added.iter().any(|a| a == "tool-frame"), "{:?}", r.added);
     assert!(!r.added.iter().any(|a| a == "tcp-offset (TCP 1)"), "{:?}", r.added);

@@ -14,8 +14,8 @@ use vatcal_gravity_torque::MassModel;
 use vatcal_kinematics::Model;
 
 fn fixture(name: &str) -> (CellFile, Model) {
-    let cell = CellFile::load(format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR")))
-        .expect("fixture");
+    let cell =
+        CellFile::load(format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).expect("fixture");
     let model = Model::from_cell(&cell).expect("model");
     (cell, model)
 }
@@ -178,9 +178,11 @@ fn link_bending_round_trips_through_the_cell_file() {
     );
     // the canonical fixture itself has no such entry and is unchanged by the new effect
     assert_eq!(Model::from_cell(&cell).expect("fixture").effects(), nominal.effects());
-    assert!(!CellFile::load(format!("{}/../../fixtures/meca500-zaber.toml", env!("CARGO_MANIFEST_DIR")))
-        .expect("fixture")
-        .to_toml_string()
-        .expect("write")
-        .contains("link-bending"));
+    assert!(
+        !CellFile::load(format!("{}/../../fixtures/meca500-zaber.toml", env!("CARGO_MANIFEST_DIR")))
+            .expect("fixture")
+            .to_toml_string()
+            .expect("write")
+            .contains("link-bending")
+    );
 }
