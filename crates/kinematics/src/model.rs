@@ -542,7 +542,8 @@ impl Model {
 
     /// Switches an effect on (its parameters start at zero, i.e. the model's predictions do not
     /// change). Built-in effects only record that they belong to the model. Adding an effect
-    /// twice is a no-op.
+    /// twice is a no-op, and so is adding a lower order of a polynomial effect whose higher
+    /// order is on (e.g. `guide-straightness` orders up to 4 when orders up to 8 are on).
     ///
     /// # Errors
     /// [`ModelError::InvalidEffect`] when the instance does not exist on this model (e.g. a joint
@@ -555,10 +556,15 @@ impl Model {
         if self.effects.contains(&spec) {
             return Ok(());
         }
-        // polynomial effects: a higher order replaces a lower one of the same kind
+        // polynomial effects: a higher order replaces a lower one of the same kind; a lower
+        // order than the one on is already part of it (its parameters are a subset)
         if effect.single_instance()
             && let Some(k) = self.effects.iter().position(|e| e.kind() == spec.kind())
         {
+            let on = self.effects[k].params();
+            if spec.params().iter().all(|p| on.contains(p)) {
+                return Ok(());
+            }
             self.effects[k] = spec;
         } else {
             self.effects.push(spec);
