@@ -166,6 +166,7 @@ fn link_bending_round_trips_through_the_cell_file() {
     model.set_param(ky, -7e-5).expect("y");
     let text = model.to_cell().to_toml_string().expect("write");
     assert!(text.contains("effect = \"link-bending\""), "{text}");
+    assert!(text.contains("bend3_x = ") && text.contains("joint = 3"), "{text}");
     let back = Model::from_cell(&CellFile::from_toml_str(&text, "back").expect("reload")).expect("model");
     assert_eq!(back.param(kx).expect("x"), 1.5e-4);
     assert_eq!(back.param(ky).expect("y"), -7e-5);
