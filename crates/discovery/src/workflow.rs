@@ -670,7 +670,16 @@ impl Context<'_> {
     /// Checks the identified changes of an effect's parameters against their bounds (a
     /// compliance must also be positive). Returns why it is implausible.
     fn plausibility(&self, spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
-        for (id, change) in changes {
+        // a profile's bound applies to its excursion, not to its coefficients
+        let named: Vec<(ParamId, f64, String)> =
+            spec.effect().and_then(|e| e.bounded_magnitudes(spec, changes)).unwrap_or_else(|| {
+                changes
+                    .iter()
+                    .map(|(id, c)| (*id, *c, format!("{} of {}", id.name(), spec.label())))
+                    .collect()
+            });
+        for (id, change, name) in &named {
+            let (id, change) = (id, change);
             if let ParamId::Compliance(j) = id
                 && *change <= 0.0
             {
@@ -686,12 +695,7 @@ impl Context<'_> {
                 } else {
                     format!("{change:.3e}")
                 };
-                return Err(format!(
-                    "{} of {} changed by {shown}: more than the plausible {}",
-                    id.name(),
-                    spec.label(),
-                    b.text
-                ));
+                return Err(format!("{name} changed by {shown}: more than the plausible {}", b.text));
             }
         }
         Ok(())
@@ -1541,9 +1545,22 @@ fn choose_among_rivals(
         }
     }
     if chosen == best {
-        // the data cannot tell: the simplest passing one
+        // the data cannot tell: the simplest passing one — among the rivals the validation
+        // rows do not show significantly worse than the best one (a simpler rival that
+        // predicts them worse at z > 2 is not "indistinguishable")
         let size = |i: usize| candidates[i].refit.as_ref().map_or(usize::MAX, |r| r.0.fitted_params.len());
-        if let Some(&simpler) = rivals
+        let vb = val_errors(best)?;
+        let mut eligible = Vec::new();
+        for &i in &rivals {
+            let worse = match (&vb, val_errors(i)?) {
+                (Some(b), Some(vi)) => HeldOutComparison::new(&vi, b).z > 2.0,
+                _ => false,
+            };
+            if !worse {
+                eligible.push(i);
+            }
+        }
+        if let Some(&simpler) = eligible
             .iter()
             .filter(|i| candidates[**i].status == CandidateStatus::PassedNotBest)
             .filter(|i| size(**i) < size(best))
@@ -1551,6 +1568,9 @@ fn choose_among_rivals(
         {
             chosen = simpler;
             basis = "simpler";
+        } else if eligible.is_empty() && !rivals.is_empty() {
+            // the best one predicts the validation rows significantly better than every rival
+            basis = "validation";
         }
     }
     let mut group: Vec<usize> = vec![best];
@@ -2308,14 +2328,20 @@ pub fn discover(
     })
 }
 
-/// The chain's size as the measurements see it: each joint's largest gravity torque and lever
-/// arm over the poses (plausibility bounds, [`vatcal_core::canonical::bounds`]).
+/// The chain's size as the measurements see it: each joint's largest gravity torque, bending
+/// moment and lever arm over the poses (plausibility bounds, [`vatcal_core::canonical::bounds`]).
 fn chain_scale(model: &Model, ms: &[Measurement]) -> Result<ChainScale, DiscoveryError> {
     let pose = PoseData::of(model, ms)?;
     let mut scale = ChainScale {
         max_torque_nm: [0.0; vatcal_core::MAX_JOINTS],
         max_lever_mm: [0.0; vatcal_core::MAX_JOINTS],
+        max_bending_nm: [0.0; vatcal_core::MAX_JOINTS],
     };
+    for m in ms {
+        for (b, v) in scale.max_bending_nm.iter_mut().zip(model.link_bending_moments(&m.q)) {
+            *b = b.max(v[0].hypot(v[1]));
+        }
+    }
     for t in &pose.torques {
         for (m, v) in scale.max_torque_nm.iter_mut().zip(t) {
             *m = m.max(v.abs());

@@ -181,6 +181,42 @@ impl GravityModel {
         );
         tau
     }
+
+    /// The full gravity moment \[N·m\] exerted on everything distal to joint i about the
+    /// origin of frame i, in frame i's axes, `moments[i - 1]` for row i = 1..=N (any joint
+    /// kind; zero beyond N). Its z component is the torque of a revolute joint
+    /// ([`GravityModel::torques`]); the x and y components are the **bending moment** the
+    /// joint's bearing carries (what tilts the link about the axes perpendicular to its joint
+    /// axis). `links` as for [`GravityModel::torques`].
+    ///
+    /// # Examples
+    /// A 2 kg body 100 mm out along x of a vertical joint's frame and 50 mm along its axis:
+    /// gravity (−z) gives no torque about the axis and a bending moment about y of
+    /// `m g x = 1.962 N·m`.
+    /// ```
+    /// use nalgebra::{Matrix3, Vector3};
+    /// use vatcal_core::{Frame, MAX_JOINTS};
+    /// use vatcal_gravity_torque::{Body, GravityModel, MassModel};
+    ///
+    /// let mut masses = MassModel { links: [Body::default(); MAX_JOINTS], n: 1 };
+    /// masses.links[0] = Body { mass_kg: 2.0, com_mm: Vector3::new(100.0, 0.0, 50.0) };
+    /// let model = GravityModel::new(&masses, &Matrix3::identity(), &Vector3::new(0.0, 0.0, -9.81));
+    /// let m = model.moments(&[Frame::identity()]);
+    /// assert!(m[0].z.abs() < 1e-12 && m[0].x.abs() < 1e-12);
+    /// assert!((m[0].y - 2.0 * 9.81 * 0.1).abs() < 1e-12);
+    /// ```
+    pub fn moments(&self, links: &[Frame]) -> [Vector3<f64>; MAX_JOINTS] {
+        let mut out = [Vector3::zeros(); MAX_JOINTS];
+        walk(
+            links,
+            0,
+            self.gravity_frame0,
+            |k| self.first_moment_kg_mm[k],
+            |k| self.mass_kg[k],
+            |k, s, g| out[k] = s.cross(g) * 1e-3,
+        );
+        out
+    }
 }
 
 /// The first-moment recursion (see [`GravityModel`]) on `links.len() == tau.len()` joints:
@@ -198,6 +234,29 @@ fn recursion(
     let n = links.len().min(tau.len());
     // the recursion only needs to go down to the first revolute joint
     let Some(first) = (0..n).find(|k| revolute(*k)) else { return };
+    walk(&links[..n], first, g0, first_moment, mass, |k, s, gk| {
+        if revolute(k) {
+            tau[k] = (s.x * gk.y - s.y * gk.x) * 1e-3;
+        }
+    });
+}
+
+/// The outward/inward walk of the recursion over `links`, from the last row down to row
+/// `first + 1`: calls `visit(k, s, g)` for row k + 1 with `s` the first moment of bodies
+/// k+1..=n about the origin of frame k+1 and `g` gravity, both in frame k+1.
+#[inline(always)]
+fn walk(
+    links: &[Frame],
+    first: usize,
+    g0: Vector3<f64>,
+    first_moment: impl Fn(usize) -> Vector3<f64>,
+    mass: impl Fn(usize) -> f64,
+    mut visit: impl FnMut(usize, &Vector3<f64>, &Vector3<f64>),
+) {
+    let n = links.len().min(MAX_JOINTS);
+    if n == 0 {
+        return;
+    }
     // outward: g[k] = gravity in frame k + 1
     let mut g = [Vector3::zeros(); MAX_JOINTS];
     let mut prev = g0;
@@ -215,10 +274,7 @@ fn recursion(
             s = next.r * s + next.p * distal + first_moment(k);
             distal += mass(k);
         }
-        if revolute(k) {
-            let gk = &g[k];
-            tau[k] = (s.x * gk.y - s.y * gk.x) * 1e-3;
-        }
+        visit(k, &s, &g[k]);
     }
 }
 
@@ -488,6 +544,44 @@ mod tests {
                 let n7 = model.torques_n(l, kd);
                 prop_assert!(n7.iter().zip(&plain).all(|(a, b)| a.to_bits() == b.to_bits()));
             }
+        }
+    }
+
+    proptest! {
+        /// The full moment of every joint equals the sum over the distal bodies of
+        /// `(c - o_i) × m g` computed directly in the world and turned into frame i; its z
+        /// component is the torque of a revolute joint.
+        #[test]
+        fn moments_are_the_distal_weights_moments_about_each_frame(
+            (links, kinds, masses, g) in chain_strategy(),
+            base in proptest::array::uniform3(-3.2..3.2f64),
+        ) {
+            let base = *nalgebra::Rotation3::from_euler_angles(base[0], base[1], base[2]).matrix();
+            let model = GravityModel::new(&masses, &base, &g);
+            let moments = model.moments(&links);
+            let tau = model.torques(&links, &kinds);
+            // world poses of frames 1..=n
+            let mut w = Frame { r: base, p: Vector3::zeros() };
+            let mut world = Vec::new();
+            for l in &links {
+                w = w.compose(l);
+                world.push(w);
+            }
+            let scale = masses.total_mass_kg() * g.norm() * 1.0 * links.len() as f64 + 1e-9;
+            for (i, frame) in world.iter().enumerate() {
+                let mut m = Vector3::zeros();
+                for (k, body) in world.iter().enumerate().skip(i) {
+                    let b = masses.links[k];
+                    let arm_m = (body.transform_point(&b.com_mm) - frame.p) * 1e-3;
+                    m += arm_m.cross(&(g * b.mass_kg));
+                }
+                let local = frame.r.tr_mul(&m);
+                prop_assert!((moments[i] - local).norm() <= 1e-9 * scale, "row {}: {} vs {}", i + 1, moments[i], local);
+                if kinds[i].is_revolute() {
+                    prop_assert!((moments[i].z - tau[i]).abs() <= 1e-9 * scale);
+                }
+            }
+            prop_assert!(moments[links.len()..].iter().all(|m| m.norm() == 0.0));
         }
     }
 

@@ -50,6 +50,10 @@ struct EffectState {
     tool: [f64; 4],
     /// relative length change of the revolute rows
     length: f64,
+    /// some link rotation is switched on
+    link_active: bool,
+    /// rotation of link frame i about its x and y axes, `link_rot[i - 1]` \[rad\]
+    link_rot: [[f64; 2]; MAX_JOINTS],
 }
 
 /// All frames of the chain for one joint vector, in the world (tank) frame.
@@ -73,11 +77,16 @@ pub struct Chain {
     /// along the carriage x and y axes (evaluated when `guide-carriage-tilt` is on or when
     /// given; `None` otherwise).
     pub carriage_moment: Option<[f64; 2]>,
+    /// Gravity bending moments \[N·m\] of the joints along their frames' x and y axes
+    /// (evaluated when `link-bending` is on or when given; `None` otherwise).
+    pub link_moments: Option<[[f64; 2]; MAX_JOINTS]>,
     /// Joint angles theta_1..theta_N \[rad\] that entered Eq. (1), `theta[i - 1]` for row i.
     pub theta: [f64; MAX_JOINTS],
     pub(crate) axes: [RowAxes; MAX_JOINTS],
     pub(crate) guide: Option<InsertAxes>,
     pub(crate) tool_axes: Option<InsertAxes>,
+    /// axes of the link rotation inserted after frame i (`[i - 1]`), when one is on
+    pub(crate) link_axes: [Option<InsertAxes>; MAX_JOINTS],
     pub(crate) thermal_factor: f64,
 }
 
@@ -107,6 +116,9 @@ pub struct GravityLoads {
     pub torques: [f64; MAX_JOINTS],
     /// gravity moment about the carriage origin along the carriage x and y axes \[N·m\]
     pub carriage_moment: [f64; 2],
+    /// gravity bending moment of each joint along its frame's x and y axes \[N·m\],
+    /// `[i - 1]` for joint i
+    pub link_moments: [[f64; 2]; MAX_JOINTS],
 }
 
 #[inline]
@@ -232,9 +244,38 @@ impl Model {
         [moment.dot(&carriage.x_axis()), moment.dot(&carriage.y_axis())]
     }
 
-    /// Gravity torques and carriage moment at `q` (see [`GravityLoads`]).
+    /// Gravity bending moment \[N·m\] each joint carries at `q`: the moment of gravity on
+    /// everything distal to joint i about the origin of frame i, along frame i's x and y
+    /// axes, `[i - 1]` for joint i (any joint kind; zeros beyond N), on this model's own
+    /// undeflected geometry (no effect, no compliance), as the torques. What `link-bending`
+    /// multiplies; the z component (not returned) is the torque of a revolute joint.
+    ///
+    /// # Panics
+    /// If `q` does not have [`Model::joint_count`] values (a programming error).
+    #[track_caller]
+    pub fn link_bending_moments(&self, q: &JointVector) -> [[f64; 2]; MAX_JOINTS] {
+        self.assert_len(q);
+        let trig = self.undeflected_trig(q);
+        let qs = q.as_slice();
+        let mut links = [Frame::identity(); MAX_JOINTS];
+        for k in 0..self.n {
+            links[k] = rz_tz_trig(&self.row_fixed[k], trig[k], self.row_d(k, qs));
+        }
+        let m = self.gravity_model.moments(&links[..self.n]);
+        let mut out = [[0.0; 2]; MAX_JOINTS];
+        for (o, v) in out.iter_mut().zip(&m) {
+            *o = [v.x, v.y];
+        }
+        out
+    }
+
+    /// Gravity torques, carriage moment and bending moments at `q` (see [`GravityLoads`]).
     pub fn gravity_loads(&self, q: &JointVector) -> GravityLoads {
-        GravityLoads { torques: self.gravity_torques(q), carriage_moment: self.carriage_moment(q) }
+        GravityLoads {
+            torques: self.gravity_torques(q),
+            carriage_moment: self.carriage_moment(q),
+            link_moments: self.link_bending_moments(q),
+        }
     }
 
     /// Lean FK of a point in the tool frame when no effect is switched on: no Jacobian axes,
@@ -323,6 +364,7 @@ impl Model {
         q: &'a JointVector,
         ctx: &'a MeasurementContext,
         carriage_moment: Option<[f64; 2]>,
+        link_moments: Option<[[f64; 2]; MAX_JOINTS]>,
     ) -> EffectInputs<'a> {
         EffectInputs {
             q: q.as_slice(),
@@ -331,6 +373,7 @@ impl Model {
             guide_u: self.guide_u(self.guide_q(q)),
             carriage_moment: carriage_moment.unwrap_or([0.0; 2]),
             thermal_reference_c: self.thermal_reference_c,
+            link_moments: link_moments.unwrap_or([[0.0; 2]; MAX_JOINTS]),
         }
     }
 
@@ -370,6 +413,14 @@ impl Model {
                         }
                     }
                     Hook::LengthScale => st.length += v,
+                    Hook::LinkRotation { joint, axis } => {
+                        if let (Some(r), Axis::X | Axis::Y) =
+                            (st.link_rot.get_mut((joint as usize).wrapping_sub(1)), axis)
+                        {
+                            st.link_active = true;
+                            r[axis.index()] += v;
+                        }
+                    }
                 }
             });
         }
@@ -390,7 +441,7 @@ impl Model {
         with_torques: bool,
         fixed_torques: Option<&[f64; MAX_JOINTS]>,
     ) -> Chain {
-        self.chain_inner(q, ctx, with_torques, fixed_torques, None)
+        self.chain_inner(q, ctx, with_torques, fixed_torques, None, None)
     }
 
     /// Every frame at `q` with all gravity loads held at `loads` (torques for the compliances,
@@ -401,7 +452,14 @@ impl Model {
     /// If `q` does not have [`Model::joint_count`] values (a programming error).
     #[track_caller]
     pub fn chain_with_loads(&self, q: &JointVector, ctx: &MeasurementContext, loads: &GravityLoads) -> Chain {
-        self.chain_inner(q, ctx, true, Some(&loads.torques), Some(loads.carriage_moment))
+        self.chain_inner(
+            q,
+            ctx,
+            true,
+            Some(&loads.torques),
+            Some(loads.carriage_moment),
+            Some(loads.link_moments),
+        )
     }
 
     #[track_caller]
@@ -412,6 +470,7 @@ impl Model {
         with_torques: bool,
         fixed_torques: Option<&[f64; MAX_JOINTS]>,
         fixed_moment: Option<[f64; 2]>,
+        fixed_link_moments: Option<[[f64; 2]; MAX_JOINTS]>,
     ) -> Chain {
         self.assert_len(q);
         let (torques, torques_evaluated) = match fixed_torques {
@@ -424,16 +483,22 @@ impl Model {
             None if self.effects_need_moment => Some(self.carriage_moment(q)),
             None => None,
         };
+        let link_moments = match fixed_link_moments {
+            Some(m) => Some(m),
+            None if self.effects_need_link_moments => Some(self.link_bending_moments(q)),
+            None => None,
+        };
         let st = if self.effects.is_empty() {
             EffectState::default()
         } else {
-            self.effect_state(&self.effect_inputs(q, ctx, carriage_moment))
+            self.effect_state(&self.effect_inputs(q, ctx, carriage_moment, link_moments))
         };
         let thermal_factor = 1.0 + st.length;
         let mut frames = [Frame::identity(); MAX_JOINTS + 1];
         let mut axes = [RowAxes::default(); MAX_JOINTS];
         let mut theta = [0.0; MAX_JOINTS];
         let mut guide = None;
+        let mut link_axes = [None; MAX_JOINTS];
         let mut w = self.base_frame;
         frames[0] = w;
         for k in 0..self.n {
@@ -466,6 +531,12 @@ impl Model {
                 guide = Some(ax);
                 w = w.compose(&ins);
             }
+            if st.link_active && st.link_rot[k] != [0.0; 2] {
+                let [ex, ey] = st.link_rot[k];
+                let (ins, ax) = insert_transform(&w, 0.0, 0.0, ex, ey, None);
+                link_axes[k] = Some(ax);
+                w = w.compose(&ins);
+            }
             frames[k + 1] = w;
         }
         let mut tool = w;
@@ -483,10 +554,12 @@ impl Model {
             torques,
             torques_evaluated,
             carriage_moment,
+            link_moments,
             theta,
             axes,
             guide,
             tool_axes,
+            link_axes,
             thermal_factor,
         }
     }

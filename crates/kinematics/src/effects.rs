@@ -4,7 +4,7 @@
 //! registered by one line in its `catalog.rs`): its names, parameters, bounds, candidates and
 //! its linear contributions to the kinematic [`Hook`]s. This crate applies the hooks in one
 //! place: `chain.rs` (forward kinematics: joint offsets before FK, guide-carriage and tool
-//! frame corrections, length scale) and `jacobian.rs` (the hook's column times the
+//! frame corrections, length scale, link rotations) and `jacobian.rs` (the hook's column times the
 //! parameter's coefficient). A model without effects skips the effect layer entirely.
 //!
 //! Joint effects act on revolute joints i; guide effects act on the guide joint g, the first
@@ -26,6 +26,8 @@
 //! | `position-offset` | calibration-position coordinates | `position{k}_{x,y,z}` \[mm\] |
 //! | `thermal-drift` | `a_{i-1}, d_i` of the revolute rows (2..7 on the canonical cell) scale by `1 + k v`, v = `time_s` or `temperature_c - T_ref` | `thermal_per_s` / `thermal_per_k` |
 //! | `hayati-beta` | `beta_{i-1}` on row i | `beta_{i-1}` \[rad\] |
+//! | `joint-cyclic-half` | `theta_i += s sin(m q_i / 2) + c cos(m q_i / 2)`, m odd | `halfcyclic{i}_m{m}_sin`, `_cos` \[rad\] |
+//! | `link-bending` | after frame i: `Rx(k_x M_x) Ry(k_y M_y)`, `M` = gravity moment of everything distal to joint i about the origin of frame i (frame i's axes, undeflected geometry: [`Model::link_bending_moments`]) | `bend{i}_{x,y}` \[rad/(N·m)\] |
 //!
 //! `u = (q_g - mid) / half_stroke` is the guide position normalised to [-1, 1] over its limits,
 //! and `P_o` the Legendre polynomials. Gravity torques are evaluated on the MDH geometry

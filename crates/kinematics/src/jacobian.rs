@@ -116,7 +116,13 @@ impl Model {
             None if needs_moment => Some(self.carriage_moment(q)),
             None => None,
         };
-        let (hook, coefficient) = hook_of(e, &self.effect_inputs(q, ctx, moment)).ok_or_else(missing)?;
+        let link_moments = match chain.link_moments {
+            Some(m) => Some(m),
+            None if effect.needs_link_moments() => Some(self.link_bending_moments(q)),
+            None => None,
+        };
+        let (hook, coefficient) =
+            hook_of(e, &self.effect_inputs(q, ctx, moment, link_moments)).ok_or_else(missing)?;
         Ok(self.hook_column(chain, p, hook).ok_or_else(missing)? * coefficient)
     }
 
@@ -149,6 +155,12 @@ impl Model {
                 rot(ax.rot[axis.index()], ax.o)
             }
             Hook::ToolShift(Axis::Z) | Hook::ToolRotation(Axis::Z) => return None,
+            Hook::LinkRotation { joint, axis: axis @ (Axis::X | Axis::Y) } => {
+                let k = (joint as usize).checked_sub(1).filter(|k| *k < self.n)?;
+                let ax = chain.link_axes[k].unwrap_or_else(|| Self::zero_insert(&chain.frames[k + 1]));
+                rot(ax.rot[axis.index()], ax.o)
+            }
+            Hook::LinkRotation { .. } => return None,
             Hook::LengthScale => {
                 let mut col = Vector3::zeros();
                 for k in (0..self.n).filter(|k| self.kinds[*k].is_revolute()) {

@@ -110,6 +110,8 @@ pub struct Model {
     pub(crate) any_compliance: bool,
     /// a switched-on effect needs the carriage moment
     pub(crate) effects_need_moment: bool,
+    /// a switched-on effect needs the links' gravity bending moments
+    pub(crate) effects_need_link_moments: bool,
     /// the registered implementation of each switched-on effect, `effect_impls[k]` for
     /// `effects[k]` (looked up once, not per sample)
     pub(crate) effect_impls: Vec<&'static dyn ErrorEffect>,
@@ -230,6 +232,7 @@ impl Model {
             base_frame: Frame::identity(),
             any_compliance: false,
             effects_need_moment: false,
+            effects_need_link_moments: false,
             effect_impls: Vec::new(),
             template: cell.clone(),
         };
@@ -539,7 +542,8 @@ impl Model {
 
     /// Switches an effect on (its parameters start at zero, i.e. the model's predictions do not
     /// change). Built-in effects only record that they belong to the model. Adding an effect
-    /// twice is a no-op.
+    /// twice is a no-op, and so is adding a lower order of a polynomial effect whose higher
+    /// order is on (e.g. `guide-straightness` orders up to 4 when orders up to 8 are on).
     ///
     /// # Errors
     /// [`ModelError::InvalidEffect`] when the instance does not exist on this model (e.g. a joint
@@ -552,10 +556,15 @@ impl Model {
         if self.effects.contains(&spec) {
             return Ok(());
         }
-        // polynomial effects: a higher order replaces a lower one of the same kind
+        // polynomial effects: a higher order replaces a lower one of the same kind; a lower
+        // order than the one on is already part of it (its parameters are a subset)
         if effect.single_instance()
             && let Some(k) = self.effects.iter().position(|e| e.kind() == spec.kind())
         {
+            let on = self.effects[k].params();
+            if spec.params().iter().all(|p| on.contains(p)) {
+                return Ok(());
+            }
             self.effects[k] = spec;
         } else {
             self.effects.push(spec);
@@ -568,6 +577,7 @@ impl Model {
         // every effect in `effects` passed this function, so it is registered
         self.effect_impls = self.effects.iter().filter_map(|e| e.effect()).collect();
         self.effects_need_moment = self.effect_impls.iter().any(|e| e.needs_carriage_moment());
+        self.effects_need_link_moments = self.effect_impls.iter().any(|e| e.needs_link_moments());
         self.refresh_caches();
         Ok(())
     }

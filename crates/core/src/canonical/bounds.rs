@@ -15,6 +15,8 @@
 //!   backlash): the TCP displacement at the joint's
 //!   largest lever arm on the data, `|a| · max‖∂p/∂θ_j‖ ≤` [`JOINT_ERROR_DISPLACEMENT_MM`]
 //!   (3 mm);
+//! * **link-bending compliances** `bend{j}_{x,y}`: the tilt at the joint's largest gravity
+//!   bending moment on the data, `|k| · max‖M_⊥,j‖ ≤` [`link_bending::MAX_TILT_RAD`] (0.25°);
 //!
 //! and the bound used is the larger of the canonical one and the scaled one
 //! ([`scaled_bound`]), so the canonical cell keeps its bounds where its own joints are
@@ -22,7 +24,7 @@
 //! bound (`vatcal discover --bound NAME=VALUE`, or the cell file's `[plausibility_bounds]`
 //! table).
 
-use crate::effects::{EffectKind, joint_cyclic_half};
+use crate::effects::{EffectKind, joint_cyclic_half, link_bending};
 use crate::params::{EffectParam, ParamId};
 use crate::units::MAX_JOINTS;
 
@@ -40,6 +42,9 @@ pub struct ChainScale {
     pub max_torque_nm: [f64; MAX_JOINTS],
     /// largest lever arm `‖∂p/∂θ_j‖` of each revolute joint over the poses [mm/rad]
     pub max_lever_mm: [f64; MAX_JOINTS],
+    /// largest gravity bending moment `‖(M_x, M_y)‖` of each joint over the poses [N·m]
+    /// (`vatcal_kinematics::Model::link_bending_moments`)
+    pub max_bending_nm: [f64; MAX_JOINTS],
 }
 
 /// A bound in internal units and how it came about, for people.
@@ -88,6 +93,20 @@ pub fn scaled_bound(id: &ParamId, canonical: Option<(f64, &str)>, scale: &ChainS
                 )
             })
         }),
+        ParamId::Effect(EffectParam::Extension {
+            kind: EffectKind::Extension(link_bending::ID), joint: j, ..
+        }) => joint(*j).and_then(|k| {
+            let m = scale.max_bending_nm[k];
+            (m > 0.0).then(|| {
+                (
+                    link_bending::MAX_TILT_RAD / m,
+                    format!(
+                        "rad/(N*m) (scaled to the chain: {:.2} deg tilt at the joint's largest bending moment {m:.3} N*m)",
+                        link_bending::MAX_TILT_RAD.to_degrees()
+                    ),
+                )
+            })
+        }),
         _ => None,
     };
     Some(match scaled {
@@ -105,7 +124,11 @@ mod tests {
 
     #[test]
     fn bounds_grow_for_light_wrists_and_short_levers_and_never_shrink() {
-        let mut scale = ChainScale { max_torque_nm: [0.0; MAX_JOINTS], max_lever_mm: [0.0; MAX_JOINTS] };
+        let mut scale = ChainScale {
+            max_torque_nm: [0.0; MAX_JOINTS],
+            max_lever_mm: [0.0; MAX_JOINTS],
+            max_bending_nm: [0.0; MAX_JOINTS],
+        };
         scale.max_torque_nm[6] = 0.3; // a wrist: 1 deg / 0.3 N·m = 5.8e-2
         scale.max_torque_nm[2] = 20.0; // a shoulder: 8.7e-4 < the canonical 1e-2
         scale.max_lever_mm[6] = 150.0; // 3 mm / 150 mm = 1.15 deg
@@ -151,5 +174,14 @@ mod tests {
         )
         .expect("bound");
         assert_eq!(h3.value, half);
+        // a link-bending compliance: 0.25 deg at the joint's largest bending moment
+        scale.max_bending_nm[2] = 0.05; // a light, nearly planar arm: 8.7e-2 rad/(N*m)
+        scale.max_bending_nm[3] = 40.0; // a heavy arm: 1.1e-4 < the canonical 1e-3
+        let bend = |j| ParamId::Effect(link_bending::param(j, crate::params::Axis::X));
+        let k3 = scaled_bound(&bend(3), Some((1e-3, "1e-3 rad/(N*m)")), &scale).expect("bound");
+        assert!((k3.value - link_bending::MAX_TILT_RAD / 0.05).abs() < 1e-12, "{k3:?}");
+        assert!(k3.text.contains("bending moment 0.050 N*m"), "{}", k3.text);
+        let k4 = scaled_bound(&bend(4), Some((1e-3, "1e-3 rad/(N*m)")), &scale).expect("bound");
+        assert_eq!(k4.value, 1e-3);
     }
 }

@@ -113,6 +113,7 @@ catalog! {
     thermal_drift::ThermalDrift,
     hayati_beta::HayatiBeta,
     joint_cyclic_half::JointCyclicHalf,
+    link_bending::LinkBending,
 }
 
 #[cfg(test)]
@@ -366,6 +367,16 @@ pub enum Hook {
     ToolRotation(Axis),
     /// relative change of the lengths `a_{i-1}`, `d_i` of every revolute row
     LengthScale,
+    /// rotation of link frame `joint` (1..=N, the frame after row `joint`) about its own x or
+    /// y axis \[rad\]: the link tilts about the two axes perpendicular to its joint axis. The
+    /// correction is `Rx(ex) Ry(ey)` inserted after frame `joint` (after a guide correction
+    /// when `joint` is the guide); everything distal moves with it
+    LinkRotation {
+        /// the link frame (1..=N)
+        joint: u8,
+        /// `Axis::X` or `Axis::Y` (a rotation about z is a joint offset: [`Hook::Joint`])
+        axis: Axis,
+    },
 }
 
 /// What an effect's hook coefficients may depend on, for one sample.
@@ -384,6 +395,11 @@ pub struct EffectInputs<'a> {
     pub carriage_moment: [f64; 2],
     /// reference temperature \[°C\] of a temperature-driven drift
     pub thermal_reference_c: f64,
+    /// gravity bending moment \[N·m\] each joint carries: the moment of everything distal to
+    /// joint i about the origin of frame i, along frame i's x and y axes (`[i - 1]` for joint
+    /// i; undeflected geometry; zeros unless an effect that
+    /// [`ErrorEffect::needs_link_moments`] is evaluated)
+    pub link_moments: [[f64; 2]; MAX_JOINTS],
 }
 
 /// What an effect may ask about the chain it is switched on for or proposed on.
@@ -554,8 +570,25 @@ pub trait ErrorEffect: Sync + fmt::Debug {
     }
     /// Checks the identified changes of the instance's parameters (default: the bounds of
     /// every parameter, see [`plausibility`]).
-    fn plausibility(&self, _spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
-        check_bounds(changes)
+    fn plausibility(&self, spec: &EffectSpec, changes: &[(ParamId, f64)]) -> Result<(), String> {
+        match self.bounded_magnitudes(spec, changes) {
+            Some(peaks) => check_bounds(&peaks.iter().map(|(id, v, _)| (*id, *v)).collect::<Vec<_>>()),
+            None => check_bounds(changes),
+        }
+    }
+    /// For an effect whose parameters are the coefficients of a profile (the guide
+    /// polynomials), what its plausibility bound applies to: per profile, the parameter whose
+    /// bound is used, the profile's largest magnitude over the travel, and a name for people
+    /// (e.g. "the x profile of guide-straightness (orders up to 8), peak over the travel").
+    /// `None` (the default): the bound applies to every parameter on its own. A high-order
+    /// polynomial has large coefficients that cancel, so its coefficients are no measure of
+    /// how far it moves the carriage.
+    fn bounded_magnitudes(
+        &self,
+        _spec: &EffectSpec,
+        _changes: &[(ParamId, f64)],
+    ) -> Option<Vec<(ParamId, f64, String)>> {
+        None
     }
 
     /// Reads an instance from a cell file's `[[effects]]` entry (its `values` are read by the
@@ -597,6 +630,10 @@ pub trait ErrorEffect: Sync + fmt::Debug {
 
     /// True when the hook coefficients need [`EffectInputs::carriage_moment`].
     fn needs_carriage_moment(&self) -> bool {
+        false
+    }
+    /// True when the hook coefficients need [`EffectInputs::link_moments`].
+    fn needs_link_moments(&self) -> bool {
         false
     }
     /// How the instance changes the kinematics: calls `add(param, hook, coefficient)` once
@@ -865,6 +902,7 @@ mod tests {
             guide_u: 0.0,
             carriage_moment: [0.0; 2],
             thermal_reference_c: 20.0,
+            link_moments: [[0.0; 2]; MAX_JOINTS],
         };
         let ParamId::Effect(p) = params[0] else { panic!("an effect parameter") };
         assert_eq!(hook_of(p, &x), Some((Hook::Joint(3), 0.7 * 0.7)));

@@ -180,6 +180,55 @@ fn two_and_a_half_per_turn_sinusoid_is_named_by_the_two_turn_terms() {
     assert!(ratio <= FLOOR_FACTOR, "held-out {ratio:.2}× the floor");
 }
 
+/// The out-of-plane bending of the UR5e's upper arm (the TCP moves along the shoulder axis by
+/// `a sin(q_elbow) cos(q_shoulder)`): the arm's wrist offsets put the distal weight out of the
+/// shoulder's plane, so the shoulder carries a bending moment that varies with the same angles,
+/// and `link-bending (joint 2)` names the effect with its driver (the shoulder's gravity load)
+/// and removes most of it from the validation error. (The benchmark's bending is a pure
+/// translation, a rotation of the distal chain also moves the wrist offsets: the validation
+/// error does not reach the floor; `docs/discovery-benchmark.md`.)
+#[test]
+fn out_of_plane_bending_of_the_ur5e_is_named_by_link_bending() {
+    let r = run_case(case(
+        5,
+        91,
+        Robot::Ur5e,
+        DataKind::Tracker,
+        &[(Shape::LinkBending { shoulder: 2, elbow: 3 }, 8.0)],
+    ));
+    eprintln!("{}", markdown(std::slice::from_ref(&r)));
+    assert!(r.error.is_none(), "{:?}", r.error);
+    let h = &r.hidden[0];
+    assert!(h.named_driver, "{} not named ({}); added {:?}", h.label, h.why, r.added);
+    assert!(r.added.iter().any(|a| a == "link-bending (joint 2)"), "{:?}", r.added);
+    assert!(r.discovered_mm < 0.8 * r.start_mm, "validation {} -> {} mm", r.start_mm, r.discovered_mm);
+}
+
+/// A waviness of the guide (period 90 mm over the 300 mm stroke, across the travel) is nearly
+/// orthogonal to the quadratic straightness; the higher orders of the straightness profile
+/// name it with its driver (the guide position) and bring the held-out error to the floor.
+#[test]
+fn guide_waviness_is_named_by_a_higher_order_straightness() {
+    let r = run_case(case(
+        6,
+        92,
+        Robot::Canonical,
+        DataKind::Probe,
+        &[(Shape::GuideWaviness { period_mm: 90.0, phase: 0.7 }, 6.0)],
+    ));
+    eprintln!("{}", markdown(std::slice::from_ref(&r)));
+    assert!(r.error.is_none(), "{:?}", r.error);
+    let h = &r.hidden[0];
+    assert!(h.named_driver, "{} not named ({}); added {:?}", h.label, h.why, r.added);
+    assert!(
+        r.added.iter().any(|a| a.starts_with("guide-straightness") && !a.ends_with("up to 2)")),
+        "{:?}",
+        r.added
+    );
+    let ratio = r.ratio().expect("floor");
+    assert!(ratio <= FLOOR_FACTOR, "held-out {ratio:.2}× the floor");
+}
+
 /// The two-turn terms are candidates on the UR5e (±360° joints) and not on the Meca500 of the
 /// canonical cell (every joint within one turn), whose one-turn harmonics already describe any
 /// smooth error over its ranges.
@@ -216,4 +265,107 @@ fn whole_benchmark() {
     println!("{}", markdown(&results));
     let t = totals(&results, |_| true);
     assert_eq!(t.null_cases, count / 5);
+}
+
+/// Share of the benchmark's out-of-plane bending (unit amplitude, the part the starting
+/// parameters cannot absorb) that a tilt of one link frame can describe, on 90 probe poses and
+/// 120 tracker poses of each robot: `link-bending` on each revolute joint (the gravity bending
+/// moment), a tilt driven by the gravity force across the joint (a distal weight at an unknown
+/// lateral lever) and a once-per-turn tilt of the frame with its own joint angle (4 terms).
+/// Prints the table `docs/discovery-benchmark.md` quotes ("Reading it"); asserts that
+/// `link-bending (joint 2)` describes most of the UR5e's bending on probe poses.
+#[test]
+#[ignore = "a measurement for the docs: --ignored --nocapture"]
+fn how_much_of_the_bending_a_link_tilt_describes() {
+    use faer::Mat;
+    use nalgebra::Vector3;
+    use rand::SeedableRng;
+    use rand::rngs::ChaCha8Rng;
+    use vatcal_core::Measurement;
+    use vatcal_core::effects::link_bending;
+    use vatcal_discovery::linear::ColumnSpace;
+    use vatcal_observability::assemble_jacobian;
+    use vatcal_observability::identifiability::param_set_from_spec;
+
+    use crate::common::benchmark::Truth;
+
+    /// share of ‖P⊥ d‖² in the span of P⊥ z
+    fn share(space: &ColumnSpace, z: &Mat<f64>, d: &[f64]) -> f64 {
+        let pd = space.project_out_vec(d);
+        let pz = space.project_out(z.as_ref());
+        let q = pz.qr().compute_thin_Q();
+        let explained: f64 =
+            (0..q.ncols()).map(|c| (0..pd.len()).map(|i| q[(i, c)] * pd[i]).sum::<f64>().powi(2)).sum();
+        explained / pd.iter().map(|x| x * x).sum::<f64>()
+    }
+    let mut ur5e_probe_j2 = 0.0;
+    for robot in [Robot::Canonical, Robot::Ur5e] {
+        let nominal = robot.nominal();
+        let (shoulder, elbow) = if robot == Robot::Canonical { (3u8, 4u8) } else { (2, 3) };
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        for kind in ["probe", "tracker"] {
+            let rows: Vec<Measurement> = if kind == "probe" {
+                vatcal_sim::truth::probe_start_poses(&nominal, 90, 5)
+            } else {
+                let tcps = nominal.tcp_ids();
+                (0..120)
+                    .map(|k| {
+                        let q = vatcal_sim::truth::random_joints(&nominal, &mut rng, 0.1);
+                        Measurement::tracker(tcps[k % tcps.len()], q, Vector3::zeros())
+                    })
+                    .collect()
+            };
+            let params = param_set_from_spec("default", &nominal, &rows).expect("params");
+            let j = assemble_jacobian(&nominal, &rows, &params).expect("jacobian");
+            let space = ColumnSpace::of(j.as_ref()).expect("column space");
+            let truth = Truth {
+                model: nominal.clone(),
+                extras: vec![(Shape::LinkBending { shoulder, elbow }, 0.1)],
+                across_guide: None,
+            };
+            let mut d = Vec::new();
+            for m in &rows {
+                let p0 = nominal.tcp_position_ctx(&m.q, &m.context, m.tcp).expect("fk");
+                let p1 = truth.position(&m.q, &m.context, m.tcp).expect("fk");
+                d.extend((p1 - p0).iter());
+            }
+            let mut line = format!("{robot:?} {kind}:");
+            for jt in (1..=nominal.joint_count()).filter(|j| nominal.is_revolute(*j)) {
+                let spec = link_bending::spec(jt as u8);
+                let mut on = nominal.clone();
+                on.enable_effect(spec).expect("on");
+                let z = assemble_jacobian(&on, &rows, &vatcal_core::ParamSet(spec.params())).expect("z");
+                let bend = share(&space, &z, &d);
+                if robot == Robot::Ur5e && kind == "probe" && jt == 2 {
+                    ur5e_probe_j2 = bend;
+                }
+                // the same hooks driven by the gravity force across the joint, and by cos/sin q_j
+                let (mut force, mut wobble) =
+                    (Mat::<f64>::zeros(3 * rows.len(), 2), Mat::<f64>::zeros(3 * rows.len(), 4));
+                for (i, m) in rows.iter().enumerate() {
+                    let chain = nominal.chain(&m.q);
+                    let f = chain.frames()[jt];
+                    let p = chain.tool_point(&nominal.tcp(m.tcp).expect("tcp"));
+                    let g = f.r.transpose() * nominal.gravity().normalize();
+                    let (cx, cy) = (f.x_axis().cross(&(p - f.p)), f.y_axis().cross(&(p - f.p)));
+                    let (s, c) = m.q[jt - 1].sin_cos();
+                    for a in 0..3 {
+                        force[(3 * i + a, 0)] = -cx[a] * g.y;
+                        force[(3 * i + a, 1)] = cy[a] * g.x;
+                        wobble[(3 * i + a, 0)] = cx[a] * c;
+                        wobble[(3 * i + a, 1)] = cx[a] * s;
+                        wobble[(3 * i + a, 2)] = cy[a] * c;
+                        wobble[(3 * i + a, 3)] = cy[a] * s;
+                    }
+                }
+                line += &format!(
+                    " | j{jt}: moment {bend:.2}, force {:.2}, once-per-turn {:.2}",
+                    share(&space, &force, &d),
+                    share(&space, &wobble, &d)
+                );
+            }
+            eprintln!("{line}");
+        }
+    }
+    assert!(ur5e_probe_j2 > 0.5, "link-bending (joint 2) describes {ur5e_probe_j2:.2} of the UR5e's bending");
 }

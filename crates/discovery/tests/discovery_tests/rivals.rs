@@ -37,3 +37,23 @@ fn hidden_joint_2_compliance_is_not_replaced_by_a_carriage_tilt() {
     );
     assert!(!kinds.contains(&EffectKind::GuideCarriageTilt), "{kinds:?}");
 }
+
+/// Benchmark seed 21, case 35 (UR5e, tracker rows with replicates, noise given; a tool-frame
+/// offset of 0.9× the noise and an out-of-plane bending of 1.0× hidden): `tool-frame` and
+/// `tcp-offset (TCP 1)` are rivals on the screening data, and the validation rows favour the
+/// tool frame at z ≈ 6. The simpler TCP offset used to be kept ("the data cannot tell them
+/// apart"); a rival the validation rows show significantly worse is no longer "simpler but
+/// indistinguishable", and the tool frame is kept.
+#[test]
+fn a_simpler_rival_the_validation_rows_reject_is_not_kept() {
+    use crate::common::benchmark::{generate, run_case};
+    let case = generate(36, 21).remove(35);
+    let r = run_case(case);
+    eprintln!(
+        "added {:?}; validation {:.4} -> {:.4} mm, floor {:?}",
+        r.added, r.start_mm, r.discovered_mm, r.floor_mm
+    );
+    assert!(r.error.is_none(), "{:?}", r.error);
+    assert!(r.added.iter().any(|a| a == "tool-frame"), "{:?}", r.added);
+    assert!(!r.added.iter().any(|a| a == "tcp-offset (TCP 1)"), "{:?}", r.added);
+}

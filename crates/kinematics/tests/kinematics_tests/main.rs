@@ -6,3 +6,4 @@
 mod any_chain;
 mod canonical_regression;
 mod independent;
+mod link_bending;
