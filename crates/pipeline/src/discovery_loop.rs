@@ -6,8 +6,8 @@
 //! ([`vatcal_discovery::propose::propose`]: Ds-optimal for the undecided effects' parameters,
 //! from the planner's collision-checked candidates), plans them as a campaign
 //! (`discovery_loop_plan/`), measures them on the same devices with the campaign runner
-//! (`discovery_loop.journal`, resumable like every campaign), runs discovery again on all
-//! data and reports before / after ([`LoopReport`]). With nothing borderline no loop runs and
+//! (`discovery_loop.journal`, resumable like every campaign), continues discovery (from the
+//! model before the loop) on all data and reports before / after ([`LoopReport`]). With nothing borderline no loop runs and
 //! the report says so.
 //!
 //! [`propose_plan`] is also what `vatcal discover --propose N --out-plan DIR` runs.
@@ -306,4 +306,50 @@ fn decision_of<'a>(d: &'a Discovery, label: &str) -> (String, Option<Values<'a>>
         text.push_str(&format!("; {}", a.sentence));
     }
     (text, fitted)
+}
+
+/// The loop's discovery on all data, continued from the discovered model before the loop:
+/// `cont` ran from `first`'s model and parameters, so the effects `first` added on the data at
+/// hand stay (unless `cont`'s backward check removed them) and the new measurements decide the
+/// undecided candidates on top of them. A discovery from scratch on all data would re-run the
+/// greedy search and may end at another, worse structure (measured on the demo's seed 1: 11
+/// effects and a cross-validated gap of 0.0305 mm, where the model before the loop had 0.0209
+/// mm on fewer data). The result reads as one discovery: `first`'s rounds and additions, then
+/// `cont`'s, numbered on; the gap before is `first`'s, the gap after `cont`'s.
+pub fn continued_discovery(first: &Discovery, mut cont: Discovery) -> Discovery {
+    let offset = first.rounds.len();
+    for r in &mut cont.rounds {
+        r.index += offset;
+    }
+    for a in &mut cont.added_effects {
+        a.round += offset;
+    }
+    for r in &mut cont.removed_effects {
+        r.removed_in_round += offset;
+        if !first.added_effects.iter().any(|a| a.label == r.label) {
+            r.added_in_round += offset;
+        }
+    }
+    for a in &mut cont.ambiguities {
+        a.round += offset;
+    }
+    for b in &mut cont.bound_hits {
+        b.round += offset;
+    }
+    for n in &mut cont.negligible_effects {
+        n.round += offset;
+    }
+    let removed = |label: &str| cont.removed_effects.iter().any(|r| r.label == label);
+    let mut added: Vec<_> = first.added_effects.iter().filter(|a| !removed(&a.label)).cloned().collect();
+    added.append(&mut cont.added_effects);
+    cont.added_effects = added;
+    let mut rounds = first.rounds.clone();
+    rounds.append(&mut cont.rounds);
+    cont.rounds = rounds;
+    let mut removed_before = first.removed_effects.clone();
+    removed_before.append(&mut cont.removed_effects);
+    cont.removed_effects = removed_before;
+    cont.initial_gap = first.initial_gap.clone();
+    cont.initial_gap_mm = first.initial_gap_mm;
+    cont
 }

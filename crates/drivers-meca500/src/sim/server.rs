@@ -112,7 +112,10 @@ impl Meca500Sim {
     /// the control port.
     pub fn inject_error(&self, code: u16, text: &str) {
         let now = self.now();
-        let reply = self.robot().inject_error(code, text, now);
+        // queued under the robot's lock: a command handled after the error entered error
+        // mode is answered after the error message, as by the robot (`[3005]` before `[1011]`)
+        let mut robot = self.robot();
+        let reply = robot.inject_error(code, text, now);
         lock(&self.shared.injected).push(reply);
     }
 
@@ -124,7 +127,8 @@ impl Meca500Sim {
     /// Presses or releases the E-Stop (`[3070][1]` / `[3070][0]`).
     pub fn set_estop(&self, pressed: bool) {
         let now = self.now();
-        let reply = self.robot().set_estop(pressed, now);
+        let mut robot = self.robot();
+        let reply = robot.set_estop(pressed, now);
         lock(&self.shared.injected).push(reply);
     }
 
@@ -153,11 +157,12 @@ impl Service {
     /// Feeds input and time to the robot; returns the routed output.
     fn step(&mut self, input: &[u8]) -> Vec<(Route, Reply)> {
         let now = self.config.clock.now();
+        // the robot's lock first, then the injected messages (the order `inject_error` uses)
+        let mut robot = lock(&self.shared.robot);
         let mut out: Vec<(Route, Reply)> = std::mem::take(&mut *lock(&self.shared.injected))
             .into_iter()
             .map(|r| (Route::Control, r))
             .collect();
-        let mut robot = lock(&self.shared.robot);
         if let Some((_, deframer)) = &mut self.control {
             deframer.push(input);
             while !robot.is_busy() {
