@@ -504,7 +504,7 @@ pub fn discovery_tour(
 /// and `stage.loop_count > 0`, the **measurement loop** (`crate::discovery_loop`): the
 /// proposed measurements are planned into `discovery_loop_plan/`, measured on `devices`
 /// (journal `discovery_loop.journal`, resumed when present) or, without devices, read from
-/// that journal, and discovery continues from the model before the loop on all data ([`crate::discovery_loop::continued_discovery`]); then the true-structure fit (oracle
+/// that journal, and discovery runs on all data, continued from the model before the loop and from the starting parameters again, the lower cross-validated gap kept ([`crate::discovery_loop::LoopChoice`]); then the true-structure fit (oracle
 /// given) on the same data and one plot per added effect. Deterministic: a finished run read
 /// back from its journals gives the same outcome.
 ///
@@ -571,9 +571,17 @@ pub fn discovery_analysis(
             let before = all.clone();
             all.extend_from_slice(&made.measurements);
             last_joints = made.records.last().map(|r| r.state.joints).or(last_joints);
+            // two ways to use the new rows: continue from the model before the loop, or search
+            // again from the 34 parameters; both are scored by cross-validation on the same
+            // data (same folds), the lower gap is kept
             let cont = discover(&first.model, &all, &first.params, None, &stage.discover)?;
-            let second = crate::discovery_loop::continued_discovery(&first, cont);
-            let report = LoopReport::of(&first, &before, &targets, &proposed, &made.measurements, &second)?;
+            let continued = crate::discovery_loop::continued_discovery(&first, cont);
+            let fresh = discover(calibrated, &all, base, None, &stage.discover)?;
+            let choice = crate::discovery_loop::LoopChoice::of(&continued, &fresh);
+            let second = if choice.kept_continued { continued } else { fresh };
+            let mut report =
+                LoopReport::of(&first, &before, &targets, &proposed, &made.measurements, &second)?;
+            report.choice = Some(choice);
             (second, Some(report))
         }
     };

@@ -269,16 +269,7 @@ fn done_means_plan_sim_cell_campaign_identify_agree_with_the_demo() {
     assert_eq!(rows_without_time(&run.join("measurements.csv")).len(), planned, "every planned measurement");
     assert!(campaign_s < 60.0, "the campaign took {campaign_s:.1} s");
 
-    let calibrated = run.join("calibrated.toml");
-    ok(&vatcal(&[
-        "identify",
-        "--model",
-        FIXTURE,
-        "--measurements",
-        s(&run.join("measurements.csv")),
-        "--out",
-        s(&calibrated),
-    ]));
+    let calibrated = identify_run(&run);
     let over_tcp = Model::from_cell(&CellFile::load(&calibrated).expect("toml")).expect("model");
 
     let demo_dir = dir.path().join("demo");
@@ -616,4 +607,20 @@ fn probe_zeroing_with_the_auto_operator_seats_the_master_ball_through_the_contro
         eprintln!("zeroed probe: true ball {:.1} µm from the true probe origin", miss_mm * 1e3);
         assert!(miss_mm < 0.05, "{:.1} µm", miss_mm * 1e3);
     }
+}
+
+/// `vatcal identify` of a campaign's run folder (`measurements.csv` → `calibrated.toml`, the
+/// paper's parameters from the canonical fixture); returns the calibrated cell's path.
+pub(crate) fn identify_run(run: &Path) -> PathBuf {
+    let calibrated = run.join("calibrated.toml");
+    ok(&vatcal(&[
+        "identify",
+        "--model",
+        FIXTURE,
+        "--measurements",
+        s(&run.join("measurements.csv")),
+        "--out",
+        s(&calibrated),
+    ]));
+    calibrated
 }

@@ -15,7 +15,7 @@
 use std::path::Path;
 
 use super::calibrate::kill_in;
-use super::campaign_sim::{SimCellProcess, campaign_args, ok, plan, s, vatcal};
+use super::campaign_sim::{SimCellProcess, campaign_args, identify_run, ok, plan, s, vatcal};
 
 const FIXTURE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml");
 
@@ -49,16 +49,7 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     let plan = plan(3, dir.path());
     let run = dir.path().join("run");
     campaign(&devices, &plan, &run, false);
-    let calibrated = run.join("calibrated.toml");
-    ok(&vatcal(&[
-        "identify",
-        "--model",
-        FIXTURE,
-        "--measurements",
-        s(&run.join("measurements.csv")),
-        "--out",
-        s(&calibrated),
-    ]));
+    let calibrated = identify_run(&run);
 
     // validation by hand
     let vplan = dir.path().join("vplan");
