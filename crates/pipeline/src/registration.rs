@@ -1,6 +1,7 @@
 //! The tracker registration of the validation stage (paper §5): before the first validation
 //! reading, the tracker's SMR is seated in the probe's trihedral nest at every calibration
-//! position and measured ([`register_tracker`]). A tracker in its own frame is registered —
+//! position and measured ([`register_tracker_resuming`]; the readings are journaled, so a
+//! resumed run does not measure a nest again). A tracker in its own frame is registered —
 //! the rigid fit `tank ← tracker` maps every validation reading; a tracker that reports in the
 //! tank frame already is checked — the readings are used as they are and the residuals say how
 //! far its registration is from the cell's positions ([`TrackerRegistrationMode`]).
