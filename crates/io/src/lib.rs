@@ -211,6 +211,19 @@ struct RowColumns {
     offsets: [Option<usize>; 3],
 }
 
+/// The model's TCP and calibration-position ids, looked up once per file (every row's `tcp`
+/// and `position` is checked against them).
+struct RowIds {
+    tcps: Vec<u32>,
+    positions: Vec<u32>,
+}
+
+impl RowIds {
+    fn of(model: &Model) -> Self {
+        Self { tcps: model.tcp_ids(), positions: model.position_ids() }
+    }
+}
+
 impl Table {
     /// Reads a table whose joint columns must be exactly `q1..qN` of `model`.
     fn read_for(path: &Path, model: &Model, required: &[String]) -> Result<Table, IoError> {
@@ -626,8 +639,6 @@ impl Table {
         Ok(MeasurementContext { dir, time_s, temperature_c })
     }
 
-    /// The optional final centring offset `offset_x_mm,offset_y_mm,offset_z_mm` (world axes) of
-    /// a probe row: all three present or all three empty/absent.
     /// A probe row's measurement: `position`, `tcp`, the joints, the context columns and the
     /// optional probe offset.
     fn probe_measurement(
@@ -635,9 +646,10 @@ impl Table {
         line: u64,
         rec: &csv::StringRecord,
         model: &Model,
+        ids: &RowIds,
     ) -> Result<Measurement, IoError> {
-        let position = self.id(line, rec, "position", &model.position_ids())?;
-        let mut m = self.measurement(line, rec, model, Target::Probe { position })?;
+        let position = self.id(line, rec, "position", &ids.positions)?;
+        let mut m = self.measurement(line, rec, model, ids, Target::Probe { position })?;
         m.probe_offset_mm = self.probe_offset(line, rec)?;
         Ok(m)
     }
@@ -649,13 +661,14 @@ impl Table {
         line: u64,
         rec: &csv::StringRecord,
         model: &Model,
+        ids: &RowIds,
     ) -> Result<Measurement, IoError> {
         let xyz_mm = Vector3::new(
             self.length_mm(line, rec, "x")?,
             self.length_mm(line, rec, "y")?,
             self.length_mm(line, rec, "z")?,
         );
-        self.measurement(line, rec, model, Target::Tracker { xyz_mm })
+        self.measurement(line, rec, model, ids, Target::Tracker { xyz_mm })
     }
 
     /// The columns every measurement row has (`tcp`, the joints, the context) around `target`.
@@ -664,10 +677,11 @@ impl Table {
         line: u64,
         rec: &csv::StringRecord,
         model: &Model,
+        ids: &RowIds,
         target: Target,
     ) -> Result<Measurement, IoError> {
         Ok(Measurement {
-            tcp: self.id(line, rec, "tcp", &model.tcp_ids())?,
+            tcp: self.id(line, rec, "tcp", &ids.tcps)?,
             q: self.joints(line, rec, model)?,
             target,
             context: self.context(line, rec)?,
@@ -675,6 +689,8 @@ impl Table {
         })
     }
 
+    /// The optional final centring offset `offset_x_mm,offset_y_mm,offset_z_mm` (world axes) of
+    /// a probe row: all three present or all three empty/absent.
     fn probe_offset(&self, line: u64, rec: &csv::StringRecord) -> Result<Option<Vector3<f64>>, IoError> {
         let mut v = [None; 3];
         for ((value, c), index) in v.iter_mut().zip(OFFSET_COLUMNS).zip(self.cols.offsets) {
@@ -1093,7 +1109,8 @@ pub fn read_probe_measurements_with(
     let path = path.as_ref();
     let t = Table::read_for_with(path, model, &required_columns(&["position", "tcp"], model, &[]), *options)?;
     t.check_model_columns(model)?;
-    let rows = t.convert(|line, rec| t.probe_measurement(line, rec, model))?;
+    let ids = RowIds::of(model);
+    let rows = t.convert(|line, rec| t.probe_measurement(line, rec, model, &ids))?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
 }
 
@@ -1111,7 +1128,8 @@ pub fn read_tracker_measurements_with(
     let t =
         Table::read_for_with(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]), *options)?;
     t.check_model_columns(model)?;
-    let rows = t.convert(|line, rec| t.tracker_measurement(line, rec, model))?;
+    let ids = RowIds::of(model);
+    let rows = t.convert(|line, rec| t.tracker_measurement(line, rec, model, &ids))?;
     t.check_tracker_length_unit(&rows)?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
 }
@@ -1140,6 +1158,7 @@ pub fn read_measurements_with(
             ),
         ));
     }
+    let ids = RowIds::of(model);
     let rows = t.convert(|line, rec| {
         let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
         if !has_pos && t.field(rec, "x").is_none_or(str::is_empty) {
@@ -1150,7 +1169,11 @@ pub fn read_measurements_with(
                 "empty: a probe row needs `position`, a tracker row `x,y,z` (this row has neither)",
             ));
         }
-        if has_pos { t.probe_measurement(line, rec, model) } else { t.tracker_measurement(line, rec, model) }
+        if has_pos {
+            t.probe_measurement(line, rec, model, &ids)
+        } else {
+            t.tracker_measurement(line, rec, model, &ids)
+        }
     })?;
     t.check_tracker_length_unit(&rows)?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
@@ -1198,7 +1221,8 @@ pub struct CandidateTable {
 pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<CandidateTable, IoError> {
     let path = path.as_ref();
     let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
-    let measurements = t.convert(|line, rec| t.probe_measurement(line, rec, model))?;
+    let ids = RowIds::of(model);
+    let measurements = t.convert(|line, rec| t.probe_measurement(line, rec, model, &ids))?;
     Ok(CandidateTable {
         headers: t.headers.clone(),
         lines: t.rows.iter().map(|r| r.0).collect(),
