@@ -174,17 +174,13 @@ impl LoopChoice {
 
     /// One line for people.
     pub fn line(&self) -> String {
+        let continued =
+            ("continued from the model before the loop", self.continued_gap_mm, self.continued_effects);
+        let fresh = ("from the starting parameters again", self.fresh_gap_mm, self.fresh_effects);
+        let (kept, other) = if self.kept_continued { (continued, fresh) } else { (fresh, continued) };
         format!(
             "kept the discovery {} (cross-validated gap {:.4} mm, {} effects; the other {:.4} mm, {} effects)",
-            if self.kept_continued {
-                "continued from the model before the loop"
-            } else {
-                "from the starting parameters again"
-            },
-            if self.kept_continued { self.continued_gap_mm } else { self.fresh_gap_mm },
-            if self.kept_continued { self.continued_effects } else { self.fresh_effects },
-            if self.kept_continued { self.fresh_gap_mm } else { self.continued_gap_mm },
-            if self.kept_continued { self.fresh_effects } else { self.continued_effects },
+            kept.0, kept.1, kept.2, other.1, other.2
         )
     }
 }
