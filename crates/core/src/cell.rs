@@ -317,6 +317,9 @@ pub struct EffectEntry {
     /// MDH row for `hayati-beta`
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub row: Option<u8>,
+    /// which motion of the link frame for `link-out-of-plane`: `axial`, `tilt-x` or `tilt-y`
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub component: Option<String>,
     /// parameter values in file units
     #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
     pub values: toml::Table,

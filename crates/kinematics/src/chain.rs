@@ -31,6 +31,7 @@ pub(crate) struct RowAxes {
 pub(crate) struct InsertAxes {
     pub tx: Vector3<f64>,
     pub ty: Vector3<f64>,
+    pub tz: Vector3<f64>,
     pub rot: [Vector3<f64>; 3],
     pub o: Vector3<f64>,
 }
@@ -54,6 +55,8 @@ struct EffectState {
     link_active: bool,
     /// rotation of link frame i about its x and y axes, `link_rot[i - 1]` \[rad\]
     link_rot: [[f64; 2]; MAX_JOINTS],
+    /// translation of link frame i along its x, y and z axes, `link_shift[i - 1]` \[mm\]
+    link_shift: [[f64; 3]; MAX_JOINTS],
 }
 
 /// All frames of the chain for one joint vector, in the world (tank) frame.
@@ -85,7 +88,7 @@ pub struct Chain {
     pub(crate) axes: [RowAxes; MAX_JOINTS],
     pub(crate) guide: Option<InsertAxes>,
     pub(crate) tool_axes: Option<InsertAxes>,
-    /// axes of the link rotation inserted after frame i (`[i - 1]`), when one is on
+    /// axes of the link correction inserted after frame i (`[i - 1]`), when one is on
     pub(crate) link_axes: [Option<InsertAxes>; MAX_JOINTS],
     pub(crate) thermal_factor: f64,
 }
@@ -413,6 +416,12 @@ impl Model {
                         }
                     }
                     Hook::LengthScale => st.length += v,
+                    Hook::LinkShift { joint, axis } => {
+                        if let Some(t) = st.link_shift.get_mut((joint as usize).wrapping_sub(1)) {
+                            st.link_active = true;
+                            t[axis.index()] += v;
+                        }
+                    }
                     Hook::LinkRotation { joint, axis } => {
                         if let (Some(r), Axis::X | Axis::Y) =
                             (st.link_rot.get_mut((joint as usize).wrapping_sub(1)), axis)
@@ -527,13 +536,13 @@ impl Model {
             axes[k].o = w.p;
             if self.guide == Some(k) && st.guide_active {
                 let ([sx, sy], e) = (st.guide_shift, st.guide_rot);
-                let (ins, ax) = insert_transform(&w, sx, sy, e[0], e[1], Some(e[2]));
+                let (ins, ax) = insert_transform(&w, [sx, sy, 0.0], e[0], e[1], Some(e[2]));
                 guide = Some(ax);
                 w = w.compose(&ins);
             }
-            if st.link_active && st.link_rot[k] != [0.0; 2] {
+            if st.link_active && (st.link_rot[k] != [0.0; 2] || st.link_shift[k] != [0.0; 3]) {
                 let [ex, ey] = st.link_rot[k];
-                let (ins, ax) = insert_transform(&w, 0.0, 0.0, ex, ey, None);
+                let (ins, ax) = insert_transform(&w, st.link_shift[k], ex, ey, None);
                 link_axes[k] = Some(ax);
                 w = w.compose(&ins);
             }
@@ -543,7 +552,7 @@ impl Model {
         let mut tool_axes = None;
         if st.tool_active {
             let [tx, ty, rx_, ry_] = st.tool;
-            let (ins, ax) = insert_transform(&w, tx, ty, rx_, ry_, None);
+            let (ins, ax) = insert_transform(&w, [tx, ty, 0.0], rx_, ry_, None);
             tool_axes = Some(ax);
             tool = w.compose(&ins);
         }
@@ -621,19 +630,20 @@ fn small_angle_sin_cos(delta: f64) -> (f64, f64) {
     }
 }
 
-/// `T(tx, ty, 0) Rx(ex) Ry(ey) [Rz(ez)]` relative to `w`, and its world axes for the Jacobian.
-fn insert_transform(w: &Frame, tx: f64, ty: f64, ex: f64, ey: f64, ez: Option<f64>) -> (Frame, InsertAxes) {
+/// `T(t) Rx(ex) Ry(ey) [Rz(ez)]` relative to `w`, and its world axes for the Jacobian.
+fn insert_transform(w: &Frame, t: [f64; 3], ex: f64, ey: f64, ez: Option<f64>) -> (Frame, InsertAxes) {
     let rxm = rx(ex);
     let rxy = rxm * ry(ey);
     let r = match ez {
         Some(z) => rxy * rz(z),
         None => rxy,
     };
-    let local = Frame { r, p: Vector3::new(tx, ty, 0.0) };
+    let local = Frame { r, p: Vector3::from(t) };
     let o = w.p + w.r * local.p;
     let ax = InsertAxes {
         tx: w.x_axis(),
         ty: w.y_axis(),
+        tz: w.z_axis(),
         rot: [w.x_axis(), w.r * rxm.column(1), w.r * rxy.column(2)],
         o,
     };

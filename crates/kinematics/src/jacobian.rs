@@ -28,6 +28,7 @@ impl Model {
         InsertAxes {
             tx: frame.x_axis(),
             ty: frame.y_axis(),
+            tz: frame.z_axis(),
             rot: [frame.x_axis(), frame.y_axis(), frame.z_axis()],
             o: frame.p,
         }
@@ -161,6 +162,11 @@ impl Model {
                 rot(ax.rot[axis.index()], ax.o)
             }
             Hook::LinkRotation { .. } => return None,
+            Hook::LinkShift { joint, axis } => {
+                let k = (joint as usize).checked_sub(1).filter(|k| *k < self.n)?;
+                let ax = chain.link_axes[k].unwrap_or_else(|| Self::zero_insert(&chain.frames[k + 1]));
+                [ax.tx, ax.ty, ax.tz][axis.index()]
+            }
             Hook::LengthScale => {
                 let mut col = Vector3::zeros();
                 for k in (0..self.n).filter(|k| self.kinds[*k].is_revolute()) {

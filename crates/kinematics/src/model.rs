@@ -332,6 +332,7 @@ impl Model {
             tcp: None,
             position: None,
             row: None,
+            component: None,
             values: toml::Table::new(),
         };
         if let Some(effect) = spec.effect() {

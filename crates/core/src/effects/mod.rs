@@ -114,6 +114,7 @@ catalog! {
     hayati_beta::HayatiBeta,
     joint_cyclic_half::JointCyclicHalf,
     link_bending::LinkBending,
+    link_out_of_plane::LinkOutOfPlane,
 }
 
 #[cfg(test)]
@@ -375,6 +376,15 @@ pub enum Hook {
         /// the link frame (1..=N)
         joint: u8,
         /// `Axis::X` or `Axis::Y` (a rotation about z is a joint offset: [`Hook::Joint`])
+        axis: Axis,
+    },
+    /// translation of link frame `joint` (1..=N) along its own x, y or z axis \[mm\]: the link
+    /// correction after frame `joint` is `T(sx, sy, sz) Rx(ex) Ry(ey)` (the translation first,
+    /// then the [`Hook::LinkRotation`] about the moved origin); everything distal moves with it
+    LinkShift {
+        /// the link frame (1..=N)
+        joint: u8,
+        /// the axis of frame `joint` the link moves along
         axis: Axis,
     },
 }
@@ -886,6 +896,7 @@ mod tests {
             tcp: None,
             position: None,
             row: None,
+            component: None,
             values: toml::Table::new(),
         };
         effect.write_entry(&spec, &mut entry, 20.0);

@@ -7,3 +7,4 @@ mod any_chain;
 mod canonical_regression;
 mod independent;
 mod link_bending;
+mod link_out_of_plane;
