@@ -12,7 +12,13 @@
 //!   on the shoulder and elbow angles: the TCP moves by `a sin(q_elbow) cos(q_shoulder)` along
 //!   the shoulder axis (no catalog hook moves a point sideways out of the arm plane);
 //! * [`Shape::GuideWaviness`]: the carriage path waves sideways with a period of 70–130 mm
-//!   along the 300 mm stroke (the catalog's straightness is a Legendre polynomial of order ≤ 3).
+//!   along the 300 mm stroke (the catalog's straightness is a Legendre polynomial of order ≤ 3);
+//! * [`Shape::JointCoupling`]: `θ_j += a q_k` for a neighbouring joint k (a coupled drive whose
+//!   ratio is off: the catalog's `joint-scale` scales a joint by its own angle);
+//! * [`Shape::ThermalJointDrift`]: `θ_j += a (T − 20 °C)` (an encoder zero that drifts with the
+//!   temperature: the catalog's `thermal-drift` scales lengths);
+//! * [`Shape::StiffeningCompliance`]: `θ_j += a (τ_j / τ_ref)³` (the non-linear part of a joint
+//!   spring: the catalog's compliance is linear in the torque).
 //!
 //! **Size.** Each effect's size is set as a multiple `m` of the instrument noise of its
 //! prediction change: `m = RMS_i ‖(P⊥ d)_i‖ / (√3 σ)`, with `d` the displacement the effect
@@ -135,6 +141,25 @@ pub enum Shape {
         /// phase [rad]
         phase: f64,
     },
+    /// `θ_driven += a q_by`
+    JointCoupling {
+        /// the joint whose angle is off
+        driven: u8,
+        /// the joint whose angle drives the error
+        by: u8,
+    },
+    /// `θ_j += a (T − 20 °C)`
+    ThermalJointDrift {
+        /// revolute joint
+        joint: u8,
+    },
+    /// `θ_j += a (τ_j / τ_ref)³`
+    StiffeningCompliance {
+        /// revolute joint
+        joint: u8,
+        /// the joint's largest |gravity torque| over random poses of the nominal model [N·m]
+        tau_ref_nm: f64,
+    },
 }
 
 impl Shape {
@@ -151,6 +176,9 @@ impl Shape {
             Shape::GuideWaviness { period_mm, .. } => {
                 format!("guide waviness, period {period_mm:.0} mm (extra)")
             }
+            Shape::JointCoupling { driven, by } => format!("joint {driven} coupled to q{by} (extra)"),
+            Shape::ThermalJointDrift { joint } => format!("thermal zero drift of joint {joint} (extra)"),
+            Shape::StiffeningCompliance { joint, .. } => format!("cubic stiffness of joint {joint} (extra)"),
         }
     }
 
@@ -173,6 +201,9 @@ impl Shape {
                 Driver::Torque(*shoulder),
             ],
             Shape::GuideWaviness { .. } => vec![Driver::Joint(guide)],
+            Shape::JointCoupling { driven, by } => vec![Driver::Joint(*driven), Driver::Joint(*by)],
+            Shape::ThermalJointDrift { joint } => vec![Driver::Temperature, Driver::Joint(*joint)],
+            Shape::StiffeningCompliance { joint, .. } => vec![Driver::Torque(*joint), Driver::Joint(*joint)],
         }
     }
 }
@@ -223,12 +254,24 @@ pub struct Truth {
 
 impl Truth {
     /// The joint values the arm really has when it reports `q`.
-    pub fn true_joints(&self, q: &JointVector) -> JointVector {
+    pub fn true_joints(&self, q: &JointVector, ctx: &MeasurementContext) -> JointVector {
         let mut t = *q;
+        let mut torques = None;
         for (shape, a) in &self.extras {
-            if let Shape::FractionalCyclic { joint, k, phase } = shape {
-                let j = *joint as usize - 1;
-                t[j] += a * (k * q[j] + phase).sin();
+            match shape {
+                Shape::FractionalCyclic { joint, k, phase } => {
+                    let j = *joint as usize - 1;
+                    t[j] += a * (k * q[j] + phase).sin();
+                }
+                Shape::JointCoupling { driven, by } => t[*driven as usize - 1] += a * q[*by as usize - 1],
+                Shape::ThermalJointDrift { joint } => {
+                    t[*joint as usize - 1] += a * (ctx.temperature_c.unwrap_or(20.0) - 20.0);
+                }
+                Shape::StiffeningCompliance { joint, tau_ref_nm } => {
+                    let tau = torques.get_or_insert_with(|| self.model.gravity_torques(q))[*joint as usize - 1];
+                    t[*joint as usize - 1] += a * (tau / tau_ref_nm).powi(3);
+                }
+                _ => {}
             }
         }
         t
@@ -258,7 +301,7 @@ impl Truth {
 
     /// World position of TCP `tcp` when the arm reports `q`.
     pub fn position(&self, q: &JointVector, ctx: &MeasurementContext, tcp: u32) -> Option<Vector3<f64>> {
-        let qt = self.true_joints(q);
+        let qt = self.true_joints(q, ctx);
         let p = self.model.tcp_position_ctx(&qt, ctx, tcp).ok()?;
         Some(p + self.displacement(&qt))
     }
@@ -281,7 +324,7 @@ impl Truth {
             // the reported joints: q + δ(q) = qt
             q = qt;
             for _ in 0..6 {
-                let t = self.true_joints(&q);
+                let t = self.true_joints(&q, ctx);
                 for j in 0..q.len() {
                     q[j] = qt[j] - (t[j] - q[j]);
                 }
@@ -303,7 +346,7 @@ impl Truth {
     /// `m` corrected for the extra physics (joints → true joints, target → minus the
     /// displacement): what the model part alone would have recorded.
     pub fn corrected(&self, m: &Measurement) -> Measurement {
-        let qt = self.true_joints(&m.q);
+        let qt = self.true_joints(&m.q, &m.context);
         let d = self.displacement(&qt);
         let mut c = Measurement { q: qt, ..*m };
         match m.target {
@@ -473,6 +516,11 @@ fn extra_cap(shape: &Shape) -> f64 {
         Shape::FractionalCyclic { .. } => 0.5f64.to_radians(),
         Shape::LinkBending { .. } => 0.5,
         Shape::GuideWaviness { .. } => 0.2,
+        // 0.5° over half a turn of the driving joint
+        Shape::JointCoupling { .. } => 0.5f64.to_radians() / std::f64::consts::PI,
+        // 0.5° over the campaign's ±2 K
+        Shape::ThermalJointDrift { .. } => 0.25f64.to_radians(),
+        Shape::StiffeningCompliance { .. } => 0.5f64.to_radians(),
         Shape::Catalog(_) => f64::INFINITY,
     }
 }
@@ -485,8 +533,9 @@ fn draw_shape(robot: Robot, model: &Model, rng: &mut ChaCha8Rng) -> Shape {
     let has_guide = model.guide_joint().is_some();
     if rng.random::<f64>() < 0.4 {
         // physics the catalog does not have
-        let choices = if has_guide { 3 } else { 2 };
-        return match rng.random_range(0..choices) {
+        let kinds = [0, 1, 2, 3, 4, 5];
+        let kinds: Vec<u8> = kinds.into_iter().filter(|k| has_guide || *k != 2).collect();
+        return match kinds[rng.random_range(0..kinds.len())] {
             0 => Shape::FractionalCyclic {
                 joint,
                 k: if rng.random::<bool>() { 1.5 } else { 2.5 },
@@ -496,10 +545,25 @@ fn draw_shape(robot: Robot, model: &Model, rng: &mut ChaCha8Rng) -> Shape {
                 let (shoulder, elbow) = robot.shoulder_elbow();
                 Shape::LinkBending { shoulder, elbow }
             }
-            _ => Shape::GuideWaviness {
+            2 => Shape::GuideWaviness {
                 period_mm: rng.random_range(70.0..130.0),
                 phase: rng.random_range(0.0..std::f64::consts::TAU),
             },
+            3 => {
+                // a neighbouring revolute joint drives it
+                let near: Vec<u8> =
+                    [joint.wrapping_sub(1), joint + 1].into_iter().filter(|k| revolute.contains(k)).collect();
+                let by = near[rng.random_range(0..near.len())];
+                Shape::JointCoupling { driven: joint, by }
+            }
+            4 => Shape::ThermalJointDrift { joint },
+            _ => {
+                let k = joint as usize - 1;
+                let tau_ref_nm = (0..32)
+                    .map(|_| model.gravity_torques(&random_joints(model, rng, 0.1))[k].abs())
+                    .fold(1e-6, f64::max);
+                Shape::StiffeningCompliance { joint, tau_ref_nm }
+            }
         };
     }
     let tcps = model.tcp_ids();
