@@ -289,7 +289,7 @@ pub struct Obstacles {
 /// (e.g. `cyclic4_h1_sin_deg = 0.012`, `tool_tx_mm = 0.03`, `guide_scale = 2e-5`).
 /// Built-in effects (`joint-compliance`, `tcp-offset`, `position-offset`, `hayati-beta`) keep
 /// their values in the ordinary fields and only mark that the effect belongs to the model.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct EffectEntry {
     /// catalog name, e.g. `joint-cyclic`
     pub effect: String,
@@ -320,6 +320,9 @@ pub struct EffectEntry {
     /// which motion of the link frame for `link-out-of-plane`: `axial`, `tilt-x` or `tilt-y`
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub component: Option<String>,
+    /// the joint whose angle drives the error, for `joint-coupling`
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub driving_joint: Option<u8>,
     /// parameter values in file units
     #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
     pub values: toml::Table,

@@ -274,6 +274,8 @@ pub enum ParamUnit {
     Rad,
     /// rad/(N·m)
     RadPerNm,
+    /// rad/(N·m)²
+    RadPerNm2,
     /// dimensionless ratio (mm/mm or rad/rad)
     Ratio,
     /// 1/s
@@ -289,6 +291,7 @@ impl ParamUnit {
             ParamUnit::Mm => "mm",
             ParamUnit::Rad => "rad",
             ParamUnit::RadPerNm => "rad/(N*m)",
+            ParamUnit::RadPerNm2 => "rad/(N*m)^2",
             ParamUnit::Ratio => "1",
             ParamUnit::PerSecond => "1/s",
             ParamUnit::PerKelvin => "1/K",
@@ -383,6 +386,7 @@ impl ParamId {
                 _ => 1e-3,
             },
             ParamUnit::RadPerNm => 1e-4,
+            ParamUnit::RadPerNm2 => 1e-5,
             ParamUnit::Ratio => 1e-4,
             ParamUnit::PerSecond => 1e-8,
             ParamUnit::PerKelvin => 2.3e-5,

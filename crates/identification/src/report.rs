@@ -12,11 +12,7 @@ use crate::{ErrorStats, Identification, IdentifyError, IterationLog, Method, Ter
 pub fn file_unit_label(id: ParamId) -> &'static str {
     match id.unit() {
         ParamUnit::Rad => "deg",
-        ParamUnit::Mm => "mm",
-        ParamUnit::RadPerNm => "rad/(N*m)",
-        ParamUnit::Ratio => "1",
-        ParamUnit::PerSecond => "1/s",
-        ParamUnit::PerKelvin => "1/K",
+        other => other.label(),
     }
 }
 

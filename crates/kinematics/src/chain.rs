@@ -368,6 +368,7 @@ impl Model {
         ctx: &'a MeasurementContext,
         carriage_moment: Option<[f64; 2]>,
         link_moments: Option<[[f64; 2]; MAX_JOINTS]>,
+        torques: &[f64; MAX_JOINTS],
     ) -> EffectInputs<'a> {
         EffectInputs {
             q: q.as_slice(),
@@ -377,6 +378,7 @@ impl Model {
             carriage_moment: carriage_moment.unwrap_or([0.0; 2]),
             thermal_reference_c: self.thermal_reference_c,
             link_moments: link_moments.unwrap_or([[0.0; 2]; MAX_JOINTS]),
+            torques: *torques,
         }
     }
 
@@ -484,7 +486,9 @@ impl Model {
         self.assert_len(q);
         let (torques, torques_evaluated) = match fixed_torques {
             Some(t) => (*t, true),
-            None if with_torques || self.any_compliance => (self.gravity_torques(q), true),
+            None if with_torques || self.any_compliance || self.effects_need_torques => {
+                (self.gravity_torques(q), true)
+            }
             None => ([0.0; MAX_JOINTS], false),
         };
         let carriage_moment = match fixed_moment {
@@ -500,7 +504,7 @@ impl Model {
         let st = if self.effects.is_empty() {
             EffectState::default()
         } else {
-            self.effect_state(&self.effect_inputs(q, ctx, carriage_moment, link_moments))
+            self.effect_state(&self.effect_inputs(q, ctx, carriage_moment, link_moments, &torques))
         };
         let thermal_factor = 1.0 + st.length;
         let mut frames = [Frame::identity(); MAX_JOINTS + 1];

@@ -122,8 +122,14 @@ impl Model {
             None if effect.needs_link_moments() => Some(self.link_bending_moments(q)),
             None => None,
         };
+        // the torques the chain was evaluated with (held fixed, as for the compliances)
+        let torques = if chain.torques_evaluated || !effect.needs_torques() {
+            chain.torques
+        } else {
+            self.gravity_torques(q)
+        };
         let (hook, coefficient) =
-            hook_of(e, &self.effect_inputs(q, ctx, moment, link_moments)).ok_or_else(missing)?;
+            hook_of(e, &self.effect_inputs(q, ctx, moment, link_moments, &torques)).ok_or_else(missing)?;
         Ok(self.hook_column(chain, p, hook).ok_or_else(missing)? * coefficient)
     }
 

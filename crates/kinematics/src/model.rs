@@ -112,6 +112,8 @@ pub struct Model {
     pub(crate) effects_need_moment: bool,
     /// a switched-on effect needs the links' gravity bending moments
     pub(crate) effects_need_link_moments: bool,
+    /// some switched-on effect needs the gravity torques
+    pub(crate) effects_need_torques: bool,
     /// the registered implementation of each switched-on effect, `effect_impls[k]` for
     /// `effects[k]` (looked up once, not per sample)
     pub(crate) effect_impls: Vec<&'static dyn ErrorEffect>,
@@ -233,6 +235,7 @@ impl Model {
             any_compliance: false,
             effects_need_moment: false,
             effects_need_link_moments: false,
+            effects_need_torques: false,
             effect_impls: Vec::new(),
             template: cell.clone(),
         };
@@ -322,19 +325,7 @@ impl Model {
     }
 
     fn entry_of(&self, spec: &EffectSpec) -> EffectEntry {
-        let mut e = EffectEntry {
-            effect: spec.kind().name().to_string(),
-            joint: None,
-            harmonic: None,
-            order: None,
-            driver: None,
-            reference_temperature_c: None,
-            tcp: None,
-            position: None,
-            row: None,
-            component: None,
-            values: toml::Table::new(),
-        };
+        let mut e = EffectEntry { effect: spec.kind().name().to_string(), ..EffectEntry::default() };
         if let Some(effect) = spec.effect() {
             effect.write_entry(spec, &mut e, self.thermal_reference_c);
         }
@@ -579,6 +570,7 @@ impl Model {
         self.effect_impls = self.effects.iter().filter_map(|e| e.effect()).collect();
         self.effects_need_moment = self.effect_impls.iter().any(|e| e.needs_carriage_moment());
         self.effects_need_link_moments = self.effect_impls.iter().any(|e| e.needs_link_moments());
+        self.effects_need_torques = self.effect_impls.iter().any(|e| e.needs_torques());
         self.refresh_caches();
         Ok(())
     }

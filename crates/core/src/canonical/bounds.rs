@@ -15,6 +15,8 @@
 //!   backlash): the TCP displacement at the joint's
 //!   largest lever arm on the data, `|a| · max‖∂p/∂θ_j‖ ≤` [`JOINT_ERROR_DISPLACEMENT_MM`]
 //!   (3 mm);
+//! * **non-linear stiffness** `compliance_quadratic{j}`: the extra deflection at the joint's
+//!   largest gravity torque, `|c2_j| · max|τ_j|² ≤` [`COMPLIANCE_DEFLECTION_RAD`] (1°);
 //! * **link-bending compliances** `bend{j}_{x,y}`: the tilt at the joint's largest gravity
 //!   bending moment on the data, `|k| · max‖M_⊥,j‖ ≤` [`link_bending::MAX_TILT_RAD`] (0.25°);
 //!
@@ -24,7 +26,7 @@
 //! bound (`vatcal discover --bound NAME=VALUE`, or the cell file's `[plausibility_bounds]`
 //! table).
 
-use crate::effects::{EffectKind, joint_cyclic_half, link_bending};
+use crate::effects::{EffectKind, joint_cyclic_half, joint_stiffness_nonlinear, link_bending};
 use crate::params::{EffectParam, ParamId};
 use crate::units::MAX_JOINTS;
 
@@ -89,6 +91,20 @@ pub fn scaled_bound(id: &ParamId, canonical: Option<(f64, &str)>, scale: &ChainS
                     b,
                     format!(
                         "deg (scaled to the chain: {JOINT_ERROR_DISPLACEMENT_MM} mm at the joint's largest lever arm {lever:.0} mm)"
+                    ),
+                )
+            })
+        }),
+        ParamId::Effect(EffectParam::Extension {
+            kind: EffectKind::Extension(joint_stiffness_nonlinear::ID), joint: j, ..
+        }) => joint(*j).and_then(|k| {
+            let tau = scale.max_torque_nm[k];
+            (tau > 0.0).then(|| {
+                (
+                    COMPLIANCE_DEFLECTION_RAD / (tau * tau),
+                    format!(
+                        "rad/(N*m)^2 (scaled to the chain: {:.1} deg deflection at the joint's largest gravity torque {tau:.3} N*m)",
+                        COMPLIANCE_DEFLECTION_RAD.to_degrees()
                     ),
                 )
             })

@@ -146,6 +146,7 @@ mod tests {
             guide_u: 0.0,
             carriage_moment: [0.0; 2],
             thermal_reference_c: 20.0,
+            torques: [0.0; MAX_JOINTS],
             link_moments,
         };
         assert_eq!(

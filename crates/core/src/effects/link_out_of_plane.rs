@@ -304,6 +304,7 @@ mod tests {
             guide_u: 0.0,
             carriage_moment: [0.0; 2],
             thermal_reference_c: 20.0,
+            torques: [0.0; MAX_JOINTS],
             link_moments: [[0.0; 2]; MAX_JOINTS],
         };
         let phi = terms(0.3, -1.1);
@@ -341,15 +342,7 @@ mod tests {
         let mut entry = EffectEntry {
             effect: "link-out-of-plane".into(),
             joint: Some(3),
-            harmonic: None,
-            order: None,
-            driver: None,
-            reference_temperature_c: None,
-            tcp: None,
-            position: None,
-            row: None,
-            component: None,
-            values: toml::Table::new(),
+            ..EffectEntry::default()
         };
         assert!(LinkOutOfPlane.read_entry(&entry).is_err_and(|m| m.contains("component")));
         LinkOutOfPlane.write_entry(&spec(3, Component::TiltY), &mut entry, 20.0);

@@ -115,6 +115,9 @@ catalog! {
     joint_cyclic_half::JointCyclicHalf,
     link_bending::LinkBending,
     link_out_of_plane::LinkOutOfPlane,
+    joint_thermal_drift::JointThermalDrift,
+    joint_coupling::JointCoupling,
+    joint_stiffness_nonlinear::JointStiffnessNonlinear,
 }
 
 #[cfg(test)]
@@ -405,6 +408,10 @@ pub struct EffectInputs<'a> {
     pub carriage_moment: [f64; 2],
     /// reference temperature \[°C\] of a temperature-driven drift
     pub thermal_reference_c: f64,
+    /// gravity torque \[N·m\] of each joint, `[i - 1]` for joint i (the torques the
+    /// compliances deflect under; zeros unless an effect that [`ErrorEffect::needs_torques`] is
+    /// evaluated or a compliance is on)
+    pub torques: [f64; MAX_JOINTS],
     /// gravity bending moment \[N·m\] each joint carries: the moment of everything distal to
     /// joint i about the origin of frame i, along frame i's x and y axes (`[i - 1]` for joint
     /// i; undeflected geometry; zeros unless an effect that
@@ -644,6 +651,10 @@ pub trait ErrorEffect: Sync + fmt::Debug {
     }
     /// True when the hook coefficients need [`EffectInputs::link_moments`].
     fn needs_link_moments(&self) -> bool {
+        false
+    }
+    /// True when the hook coefficients need [`EffectInputs::torques`].
+    fn needs_torques(&self) -> bool {
         false
     }
     /// How the instance changes the kinematics: calls `add(param, hook, coefficient)` once
@@ -886,19 +897,7 @@ mod tests {
             "meca500-zaber.toml",
         )
         .expect("canonical cell");
-        let mut entry = EffectEntry {
-            effect: kind.name().to_string(),
-            joint: None,
-            harmonic: None,
-            order: None,
-            driver: None,
-            reference_temperature_c: None,
-            tcp: None,
-            position: None,
-            row: None,
-            component: None,
-            values: toml::Table::new(),
-        };
+        let mut entry = EffectEntry { effect: kind.name().to_string(), ..EffectEntry::default() };
         effect.write_entry(&spec, &mut entry, 20.0);
         assert_eq!(effect.read_entry(&entry), Ok(spec));
         cell.effects.push(entry);
@@ -913,6 +912,7 @@ mod tests {
             guide_u: 0.0,
             carriage_moment: [0.0; 2],
             thermal_reference_c: 20.0,
+            torques: [0.0; MAX_JOINTS],
             link_moments: [[0.0; 2]; MAX_JOINTS],
         };
         let ParamId::Effect(p) = params[0] else { panic!("an effect parameter") };

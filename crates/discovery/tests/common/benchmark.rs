@@ -268,7 +268,8 @@ impl Truth {
                     t[*joint as usize - 1] += a * (ctx.temperature_c.unwrap_or(20.0) - 20.0);
                 }
                 Shape::StiffeningCompliance { joint, tau_ref_nm } => {
-                    let tau = torques.get_or_insert_with(|| self.model.gravity_torques(q))[*joint as usize - 1];
+                    let tau =
+                        torques.get_or_insert_with(|| self.model.gravity_torques(q))[*joint as usize - 1];
                     t[*joint as usize - 1] += a * (tau / tau_ref_nm).powi(3);
                 }
                 _ => {}
@@ -558,10 +559,17 @@ fn draw_shape(robot: Robot, model: &Model, rng: &mut ChaCha8Rng) -> Shape {
             }
             4 => Shape::ThermalJointDrift { joint },
             _ => {
-                let k = joint as usize - 1;
-                let tau_ref_nm = (0..32)
-                    .map(|_| model.gravity_torques(&random_joints(model, rng, 0.1))[k].abs())
-                    .fold(1e-6, f64::max);
+                // on a joint that carries a gravity torque (not a vertical base joint)
+                let poses: Vec<JointVector> = (0..32).map(|_| random_joints(model, rng, 0.1)).collect();
+                let loaded: Vec<(u8, f64)> = revolute
+                    .iter()
+                    .map(|j| {
+                        let k = *j as usize - 1;
+                        (*j, poses.iter().map(|q| model.gravity_torques(q)[k].abs()).fold(0.0, f64::max))
+                    })
+                    .filter(|(_, tau)| *tau > 0.1)
+                    .collect();
+                let (joint, tau_ref_nm) = loaded[rng.random_range(0..loaded.len())];
                 Shape::StiffeningCompliance { joint, tau_ref_nm }
             }
         };
@@ -701,6 +709,9 @@ impl CaseData {
                         .push(Measurement { context: m.context, ..Measurement::tracker(m.tcp, m.q, p) });
                 }
             }
+        }
+        if measurements.is_empty() {
+            return None;
         }
         // validation: random tracker poses over the workspace, contexts inside the campaign's
         let tcps = nominal.tcp_ids();

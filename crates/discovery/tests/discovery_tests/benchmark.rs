@@ -195,10 +195,9 @@ fn two_and_a_half_per_turn_sinusoid_is_named_by_the_two_turn_terms() {
 /// true-structure floor.
 #[test]
 fn out_of_plane_bending_is_named_by_link_out_of_plane_on_any_chain() {
-    for (id, seed, robot, data, (shoulder, elbow)) in [
-        (5, 91, Robot::Ur5e, DataKind::Tracker, (2, 3)),
-        (6, 18, Robot::Canonical, DataKind::Probe, (3, 4)),
-    ] {
+    for (id, seed, robot, data, (shoulder, elbow)) in
+        [(5, 91, Robot::Ur5e, DataKind::Tracker, (2, 3)), (6, 18, Robot::Canonical, DataKind::Probe, (3, 4))]
+    {
         let r = run_case(case(id, seed, robot, data, &[(Shape::LinkBending { shoulder, elbow }, 8.0)]));
         eprintln!("{}", markdown(std::slice::from_ref(&r)));
         assert!(r.error.is_none(), "{:?}", r.error);

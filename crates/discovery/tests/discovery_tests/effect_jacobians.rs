@@ -28,6 +28,7 @@ fn small_value(id: ParamId, rng: &mut ChaCha8Rng) -> f64 {
         ParamUnit::Mm => 0.05,
         ParamUnit::Rad => 3e-4,
         ParamUnit::RadPerNm => 2e-4,
+        ParamUnit::RadPerNm2 => 2e-5,
         ParamUnit::Ratio => 2e-4,
         ParamUnit::PerSecond => 1e-7,
         ParamUnit::PerKelvin => 2e-5,
@@ -197,8 +198,27 @@ fn every_effect_switched_on_matches_finite_differences() {
                 &format!("{} (on)", spec.label()),
             ));
         }
-        assert!(largest > 1e-4, "{}: columns are (nearly) zero: {largest:e}", spec.label());
+        assert!(
+            largest > 1e-4 || unloaded(&model, spec),
+            "{}: columns are (nearly) zero: {largest:e}",
+            spec.label()
+        );
     }
+}
+
+/// A torque-driven effect on a joint that carries (almost) no gravity torque (the Meca500's
+/// last joint: the tool's weight is nearly on its axis) has columns at round-off size: that is
+/// physics, not a wrong derivative (discovery calls such a candidate not discoverable).
+fn unloaded(model: &Model, spec: EffectSpec) -> bool {
+    let Some(vatcal_core::effects::EffectDriver::Torque(j)) = spec.effect().map(|e| e.driver(&spec, 1, 7))
+    else {
+        return false;
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let largest = (0..50)
+        .map(|_| model.gravity_torques(&random_q(model, &mut rng))[j as usize - 1].abs())
+        .fold(0.0, f64::max);
+    largest < 0.3
 }
 
 #[test]
@@ -224,7 +244,11 @@ fn effect_columns_when_switched_off_are_derivatives_at_zero() {
                 &format!("{} (off)", spec.label()),
             ));
         }
-        assert!(largest > 1e-4, "{}: columns are (nearly) zero: {largest:e}", spec.label());
+        assert!(
+            largest > 1e-4 || unloaded(&off, spec),
+            "{}: columns are (nearly) zero: {largest:e}",
+            spec.label()
+        );
     }
 }
 
