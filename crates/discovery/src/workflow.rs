@@ -128,6 +128,10 @@ pub struct DiscoverOptions {
     /// angles, mm for lengths, the parameter's own unit otherwise); they replace the bounds
     /// scaled to the chain ([`vatcal_core::canonical::bounds`])
     pub bound_overrides: BTreeMap<String, f64>,
+    /// Catalog effects (by name, e.g. `link-out-of-plane`) that are not proposed: a researcher
+    /// restricting the search to the physics they want to test (`vatcal discover
+    /// --exclude-effect NAME`). Empty: the whole catalog.
+    pub excluded_effects: Vec<String>,
     /// discovery keeps going while the held-out gap is more than this many times its floor
     /// estimate ([`Round::gap_over_floor`]): such a round confirms its best-scored candidates
     /// even when none passes the screening threshold and waives the size rule for the ones
@@ -165,6 +169,7 @@ impl Default for DiscoverOptions {
             strong_z_factor: 1.5,
             saturated_noise: true,
             bound_overrides: BTreeMap::new(),
+            excluded_effects: Vec::new(),
             floor_gap_factor: 1.5,
             validation_veto: true,
         }
@@ -961,7 +966,8 @@ fn score_candidates(
 ) -> Result<Vec<Candidate>, DiscoveryError> {
     let data = DataAvailability::of(ctx.measurements);
     let mut out: Vec<Candidate> = Vec::new();
-    for spec in candidates(&current.model, ctx.measurements) {
+    let excluded = |spec: &EffectSpec| ctx.options.excluded_effects.iter().any(|n| n == spec.kind().name());
+    for spec in candidates(&current.model, ctx.measurements).into_iter().filter(|s| !excluded(s)) {
         let new_params: Vec<ParamId> =
             spec.params().into_iter().filter(|p| current.params.index_of(*p).is_none()).collect();
         let status = if let Some(why) = missing_data(&spec, &data) {
@@ -1185,13 +1191,28 @@ fn fit_resolving_rivals(
     ctx: &Context<'_>,
 ) -> Result<(Fit, ParamSet, Vec<ParamId>, Option<Ambiguity>), String> {
     let opts = &ctx.options;
-    let refused = match fit(start, ctx.measurements, &params1, &opts.identify) {
-        Ok(f) => return Ok((f, params1, added, None)),
-        Err(DiscoveryError::Fit(e)) => match *e {
-            vatcal_identification::IdentifyError::IllConditioned(id) => id,
-            other => return Err(format!("refit failed: {other}")),
-        },
-        Err(e) => return Err(format!("refit failed: {e}")),
+    let (mut params1, mut added) = (params1, added);
+    let refused = loop {
+        match fit(start, ctx.measurements, &params1, &opts.identify) {
+            Ok(f) => return Ok((f, params1, added, None)),
+            Err(DiscoveryError::Fit(e)) => match *e {
+                vatcal_identification::IdentifyError::IllConditioned(id) => break id,
+                // some of the candidate's parameters are exact combinations of the model's on
+                // these data (e.g. a tool-frame shift once two TCP offsets are in): fit the
+                // candidate's other directions, as the screening's identifiable subset meant to
+                vatcal_identification::IdentifyError::Unidentifiable { ref unidentifiable, .. }
+                    if added.iter().any(|p| unidentifiable.contains(p))
+                        && !added.iter().all(|p| unidentifiable.contains(p)) =>
+                {
+                    added.retain(|p| !unidentifiable.contains(p));
+                    params1
+                        .0
+                        .retain(|p| !unidentifiable.contains(p) || current.params.index_of(*p).is_some());
+                }
+                other => return Err(format!("refit failed: {other}")),
+            },
+            Err(e) => return Err(format!("refit failed: {e}")),
+        }
     };
     let n_old = current.params.len();
     let corr = &refused.correlation;

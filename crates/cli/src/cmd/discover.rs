@@ -93,6 +93,10 @@ pub struct Args {
     /// cell file's `[plausibility_bounds]` table and the bounds scaled to the chain.
     #[arg(long = "bound", value_name = "NAME=VALUE")]
     pub bounds: Vec<String>,
+    /// A catalog effect not to propose (e.g. `--exclude-effect link-out-of-plane` to test the
+    /// physical effects only); repeatable.
+    #[arg(long = "exclude-effect", value_name = "NAME")]
+    pub exclude_effects: Vec<String>,
 }
 
 fn read_all(
@@ -178,11 +182,7 @@ fn bound_overrides(args: &Args) -> anyhow::Result<BTreeMap<String, f64>> {
     let mut out = BTreeMap::new();
     let cell = vatcal_core::CellFile::load(&args.model)?;
     let mut put = |name: &str, v: f64, what: &str| -> anyhow::Result<()> {
-        anyhow::ensure!(
-            EffectKind::from_name(name).is_some(),
-            "{what}: unknown effect `{name}` (catalog names: {})",
-            EffectKind::ALL.iter().map(|k| k.name()).collect::<Vec<_>>().join(", ")
-        );
+        known_effect(name, what)?;
         anyhow::ensure!(
             v.is_finite() && v > 0.0,
             "{what}: the bound of `{name}` must be a positive number, got {v}"
@@ -207,6 +207,24 @@ fn bound_overrides(args: &Args) -> anyhow::Result<BTreeMap<String, f64>> {
         put(name.trim(), v, "--bound")?;
     }
     Ok(out)
+}
+
+/// `--exclude-effect NAME`: catalog names only.
+fn excluded_effects(args: &Args) -> anyhow::Result<Vec<String>> {
+    for name in &args.exclude_effects {
+        known_effect(name, "--exclude-effect")?;
+    }
+    Ok(args.exclude_effects.clone())
+}
+
+/// `Ok` when `name` is a catalog effect's name; the error (prefixed by `what`) lists them.
+fn known_effect(name: &str, what: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        EffectKind::from_name(name).is_some(),
+        "{what}: unknown effect `{name}` (catalog names: {})",
+        vatcal_core::effects::catalog().iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
+    );
+    Ok(())
 }
 
 /// The instruments' noise: `--probe-sigma-mm` / `--tracker-sigma-mm`, else what the
@@ -313,6 +331,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         instrument_sigmas: instrument_sigmas(&args, &measurements)?,
         instrument_noise_origin: recorded_noise(&args)?.2,
         bound_overrides: bound_overrides(&args)?,
+        excluded_effects: excluded_effects(&args)?,
         ..DiscoverOptions::default()
     };
     let d = discover(&model, &measurements, &params, validation.as_deref(), &options)?;

@@ -911,7 +911,13 @@ fn same_instance(added: &EffectSpec, hidden: &EffectSpec) -> bool {
 }
 
 /// Runs discovery on one case and scores it.
-pub fn run_case(mut case: Case) -> CaseResult {
+pub fn run_case(case: Case) -> CaseResult {
+    run_case_with(case, &[])
+}
+
+/// [`run_case`] with the catalog effects named in `excluded` not proposed
+/// (`DiscoverOptions::excluded_effects`).
+pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
     let Some(data) = CaseData::build(&mut case) else {
         return CaseResult {
             case,
@@ -942,7 +948,10 @@ pub fn run_case(mut case: Case) -> CaseResult {
         ErrorStats::from_errors(&e).mean
     };
     let floor_mm = floor(&case, &data).ok();
-    let options = options_for(&case, &data);
+    let options = DiscoverOptions {
+        excluded_effects: excluded.iter().map(|n| n.to_string()).collect(),
+        ..options_for(&case, &data)
+    };
     let t0 = Instant::now();
     let result = discover(&data.nominal, &data.measurements, &data.params, Some(&data.validation), &options);
     let seconds = t0.elapsed().as_secs_f64();
