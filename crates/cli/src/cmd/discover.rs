@@ -88,6 +88,11 @@ pub struct Args {
     /// candidate pool.
     #[arg(long, default_value_t = 24)]
     pub propose_orientations: usize,
+    /// How many of the last round's undecided candidates (best screening score first) the
+    /// proposal is designed to decide; 1 puts all of the measurements' information on the best
+    /// one.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u16).range(1..))]
+    pub propose_focus: u16,
     /// Plausibility bound of an effect's parameters, `NAME=VALUE` in file units (deg for
     /// angles, mm for lengths), e.g. `--bound joint-backlash=1.0`; repeatable. Overrides the
     /// cell file's `[plausibility_bounds]` table and the bounds scaled to the chain.
@@ -376,7 +381,7 @@ fn propose_plan(
     use vatcal_planning::candidates::CandidateOptions;
     use vatcal_planning::plan::PlanOptions;
     anyhow::ensure!(count > 0, "--propose must be at least 1");
-    let focus = vatcal_discovery::propose::focus_effects(d, measurements, 2);
+    let focus = vatcal_discovery::propose::focus_effects(d, measurements, usize::from(args.propose_focus));
     if focus.is_empty() {
         println!("proposal: nothing to decide (the last round scored no candidate); no plan written");
         return Ok(());
