@@ -204,7 +204,7 @@ fn out_of_plane_bending_is_named_by_link_out_of_plane_on_any_chain() {
         let h = &r.hidden[0];
         assert!(h.named_driver, "{} not named ({}); added {:?}", h.label, h.why, r.added);
         let expected = format!("link-out-of-plane (joint {elbow}, axial)");
-        assert!(r.added.iter().any(|a| *a == expected), "{:?}", r.added);
+        assert!(r.added.contains(&expected), "{:?}", r.added);
         let ratio = r.ratio().expect("floor");
         assert!(ratio <= FLOOR_FACTOR, "{robot:?}: held-out {ratio:.2}× the floor");
     }
