@@ -147,16 +147,7 @@ mod tests {
         assert!(JointCoupling.check(&spec(3, 9), &chain).is_err());
         let q = [10.0, 0.2, -0.7, 0.4];
         let ctx = MeasurementContext::default();
-        let x = EffectInputs {
-            q: &q,
-            ctx: &ctx,
-            guide: Some(1),
-            guide_u: 0.0,
-            carriage_moment: [0.0; 2],
-            thermal_reference_c: 20.0,
-            torques: [0.0; MAX_JOINTS],
-            link_moments: [[0.0; 2]; MAX_JOINTS],
-        };
+        let x = EffectInputs { guide: Some(1), ..EffectInputs::at(&q, &ctx) };
         assert_eq!(super::super::hook_of(param(3, 4), &x), Some((Hook::Joint(3), 0.4)));
     }
 }

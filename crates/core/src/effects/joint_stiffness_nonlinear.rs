@@ -99,16 +99,7 @@ mod tests {
         let mut torques = [0.0; MAX_JOINTS];
         for tau in [-3.0, 0.5, 2.0] {
             torques[2] = tau;
-            let x = EffectInputs {
-                q: &q,
-                ctx: &ctx,
-                guide: Some(1),
-                guide_u: 0.0,
-                carriage_moment: [0.0; 2],
-                thermal_reference_c: 20.0,
-                torques,
-                link_moments: [[0.0; 2]; MAX_JOINTS],
-            };
+            let x = EffectInputs { torques, ..EffectInputs::at(&q, &ctx) };
             assert_eq!(super::super::hook_of(param(3), &x), Some((Hook::Joint(3), tau * f64::abs(tau))));
         }
         assert!(JointStiffnessNonlinear.needs_torques());

@@ -176,7 +176,6 @@ impl ErrorEffect for JointThermalDrift {
 mod tests {
     use super::*;
     use crate::measurement::MeasurementContext;
-    use crate::units::MAX_JOINTS;
 
     #[test]
     fn names_entries_and_hooks() {
@@ -197,16 +196,7 @@ mod tests {
         assert!(matches!(ParamId::from_name("thermal_per_k"), Some(ParamId::Effect(EffectParam::ThermalPerKelvin))));
         let q = [0.0; 7];
         let ctx = MeasurementContext { temperature_c: Some(23.5), time_s: Some(600.0), ..Default::default() };
-        let x = EffectInputs {
-            q: &q,
-            ctx: &ctx,
-            guide: Some(1),
-            guide_u: 0.0,
-            carriage_moment: [0.0; 2],
-            thermal_reference_c: 20.0,
-            torques: [0.0; MAX_JOINTS],
-            link_moments: [[0.0; 2]; MAX_JOINTS],
-        };
+        let x = EffectInputs { guide: Some(1), ..EffectInputs::at(&q, &ctx) };
         assert_eq!(super::super::hook_of(param(5, ThermalDriver::Temperature), &x), Some((Hook::Joint(5), 3.5)));
         assert_eq!(super::super::hook_of(param(5, ThermalDriver::Time), &x), Some((Hook::Joint(5), 600.0)));
         let no_temperature = DataAvailability { time: true, ..Default::default() };

@@ -139,16 +139,7 @@ mod tests {
         let ctx = crate::measurement::MeasurementContext::default();
         let mut link_moments = [[0.0; 2]; MAX_JOINTS];
         link_moments[2] = [0.4, -1.5];
-        let x = EffectInputs {
-            q: &q,
-            ctx: &ctx,
-            guide: Some(1),
-            guide_u: 0.0,
-            carriage_moment: [0.0; 2],
-            thermal_reference_c: 20.0,
-            torques: [0.0; MAX_JOINTS],
-            link_moments,
-        };
+        let x = EffectInputs { guide: Some(1), link_moments, ..EffectInputs::at(&q, &ctx) };
         assert_eq!(
             super::super::hook_of(param(3, Axis::Y), &x),
             Some((Hook::LinkRotation { joint: 3, axis: Axis::Y }, -1.5))

@@ -297,16 +297,7 @@ mod tests {
         assert!(ParamId::from_name("oop4_rz_cos3").is_none());
         let q = [0.0, 0.3, -1.1, 0.0, 0.0, 0.0, 0.0];
         let ctx = crate::measurement::MeasurementContext::default();
-        let x = EffectInputs {
-            q: &q,
-            ctx: &ctx,
-            guide: None,
-            guide_u: 0.0,
-            carriage_moment: [0.0; 2],
-            thermal_reference_c: 20.0,
-            torques: [0.0; MAX_JOINTS],
-            link_moments: [[0.0; 2]; MAX_JOINTS],
-        };
+        let x = EffectInputs { ..EffectInputs::at(&q, &ctx) };
         let phi = terms(0.3, -1.1);
         assert_eq!(
             super::super::hook_of(param(3, Component::TiltY, 5), &x),

@@ -419,6 +419,24 @@ pub struct EffectInputs<'a> {
     pub link_moments: [[f64; 2]; MAX_JOINTS],
 }
 
+impl<'a> EffectInputs<'a> {
+    /// The inputs at joint values `q` with context `ctx` and nothing else: no guide, no loads
+    /// (zero torques and moments), thermal reference 20 °C. Set the rest with struct update
+    /// syntax (`EffectInputs { torques, ..EffectInputs::at(&q, &ctx) }`).
+    pub fn at(q: &'a [f64], ctx: &'a MeasurementContext) -> Self {
+        Self {
+            q,
+            ctx,
+            guide: None,
+            guide_u: 0.0,
+            carriage_moment: [0.0; 2],
+            thermal_reference_c: 20.0,
+            torques: [0.0; MAX_JOINTS],
+            link_moments: [[0.0; 2]; MAX_JOINTS],
+        }
+    }
+}
+
 /// What an effect may ask about the chain it is switched on for or proposed on.
 #[derive(Debug, Clone, Copy)]
 pub struct ChainInfo<'a> {
@@ -905,16 +923,7 @@ mod tests {
         // the hook: theta_3 += g q_3², coefficient q_3²
         let q = [100.0, 0.1, 0.7, 0.0, 0.0, 0.0, 0.0];
         let ctx = MeasurementContext::default();
-        let x = EffectInputs {
-            q: &q,
-            ctx: &ctx,
-            guide: Some(1),
-            guide_u: 0.0,
-            carriage_moment: [0.0; 2],
-            thermal_reference_c: 20.0,
-            torques: [0.0; MAX_JOINTS],
-            link_moments: [[0.0; 2]; MAX_JOINTS],
-        };
+        let x = EffectInputs { guide: Some(1), ..EffectInputs::at(&q, &ctx) };
         let ParamId::Effect(p) = params[0] else { panic!("an effect parameter") };
         assert_eq!(hook_of(p, &x), Some((Hook::Joint(3), 0.7 * 0.7)));
     }

@@ -126,32 +126,43 @@ fn link_bending_columns_match_central_differences_on_any_chain() {
         model.set_param(ParamId::Compliance(3), 2e-4).expect("c_3");
         params.push(ParamId::Compliance(3));
         params.push(ParamId::Alpha(3));
-        let ctx = MeasurementContext::default();
         for _ in 0..6 {
             let q = random_q(&nominal, &mut rng);
-            let tcp = nominal.tcp_ids()[0];
-            let mut out = vec![0.0; 3 * params.len()];
-            model.jacobian_into(&q, &ctx, tcp, &params, &mut out).expect("jacobian");
-            let loads = model.gravity_loads(&q);
-            let t = model.tcp(tcp).expect("tcp");
-            for (c, id) in params.iter().enumerate() {
-                let h = id.typical_scale() * 1e-3;
-                let v0 = model.param(*id).expect("param");
-                let at = |v: f64| {
-                    let mut m = model.clone();
-                    m.set_param(*id, v).expect("set");
-                    m.chain_with_loads(&q, &ctx, &loads).tool_point(&t)
-                };
-                let fd = (at(v0 + h) - at(v0 - h)) / (2.0 * h);
-                let analytic = Vector3::new(out[3 * c], out[3 * c + 1], out[3 * c + 2]);
-                let s = id.typical_scale();
-                assert!(
-                    (analytic - fd).norm() * s <= 1e-9 + 1e-6 * analytic.norm() * s,
-                    "{name}: {} analytic {analytic:?} vs fd {fd:?}",
-                    id.name()
-                );
-            }
+            assert_columns_match_central_differences(&model, &params, &q, name);
         }
+    }
+}
+
+/// The analytic Jacobian columns of `params` at `q` (first TCP) equal central differences of
+/// the FK with the gravity loads held at their values at `q` (as the Jacobian holds them).
+pub(crate) fn assert_columns_match_central_differences(
+    model: &Model,
+    params: &[ParamId],
+    q: &JointVector,
+    name: &str,
+) {
+    let ctx = MeasurementContext::default();
+    let tcp = model.tcp_ids()[0];
+    let mut out = vec![0.0; 3 * params.len()];
+    model.jacobian_into(q, &ctx, tcp, params, &mut out).expect("jacobian");
+    let loads = model.gravity_loads(q);
+    let t = model.tcp(tcp).expect("tcp");
+    for (c, id) in params.iter().enumerate() {
+        let h = id.typical_scale() * 1e-3;
+        let v0 = model.param(*id).expect("param");
+        let at = |v: f64| {
+            let mut m = model.clone();
+            m.set_param(*id, v).expect("set");
+            m.chain_with_loads(q, &ctx, &loads).tool_point(&t)
+        };
+        let fd = (at(v0 + h) - at(v0 - h)) / (2.0 * h);
+        let analytic = Vector3::new(out[3 * c], out[3 * c + 1], out[3 * c + 2]);
+        let s = id.typical_scale();
+        assert!(
+            (analytic - fd).norm() * s <= 1e-9 + 1e-6 * analytic.norm() * s,
+            "{name}: {} analytic {analytic:?} vs fd {fd:?}",
+            id.name()
+        );
     }
 }
 

@@ -3,15 +3,17 @@
 //! on both fixtures (with `link-bending` on the same links, so shift and tilt compose), and the
 //! cell file's round trip.
 
-use nalgebra::{Rotation3, Unit, Vector3};
+use nalgebra::{Rotation3, Unit};
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use vatcal_core::cell::CellFile;
 use vatcal_core::effects::link_bending;
 use vatcal_core::effects::link_out_of_plane::{self, Component, TERMS};
 use vatcal_core::params::Axis;
-use vatcal_core::{JointVector, MeasurementContext, ParamId};
+use vatcal_core::{JointVector, ParamId};
 use vatcal_kinematics::Model;
+
+use crate::link_bending::assert_columns_match_central_differences;
 
 fn fixture(name: &str) -> Model {
     let cell =
@@ -102,31 +104,9 @@ fn link_out_of_plane_columns_match_central_differences_on_any_chain() {
             }
         }
         params.push(ParamId::Alpha(3));
-        let ctx = MeasurementContext::default();
         for _ in 0..4 {
             let q = random_q(&nominal, &mut rng);
-            let tcp = nominal.tcp_ids()[0];
-            let mut out = vec![0.0; 3 * params.len()];
-            model.jacobian_into(&q, &ctx, tcp, &params, &mut out).expect("jacobian");
-            let loads = model.gravity_loads(&q);
-            let t = model.tcp(tcp).expect("tcp");
-            for (c, id) in params.iter().enumerate() {
-                let h = id.typical_scale() * 1e-3;
-                let v0 = model.param(*id).expect("param");
-                let at = |v: f64| {
-                    let mut m = model.clone();
-                    m.set_param(*id, v).expect("set");
-                    m.chain_with_loads(&q, &ctx, &loads).tool_point(&t)
-                };
-                let fd = (at(v0 + h) - at(v0 - h)) / (2.0 * h);
-                let analytic = Vector3::new(out[3 * c], out[3 * c + 1], out[3 * c + 2]);
-                let s = id.typical_scale();
-                assert!(
-                    (analytic - fd).norm() * s <= 1e-9 + 1e-6 * analytic.norm() * s,
-                    "{name}: {} analytic {analytic:?} vs fd {fd:?}",
-                    id.name()
-                );
-            }
+            assert_columns_match_central_differences(&model, &params, &q, name);
         }
     }
 }
