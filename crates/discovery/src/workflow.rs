@@ -396,7 +396,9 @@ pub struct Round {
     pub fit: FitSummary,
     /// residuals against every driving variable, most significant first
     pub location: Vec<DriverSummary>,
-    /// screening threshold `ln(alpha·s_r/m)`
+    /// screening threshold `ln(alpha·s_r/m)` of a candidate of weight 1; each candidate's own
+    /// threshold adds the ln of its weight (physical effects and generic fallbacks share the
+    /// level 0.8 : 0.2, [`GENERIC_SCREENING_SHARE`])
     pub ln_threshold: f64,
     /// without a noise reference: σ̂ per axis of the saturated linear model (the current
     /// parameters plus every scored candidate's, on all data) \[mm\], an upper bound of the
@@ -581,6 +583,42 @@ struct Candidate {
     status: CandidateStatus,
     refit: Option<(RefitEvidence, Fit, CrossValidation)>,
     detect: Option<Detectability>,
+    /// ln of the candidate's weight in the round's screening (weighted Bonferroni,
+    /// [`screening_weights`]): its p-value is compared with `weight · alpha_r / m`
+    ln_weight: f64,
+}
+
+impl Candidate {
+    /// The screening's ln p-value divided by the candidate's weight (compared with the
+    /// round's unweighted threshold).
+    fn weighted_ln_p(&self) -> Option<f64> {
+        self.score.map(|s| s.ln_p_value - self.ln_weight)
+    }
+}
+
+/// Share of a round's screening level spent on the catalog's **generic** effects
+/// (`ErrorEffect::generic`, e.g. `link-out-of-plane`) when the round also scores physical
+/// ones: a weighted Bonferroni split (weights summing to the number of candidates), so that
+/// adding generic fallbacks to the catalog costs the physical effects' power little (their
+/// threshold is that of a catalog without the fallbacks, times 0.8).
+pub const GENERIC_SCREENING_SHARE: f64 = 0.2;
+
+/// ln weights of the scored candidates (module docs of [`GENERIC_SCREENING_SHARE`]).
+fn screening_weights(candidates: &mut [Candidate]) {
+    let generic = |c: &Candidate| c.spec.effect().is_some_and(|e| e.generic());
+    let scored = |c: &&mut Candidate| c.score.is_some();
+    let m = candidates.iter_mut().filter(scored).count() as f64;
+    let m_generic = candidates.iter_mut().filter(scored).filter(|c| generic(c)).count() as f64;
+    let m_physical = m - m_generic;
+    for c in candidates.iter_mut() {
+        c.ln_weight = if m_generic == 0.0 || m_physical == 0.0 {
+            0.0
+        } else if generic(c) {
+            (GENERIC_SCREENING_SHARE * m / m_generic).ln()
+        } else {
+            ((1.0 - GENERIC_SCREENING_SHARE) * m / m_physical).ln()
+        };
+    }
 }
 
 /// Held-out predictions of a cross-validation: one error per measurement (`None` = not
@@ -993,6 +1031,7 @@ fn score_candidates(
             status,
             refit: None,
             detect: None,
+            ln_weight: 0.0,
         });
     }
     // one Jacobian for the parameters of every live candidate
@@ -1420,10 +1459,10 @@ fn confirm_screened(
 ) {
     let mut chosen = Vec::new();
     for (i, c) in candidates.iter_mut().enumerate() {
-        let Some(score) = c.score else { continue };
+        let Some(ln_p) = c.weighted_ln_p() else { continue };
         // far from the floor: the best-scored candidates are confirmed whatever their screening
         // score (the held-out test still decides)
-        if score.ln_p_value.is_nan() || (score.ln_p_value >= th.ln_screen && !th.far_from_floor) {
+        if ln_p.is_nan() || (ln_p >= th.ln_screen && !th.far_from_floor) {
             continue;
         }
         if chosen.len() >= ctx.options.max_refits {
@@ -1654,11 +1693,10 @@ fn mark_borderline(
             continue;
         }
         let heldout = c.refit.as_ref().map(|(e, ..)| (e.heldout.z, e.z_required));
-        c.detect =
-            Some(
-                Detectability::new(d.dof, d.novelty, sigma, n_screen, ln_threshold, DEFAULT_POWER)
-                    .with_observed(score.statistic, heldout, total),
-            );
+        c.detect = Some(
+            Detectability::new(d.dof, d.novelty, sigma, n_screen, ln_threshold + c.ln_weight, DEFAULT_POWER)
+                .with_observed(score.statistic, heldout, total),
+        );
     }
 }
 
@@ -1682,7 +1720,7 @@ fn nothing_added(candidates: &[Candidate], ln_threshold: f64) -> String {
                 _ => format!(
                     "screening log10 p = {:.1} above the threshold {:.1}",
                     c.score.map_or(0.0, |s| s.ln_p_value) / std::f64::consts::LN_10,
-                    ln_threshold / std::f64::consts::LN_10
+                    (ln_threshold + c.ln_weight) / std::f64::consts::LN_10
                 ),
             };
             let power = c.detect.map(|d| format!("; {}", d.sentence())).unwrap_or_default();
@@ -2136,11 +2174,12 @@ pub fn discover(
             ),
             far_from_floor: gap_over_floor.is_some_and(|r| r > options.floor_gap_factor),
         };
-        let key = |c: &Candidate| c.score.map_or(f64::INFINITY, |s| s.ln_p_value);
+        screening_weights(&mut candidates);
+        let key = |c: &Candidate| c.weighted_ln_p().unwrap_or(f64::INFINITY);
         candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
         let any_screened = candidates
             .iter()
-            .any(|c| c.score.is_some_and(|s| th.far_from_floor || s.ln_p_value < th.ln_screen));
+            .any(|c| c.weighted_ln_p().is_some_and(|p| th.far_from_floor || p < th.ln_screen));
         let cached = confirm_cv.take();
         let held0 = if !any_screened {
             CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
@@ -2490,5 +2529,43 @@ mod tests {
         assert!(total < 1.0 && total > 0.9999, "{total}");
         assert!((1..50).all(|r| round_spending(r + 1) < round_spending(r)));
         assert!((round_spending(1) - 6.0 / std::f64::consts::PI.powi(2)).abs() < 1e-15);
+    }
+
+    fn candidate(spec: vatcal_core::effects::EffectSpec, scored: bool) -> super::Candidate {
+        super::Candidate {
+            spec,
+            new_params: Vec::new(),
+            directions: None,
+            score: scored.then_some(crate::linear::ScoreTest { statistic: 1.0, dof: 1, ln_p_value: -3.0 }),
+            status: super::CandidateStatus::NotSignificant,
+            refit: None,
+            detect: None,
+            ln_weight: f64::NAN,
+        }
+    }
+
+    /// Weighted Bonferroni: the weights of the scored candidates sum to their number, the
+    /// generic ones share `GENERIC_SCREENING_SHARE` of it, and a round with one class only
+    /// weighs every candidate 1.
+    #[test]
+    fn screening_weights_split_the_level_between_physical_and_generic_effects() {
+        use vatcal_core::effects::EffectSpec;
+        use vatcal_core::effects::link_out_of_plane::{Component, spec};
+        let mut cs = vec![
+            candidate(EffectSpec::JointScale { joint: 3 }, true),
+            candidate(EffectSpec::ToolFrame, true),
+            candidate(EffectSpec::JointBacklash { joint: 2 }, true),
+            candidate(spec(4, Component::Axial), true),
+            candidate(spec(5, Component::TiltX), false),
+        ];
+        super::screening_weights(&mut cs);
+        let w: Vec<f64> = cs.iter().filter(|c| c.score.is_some()).map(|c| c.ln_weight.exp()).collect();
+        assert!((w.iter().sum::<f64>() - 4.0).abs() < 1e-12, "{w:?}");
+        assert!((w[3] - super::GENERIC_SCREENING_SHARE * 4.0).abs() < 1e-12, "{w:?}");
+        assert!((w[0] - (1.0 - super::GENERIC_SCREENING_SHARE) * 4.0 / 3.0).abs() < 1e-12, "{w:?}");
+        let mut physical =
+            vec![candidate(EffectSpec::ToolFrame, true), candidate(EffectSpec::GuideScale, true)];
+        super::screening_weights(&mut physical);
+        assert!(physical.iter().all(|c| c.ln_weight == 0.0));
     }
 }

@@ -153,6 +153,9 @@ impl ErrorEffect for LinkOutOfPlane {
     fn name(&self) -> &'static str {
         "link-out-of-plane"
     }
+    fn generic(&self) -> bool {
+        true
+    }
     fn meaning(&self) -> &'static str {
         "the link frame moves along its joint axis or tilts out of the joint's plane as a smooth function of its own and the preceding joint's angle (bearing runout and wobble, configuration-dependent out-of-plane bending; the first Fourier terms in both angles)"
     }

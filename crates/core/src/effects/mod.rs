@@ -565,6 +565,13 @@ pub trait ErrorEffect: Sync + fmt::Debug {
     fn is_builtin(&self) -> bool {
         false
     }
+    /// True for a **generic** description (a basis of smooth functions, e.g.
+    /// `link-out-of-plane`) rather than a named physical mechanism: discovery tests the physical
+    /// effects first: a smaller share of each round's screening level goes to the generic ones
+    /// (`vatcal_discovery::workflow::GENERIC_SCREENING_SHARE`).
+    fn generic(&self) -> bool {
+        false
+    }
     /// True when a model holds at most one instance (a polynomial of some order): switching
     /// on another instance replaces it.
     fn single_instance(&self) -> bool {
