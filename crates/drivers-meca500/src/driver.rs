@@ -275,7 +275,10 @@ impl<T: Transport> Meca500<T> {
 
     /// Sends `SetCheckpoint(k)`, waits for `[3030][k]`, then polls `[2007]` until end-of-block.
     /// If the robot stops answering in time or answers garbage, the motion may still run:
-    /// `ClearMotion` is sent (without waiting) before the error is returned.
+    /// `ClearMotion` is sent (without waiting) before the error is returned. A motion still
+    /// running when `timeout` expires while the robot answers is not a fault and is not stopped
+    /// ([`Meca500Error::MotionNotFinished`]): a caller waiting in slices (to check a Ctrl-C flag
+    /// between them) waits again; one that gives up calls `stop`.
     pub fn wait_idle_within(&mut self, timeout: Duration) -> Result<(), Meca500Error> {
         let r = self.wait_idle_inner(timeout);
         self.stop_on_link_fault(&r);
@@ -283,7 +286,7 @@ impl<T: Transport> Meca500<T> {
     }
 
     fn wait_idle_inner(&mut self, timeout: Duration) -> Result<(), Meca500Error> {
-        let wait = Wait::new(timeout);
+        let mut wait = Wait::new(timeout);
         let k = self.take_checkpoint_id();
         self.send(&Command::SetCheckpoint(k))?;
         loop {
@@ -293,7 +296,25 @@ impl<T: Transport> Meca500<T> {
             if self.discarded.contains(&k) {
                 return Err(Meca500Error::CheckpointDiscarded(k));
             }
-            let reply = self.read_reply(&wait, "the end of the motion (checkpoint)")?;
+            let reply = match self.read_reply(&wait, "the end of the motion (checkpoint)") {
+                Ok(reply) => reply,
+                Err(e @ Meca500Error::Link(LinkError::Timeout { .. })) => {
+                    // no checkpoint in time: a robot that still answers is still moving (not
+                    // a link fault: it is not stopped here); one that does not is a link fault
+                    let alive = self.query_status(&Wait::new(self.config.io_timeout));
+                    match alive {
+                        Ok(status) if status.error => return Err(self.error_mode_error()),
+                        Ok(_) if self.reached.contains(&k) => {
+                            // reached while we asked: the end of block follows within ms
+                            wait = Wait::new(self.config.io_timeout);
+                            break;
+                        }
+                        Ok(_) => return Err(Meca500Error::MotionNotFinished { after: timeout }),
+                        Err(_) => return Err(e),
+                    }
+                }
+                Err(e) => return Err(e),
+            };
             if reply.is_error() {
                 let err = self.robot_error(&reply);
                 self.drain();
@@ -315,7 +336,8 @@ impl<T: Transport> Meca500<T> {
             next = (next * 2).min(self.config.status_poll_interval);
             match pause {
                 Some(p) => std::thread::sleep(p),
-                None => return Err(self.timeout_error(&wait, "the end of the motion (end of block)")),
+                // it answers every query: still moving, not a link fault
+                None => return Err(Meca500Error::MotionNotFinished { after: timeout }),
             }
         }
     }

@@ -35,6 +35,14 @@ pub enum Meca500Error {
     /// A caller passed an unusable value (NaN, infinite, non-positive speed).
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// The motion had not ended when the wait's timeout expired, and the robot still answers
+    /// (kind [`ErrorKind::Timeout`]): it is still moving. Not a link fault, so the driver does
+    /// not stop it; the caller decides (wait again, or `stop`).
+    #[error("the motion had not ended within {:.3} s (the robot answers: still moving)", after.as_secs_f64())]
+    MotionNotFinished {
+        /// the wait's timeout
+        after: std::time::Duration,
+    },
 }
 
 impl From<std::io::Error> for Meca500Error {
@@ -57,6 +65,7 @@ impl Meca500Error {
             }
             Meca500Error::CheckpointDiscarded(_) => ErrorKind::Cancelled,
             Meca500Error::InvalidArgument(_) => ErrorKind::OutOfRange,
+            Meca500Error::MotionNotFinished { .. } => ErrorKind::Timeout,
         }
     }
 

@@ -427,7 +427,9 @@ impl<T: Transport> ZaberAxis<T> {
     /// Polls until IDLE (or `timeout`), then checks the flags: a fault, `WL`, `WS` or `NI`
     /// fails with [`ZaberError::MotionFailed`] (the flags are cleared on the device).
     /// If the device stops answering in time or answers garbage, `stop` is sent (without
-    /// waiting) before the error is returned.
+    /// waiting) before the error is returned. An axis still BUSY at `timeout` that answers
+    /// every poll is not stopped ([`ZaberError::MotionNotFinished`]): a caller waiting in
+    /// slices waits again; one that gives up calls `stop`.
     pub fn wait_idle_within(&mut self, timeout: Duration) -> Result<(), ZaberError> {
         let r = self.wait_idle_until(&Wait::new(timeout));
         self.stop_on_link_fault(&r);
@@ -449,11 +451,8 @@ impl<T: Transport> ZaberAxis<T> {
                     std::thread::sleep(r.min(pause));
                     pause = (pause * 2).min(self.config.poll_interval);
                 }
-                None => {
-                    return Err(
-                        LinkError::Timeout { waiting_for: "IDLE".to_owned(), after: wait.timeout() }.into()
-                    );
-                }
+                // it answered every poll: still moving, not a link fault (not stopped here)
+                None => return Err(ZaberError::MotionNotFinished { after: wait.timeout() }),
             }
         }
     }

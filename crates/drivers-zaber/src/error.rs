@@ -56,6 +56,14 @@ pub enum ZaberError {
     /// A caller passed an unusable value.
     #[error("invalid argument: {0}")]
     InvalidArgument(String),
+    /// The axis was still BUSY when the wait's timeout expired and answers every poll (kind
+    /// [`ErrorKind::Timeout`]): still moving. Not a link fault, so the driver does not stop
+    /// it; the caller decides (wait again, or `stop`).
+    #[error("the motion had not ended within {:.3} s (the axis answers: still moving)", after.as_secs_f64())]
+    MotionNotFinished {
+        /// the wait's timeout
+        after: std::time::Duration,
+    },
 }
 
 impl From<std::io::Error> for ZaberError {
@@ -81,6 +89,7 @@ impl ZaberError {
             ZaberError::Busy => ErrorKind::Busy,
             ZaberError::OutOfRange { .. } | ZaberError::InvalidArgument(_) => ErrorKind::OutOfRange,
             ZaberError::Malformed(_) | ZaberError::Frame(_) | ZaberError::Protocol(_) => ErrorKind::Protocol,
+            ZaberError::MotionNotFinished { .. } => ErrorKind::Timeout,
         }
     }
 

@@ -66,7 +66,13 @@ fn sliced_wait(
         }
         let left = timeout.saturating_sub(start.elapsed());
         match wait(left.min(WAIT_SLICE)) {
+            // a slice ended with the motion still running: wait again
             Err(e) if e.is_timeout() && left > WAIT_SLICE => continue,
+            // the whole timeout: the drivers leave a still-moving device alone, stop it here
+            Err(e) if e.is_timeout() => {
+                let _ = stop();
+                return Err(e);
+            }
             other => return other,
         }
     }
@@ -220,14 +226,20 @@ mod tests {
     #[test]
     fn a_wait_that_outlasts_its_timeout_fails_with_the_device_timeout() {
         let flag = StopFlag::new();
+        let stops = Cell::new(0);
         let r = sliced_wait(
             &flag,
             "arm",
             Duration::from_millis(1),
             |t| Err(Error::timeout("arm", "idle", t)),
-            || Ok(()),
+            || {
+                stops.set(stops.get() + 1);
+                Ok(())
+            },
         );
         assert!(r.expect_err("timeout").is_timeout());
+        // the drivers leave a device that is still moving alone: the wrapper stops it once
+        assert_eq!(stops.get(), 1);
         let r = sliced_wait(&flag, "arm", Duration::from_secs(1), |_| Ok(()), || Ok(()));
         assert!(r.is_ok());
     }

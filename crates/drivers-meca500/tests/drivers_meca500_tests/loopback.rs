@@ -339,3 +339,33 @@ fn simulator_stops_when_dropped() {
     drop(sim);
     assert!(TcpStream::connect_timeout(&addr, Duration::from_millis(500)).is_err());
 }
+
+/// A move that lasts longer than one wait (a caller waiting in short slices, e.g. to check a
+/// Ctrl-C flag between them): each slice that ends before the motion reports a timeout
+/// (`MotionNotFinished`, kind `Timeout`) **without stopping the robot** — it still answers, so
+/// it is not a link fault — and the motion ends at its target. (Before, the first slice's
+/// timeout sent `ClearMotion`, which pauses the robot: every later slice timed out too.)
+#[test]
+fn a_motion_longer_than_a_wait_slice_is_not_stopped() {
+    // real time: a 20° move of joint 1 at 10 % speed takes more than a second
+    let sim = Meca500Sim::start(SimConfig::fast(1.0)).unwrap_or_else(|e| panic!("sim: {e}"));
+    let mut robot = ready(&sim);
+    let target = ArmJoints::new([20.0f64.to_radians(), 0.0, 0.0, 0.0, 0.0, 0.0]);
+    ok(robot.move_joints(&target, &MotionOptions { speed_fraction: 0.1, timeout: TIMEOUT }));
+    let start = Instant::now();
+    let mut timeouts = 0;
+    loop {
+        match robot.wait_idle(Duration::from_millis(100)) {
+            Ok(()) => break,
+            Err(e) if e.kind() == ErrorKind::Timeout => {
+                assert!(e.to_string().contains("still moving"), "{e}");
+                timeouts += 1;
+            }
+            Err(e) => panic!("slice {timeouts}: {e}"),
+        }
+        assert!(start.elapsed() < Duration::from_secs(20), "the motion never ended");
+    }
+    assert!(timeouts >= 2, "the move should outlast a few slices ({timeouts} timeouts)");
+    let q = ok(robot.joints());
+    assert!((q.values()[0] - target.values()[0]).abs() < 1e-3, "joint 1 at {} rad", q.values()[0]);
+}

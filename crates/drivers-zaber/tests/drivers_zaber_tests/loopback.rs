@@ -131,6 +131,11 @@ fn busy_stop_and_bounded_waits() {
     let t0 = Instant::now();
     assert_eq!(err_kind(guide.wait_idle(Duration::from_millis(100))), ErrorKind::Timeout);
     assert!(t0.elapsed() < Duration::from_secs(2));
+    // a wait that times out while the axis answers leaves it moving (a caller waiting in
+    // slices waits again): it is still on its way, not stopped
+    let moving = ok(guide.position_mm());
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(ok(guide.position_mm()) > moving, "the axis stopped after a timed-out wait");
     ok(guide.stop());
     let p = ok(guide.position_mm());
     assert!(p > 0.0 && p < 300.0, "{p}");
