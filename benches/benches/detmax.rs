@@ -33,10 +33,21 @@ fn one_restart(seed: u64) -> DetmaxOptions {
     DetmaxOptions { restarts: 1, seed, excursions: None, ..DetmaxOptions::new(40) }
 }
 
+/// Whether this is a measurement (`cargo bench` passes `--bench`) rather than `cargo test
+/// --benches`, which runs every benchmark once to check that it runs.
+fn measuring() -> bool {
+    std::env::args().any(|a| a == "--bench")
+}
+
 fn bench_detmax(c: &mut Criterion) {
     let model = canonical();
     let small = candidates(&model, 3_300, 1);
     let large = candidates(&model, 35_000, 2);
+    // the naive reference's single run under `cargo test` (dev profile) took 24 s on 3,300
+    // candidates; the test run only checks that it runs, so there it gets the first 330 poses
+    // of the same seed (the measurement keeps the 3,300 of the speed-up ratio)
+    let naive_pool = if measuring() { None } else { Some(candidates(&model, 330, 1)) };
+    let naive_pool = naive_pool.as_ref().unwrap_or(&small);
 
     let mut group = c.benchmark_group("detmax");
     group.sample_size(20);
@@ -50,7 +61,7 @@ fn bench_detmax(c: &mut Criterion) {
     group.sample_size(10);
     group.measurement_time(Duration::from_secs(60));
     group.bench_function("naive_40_of_3300_one_restart", |b| {
-        b.iter(|| naive_detmax(black_box(&small), &one_restart(7)).expect("naive"))
+        b.iter(|| naive_detmax(black_box(naive_pool), &one_restart(7)).expect("naive"))
     });
     group.finish();
 }

@@ -23,7 +23,8 @@ pub trait Transport: Send {
     /// Writes all bytes.
     fn send(&mut self, bytes: &[u8]) -> io::Result<()>;
 
-    /// Reads whatever is available into `buf`, waiting at most `timeout`.
+    /// Reads whatever is available into `buf`, waiting at most `timeout`; a zero `timeout`
+    /// asks only for what has already arrived (drivers drain stale input this way).
     ///
     /// Returns `Ok(n > 0)` for data, `Ok(0)` when the peer closed the stream, and an error of
     /// kind [`io::ErrorKind::TimedOut`] or [`io::ErrorKind::WouldBlock`] when nothing arrived in
@@ -38,6 +39,14 @@ impl Transport for TcpStream {
     }
 
     fn recv(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
+        if timeout.is_zero() {
+            // what has already arrived, without waiting: a socket read timeout is rounded up to
+            // the kernel's timer tick (4-10 ms), which a drain before every request paid in full
+            self.set_nonblocking(true)?;
+            let read = self.read(buf);
+            self.set_nonblocking(false)?;
+            return read;
+        }
         self.set_read_timeout(Some(timeout.max(MIN_READ_TIMEOUT)))?;
         self.read(buf)
     }
@@ -529,6 +538,29 @@ mod tests {
                 Err(e) => out.push(Err(e)),
             }
         }
+    }
+
+    #[test]
+    fn a_zero_timeout_on_tcp_reads_what_has_arrived_and_leaves_the_socket_blocking() {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+        let mut client =
+            connect_tcp(listener.local_addr().expect("addr"), Duration::from_secs(2)).expect("connect");
+        let (mut server, _) = listener.accept().expect("accept");
+        let mut buf = [0u8; 8];
+        let e = client.recv(&mut buf, Duration::ZERO).expect_err("nothing sent yet");
+        assert!(is_timeout(&e), "{e}");
+        server.write_all(b"abc").expect("send");
+        // one byte by a timed read: the rest has arrived by then
+        assert_eq!(client.recv(&mut buf[..1], Duration::from_secs(2)).expect("first byte"), 1);
+        assert_eq!(client.recv(&mut buf[1..], Duration::ZERO).expect("arrived bytes"), 2);
+        assert_eq!(&buf[..3], b"abc");
+        let e = client.recv(&mut buf, Duration::ZERO).expect_err("drained");
+        assert!(is_timeout(&e), "{e}");
+        // a timed read afterwards still waits for its timeout (the socket is blocking again)
+        let t0 = Instant::now();
+        let e = client.recv(&mut buf, Duration::from_millis(50)).expect_err("silence");
+        assert!(is_timeout(&e), "{e}");
+        assert!(t0.elapsed() >= Duration::from_millis(45), "returned after {:?}", t0.elapsed());
     }
 
     #[test]
