@@ -51,8 +51,6 @@ struct EffectState {
     tool: [f64; 4],
     /// relative length change of the revolute rows
     length: f64,
-    /// some link rotation is switched on
-    link_active: bool,
     /// rotation of link frame i about its x and y axes, `link_rot[i - 1]` \[rad\]
     link_rot: [[f64; 2]; MAX_JOINTS],
     /// translation of link frame i along its x, y and z axes, `link_shift[i - 1]` \[mm\]
@@ -420,7 +418,6 @@ impl Model {
                     Hook::LengthScale => st.length += v,
                     Hook::LinkShift { joint, axis } => {
                         if let Some(t) = st.link_shift.get_mut((joint as usize).wrapping_sub(1)) {
-                            st.link_active = true;
                             t[axis.index()] += v;
                         }
                     }
@@ -428,7 +425,6 @@ impl Model {
                         if let (Some(r), Axis::X | Axis::Y) =
                             (st.link_rot.get_mut((joint as usize).wrapping_sub(1)), axis)
                         {
-                            st.link_active = true;
                             r[axis.index()] += v;
                         }
                     }
@@ -474,7 +470,7 @@ impl Model {
     }
 
     #[track_caller]
-    fn chain_inner(
+    pub(crate) fn chain_inner(
         &self,
         q: &JointVector,
         ctx: &MeasurementContext,
@@ -544,7 +540,7 @@ impl Model {
                 guide = Some(ax);
                 w = w.compose(&ins);
             }
-            if st.link_active && (st.link_rot[k] != [0.0; 2] || st.link_shift[k] != [0.0; 3]) {
+            if st.link_rot[k] != [0.0; 2] || st.link_shift[k] != [0.0; 3] {
                 let [ex, ey] = st.link_rot[k];
                 let (ins, ax) = insert_transform(&w, st.link_shift[k], ex, ey, None);
                 link_axes[k] = Some(ax);

@@ -10,7 +10,7 @@
 //! value of that effect — exactly what a score test for adding the effect needs.
 
 use nalgebra::{Matrix3xX, Vector3};
-use vatcal_core::effects::{Hook, hook_of};
+use vatcal_core::effects::{ErrorEffect, Hook, hook_of};
 use vatcal_core::params::{Axis, BaseParam, EffectParam};
 use vatcal_core::{JointVector, Measurement, MeasurementContext, ParamId, Target};
 
@@ -111,25 +111,10 @@ impl Model {
             let owner = effect.owner(&e).ok_or_else(missing)?;
             effect.check(&owner, &self.chain_info(&[], &[])).map_err(|_| missing())?;
         }
-        let needs_moment = effect.needs_carriage_moment();
-        let moment = match chain.carriage_moment {
-            Some(m) => Some(m),
-            None if needs_moment => Some(self.carriage_moment(q)),
-            None => None,
-        };
-        let link_moments = match chain.link_moments {
-            Some(m) => Some(m),
-            None if effect.needs_link_moments() => Some(self.link_bending_moments(q)),
-            None => None,
-        };
-        // the torques the chain was evaluated with (held fixed, as for the compliances)
-        let torques = if chain.torques_evaluated || !effect.needs_torques() {
-            chain.torques
-        } else {
-            self.gravity_torques(q)
-        };
-        let (hook, coefficient) =
-            hook_of(e, &self.effect_inputs(q, ctx, moment, link_moments, &torques)).ok_or_else(missing)?;
+        // the gravity loads the chain was evaluated with (held fixed, as for the compliances;
+        // `jacobian_into` evaluates the ones the requested columns need, once per sample)
+        let inputs = self.effect_inputs(q, ctx, chain.carriage_moment, chain.link_moments, &chain.torques);
+        let (hook, coefficient) = hook_of(e, &inputs).ok_or_else(missing)?;
         Ok(self.hook_column(chain, p, hook).ok_or_else(missing)? * coefficient)
     }
 
@@ -202,8 +187,18 @@ impl Model {
         assert_eq!(out.len(), 3 * params.len(), "jacobian_into: out has the wrong length");
         let t = self.tcp_or_err(tcp)?;
         self.check_joint_count(q)?;
-        let needs_tau = params.iter().any(|p| matches!(p, ParamId::Compliance(_)));
-        let chain = self.chain_full(q, ctx, needs_tau, None);
+        // the gravity loads the columns need, once per sample (the chain evaluates the ones its
+        // switched-on effects need itself)
+        let needs = |f: fn(&dyn ErrorEffect) -> bool| {
+            params.iter().any(|p| matches!(p, ParamId::Effect(e) if e.kind().effect().is_some_and(f)))
+        };
+        let needs_tau =
+            params.iter().any(|p| matches!(p, ParamId::Compliance(_))) || needs(|e| e.needs_torques());
+        let moment = (needs(|e| e.needs_carriage_moment()) && !self.effects_need_moment)
+            .then(|| self.carriage_moment(q));
+        let link_moments = (needs(|e| e.needs_link_moments()) && !self.effects_need_link_moments)
+            .then(|| self.link_bending_moments(q));
+        let chain = self.chain_inner(q, ctx, needs_tau, None, moment, link_moments);
         let p = chain.tool_point(&t);
         for (j, id) in params.iter().enumerate() {
             let c = self.column(&chain, q, ctx, tcp, &p, *id)?;
