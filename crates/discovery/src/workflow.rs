@@ -606,9 +606,9 @@ pub const GENERIC_SCREENING_SHARE: f64 = 0.2;
 /// ln weights of the scored candidates (module docs of [`GENERIC_SCREENING_SHARE`]).
 fn screening_weights(candidates: &mut [Candidate]) {
     let generic = |c: &Candidate| c.spec.effect().is_some_and(|e| e.generic());
-    let scored = |c: &&mut Candidate| c.score.is_some();
-    let m = candidates.iter_mut().filter(scored).count() as f64;
-    let m_generic = candidates.iter_mut().filter(scored).filter(|c| generic(c)).count() as f64;
+    let scored = || candidates.iter().filter(|c| c.score.is_some());
+    let m = scored().count() as f64;
+    let m_generic = scored().filter(|c| generic(c)).count() as f64;
     let m_physical = m - m_generic;
     for c in candidates.iter_mut() {
         c.ln_weight = if m_generic == 0.0 || m_physical == 0.0 {
@@ -722,7 +722,6 @@ impl Context<'_> {
                     .collect()
             });
         for (id, change, name) in &named {
-            let (id, change) = (id, change);
             if let ParamId::Compliance(j) = id
                 && *change <= 0.0
             {
