@@ -573,10 +573,13 @@ pub fn discovery_analysis(
             last_joints = made.records.last().map(|r| r.state.joints).or(last_joints);
             // two ways to use the new rows: continue from the model before the loop, or search
             // again from the 34 parameters; both are scored by cross-validation on the same
-            // data (same folds), the lower gap is kept
-            let cont = discover(&first.model, &all, &first.params, None, &stage.discover)?;
-            let continued = crate::discovery_loop::continued_discovery(&first, cont);
-            let fresh = discover(calibrated, &all, base, None, &stage.discover)?;
+            // data (same folds), the lower gap is kept. Independent: side by side
+            let (cont, fresh) = rayon::join(
+                || discover(&first.model, &all, &first.params, None, &stage.discover),
+                || discover(calibrated, &all, base, None, &stage.discover),
+            );
+            let continued = crate::discovery_loop::continued_discovery(&first, cont?);
+            let fresh = fresh?;
             let choice = crate::discovery_loop::LoopChoice::of(&continued, &fresh);
             let second = if choice.kept_continued { continued } else { fresh };
             let mut report =
