@@ -4,7 +4,7 @@
 //! registered by one line in its `catalog.rs`): its names, parameters, bounds, candidates and
 //! its linear contributions to the kinematic [`Hook`]s. This crate applies the hooks in one
 //! place: `chain.rs` (forward kinematics: joint offsets before FK, guide-carriage and tool
-//! frame corrections, length scale, link rotations) and `jacobian.rs` (the hook's column times the
+//! frame corrections, length scale, link rotations and shifts) and `jacobian.rs` (the hook's column times the
 //! parameter's coefficient). A model without effects skips the effect layer entirely.
 //!
 //! Joint effects act on revolute joints i; guide effects act on the guide joint g, the first
@@ -28,6 +28,10 @@
 //! | `hayati-beta` | `beta_{i-1}` on row i | `beta_{i-1}` \[rad\] |
 //! | `joint-cyclic-half` | `theta_i += s sin(m q_i / 2) + c cos(m q_i / 2)`, m odd | `halfcyclic{i}_m{m}_sin`, `_cos` \[rad\] |
 //! | `link-bending` | after frame i: `Rx(k_x M_x) Ry(k_y M_y)`, `M` = gravity moment of everything distal to joint i about the origin of frame i (frame i's axes, undeflected geometry: [`Model::link_bending_moments`]) | `bend{i}_{x,y}` \[rad/(N·m)\] |
+//! | `link-out-of-plane` | after frame i: `T(0, 0, s(q)) Rx(e_x(q)) Ry(e_y(q))`, one component per instance, each `Σ_k c_k φ_k(q_{i-1}, q_i)` over the first Fourier terms of both angles and their products | `oop{i}_{axial,rx,ry}_{term}` \[mm, rad\] |
+//! | `joint-thermal-drift` | `theta_i += k_i (T - T_ref)` or `k_i t` | `thermal{i}_per_k` \[rad/K\], `thermal{i}_per_s` \[rad/s\] |
+//! | `joint-coupling` | `theta_i += g q_k`, k a neighbouring revolute joint | `coupling{i}_q{k}` |
+//! | `joint-stiffness-nonlinear` | `theta_i += c2_i tau_i \|tau_i\|` | `compliance_quadratic{i}` \[rad/(N·m)²\] |
 //!
 //! `u = (q_g - mid) / half_stroke` is the guide position normalised to [-1, 1] over its limits,
 //! and `P_o` the Legendre polynomials. Gravity torques are evaluated on the MDH geometry
