@@ -403,6 +403,11 @@ pub struct CellFile {
     /// catalog effects switched on in this model (optional)
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub effects: Vec<EffectEntry>,
+    /// the joint range the calibration was fitted on (optional; written by `vatcal identify`,
+    /// read by `vatcal validate` and `vatcal compensate` to warn about extrapolation), file
+    /// units
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub training_range: Option<crate::training_range::TrainingRange>,
     /// any other table, kept verbatim (e.g. provenance written by `vatcal identify`)
     #[serde(flatten)]
     pub extra: toml::Table,
@@ -851,6 +856,9 @@ impl CellFile {
                 }
             }
         }
+        if let Some(range) = &self.training_range {
+            range.check(n).map_err(|(field, reason)| bad(field, reason))?;
+        }
         Ok(())
     }
 }
@@ -972,6 +980,30 @@ mod tests {
         let back = CellFile::from_toml_str(&cell.to_toml_string().expect("s"), "y").expect("reload");
         assert_eq!(back.extra, cell.extra);
         assert!(back.obstacles.expect("o").extra.contains_key("extra_box"));
+    }
+
+    /// The optional `[training_range]` (issue 29) round-trips; a file without it loads as
+    /// before; a wrong length or inverted values are refused naming the field and its line.
+    #[test]
+    fn training_range_is_optional_and_checked() {
+        let plain = CellFile::from_toml_str(&canonical_text(), "canonical").expect("valid");
+        assert!(plain.training_range.is_none());
+        assert!(!plain.to_toml_string().expect("s").contains("training_range"));
+        let table = "\n[training_range]\nrows = 40\nq_min = [10.0, -20.0, -30.0, -40.0, -50.0, -60.0, -70.0]\nq_max = [200.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0]\n";
+        let cell = CellFile::from_toml_str(&(canonical_text() + table), "x").expect("valid");
+        let range = cell.training_range.clone().expect("range");
+        assert_eq!((range.rows, range.q_min[0], range.q_max[6]), (40, 10.0, 70.0));
+        assert!(cell.extra.get("training_range").is_none());
+        let back = CellFile::from_toml_str(&cell.to_toml_string().expect("s"), "y").expect("reload");
+        assert_eq!(back, cell);
+        expect_invalid(&(canonical_text() + &table.replace("-70.0]", "]")), "training_range.q_min");
+        let inverted = canonical_text() + &table.replace("q_max = [200.0", "q_max = [5.0");
+        match CellFile::from_toml_str(&inverted, "t.toml") {
+            Err(e @ CellError::Invalid { line: Some(_), .. }) => {
+                assert!(e.to_string().contains("training_range.q_min"), "{e}")
+            }
+            other => panic!("expected an Invalid error with a line, got {other:?}"),
+        }
     }
 
     #[test]

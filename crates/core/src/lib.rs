@@ -18,7 +18,9 @@
 //!   kinematic hooks `vatcal-kinematics` applies);
 //! * [`measurement`] — probe / tracker measurements and their per-sample context;
 //! * [`canonical`] — everything specific to the canonical Meca500-on-guide cell (the dispatch
-//!   predicate, its default parameter set, its hints), in one place.
+//!   predicate, its default parameter set, its hints), in one place;
+//! * [`training_range`] — the joint range a calibration was fitted on (the optional
+//!   `[training_range]` of a calibrated cell file) and the check of new postures against it.
 //!
 //! Units: every public Rust API uses **mm, rad, N·m, rad/(N·m), kg**. Degrees appear only at the
 //! file and CLI boundary (the cell file, CSV files), and conversions happen here.
@@ -29,6 +31,7 @@ pub mod effects;
 pub mod frame;
 pub mod measurement;
 pub mod params;
+pub mod training_range;
 pub mod units;
 
 pub use cell::{CellError, CellFile};

@@ -110,6 +110,7 @@ impl ImportedChain {
             }),
             motion: None,
             effects: Vec::new(),
+            training_range: None,
             extra,
         }
     }
