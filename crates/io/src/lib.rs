@@ -31,7 +31,7 @@ use std::sync::Mutex;
 mod options;
 pub use options::{
     AngleUnit, DIR_DEADBAND_DEG, LengthUnit, LimitTolerance, ReadOptions, ReadOutcome, ReadWarning,
-    dirs_from_row_order,
+    RowSource, dirs_from_row_order,
 };
 
 use nalgebra::Vector3;
@@ -306,6 +306,8 @@ impl Table {
             // also words the error
             None => sequential_rows(&mut rdr, path)?,
         };
+        let mut rows = rows;
+        record_lines(&text, &mut rows);
         if rows.is_empty() {
             return Err(IoError::Empty { path: path.into() });
         }
@@ -734,6 +736,33 @@ fn sequential_rows(
     Ok(rows)
 }
 
+/// Moves every row's line to the line its record is on. The csv crate reports the line where
+/// its reader started reading the record, before the empty and comment lines it skipped, so a
+/// row after a blank line or a `#` line was named by the skipped line (one line early per
+/// skipped line): each row goes to the first line at or after the reported one that is neither
+/// empty nor a comment.
+fn record_lines(text: &[u8], rows: &mut [(u64, csv::StringRecord)]) {
+    let starts: Vec<usize> = std::iter::once(0)
+        .chain(text.iter().enumerate().filter(|(_, b)| **b == b'\n').map(|(i, _)| i + 1))
+        .collect();
+    let line_text = |line: u64| -> Option<&[u8]> {
+        let k = usize::try_from(line).ok()?.checked_sub(1)?;
+        let start = *starts.get(k)?;
+        let end = starts.get(k + 1).map_or(text.len(), |e| e - 1);
+        text.get(start..end)
+    };
+    for (line, _) in rows.iter_mut() {
+        while let Some(t) = line_text(*line) {
+            let t = t.strip_suffix(b"\r").unwrap_or(t);
+            if t.is_empty() || t.starts_with(b"#") {
+                *line += 1;
+            } else {
+                break;
+            }
+        }
+    }
+}
+
 /// Bytes of CSV text per task of [`parallel_rows`] (fixed, so the work split does not depend
 /// on the number of threads; the result never does).
 const PARSE_CHUNK: usize = 1 << 17;
@@ -1043,7 +1072,8 @@ impl Table {
                 context_of(row).dir = Some(dir);
             }
         }
-        Ok(ReadOutcome { rows, warnings: self.take_warnings() })
+        let lines = self.rows.iter().map(|(line, _)| *line).collect();
+        Ok(ReadOutcome { rows, warnings: self.take_warnings(), lines, path: self.path.clone() })
     }
 }
 
@@ -1941,6 +1971,27 @@ mod tests {
             ..ReadOptions::default()
         };
         assert_eq!(read_probe_measurements_with(f.path(), &m, &wide).expect("2 deg").warnings.len(), 1);
+    }
+
+    /// Issue 29: every row read with options carries its line (comments and blank lines
+    /// skipped), so a later step can name it `file:line`.
+    #[test]
+    fn rows_read_with_options_know_their_lines() {
+        let m = model();
+        let f = file(
+            "# vatcal-noise: probe_sigma_mm=0.002\nposition,tcp,q1,q2,q3,q4,q5,q6,q7,x,y,z\n1,1,100,0,10,0,0,0,0,,,\n\n# a comment\n,1,120,0,12,0,0,0,0,1,2,3\n",
+        );
+        let read = read_measurements_with(f.path(), &m, &ReadOptions::default()).expect("read");
+        assert_eq!(read.lines, vec![3, 6]);
+        let sources = read.sources();
+        assert_eq!(sources.len(), read.rows.len());
+        assert_eq!(sources[1].to_string(), format!("{}:6", f.path().display()));
+        // an error on a row after blank and comment lines names the row's own line
+        let f = file(
+            "position,tcp,q1,q2,q3,q4,q5,q6,q7\n1,1,100,0,10,0,0,0,0\n\n# c\n# d\n1,1,100,0,x,0,0,0,0\n",
+        );
+        let e = read_probe_measurements(f.path(), &m).expect_err("bad q3").to_string();
+        assert!(e.contains(":6: column `q3`"), "{e}");
     }
 
     /// Item 6: metres and radians are read as mm and radians; a file that does not look like

@@ -215,6 +215,33 @@ pub struct ReadOutcome<T> {
     pub rows: Vec<T>,
     /// warnings, in line order
     pub warnings: Vec<ReadWarning>,
+    /// the 1-based line of every row of `rows` in the file (same order and length), so that a
+    /// later step can name a row as `file:line` ([`ReadOutcome::sources`])
+    pub lines: Vec<u64>,
+    /// the file that was read
+    pub path: PathBuf,
+}
+
+/// Where a row came from: file and 1-based line. Displays as `file:line`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RowSource {
+    /// the file
+    pub path: PathBuf,
+    /// 1-based line
+    pub line: u64,
+}
+
+impl fmt::Display for RowSource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.path.display(), self.line)
+    }
+}
+
+impl<T> ReadOutcome<T> {
+    /// The source (`file:line`) of every row, in the order of `rows`.
+    pub fn sources(&self) -> Vec<RowSource> {
+        self.lines.iter().map(|line| RowSource { path: self.path.clone(), line: *line }).collect()
+    }
 }
 
 /// The approach directions of a sequence of joint vectors recorded in this order (internal
