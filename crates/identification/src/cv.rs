@@ -1,98 +1,112 @@
 //! Calibration of any chain from its nominal model: initialisation, the parameter set (named,
-//! or chosen by cross-validation), the fit.
+//! or the default MAP fit), the fit.
 //!
-//! # Choosing the model size ([`cross_validate_sets`])
-//! A bigger parameter set always fits the training rows better; whether it predicts postures
-//! the fit did not see is what matters. The rows are grouped by posture (rows with the same
-//! joint vector are one group: repeated readings of one posture must not be split between
-//! training and test), the groups are dealt into K folds after a seeded shuffle, and every
-//! candidate set ([`GenericSet`]: registration ⊂ joint-offsets ⊂ kinematic ⊂
-//! kinematic+compliance) is fitted K times on K − 1 folds and scored on the held-out fold
-//! (mean squared residual of the held-out rows, weighted by kind as in the fit). The score is
-//! the mean over the folds, with its standard error `sd / √K`.
+//! # The default on other chains: the richest set, realistic priors, the scale by CV
+//! With few postures, cross-validation cannot rank nested parameter sets (issue 29: eleven
+//! candidates within 3 % of each other, rank correlation 0.11 with the held-out error), and
+//! "within one standard error, take the smallest" then picks the model that extrapolates worst:
+//! every real robot has kinematic errors. The default is therefore a **MAP fit of the richest
+//! physically meaningful set** ([`GenericSet::KinematicCompliance`], reduced to its identifiable
+//! basis: the measured frames, TCPs and unknown points, every MDH value and Hayati tilt, the
+//! compliances) with Gaussian priors of realistic width per kind of parameter
+//! ([`PriorWidths::realistic`]: 10 mrad joint zeros, 1 mm lengths, 3 mrad twists and tilts, 2 mrad
+//! of gravity deflection; the frames free). What cross-validation chooses is only the **prior
+//! scale**, on a wide grid ([`CvOptions::prior_scales`], ×0.1 … ×30), by the **lowest** score.
 //!
-//! **The 1-SE rule** (Breiman et al. 1984; Hastie, Tibshirani & Friedman, *Elements of
-//! Statistical Learning* §7.10): the smallest set whose CV error is within one standard error of
-//! the best one wins. Differences inside one standard error are not resolved by the data; the
-//! smaller model is then preferred because its parameters are better determined and it
-//! extrapolates more safely (a larger set that merely interpolates the training range better is
-//! exactly the failure mode of issue 20: 39 parameters from 111 equations). A candidate whose fit
-//! on all rows fails (rank deficiency cannot happen — the sets are reduced to their identifiable
-//! basis — but ill-conditioning or non-convergence can) is rejected with the reason.
+//! The score: rows are grouped by posture (rows with the same joint vector are one group:
+//! repeated readings of one posture must not be split between training and test), the groups are
+//! dealt into K folds after a seeded shuffle, repeated R times with other seeds (repeated K-fold;
+//! with K ≥ the number of postures, leave-one-posture-out, once). Every candidate is fitted on
+//! K − 1 folds and scored on the held-out fold (mean squared residual of the held-out rows,
+//! weighted by kind as in the fit); the score is the mean over the R·K folds, with its standard
+//! error. The fits inside the CV get an iteration cap that grows with the problem
+//! ([`cv_iteration_cap`]); a fold fit that still reaches it is scored at its last iterate (and
+//! counted), never rejected.
+//!
+//! [`CvOptions::candidates`] can still list the nested sets (registration ⊂ joint-offsets ⊂
+//! kinematic ⊂ kinematic+compliance) and [`CvOptions::unregularised`] add fits without priors:
+//! the lowest score wins among all of them.
 
 use vatcal_core::{Measurement, ParamSet};
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet, generic_set, resolve_spec};
 
+use crate::priors::{PriorSpec, PriorWidths};
 use crate::{
     Identification, IdentifyError, IdentifyOptions, InitOptions, Initialisation, identify, initialise,
 };
 
+/// The smallest iteration cap of a fit on the cross-validated (default) path.
+pub const CV_MIN_ITERATIONS: usize = 200;
+
+/// The iteration cap of a fit of `n_params` parameters on the default path: `max(cap, 200,
+/// 5 L)`. Ill-conditioned fits (tens of parameters seen through one marker) crawl along the
+/// weak directions; a fixed cap of 50 rejected whole candidates on real data.
+pub fn cv_iteration_cap(cap: usize, n_params: usize) -> usize {
+    cap.max(CV_MIN_ITERATIONS).max(5 * n_params)
+}
+
 /// Options of [`cross_validate_sets`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct CvOptions {
-    /// number of folds K (at least 2; fewer posture groups than K → one group per fold)
+    /// number of folds K (at least 2; K ≥ the number of posture groups: leave-one-posture-out)
     pub folds: usize,
-    /// seed of the shuffle that deals the posture groups into folds
+    /// repetitions of the K-fold split, each with its own shuffle (seeds `seed`, `seed + 1`,
+    /// …); 1 with leave-one-posture-out. Default 3
+    pub repeats: usize,
+    /// seed of the first shuffle that deals the posture groups into folds
     pub seed: u64,
-    /// the candidate sets, smallest first
+    /// the candidate sets (default: the richest, `kinematic+compliance`)
     pub candidates: Vec<GenericSet>,
-    /// optional regularisation toward the starting (nominal) values: every parameter of the
-    /// robot (MDH values, compliances) gets a Gaussian prior of standard deviation
-    /// `prior_scale × ParamId::typical_scale` (0.1 mm, 0.001 rad, 1e-4 rad/(N·m) at 1); the
-    /// base pose, TCP and fixed-point coordinates stay free. The prior rows are weighed against
-    /// the data's own σ̂ (`IdentifyOptions::prior_sigma_from_fit`). `None` (default): the
-    /// scale is chosen by cross-validation among no priors and [`CvOptions::prior_scales`]
+    /// the prior widths at ×1 (default [`PriorWidths::realistic`]); a kind with an infinite
+    /// width is free
+    pub widths: PriorWidths,
+    /// a fixed prior scale (multiplies every width); `None` (default): chosen by
+    /// cross-validation among [`CvOptions::prior_scales`]
     pub prior_scale: Option<f64>,
-    /// the prior scales cross-validated with every candidate set that has parameters of the
-    /// robot, besides no priors, when `prior_scale` is `None` (default 10, 3, 1: plausible
-    /// spreads of 1 mm / 0.01 rad down to 0.1 mm / 0.001 rad); empty: no priors
+    /// the prior scales cross-validated when `prior_scale` is `None` (default 0.1, 0.3, 1, 3,
+    /// 10, 30: 0.1 mm / 1 mrad joint zeros … 30 mm / 0.3 rad)
     pub prior_scales: Vec<f64>,
+    /// also score every candidate without priors (default false: only sets whose parameters
+    /// are all identifiable can be fitted without, and they extrapolate badly from few postures)
+    pub unregularised: bool,
 }
 
 impl Default for CvOptions {
     fn default() -> Self {
         Self {
             folds: 5,
+            repeats: 3,
             seed: 1,
-            candidates: GenericSet::ALL.to_vec(),
+            candidates: vec![GenericSet::KinematicCompliance],
+            widths: PriorWidths::realistic(),
             prior_scale: None,
-            prior_scales: vec![10.0, 3.0, 1.0],
+            prior_scales: vec![0.1, 0.3, 1.0, 3.0, 10.0, 30.0],
+            unregularised: false,
         }
     }
 }
 
 impl CvOptions {
-    /// The options of a candidate's fits: `options` with the priors of
-    /// [`CvOptions::prior_scale`] and without the condition-number cap — on the
-    /// cross-validated path the prediction error on held-out postures is the judge, and a
-    /// combination the data barely see shows there (or, with priors, stays at its nominal
-    /// value).
-    pub fn fit_options(&self, params: &ParamSet, options: &IdentifyOptions) -> IdentifyOptions {
-        Self::fit_options_with(self.prior_scale, params, options)
-    }
-
-    /// [`CvOptions::fit_options`] with the prior scale `prior_scale` (`None`: no priors).
-    pub fn fit_options_with(
+    /// The options of a candidate's fits with the prior scale `prior_scale` (`None`: no
+    /// priors): `options` with the priors of [`CvOptions::widths`] × the scale (weighed against
+    /// the data's own σ̂: `prior_sigma_from_fit`), the iteration cap of [`cv_iteration_cap`]
+    /// and without the condition-number cap — on this path the prediction error on held-out
+    /// postures is the judge, and a combination the data barely see stays at its nominal value.
+    pub fn fit_options(
+        &self,
         prior_scale: Option<f64>,
+        model: &Model,
+        measurements: &[Measurement],
         params: &ParamSet,
         options: &IdentifyOptions,
     ) -> IdentifyOptions {
-        let priors = prior_scale.map(|k| {
-            params
-                .iter()
-                .map(|p| match p {
-                    vatcal_core::ParamId::Base(_)
-                    | vatcal_core::ParamId::Tcp { .. }
-                    | vatcal_core::ParamId::Position { .. } => f64::INFINITY,
-                    _ => k * p.typical_scale(),
-                })
-                .collect()
-        });
+        let priors = prior_scale.map(|k| PriorSpec::new(self.widths, k).sigmas(model, measurements, params));
         IdentifyOptions {
             priors,
             prior_sigma_from_fit: true,
             max_condition_number: f64::INFINITY,
+            max_iterations: cv_iteration_cap(options.max_iterations, params.len()),
             ..options.clone()
         }
     }
@@ -120,12 +134,17 @@ pub struct CandidateScore {
     /// RMS of the held-out residual norms, `√(mean over folds of the fold's mean squared
     /// residual)` \[mm\] (`NaN` when rejected)
     pub cv_rms_mm: f64,
-    /// standard error of the fold mean squared residuals, `sd / √K` \[mm²\]
+    /// standard error of the fold mean squared residuals, `sd / √(R·K)` \[mm²\]
     pub cv_se_mm2: f64,
-    /// mean over folds of the fold's mean squared residual \[mm²\]
+    /// mean over the R·K folds of the fold's mean squared residual \[mm²\]
     pub cv_mse_mm2: f64,
-    /// RMS of the held-out residual norms of every fold \[mm\]
+    /// RMS of the held-out residual norms of every fold \[mm\] (repeat by repeat)
     pub fold_rms_mm: Vec<f64>,
+    /// fold fits that reached the iteration cap and were scored at their last iterate
+    pub capped_fits: usize,
+    /// the prior standard deviation of every parameter (internal units, same order as
+    /// `params`; empty without priors)
+    pub prior_sigmas: Vec<f64>,
     /// RMS of the residual norms of the fit on all rows \[mm\]
     pub train_rms_mm: f64,
     /// condition number of the fit on all rows
@@ -141,10 +160,12 @@ pub struct CvSelection {
     pub candidates: Vec<CandidateScore>,
     /// index of the chosen candidate
     pub chosen: usize,
-    /// one sentence: why it won (the 1-SE rule with the numbers)
+    /// one sentence: why it won (the lowest score, with the numbers)
     pub reason: String,
     /// folds used
     pub folds: usize,
+    /// repetitions of the K-fold split
+    pub repeats: usize,
     /// posture groups dealt into the folds
     pub groups: usize,
     /// the seed of the shuffle
@@ -228,15 +249,16 @@ fn mean_squared(
     Ok(sum / rows.len().max(1) as f64)
 }
 
-/// Scores every candidate set by K-fold cross-validation over posture groups and picks one by
-/// the 1-SE rule (module docs). `start` should already be initialised ([`initialise`]): each
-/// fit starts from it. `options` are those of the final fit; inside the folds the condition
-/// cap is not applied (a fold's prediction error is the judge).
+/// Scores every candidate (set × prior scale) by repeated K-fold cross-validation over
+/// posture groups and picks the lowest score (module docs). `start` should already be
+/// initialised ([`initialise`]): each fit starts from it, and the priors are centred on it.
+/// `options` are those of the final fit; inside the folds the condition cap is not applied and
+/// the iteration cap grows with the problem.
 ///
 /// # Errors
 /// [`IdentifyError::NoMeasurements`]; the errors of the identifiability analysis; an
 /// [`IdentifyError::InvalidOptions`] when every candidate is rejected (the message lists the
-/// reasons).
+/// reasons) or a prior scale is not a positive number.
 pub fn cross_validate_sets(
     start: &Model,
     measurements: &[Measurement],
@@ -247,9 +269,16 @@ pub fn cross_validate_sets(
     if measurements.is_empty() {
         return Err(IdentifyError::NoMeasurements);
     }
-    let (fold_of, k) = posture_folds(measurements, cv.folds, cv.seed);
+    if let Some(k) = cv.prior_scale.iter().chain(&cv.prior_scales).find(|k| !(k.is_finite() && **k > 0.0)) {
+        return Err(IdentifyError::InvalidOptions(format!("prior scale must be a positive number, got {k}")));
+    }
     let groups = posture_groups(measurements).len();
-    let mut candidates = Vec::new();
+    let (_, k) = posture_folds(measurements, cv.folds, cv.seed);
+    let repeats = if k >= groups { 1 } else { cv.repeats.max(1) };
+    let splits: Vec<Vec<usize>> = (0..repeats as u64)
+        .map(|r| posture_folds(measurements, cv.folds, cv.seed.wrapping_add(r)).0)
+        .collect();
+    let mut jobs = Vec::new();
     for set in &cv.candidates {
         let (params, unusable) = match generic_set(start, measurements, *set, design) {
             Ok(p) => (p, None),
@@ -266,103 +295,112 @@ pub fn cross_validate_sets(
                     | vatcal_core::ParamId::Position { .. }
             )
         });
-        // simplest first: the strongest priors, then weaker, then none
+        // strongest priors first, then weaker, then (when asked) none
         let scales: Vec<Option<f64>> = match cv.prior_scale {
             Some(k) => vec![Some(k)],
             None if robot_params && unusable.is_none() => {
                 let mut v: Vec<f64> = cv.prior_scales.clone();
                 v.sort_by(f64::total_cmp);
-                v.into_iter().map(Some).chain([None]).collect()
+                v.dedup();
+                let none = (cv.unregularised || v.is_empty()).then_some(None);
+                v.into_iter().map(Some).chain(none).collect()
             }
             None => vec![None],
         };
         for scale in scales {
-            candidates.push(score_candidate(
-                start,
-                measurements,
-                options,
-                *set,
-                &params,
-                scale,
-                unusable.clone(),
-                &fold_of,
-                k,
-            )?);
+            jobs.push((*set, params.clone(), scale, unusable.clone()));
         }
     }
-    choose(candidates, k, groups, cv.seed)
+    let candidates = jobs
+        .into_iter()
+        .map(|(set, params, scale, unusable)| {
+            score_candidate(start, measurements, options, cv, set, &params, scale, unusable, &splits, k)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    choose(candidates, k, repeats, groups, cv.seed)
 }
 
-/// Fits one candidate on all rows and on every fold.
+/// Fits one candidate on all rows and on every fold of every split.
 #[allow(clippy::too_many_arguments)]
 fn score_candidate(
     start: &Model,
     measurements: &[Measurement],
     options: &IdentifyOptions,
+    cv: &CvOptions,
     set: GenericSet,
     params: &ParamSet,
     prior_scale: Option<f64>,
     unusable: Option<String>,
-    fold_of: &[usize],
+    splits: &[Vec<usize>],
     k: usize,
 ) -> Result<CandidateScore, IdentifyError> {
-    {
-        let mut score = CandidateScore {
-            set,
-            prior_scale,
-            params: params.clone(),
-            cv_rms_mm: f64::NAN,
-            cv_se_mm2: f64::NAN,
-            cv_mse_mm2: f64::NAN,
-            fold_rms_mm: Vec::new(),
-            train_rms_mm: f64::NAN,
-            condition_number: f64::NAN,
-            rejected: unusable,
-        };
-        if score.rejected.is_some() {
+    let fit_options = cv.fit_options(prior_scale, start, measurements, params, options);
+    let mut score = CandidateScore {
+        set,
+        prior_scale,
+        params: params.clone(),
+        cv_rms_mm: f64::NAN,
+        cv_se_mm2: f64::NAN,
+        cv_mse_mm2: f64::NAN,
+        fold_rms_mm: Vec::new(),
+        train_rms_mm: f64::NAN,
+        condition_number: f64::NAN,
+        capped_fits: 0,
+        prior_sigmas: fit_options.priors.clone().unwrap_or_default(),
+        rejected: unusable,
+    };
+    if score.rejected.is_some() {
+        return Ok(score);
+    }
+    let fold_options = IdentifyOptions { accept_iteration_cap: true, ..fit_options.clone() };
+    match identify(start, measurements, params, &fold_options) {
+        Ok(fit) => {
+            score.train_rms_mm = fit.residual_stats.rms;
+            score.condition_number = fit.condition_number;
+        }
+        Err(e) => {
+            score.rejected = Some(format!("fit on all rows: {e}"));
             return Ok(score);
         }
-        let fit_options = CvOptions::fit_options_with(prior_scale, params, options);
-        match identify(start, measurements, params, &fit_options) {
-            Ok(fit) => {
-                score.train_rms_mm = fit.residual_stats.rms;
-                score.condition_number = fit.condition_number;
-            }
-            Err(e) => {
-                score.rejected = Some(format!("fit on all rows: {e}"));
-                return Ok(score);
-            }
-        }
-        let mut fold_mse = Vec::with_capacity(k);
+    }
+    let mut fold_mse = Vec::with_capacity(k * splits.len());
+    'splits: for fold_of in splits {
         for fold in 0..k {
             let train: Vec<Measurement> =
                 measurements.iter().zip(fold_of).filter(|(_, f)| **f != fold).map(|(m, _)| *m).collect();
             let test: Vec<usize> = (0..measurements.len()).filter(|i| fold_of[*i] == fold).collect();
-            match identify(start, &train, params, &fit_options) {
-                Ok(fit) => fold_mse.push(mean_squared(&fit.model, measurements, &test, options)?),
+            if test.is_empty() {
+                continue;
+            }
+            match identify(start, &train, params, &fold_options) {
+                Ok(fit) => {
+                    score.capped_fits += usize::from(!fit.converged);
+                    fold_mse.push(mean_squared(&fit.model, measurements, &test, options)?);
+                }
                 Err(e) => {
                     score.rejected = Some(format!("fold {}: {e}", fold + 1));
-                    break;
+                    break 'splits;
                 }
             }
         }
-        if score.rejected.is_none() {
-            let n = fold_mse.len() as f64;
-            let mean = fold_mse.iter().sum::<f64>() / n;
-            let var = fold_mse.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-            score.cv_mse_mm2 = mean;
-            score.cv_se_mm2 = (var / n).sqrt();
-            score.cv_rms_mm = mean.sqrt();
-            score.fold_rms_mm = fold_mse.iter().map(|v| v.sqrt()).collect();
-        }
-        Ok(score)
     }
+    if score.rejected.is_none() {
+        let n = fold_mse.len() as f64;
+        let mean = fold_mse.iter().sum::<f64>() / n;
+        let var = fold_mse.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+        score.cv_mse_mm2 = mean;
+        score.cv_se_mm2 = (var / n).sqrt();
+        score.cv_rms_mm = mean.sqrt();
+        score.fold_rms_mm = fold_mse.iter().map(|v| v.sqrt()).collect();
+    }
+    Ok(score)
 }
 
-/// The 1-SE choice among scored candidates (simplest first).
+/// The lowest cross-validated score among the scored candidates.
 fn choose(
     candidates: Vec<CandidateScore>,
     k: usize,
+    repeats: usize,
     groups: usize,
     seed: u64,
 ) -> Result<CvSelection, IdentifyError> {
@@ -379,26 +417,34 @@ fn choose(
             reasons.join("; ")
         )));
     };
-    let threshold = candidates[best].cv_mse_mm2 + candidates[best].cv_se_mm2;
-    let chosen = scored.iter().copied().find(|i| candidates[*i].cv_mse_mm2 <= threshold).unwrap_or(best);
-    let (b, c) = (&candidates[best], &candidates[chosen]);
-    let reason = if chosen == best {
-        format!(
-            "`{}` has the lowest cross-validated error ({:.4} mm RMS over {k} folds) and no simpler candidate is within one standard error of it",
-            c.label(),
-            c.cv_rms_mm
-        )
+    let c = &candidates[best];
+    let runner_up = scored
+        .iter()
+        .copied()
+        .filter(|i| *i != best)
+        .min_by(|a, b| candidates[*a].cv_mse_mm2.total_cmp(&candidates[*b].cv_mse_mm2));
+    let split = if k >= groups {
+        format!("leave-one-posture-out over {groups} postures")
     } else {
-        format!(
-            "`{}` ({:.4} mm RMS) is the simplest candidate within one standard error of the best, `{}` ({:.4} mm RMS, threshold {:.4} mm = √(MSE + SE)): the 1-SE rule prefers the simpler model",
-            c.label(),
-            c.cv_rms_mm,
-            b.label(),
-            b.cv_rms_mm,
-            threshold.sqrt()
-        )
+        format!("{repeats} × {k}-fold")
     };
-    Ok(CvSelection { candidates, chosen, reason, folds: k, groups, seed })
+    let mut reason =
+        format!("`{}` has the lowest cross-validated error ({:.4} mm RMS, {split})", c.label(), c.cv_rms_mm);
+    if let Some(r) = runner_up {
+        let r = &candidates[r];
+        let within = r.cv_mse_mm2 - c.cv_mse_mm2 <= c.cv_se_mm2;
+        reason.push_str(&format!(
+            "; next `{}` {:.4} mm{}",
+            r.label(),
+            r.cv_rms_mm,
+            if within {
+                " (within one standard error: the data barely separate them; the lowest score is kept, never the smallest model)"
+            } else {
+                ""
+            }
+        ));
+    }
+    Ok(CvSelection { candidates, chosen: best, reason, folds: k, repeats, groups, seed })
 }
 
 /// Everything [`calibrate`] did.
@@ -413,6 +459,12 @@ pub struct Calibration {
     pub selection: Option<CvSelection>,
     /// the final fit on all rows
     pub fit: Identification,
+    /// the prior standard deviation of every identified parameter (internal units, same order
+    /// as `params`; infinite: free); empty when the fit had no priors
+    pub prior_sigmas: Vec<f64>,
+    /// the directions the data excite less than the prior widths do (the fit's own priors, or
+    /// the realistic widths ×1 when it had none), weakest first
+    pub weak_directions: Vec<crate::WeakDirection>,
 }
 
 /// What a fit of external data starts from ([`prepare_calibration`]): the initialised start
@@ -461,12 +513,13 @@ pub fn prepare_calibration(
         && (trimmed == "default" || vatcal_core::canonical::is_canonical_only_set(trimmed));
     if canonical_fit {
         let params = resolve_spec(spec, nominal, measurements, design)?;
+        let fit_options = named_set_options(cv, nominal, measurements, &params, options);
         return Ok(CalibrationStart {
             init: None,
             start: nominal.clone(),
             params,
             selection: None,
-            fit_options: options,
+            fit_options,
         });
     }
     // the registration set does not need the distances (and unknown points may still coincide
@@ -478,12 +531,39 @@ pub fn prepare_calibration(
     let (params, selection, fit_options) = if trimmed == "default" {
         let sel = cross_validate_sets(&start, measurements, design, &options, cv)?;
         let params = sel.chosen().params.clone();
-        let fit_options = CvOptions::fit_options_with(sel.chosen().prior_scale, &params, &options);
+        let fit_options = IdentifyOptions {
+            accept_iteration_cap: true,
+            ..cv.fit_options(sel.chosen().prior_scale, &start, measurements, &params, &options)
+        };
         (params, Some(sel), fit_options)
     } else {
-        (resolve_spec(spec, &start, measurements, design)?, None, options)
+        let params = resolve_spec(spec, &start, measurements, design)?;
+        let fit_options = named_set_options(cv, &start, measurements, &params, options);
+        (params, None, fit_options)
     };
     Ok(CalibrationStart { init: Some(init), start, params, selection, fit_options })
+}
+
+/// The options of a named set's fit: `options` as given, or with the priors of `cv` when it
+/// fixes a prior scale ([`CvOptions::prior_scale`]: `--prior-scale`, `--prior`) and then the
+/// iteration cap of [`cv_iteration_cap`] (the first of the σ̂ re-weighting rounds weighs the
+/// priors by the a-priori σ and can crawl along the weak directions).
+fn named_set_options(
+    cv: &CvOptions,
+    start: &Model,
+    measurements: &[Measurement],
+    params: &ParamSet,
+    options: IdentifyOptions,
+) -> IdentifyOptions {
+    match cv.prior_scale {
+        Some(k) => IdentifyOptions {
+            priors: Some(PriorSpec::new(cv.widths, k).sigmas(start, measurements, params)),
+            prior_sigma_from_fit: true,
+            max_iterations: cv_iteration_cap(options.max_iterations, params.len()),
+            ..options
+        },
+        None => options,
+    }
 }
 
 /// Calibrates `nominal` from `measurements`: [`prepare_calibration`] (initialisation, the
@@ -502,5 +582,27 @@ pub fn calibrate(
 ) -> Result<Calibration, IdentifyError> {
     let prepared = prepare_calibration(nominal, measurements, spec, design, options, cv)?;
     let fit = identify(&prepared.start, measurements, &prepared.params, &prepared.fit_options)?;
-    Ok(Calibration { init: prepared.init, params: prepared.params, selection: prepared.selection, fit })
+    let prior_sigmas = prepared.fit_options.priors.clone().unwrap_or_default();
+    // weak directions against the fit's own priors, or the realistic widths when it had none
+    let reference = if prior_sigmas.is_empty() {
+        PriorSpec::new(cv.widths, 1.0).sigmas(&prepared.start, measurements, &prepared.params)
+    } else {
+        prior_sigmas.clone()
+    };
+    let weak_directions = crate::weak::weak_directions(
+        &fit.model,
+        measurements,
+        &fit.params,
+        &reference,
+        &prepared.fit_options.weights,
+        fit.sigma_hat_mm,
+    )?;
+    Ok(Calibration {
+        init: prepared.init,
+        params: prepared.params,
+        selection: prepared.selection,
+        fit,
+        prior_sigmas,
+        weak_directions,
+    })
 }

@@ -18,9 +18,14 @@
 //! * [`initialise`] — closed-form start for a nominal model whose world frame, measured TCP or
 //!   fixed points are unknown (Kabsch registration + linear least squares);
 //!   [`cross_validate_sets`] — the model size chosen by K-fold cross-validation over posture
-//!   groups (1-SE rule); [`calibrate`] — initialise, choose, fit in one call (what
+//!   groups (the default on other chains: a MAP fit of the richest set with realistic priors
+//!   [`PriorWidths`], the prior scale by the lowest CV score); [`weak_directions`] — the
+//!   combinations the data excite less than the priors; [`calibrate`] — initialise, choose, fit in one call (what
 //!   `vatcal identify` runs); [`prepare_calibration`] — the same without the final fit (the
 //!   start and the set `vatcal discover` begins from);
+//! * [`flag_outliers`], [`irls`], [`calibrate_robust`], [`calibrate_dropping_outliers`] — bad
+//!   rows: named beyond k robust σ̂, down-weighted (Huber / Cauchy IRLS through
+//!   [`IdentifyOptions::row_weights`]) or dropped and the calibration redone.
 //! * [`IdentificationReport`] — the JSON report (file units).
 //! * [`KindSigmas`] — σ of probe and tracker residuals estimated separately (inverse-variance
 //!   weights); [`CmmUncertainty`] — systematic CMM errors of the TCP and calibration-position
@@ -42,20 +47,23 @@ mod fixed_points;
 mod init;
 mod literal;
 mod options;
+mod priors;
 mod problem;
 mod report;
 mod result;
+mod robust;
 mod solver;
 mod uncertainty;
 mod validation;
+mod weak;
 
 use vatcal_core::{Measurement, ParamId, ParamSet, Target};
 use vatcal_kinematics::Model;
 use vatcal_observability::ObservabilityError;
 
 pub use cv::{
-    Calibration, CalibrationStart, CandidateScore, CvOptions, CvSelection, calibrate, cross_validate_sets,
-    posture_folds, prepare_calibration,
+    CV_MIN_ITERATIONS, Calibration, CalibrationStart, CandidateScore, CvOptions, CvSelection, calibrate,
+    cross_validate_sets, cv_iteration_cap, posture_folds, prepare_calibration,
 };
 pub use error::{FailureReport, IdentifyError};
 pub use error_stats::ErrorStats;
@@ -63,14 +71,22 @@ pub use fixed_points::{DistanceCheck, FixedPointEvaluation, FixedPointStats, eva
 pub use init::{InitOptions, Initialisation, initialise};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use options::{IdentifyOptions, KindWeights, Method, Scaling};
+pub use priors::{COMPLIANCE_TORQUE_FLOOR, PriorKind, PriorOverride, PriorSpec, PriorWidths};
 pub use problem::residual_vector;
 pub use report::{
     CandidateReport, CorrelationReport, IdentificationReport, InitialisationReport, ParameterReport,
     REPORT_FORMAT, SelectionReport, file_unit_label, to_file_units,
 };
 pub use result::{Identification, IterationLog, Termination};
+pub use robust::{
+    BadRowReport, BadRowsReport, CAUCHY_TUNING, CHI3_MEDIAN, DEFAULT_OUTLIER_K, DroppedRow, FlaggedRow,
+    HUBER_TUNING, MAX_DROP_ROUNDS, OutlierDrop, OutlierScan, RobustCalibration, RobustFit, RobustLoss,
+    RobustOptions, RobustReport, SIGMA_ESTIMATOR, calibrate_dropping_outliers, calibrate_robust,
+    flag_outliers, irls, robust_sigma_mm,
+};
 pub use uncertainty::{CmmUncertainty, KindSigmas};
 pub use validation::{ModelComparison, ValidationReport, compare_models, validate};
+pub use weak::{WeakDirection, weak_directions};
 
 use problem::Problem;
 
@@ -133,7 +149,8 @@ pub fn identify(
     // with the data σ̂ of the previous fit until it settles.
     let mut data_sigma_mm = options.measurement_sigma_mm;
     for _ in 0..DISTANCE_REWEIGHT_ROUNDS {
-        let estimated = data_sigma_hat_mm(&fit, measurements, &options.weights);
+        let estimated =
+            data_sigma_hat_mm(&fit, measurements, &options.weights, options.row_weights.as_deref());
         if !(estimated.is_finite() && estimated > 0.0)
             || (estimated / data_sigma_mm - 1.0).abs() <= DISTANCE_REWEIGHT_TOLERANCE
         {
@@ -152,18 +169,30 @@ const DISTANCE_REWEIGHT_ROUNDS: usize = 5;
 const DISTANCE_REWEIGHT_TOLERANCE: f64 = 0.05;
 
 /// σ̂ of one coordinate of a weight-1 measurement row from a fit's data residuals alone:
-/// `√(Σ_k w_k ‖e_k‖² / (3n − L))` (the distance and prior rows left out) \[mm\].
-fn data_sigma_hat_mm(fit: &Identification, measurements: &[Measurement], weights: &KindWeights) -> f64 {
+/// `√(Σ_k w_k ‖e_k‖² / (3n − L))` (the distance and prior rows left out) \[mm\]; with row
+/// weights, the robust σ̂ of the rows ([`robust_sigma_mm`]).
+fn data_sigma_hat_mm(
+    fit: &Identification,
+    measurements: &[Measurement],
+    weights: &KindWeights,
+    row_weights: Option<&[f64]>,
+) -> f64 {
+    if row_weights.is_some() {
+        // a row-weighted (robust) fit: a down-weighted bad row still dominates Σ w‖e‖² (Huber
+        // keeps its pull linear), so the data's scale is the robust one of the rows
+        return robust_sigma_mm(&fit.residuals, measurements, weights);
+    }
     let rss: f64 = fit
         .residuals
         .iter()
         .zip(measurements)
-        .map(|(e, m)| {
+        .enumerate()
+        .map(|(k, (e, m))| {
             let w = match m.target {
                 Target::Probe { .. } => weights.probe,
                 Target::Tracker { .. } => weights.tracker,
             };
-            w * e.norm_squared()
+            w * row_weights.map_or(1.0, |r| r[k]) * e.norm_squared()
         })
         .sum();
     let dof = (3 * measurements.len()).saturating_sub(fit.params.len()).max(1);
@@ -187,6 +216,15 @@ fn identify_once(
         return Err(IdentifyError::InvalidOptions(format!("parameter `{dup}` is listed twice")));
     }
     options.check(params)?;
+    if let Some(w) = &options.row_weights
+        && w.len() != measurements.len()
+    {
+        return Err(IdentifyError::InvalidOptions(format!(
+            "row_weights: {} weights for {} measurements",
+            w.len(),
+            measurements.len()
+        )));
+    }
     let start_values = start.params(params)?;
     let equations = 3 * measurements.len();
     if equations <= params.len() {

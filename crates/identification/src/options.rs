@@ -169,6 +169,16 @@ pub struct IdentifyOptions {
     /// when set (what [`identify`](crate::identify)'s re-weighting sets; `None`:
     /// `measurement_sigma_mm`)
     pub distance_data_sigma_mm: Option<f64>,
+    /// optional weight of every measurement row (same order and length as the measurements;
+    /// finite, > 0): multiplies the weight of the row's kind (`weights`), so row k counts
+    /// `weights.kind · row_weights[k]` in the cost and in σ̂ (the σ̂ that weighs known
+    /// distances and priors against the data, `distance_sigma_from_fit` and
+    /// `prior_sigma_from_fit`, is then the robust one, [`crate::robust_sigma_mm`]: a
+    /// down-weighted bad row would still dominate `Σ w‖e‖²`). What the robust fit
+    /// ([`crate::irls`]: iteratively reweighted least squares) sets; `None` (default): every
+    /// row has its kind's weight. A vector belongs to one set of rows: the cross-validated
+    /// choice's fold fits cannot use it (give it to [`identify`](crate::identify))
+    pub row_weights: Option<Vec<f64>>,
 }
 
 impl Default for IdentifyOptions {
@@ -193,6 +203,7 @@ impl Default for IdentifyOptions {
             distance_sigma_from_fit: true,
             prior_sigma_from_fit: false,
             distance_data_sigma_mm: None,
+            row_weights: None,
         }
     }
 }
@@ -256,6 +267,11 @@ impl IdentifyOptions {
             && !(v.is_finite() && v > 0.0)
         {
             return bad(format!("distance_data_sigma_mm must be finite and > 0, got {v}"));
+        }
+        if let Some(w) = &self.row_weights
+            && let Some((k, v)) = w.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v > 0.0))
+        {
+            return bad(format!("row_weights: the weight of row {k} must be finite and > 0, got {v}"));
         }
         if self.method == Method::PaperLiteral && !self.point_distances.is_empty() {
             return bad("point distances are not supported by the paper-literal method".into());

@@ -2,7 +2,8 @@
 //! stacked Jacobian, assembled without allocation into caller-owned buffers.
 //!
 //! Rows: measurement k occupies rows `3k..3k+3` (x, y, z), multiplied by `√w_k` (its kind's
-//! weight); then one row per parameter with a finite prior. The residual of a measurement is
+//! weight, times its own row weight when `IdentifyOptions::row_weights` is given); then one
+//! row per parameter with a finite prior. The residual of a measurement is
 //! [`Model::residual`] (`target − FK`) plus the recorded centring offset of a probe measurement
 //! ([`Measurement::target_offset_mm`]: the observed target is `position + offset`); the Jacobian row block is
 //! [`Model::measurement_jacobian_into`] (`d(FK − target)/dρ`), so that
@@ -58,7 +59,10 @@ impl<'a> Problem<'a> {
         Self {
             measurements,
             params,
-            row_weight: row_weights(measurements, &options.weights),
+            row_weight: match &options.row_weights {
+                None => row_weights(measurements, &options.weights),
+                Some(per_row) => row_weights_times(measurements, &options.weights, per_row),
+            },
             priors,
             start,
             distances: options.point_distances.clone(),
@@ -189,6 +193,26 @@ pub(crate) fn row_weights(measurements: &[Measurement], weights: &KindWeights) -
         .map(|m| match m.target {
             Target::Probe { .. } => weights.probe.sqrt(),
             Target::Tracker { .. } => weights.tracker.sqrt(),
+        })
+        .collect()
+}
+
+/// `√(w_kind · w_k)` of every measurement: its kind's weight times its own row weight
+/// ([`IdentifyOptions::row_weights`]; a missing entry counts 1).
+pub(crate) fn row_weights_times(
+    measurements: &[Measurement],
+    weights: &KindWeights,
+    per_row: &[f64],
+) -> Vec<f64> {
+    measurements
+        .iter()
+        .enumerate()
+        .map(|(k, m)| {
+            let kind = match m.target {
+                Target::Probe { .. } => weights.probe,
+                Target::Tracker { .. } => weights.tracker,
+            };
+            (kind * per_row.get(k).copied().unwrap_or(1.0)).sqrt()
         })
         .collect()
 }

@@ -35,8 +35,19 @@ pub struct ParameterReport {
     pub identified_file_units: f64,
     /// identified − nominal
     pub delta_file_units: f64,
-    /// standard deviation of the identified value
+    /// standard deviation of the identified value (posterior, with priors)
     pub sigma_file_units: f64,
+    /// the kind of prior the parameter had (`theta_offset`, `length`, ...; absent without
+    /// priors)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_kind: Option<String>,
+    /// the prior standard deviation (absent without priors; null for a free parameter)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub prior_sigma_file_units: Option<f64>,
+    /// posterior σ / prior σ: near 1, the data did not move what the prior knew; near 0, the
+    /// data determine the parameter (absent without priors or for a free parameter)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub posterior_over_prior: Option<f64>,
 }
 
 /// A strongly correlated parameter pair.
@@ -95,6 +106,18 @@ pub struct IdentificationReport {
     /// the cross-validated choice of the parameter set, when `default` chose one
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub selection: Option<SelectionReport>,
+    /// the directions the data excite less than the priors do (or than the realistic widths,
+    /// without priors), weakest first ([`crate::weak_directions`])
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub weak_directions: Vec<crate::WeakDirection>,
+    /// the rows beyond k robust σ̂, named with file and line, and what was done about them
+    /// (`vatcal identify`; issue 29)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bad_rows: Option<crate::BadRowsReport>,
+    /// per-joint minimum and maximum over the rows the fit used, file units (mm / deg); the
+    /// calibrated cell file's `[training_range]`
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub training_range: Option<vatcal_core::training_range::TrainingRange>,
 }
 
 /// What the initialisation did ([`crate::initialise`]).
@@ -131,6 +154,9 @@ pub struct CandidateReport {
     pub condition_number: Option<f64>,
     /// why the candidate was not scored
     pub rejected: Option<String>,
+    /// fold fits that reached the (scaled) iteration cap and were scored at their last iterate
+    #[serde(default)]
+    pub capped_fits: usize,
 }
 
 /// The cross-validated choice ([`crate::cross_validate_sets`]).
@@ -142,12 +168,19 @@ pub struct SelectionReport {
     pub groups: usize,
     /// shuffle seed
     pub seed: u64,
+    /// repetitions of the K-fold split (1: leave-one-posture-out or a single split)
+    #[serde(default = "one")]
+    pub repeats: usize,
     /// every candidate, smallest first
     pub candidates: Vec<CandidateReport>,
     /// the chosen set
     pub chosen: String,
     /// why it won
     pub reason: String,
+}
+
+fn one() -> usize {
+    1
 }
 
 fn finite(v: f64) -> Option<f64> {
@@ -161,6 +194,7 @@ impl SelectionReport {
             folds: sel.folds,
             groups: sel.groups,
             seed: sel.seed,
+            repeats: sel.repeats,
             candidates: sel
                 .candidates
                 .iter()
@@ -174,6 +208,7 @@ impl SelectionReport {
                     train_rms_mm: finite(c.train_rms_mm),
                     condition_number: finite(c.condition_number),
                     rejected: c.rejected.clone(),
+                    capped_fits: c.capped_fits,
                 })
                 .collect(),
             chosen: sel.chosen().label(),
@@ -199,6 +234,9 @@ impl IdentificationReport {
                 identified_file_units: to_file_units(*p, id.values[k]),
                 delta_file_units: to_file_units(*p, id.values[k] - id.start_values[k]),
                 sigma_file_units: to_file_units(*p, id.sigma[k]),
+                prior_kind: None,
+                prior_sigma_file_units: None,
+                posterior_over_prior: None,
             })
             .collect();
         Self {
@@ -226,6 +264,9 @@ impl IdentificationReport {
                 .collect(),
             initialisation: None,
             selection: None,
+            weak_directions: Vec::new(),
+            bad_rows: None,
+            training_range: None,
         }
     }
 
@@ -240,6 +281,19 @@ impl IdentificationReport {
             registered: i.registered,
         });
         r.selection = cal.selection.as_ref().map(SelectionReport::from_selection);
+        if cal.prior_sigmas.len() == cal.fit.params.len() {
+            for ((entry, p), (prior, post)) in r
+                .parameters
+                .iter_mut()
+                .zip(cal.fit.params.iter())
+                .zip(cal.prior_sigmas.iter().zip(&cal.fit.sigma))
+            {
+                entry.prior_kind = Some(crate::PriorKind::of(*p, &cal.fit.model).name().to_string());
+                entry.prior_sigma_file_units = prior.is_finite().then(|| to_file_units(*p, *prior));
+                entry.posterior_over_prior = prior.is_finite().then(|| post / prior);
+            }
+        }
+        r.weak_directions = cal.weak_directions.clone();
         r
     }
 

@@ -7,8 +7,9 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use vatcal_core::{Measurement, PointDistance, Target};
 use vatcal_identification::{
-    CvOptions, CvSelection, FailureReport, Identification, IdentificationReport, IdentifyError,
-    IdentifyOptions, IterationLog, KindWeights, Method, calibrate, file_unit_label, to_file_units,
+    Calibration, CvOptions, CvSelection, FailureReport, Identification, IdentificationReport, IdentifyError,
+    IdentifyOptions, IterationLog, KindWeights, Method, PriorKind, PriorOverride, PriorWidths, calibrate,
+    file_unit_label, to_file_units,
 };
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::DataDesign;
@@ -60,17 +61,30 @@ pub struct Args {
     #[arg(long = "point-distance")]
     pub point_distances: Vec<String>,
     /// `--params default` on a chain other than the canonical cell: number of folds of the
-    /// cross-validation (posture groups dealt into K folds).
+    /// cross-validation that chooses the prior scale (posture groups dealt into K folds; K at
+    /// least the number of postures: leave-one-posture-out).
     #[arg(long, default_value_t = 5)]
     pub folds: usize,
-    /// Seed of the cross-validation's shuffle.
+    /// Repetitions of the K-fold split, each with its own shuffle (repeated K-fold).
+    #[arg(long, default_value_t = 3)]
+    pub cv_repeats: usize,
+    /// Seed of the cross-validation's first shuffle.
     #[arg(long, default_value_t = 1)]
     pub cv_seed: u64,
-    /// `--params default` on another chain: regularise the robot's parameters toward their
-    /// nominal values with priors of this many typical spreads (0.1 mm, 0.001 rad per unit).
-    /// Without it the scale is chosen by cross-validation among none, 10, 3 and 1.
+    /// Priors toward the nominal values at this multiple of the realistic widths (10 mrad joint
+    /// zeros, 1 mm lengths, 3 mrad twists and tilts, 2 mrad of gravity deflection;
+    /// docs/identification.md). With `--params default` on another chain the scale is otherwise
+    /// chosen by cross-validation among 0.1, 0.3, 1, 3, 10 and 30; with any other `--params`
+    /// it adds priors to that set (none without it or --prior).
     #[arg(long)]
     pub prior_scale: Option<f64>,
+    /// The prior width of one kind of parameter at scale 1, with its unit: e.g.
+    /// `theta_offset=50mrad`, `length=0.5mm`, `alpha=0.1deg`, `beta=2mrad`,
+    /// `compliance=1mrad` (deflection at the joint's largest gravity torque),
+    /// `prismatic_offset=2mm`, `tcp=free`. Repeatable; with a named `--params` and no
+    /// --prior-scale the scale is 1.
+    #[arg(long = "prior", value_name = "KIND=WIDTH")]
+    pub priors: Vec<String>,
     /// Iteration cap.
     #[arg(long, default_value_t = 50)]
     pub max_iterations: usize,
@@ -106,12 +120,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         weights: KindWeights { probe: 1.0, tracker: args.tracker_weight },
         ..IdentifyOptions::default()
     };
-    let cv = CvOptions {
-        folds: args.folds,
-        seed: args.cv_seed,
-        prior_scale: args.prior_scale,
-        ..CvOptions::default()
-    };
+    let cv = cv_options(&args)?;
     let source = [&args.measurements, &args.tracker]
         .into_iter()
         .flatten()
@@ -164,7 +173,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let fit = &cal.fit;
     print_log(&fit.iterations);
-    print_summary(fit);
+    print_summary(fit, &cal.prior_sigmas);
+    print_weak_directions(&cal);
     if cal.selection.is_some() && fit.condition_number > args.max_condition_number {
         println!(
             "note: condition number {:.3e} above {:.0e}: accepted because the set was chosen by cross-validation; combinations the data barely see are only trustworthy near the training postures (--prior-scale keeps them near nominal)",
@@ -183,11 +193,45 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The cross-validation and prior options of `--folds`, `--cv-repeats`, `--cv-seed`,
+/// `--prior-scale` and `--prior`.
+fn cv_options(args: &Args) -> anyhow::Result<CvOptions> {
+    anyhow::ensure!(args.folds >= 2, "--folds must be at least 2, got {}", args.folds);
+    anyhow::ensure!(args.cv_repeats >= 1, "--cv-repeats must be at least 1, got {}", args.cv_repeats);
+    if let Some(k) = args.prior_scale {
+        anyhow::ensure!(k.is_finite() && k > 0.0, "--prior-scale must be a positive number, got {k}");
+    }
+    let mut widths = PriorWidths::realistic();
+    for text in &args.priors {
+        let o: PriorOverride = text.parse().map_err(anyhow::Error::msg).context("--prior")?;
+        widths.set(o.kind, o.width);
+    }
+    // a named set gets priors only when asked for; --prior alone means scale 1
+    let named = args.params.trim() != "default";
+    let prior_scale = match args.prior_scale {
+        None if named && !args.priors.is_empty() => Some(1.0),
+        k => k,
+    };
+    Ok(CvOptions {
+        folds: args.folds,
+        repeats: args.cv_repeats,
+        seed: args.cv_seed,
+        widths,
+        prior_scale,
+        ..CvOptions::default()
+    })
+}
+
 /// The cross-validation table and the reason of the choice.
 fn print_selection(sel: &CvSelection) {
+    let split = if sel.folds >= sel.groups {
+        "leave-one-posture-out".to_string()
+    } else {
+        format!("{} x {}-fold cross-validation", sel.repeats, sel.folds)
+    };
     println!(
-        "choosing the parameter set by {}-fold cross-validation over {} posture groups (seed {}):",
-        sel.folds, sel.groups, sel.seed
+        "choosing the prior scale by {split} over {} posture groups (seed {}; priors at 1 = realistic widths):",
+        sel.groups, sel.seed
     );
     println!(
         "{:<32} {:>7} {:>14} {:>15} {:>12}  note",
@@ -210,7 +254,15 @@ fn print_selection(sel: &CvSelection) {
                 c.cv_rms_mm,
                 c.train_rms_mm,
                 c.condition_number,
-                if k == sel.chosen { "<- chosen" } else { "" }
+                match (k == sel.chosen, c.capped_fits) {
+                    (true, 0) => "<- chosen".to_string(),
+                    (true, n) => format!(
+                        "<- chosen ({n} fold fit(s) stopped at the iteration cap, scored at their last iterate)"
+                    ),
+                    (false, 0) => String::new(),
+                    (false, n) =>
+                        format!("{n} fold fit(s) stopped at the iteration cap, scored at their last iterate"),
+                }
             ),
         }
     }
@@ -286,7 +338,23 @@ fn print_failure(report: &FailureReport) {
     }
 }
 
-fn print_summary(fit: &Identification) {
+/// The directions the data excite less than the priors (or the realistic widths) do.
+fn print_weak_directions(cal: &Calibration) {
+    if cal.weak_directions.is_empty() {
+        return;
+    }
+    let against = if cal.prior_sigmas.is_empty() {
+        "the realistic prior widths (this fit had no priors: these combinations are fitted to noise; --prior-scale 1 would hold them)"
+    } else {
+        "the priors (held near nominal by them)"
+    };
+    println!("weakly excited directions ({}), against {against}:", cal.weak_directions.len());
+    for d in &cal.weak_directions {
+        println!("  {}", d.sentence());
+    }
+}
+
+fn print_summary(fit: &Identification, prior_sigmas: &[f64]) {
     let s = &fit.residual_stats;
     println!("{}", fit.termination.describe());
     println!("residuals: {}", s.one_line());
@@ -294,13 +362,21 @@ fn print_summary(fit: &Identification) {
         "sigma_hat {:.5} mm (dof {}), condition number {:.1} (column-normalised Jacobian)",
         fit.sigma_hat_mm, fit.dof, fit.condition_number
     );
-    println!(
-        "{:<18} {:>10} {:>16} {:>16} {:>14} {:>12}",
-        "parameter", "unit", "nominal", "identified", "delta", "sigma"
-    );
+    let priors = prior_sigmas.len() == fit.params.len();
+    if priors {
+        println!(
+            "{:<18} {:>10} {:>16} {:>16} {:>14} {:>12} {:>16} {:>10}",
+            "parameter", "unit", "nominal", "identified", "delta", "sigma", "prior", "post/prior"
+        );
+    } else {
+        println!(
+            "{:<18} {:>10} {:>16} {:>16} {:>14} {:>12}",
+            "parameter", "unit", "nominal", "identified", "delta", "sigma"
+        );
+    }
     for (k, p) in fit.params.iter().enumerate() {
         let f = |v: f64| to_file_units(*p, v);
-        println!(
+        let row = format!(
             "{:<18} {:>10} {:>16.6} {:>16.6} {:>14.6e} {:>12.3e}",
             p.name(),
             file_unit_label(*p),
@@ -309,6 +385,18 @@ fn print_summary(fit: &Identification) {
             f(fit.values[k] - fit.start_values[k]),
             f(fit.sigma[k])
         );
+        if priors {
+            let s = prior_sigmas[k];
+            let kind = PriorKind::of(*p, &fit.model);
+            let (prior, ratio) = if s.is_finite() {
+                (format!("{:.3e} {}", f(s), kind), format!("{:.2}", fit.sigma[k] / s))
+            } else {
+                ("free".to_string(), "-".to_string())
+            };
+            println!("{row} {prior:>16} {ratio:>10}");
+        } else {
+            println!("{row}");
+        }
     }
     if !fit.strong_correlations.is_empty() {
         let pairs: Vec<String> =
