@@ -76,16 +76,18 @@ fn identify_defaults_calibrate_a_tracker_frame_anywhere_to_the_noise_floor() {
     eprintln!("{out}");
     assert!(out.contains("initialisation: RMS residual"), "{out}");
     assert!(out.contains("cross-validation") && out.contains("<- chosen"), "{out}");
+    assert!(out.contains("post/prior"), "the parameter table lists priors: {out}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     let candidates = json["selection"]["candidates"].as_array().expect("candidates");
-    // registration, then joint-offsets, kinematic and kinematic+compliance each with priors
-    // x1, x3, x10 and none toward nominal
-    assert_eq!(candidates.len(), 13);
-    for set in ["registration", "joint-offsets", "kinematic", "kinematic+compliance"] {
-        assert!(candidates.iter().any(|c| c["set"] == set && c["prior_scale"].is_null()), "{set}");
-    }
-    assert!(json["parameters"].as_array().expect("params").iter().any(|p| p["name"] == "tcp1_x"));
+    // the richest set at each prior scale of the grid (x0.1 .. x30), the lowest score chosen
+    assert_eq!(candidates.len(), 6);
+    assert!(candidates.iter().all(|c| c["set"] == "kinematic+compliance" && c["prior_scale"].is_number()));
+    let params = json["parameters"].as_array().expect("params");
+    let tcp = params.iter().find(|p| p["name"] == "tcp1_x").expect("tcp1_x");
+    assert!(tcp.get("prior_sigma_file_units").is_none(), "the marker is free: {tcp}");
+    let offset = params.iter().find(|p| p["name"] == "theta_offset_2").expect("theta_offset_2");
+    assert!(offset["posterior_over_prior"].as_f64().is_some_and(|r| r > 0.0 && r < 1.0), "{offset}");
     run(&["validate", "--model", &s(&cal), "--tracker", &s(&held), "--report", &s(&val)]);
     let after = mean_of(&std::fs::read_to_string(&val).expect("validate report"));
     run(&["validate", "--model", &fixture("ur5e.toml"), "--tracker", &s(&held), "--report", &s(&val)]);
