@@ -39,7 +39,7 @@ use vatcal_observability::sets::DataDesign;
 
 use crate::{
     Calibration, CalibrationStart, CvOptions, Identification, IdentifyError, IdentifyOptions, KindWeights,
-    calibrate, identify, prepare_calibration,
+    PriorSpec, calibrate, identify, prepare_calibration, weak_directions,
 };
 
 /// Median of a χ variable with 3 degrees of freedom (`√(median of χ²₃)` = √2.36597): the median
@@ -347,10 +347,13 @@ pub fn irls(
 /// A robust calibration ([`calibrate_robust`]).
 #[derive(Debug, Clone)]
 pub struct RobustCalibration {
+    /// the calibration as [`calibrate`] returns it, its `fit` the reweighted one (its weak
+    /// directions judged at the robust σ̂_r)
+    pub calibration: Calibration,
     /// the start, the parameter set (named or chosen by cross-validation on the unweighted
     /// rows) and the options of the fit ([`prepare_calibration`])
     pub start: CalibrationStart,
-    /// the reweighted fit
+    /// the reweighted fit (its `fit` is `calibration.fit`)
     pub robust: RobustFit,
 }
 
@@ -373,7 +376,31 @@ pub fn calibrate_robust(
     let options = IdentifyOptions { row_weights: None, ..options.clone() };
     let start = prepare_calibration(nominal, rows, spec, design, &options, cv)?;
     let fit = irls(&start.start, rows, &start.params, &start.fit_options, robust, None)?;
-    Ok(RobustCalibration { start, robust: fit })
+    // as `calibrate` does: the priors, and the weak directions against them (or against the
+    // realistic widths without priors)
+    let prior_sigmas = start.fit_options.priors.clone().unwrap_or_default();
+    let reference = if prior_sigmas.is_empty() {
+        PriorSpec::new(cv.widths, 1.0).sigmas(&start.start, rows, &start.params)
+    } else {
+        prior_sigmas.clone()
+    };
+    let weak_directions = weak_directions(
+        &fit.fit.model,
+        rows,
+        &fit.fit.params,
+        &reference,
+        &start.fit_options.weights,
+        if fit.sigma_mm.is_finite() && fit.sigma_mm > 0.0 { fit.sigma_mm } else { fit.fit.sigma_hat_mm },
+    )?;
+    let calibration = Calibration {
+        init: start.init.clone(),
+        params: start.params.clone(),
+        selection: start.selection.clone(),
+        fit: fit.fit.clone(),
+        prior_sigmas,
+        weak_directions,
+    };
+    Ok(RobustCalibration { calibration, start, robust: fit })
 }
 
 /// A row removed by [`calibrate_dropping_outliers`].

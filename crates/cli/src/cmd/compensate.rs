@@ -15,6 +15,9 @@ use vatcal_drivers_meca500::Command as MecaCommand;
 use vatcal_drivers_meca500::codec::format_number;
 use vatcal_kinematics::Model;
 
+/// Extrapolation warnings shown at most (then a count).
+const MAX_EXTRAPOLATION_WARNINGS: usize = 20;
+
 /// The canonical nominal cell, used when neither `--nominal` nor the calibrated file names one.
 const BUILT_IN_NOMINAL: &str = vatcal_core::CANONICAL_CELL_TOML;
 
@@ -310,6 +313,41 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
     } else if let Some(b) = result.branch {
         let _ = writeln!(header, "# IK branch: {b}");
+    }
+    // issue 29: targets outside the joint range the calibration was fitted on
+    if let Some(range) = &cell.training_range {
+        let kinds = calibrated.joint_kinds();
+        let mut outside = 0;
+        for (row, c) in result.solved() {
+            let joints = range.excursions(kinds, &c.q);
+            if joints.is_empty() {
+                continue;
+            }
+            outside += 1;
+            if outside <= MAX_EXTRAPOLATION_WARNINGS {
+                let list: Vec<String> = joints.iter().map(ToString::to_string).collect();
+                eprintln!(
+                    "warning: {}:{}: the target leaves the training range of {}: {}",
+                    args.poses.display(),
+                    line_of(row),
+                    args.model.display(),
+                    list.join(", ")
+                );
+            }
+        }
+        if outside > 0 {
+            let msg = format!(
+                "extrapolation: {outside} of {} targets leave the joint range the calibration was fitted on \
+                 ({} rows; tolerance max(1 % of the range, 0.5 deg / 0.5 mm)): the model extrapolates there",
+                result.solved().count(),
+                range.rows
+            );
+            if outside > MAX_EXTRAPOLATION_WARNINGS {
+                eprintln!("warning: ... and {} more", outside - MAX_EXTRAPOLATION_WARNINGS);
+            }
+            eprintln!("{msg}");
+            let _ = writeln!(header, "# {msg}");
+        }
     }
     let mut skipped = String::new();
     for s in result.skipped() {

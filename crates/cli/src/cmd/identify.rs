@@ -5,12 +5,18 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
+use vatcal_core::training_range::TrainingRange;
 use vatcal_core::{Measurement, PointDistance, Target};
+use vatcal_identification::{
+    BadRowReport, BadRowsReport, DroppedRow, RobustFit, RobustLoss, RobustOptions, RobustReport,
+    SIGMA_ESTIMATOR, calibrate_dropping_outliers, calibrate_robust, flag_outliers,
+};
 use vatcal_identification::{
     Calibration, CvOptions, CvSelection, FailureReport, Identification, IdentificationReport, IdentifyError,
     IdentifyOptions, IterationLog, KindWeights, Method, PriorKind, PriorOverride, PriorWidths, calibrate,
     file_unit_label, to_file_units,
 };
+use vatcal_io::RowSource;
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::DataDesign;
 
@@ -93,6 +99,19 @@ pub struct Args {
     /// cross-validation (reported instead).
     #[arg(long, default_value_t = 1e3)]
     pub max_condition_number: f64,
+    /// After the fit, name the rows (file:line) whose residual norm is beyond K robust sigma
+    /// (sigma = median residual norm / 1.5382, the median of a 3-D Gaussian's norm); they are
+    /// kept in the fit unless --robust or --drop-outliers says otherwise.
+    #[arg(long, value_name = "K", default_value_t = vatcal_identification::DEFAULT_OUTLIER_K)]
+    pub outlier_k: f64,
+    /// Down-weight bad rows: iteratively reweighted least squares with the `huber` (c = 1.345)
+    /// or `cauchy` (c = 2.385) weights, c in robust sigma.
+    #[arg(long, value_name = "LOSS", conflicts_with = "drop_outliers")]
+    pub robust: Option<String>,
+    /// Remove the rows beyond K robust sigma and calibrate again on the rows kept (the
+    /// parameter set's choice included), until no kept row is beyond (at most 5 rounds).
+    #[arg(long, value_name = "K")]
+    pub drop_outliers: Option<f64>,
     /// Units, limit tolerance and directions of the measurement files.
     #[command(flatten)]
     pub read: super::read_args::ReadArgs,
@@ -104,7 +123,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let free_positions = add_unknown_positions(&mut cell, args.unknown_positions.as_deref())?;
     let model = Model::from_cell(&cell)
         .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
-    let measurements = read_all(&args, &model)?;
+    let (measurements, sources) = read_all(&args, &model)?;
     let method: Method = args.method.parse().map_err(anyhow::Error::msg).context("--method")?;
     let distances = args
         .point_distances
@@ -139,8 +158,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         measurements.len(),
         measurements.len() - n_probe,
     );
-    let cal = match calibrate(&model, &measurements, &args.params, &design, &options, &cv) {
-        Ok(cal) => cal,
+    let bad_rows = BadRowArgs::of(&args)?;
+    let fitted = calibrate_rows(&bad_rows, &model, &measurements, &args.params, &design, &options, &cv);
+    let (cal, handling) = match fitted {
+        Ok(fitted) => fitted,
         Err(IdentifyError::NotConverged(report)) => {
             print_log(&report.iterations);
             print_failure(&report);
@@ -181,16 +202,221 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             fit.condition_number, args.max_condition_number
         );
     }
-    fit.model
-        .to_cell()
+    // issue 29: the bad rows, and the joint range of the rows the fit used
+    let bad_report = report_bad_rows(&bad_rows, &handling, fit, &measurements, &sources, &options.weights)?;
+    let fitted_rows = handling.kept_rows(&measurements);
+    let training_range = TrainingRange::from_postures(model.joint_kinds(), fitted_rows.iter().map(|m| &m.q));
+    print_training_range(training_range.as_ref(), model.joint_kinds());
+    let mut calibrated = fit.model.to_cell();
+    calibrated.training_range = training_range.clone();
+    calibrated
         .save(&args.out)
         .with_context(|| format!("cannot write the calibrated model to {}", args.out.display()))?;
     println!("calibrated model written to {}", args.out.display());
     if let Some(path) = &args.report {
-        IdentificationReport::from_calibration(&cal).save(path)?;
+        let mut report = IdentificationReport::from_calibration(&cal);
+        report.bad_rows = Some(bad_report);
+        report.training_range = training_range;
+        report.save(path)?;
         println!("report written to {}", path.display());
     }
     Ok(())
+}
+
+/// What `--outlier-k`, `--robust` and `--drop-outliers` ask for.
+struct BadRowArgs {
+    k: f64,
+    robust: Option<RobustOptions>,
+    drop_k: Option<f64>,
+}
+
+impl BadRowArgs {
+    fn of(args: &Args) -> anyhow::Result<Self> {
+        let positive = |flag: &str, k: f64| -> anyhow::Result<f64> {
+            anyhow::ensure!(k.is_finite() && k > 0.0, "{flag} must be a positive number, got {k}");
+            Ok(k)
+        };
+        let robust = match &args.robust {
+            Some(text) => {
+                let loss: RobustLoss = text.parse().map_err(anyhow::Error::msg).context("--robust")?;
+                Some(RobustOptions::new(loss))
+            }
+            None => None,
+        };
+        Ok(Self {
+            k: positive("--outlier-k", args.outlier_k)?,
+            robust,
+            drop_k: args.drop_outliers.map(|k| positive("--drop-outliers", k)).transpose()?,
+        })
+    }
+}
+
+/// How the bad rows were handled in the final fit.
+enum Handling {
+    /// flagged and kept (the default)
+    Kept,
+    /// down-weighted (`--robust`)
+    Robust(Box<RobustFit>),
+    /// removed before the final calibration (`--drop-outliers`)
+    Dropped { kept: Vec<usize>, dropped: Vec<DroppedRow>, rounds: usize },
+}
+
+impl Handling {
+    /// Indices (into all rows) of the rows of the final fit.
+    fn kept_indices(&self, n: usize) -> Vec<usize> {
+        match self {
+            Handling::Dropped { kept, .. } => kept.clone(),
+            _ => (0..n).collect(),
+        }
+    }
+
+    /// The rows of the final fit.
+    fn kept_rows(&self, rows: &[Measurement]) -> Vec<Measurement> {
+        self.kept_indices(rows.len()).into_iter().map(|i| rows[i]).collect()
+    }
+}
+
+/// The calibration of `vatcal identify`: `calibrate` (default), the robust fit or the
+/// calibration on the rows kept after dropping the bad ones.
+fn calibrate_rows(
+    bad: &BadRowArgs,
+    model: &Model,
+    rows: &[Measurement],
+    spec: &str,
+    design: &DataDesign,
+    options: &IdentifyOptions,
+    cv: &CvOptions,
+) -> Result<(Calibration, Handling), IdentifyError> {
+    if let Some(robust) = &bad.robust {
+        let r = calibrate_robust(model, rows, spec, design, options, cv, robust)?;
+        return Ok((r.calibration, Handling::Robust(Box::new(r.robust))));
+    }
+    if let Some(k) = bad.drop_k {
+        let d = calibrate_dropping_outliers(model, rows, spec, design, options, cv, k)?;
+        let handling = Handling::Dropped { kept: d.kept, dropped: d.dropped, rounds: d.rounds };
+        return Ok((d.calibration, handling));
+    }
+    Ok((calibrate(model, rows, spec, design, options, cv)?, Handling::Kept))
+}
+
+/// Rows named at most in the terminal (the report lists all).
+const MAX_BAD_ROWS_SHOWN: usize = 20;
+
+/// Names the final fit's rows beyond k robust σ̂ (and the dropped ones), prints them and
+/// returns the report's `bad_rows`.
+fn report_bad_rows(
+    bad: &BadRowArgs,
+    handling: &Handling,
+    fit: &Identification,
+    rows: &[Measurement],
+    sources: &[RowSource],
+    weights: &KindWeights,
+) -> anyhow::Result<BadRowsReport> {
+    let kept = handling.kept_indices(rows.len());
+    let fitted: Vec<Measurement> = kept.iter().map(|i| rows[*i]).collect();
+    let scan = flag_outliers(&fit.residuals, &fitted, weights, bad.k)?;
+    let named = |row: usize, residual_mm: f64, sigmas: f64| BadRowReport {
+        row,
+        file: sources.get(row).map(|s| s.path.display().to_string()),
+        line: sources.get(row).map(|s| s.line),
+        residual_mm,
+        sigmas,
+        weight: None,
+        round: None,
+    };
+    let where_ =
+        |row: usize| sources.get(row).map_or_else(|| format!("row {}", row + 1), ToString::to_string);
+    let mut report = BadRowsReport {
+        sigma_estimator: SIGMA_ESTIMATOR.to_string(),
+        robust_sigma_mm: scan.sigma_mm,
+        k: bad.k,
+        threshold_mm: bad.k * scan.sigma_mm,
+        rows: Vec::new(),
+        robust: None,
+        dropped: Vec::new(),
+        drop_k: bad.drop_k,
+    };
+    if let Handling::Dropped { dropped, rounds, .. } = handling {
+        println!(
+            "--drop-outliers {}: {} row(s) removed in {rounds} calibration(s){}",
+            bad.drop_k.unwrap_or(bad.k),
+            dropped.len(),
+            if dropped.is_empty() { "" } else { ":" }
+        );
+        for d in dropped {
+            println!(
+                "  {}  residual {:.4} mm ({:.1} robust sigma), round {}",
+                where_(d.index),
+                d.residual_mm,
+                d.sigmas,
+                d.round
+            );
+            report
+                .dropped
+                .push(BadRowReport { round: Some(d.round), ..named(d.index, d.residual_mm, d.sigmas) });
+        }
+    }
+    if let Handling::Robust(r) = handling {
+        println!(
+            "robust fit ({}, c = {} robust sigma): {} reweighting round(s), {}; RMS residual of the unweighted fit {:.4} mm",
+            r.options.loss,
+            r.options.tuning,
+            r.rounds,
+            if r.converged { "weights settled" } else { "weights still changing at the round cap" },
+            r.unweighted_rms_mm
+        );
+        report.robust = Some(RobustReport::from_fit(r));
+    }
+    let what = match handling {
+        Handling::Kept => {
+            "kept in the fit (--robust huber|cauchy down-weights them, --drop-outliers K removes them)"
+        }
+        Handling::Robust(_) => "down-weighted",
+        Handling::Dropped { .. } => "kept (still beyond after the last round)",
+    };
+    println!(
+        "bad rows: {} beyond {} x robust sigma {:.5} mm ({SIGMA_ESTIMATOR}){}",
+        scan.rows.len(),
+        bad.k,
+        scan.sigma_mm,
+        if scan.rows.is_empty() { String::new() } else { format!(": {what}") }
+    );
+    for (shown, f) in scan.rows.iter().enumerate() {
+        let row = kept[f.index];
+        let weight = match handling {
+            Handling::Robust(r) => r.weights.get(f.index).copied(),
+            _ => None,
+        };
+        if shown < MAX_BAD_ROWS_SHOWN {
+            println!(
+                "  {}  residual {:.4} mm ({:.1} robust sigma){}",
+                where_(row),
+                f.residual_mm,
+                f.sigmas,
+                weight.map_or_else(String::new, |w| format!(", weight {w:.3e}"))
+            );
+        }
+        report.rows.push(BadRowReport { weight, ..named(row, f.residual_mm, f.sigmas) });
+    }
+    if scan.rows.len() > MAX_BAD_ROWS_SHOWN {
+        println!("  ... and {} more (the JSON report lists every one)", scan.rows.len() - MAX_BAD_ROWS_SHOWN);
+    }
+    Ok(report)
+}
+
+/// One line: the joint range the fit used, written into the calibrated file.
+fn print_training_range(range: Option<&TrainingRange>, kinds: &[vatcal_core::JointKind]) {
+    let Some(r) = range else { return };
+    let joints: Vec<String> = kinds
+        .iter()
+        .enumerate()
+        .map(|(k, kind)| format!("q{} {:.3}..{:.3} {}", k + 1, r.q_min[k], r.q_max[k], kind.file_unit()))
+        .collect();
+    println!(
+        "training range ({} rows; `vatcal validate` and `compensate` warn beyond it): {}",
+        r.rows,
+        joints.join(", ")
+    );
 }
 
 /// The cross-validation and prior options of `--folds`, `--cv-repeats`, `--cv-seed`,
@@ -304,16 +530,19 @@ fn add_unknown_positions(cell: &mut vatcal_core::CellFile, spec: Option<&str>) -
     Ok(ids)
 }
 
-/// Every row of `--measurements` and `--tracker` (each file: probe rows, tracker rows or both).
-fn read_all(args: &Args, model: &Model) -> anyhow::Result<Vec<Measurement>> {
+/// Every row of `--measurements` and `--tracker` (each file: probe rows, tracker rows or both),
+/// with the file and line of each.
+fn read_all(args: &Args, model: &Model) -> anyhow::Result<(Vec<Measurement>, Vec<RowSource>)> {
     if args.measurements.is_none() && args.tracker.is_none() {
         bail!("no measurements: give --measurements FILE (probe and/or tracker rows) and/or --tracker FILE");
     }
-    let mut measurements = Vec::new();
+    let (mut measurements, mut sources) = (Vec::new(), Vec::new());
     for path in [&args.measurements, &args.tracker].into_iter().flatten() {
-        measurements.extend(args.read.measurements(path, model)?);
+        let (rows, lines) = args.read.measurements_with_sources(path, model)?;
+        measurements.extend(rows);
+        sources.extend(lines);
     }
-    Ok(measurements)
+    Ok((measurements, sources))
 }
 
 fn print_log(log: &[IterationLog]) {

@@ -5,7 +5,9 @@
 use std::path::Path;
 
 use vatcal_core::Measurement;
-use vatcal_io::{AngleUnit, JointRow, LengthUnit, LimitTolerance, ReadOptions, ReadOutcome, ReadWarning};
+use vatcal_io::{
+    AngleUnit, JointRow, LengthUnit, LimitTolerance, ReadOptions, ReadOutcome, ReadWarning, RowSource,
+};
 use vatcal_kinematics::Model;
 
 /// Reader options of the measured-data files, flattened into a command's arguments.
@@ -72,6 +74,17 @@ impl ReadArgs {
     /// `vatcal_io::read_measurements_with` (probe and/or tracker rows), warnings printed.
     pub fn measurements(&self, path: &Path, model: &Model) -> anyhow::Result<Vec<Measurement>> {
         Ok(print_warnings(vatcal_io::read_measurements_with(path, model, &self.options()?)?))
+    }
+
+    /// [`Self::measurements`] with the source (`file:line`) of every row, in the same order.
+    pub fn measurements_with_sources(
+        &self,
+        path: &Path,
+        model: &Model,
+    ) -> anyhow::Result<(Vec<Measurement>, Vec<RowSource>)> {
+        let read = vatcal_io::read_measurements_with(path, model, &self.options()?)?;
+        let sources = read.sources();
+        Ok((print_warnings(read), sources))
     }
 
     /// Fixed-point rows (probe rows whose `position` is any point id), warnings printed.

@@ -5,7 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
+use vatcal_core::JointKind;
+use vatcal_core::training_range::{JointExcursion, TrainingRange};
 use vatcal_identification::{ErrorStats, ValidationReport, validate};
+use vatcal_io::RowSource;
 use vatcal_report::{HistogramOptions, PlotSpec, Series, histogram_svg, save_svg};
 
 /// Arguments of `vatcal validate`.
@@ -57,12 +60,51 @@ pub struct ValidateOutput {
     pub baseline: Option<ValidatedModel>,
     /// baseline mean error / model mean error, if a baseline was given
     pub mean_improvement_factor: Option<f64>,
+    /// the rows outside the model's training range (its cell file's `[training_range]`;
+    /// absent when the file has none)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extrapolation: Option<Extrapolation>,
+}
+
+/// The validation rows whose joints leave the training range of the model under test.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Extrapolation {
+    /// the model's training range (mm / deg)
+    pub training_range: TrainingRange,
+    /// rows with a joint outside it by more than its tolerance (max of 1 % of the joint's
+    /// range and 0.5 deg / 0.5 mm)
+    pub n_rows: usize,
+    /// validation rows in all
+    pub n_total: usize,
+    /// per joint (index = joint − 1): rows outside on that joint
+    pub rows_per_joint: Vec<usize>,
+    /// mean error of the model on the rows inside the range \[mm\] (null: none inside)
+    pub mean_error_inside_mm: Option<f64>,
+    /// mean error of the model on the rows outside \[mm\] (null: none outside)
+    pub mean_error_outside_mm: Option<f64>,
+    /// every row outside, in file order
+    pub rows: Vec<ExtrapolatedRow>,
+}
+
+/// One validation row outside the training range.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ExtrapolatedRow {
+    /// 0-based index of the row in the file's rows
+    pub row: usize,
+    /// the file
+    pub file: String,
+    /// its 1-based line
+    pub line: u64,
+    /// the model's error there \[mm\]
+    pub error_mm: f64,
+    /// the joints outside, with value, range and excess (mm / deg)
+    pub joints: Vec<JointExcursion>,
 }
 
 /// Validates the model(s), prints the statistics, writes the plot and the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
-    let tracker = args.read.measurements(&args.tracker, &model)?;
+    let (tracker, sources) = args.read.measurements_with_sources(&args.tracker, &model)?;
     let tested =
         validate(&model, &tracker).with_context(|| format!("validating {}", args.model.display()))?;
     let baseline = match &args.baseline {
@@ -85,6 +127,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(f) = factor {
         println!("mean error reduced by a factor of {f:.1}");
     }
+    // issue 29: postures outside the joint range the model was calibrated on
+    let training = vatcal_core::CellFile::load(&args.model)?.training_range;
+    let extrapolation = training
+        .map(|range| extrapolation(range, model.joint_kinds(), &tracker, &sources, &tested, &args.model));
     if let Some(path) = &args.plot {
         write_histogram(path, &args, &tested, baseline.as_ref().map(|(_, b)| b))?;
         println!("histogram written to {}", path.display());
@@ -96,12 +142,100 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             baseline: baseline
                 .map(|(p, v)| ValidatedModel { model_file: p.display().to_string(), validation: v }),
             mean_improvement_factor: factor,
+            extrapolation,
         };
         let text = serde_json::to_string_pretty(&out)?;
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
         println!("report written to {}", path.display());
     }
     Ok(())
+}
+
+/// Warnings shown at most (the JSON report lists every row).
+const MAX_EXTRAPOLATION_WARNINGS: usize = 20;
+
+/// Checks every row against the training range: a warning per row outside (stderr, naming
+/// file:line and the joints), a summary line, and the report's `extrapolation`.
+fn extrapolation(
+    training_range: TrainingRange,
+    kinds: &[JointKind],
+    rows: &[vatcal_core::Measurement],
+    sources: &[RowSource],
+    tested: &ValidationReport,
+    model_path: &Path,
+) -> Extrapolation {
+    let mut out = Extrapolation {
+        n_rows: 0,
+        n_total: rows.len(),
+        rows_per_joint: vec![0; kinds.len()],
+        mean_error_inside_mm: None,
+        mean_error_outside_mm: None,
+        rows: Vec::new(),
+        training_range,
+    };
+    let (mut inside, mut outside) = ((0.0, 0usize), (0.0, 0usize));
+    for (k, m) in rows.iter().enumerate() {
+        let error_mm = tested.errors_mm.get(k).map_or(f64::NAN, |e| e.norm());
+        let joints = out.training_range.excursions(kinds, &m.q);
+        if joints.is_empty() {
+            inside = (inside.0 + error_mm, inside.1 + 1);
+            continue;
+        }
+        outside = (outside.0 + error_mm, outside.1 + 1);
+        for j in &joints {
+            if let Some(n) = out.rows_per_joint.get_mut(j.joint - 1) {
+                *n += 1;
+            }
+        }
+        let (file, line) = sources
+            .get(k)
+            .map_or_else(|| (String::new(), 0), |s: &RowSource| (s.path.display().to_string(), s.line));
+        if out.rows.len() < MAX_EXTRAPOLATION_WARNINGS {
+            let list: Vec<String> = joints.iter().map(ToString::to_string).collect();
+            eprintln!(
+                "warning: {file}:{line}: outside the training range of {}: {} (error {error_mm:.4} mm)",
+                model_path.display(),
+                list.join(", ")
+            );
+        }
+        out.rows.push(ExtrapolatedRow { row: k, file, line, error_mm, joints });
+    }
+    out.n_rows = out.rows.len();
+    if out.n_rows > MAX_EXTRAPOLATION_WARNINGS {
+        eprintln!(
+            "warning: ... and {} more rows outside the training range (the JSON report lists every one)",
+            out.n_rows - MAX_EXTRAPOLATION_WARNINGS
+        );
+    }
+    let mean = |(sum, n): (f64, usize)| (n > 0).then(|| sum / n as f64);
+    out.mean_error_inside_mm = mean(inside);
+    out.mean_error_outside_mm = mean(outside);
+    if out.n_rows == 0 {
+        println!(
+            "extrapolation: every row lies within the training range of {} ({} rows)",
+            model_path.display(),
+            out.training_range.rows
+        );
+    } else {
+        let per_joint: Vec<String> = out
+            .rows_per_joint
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| **n > 0)
+            .map(|(k, n)| format!("q{} {n}", k + 1))
+            .collect();
+        let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.4} mm"));
+        println!(
+            "extrapolation: {} of {} rows leave the training range of {} (rows per joint: {}); mean error {} there, {} inside",
+            out.n_rows,
+            out.n_total,
+            model_path.display(),
+            per_joint.join(", "),
+            fmt(out.mean_error_outside_mm),
+            fmt(out.mean_error_inside_mm)
+        );
+    }
+    out
 }
 
 fn label(role: &str, path: &Path) -> String {

@@ -5,6 +5,7 @@
 
 mod any_instrument;
 mod any_robot;
+mod bad_rows_extrapolation;
 mod calibrate;
 mod campaign_sim;
 mod compensate;
