@@ -6,4 +6,5 @@
 mod any_instrument;
 mod bad_rows;
 mod identify;
+mod priors_default;
 mod uncertainty;
