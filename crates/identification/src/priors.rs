@@ -387,21 +387,21 @@ mod tests {
 
     #[test]
     fn overrides_parse_with_units() {
-        let o: PriorOverride = "theta_offset=50mrad".parse().unwrap();
+        let o: PriorOverride = "theta_offset=50mrad".parse().expect("valid override");
         assert_eq!(o.kind, PriorKind::ThetaOffset);
         assert!((o.width - 0.05).abs() < 1e-15);
-        let o: PriorOverride = "length=0.5mm".parse().unwrap();
+        let o: PriorOverride = "length=0.5mm".parse().expect("valid override");
         assert!((o.width - 0.5).abs() < 1e-15);
-        let o: PriorOverride = "alpha=0.1deg".parse().unwrap();
+        let o: PriorOverride = "alpha=0.1deg".parse().expect("valid override");
         assert!((o.width - 0.1f64.to_radians()).abs() < 1e-15);
-        let o: PriorOverride = "a=2um".parse().unwrap();
+        let o: PriorOverride = "a=2um".parse().expect("valid override");
         assert_eq!(o.kind, PriorKind::Length);
         assert!((o.width - 0.002).abs() < 1e-15);
-        let o: PriorOverride = "tcp=free".parse().unwrap();
+        let o: PriorOverride = "tcp=free".parse().expect("valid override");
         assert!(o.width.is_infinite());
-        let o: PriorOverride = "theta_offset=1e-2rad".parse().unwrap();
+        let o: PriorOverride = "theta_offset=1e-2rad".parse().expect("valid override");
         assert!((o.width - 0.01).abs() < 1e-15);
-        let o: PriorOverride = "effect=3".parse().unwrap();
+        let o: PriorOverride = "effect=3".parse().expect("valid override");
         assert_eq!(o.width, 3.0);
     }
 
@@ -416,7 +416,7 @@ mod tests {
             ("length=-1mm", "must be > 0"),
             ("length=xmm", "not a number"),
         ] {
-            let e = s.parse::<PriorOverride>().unwrap_err();
+            let e = s.parse::<PriorOverride>().expect_err("invalid override");
             assert!(e.contains(needle), "{s}: {e}");
         }
     }
