@@ -872,6 +872,31 @@ pub fn synthetic_tracker_measurements(
     out
 }
 
+/// [`synthetic_tracker_measurements`] of one marker (TCP `tcp`) as an instrument whose frame is
+/// elsewhere sees it: the draws of that function (same postures and noise for the same seed),
+/// the truth's position of TCP `tcp` plus the noise, mapped by `y = R x + t`
+/// (`rotation`, `translation_mm`). What a motion-capture system or a tracker at an unknown place
+/// records; every row is labelled TCP `tcp`.
+pub fn synthetic_tracker_measurements_in_frame(
+    truth: &Model,
+    count: usize,
+    sigma_mm: f64,
+    seed: u64,
+    tcp: u32,
+    rotation: &nalgebra::Rotation3<f64>,
+    translation_mm: &Vector3<f64>,
+) -> Vec<Measurement> {
+    synthetic_tracker_measurements(truth, count, sigma_mm, seed)
+        .into_iter()
+        .filter_map(|m| {
+            let Target::Tracker { xyz_mm } = m.target else { return None };
+            let noise = xyz_mm - truth.tcp_position(&m.q, m.tcp).ok()?;
+            let p = truth.tcp_position(&m.q, tcp).ok()? + noise;
+            Some(Measurement::tracker(tcp, m.q, rotation * p + translation_mm))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,11 +6,11 @@
 
 use super::any_robot::{fixture, run, vatcal};
 use nalgebra::{Rotation3, Vector3};
-use vatcal_core::{Axis, CellFile, Measurement, ParamId, Target};
+use vatcal_core::{Axis, CellFile, Measurement, ParamId};
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::{
     ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
-    synthetic_tracker_measurements,
+    synthetic_tracker_measurements_in_frame,
 };
 
 fn fail(args: &[&str]) -> String {
@@ -46,14 +46,7 @@ fn identify_defaults_calibrate_a_tracker_frame_anywhere_to_the_noise_floor() {
     let t = Vector3::new(-1400.0, 1200.0, 900.0);
     assert!(t.norm() > 2000.0);
     let rows = |n: usize, sigma: f64, seed: u64| -> Vec<Measurement> {
-        synthetic_tracker_measurements(&truth, n, sigma, seed)
-            .into_iter()
-            .map(|m| {
-                let Target::Tracker { xyz_mm } = m.target else { unreachable!("tracker rows") };
-                let noise = xyz_mm - truth.tcp_position(&m.q, m.tcp).expect("fk");
-                Measurement::tracker(1, m.q, r * (truth.tcp_position(&m.q, 1).expect("fk") + noise) + t)
-            })
-            .collect()
+        synthetic_tracker_measurements_in_frame(&truth, n, sigma, seed, 1, &r, &t)
     };
     let train = dir.path().join("train.csv");
     let held = dir.path().join("held-out.csv");

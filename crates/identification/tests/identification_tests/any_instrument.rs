@@ -6,7 +6,7 @@
 //! predicted positions on postures the fit never saw.
 
 use nalgebra::{Rotation3, Vector3};
-use vatcal_core::{CellFile, Measurement, PointDistance, Target};
+use vatcal_core::{CellFile, Measurement, PointDistance};
 use vatcal_identification::{
     CvOptions, IdentifyOptions, InitOptions, calibrate, identify, initialise, posture_folds, validate,
 };
@@ -14,7 +14,7 @@ use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet};
 use vatcal_sim::truth::{
     ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
-    synthetic_tracker_measurements,
+    synthetic_tracker_measurements, synthetic_tracker_measurements_in_frame,
 };
 
 fn ur5e_cell() -> CellFile {
@@ -47,15 +47,7 @@ fn tracker_rows(
     r: &Rotation3<f64>,
     t: &Vector3<f64>,
 ) -> Vec<Measurement> {
-    synthetic_tracker_measurements(truth, n, sigma_mm, seed)
-        .into_iter()
-        .map(|m| {
-            let Target::Tracker { xyz_mm } = m.target else { unreachable!("tracker rows") };
-            let noise = xyz_mm - truth.tcp_position(&m.q, m.tcp).expect("fk");
-            let p = truth.tcp_position(&m.q, 1).expect("fk") + noise;
-            Measurement::tracker(1, m.q, r * p + t)
-        })
-        .collect()
+    synthetic_tracker_measurements_in_frame(truth, n, sigma_mm, seed, 1, r, t)
 }
 
 /// The "done" case, as a library call: `default` (cross-validated) from the nominal

@@ -15,7 +15,7 @@ use vatcal_identification::{
 };
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet};
-use vatcal_sim::truth::{ErrorBudget, perturbed_truth, synthetic_tracker_measurements};
+use vatcal_sim::truth::{ErrorBudget, perturbed_truth, synthetic_tracker_measurements_in_frame};
 
 /// The displaced row and its displacement (60 mm).
 const BAD_ROW: usize = 17;
@@ -32,14 +32,7 @@ fn ur5e() -> Model {
 fn rows(truth: &Model, n: usize, sigma_mm: f64, seed: u64) -> Vec<Measurement> {
     let r = Rotation3::from_euler_angles(0.9, -0.6, 2.2);
     let t = Vector3::new(1300.0, -1500.0, 500.0);
-    synthetic_tracker_measurements(truth, n, sigma_mm, seed)
-        .into_iter()
-        .map(|m| {
-            let Target::Tracker { xyz_mm } = m.target else { unreachable!("tracker rows") };
-            let noise = xyz_mm - truth.tcp_position(&m.q, m.tcp).expect("fk");
-            Measurement::tracker(1, m.q, r * (truth.tcp_position(&m.q, 1).expect("fk") + noise) + t)
-        })
-        .collect()
+    synthetic_tracker_measurements_in_frame(truth, n, sigma_mm, seed, 1, &r, &t)
 }
 
 fn truth(nominal: &Model) -> Model {

@@ -3,14 +3,14 @@
 //! set; weak directions found from the design.
 
 use nalgebra::{Rotation3, Vector3};
-use vatcal_core::{Axis, CellFile, Measurement, ParamId, ParamSet, Target};
+use vatcal_core::{Axis, CellFile, Measurement, ParamId, ParamSet};
 use vatcal_identification::{
     CvOptions, IdentificationReport, IdentifyOptions, KindWeights, PriorKind, PriorOverride, PriorSpec,
     PriorWidths, calibrate, validate, weak_directions,
 };
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet};
-use vatcal_sim::truth::{ErrorBudget, perturbed_truth_any_chain, synthetic_tracker_measurements};
+use vatcal_sim::truth::{ErrorBudget, perturbed_truth_any_chain, synthetic_tracker_measurements_in_frame};
 
 fn ur5e() -> Model {
     let cell =
@@ -32,14 +32,7 @@ fn truth(nominal: &Model, seed: u64, marker_mm: [f64; 3]) -> Model {
 fn rows(truth: &Model, n: usize, sigma_mm: f64, seed: u64) -> Vec<Measurement> {
     let r = Rotation3::from_euler_angles(0.4, -1.1, 2.0);
     let t = Vector3::new(900.0, -1700.0, 300.0);
-    synthetic_tracker_measurements(truth, n, sigma_mm, seed)
-        .into_iter()
-        .map(|m| {
-            let Target::Tracker { xyz_mm } = m.target else { unreachable!("tracker rows") };
-            let noise = xyz_mm - truth.tcp_position(&m.q, m.tcp).expect("fk");
-            Measurement::tracker(1, m.q, r * (truth.tcp_position(&m.q, 1).expect("fk") + noise) + t)
-        })
-        .collect()
+    synthetic_tracker_measurements_in_frame(truth, n, sigma_mm, seed, 1, &r, &t)
 }
 
 /// The default fits `kinematic+compliance` with priors, chooses the scale with the lowest CV
