@@ -244,7 +244,10 @@ fn mean_squared(
             vatcal_core::Target::Probe { .. } => options.weights.probe,
             vatcal_core::Target::Tracker { .. } => options.weights.tracker,
         };
-        sum += w * e.norm_squared();
+        // a robust fit's per-row weights count in the score as in the fit (a down-weighted bad
+        // row must not decide the choice)
+        let row = options.row_weights.as_ref().and_then(|r| r.get(k)).copied().unwrap_or(1.0);
+        sum += w * row * e.norm_squared();
     }
     Ok(sum / rows.len().max(1) as f64)
 }
@@ -372,7 +375,14 @@ fn score_candidate(
             if test.is_empty() {
                 continue;
             }
-            match identify(start, &train, params, &fold_options) {
+            let train_options = IdentifyOptions {
+                row_weights: fold_options
+                    .row_weights
+                    .as_ref()
+                    .map(|w| w.iter().zip(fold_of).filter(|(_, f)| **f != fold).map(|(w, _)| *w).collect()),
+                ..fold_options.clone()
+            };
+            match identify(start, &train, params, &train_options) {
                 Ok(fit) => {
                     score.capped_fits += usize::from(!fit.converged);
                     fold_mse.push(mean_squared(&fit.model, measurements, &test, options)?);
@@ -544,6 +554,46 @@ pub fn prepare_calibration(
     Ok(CalibrationStart { init: Some(init), start, params, selection, fit_options })
 }
 
+impl CalibrationStart {
+    /// The [`Calibration`] of a final fit `fit` made from this start on `measurements`: its
+    /// priors, and the weak directions against them (or against the realistic widths ×1 of `cv`
+    /// when the fit had none) at the data σ `sigma_mm` (the fit's σ̂, or a robust one).
+    ///
+    /// # Errors
+    /// The errors of [`crate::weak_directions`].
+    pub fn finish(
+        &self,
+        fit: Identification,
+        measurements: &[Measurement],
+        cv: &CvOptions,
+        sigma_mm: f64,
+    ) -> Result<Calibration, IdentifyError> {
+        let prior_sigmas = self.fit_options.priors.clone().unwrap_or_default();
+        let reference = if prior_sigmas.is_empty() {
+            PriorSpec::new(cv.widths, 1.0).sigmas(&self.start, measurements, &self.params)
+        } else {
+            prior_sigmas.clone()
+        };
+        let sigma_mm = if sigma_mm.is_finite() && sigma_mm > 0.0 { sigma_mm } else { fit.sigma_hat_mm };
+        let weak_directions = crate::weak::weak_directions(
+            &fit.model,
+            measurements,
+            &fit.params,
+            &reference,
+            &self.fit_options.weights,
+            sigma_mm,
+        )?;
+        Ok(Calibration {
+            init: self.init.clone(),
+            params: self.params.clone(),
+            selection: self.selection.clone(),
+            fit,
+            prior_sigmas,
+            weak_directions,
+        })
+    }
+}
+
 /// The options of a named set's fit: `options` as given, or with the priors of `cv` when it
 /// fixes a prior scale ([`CvOptions::prior_scale`]: `--prior-scale`, `--prior`) and then the
 /// iteration cap of [`cv_iteration_cap`] (the first of the σ̂ re-weighting rounds weighs the
@@ -582,27 +632,6 @@ pub fn calibrate(
 ) -> Result<Calibration, IdentifyError> {
     let prepared = prepare_calibration(nominal, measurements, spec, design, options, cv)?;
     let fit = identify(&prepared.start, measurements, &prepared.params, &prepared.fit_options)?;
-    let prior_sigmas = prepared.fit_options.priors.clone().unwrap_or_default();
-    // weak directions against the fit's own priors, or the realistic widths when it had none
-    let reference = if prior_sigmas.is_empty() {
-        PriorSpec::new(cv.widths, 1.0).sigmas(&prepared.start, measurements, &prepared.params)
-    } else {
-        prior_sigmas.clone()
-    };
-    let weak_directions = crate::weak::weak_directions(
-        &fit.model,
-        measurements,
-        &fit.params,
-        &reference,
-        &prepared.fit_options.weights,
-        fit.sigma_hat_mm,
-    )?;
-    Ok(Calibration {
-        init: prepared.init,
-        params: prepared.params,
-        selection: prepared.selection,
-        fit,
-        prior_sigmas,
-        weak_directions,
-    })
+    let sigma_mm = fit.sigma_hat_mm;
+    prepared.finish(fit, measurements, cv, sigma_mm)
 }

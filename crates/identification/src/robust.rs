@@ -39,7 +39,7 @@ use vatcal_observability::sets::DataDesign;
 
 use crate::{
     Calibration, CalibrationStart, CvOptions, Identification, IdentifyError, IdentifyOptions, KindWeights,
-    PriorSpec, calibrate, identify, prepare_calibration, weak_directions,
+    calibrate, identify, prepare_calibration,
 };
 
 /// Median of a χ variable with 3 degrees of freedom (`√(median of χ²₃)` = √2.36597): the median
@@ -350,16 +350,19 @@ pub struct RobustCalibration {
     /// the calibration as [`calibrate`] returns it, its `fit` the reweighted one (its weak
     /// directions judged at the robust σ̂_r)
     pub calibration: Calibration,
-    /// the start, the parameter set (named or chosen by cross-validation on the unweighted
-    /// rows) and the options of the fit ([`prepare_calibration`])
+    /// the start, the parameter set (named, or chosen by cross-validation — again with the
+    /// robust row weights after a first robust fit) and the options of the fit
+    /// ([`prepare_calibration`])
     pub start: CalibrationStart,
     /// the reweighted fit (its `fit` is `calibration.fit`)
     pub robust: RobustFit,
 }
 
-/// [`prepare_calibration`] (initialisation; the parameter set, chosen by cross-validation on
-/// the unweighted rows for `default` on a chain other than the canonical cell), then the
-/// robust fit [`irls`] from its start with its options.
+/// [`prepare_calibration`] (initialisation; the parameter set, chosen by cross-validation for
+/// `default` on a chain other than the canonical cell), then the robust fit [`irls`] from its
+/// start with its options. A cross-validated choice is made again with the robust fit's row
+/// weights (the fold fits and the scores weigh the rows as the fit does), and the robust fit
+/// is redone when the choice changed.
 ///
 /// # Errors
 /// The errors of [`prepare_calibration`] and [`irls`].
@@ -374,32 +377,29 @@ pub fn calibrate_robust(
 ) -> Result<RobustCalibration, IdentifyError> {
     robust.check()?;
     let options = IdentifyOptions { row_weights: None, ..options.clone() };
-    let start = prepare_calibration(nominal, rows, spec, design, &options, cv)?;
-    let fit = irls(&start.start, rows, &start.params, &start.fit_options, robust, None)?;
-    // as `calibrate` does: the priors, and the weak directions against them (or against the
-    // realistic widths without priors)
-    let prior_sigmas = start.fit_options.priors.clone().unwrap_or_default();
-    let reference = if prior_sigmas.is_empty() {
-        PriorSpec::new(cv.widths, 1.0).sigmas(&start.start, rows, &start.params)
-    } else {
-        prior_sigmas.clone()
+    let first_start = prepare_calibration(nominal, rows, spec, design, &options, cv)?;
+    let first = irls(&first_start.start, rows, &first_start.params, &first_start.fit_options, robust, None)?;
+    let (start, fit) = match &first_start.selection {
+        // the set / prior scale was chosen by cross-validation on the unweighted rows: choose
+        // again with the robust weights (scored and fitted with them), so that a bad row does
+        // not decide the model; refit only when the choice changed
+        Some(unweighted) => {
+            let weighted = IdentifyOptions { row_weights: Some(first.weights.clone()), ..options.clone() };
+            let mut again = prepare_calibration(nominal, rows, spec, design, &weighted, cv)?;
+            again.fit_options.row_weights = None;
+            let same =
+                again.selection.as_ref().map(|s| s.chosen().label()) == Some(unweighted.chosen().label());
+            if same {
+                let kept = CalibrationStart { selection: again.selection, ..first_start };
+                (kept, first)
+            } else {
+                let fit = irls(&again.start, rows, &again.params, &again.fit_options, robust, None)?;
+                (again, fit)
+            }
+        }
+        None => (first_start, first),
     };
-    let weak_directions = weak_directions(
-        &fit.fit.model,
-        rows,
-        &fit.fit.params,
-        &reference,
-        &start.fit_options.weights,
-        if fit.sigma_mm.is_finite() && fit.sigma_mm > 0.0 { fit.sigma_mm } else { fit.fit.sigma_hat_mm },
-    )?;
-    let calibration = Calibration {
-        init: start.init.clone(),
-        params: start.params.clone(),
-        selection: start.selection.clone(),
-        fit: fit.fit.clone(),
-        prior_sigmas,
-        weak_directions,
-    };
+    let calibration = start.finish(fit.fit.clone(), rows, cv, fit.sigma_mm)?;
     Ok(RobustCalibration { calibration, start, robust: fit })
 }
 
