@@ -511,7 +511,14 @@ pub fn calibrate<S: ReportSetup>(
     let fit = if run(&book, Stage::Identify) {
         book.begin(Stage::Identify, None)?;
         let fit = crate::identify_stage(&nominal, &campaign.measurements, &params)?;
-        files.cell(folders::CALIBRATED_CELL, &fit.model.to_cell())?;
+        // the calibrated cell records the joints' training range: `compensate` and `validate`
+        // warn about postures outside it
+        let mut calibrated = fit.model.to_cell();
+        calibrated.training_range = vatcal_core::training_range::TrainingRange::from_postures(
+            fit.model.joint_kinds(),
+            campaign.measurements.iter().map(|m| &m.q),
+        );
+        files.cell(folders::CALIBRATED_CELL, &calibrated)?;
         book.finish(Stage::Identify, None, |s| {
             Some(format!(
                 "identification: {} parameters, {} iterations, residual mean {:.4} mm ({s:.1} s)",
