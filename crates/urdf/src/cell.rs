@@ -32,8 +32,8 @@ impl ImportedChain {
     ///   tool is not in the URDF chain);
     /// * `[obstacles.robot_links] link_radii_mm`: the collision radii, when the URDF has
     ///   `<collision>` primitives ([`ImportedChain::link_radii_mm`]);
-    /// * `[urdf_import]`: where the chain came from (`source`, `base_link`, `tip_link`) and the
-    ///   import notes.
+    /// * `[urdf_import]`: where the chain came from (`source`, `base_link`, `tip_link`), the
+    ///   joints traversed up the tree (`reversed_joints`, when any) and the import notes.
     ///
     /// # Examples
     /// ```
@@ -71,6 +71,11 @@ impl ImportedChain {
         provenance.insert("source".into(), source.into());
         provenance.insert("base_link".into(), self.base_link.clone().into());
         provenance.insert("tip_link".into(), self.tip_link.clone().into());
+        let reversed: Vec<toml::Value> =
+            self.joints.iter().filter(|j| j.reversed).map(|j| j.name.clone().into()).collect();
+        if !reversed.is_empty() {
+            provenance.insert("reversed_joints".into(), toml::Value::Array(reversed));
+        }
         if !self.notes.is_empty() {
             provenance.insert(
                 "notes".into(),

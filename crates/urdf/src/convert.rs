@@ -9,7 +9,7 @@ use urdf_rs::{JointType, Pose};
 use vatcal_core::cell::{BaseInWorld, LinkInertial};
 use vatcal_core::frame::{Frame, rot_x, rot_y, rot_z};
 
-use crate::tree::{Tree, element_line};
+use crate::tree::{PathJoint, Tree, element_line};
 use crate::{
     ImportedChain, ImportedJoint, JointKind, MAX_IMPORTED_JOINTS, PARALLEL_AXES_TOLERANCE_DEG,
     UrdfImportError,
@@ -29,20 +29,27 @@ struct Line {
     dir: Vector3<f64>,
 }
 
-/// One joint of the path: its constant origin and, for actuated joints, how it moves.
+/// One joint of the path: its constant origin and, for actuated joints, how it moves. Down the
+/// tree the step is `origin · motion(q)`; up the tree (`reversed`) its inverse
+/// `motion(-q) · origin⁻¹`.
 #[derive(Debug, Clone)]
 pub(crate) struct Step {
     origin: Frame,
-    /// kind and unit axis in the joint frame
+    /// kind and unit axis in the joint frame (the URDF axis, normalised)
     motion: Option<(JointKind, Vector3<f64>)>,
+    /// traversed from the joint's child link to its parent link
+    reversed: bool,
 }
 
 /// What the rows need from an actuated joint of the path besides the geometry.
 #[derive(Debug, Clone)]
 pub(crate) struct Actuated {
     name: String,
+    /// the link the joint leads to along the chain (the URDF child, or the parent when reversed)
     child: String,
     pub kind: JointKind,
+    /// traversed from child to parent
+    reversed: bool,
     continuous: bool,
     q_min: Option<f64>,
     q_max: Option<f64>,
@@ -165,7 +172,7 @@ pub(crate) fn urdf_tip(steps: &[Step], q: &[f64]) -> Vector3<f64> {
     let mut x = Frame::identity();
     let mut k = 0;
     for s in steps {
-        x = x.compose(&s.origin);
+        let mut f = s.origin;
         if let Some((kind, axis)) = s.motion {
             let m = match kind {
                 JointKind::Revolute => Frame {
@@ -174,9 +181,10 @@ pub(crate) fn urdf_tip(steps: &[Step], q: &[f64]) -> Vector3<f64> {
                 },
                 JointKind::Prismatic => Frame { r: nalgebra::Matrix3::identity(), p: axis * q[k] },
             };
-            x = x.compose(&m);
+            f = f.compose(&m);
             k += 1;
         }
+        x = x.compose(&if s.reversed { f.inverse() } else { f });
     }
     x.p
 }
@@ -208,7 +216,7 @@ pub(crate) fn chain_tip(chain: &ImportedChain, q: &[f64]) -> Vector3<f64> {
 /// unsupported / mimic joints, unusable axes, origins and limits, and joint counts are errors.
 pub(crate) fn path_steps(
     tree: &Tree<'_>,
-    path: &[usize],
+    path: &[PathJoint],
     base: &str,
     tip: &str,
     text: &str,
@@ -228,7 +236,7 @@ pub(crate) fn path_steps(
     // 1. the joints of the path
     let mut steps = Vec::with_capacity(path.len());
     let mut rows = Vec::new();
-    for &ji in path {
+    for &PathJoint { joint: ji, reversed } in path {
         let j = &robot.joints[ji];
         let (kind, continuous) = match j.joint_type {
             JointType::Revolute => (Some(JointKind::Revolute), false),
@@ -292,8 +300,9 @@ pub(crate) fn path_steps(
                 };
                 rows.push(Actuated {
                     name: j.name.clone(),
-                    child: j.child.link.clone(),
+                    child: if reversed { j.parent.link.clone() } else { j.child.link.clone() },
                     kind,
+                    reversed,
                     continuous,
                     q_min,
                     q_max,
@@ -302,7 +311,7 @@ pub(crate) fn path_steps(
                 Some((kind, a / n))
             }
         };
-        steps.push(Step { origin: pose_frame(&j.origin), motion });
+        steps.push(Step { origin: pose_frame(&j.origin), motion, reversed });
     }
     if rows.is_empty() || rows.len() > MAX_IMPORTED_JOINTS {
         return Err(UrdfImportError::JointCount {
@@ -315,10 +324,10 @@ pub(crate) fn path_steps(
     Ok((steps, rows))
 }
 
-/// The conversion (see the crate docs). `path` = joint indices from `base` down to `tip`.
+/// The conversion (see the crate docs). `path` = the joints from `base` to `tip`.
 pub(crate) fn convert(
     tree: &Tree<'_>,
-    path: &[usize],
+    path: &[PathJoint],
     base: &str,
     tip: &str,
     text: &str,
@@ -328,13 +337,21 @@ pub(crate) fn convert(
     let (steps, rows) = path_steps(tree, path, base, tip, text, origin)?;
     let n = rows.len();
 
-    // 2. joint axes and tip pose at q = 0, in the base-link frame
+    // 2. joint axes and tip pose at q = 0, in the base-link frame. A joint traversed up the
+    //    tree moves the rest of the chain by motion(-q) about its axis, i.e. by +q about the
+    //    opposite direction: z_i points against the URDF axis and q_i keeps the URDF's sign.
     let mut x = Frame::identity();
     let mut axes = Vec::with_capacity(n);
     for s in &steps {
-        x = x.compose(&s.origin);
+        if !s.reversed {
+            x = x.compose(&s.origin);
+        }
         if let Some((_, a)) = s.motion {
-            axes.push(Line { point: x.p, dir: x.r * a });
+            let dir = x.r * a;
+            axes.push(Line { point: x.p, dir: if s.reversed { -dir } else { dir } });
+        }
+        if s.reversed {
+            x = x.compose(&s.origin.inverse());
         }
     }
     let tip_pose = x;
@@ -374,6 +391,7 @@ pub(crate) fn convert(
         joints.push(ImportedJoint {
             name: r.name.clone(),
             child_link: r.child.clone(),
+            reversed: r.reversed,
             kind: r.kind,
             continuous: r.continuous,
             alpha_deg: clean(alpha.to_degrees()),
@@ -399,9 +417,20 @@ pub(crate) fn convert(
     // 6. inertials
     let frame_of_joint: HashMap<usize, usize> =
         rows.iter().enumerate().map(|(i, r)| (r.joint, i + 1)).collect();
-    let (inertials, mut notes) =
-        inertials(tree, base, &link_poses_at_zero(tree, base), &frame_of_joint, &frames, text, origin)?;
-    let link_radii_mm = link_radii(tree, base, &frame_of_joint, n, text, origin, &mut notes)?;
+    let carried = carried_links(tree, base, path, &frame_of_joint, origin)?;
+    let (inertials, mut notes) = inertials(tree, &carried, &frames, text, origin)?;
+    let link_radii_mm = link_radii(tree, &carried, n, text, origin, &mut notes)?;
+    let reversed: Vec<&str> = rows.iter().filter(|r| r.reversed).map(|r| r.name.as_str()).collect();
+    if !reversed.is_empty() {
+        notes.insert(
+            0,
+            format!(
+                "the chain goes up the tree through joint(s) {} (child to parent): their z axes point \
+                 against the URDF axes, so joint values stay the URDF joint positions",
+                reversed.join(", ")
+            ),
+        );
+    }
 
     let chain = ImportedChain {
         robot_name: robot.name.clone(),
@@ -438,35 +467,65 @@ pub(crate) fn convert(
     Ok(chain)
 }
 
-/// Poses at q = 0 of every link below `base` (base-link frame, mm).
-fn link_poses_at_zero<'a>(tree: &Tree<'a>, base: &'a str) -> HashMap<&'a str, Frame> {
-    let mut poses: HashMap<&str, Frame> = HashMap::new();
-    poses.insert(base, Frame::identity());
-    for l in tree.subtree(base) {
-        let Some(&parent_pose) = poses.get(l) else { continue };
-        if let Some(js) = tree.child_joints.get(l) {
-            for &j in js {
-                let jt = &tree.robot.joints[j];
-                poses.insert(jt.child.link.as_str(), parent_pose.compose(&pose_frame(&jt.origin)));
-            }
-        }
-    }
-    poses
+/// How a link moves relative to the base link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Carrier {
+    /// with MDH frame `i` (0: fixed to the base link)
+    Frame(usize),
+    /// with a joint that is not on the chain (index into `robot.joints`)
+    OffChain(usize),
 }
 
-/// The nearest movable joint above link `l` (index into `robot.joints`); `None` when `l` is
-/// fixed to `base`.
-fn moving_joint_above(tree: &Tree<'_>, base: &str, l: &str) -> Option<usize> {
+/// A link of the tree seen from the base link: its pose at q = 0 (base-link frame, mm) and what
+/// moves it.
+#[derive(Debug, Clone)]
+struct CarriedLink<'a> {
+    name: &'a str,
+    pose: Frame,
+    carrier: Carrier,
+}
+
+/// The links the chain carries, seen from `base` (the tree re-rooted at the base link): the
+/// subtree of `base` when the chain only goes down, every link connected to `base` when it goes
+/// up (a humanoid standing on its sole carries the whole body). A link moves with the MDH frame
+/// of the last actuated chain joint on its path from `base` when its path leaves the chain on
+/// fixed joints only, and with an off-chain joint otherwise.
+fn carried_links<'a>(
+    tree: &Tree<'a>,
+    base: &'a str,
+    chain: &[PathJoint],
+    frame_of_joint: &HashMap<usize, usize>,
+    origin: &str,
+) -> Result<Vec<CarriedLink<'a>>, UrdfImportError> {
     let robot = tree.robot;
-    let mut cur = l;
-    while cur != base {
-        let &j = tree.parent_joint.get(cur)?;
-        if robot.joints[j].joint_type != JointType::Fixed {
-            return Some(j);
+    let names: Vec<&'a str> = if chain.iter().any(|p| p.reversed) {
+        robot.links.iter().map(|l| l.name.as_str()).collect()
+    } else {
+        tree.subtree(base)
+    };
+    let mut out = Vec::with_capacity(names.len());
+    for name in names {
+        let Some(path) = tree.path_between(base, name, origin)? else { continue };
+        let mut pose = Frame::identity();
+        for p in &path {
+            let o = pose_frame(&robot.joints[p.joint].origin);
+            pose = pose.compose(&if p.reversed { o.inverse() } else { o });
         }
-        cur = robot.joints[j].parent.link.as_str();
+        let shared = path.iter().zip(chain).take_while(|(a, b)| a == b).count();
+        let actuated = |p: &&PathJoint| robot.joints[p.joint].joint_type != JointType::Fixed;
+        let carrier = match path[shared..].iter().rev().find(actuated) {
+            Some(p) => Carrier::OffChain(p.joint),
+            None => match path[..shared].iter().rev().find(actuated) {
+                None => Carrier::Frame(0),
+                Some(p) => match frame_of_joint.get(&p.joint) {
+                    Some(&f) => Carrier::Frame(f),
+                    None => Carrier::OffChain(p.joint), // unreachable: shared joints are the chain's
+                },
+            },
+        };
+        out.push(CarriedLink { name, pose, carrier });
     }
-    None
+    Ok(out)
 }
 
 /// Radius (mm) of the capsule that covers a URDF collision primitive: a cylinder's or capsule's
@@ -493,8 +552,7 @@ fn primitive_radius_mm(g: &urdf_rs::Geometry) -> Option<f64> {
 /// named in the notes.
 fn link_radii(
     tree: &Tree<'_>,
-    base: &str,
-    frame_of_joint: &HashMap<usize, usize>,
+    carried: &[CarriedLink<'_>],
     n: usize,
     text: &str,
     origin: &str,
@@ -503,14 +561,11 @@ fn link_radii(
     let robot = tree.robot;
     let mut radii: Vec<Option<f64>> = vec![None; n + 1];
     let mut meshes = 0usize;
-    for l in tree.subtree(base) {
+    for link in carried {
+        let l = link.name;
         let Some(&li) = tree.link_index.get(l) else { continue };
-        let frame = match moving_joint_above(tree, base, l) {
-            None => 0,
-            Some(j) => match frame_of_joint.get(&j) {
-                Some(&f) => f,
-                None => continue, // moved by a joint off the chain (named in the mass notes)
-            },
+        let Carrier::Frame(frame) = link.carrier else {
+            continue; // moved by a joint off the chain (named in the mass notes)
         };
         for c in &robot.links[li].collision {
             let Some(r) = primitive_radius_mm(&c.geometry) else {
@@ -554,9 +609,7 @@ fn link_radii(
 /// Masses and COMs per MDH frame (see the crate docs), and notes on what was left out.
 fn inertials(
     tree: &Tree<'_>,
-    base: &str,
-    poses: &HashMap<&str, Frame>,
-    frame_of_joint: &HashMap<usize, usize>,
+    carried: &[CarriedLink<'_>],
     frames: &[Frame],
     text: &str,
     origin: &str,
@@ -565,7 +618,8 @@ fn inertials(
     let mut notes = Vec::new();
     // frame → (mass, mass-weighted COM in the base-link frame, link names)
     let mut acc: BTreeMap<usize, (f64, Vector3<f64>, Vec<String>)> = BTreeMap::new();
-    for l in tree.subtree(base) {
+    for carried_link in carried {
+        let l = carried_link.name;
         let Some(&li) = tree.link_index.get(l) else { continue };
         let link = &robot.links[li];
         let m = link.inertial.mass.value;
@@ -587,15 +641,18 @@ fn inertials(
         if c.iter().any(|v| !v.is_finite()) {
             return Err(bad("<inertial><origin xyz> has a non-finite value".into()));
         }
-        let Some(j) = moving_joint_above(tree, base, l) else { continue }; // fixed to the base
-        let Some(&frame) = frame_of_joint.get(&j) else {
-            notes.push(format!(
-                "link `{l}` ({m} kg) moves with joint `{}`, which is not on the chain: its mass is left out",
-                robot.joints[j].name
-            ));
-            continue;
+        let frame = match carried_link.carrier {
+            Carrier::Frame(0) => continue, // fixed to the base
+            Carrier::Frame(f) => f,
+            Carrier::OffChain(j) => {
+                notes.push(format!(
+                    "link `{l}` ({m} kg) moves with joint `{}`, which is not on the chain: its mass is left out",
+                    robot.joints[j].name
+                ));
+                continue;
+            }
         };
-        let Some(pose) = poses.get(l) else { continue };
+        let pose = &carried_link.pose;
         let com_b = pose.transform_point(&(Vector3::new(c[0], c[1], c[2]) * M_TO_MM));
         let e = acc.entry(frame).or_insert((0.0, Vector3::zeros(), Vec::new()));
         e.0 += m;

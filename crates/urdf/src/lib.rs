@@ -3,7 +3,8 @@
 //! ## Overview
 //!
 //! Reads a URDF file (with [`urdf_rs`]) and converts the serial chain from a base link `B` to a
-//! tip link `T` into the representation every other vatcal crate uses: one MDH + Hayati-β row
+//! tip link `T` — any two links of the tree: up from `B` to their lowest common ancestor, then
+//! down to `T` — into the representation every other vatcal crate uses: one MDH + Hayati-β row
 //! per actuated joint,
 //!
 //! ```text
@@ -25,6 +26,11 @@
 //!   URDF joint origin and its (normalised) axis. MDH frame `i` has `z_i` along that axis (same
 //!   sense, so `q_i` keeps the URDF's sign) and its origin on it; fixed joints only contribute
 //!   their constant transform;
+//! * a joint the chain traverses up the tree (from its child link to its parent link,
+//!   [`ImportedJoint::reversed`]) moves the rest of the chain by the inverse of its motion: the
+//!   segment is `R(a, -q) · T_o⁻¹` instead of `T_o · R(a, q)`. Since `R(a, -q) = R(-a, q)`
+//!   (and a translation by `-a q` is one by `q` along `-a`), `z_i` points against the URDF
+//!   axis and `q_i` is still the URDF joint position: no sign convention is needed in the cell;
 //! * for consecutive axes that are not (nearly) parallel, frame `i` is the classic MDH one:
 //!   origin at the foot of the common normal, `x_i` along it (`beta = 0`);
 //! * for (nearly) parallel axes (within [`PARALLEL_AXES_TOLERANCE_DEG`]), the common normal is
@@ -45,8 +51,8 @@
 //!
 //! ## What is rejected
 //!
-//! No path from `B` down to `T` ([`UrdfImportError::NoPath`], naming both links and the links
-//! above `T`), planar / floating / spherical joints on the path
+//! `B == T`, or two links in separate trees ([`UrdfImportError::NoPath`], naming both links),
+//! planar / floating / spherical joints on the path
 //! ([`UrdfImportError::UnsupportedJoint`]), `<mimic>` joints on the path
 //! ([`UrdfImportError::MimicJoint`]), a zero axis, revolute/prismatic joints without a usable
 //! `<limit>` ([`UrdfImportError::InvalidJoint`]), and chains with no or more than
@@ -55,9 +61,11 @@
 //!
 //! ## Masses
 //!
-//! A link belongs to the MDH frame of the nearest actuated path joint above it: the child link
-//! of joint `i`, the links hanging below it on fixed joints (on the path or beside it) and,
-//! after the last joint, everything fixed below `T`. Their masses are added and their centres of
+//! Links are seen from `B` (the tree re-rooted at the base link): the subtree of `B` when the
+//! chain only goes down, every link of the tree when it goes up (a humanoid standing on its sole
+//! carries the whole body). A link belongs to the MDH frame of the last actuated path joint on
+//! its way from `B`: the link joint `i` leads to, the links hanging from it on fixed joints (on
+//! the path or beside it) and, after the last joint, everything fixed to `T`. Their masses are added and their centres of
 //! mass combined in frame `i`. Links that do not move (above the first joint) are not listed;
 //! links moved by a joint that is not on the path (a gripper finger, a second arm) are left out
 //! and mentioned in [`ImportedChain::notes`].
@@ -116,8 +124,15 @@ pub const PARALLEL_AXES_TOLERANCE_DEG: f64 = 1.0;
 pub struct ImportedJoint {
     /// URDF joint name
     pub name: String,
-    /// URDF child link of the joint
+    /// the link the joint leads to along the chain: the URDF child link, or the URDF parent
+    /// link when the chain goes up the tree through this joint (`reversed`)
     pub child_link: String,
+    /// true when the chain traverses the joint from its URDF child link to its parent link (up
+    /// the tree, e.g. a leg joint of a chain that starts at the sole). The joint then moves the
+    /// rest of the chain by the inverse motion, `R(axis, -q)`, which is `R(-axis, q)`: the MDH
+    /// `z` axis points against the URDF axis and the joint value is still the URDF joint
+    /// position (same sign, same limits).
+    pub reversed: bool,
     /// revolute (URDF `revolute` or `continuous`) or prismatic
     pub kind: JointKind,
     /// true for a URDF `continuous` joint (a revolute joint without limits)
@@ -210,7 +225,7 @@ pub enum UrdfImportError {
         /// the links of the file
         known: String,
     },
-    /// The tip link is not below the base link.
+    /// The base and tip links are the same link, or in two separate trees of the file.
     #[error("{origin}: no serial chain from base link `{base}` to tip link `{tip}`: {reason}")]
     NoPath {
         /// file path or `<string>`
@@ -297,7 +312,8 @@ pub enum UrdfImportError {
     },
 }
 
-/// Reads `path` and imports the chain from `base_link` down to `tip_link`.
+/// Reads `path` and imports the chain from `base_link` to `tip_link` (up the tree to their
+/// lowest common ancestor where needed, then down).
 ///
 /// # Examples
 /// ```
@@ -325,7 +341,8 @@ pub fn import_file(
     import_str(&text, &path.display().to_string(), base_link, tip_link)
 }
 
-/// Imports the chain from `base_link` down to `tip_link` of the URDF `text`; `origin` names the
+/// Imports the chain from `base_link` to `tip_link` of the URDF `text` (any two links of the
+/// tree: up from `base_link` to their lowest common ancestor, then down); `origin` names the
 /// source (a file path) in error messages.
 ///
 /// # Errors
@@ -345,7 +362,8 @@ pub fn import_str(
 }
 
 /// Forward kinematics straight from a URDF's joint origins and axes (no MDH rows involved): the
-/// position of the tip link's origin in the base link's frame. Use it to check a model built from
+/// position of the tip link's origin in the base link's frame (a joint traversed up the tree
+/// contributes the inverse of its transform). Use it to check a model built from
 /// an [`ImportedChain`] (`vatcal import-urdf` does, and so do the tests).
 ///
 /// ```

@@ -6,6 +6,16 @@ use urdf_rs::Robot;
 
 use crate::UrdfImportError;
 
+/// One joint of a path between two links: traversed from parent to child (down the tree) or,
+/// `reversed`, from child to parent (up the tree).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct PathJoint {
+    /// index into `robot.joints`
+    pub joint: usize,
+    /// true when the path goes from the joint's child link to its parent link
+    pub reversed: bool,
+}
+
 /// Parent/child maps over a parsed URDF (indices into `robot.joints`).
 #[derive(Debug)]
 pub(crate) struct Tree<'a> {
@@ -84,8 +94,11 @@ impl<'a> Tree<'a> {
         Ok(out)
     }
 
-    /// Joint indices of the serial path from `base` down to `tip`, in order from the base.
-    pub fn path(&self, base: &str, tip: &str, origin: &str) -> Result<Vec<usize>, UrdfImportError> {
+    /// The serial path between two links of the tree, in order from `base`: up from `base` to
+    /// the lowest common ancestor of the two links (those joints traversed from child to parent,
+    /// `reversed`), then down to `tip`. Unknown links, `base == tip` and links in two separate
+    /// trees are errors.
+    pub fn path(&self, base: &str, tip: &str, origin: &str) -> Result<Vec<PathJoint>, UrdfImportError> {
         for (role, link) in [("base", base), ("tip", tip)] {
             if !self.link_index.contains_key(link) {
                 return Err(UrdfImportError::UnknownLink {
@@ -105,32 +118,51 @@ impl<'a> Tree<'a> {
         if base == tip {
             return Err(no_path("the base and tip links are the same link".into()));
         }
-        let up = self.ancestors(tip, origin)?;
-        let mut path = Vec::new();
-        for &j in &up {
-            path.push(j);
-            if self.robot.joints[j].parent.link == base {
-                path.reverse();
-                return Ok(path);
+        self.path_between(base, tip, origin)?.ok_or_else(|| {
+            let root = |l: &str| -> String {
+                self.ancestors(l, origin)
+                    .ok()
+                    .and_then(|up| up.last().map(|&j| self.robot.joints[j].parent.link.clone()))
+                    .unwrap_or_else(|| l.to_string())
+            };
+            no_path(format!("they are in two separate trees (roots `{}` and `{}`)", root(base), root(tip)))
+        })
+    }
+
+    /// The path from link `from` to link `to` (both known; empty when equal), or `None` when
+    /// they are not connected.
+    pub fn path_between(
+        &self,
+        from: &str,
+        to: &str,
+        origin: &str,
+    ) -> Result<Option<Vec<PathJoint>>, UrdfImportError> {
+        let up_from = self.ancestors(from, origin)?;
+        let up_to = self.ancestors(to, origin)?;
+        // links above `from` (itself first) and how many joints up each one is
+        let mut depth_from: HashMap<&str, usize> = HashMap::new();
+        depth_from.insert(from, 0);
+        for (k, &j) in up_from.iter().enumerate() {
+            depth_from.insert(self.robot.joints[j].parent.link.as_str(), k + 1);
+        }
+        // the first link above (or at) `to` that is also above (or at) `from`: the lowest
+        // common ancestor
+        let mut down = Vec::new();
+        let mut lca_depth = depth_from.get(to).copied();
+        if lca_depth.is_none() {
+            for &j in &up_to {
+                down.push(j);
+                if let Some(&d) = depth_from.get(self.robot.joints[j].parent.link.as_str()) {
+                    lca_depth = Some(d);
+                    break;
+                }
             }
         }
-        // Not an ancestor: say why, in the user's terms.
-        let tip_above_base =
-            self.ancestors(base, origin)?.iter().any(|&j| self.robot.joints[j].parent.link == tip);
-        let reason = if tip_above_base {
-            format!("`{tip}` is above `{base}` in the tree; swap --base-link and --tip-link")
-        } else {
-            let chain: Vec<&str> = up.iter().map(|&j| self.robot.joints[j].parent.link.as_str()).collect();
-            if chain.is_empty() {
-                format!("`{tip}` is the root of the tree, so `{base}` is not above it")
-            } else {
-                format!(
-                    "`{base}` is not above `{tip}` in the tree (the links above `{tip}` are: {})",
-                    chain.join(", ")
-                )
-            }
-        };
-        Err(no_path(reason))
+        let Some(up_count) = lca_depth else { return Ok(None) };
+        let mut path: Vec<PathJoint> =
+            up_from[..up_count].iter().map(|&joint| PathJoint { joint, reversed: true }).collect();
+        path.extend(down.iter().rev().map(|&joint| PathJoint { joint, reversed: false }));
+        Ok(Some(path))
     }
 
     /// The links of the subtree rooted at `root` (root first, depth-first, file order).

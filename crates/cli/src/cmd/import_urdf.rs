@@ -1,5 +1,5 @@
 //! `vatcal import-urdf`: a cell file (format `serial-robot-cell`, version 2) from the serial chain
-//! between two links of a URDF (see docs/urdf.md).
+//! between any two links of a URDF tree, up the tree where it must (see docs/urdf.md).
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -15,7 +15,8 @@ pub struct Args {
     /// URDF file.
     pub urdf: PathBuf,
     /// Link the chain starts at; its frame becomes the cell's world frame (z up is assumed for
-    /// gravity).
+    /// gravity). Any link of the tree: the chain goes up from it to the lowest common ancestor
+    /// of the two links (those joints reversed), then down to the tip link.
     #[arg(long)]
     pub base_link: String,
     /// Link the chain ends at; its origin becomes TCP 1.

@@ -119,6 +119,85 @@ fn meca500_vatcal_fk_matches_the_urdf() {
 }
 
 #[test]
+fn humanoid_sole_to_gripper_vatcal_fk_matches_the_urdf() {
+    // up the left leg (six joints reversed), through the pelvis and torso, down the left arm
+    let (worst, summary) =
+        import_and_compare("humanoid-tree.urdf", "left_sole_link", "gripper_left_base_link", 31, true);
+    println!("max deviation {worst:e} mm");
+    assert!(worst < 1e-9, "max deviation {worst:e} mm");
+    assert!(
+        summary.contains("humanoid_tree (12 joints, left_sole_link -> gripper_left_base_link)"),
+        "{summary}"
+    );
+    assert!(summary.contains("up the tree through joint(s) leg_left_6_joint"), "{summary}");
+    // the library model of the written cell agrees as well
+    let (worst, _) =
+        import_and_compare("humanoid-tree.urdf", "left_sole_link", "gripper_left_base_link", 32, false);
+    assert!(worst < 1e-9, "max deviation {worst:e} mm");
+}
+
+#[test]
+fn humanoid_cell_records_the_reversed_joints() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let cell_path = dir.path().join("h.toml");
+    let out = vatcal()
+        .args([
+            "import-urdf",
+            &fixture("humanoid-tree.urdf"),
+            "--base-link",
+            "gripper_left_base_link",
+            "--tip-link",
+            "left_sole_link",
+            "--out",
+        ])
+        .arg(&cell_path)
+        .output()
+        .expect("run");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let cell = vatcal_core::CellFile::load(&cell_path).expect("the written cell loads");
+    let reversed: Vec<&str> = cell.extra["urdf_import"]["reversed_joints"]
+        .as_array()
+        .expect("reversed_joints")
+        .iter()
+        .map(|v| v.as_str().expect("name"))
+        .collect();
+    // gripper -> sole: the arm and the torso joint go up, the leg goes down
+    assert_eq!(
+        reversed,
+        [
+            "arm_left_5_joint",
+            "arm_left_4_joint",
+            "arm_left_3_joint",
+            "arm_left_2_joint",
+            "arm_left_1_joint",
+            "torso_1_joint"
+        ]
+    );
+}
+
+#[test]
+fn same_link_is_an_error() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let out = vatcal()
+        .args([
+            "import-urdf",
+            &fixture("humanoid-tree.urdf"),
+            "--base-link",
+            "torso_2_link",
+            "--tip-link",
+            "torso_2_link",
+            "--out",
+        ])
+        .arg(dir.path().join("x.toml"))
+        .output()
+        .expect("run");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("humanoid-tree.urdf") && err.contains("the same link"), "{err}");
+    assert!(!dir.path().join("x.toml").exists());
+}
+
+#[test]
 fn errors_name_the_link() {
     let dir = tempfile::tempdir().expect("tmp");
     let out = vatcal()

@@ -30,16 +30,25 @@ fn tr(x: f64, y: f64, z: f64) -> Isometry3<f64> {
     Isometry3::translation(x, y, z)
 }
 
-/// Poses [mm] of every link below `base` in the frame of `base`, for URDF joint positions
-/// `q` by joint name (rad / m; joints not in `q` stay at 0).
+/// Poses [mm] of every link of the tree in the frame of `base`, for URDF joint positions `q` by
+/// joint name (rad / m; joints not in `q` stay at 0): the plain forward kinematics of the whole
+/// tree from its root(s), then seen from `base` (`pose(base)⁻¹ · pose(link)`).
 pub fn urdf_link_poses(
     robot: &urdf_rs::Robot,
     base: &str,
     q: &HashMap<String, f64>,
 ) -> HashMap<String, Isometry3<f64>> {
+    let roots: Vec<String> = robot
+        .links
+        .iter()
+        .filter(|l| !robot.joints.iter().any(|j| j.child.link == l.name))
+        .map(|l| l.name.clone())
+        .collect();
     let mut poses = HashMap::new();
-    poses.insert(base.to_string(), Isometry3::identity());
-    let mut stack = vec![base.to_string()];
+    for r in &roots {
+        poses.insert(r.clone(), Isometry3::identity());
+    }
+    let mut stack = roots;
     while let Some(l) = stack.pop() {
         let parent = poses[&l];
         for j in robot.joints.iter().filter(|j| j.parent.link == l) {
@@ -65,7 +74,8 @@ pub fn urdf_link_poses(
             stack.push(j.child.link.clone());
         }
     }
-    poses
+    let from_base = poses[base].inverse();
+    poses.into_iter().map(|(name, p)| (name, from_base * p)).collect()
 }
 
 /// MDH frames 0..=N [mm] in the base-link frame for joint values `q_file` (deg / mm), by the

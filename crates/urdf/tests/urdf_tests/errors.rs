@@ -56,21 +56,27 @@ fn unknown_links() {
 }
 
 #[test]
-fn no_path_names_both_links() {
+fn paths_up_the_tree_and_what_is_still_refused() {
     let t = robot("revolute", LIMIT);
-    // sibling branch
-    let e = err(&t, "other", "tip");
-    assert!(
-        matches!(&e, UrdfImportError::NoPath { base, tip, .. } if base == "other" && tip == "tip"),
-        "{e}"
-    );
-    let msg = e.to_string();
-    assert!(msg.contains("`other`") && msg.contains("`tip`") && msg.contains("l2, l1, base"), "{msg}");
-    // reversed
-    let msg = err(&t, "tip", "base").to_string();
-    assert!(msg.contains("swap --base-link and --tip-link"), "{msg}");
-    // same link
-    assert!(matches!(err(&t, "l1", "l1"), UrdfImportError::NoPath { .. }));
+    // a sibling branch: up from `other` to `base` (a fixed joint), then down to `tip`
+    let c = import_str(&t, "robot.urdf", "other", "tip").expect("sibling branch");
+    assert_eq!(c.joints.iter().map(|j| j.reversed).collect::<Vec<_>>(), [false; 3]);
+    // tip above base: the whole chain traversed backwards
+    let c = import_str(&t, "robot.urdf", "tip", "base").expect("swapped");
+    let names: Vec<&str> = c.joints.iter().map(|j| j.name.as_str()).collect();
+    assert_eq!(names, ["j3", "j2", "j1"]);
+    assert!(c.joints.iter().all(|j| j.reversed));
+    assert_eq!(c.joints[0].child_link, "l2", "a reversed joint leads to its URDF parent link");
+    assert!(c.notes.iter().any(|n| n.contains("j3, j2, j1") && n.contains("up the tree")), "{:?}", c.notes);
+    // the same link is still an error naming it
+    let e = err(&t, "l1", "l1");
+    assert!(matches!(&e, UrdfImportError::NoPath { base, tip, .. } if base == "l1" && tip == "l1"), "{e}");
+    assert!(e.to_string().contains("the same link"), "{e}");
+    // two separate trees
+    let two = t.replace("</robot>", r#"<link name="a"/><link name="b"/><joint name="ab" type="fixed"><parent link="a"/><child link="b"/></joint></robot>"#);
+    let e = err(&two, "tip", "b");
+    assert!(matches!(&e, UrdfImportError::NoPath { .. }), "{e}");
+    assert!(e.to_string().contains("two separate trees (roots `base` and `a`)"), "{e}");
 }
 
 #[test]

@@ -8,4 +8,5 @@ mod common;
 
 mod errors;
 mod fixtures;
+mod humanoid;
 mod synthetic;

@@ -176,6 +176,52 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    /// Chains that go up the tree: from the last link back to `l0` (every joint reversed), and
+    /// from link `l{b}` to the moving side link (up or down to `l{side}`, then down its joint).
+    #[test]
+    fn random_paths_up_the_tree_fk_and_masses(
+        (joints, side) in chain_spec(),
+        b_raw in 0usize..10,
+        raw in proptest::collection::vec(-3.2f64..3.2, 10),
+    ) {
+        let text = chain_urdf(&joints, side);
+        let n = joints.len();
+        let b = b_raw % (n + 1);
+        let robot = urdf_rs::read_from_string(&text).expect("parse");
+        for (base, tip) in [(format!("l{n}"), "l0".to_string()), (format!("l{b}"), "side_moving".to_string())] {
+            let chain = import_str(&text, "random.urdf", &base, &tip)
+                .map_err(|e| TestCaseError::fail(format!("{base} -> {tip}: {e}\n{text}")))?;
+            for q in [vec![0.0; 10], raw.clone()] {
+                let dev = max_deviation_mm(&robot, &chain, &joint_values(&chain, &q));
+                prop_assert!(dev < 1e-9, "{base} -> {tip}: deviation {dev:e} mm\n{text}\n{chain:#?}");
+            }
+            // reversed exactly on the joints above the base link
+            for j in &chain.joints {
+                let k: usize = j.name.trim_start_matches('j').parse().unwrap_or(usize::MAX);
+                let above_base = j.name != "side_moving_joint" && k <= n && k > side.min(b) && k <= b;
+                let above_base = above_base || (tip == "l0");
+                prop_assert_eq!(j.reversed, above_base, "{} -> {}: {}", base, tip, j.name);
+            }
+        }
+        // ln -> l0: link l_k moves with the actuated joints among j_{k+1}..j_n
+        let chain = import_str(&text, "random.urdf", &format!("l{n}"), "l0").expect("imported above");
+        for i in &chain.inertials {
+            for name in i.urdf_link.as_deref().unwrap_or_default().split('+') {
+                let k: usize = match name {
+                    "side_fixed" => side,
+                    other => other.trim_start_matches('l').parse().expect("chain link"),
+                };
+                let frame = joints[k..].iter().filter(|j| j.kind != "fixed").count();
+                prop_assert_eq!(i.frame as usize, frame, "{}", name);
+            }
+        }
+        prop_assert!(chain.notes.iter().any(|s| s.contains("side_moving")));
+    }
+}
+
 /// Deterministic joint vectors (rad / m) for the hand-made cases.
 fn samples(chain: &ImportedChain) -> Vec<HashMap<String, f64>> {
     (0..20)
