@@ -1,7 +1,10 @@
 //! Inverse kinematics of a cell: closed form for the nominal geometry of a 6R arm with a
-//! spherical wrist (the Meca500, KUKA KR, ABB IRB, Fanuc, Stäubli type), numerical refinement
-//! on the full [`Model`]; [`ModelIk`] picks the closed form wherever the chain qualifies and the
-//! multi-start numerical IK ([`crate::numeric_ik`]) otherwise.
+//! spherical wrist (the Meca500, KUKA KR, ABB IRB, Fanuc, Stäubli type) or with three parallel
+//! middle axes and a UR-type wrist ([`ParallelArm`], the Universal Robots family), numerical
+//! refinement on the full [`Model`]; [`ModelIk`] picks a closed form wherever the chain
+//! qualifies and the multi-start numerical IK ([`crate::numeric_ik`]) otherwise. Both closed
+//! forms are seed sources of [`ToolPoseIk`] ([`ClosedFormArm`]); the rest of these docs
+//! describe the spherical-wrist one, `crate::parallel_arm` the other.
 //!
 //! # Which chains ([`ArmGeometry::from_model`])
 //! Any number of prismatic joints (external axes, e.g. the canonical guide) followed by six
@@ -79,6 +82,7 @@ use vatcal_kinematics::Model;
 
 use crate::error::PlanError;
 use crate::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, ToolKinematics, solve_local};
+pub use crate::parallel_arm::ParallelArm;
 
 /// Elbow angle from the stretched / folded arm at which seeds are placed for a wrist centre
 /// just beyond the nominal reach (rad).
@@ -87,9 +91,9 @@ pub const ELBOW_SEED_RAD: f64 = 0.05;
 /// [`ArmGeometry::solve_with_reach_slack`]).
 const SEED_REACH_SLACK: f64 = 0.02;
 /// Tolerance on the structural angles (alpha) for the closed form to be used as a seed (rad).
-const STRUCTURE_ANGLE_TOL_RAD: f64 = 0.05;
+pub(crate) const STRUCTURE_ANGLE_TOL_RAD: f64 = 0.05;
 /// Tolerance on the structural lengths that must be zero (mm).
-const STRUCTURE_LENGTH_TOL_MM: f64 = 5.0;
+pub(crate) const STRUCTURE_LENGTH_TOL_MM: f64 = 5.0;
 
 /// Wraps an angle into (-pi, pi].
 pub fn wrap_angle(a: f64) -> f64 {
@@ -249,7 +253,7 @@ impl ArmSolutions {
         self.branches().iter().position(|b| *b == branch).map(|k| self.q[k])
     }
 
-    fn push(&mut self, q: [f64; 6], beyond_reach: bool, branch: u8) {
+    pub(crate) fn push(&mut self, q: [f64; 6], beyond_reach: bool, branch: u8) {
         let duplicate = self.as_slice().iter().any(|p| p.iter().zip(&q).all(|(a, b)| (a - b).abs() < 1e-12));
         if !duplicate && self.len < 8 {
             self.q[self.len] = q;
@@ -262,7 +266,7 @@ impl ArmSolutions {
 
 /// Why a chain does not qualify for the closed form: in joint row `row` (1-based), the value
 /// of `field` (its cell-file name) is `value`, the closed form needs `want` (`why`).
-fn structure_error(row: usize, field: &str, value: String, want: &str, why: &str) -> PlanError {
+pub(crate) fn structure_error(row: usize, field: &str, value: String, want: &str, why: &str) -> PlanError {
     PlanError::UnsupportedArm(format!(
         "joint row {row}: {field} = {value}, the closed form needs {want} ({why})"
     ))
@@ -553,6 +557,64 @@ impl ArmGeometry {
     }
 }
 
+/// A closed-form IK of the nominal structure of a 6R arm (optionally behind prismatic
+/// external axes), the seed source of [`ToolPoseIk`]: [`ArmGeometry`] (spherical wrist) and
+/// [`ParallelArm`] (three parallel middle axes, UR-type wrist).
+pub trait ClosedFormArm: std::fmt::Debug + Clone + Sized {
+    /// Reads the nominal geometry from a model, checking that its chain has the structure.
+    ///
+    /// # Errors
+    /// [`PlanError::UnsupportedArm`] naming the first joint row, field and value that do not
+    /// fit.
+    fn from_model(model: &Model) -> Result<Self, PlanError>;
+
+    /// The cell joint (1-based) of arm joint 1 (the prismatic joints before it are the
+    /// external axes).
+    fn first_joint(&self) -> usize;
+
+    /// Every closed-form solution (six arm joints, rad, wrapped) for the tool-changer frame
+    /// pose `target` in the robot base frame; a target up to `slack` (relative) beyond the
+    /// nominal reach still gives seeds, marked [`ArmSolutions::beyond_reach`].
+    fn solve_with_reach_slack(&self, target: &Frame, slack: f64) -> ArmSolutions;
+
+    /// Forward kinematics of the nominal structure (tool-changer frame in the robot base frame).
+    fn forward(&self, q: &[f64; 6]) -> Frame;
+
+    /// The spherical-wrist geometry, when the arm has one (its wrist-singularity band search
+    /// needs it, [`ToolPoseIk::add_wrist_band_solutions`]).
+    fn spherical_wrist(&self) -> Option<&ArmGeometry>;
+
+    /// What the closed form covers, for messages (e.g. "6R arm with a spherical wrist, up to 8
+    /// branches").
+    fn description(&self) -> &'static str;
+}
+
+impl ClosedFormArm for ArmGeometry {
+    fn from_model(model: &Model) -> Result<Self, PlanError> {
+        ArmGeometry::from_model(model)
+    }
+
+    fn first_joint(&self) -> usize {
+        self.first_joint
+    }
+
+    fn solve_with_reach_slack(&self, target: &Frame, slack: f64) -> ArmSolutions {
+        ArmGeometry::solve_with_reach_slack(self, target, slack)
+    }
+
+    fn forward(&self, q: &[f64; 6]) -> Frame {
+        ArmGeometry::forward(self, q)
+    }
+
+    fn spherical_wrist(&self) -> Option<&ArmGeometry> {
+        Some(self)
+    }
+
+    fn description(&self) -> &'static str {
+        "6R arm with a spherical wrist, up to 8 branches"
+    }
+}
+
 /// Options of the numerical refinement.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RefineOptions {
@@ -821,10 +883,13 @@ pub struct IkSeed {
 /// `E(q) = T_nom(q)⁻¹ T_model(q)` the error of the nominal structure at the seed, the closed
 /// form is solved again for `T* E(q)⁻¹`. Near a singularity a small model error moves the
 /// solution a lot, and this keeps the seed on the right branch before the refinement.
+///
+/// The closed form is `A`: [`ArmGeometry`] (a spherical wrist, the default) or
+/// [`ParallelArm`] (three parallel middle axes and a UR-type wrist), see [`ClosedFormArm`].
 #[derive(Debug, Clone)]
-pub struct ToolPoseIk<'a> {
+pub struct ToolPoseIk<'a, A: ClosedFormArm = ArmGeometry> {
     model: &'a Model,
-    arm: ArmGeometry,
+    arm: A,
     refine: RefineOptions,
     corrections: usize,
 }
@@ -858,13 +923,13 @@ const WRIST_ROOT_ITERATIONS: usize = 40;
 
 /// True when the model's tool frame is the closed-form arm's at a few test configurations
 /// (nominal model: no seed correction needed).
-fn closed_form_is_exact(model: &Model, arm: &ArmGeometry) -> bool {
+fn closed_form_is_exact<A: ClosedFormArm>(model: &Model, arm: &A) -> bool {
     let tests = [
         [120.0, 30.0, 20.0, -40.0, 50.0, 60.0, -70.0],
         [10.0, -100.0, -50.0, 30.0, -120.0, -20.0, 150.0],
         [280.0, 150.0, 80.0, -120.0, 10.0, 100.0, 5.0],
     ];
-    let k = arm.first_joint - 1;
+    let k = arm.first_joint() - 1;
     tests.iter().all(|t| {
         let mut q = JointVector::zeros(model.joint_count());
         if k > 0 {
@@ -911,11 +976,25 @@ impl<'a> ToolPoseIk<'a> {
     /// closed form needs (see [`ArmGeometry::from_model`]; the message names the row and value)
     /// or has more than one prismatic joint in front of the arm.
     pub fn new(model: &'a Model, refine: RefineOptions) -> Result<Self, PlanError> {
-        let arm = ArmGeometry::from_model(model)?;
-        if arm.first_joint > 2 {
+        Self::with_closed_form(model, refine)
+    }
+}
+
+impl<'a, A: ClosedFormArm> ToolPoseIk<'a, A> {
+    /// IK for `model` with the closed form `A` ([`ClosedFormArm::from_model`]), with at most
+    /// one prismatic joint (the guide, joint 1) in front of the arm; e.g.
+    /// `ToolPoseIk::<ParallelArm>::with_closed_form` for a UR-type arm.
+    ///
+    /// # Errors
+    /// [`PlanError::UnsupportedArm`] when the model's arm does not have the structure `A`
+    /// needs (the message names the row and value) or has more than one prismatic joint in
+    /// front of the arm.
+    pub fn with_closed_form(model: &'a Model, refine: RefineOptions) -> Result<Self, PlanError> {
+        let arm = A::from_model(model)?;
+        if arm.first_joint() > 2 {
             return Err(PlanError::UnsupportedArm(format!(
                 "the closed-form IK holds one prismatic joint (the guide) at given positions; this chain has {} prismatic joints in front of the arm ({})",
-                arm.first_joint - 1,
+                arm.first_joint() - 1,
                 model.describe_chain()
             )));
         }
@@ -924,8 +1003,14 @@ impl<'a> ToolPoseIk<'a> {
     }
 
     /// The closed-form geometry in use.
-    pub fn arm(&self) -> &ArmGeometry {
+    pub fn arm(&self) -> &A {
         &self.arm
+    }
+
+    /// True when the model is exactly the closed form's nominal structure (the seeds are
+    /// solutions; no correction, no wrist-band search).
+    pub fn is_exact(&self) -> bool {
+        self.corrections == 0
     }
 
     /// The model.
@@ -936,13 +1021,13 @@ impl<'a> ToolPoseIk<'a> {
     /// The guide joint held at the guide positions (1-based): `Some(1)` when the chain has a
     /// prismatic joint in front of the arm, `None` for an arm alone (guide positions ignored).
     pub fn guide_joint(&self) -> Option<usize> {
-        (self.arm.first_joint > 1).then_some(1)
+        (self.arm.first_joint() > 1).then_some(1)
     }
 
     /// The cell's joint vector for the guide at `q1_mm` (if the chain has one) and arm joints
     /// `arm` (rad).
     fn joints(&self, q1_mm: f64, arm: &[f64; 6]) -> JointVector {
-        let k = self.arm.first_joint - 1;
+        let k = self.arm.first_joint() - 1;
         let mut q = JointVector::zeros(self.model.joint_count());
         if k > 0 {
             q[0] = q1_mm;
@@ -986,7 +1071,7 @@ impl<'a> ToolPoseIk<'a> {
         if seed.len() != self.model.joint_count() {
             return refine_tool_pose(self.model, seed, target, &self.refine);
         }
-        refine_arm(self.model, self.arm.first_joint, seed, target, &self.refine)
+        refine_arm(self.model, self.arm.first_joint(), seed, target, &self.refine)
     }
 
     /// Every solution at guide position `q1_mm` (ignored without a guide; closed-form seeds
@@ -1012,7 +1097,7 @@ impl<'a> ToolPoseIk<'a> {
 
     /// `q` with every arm joint wrapped to (-pi, pi].
     fn wrapped(&self, mut q: JointVector) -> JointVector {
-        for v in q.as_mut_slice().iter_mut().skip(self.arm.first_joint - 1) {
+        for v in q.as_mut_slice().iter_mut().skip(self.arm.first_joint() - 1) {
             *v = wrap_angle(*v);
         }
         q
@@ -1020,7 +1105,9 @@ impl<'a> ToolPoseIk<'a> {
 
     /// Completes `solutions` (refined solutions for the world tool pose `target`, arm joints
     /// wrapped) near the wrist singularity of a calibrated model; does nothing on a model the
-    /// closed form solves exactly (a spherical wrist has no further solutions).
+    /// closed form solves exactly (a spherical wrist has no further solutions), and on an arm
+    /// without a spherical wrist ([`ParallelArm`]: its wrist singularity is another one, not
+    /// searched; see `docs/planning.md`).
     ///
     /// Why: the closed form's eight branches are those of the spherical wrist. Within a few
     /// degrees of the wrist singularity (`sin theta_5 = 0`, axes 4 and 6 aligned) the tool
@@ -1056,10 +1143,15 @@ impl<'a> ToolPoseIk<'a> {
     /// the search stops at 16 solutions, the most a 6R arm has); every appended solution
     /// reproduces `target` to the refinement tolerances.
     pub fn add_wrist_band_solutions(&self, target: &Frame, solutions: &mut Vec<JointVector>) {
+        let Some(wrist) = self.arm.spherical_wrist() else {
+            return;
+        };
         if self.corrections == 0 {
             return;
         }
-        let first = self.arm.first_joint - 1;
+        let (theta5_offset, s45) =
+            (wrist.theta_offset_rad[4], wrist.alpha_rad[3].signum() * wrist.alpha_rad[4].signum());
+        let first = self.arm.first_joint() - 1;
         let band = deg_to_rad(WRIST_SCAN_BAND_DEG).sin();
         // solutions whose soft direction is still to be searched (every one in the band,
         // including those found here), and those met by a scan (their curve has been scanned)
@@ -1069,12 +1161,12 @@ impl<'a> ToolPoseIk<'a> {
             if solutions.len() >= MAX_6R_SOLUTIONS {
                 break;
             }
-            let theta5 = q[first + 4] + self.arm.theta_offset_rad[4];
+            let theta5 = q[first + 4] + theta5_offset;
             if theta5.sin().abs() >= band || scanned.iter().any(|p| self.same_arm_joints(p, &q, 1e-6)) {
                 continue;
             }
             scanned.push(q);
-            let (on_curve, other) = self.search_soft_wrist_direction(&q, theta5, target);
+            let (on_curve, other) = self.search_soft_wrist_direction(&q, theta5, s45, target);
             for (found, met) in
                 on_curve.into_iter().map(|f| (f, true)).chain(other.into_iter().map(|f| (f, false)))
             {
@@ -1099,10 +1191,10 @@ impl<'a> ToolPoseIk<'a> {
         &self,
         q: &JointVector,
         theta5: f64,
+        s45: f64,
         target: &Frame,
     ) -> (Vec<JointVector>, Vec<JointVector>) {
-        let first = self.arm.first_joint - 1;
-        let s45 = self.arm.alpha_rad[3].signum() * self.arm.alpha_rad[4].signum();
+        let first = self.arm.first_joint() - 1;
         // theta_4 + k theta_6 is the well-determined combination (k = -1 near theta_5 = pi)
         let k = -s45 * theta5.cos().signum();
         let turn = |mut v: JointVector, by: f64| {
@@ -1215,7 +1307,7 @@ impl<'a> ToolPoseIk<'a> {
         rel_tol: f64,
     ) -> WristFit {
         use nalgebra::{Matrix6x5, Vector6};
-        let first = self.arm.first_joint - 1;
+        let first = self.arm.first_joint() - 1;
         let scale = self.refine.orientation_scale_mm;
         let weights = Vector6::new(1.0, 1.0, 1.0, scale, scale, scale);
         let free = [0usize, 1, 2, 4, 5];
@@ -1225,7 +1317,7 @@ impl<'a> ToolPoseIk<'a> {
             Vector6::new(dp.x, dp.y, dp.z, dr.x, dr.y, dr.z).component_mul(&weights)
         };
         let columns = |chain: &vatcal_kinematics::Chain| {
-            let j = arm_tool_jacobian(chain, self.arm.first_joint);
+            let j = arm_tool_jacobian(chain, self.arm.first_joint());
             let mut a = Matrix6x5::zeros();
             for (c, f) in free.iter().enumerate() {
                 a.set_column(c, &j.column(*f).component_mul(&weights));
@@ -1277,7 +1369,7 @@ impl<'a> ToolPoseIk<'a> {
     /// True when the arm joints of `a` and `b` differ by less than `tol_rad` each (modulo a
     /// whole turn) and the guide is the same.
     fn same_arm_joints(&self, a: &JointVector, b: &JointVector, tol_rad: f64) -> bool {
-        let first = self.arm.first_joint - 1;
+        let first = self.arm.first_joint() - 1;
         a.as_slice()
             .iter()
             .zip(b.as_slice())
@@ -1343,6 +1435,10 @@ pub enum IkMethod {
     /// Closed form on the nominal geometry (6R arm with a spherical wrist, up to 8 branches),
     /// refined on the full model ([`ToolPoseIk`]).
     ClosedForm,
+    /// Closed form on the nominal geometry of a 6R arm with three parallel middle axes and a
+    /// UR-type wrist ([`ParallelArm`], up to 8 branches), refined on the full model
+    /// ([`ToolPoseIk`]).
+    ParallelClosedForm,
     /// Multi-start numerical IK ([`crate::numeric_ik::NumericIk`]); `reason` says why the
     /// closed form does not apply (`None` when the numerical IK was asked for).
     Numerical {
@@ -1360,6 +1456,12 @@ impl std::fmt::Display for IkMethod {
                     "closed form (6R arm with a spherical wrist, up to 8 branches), refined on the model"
                 )
             }
+            Self::ParallelClosedForm => {
+                write!(
+                    f,
+                    "closed form (6R arm with three parallel middle axes and a UR-type wrist, up to 8 branches), refined on the model"
+                )
+            }
             Self::Numerical { reason: Some(r) } => write!(f, "multi-start numerical (no closed form: {r})"),
             Self::Numerical { reason: None } => write!(f, "multi-start numerical"),
         }
@@ -1367,10 +1469,11 @@ impl std::fmt::Display for IkMethod {
 }
 
 /// Inverse kinematics of the tool-changer frame of any [`Model`]: the closed form + refinement
-/// ([`ToolPoseIk`]) when the chain is a 6R arm with a spherical wrist, alone or behind one
-/// prismatic guide ([`ArmGeometry::from_model`]), the multi-start numerical IK
-/// ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`]) otherwise ([`ModelIk::method`] says
-/// which, and why not the closed form). The first prismatic joint, if any, is the guide: it is
+/// ([`ToolPoseIk`]) when the chain is a 6R arm with a spherical wrist
+/// ([`ArmGeometry::from_model`]) or with three parallel middle axes and a UR-type wrist
+/// ([`ParallelArm::from_model`]), alone or behind one prismatic guide, the multi-start
+/// numerical IK ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`]) otherwise
+/// ([`ModelIk::method`] says which, and why not a closed form). The first prismatic joint, if any, is the guide: it is
 /// held at the given guide positions and the other joints are solved for; a chain without one
 /// ignores the guide positions.
 #[derive(Debug)]
@@ -1383,6 +1486,8 @@ pub struct ModelIk<'a> {
 enum Solver<'a> {
     /// the closed form, and every joint's spec (to normalise the solutions into the limits)
     ClosedForm(Box<ToolPoseIk<'a>>, Vec<JointSpec>),
+    /// the closed form of an arm with three parallel middle axes, and every joint's spec
+    Parallel(Box<ToolPoseIk<'a, ParallelArm>>, Vec<JointSpec>),
     Numeric {
         guide: Option<usize>,
         free: Vec<usize>,
@@ -1393,10 +1498,12 @@ enum Solver<'a> {
 }
 
 impl<'a> ModelIk<'a> {
-    /// The closed form when the model allows it, the numerical IK otherwise.
+    /// A closed form when the model allows it (a spherical wrist first, then three parallel
+    /// middle axes with a UR-type wrist), the numerical IK otherwise.
     ///
     /// # Examples
-    /// The Meca500 alone on a table has a spherical wrist; the UR5e has not:
+    /// The Meca500 alone on a table has a spherical wrist; the UR5e has three parallel middle
+    /// axes:
     /// ```
     /// use vatcal_core::CellFile;
     /// use vatcal_kinematics::Model;
@@ -1412,13 +1519,45 @@ impl<'a> ModelIk<'a> {
     /// assert_eq!(ik.method(), IkMethod::ClosedForm);
     /// let ur5e = fixture("ur5e.toml")?;
     /// let ik = ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default())?;
-    /// assert!(ik.method().to_string().contains("spherical wrist"));
+    /// assert_eq!(ik.method(), IkMethod::ParallelClosedForm);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     ///
     /// # Errors
     /// Invalid numerical-IK options or joint limits ([`PlanError::Option`]).
     pub fn new(
+        model: &'a Model,
+        refine: RefineOptions,
+        numeric: MultiStartOptions,
+    ) -> Result<Self, PlanError> {
+        let specs = || {
+            let revolute = revolute_joints(model);
+            (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect()
+        };
+        let spherical = match ToolPoseIk::new(model, refine) {
+            Ok(ik) => return Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), specs()) }),
+            Err(PlanError::UnsupportedArm(reason)) => reason,
+            Err(e) => return Err(e),
+        };
+        let parallel = match ToolPoseIk::<ParallelArm>::with_closed_form(model, refine) {
+            Ok(ik) => return Ok(Self { model, solver: Solver::Parallel(Box::new(ik), specs()) }),
+            Err(PlanError::UnsupportedArm(reason)) => reason,
+            Err(e) => return Err(e),
+        };
+        let mut me = Self::numerical(model, numeric)?;
+        if let Solver::Numeric { reason: r, .. } = &mut me.solver {
+            *r = Some(if spherical == parallel { spherical } else { format!("{spherical}; {parallel}") });
+        }
+        Ok(me)
+    }
+
+    /// Like [`ModelIk::new`] without the closed form of an arm with three parallel middle axes
+    /// (the IK this crate used before it had one): the spherical-wrist closed form when the
+    /// model allows it, the numerical IK otherwise. For comparisons and benchmarks.
+    ///
+    /// # Errors
+    /// As [`ModelIk::new`].
+    pub fn without_parallel_closed_form(
         model: &'a Model,
         refine: RefineOptions,
         numeric: MultiStartOptions,
@@ -1455,15 +1594,16 @@ impl<'a> ModelIk<'a> {
         Ok(me)
     }
 
-    /// True when the closed form is in use.
+    /// True when a closed form is in use.
     pub fn is_closed_form(&self) -> bool {
-        matches!(self.solver, Solver::ClosedForm(..))
+        matches!(self.solver, Solver::ClosedForm(..) | Solver::Parallel(..))
     }
 
     /// The IK in use (and why not the closed form).
     pub fn method(&self) -> IkMethod {
         match &self.solver {
             Solver::ClosedForm(..) => IkMethod::ClosedForm,
+            Solver::Parallel(..) => IkMethod::ParallelClosedForm,
             Solver::Numeric { reason, .. } => IkMethod::Numerical { reason: reason.clone() },
         }
     }
@@ -1472,6 +1612,7 @@ impl<'a> ModelIk<'a> {
     pub fn guide_joint(&self) -> Option<usize> {
         match &self.solver {
             Solver::ClosedForm(ik, _) => ik.guide_joint(),
+            Solver::Parallel(ik, _) => ik.guide_joint(),
             Solver::Numeric { guide, .. } => *guide,
         }
     }
@@ -1502,15 +1643,8 @@ impl<'a> ModelIk<'a> {
     pub fn solve_at_guide(&self, guide_mm: f64, target: &Frame) -> Vec<JointVector> {
         match self.numeric_at(guide_mm) {
             None => match &self.solver {
-                Solver::ClosedForm(ik, specs) => {
-                    let mut out = ik.solve_at_guide(guide_mm, target);
-                    for q in &mut out {
-                        for (v, spec) in q.as_mut_slice().iter_mut().zip(specs) {
-                            *v = spec.normalise(*v);
-                        }
-                    }
-                    out
-                }
+                Solver::ClosedForm(ik, specs) => normalised(ik.solve_at_guide(guide_mm, target), specs),
+                Solver::Parallel(ik, specs) => normalised(ik.solve_at_guide(guide_mm, target), specs),
                 Solver::Numeric { .. } => Vec::new(),
             },
             Some(Err(_)) => Vec::new(),
@@ -1563,6 +1697,16 @@ impl<'a> ModelIk<'a> {
         }
         Ok(out)
     }
+}
+
+/// `solutions` with every value normalised into its joint's limits ([`JointSpec::normalise`]).
+fn normalised(mut solutions: Vec<JointVector>, specs: &[JointSpec]) -> Vec<JointVector> {
+    for q in &mut solutions {
+        for (v, spec) in q.as_mut_slice().iter_mut().zip(specs) {
+            *v = spec.normalise(*v);
+        }
+    }
+    solutions
 }
 
 /// Largest absolute componentwise difference of two joint vectors (internal units).

@@ -5,10 +5,12 @@
 //! Planning of a measurement campaign (paper Sections 2.4, 4.1 and 4.2): which joint
 //! configurations to measure, in which order, and how to move between them.
 //!
-//! 1. [`ik`] — closed-form inverse kinematics of the nominal Meca500 (up to 8 branches per tool
-//!    pose and guide position) and its Levenberg–Marquardt refinement on the full, possibly
-//!    calibrated, [`vatcal_kinematics::Model`]; [`numeric_ik`] — multi-start numerical IK for
-//!    any serial chain (used by [`ik::ModelIk`] when there is no closed form);
+//! 1. [`ik`] — closed-form inverse kinematics of the nominal Meca500 and any 6R arm with a
+//!    spherical wrist, [`parallel_arm`] — of any 6R arm with three parallel middle axes and a
+//!    UR-type wrist (up to 8 branches per tool pose and guide position each), and their
+//!    Levenberg–Marquardt refinement on the full, possibly calibrated,
+//!    [`vatcal_kinematics::Model`]; [`numeric_ik`] — multi-start numerical IK for any serial
+//!    chain (used by [`ik::ModelIk`] when there is no closed form);
 //! 2. [`candidates`] — random tool orientations per TCP × calibration position, IK at every
 //!    guide step, joint-limit, singularity and collision screening (paper: 3,284 candidates);
 //! 3. selection — Detmax (`vatcal-observability`) of `count` candidates, with O1..O5;
@@ -34,6 +36,7 @@ pub mod ik;
 pub mod motion;
 pub mod numeric_ik;
 pub mod output;
+pub mod parallel_arm;
 pub mod paths;
 pub mod plan;
 pub mod tour;

@@ -10,6 +10,7 @@ mod candidates;
 mod collision;
 mod ik;
 mod numeric_ik;
+mod parallel_arm;
 mod paths;
 mod plan;
 mod tour;
