@@ -8,7 +8,9 @@
 //! ```text
 //! cargo run --release -p vatcal-discovery --example discovery_benchmark -- [CASES] [SEED] [JSON_OUT]
 //! ```
-//! (defaults: 100 cases, seed 21). Prints one line per case, then the Markdown tables. With
+//! (defaults: 100 cases, seed 21). Prints one line per case (with its category tags), then the
+//! Markdown tables. The cases come from the current generator (`GENERATOR_VERSION`, frozen:
+//! see the doc); `DISCOVERY_BENCHMARK_GENERATOR=v2` draws the previous version's. With
 //! `DISCOVERY_BENCHMARK_REPORTS=DIR` it also writes each case's full discovery report
 //! (`DIR/case-N.json`, as `vatcal discover --report` writes it), for reading a case in detail.
 
@@ -17,14 +19,19 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::benchmark::{generate, markdown, run_case};
+use common::benchmark::{GENERATOR_VERSION, Generator, generate_with, markdown, run_case};
 use rayon::prelude::*;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let count: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(100);
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(21);
-    let cases = generate(count, seed);
+    let version = std::env::var("DISCOVERY_BENCHMARK_GENERATOR").unwrap_or_else(|_| GENERATOR_VERSION.into());
+    let Some(generator) = Generator::parse(&version) else {
+        eprintln!("unknown generator version `{version}` (DISCOVERY_BENCHMARK_GENERATOR: v2 or v3)");
+        std::process::exit(2);
+    };
+    let cases = generate_with(generator, count, seed);
     if let Ok(dir) = std::env::var("DISCOVERY_BENCHMARK_REPORTS") {
         std::fs::create_dir_all(&dir).unwrap();
         cases.clone().into_par_iter().for_each(|mut c| {
@@ -57,8 +64,9 @@ fn main() {
                 .map(|h| format!("{} {:.1}x {}", h.label, h.multiple, if h.named_driver { "named" } else { "MISSED" }))
                 .collect();
             eprintln!(
-                "case {:3} {:?}/{:?} rep={} meta={} hidden=[{}] added=[{}] val {:.4}->{:.4} floor {} ({:.1} s){}",
+                "case {:3} [{}] {:?}/{:?} rep={} meta={} hidden=[{}] added=[{}] val {:.4}->{:.4} floor {} ({:.1} s){}",
                 r.case.id,
+                r.case.tags(),
                 r.case.robot,
                 r.case.data,
                 r.case.replicates,
@@ -74,7 +82,12 @@ fn main() {
             r
         })
         .collect();
-    println!("{} cases, seed {seed}, {:.0} s wall\n", results.len(), t0.elapsed().as_secs_f64());
+    println!(
+        "{} cases, generator {}, seed {seed}, {:.0} s wall\n",
+        results.len(),
+        generator.version(),
+        t0.elapsed().as_secs_f64()
+    );
     println!("{}", markdown(&results));
     if let Some(path) = args.get(3) {
         std::fs::write(path, serde_json::to_string_pretty(&results).unwrap()).unwrap();

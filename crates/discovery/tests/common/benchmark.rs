@@ -38,6 +38,30 @@
 //! floor is the fit of the **true structure** — the starting parameters plus the hidden catalog
 //! effects' parameters, with the extra physics known exactly (subtracted from the data) — on the
 //! same data.
+//!
+//! **Generator versions** ([`GENERATOR_VERSION`], [`Generator`]). The stream of cases is part of
+//! the benchmark: a result is only comparable with results of the same generator version.
+//! * `v1` (`bd93486`): the mixture above with three kinds of extra physics;
+//! * `v2` (`d310186`): three more extra physics (coupling, thermal zero drift, cubic stiffness);
+//!   reachable as [`Generator::V2`];
+//! * `v3` (issue 30, item 5; frozen before the method of issue 30 changes; [`generate`]): the
+//!   cases that broke on independent data. Its own stream (the seed is mixed with a v3 tag).
+//!   Every case has one [`Shape::Campaign`] entry (not an effect): **180 rows** to fit (v2: 120;
+//!   at 120 rows the saturated σ̂ is never computed, so its collapse is not reached), and in half
+//!   the cases, null cases included, **fixture errors**: the truth's TCP and
+//!   calibration-position coordinates off the nominal by N(0, [`FIXTURE_SIGMA_MM`]) per
+//!   coordinate (the CMM's uncertainty; drawn from their own stream, `campaign::add_cmm_errors`),
+//!   so that the only misfit of a null case beyond the start and the noise is those ~1 µm. They
+//!   are not an effect to discover: on a null case anything added is a false positive, and in
+//!   any case a `position-offset`, `tcp-offset` or `tool-frame` that is not hidden is counted as
+//!   a false addition ([`CaseResult::fixture_additions`]); the floor fits the nominal
+//!   coordinates. Of the non-null cases half hide v2's mixtures, a quarter one member of the
+//!   **gravity-load family** of look-alikes ([`LookAlike`]: the start **without the
+//!   compliances** `c_i` — the truth keeps the drawn ones and the floor fits them — or
+//!   `link-bending`, `joint-stiffness-nonlinear` (τ|τ|), `guide-carriage-tilt` of a size drawn in
+//!   [`LOOK_ALIKE_SIZE_RANGE`]) and a quarter two members together. Robot, data kind, replicates
+//!   and noise metadata are drawn as in v2 (50 % without metadata, a quarter of the cases with
+//!   neither metadata nor replicates). Every case carries its [`Category`] tags.
 
 use std::time::Instant;
 
@@ -45,8 +69,10 @@ use nalgebra::Vector3;
 use rand::rngs::ChaCha8Rng;
 use rand::{RngExt, SeedableRng};
 use serde::Serialize;
-use vatcal_core::effects::{EffectSpec, ThermalDriver, bound_of};
-use vatcal_core::{CellFile, JointVector, Measurement, MeasurementContext, ParamSet, Target};
+use vatcal_core::effects::{
+    EffectKind, EffectSpec, ThermalDriver, bound_of, joint_stiffness_nonlinear, link_bending,
+};
+use vatcal_core::{CellFile, JointVector, Measurement, MeasurementContext, ParamId, ParamSet, Target};
 use vatcal_discovery::catalog::driver_of_in;
 use vatcal_discovery::fit::{fit, residuals};
 use vatcal_discovery::linear::ColumnSpace;
@@ -59,7 +85,7 @@ use vatcal_observability::assemble_jacobian;
 use vatcal_observability::identifiability::param_set_from_spec;
 use vatcal_sim::truth::{ErrorBudget, compliance_scale, perturbed_truth, random_joints, reach};
 
-use super::campaign::gaussian;
+use super::campaign::{add_cmm_errors, gaussian};
 
 /// σ per axis of a probe row [mm] (robot, guide, gauges: the demo's probe budget).
 pub const PROBE_SIGMA_MM: f64 = 0.002;
@@ -71,6 +97,17 @@ pub const SIZE_RANGE: (f64, f64) = (0.3, 10.0);
 pub const MUST_NAME: f64 = 3.0;
 /// Held-out error must be within this factor of the floor (the issue's target).
 pub const FLOOR_FACTOR: f64 = 1.3;
+/// The version of the generator [`generate`] draws from (see the module's documentation and
+/// `docs/discovery-benchmark.md`): results are comparable only within one version.
+pub const GENERATOR_VERSION: &str = "v3";
+/// σ per coordinate of the fixture (CMM) errors of the TCP and calibration-position coordinates
+/// in the cases that have them [mm] (generator v3).
+pub const FIXTURE_SIGMA_MM: f64 = 0.001;
+/// Share of the cases with fixture errors (generator v3; null cases included).
+pub const FIXTURE_SHARE: f64 = 0.5;
+/// Sizes of the gravity-load look-alikes (other than the missing compliances, which have the
+/// truth's own size) are drawn log-uniform in this range (generator v3).
+pub const LOOK_ALIKE_SIZE_RANGE: (f64, f64) = (1.0, 10.0);
 
 /// Which robot a case uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -160,13 +197,25 @@ pub enum Shape {
         /// the joint's largest |gravity torque| over random poses of the nominal model [N·m]
         tau_ref_nm: f64,
     },
+    /// **Not an effect**: how the case's campaign departs from generator v2's (every case of
+    /// generator v3 has one such entry; a case without one is a v2 case: 120 rows, exact
+    /// fixtures). Nothing is to be discovered for it: a case whose only hidden entry is this one
+    /// is a null case.
+    Campaign {
+        /// rows to fit (v2: 120); mixed data hold a third of them as tracker rows
+        rows: usize,
+        /// σ per coordinate of the **fixture errors** [mm] (0: none): the truth's TCP and
+        /// calibration-position coordinates differ from the nominal ones by N(0, σ) per
+        /// coordinate (CMM errors, within the CMM's stated uncertainty). The floor fits the
+        /// nominal coordinates, as a user would; an effect added for them is a false addition.
+        fixture_sigma_mm: f64,
+    },
 }
 
 impl Shape {
     /// Human label.
     pub fn label(&self) -> String {
         match self {
-            Shape::Catalog(s) => s.label(),
             Shape::FractionalCyclic { joint, k, .. } => {
                 format!("sinusoid {k} per turn on joint {joint} (extra)")
             }
@@ -179,12 +228,44 @@ impl Shape {
             Shape::JointCoupling { driven, by } => format!("joint {driven} coupled to q{by} (extra)"),
             Shape::ThermalJointDrift { joint } => format!("thermal zero drift of joint {joint} (extra)"),
             Shape::StiffeningCompliance { joint, .. } => format!("cubic stiffness of joint {joint} (extra)"),
+            Shape::Campaign { rows, fixture_sigma_mm } if *fixture_sigma_mm > 0.0 => {
+                format!(
+                    "{rows} rows, fixture (CMM) errors of {:.1} um (not an effect)",
+                    fixture_sigma_mm * 1e3
+                )
+            }
+            Shape::Campaign { rows, .. } => format!("{rows} rows (not an effect)"),
+            Shape::Catalog(EffectSpec::JointCompliance { joint }) => {
+                format!("joint-compliance (joint {joint}) missing from the start")
+            }
+            Shape::Catalog(s) => s.label(),
         }
     }
 
     /// Whether the catalog has this effect.
     pub fn in_catalog(&self) -> bool {
         matches!(self, Shape::Catalog(_))
+    }
+
+    /// Whether it is an effect to discover ([`Shape::Campaign`] is not).
+    pub fn is_effect(&self) -> bool {
+        !matches!(self, Shape::Campaign { .. })
+    }
+
+    /// The member of the gravity-load family of look-alikes this is, if it is one (generator
+    /// v3): the missing compliances (whatever the joint), `link-bending`,
+    /// `joint-stiffness-nonlinear`, `guide-carriage-tilt`.
+    pub fn look_alike(&self) -> Option<LookAlike> {
+        let Shape::Catalog(spec) = self else { return None };
+        match spec {
+            EffectSpec::JointCompliance { .. } => Some(LookAlike::MissingCompliance),
+            EffectSpec::GuideCarriageTilt => Some(LookAlike::CarriageTilt),
+            s if s.kind() == EffectKind::Extension(link_bending::ID) => Some(LookAlike::LinkBending),
+            s if s.kind() == EffectKind::Extension(joint_stiffness_nonlinear::ID) => {
+                Some(LookAlike::StiffnessNonlinear)
+            }
+            _ => None,
+        }
     }
 
     /// The variables that drive it (an added effect driven by one of them names it).
@@ -204,6 +285,75 @@ impl Shape {
             Shape::JointCoupling { driven, by } => vec![Driver::Joint(*driven), Driver::Joint(*by)],
             Shape::ThermalJointDrift { joint } => vec![Driver::Temperature, Driver::Joint(*joint)],
             Shape::StiffeningCompliance { joint, .. } => vec![Driver::Torque(*joint), Driver::Joint(*joint)],
+            Shape::Campaign { .. } => Vec::new(),
+        }
+    }
+}
+
+/// The members of the gravity-load family: their prediction changes point nearly the same way
+/// (cosine 0.92–0.99 on the demo's data, issue 30).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+pub enum LookAlike {
+    /// the start without the joint compliances `c_i`; the truth has them
+    MissingCompliance,
+    /// `link-bending` of a loaded joint
+    LinkBending,
+    /// `joint-stiffness-nonlinear` (τ|τ|) of a loaded joint
+    StiffnessNonlinear,
+    /// `guide-carriage-tilt` (canonical cell)
+    CarriageTilt,
+}
+
+/// The categories a case belongs to (generator v3; a case can be in several), reported
+/// separately besides the totals.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+pub enum Category {
+    /// fixture errors, nothing else hidden
+    FixtureNull,
+    /// fixture errors and hidden effects
+    FixtureNonNull,
+    /// one member of the gravity-load family hidden, nothing else
+    LookAlikeAlone,
+    /// two members of the gravity-load family hidden, nothing else
+    LookAlikeTogether,
+    /// the start without the compliances (the truth has them)
+    StartWithoutCompliance,
+    /// no noise metadata and no replicates: the noise reference is the residual σ̂
+    NoMetadataNoReplicates,
+}
+
+impl Category {
+    /// Every category, in the order of the tables.
+    pub const ALL: [Category; 6] = [
+        Category::FixtureNull,
+        Category::FixtureNonNull,
+        Category::LookAlikeAlone,
+        Category::LookAlikeTogether,
+        Category::StartWithoutCompliance,
+        Category::NoMetadataNoReplicates,
+    ];
+
+    /// Short tag (per-case output).
+    pub fn tag(self) -> &'static str {
+        match self {
+            Category::FixtureNull => "fixture-null",
+            Category::FixtureNonNull => "fixture",
+            Category::LookAlikeAlone => "look-alike-alone",
+            Category::LookAlikeTogether => "look-alike-together",
+            Category::StartWithoutCompliance => "no-compliance-start",
+            Category::NoMetadataNoReplicates => "no-meta-no-rep",
+        }
+    }
+
+    /// Row label of the tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            Category::FixtureNull => "fixture errors, null",
+            Category::FixtureNonNull => "fixture errors, with hidden effects",
+            Category::LookAlikeAlone => "look-alike alone",
+            Category::LookAlikeTogether => "look-alikes together",
+            Category::StartWithoutCompliance => "start without compliance",
+            Category::NoMetadataNoReplicates => "no noise metadata, no replicates",
         }
     }
 }
@@ -236,8 +386,80 @@ pub struct Case {
     pub replicates: bool,
     /// the instruments' noise is given to discovery
     pub noise_metadata: bool,
-    /// the hidden effects (empty: a null case)
+    /// the hidden effects (none, or only a [`Shape::Campaign`]: a null case)
     pub hidden: Vec<HiddenEffect>,
+}
+
+impl Case {
+    /// The hidden entries that are effects to discover (all but [`Shape::Campaign`]).
+    pub fn effects(&self) -> impl Iterator<Item = &HiddenEffect> {
+        self.hidden.iter().filter(|h| h.shape.is_effect())
+    }
+
+    /// Nothing to discover: no hidden effect (fixture errors may be there).
+    pub fn is_null(&self) -> bool {
+        self.effects().next().is_none()
+    }
+
+    /// The [`Shape::Campaign`] entry's rows and fixture σ [mm]; v2's (120 rows, 0) without one.
+    pub fn campaign(&self) -> (usize, f64) {
+        self.hidden
+            .iter()
+            .find_map(|h| match h.shape {
+                Shape::Campaign { rows, fixture_sigma_mm } => Some((rows, fixture_sigma_mm)),
+                _ => None,
+            })
+            .unwrap_or((V2_ROWS, 0.0))
+    }
+
+    /// The truth's fixture coordinates differ from the nominal ones.
+    pub fn has_fixture_errors(&self) -> bool {
+        self.campaign().1 > 0.0
+    }
+
+    /// The start has no compliances (a hidden `joint-compliance`: the truth has them).
+    pub fn starts_without_compliance(&self) -> bool {
+        self.hidden.iter().any(|h| matches!(h.shape, Shape::Catalog(EffectSpec::JointCompliance { .. })))
+    }
+
+    /// The members of the gravity-load family hidden (each once), when every hidden effect is
+    /// one; else empty.
+    pub fn look_alikes(&self) -> Vec<LookAlike> {
+        let mut members: Vec<LookAlike> = Vec::new();
+        for h in self.effects() {
+            let Some(m) = h.shape.look_alike() else { return Vec::new() };
+            if !members.contains(&m) {
+                members.push(m);
+            }
+        }
+        members
+    }
+
+    /// The categories of the case (generator v3's report).
+    pub fn categories(&self) -> Vec<Category> {
+        let mut v = Vec::new();
+        if self.has_fixture_errors() {
+            v.push(if self.is_null() { Category::FixtureNull } else { Category::FixtureNonNull });
+        }
+        match self.look_alikes().len() {
+            1 => v.push(Category::LookAlikeAlone),
+            2 => v.push(Category::LookAlikeTogether),
+            _ => {}
+        }
+        if self.starts_without_compliance() {
+            v.push(Category::StartWithoutCompliance);
+        }
+        if !self.noise_metadata && !self.replicates {
+            v.push(Category::NoMetadataNoReplicates);
+        }
+        v
+    }
+
+    /// The categories' tags, joined (per-case output); `-` when none.
+    pub fn tags(&self) -> String {
+        let t: Vec<&str> = self.categories().into_iter().map(Category::tag).collect();
+        if t.is_empty() { "-".into() } else { t.join(",") }
+    }
 }
 
 /// The truth of a case: a model (34 parameters' errors + hidden catalog effects) and the
@@ -367,8 +589,10 @@ pub struct CaseData {
     /// the truth
     pub truth: Truth,
     /// the starting parameter set (`default`: paper34 on the canonical cell, all identifiable
-    /// parameters otherwise)
+    /// parameters otherwise; without the compliances when the case hides them)
     pub params: ParamSet,
+    /// the starting parameters of the true structure (`default`, compliances included)
+    pub true_params: ParamSet,
     /// the data to fit
     pub measurements: Vec<Measurement>,
     /// independent tracker validation rows
@@ -401,17 +625,22 @@ struct Poses {
     replicated: Vec<bool>,
 }
 
-const PROBE_ROWS: usize = 120;
-const TRACKER_ROWS: usize = 120;
-const MIXED_TRACKER_ROWS: usize = 40;
+/// Rows to fit in a case of generator v2 (and of a hand-made case without a [`Shape::Campaign`]).
+pub const V2_ROWS: usize = 120;
+/// Rows to fit in a case of generator v3: the independent data of issue 30 had ~540 residuals;
+/// at 120 rows with the benchmark's contexts the saturated σ̂ is never computed (fewer than a
+/// quarter of the residuals stay free), so the path where it collapses is not reached.
+pub const V3_ROWS: usize = 180;
 const VALIDATION_ROWS: usize = 150;
 const SECONDS_PER_ROW: f64 = 45.0;
 
 fn poses(case: &Case, nominal: &Model, rng: &mut ChaCha8Rng) -> Poses {
+    let (rows, _) = case.campaign();
     let (probe_n, tracker_n) = match case.data {
-        DataKind::Probe => (PROBE_ROWS, 0),
-        DataKind::Tracker => (0, TRACKER_ROWS),
-        DataKind::Mixed => (PROBE_ROWS - MIXED_TRACKER_ROWS, MIXED_TRACKER_ROWS),
+        DataKind::Probe => (rows, 0),
+        DataKind::Tracker => (0, rows),
+        // a third tracker rows (v2: 80 probe + 40 tracker)
+        DataKind::Mixed => (rows - rows / 3, rows / 3),
     };
     let total = probe_n + tracker_n;
     let total_s = SECONDS_PER_ROW * total as f64;
@@ -522,8 +751,77 @@ fn extra_cap(shape: &Shape) -> f64 {
         // 0.5° over the campaign's ±2 K
         Shape::ThermalJointDrift { .. } => 0.25f64.to_radians(),
         Shape::StiffeningCompliance { .. } => 0.5f64.to_radians(),
-        Shape::Catalog(_) => f64::INFINITY,
+        Shape::Catalog(_) | Shape::Campaign { .. } => f64::INFINITY,
     }
+}
+
+/// The revolute joints whose largest |gravity torque| (`bending = false`) or |bending moment|
+/// (`bending = true`) over 32 random poses of the nominal model exceeds 0.1 N·m, with that
+/// largest value. The poses come from their own fixed stream, so the list is a property of the
+/// robot.
+fn loaded_joints(model: &Model, bending: bool) -> Vec<(u8, f64)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(0x10ad);
+    let poses: Vec<JointVector> = (0..32).map(|_| random_joints(model, &mut rng, 0.1)).collect();
+    (1..=model.joint_count())
+        .filter(|j| model.is_revolute(*j))
+        .map(|j| {
+            let load = poses
+                .iter()
+                .map(|q| {
+                    if bending {
+                        let m = model.link_bending_moments(q)[j - 1];
+                        m[0].hypot(m[1])
+                    } else {
+                        model.gravity_torques(q)[j - 1].abs()
+                    }
+                })
+                .fold(0.0, f64::max);
+            (j as u8, load)
+        })
+        .filter(|(_, load)| *load > 0.1)
+        .collect()
+}
+
+/// Draws one member of the gravity-load family not in `taken` (generator v3) and returns its
+/// hidden entries: the missing compliances are one entry per loaded joint (their size is the
+/// truth's own, filled in by [`CaseData::build`]); the others one entry of a size drawn in
+/// [`LOOK_ALIKE_SIZE_RANGE`]. `None` when every member is taken.
+fn draw_look_alike(model: &Model, taken: &[LookAlike], rng: &mut ChaCha8Rng) -> Option<Vec<HiddenEffect>> {
+    let mut members =
+        vec![LookAlike::MissingCompliance, LookAlike::LinkBending, LookAlike::StiffnessNonlinear];
+    if model.guide_joint().is_some() {
+        members.push(LookAlike::CarriageTilt);
+    }
+    members.retain(|m| !taken.contains(m));
+    if members.is_empty() {
+        return None;
+    }
+    let member = members[rng.random_range(0..members.len())];
+    let (lo, hi) = LOOK_ALIKE_SIZE_RANGE;
+    let m = (lo.ln() + rng.random::<f64>() * (hi.ln() - lo.ln())).exp();
+    let one = |spec: EffectSpec| HiddenEffect {
+        shape: Shape::Catalog(spec),
+        values: Vec::new(),
+        requested_multiple: m,
+        multiple: m,
+    };
+    let pick = |list: &[(u8, f64)], rng: &mut ChaCha8Rng| list[rng.random_range(0..list.len())].0;
+    Some(match member {
+        LookAlike::MissingCompliance => loaded_joints(model, false)
+            .into_iter()
+            .map(|(joint, _)| HiddenEffect {
+                shape: Shape::Catalog(EffectSpec::JointCompliance { joint }),
+                values: Vec::new(),
+                requested_multiple: 0.0,
+                multiple: 0.0,
+            })
+            .collect(),
+        LookAlike::LinkBending => vec![one(link_bending::spec(pick(&loaded_joints(model, true), rng)))],
+        LookAlike::StiffnessNonlinear => {
+            vec![one(joint_stiffness_nonlinear::spec(pick(&loaded_joints(model, false), rng)))]
+        }
+        LookAlike::CarriageTilt => vec![one(EffectSpec::GuideCarriageTilt)],
+    })
 }
 
 /// Draws a hidden effect's shape for `robot`.
@@ -593,8 +891,126 @@ fn draw_shape(robot: Robot, model: &Model, rng: &mut ChaCha8Rng) -> Shape {
     Shape::Catalog(pool[rng.random_range(0..pool.len())])
 }
 
-/// The benchmark's cases: `count` cases from `seed`; every fifth case is a null case.
+/// A version of the case generator (the module's documentation says what each draws).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Generator {
+    /// the generator of issue 21's third round (`d310186`): mixtures of catalog effects and
+    /// extra physics
+    V2,
+    /// issue 30, item 5: v2's mixtures, fixture errors, the gravity-load look-alikes and the
+    /// start without compliance
+    V3,
+}
+
+impl Generator {
+    /// The version string (`v2`, `v3`).
+    pub fn version(self) -> &'static str {
+        match self {
+            Generator::V2 => "v2",
+            Generator::V3 => "v3",
+        }
+    }
+
+    /// The generator of a version string; `None` for an unknown one.
+    pub fn parse(s: &str) -> Option<Generator> {
+        match s.trim() {
+            "v2" => Some(Generator::V2),
+            "v3" => Some(Generator::V3),
+            _ => None,
+        }
+    }
+}
+
+/// The benchmark's cases from the current generator ([`GENERATOR_VERSION`]): `count` cases
+/// from `seed`; every fifth case is a null case.
 pub fn generate(count: usize, seed: u64) -> Vec<Case> {
+    generate_with(Generator::V3, count, seed)
+}
+
+/// `count` cases from `seed` drawn by `generator`.
+pub fn generate_with(generator: Generator, count: usize, seed: u64) -> Vec<Case> {
+    match generator {
+        Generator::V2 => generate_v2(count, seed),
+        Generator::V3 => generate_v3(count, seed),
+    }
+}
+
+/// Up to `n_hidden` hidden effects drawn by [`draw_shape`] (v2's mixtures): one instance per
+/// effect kind (two draws of the same effect would be one effect), sizes in [`SIZE_RANGE`].
+fn draw_mixture(robot: Robot, model: &Model, n_hidden: usize, rng: &mut ChaCha8Rng) -> Vec<HiddenEffect> {
+    let mut hidden: Vec<HiddenEffect> = Vec::new();
+    while hidden.len() < n_hidden {
+        let shape = draw_shape(robot, model, rng);
+        let same = |h: &HiddenEffect| match (&h.shape, &shape) {
+            (Shape::Catalog(a), Shape::Catalog(b)) => a.kind() == b.kind(),
+            (a, b) => std::mem::discriminant(a) == std::mem::discriminant(b),
+        };
+        if hidden.iter().any(same) {
+            continue;
+        }
+        let (lo, hi) = SIZE_RANGE;
+        let m = (lo.ln() + rng.random::<f64>() * (hi.ln() - lo.ln())).exp();
+        // values are filled in by `CaseData::build` (they depend on the poses)
+        hidden.push(HiddenEffect { shape, values: Vec::new(), requested_multiple: m, multiple: m });
+    }
+    hidden
+}
+
+/// Generator v3 (issue 30, item 5). Per case, from one ChaCha8 stream: the robot, data kind,
+/// replicates and noise metadata as v2; fixture errors with probability [`FIXTURE_SHARE`];
+/// then every fifth case is a null case, and of the others half hide v2's mixtures (1–3
+/// effects), a quarter one member of the gravity-load family alone and a quarter two members
+/// together.
+fn generate_v3(count: usize, seed: u64) -> Vec<Case> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0003_0000_0000);
+    let canonical = Robot::Canonical.nominal();
+    let ur5e = Robot::Ur5e.nominal();
+    (0..count)
+        .map(|id| {
+            let robot = if rng.random::<f64>() < 0.6 { Robot::Canonical } else { Robot::Ur5e };
+            let model = if robot == Robot::Canonical { &canonical } else { &ur5e };
+            let data = match rng.random_range(0..4) {
+                0 | 1 => DataKind::Probe,
+                2 => DataKind::Tracker,
+                _ => DataKind::Mixed,
+            };
+            let replicates = rng.random::<bool>();
+            let noise_metadata = rng.random::<bool>();
+            let fixture = rng.random::<f64>() < FIXTURE_SHARE;
+            let case_seed = rng.random::<u64>() >> 16;
+            let mut hidden = Vec::new();
+            if id % 5 != 4 {
+                let kind = rng.random::<f64>();
+                if kind < 0.5 {
+                    let n = rng.random_range(1..=3usize);
+                    hidden = draw_mixture(robot, model, n, &mut rng);
+                } else {
+                    let members = if kind < 0.75 { 1 } else { 2 };
+                    let mut taken = Vec::new();
+                    for _ in 0..members {
+                        if let Some(h) = draw_look_alike(model, &taken, &mut rng) {
+                            taken.extend(h.first().and_then(|h| h.shape.look_alike()));
+                            hidden.extend(h);
+                        }
+                    }
+                }
+            }
+            hidden.push(HiddenEffect {
+                shape: Shape::Campaign {
+                    rows: V3_ROWS,
+                    fixture_sigma_mm: if fixture { FIXTURE_SIGMA_MM } else { 0.0 },
+                },
+                values: Vec::new(),
+                requested_multiple: 0.0,
+                multiple: 0.0,
+            });
+            Case { id, seed: case_seed, robot, data, replicates, noise_metadata, hidden }
+        })
+        .collect()
+}
+
+/// Generator v2: `count` cases from `seed`; every fifth case is a null case.
+fn generate_v2(count: usize, seed: u64) -> Vec<Case> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..count)
         .map(|id| {
@@ -608,24 +1024,7 @@ pub fn generate(count: usize, seed: u64) -> Vec<Case> {
             let noise_metadata = rng.random::<bool>();
             let n_hidden = if id % 5 == 4 { 0 } else { rng.random_range(1..=3usize) };
             let case_seed = rng.random::<u64>() >> 16;
-            let model = robot.nominal();
-            let mut hidden: Vec<HiddenEffect> = Vec::new();
-            while hidden.len() < n_hidden {
-                let shape = draw_shape(robot, &model, &mut rng);
-                // one instance per effect kind and driver (two draws of the same effect would
-                // be one effect)
-                let same = |h: &HiddenEffect| match (&h.shape, &shape) {
-                    (Shape::Catalog(a), Shape::Catalog(b)) => a.kind() == b.kind(),
-                    (a, b) => std::mem::discriminant(a) == std::mem::discriminant(b),
-                };
-                if hidden.iter().any(same) {
-                    continue;
-                }
-                let (lo, hi) = SIZE_RANGE;
-                let m = (lo.ln() + rng.random::<f64>() * (hi.ln() - lo.ln())).exp();
-                // values are filled in by `CaseData::build` (they depend on the poses)
-                hidden.push(HiddenEffect { shape, values: Vec::new(), requested_multiple: m, multiple: m });
-            }
+            let hidden = draw_mixture(robot, &robot.nominal(), n_hidden, &mut rng);
             Case { id, seed: case_seed, robot, data, replicates, noise_metadata, hidden }
         })
         .collect()
@@ -644,13 +1043,51 @@ impl CaseData {
             ..budget
         };
         let poses = poses(case, &nominal, &mut rng);
-        let params = param_set_from_spec("default", &nominal, &poses.rows).ok()?;
+        let true_params = param_set_from_spec("default", &nominal, &poses.rows).ok()?;
+        let params = if case.starts_without_compliance() {
+            ParamSet(true_params.0.iter().copied().filter(|p| !matches!(p, ParamId::Compliance(_))).collect())
+        } else {
+            true_params.clone()
+        };
         let sigma_mm = if case.data == DataKind::Tracker { TRACKER_SIGMA_MM } else { PROBE_SIGMA_MM };
         let j = assemble_jacobian(&nominal, &poses.rows, &params).ok()?;
         let space = ColumnSpace::of(j.as_ref()).ok()?;
         let mut model = perturbed_truth(&nominal, case.seed, &budget);
+        // the fixture errors: their own stream (seeded by the case), so the rest of the case is
+        // the same with and without them
+        let (_, fixture_sigma) = case.campaign();
+        if fixture_sigma > 0.0 {
+            add_cmm_errors(&mut model, case.seed, fixture_sigma);
+        }
         let mut extras = Vec::new();
         for h in &mut case.hidden {
+            // not drawn: the fixture errors and the missing compliances have the truth's size;
+            // their multiple is recorded
+            let given: Option<Vec<f64>> = match h.shape {
+                Shape::Campaign { fixture_sigma_mm, .. } => {
+                    let mut off = nominal.clone();
+                    add_cmm_errors(&mut off, case.seed, fixture_sigma_mm);
+                    let mut d = Vec::with_capacity(3 * poses.rows.len());
+                    for m in &poses.rows {
+                        d.extend((off.predict(m).ok()? - nominal.predict(m).ok()?).iter());
+                    }
+                    h.multiple = unabsorbed_rms(&space, &d) / (3f64.sqrt() * sigma_mm);
+                    Some(Vec::new())
+                }
+                Shape::Catalog(EffectSpec::JointCompliance { joint }) => {
+                    let id = ParamId::Compliance(joint);
+                    let v = model.param(id).ok()? - nominal.param(id).ok()?;
+                    let d = displacement_field(&nominal, &h.shape, &[v], &poses.rows);
+                    h.multiple = unabsorbed_rms(&space, &d) / (3f64.sqrt() * sigma_mm);
+                    Some(vec![v])
+                }
+                _ => None,
+            };
+            if let Some(values) = given {
+                h.values = values;
+                h.requested_multiple = h.multiple;
+                continue;
+            }
             let unit: Vec<f64> = match &h.shape {
                 Shape::Catalog(spec) => spec
                     .params()
@@ -726,7 +1163,7 @@ impl CaseData {
                 + Vector3::from_fn(|_, _| TRACKER_SIGMA_MM * gaussian(&mut rng));
             validation.push(Measurement { context: ctx, ..Measurement::tracker(tcp, q, p) });
         }
-        Some(CaseData { nominal, truth, params, measurements, validation, sigma_mm })
+        Some(CaseData { nominal, truth, params, true_params, measurements, validation, sigma_mm })
     }
 }
 
@@ -783,12 +1220,17 @@ pub struct HiddenOutcome {
 pub struct CaseResult {
     /// the case
     pub case: Case,
+    /// its categories ([`Case::categories`])
+    pub tags: Vec<Category>,
     /// rows to fit
     pub rows: usize,
-    /// the hidden effects' outcomes
+    /// the hidden effects' outcomes ([`Shape::Campaign`] is not an effect: not here)
     pub hidden: Vec<HiddenOutcome>,
     /// labels of the effects discovery added
     pub added: Vec<String>,
+    /// of them, the fixture-type effects (`position-offset`, `tcp-offset`, `tool-frame`) that
+    /// are not a hidden instance: false additions
+    pub fixture_additions: Vec<String>,
     /// detected, negligible
     pub negligible: Vec<String>,
     /// mean validation error of the starting fit [mm]
@@ -813,9 +1255,9 @@ impl CaseResult {
         self.floor_mm.map(|f| self.discovered_mm / f.max(1e-12))
     }
 
-    /// Whether something was added on a null case.
+    /// Whether something was added on a null case (fixture errors are not an effect).
     pub fn false_positive(&self) -> bool {
-        self.case.hidden.is_empty() && !self.added.is_empty()
+        self.case.is_null() && !self.added.is_empty()
     }
 }
 
@@ -842,12 +1284,27 @@ pub fn options_for(case: &Case, data: &CaseData) -> DiscoverOptions {
 /// The true-structure fit: the starting parameters plus the hidden catalog effects'
 /// parameters (weak prior of their typical scale toward 0, as the demo's), on the data with
 /// the extra physics subtracted; its mean error on the equally corrected validation rows.
+///
+/// The starting parameters are the true structure's ([`CaseData::true_params`]: with the
+/// compliances when the case's start lacks them, without prior, as the default start fits
+/// them); the fixture coordinates are the nominal ones (a user's fit cannot know the CMM's
+/// errors either).
 pub fn floor(case: &Case, data: &CaseData) -> Result<f64, String> {
     let mut start = data.nominal.clone();
-    let mut params = data.params.0.clone();
+    let mut params = data.true_params.0.clone();
     let mut priors = vec![f64::INFINITY; params.len()];
     for h in &case.hidden {
         if let Shape::Catalog(spec) = h.shape {
+            if matches!(spec, EffectSpec::JointCompliance { .. }) {
+                // built-in: on in every model; its parameter is in `true_params`
+                for id in spec.params() {
+                    if !params.contains(&id) {
+                        params.push(id);
+                        priors.push(f64::INFINITY);
+                    }
+                }
+                continue;
+            }
             start.enable_effect(spec).map_err(|e| e.to_string())?;
             for id in spec.params() {
                 if !params.contains(&id) {
@@ -910,6 +1367,12 @@ fn same_instance(added: &EffectSpec, hidden: &EffectSpec) -> bool {
     }
 }
 
+/// Whether an effect describes fixture coordinates: `position-offset`, `tcp-offset`,
+/// `tool-frame` (what discovery adds for fixture errors).
+fn is_fixture_type(spec: &EffectSpec) -> bool {
+    matches!(spec, EffectSpec::PositionOffset { .. } | EffectSpec::TcpOffset { .. } | EffectSpec::ToolFrame)
+}
+
 /// Runs discovery on one case and scores it.
 pub fn run_case(case: Case) -> CaseResult {
     run_case_with(case, &[])
@@ -920,9 +1383,11 @@ pub fn run_case(case: Case) -> CaseResult {
 pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
     let Some(data) = CaseData::build(&mut case) else {
         return CaseResult {
+            tags: case.categories(),
             case,
             rows: 0,
             hidden: Vec::new(),
+            fixture_additions: Vec::new(),
             added: Vec::new(),
             negligible: Vec::new(),
             start_mm: f64::NAN,
@@ -959,8 +1424,10 @@ pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
         Ok(d) => d,
         Err(e) => {
             return CaseResult {
+                tags: case.categories(),
                 rows: data.measurements.len(),
                 hidden: Vec::new(),
+                fixture_additions: Vec::new(),
                 added: Vec::new(),
                 negligible: Vec::new(),
                 start_mm: f64::NAN,
@@ -979,8 +1446,7 @@ pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
     let added_drivers: Vec<Driver> =
         d.added_effects.iter().map(|a| driver_of_in(&a.spec, guide, n)).collect();
     let hidden = case
-        .hidden
-        .iter()
+        .effects()
         .map(|h| {
             let drivers = h.shape.drivers(&data.nominal);
             let named_driver = added_drivers.iter().any(|a| drivers.contains(a));
@@ -1005,9 +1471,19 @@ pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
             }
         })
         .collect();
+    let hidden_specs: Vec<EffectSpec> =
+        case.effects().filter_map(|h| if let Shape::Catalog(s) = h.shape { Some(s) } else { None }).collect();
+    let fixture_additions = d
+        .added_effects
+        .iter()
+        .filter(|a| is_fixture_type(&a.spec) && !hidden_specs.iter().any(|h| same_instance(&a.spec, h)))
+        .map(|a| a.label.clone())
+        .collect();
     CaseResult {
+        tags: case.categories(),
         rows: data.measurements.len(),
         hidden,
+        fixture_additions,
         added: d.added_effects.iter().map(|a| a.label.clone()).collect(),
         negligible: d
             .negligible_effects
@@ -1043,25 +1519,58 @@ pub struct Totals {
     pub with_floor: usize,
     /// of them, discovered ≤ [`FLOOR_FACTOR`] × floor
     pub within_floor: usize,
+    /// catalog effects of at least [`MUST_NAME`] × noise
+    pub must_name_catalog: usize,
+    /// of them, named exactly (the hidden instance added)
+    pub must_name_exact: usize,
+    /// cases (that ran)
+    pub cases: usize,
+    /// cases with fixture errors
+    pub fixture_cases: usize,
+    /// of them, cases where a fixture-type effect that is not hidden was added
+    pub fixture_additions: usize,
+    /// discovered / floor of the cases with a floor, sorted
+    pub ratios: Vec<f64>,
+}
+
+impl Totals {
+    /// The `p` quantile (0..=1) of the ratios; `None` without any.
+    pub fn ratio_quantile(&self, p: f64) -> Option<f64> {
+        if self.ratios.is_empty() {
+            return None;
+        }
+        Some(self.ratios[((self.ratios.len() - 1) as f64 * p.clamp(0.0, 1.0)).round() as usize])
+    }
 }
 
 /// Totals of `results` restricted to `keep`.
 pub fn totals(results: &[CaseResult], keep: impl Fn(&CaseResult) -> bool) -> Totals {
     let mut t = Totals::default();
     for r in results.iter().filter(|r| keep(r) && r.error.is_none()) {
+        t.cases += 1;
         for h in r.hidden.iter().filter(|h| h.multiple >= MUST_NAME) {
             t.must_name += 1;
             t.must_name_named += usize::from(h.named_driver);
+            if h.in_catalog {
+                t.must_name_catalog += 1;
+                t.must_name_exact += usize::from(h.named_exactly);
+            }
         }
-        if r.case.hidden.is_empty() {
+        if r.case.has_fixture_errors() {
+            t.fixture_cases += 1;
+            t.fixture_additions += usize::from(!r.fixture_additions.is_empty());
+        }
+        if r.case.is_null() {
             t.null_cases += 1;
             t.null_additions += usize::from(r.false_positive());
         }
         if let Some(x) = r.ratio() {
             t.with_floor += 1;
             t.within_floor += usize::from(x <= FLOOR_FACTOR);
+            t.ratios.push(x);
         }
     }
+    t.ratios.sort_by(f64::total_cmp);
     t
 }
 
@@ -1096,9 +1605,9 @@ pub fn markdown(results: &[CaseResult]) -> String {
         ("without replicates", Box::new(|r| !r.case.replicates)),
         (
             "catalog effects only",
-            Box::new(|r| !r.case.hidden.is_empty() && r.case.hidden.iter().all(|h| h.shape.in_catalog())),
+            Box::new(|r| !r.case.is_null() && r.case.effects().all(|h| h.shape.in_catalog())),
         ),
-        ("with extra physics", Box::new(|r| r.case.hidden.iter().any(|h| !h.shape.in_catalog()))),
+        ("with extra physics", Box::new(|r| r.case.effects().any(|h| !h.shape.in_catalog()))),
     ];
     for (name, keep) in &subsets {
         let t = totals(results, keep);
@@ -1108,6 +1617,33 @@ pub fn markdown(results: &[CaseResult]) -> String {
             pct(t.must_name_named, t.must_name),
             pct(t.null_additions, t.null_cases),
             pct(t.within_floor, t.with_floor)
+        );
+    }
+    let _ = writeln!(s, "\n### By category\n");
+    let _ = writeln!(
+        s,
+        "| category | cases | effects ≥ {MUST_NAME}× named with their driver | catalog effects ≥ {MUST_NAME}× named exactly | null cases with an addition | fixture cases with a fixture-type addition not hidden | held-out ≤ {FLOOR_FACTOR}× floor | held-out / floor: median, max |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+    let mut rows: Vec<(String, Totals)> = vec![("all cases".into(), totals(results, |_| true))];
+    for c in Category::ALL {
+        rows.push((format!("{} (`{}`)", c.label(), c.tag()), totals(results, |r| r.tags.contains(&c))));
+    }
+    rows.push(("none of these".into(), totals(results, |r| r.tags.is_empty())));
+    for (name, t) in &rows {
+        let spread = match (t.ratio_quantile(0.5), t.ratio_quantile(1.0)) {
+            (Some(m), Some(x)) => format!("{m:.2}, {x:.2}"),
+            _ => "—".into(),
+        };
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {} | {} | {} | {} | {} | {spread} |",
+            t.cases,
+            pct(t.must_name_named, t.must_name),
+            pct(t.must_name_exact, t.must_name_catalog),
+            pct(t.null_additions, t.null_cases),
+            pct(t.fixture_additions, t.fixture_cases),
+            pct(t.within_floor, t.with_floor),
         );
     }
     let _ = writeln!(s, "\n### Detection by size (multiples of the noise of the prediction change)\n");
@@ -1153,9 +1689,9 @@ pub fn markdown(results: &[CaseResult]) -> String {
     let _ = writeln!(s, "\n### Cases it gets wrong\n");
     let _ = writeln!(
         s,
-        "| case | robot, data, replicates, noise given | hidden (size ×noise) | added | validation mm: start / discovered / floor | what went wrong |"
+        "| case | tags | robot, data, replicates, noise given | hidden (size ×noise) | added | validation mm: start / discovered / floor | what went wrong |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
     for r in results {
         let mut wrong = Vec::new();
         if let Some(e) = &r.error {
@@ -1171,6 +1707,8 @@ pub fn markdown(results: &[CaseResult]) -> String {
         }
         if r.false_positive() {
             wrong.push("added on a null case".into());
+        } else if !r.fixture_additions.is_empty() {
+            wrong.push(format!("fixture-type addition not hidden: {}", r.fixture_additions.join(", ")));
         }
         if r.ratio().is_some_and(|x| x > FLOOR_FACTOR) {
             wrong.push(format!("held-out {:.2}× the floor", r.ratio().unwrap_or(f64::NAN)));
@@ -1182,8 +1720,9 @@ pub fn markdown(results: &[CaseResult]) -> String {
             r.case.hidden.iter().map(|h| format!("{} ({:.1})", h.shape.label(), h.multiple)).collect();
         let _ = writeln!(
             s,
-            "| {} | {:?}, {:?}, {}, {} | {} | {} | {:.4} / {:.4} / {} | {} |",
+            "| {} | {} | {:?}, {:?}, {}, {} | {} | {} | {:.4} / {:.4} / {} | {} |",
             r.case.id,
+            r.case.tags(),
             r.case.robot,
             r.case.data,
             if r.case.replicates { "yes" } else { "no" },
