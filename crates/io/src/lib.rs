@@ -447,7 +447,8 @@ impl Table {
         let v: u32 =
             s.parse().map_err(|_| self.err(line, col, format!("`{s}` is not a non-negative integer id")))?;
         let free_point = col == "position" && self.opts.any_position_id;
-        if !(known.contains(&v) || free_point) {
+        let free_tcp = col == "tcp" && self.opts.any_tcp_id;
+        if !(known.contains(&v) || free_point || free_tcp) {
             return Err(self.err(line, col, format!("unknown {col} id {v} (the model has {known:?})")));
         }
         Ok(v)
@@ -2129,5 +2130,24 @@ mod tests {
         let f = file("tcp,q1,q2,q3,q4,q5,q6,dir4\n1,10,-80,90,-100,-90,30,1\n");
         let e = read_joint_rows_with(f.path(), &ur, &options).expect_err("own dir4").to_string();
         assert!(e.contains("has its own direction column `dir4`"), "{e}");
+    }
+
+    /// Issue 31: markers the model lacks are read with `any_tcp_id` (the caller adds them),
+    /// refused without it; positions are still checked.
+    #[test]
+    fn any_tcp_id_reads_markers_the_model_lacks() {
+        let ur = fixture_model("ur5e.toml");
+        let f = file(
+            "tcp,q1,q2,q3,q4,q5,q6,x,y,z\n1,10,-80,90,-100,-90,30,1,2,3\n7,10,-80,90,-100,-90,30,4,5,6\n",
+        );
+        let e =
+            read_measurements_with(f.path(), &ur, &ReadOptions::default()).expect_err("tcp 7").to_string();
+        assert!(e.contains(":3: column `tcp`: unknown tcp id 7 (the model has [1, 2, 3])"), "{e}");
+        let options = ReadOptions { any_tcp_id: true, ..ReadOptions::default() };
+        let rows = read_measurements_with(f.path(), &ur, &options).expect("any tcp").rows;
+        assert_eq!(rows.iter().map(|m| m.tcp).collect::<Vec<_>>(), [1, 7]);
+        let f = file("position,tcp,q1,q2,q3,q4,q5,q6\n7,7,10,-80,90,-100,-90,30\n");
+        let e = read_measurements_with(f.path(), &ur, &options).expect_err("position 7").to_string();
+        assert!(e.contains("unknown position id 7"), "{e}");
     }
 }

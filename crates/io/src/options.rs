@@ -152,6 +152,10 @@ pub struct ReadOptions {
     /// probe rows name fixed points at unknown places (e.g. the sockets of a fixture): any
     /// `position` id is read, not only the model's calibration positions
     pub any_position_id: bool,
+    /// rows name markers the model may lack (several markers of one body, fitted at unknown
+    /// offsets): any `tcp` id is read, not only the model's TCPs. The caller adds the TCPs the
+    /// data use to the model (`vatcal identify --unknown-tcps`) or refuses them.
+    pub any_tcp_id: bool,
 }
 
 impl ReadOptions {
@@ -165,6 +169,7 @@ impl ReadOptions {
             dir_from_row_order: false,
             check_units: false,
             any_position_id: false,
+            any_tcp_id: false,
         }
     }
 }
@@ -180,6 +185,7 @@ impl Default for ReadOptions {
             dir_from_row_order: false,
             check_units: true,
             any_position_id: false,
+            any_tcp_id: false,
         }
     }
 }

@@ -70,6 +70,11 @@ pub struct Args {
     /// included in the reported prediction uncertainty.
     #[arg(long, default_value_t = 0.002)]
     pub cmm_sigma_mm: f64,
+    /// Markers (TCPs) at unknown offsets: the TCP ids the rows use that the cell file lacks,
+    /// comma-separated, or `all`; added at TCP 1's offset and fitted as by `vatcal identify
+    /// --unknown-tcps`. Without it such rows are an error.
+    #[arg(long, value_name = "IDS|all")]
+    pub unknown_tcps: Option<String>,
     /// Units, limit tolerance and directions of the measurement files.
     #[command(flatten)]
     pub read: super::read_args::ReadArgs,
@@ -323,8 +328,23 @@ fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_options(&args)?;
-    let model = super::load_model(&args.model)?;
-    let measurements = read_all(&args.measurements, &model, &args.read)?;
+    let mut cell = vatcal_core::CellFile::load(&args.model)?;
+    let model = Model::from_cell(&cell)
+        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let (measurements, sources) = args.read.markers_with_sources(&args.measurements, &model)?;
+    anyhow::ensure!(!measurements.is_empty(), "{}: no measurement rows", args.measurements.display());
+    // issue 31: TCP ids the rows use that the cell lacks are markers at unknown offsets
+    let markers =
+        super::markers::add_unknown_tcps(&mut cell, args.unknown_tcps.as_deref(), &measurements, &sources)?;
+    let model = if markers.added.is_empty() {
+        model
+    } else {
+        Model::from_cell(&cell)
+            .with_context(|| format!("{}: cannot build the model", args.model.display()))?
+    };
+    if let Some(line) = markers.describe() {
+        println!("{line}");
+    }
     let validation = args.validation.as_ref().map(|p| read_all(p, &model, &args.read)).transpose()?;
     let (model, params) = start_and_parameter_set(&args, &model, &measurements)?;
     let options = DiscoverOptions {

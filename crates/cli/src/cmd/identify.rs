@@ -61,6 +61,12 @@ pub struct Args {
     /// `all` (every position of the cell file).
     #[arg(long)]
     pub unknown_positions: Option<String>,
+    /// Markers (TCPs) at unknown offsets, e.g. several points of one tracked body: a
+    /// comma-separated list of the TCP ids the rows use that the cell file lacks (added at TCP
+    /// 1's offset, placed by the initialisation, identified with the rest), or `all` (every such
+    /// id). Without it such rows are an error. An id the cell file has is fitted anyway.
+    #[arg(long, value_name = "IDS|all")]
+    pub unknown_tcps: Option<String>,
     /// A known distance between two fixed points, `A,B,MM` or `A,B,MM,SIGMA_MM` (default sigma
     /// 0.01 mm, the fixture's): a measurement of its own that fixes the scale, weighed against
     /// the data rows by their own fitted scatter. Repeatable.
@@ -124,6 +130,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let model = Model::from_cell(&cell)
         .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let (measurements, sources) = read_all(&args, &model)?;
+    // issue 31: TCP ids the rows use that the cell lacks are markers at unknown offsets
+    let markers =
+        super::markers::add_unknown_tcps(&mut cell, args.unknown_tcps.as_deref(), &measurements, &sources)?;
+    let model = if markers.added.is_empty() {
+        model
+    } else {
+        Model::from_cell(&cell)
+            .with_context(|| format!("{}: cannot build the model", args.model.display()))?
+    };
+    if let Some(line) = markers.describe() {
+        println!("{line}");
+    }
     let method: Method = args.method.parse().map_err(anyhow::Error::msg).context("--method")?;
     let distances = args
         .point_distances
@@ -195,6 +213,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let fit = &cal.fit;
     print_log(&fit.iterations);
     print_summary(fit, &cal.prior_sigmas);
+    print_markers(fit, &measurements, &markers);
     print_weak_directions(&cal);
     if cal.selection.is_some() && fit.condition_number > args.max_condition_number {
         println!(
@@ -538,7 +557,8 @@ fn read_all(args: &Args, model: &Model) -> anyhow::Result<(Vec<Measurement>, Vec
     }
     let (mut measurements, mut sources) = (Vec::new(), Vec::new());
     for path in [&args.measurements, &args.tracker].into_iter().flatten() {
-        let (rows, lines) = args.read.measurements_with_sources(path, model)?;
+        // any TCP id: the ones the cell lacks are resolved by --unknown-tcps
+        let (rows, lines) = args.read.markers_with_sources(path, model)?;
         measurements.extend(rows);
         sources.extend(lines);
     }
@@ -563,6 +583,20 @@ fn print_failure(report: &FailureReport) {
         eprintln!(
             "note: the paper-literal method sums per-pose pseudo-inverse corrections; it is not a \
              least-squares method (see docs/identification.md). Use --method lm."
+        );
+    }
+}
+
+/// The markers (TCP offsets in frame N, mm, with their sigma) of the TCPs the rows use, and a
+/// warning for a marker of `--unknown-tcps` the fitted set left at its placeholder.
+fn print_markers(fit: &Identification, rows: &[Measurement], markers: &super::markers::UnknownTcps) {
+    println!("markers (TCP offsets in the flange frame N, sigma of each coordinate):");
+    for line in super::markers::marker_lines(fit, rows, markers) {
+        println!("{line}");
+    }
+    for id in super::markers::unfitted(fit, markers) {
+        eprintln!(
+            "warning: tcp {id} (--unknown-tcps) is not in the fitted set: it stays at its placeholder; add tcp{id}_x,tcp{id}_y,tcp{id}_z to --params"
         );
     }
 }

@@ -9,6 +9,7 @@ pub mod evaluate_fixed_points;
 pub mod fk;
 pub mod identify;
 pub mod import_urdf;
+pub mod markers;
 pub mod observability;
 pub mod plan;
 pub mod read_args;

@@ -76,13 +76,16 @@ impl ReadArgs {
         Ok(print_warnings(vatcal_io::read_measurements_with(path, model, &self.options()?)?))
     }
 
-    /// [`Self::measurements`] with the source (`file:line`) of every row, in the same order.
-    pub fn measurements_with_sources(
+    /// [`Self::measurements`] with the source (`file:line`) of every row, in the same order,
+    /// reading rows of any `tcp` id, also one the model lacks (markers: the caller adds them,
+    /// `--unknown-tcps`, or refuses them: `super::markers`).
+    pub fn markers_with_sources(
         &self,
         path: &Path,
         model: &Model,
     ) -> anyhow::Result<(Vec<Measurement>, Vec<RowSource>)> {
-        let read = vatcal_io::read_measurements_with(path, model, &self.options()?)?;
+        let options = ReadOptions { any_tcp_id: true, ..self.options()? };
+        let read = vatcal_io::read_measurements_with(path, model, &options)?;
         let sources = read.sources();
         Ok((print_warnings(read), sources))
     }

@@ -104,12 +104,40 @@ pub struct ExtrapolatedRow {
 /// Validates the model(s), prints the statistics, writes the plot and the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let model = super::load_model(&args.model)?;
-    let (tracker, sources) = args.read.measurements_with_sources(&args.tracker, &model)?;
+    let (tracker, sources) = args.read.markers_with_sources(&args.tracker, &model)?;
+    // markers: the model must have every TCP the rows use (a calibrated cell written by
+    // `identify --unknown-tcps` has them)
+    if let Some(&(id, row)) = super::markers::missing_tcps(&tracker, &model.tcp_ids()).first() {
+        let missing: Vec<String> = super::markers::missing_tcps(&tracker, &model.tcp_ids())
+            .iter()
+            .map(|(id, _)| id.to_string())
+            .collect();
+        anyhow::bail!(
+            "{}: column `tcp`: unknown tcp id {id} (the model {} has {:?}): validate the calibrated cell that `vatcal identify --unknown-tcps {}` writes (it contains the fitted markers)",
+            sources.get(row).map_or_else(|| args.tracker.display().to_string(), ToString::to_string),
+            args.model.display(),
+            model.tcp_ids(),
+            missing.join(",")
+        );
+    }
     let tested =
         validate(&model, &tracker).with_context(|| format!("validating {}", args.model.display()))?;
     let baseline = match &args.baseline {
         Some(path) => {
-            let base = super::load_model(path)?;
+            // markers the baseline lacks (a nominal cell without the fitted markers) are the
+            // model's: the comparison is about the robot, not about where the markers sit
+            let mut cell = vatcal_core::CellFile::load(path)?;
+            let copied = super::markers::copy_missing_tcps(&mut cell, &model, &tracker);
+            if !copied.is_empty() {
+                let ids: Vec<String> = copied.iter().map(u32::to_string).collect();
+                println!(
+                    "note: the baseline {} lacks tcp {}: taken from the model under test (its fitted markers)",
+                    path.display(),
+                    ids.join(",")
+                );
+            }
+            let base = vatcal_kinematics::Model::from_cell(&cell)
+                .with_context(|| format!("{}: cannot build the model", path.display()))?;
             // read again with the baseline: checks the context columns its effects need
             let tracker =
                 vatcal_io::read_measurements_with(&args.tracker, &base, &args.read.options()?)?.rows;

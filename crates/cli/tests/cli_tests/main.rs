@@ -17,6 +17,7 @@ mod fk_context;
 mod fk_torque;
 mod identify_validate;
 mod import_urdf;
+mod markers;
 mod plan_kinds;
 mod real_data;
 mod select_observability;
