@@ -166,6 +166,52 @@ fn three_unknown_markers_reach_the_noise_floor_on_held_out_postures() {
     assert!(after < 0.02, "held-out mean {after} mm (noise 0.01 mm per axis)");
 }
 
+/// The same through the library, as a program that is not the CLI would do it: the rows read
+/// with `ReadOptions::any_tcp_id`, the markers the cell lacks added to the cell before the
+/// model is built, `calibrate` with its defaults, held-out postures predicted to noise level.
+#[test]
+fn three_unknown_markers_through_the_library() {
+    use vatcal_identification::{CvOptions, IdentifyOptions, calibrate, validate};
+    let dir = tempfile::tempdir().expect("tmp");
+    let truth = truth(29);
+    let frame = (Rotation3::from_euler_angles(-1.2, 0.3, -0.8), Vector3::new(-700.0, 2100.0, 400.0));
+    let train = dir.path().join("train.csv");
+    vatcal_io::write_measurements_for(
+        &train,
+        &marker_rows(&truth, 40, 0.01, 11, &frame),
+        truth.joint_kinds(),
+    )
+    .expect("write");
+    let mut cell = CellFile::load(fixture("ur5e.toml")).expect("fixture");
+    cell.tcps.truncate(1);
+    let options = vatcal_io::ReadOptions { any_tcp_id: true, ..vatcal_io::ReadOptions::default() };
+    let rows = vatcal_io::read_measurements_with(&train, &Model::from_cell(&cell).expect("model"), &options)
+        .expect("read")
+        .rows;
+    let tcp1 = cell.tcps[0].clone();
+    for id in [2, 3] {
+        cell.tcps.push(vatcal_core::cell::PointEntry { id, ..tcp1.clone() });
+    }
+    let nominal = Model::from_cell(&cell).expect("model with the markers");
+    let cal = calibrate(
+        &nominal,
+        &rows,
+        "default",
+        &Default::default(),
+        &IdentifyOptions::default(),
+        &CvOptions::default(),
+    )
+    .expect("calibrate");
+    let held = marker_rows(&truth, 300, 0.0, 12, &frame);
+    let mean = validate(&cal.fit.model, &held).expect("validate").stats.mean;
+    eprintln!("library: held-out mean {mean:.5} mm");
+    assert!(mean < 0.02, "held-out mean {mean} mm (noise 0.01 mm per axis)");
+    for id in 2..=3u32 {
+        let d = (cal.fit.model.tcp(id).expect("fitted") - truth.tcp(id).expect("truth")).norm();
+        assert!(d < 5.0, "tcp {id} {d} mm from the truth");
+    }
+}
+
 fn args(v: &[String]) -> Vec<&str> {
     v.iter().map(String::as_str).collect()
 }
