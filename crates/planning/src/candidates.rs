@@ -91,6 +91,13 @@ pub struct CandidateOptions {
     /// multi-start numerical IK of a chain without a closed form (any chain other than the
     /// canonical cell)
     pub numeric: MultiStartOptions,
+    /// which IK solves the TCP poses of a chain other than the canonical cell (default: a
+    /// closed form where the chain has one)
+    pub ik: IkChoice,
+    /// warm-start the numerical IK (see the module docs): each TCP pose from the solutions of
+    /// its neighbour in a nearest-neighbour chain of the tool poses, each guide step also from
+    /// the previous one; `false`: every pose and guide step from every fixed start
+    pub warm_start: bool,
     /// calibration positions to use (`None`: all of the model's)
     pub positions: Option<Vec<u32>>,
     /// TCPs to use (`None`: all of the model's)
@@ -115,6 +122,8 @@ impl Default for CandidateOptions {
             resolution: Resolution::default(),
             refine: RefineOptions::default(),
             numeric: MultiStartOptions::default(),
+            ik: IkChoice::default(),
+            warm_start: true,
             positions: None,
             tcps: None,
             seed: 1,
@@ -122,6 +131,25 @@ impl Default for CandidateOptions {
         }
     }
 }
+
+/// Which inverse kinematics solves the TCP poses of a chain other than the canonical cell
+/// (the canonical cell always uses its closed form).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum IkChoice {
+    /// A closed form where the chain has one (spherical wrist, or three parallel middle axes
+    /// and a UR-type wrist), the numerical IK otherwise ([`ModelIk::closed_form_first`]).
+    #[default]
+    ClosedFormFirst,
+    /// The spherical-wrist closed form where the chain has one, the numerical IK otherwise
+    /// (the planner before the parallel closed form; [`ModelIk::new`]).
+    WithoutParallelClosedForm,
+    /// Always the numerical IK ([`ModelIk::numerical`]).
+    Numerical,
+}
+
+/// Length of the chains of TCP poses solved one after the other with warm starts (the first
+/// of each chain from the fixed starts alone); the chains run in parallel.
+pub const WARM_CHAIN_LEN: usize = 24;
 
 /// One measurable joint configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -280,30 +308,93 @@ struct PoseTask {
     target: Frame,
 }
 
+/// The IK solutions of one TCP pose at every guide step (the warm starts of the next pose).
+type StepSolutions = Vec<Vec<JointVector>>;
+
 impl Pipeline<'_> {
     fn run(&self, task: &PoseTask) -> (Vec<Candidate>, StageCounts) {
         match &self.solver {
             Solver::Canonical { ik, bases } => self.run_canonical(ik, bases, task),
-            Solver::Any { ik, guide } => self.run_any(ik, guide, task),
+            Solver::Any { ik, guide } => {
+                let (candidates, counts, _) = self.run_any(ik, guide, task, None);
+                (candidates, counts)
+            }
         }
     }
 
-    /// Stages 1..5 on any chain (see the module docs).
-    fn run_any(&self, ik: &ModelIk<'_>, guide: &[f64], task: &PoseTask) -> (Vec<Candidate>, StageCounts) {
+    /// True when the TCP poses are solved in warm-started chains (numerical IK, warm starts on).
+    fn warm_chains(&self) -> bool {
+        matches!(&self.solver, Solver::Any { ik, .. } if !ik.is_closed_form()) && self.opts.warm_start
+    }
+
+    /// Stages 1..5 on any chain (see the module docs); with warm starts, `previous` holds the
+    /// solutions of the preceding pose of the chain at every guide step. Also returns this
+    /// pose's solutions at every guide step.
+    fn run_any(
+        &self,
+        ik: &ModelIk<'_>,
+        guide: &[f64],
+        task: &PoseTask,
+        previous: Option<&[Vec<JointVector>]>,
+    ) -> (Vec<Candidate>, StageCounts, StepSolutions) {
         let mut counts = StageCounts { poses: 1, ..StageCounts::default() };
         let mut out = Vec::new();
         let steps: Vec<f64> = if guide.is_empty() { vec![0.0] } else { guide.to_vec() };
+        let warm = self.opts.warm_start && !ik.is_closed_form();
+        let mut solved: StepSolutions = Vec::with_capacity(steps.len());
         for (step, g) in steps.iter().enumerate() {
-            for q in ik.solve_at_guide(*g, &task.target) {
+            let solutions = if warm {
+                // the neighbouring pose at this guide step, then this pose at the previous one;
+                // enough: as many solutions as the first of them that has any
+                let neighbour = previous.and_then(|p| p.get(step)).filter(|p| !p.is_empty());
+                let before = step.checked_sub(1).and_then(|s| solved.get(s)).filter(|p| !p.is_empty());
+                let enough = neighbour.or(before).map_or(0, Vec::len);
+                let starts: Vec<JointVector> =
+                    neighbour.into_iter().chain(before).flat_map(|p| p.iter().copied()).collect();
+                ik.solve_at_guide_warm(*g, &task.target, &starts, enough)
+            } else {
+                ik.solve_at_guide(*g, &task.target)
+            };
+            for q in &solutions {
                 counts.ik_solutions += 1;
-                if !self.bounds.contains(&q) {
+                if !self.bounds.contains(q) {
                     continue;
                 }
                 counts.within_limits += 1;
-                self.screen_and_count(task, q, step, &mut counts, &mut out);
+                self.screen_and_count(task, *q, step, &mut counts, &mut out);
             }
+            solved.push(solutions);
         }
-        (out, counts)
+        (out, counts, solved)
+    }
+
+    /// Stages 1..5 of the TCP poses `chain` (indices into `tasks`) one after the other, each
+    /// warm-started from the previous one's solutions; results by task index.
+    fn run_chain(
+        &self,
+        tasks: &[PoseTask],
+        chain: &[usize],
+        bar: &ProgressBar,
+    ) -> Vec<(usize, (Vec<Candidate>, StageCounts))> {
+        let Solver::Any { ik, guide } = &self.solver else {
+            return chain
+                .iter()
+                .map(|&i| {
+                    let r = self.run(&tasks[i]);
+                    bar.inc(1);
+                    (i, r)
+                })
+                .collect();
+        };
+        let mut previous: Option<StepSolutions> = None;
+        let mut out = Vec::with_capacity(chain.len());
+        for &i in chain {
+            let (candidates, counts, solved) = self.run_any(ik, guide, &tasks[i], previous.as_deref());
+            previous = Some(solved);
+            bar.inc(1);
+            out.push((i, (candidates, counts)));
+        }
+        out
     }
 
     /// Stages 3..5 of one solution within the limits: counts it and keeps it when measurable.
@@ -431,7 +522,12 @@ pub fn generate_candidates(
         let bases: Vec<(f64, Frame)> = guide.iter().map(|q1| (*q1, robot_base_frame(model, *q1))).collect();
         Solver::Canonical { ik: Box::new(ToolPoseIk::new(model, opts.refine)?), bases }
     } else {
-        Solver::Any { ik: ModelIk::new(model, opts.refine, opts.numeric)?, guide: guide.clone() }
+        let ik = match opts.ik {
+            IkChoice::ClosedFormFirst => ModelIk::closed_form_first(model, opts.refine, opts.numeric)?,
+            IkChoice::WithoutParallelClosedForm => ModelIk::new(model, opts.refine, opts.numeric)?,
+            IkChoice::Numerical => ModelIk::numerical(model, opts.numeric)?,
+        };
+        Solver::Any { ik, guide: guide.clone() }
     };
     let ik = match &solver {
         Solver::Canonical { .. } => IkMethod::ClosedForm,
@@ -447,14 +543,22 @@ pub fn generate_candidates(
     };
     let tasks = sample_tasks(model, &positions, &tcps, opts)?;
     let bar = progress_bar(tasks.len() as u64, opts.progress);
-    let results: Vec<(Vec<Candidate>, StageCounts)> = tasks
-        .par_iter()
-        .map(|t| {
-            let r = pipeline.run(t);
-            bar.inc(1);
-            r
-        })
-        .collect();
+    let results: Vec<(Vec<Candidate>, StageCounts)> = if pipeline.warm_chains() {
+        let chains = warm_chains(&tasks, WARM_CHAIN_LEN);
+        let mut by_task: Vec<(usize, (Vec<Candidate>, StageCounts))> =
+            chains.par_iter().flat_map_iter(|c| pipeline.run_chain(&tasks, c, &bar)).collect();
+        by_task.sort_unstable_by_key(|(i, _)| *i);
+        by_task.into_iter().map(|(_, r)| r).collect()
+    } else {
+        tasks
+            .par_iter()
+            .map(|t| {
+                let r = pipeline.run(t);
+                bar.inc(1);
+                r
+            })
+            .collect()
+    };
     bar.finish_and_clear();
     let mut counts = StageCounts::default();
     let mut candidates = Vec::new();
@@ -469,6 +573,47 @@ pub fn generate_candidates(
         joint_kinds: model.joint_kinds().to_vec(),
         ik,
     })
+}
+
+/// The TCP poses cut into chains for warm starts: within each run of tasks of one calibration
+/// position and TCP (consecutive in `tasks`), a greedy nearest-neighbour order of the tool poses
+/// (from the first; distance `|R_a - R_b|_F^2 + (|p_a - p_b| / 100 mm)^2`, ties to the lower
+/// index), cut into pieces of `len`. Depends on the tasks only (not on the thread count).
+fn warm_chains(tasks: &[PoseTask], len: usize) -> Vec<Vec<usize>> {
+    let mut chains = Vec::new();
+    let mut start = 0;
+    while start < tasks.len() {
+        let key = |t: &PoseTask| (t.position, t.tcp);
+        let end = tasks[start..]
+            .iter()
+            .position(|t| key(t) != key(&tasks[start]))
+            .map_or(tasks.len(), |k| start + k);
+        let order = nearest_neighbour_order(&tasks[start..end]);
+        chains.extend(order.chunks(len.max(1)).map(|c| c.iter().map(|k| start + k).collect()));
+        start = end;
+    }
+    chains
+}
+
+/// Greedy nearest-neighbour order of the tool poses of `tasks`, from the first.
+fn nearest_neighbour_order(tasks: &[PoseTask]) -> Vec<usize> {
+    let distance = |a: &Frame, b: &Frame| (a.r - b.r).norm_squared() + ((a.p - b.p) / 100.0).norm_squared();
+    let mut left: Vec<usize> = (1..tasks.len()).collect();
+    let mut order = Vec::with_capacity(tasks.len());
+    if tasks.is_empty() {
+        return order;
+    }
+    order.push(0);
+    let mut current = 0;
+    while !left.is_empty() {
+        let (k, _) = left.iter().enumerate().fold((0, f64::INFINITY), |best, (k, &j)| {
+            let d = distance(&tasks[current].target, &tasks[j].target);
+            if d < best.1 { (k, d) } else { best }
+        });
+        current = left.remove(k);
+        order.push(current);
+    }
+    order
 }
 
 fn validate(opts: &CandidateOptions) -> Result<(), PlanError> {

@@ -1470,10 +1470,10 @@ impl std::fmt::Display for IkMethod {
 
 /// Inverse kinematics of the tool-changer frame of any [`Model`]: the closed form + refinement
 /// ([`ToolPoseIk`]) when the chain is a 6R arm with a spherical wrist
-/// ([`ArmGeometry::from_model`]) or with three parallel middle axes and a UR-type wrist
-/// ([`ParallelArm::from_model`]), alone or behind one prismatic guide, the multi-start
-/// numerical IK ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`]) otherwise
-/// ([`ModelIk::method`] says which, and why not a closed form). The first prismatic joint, if any, is the guide: it is
+/// ([`ArmGeometry::from_model`]) or — with [`ModelIk::closed_form_first`] — with three parallel
+/// middle axes and a UR-type wrist ([`ParallelArm::from_model`]), alone or behind one prismatic
+/// guide, the multi-start numerical IK ([`crate::numeric_ik::NumericIk`] on a [`ChainTool`])
+/// otherwise ([`ModelIk::method`] says which, and why not a closed form). The first prismatic joint, if any, is the guide: it is
 /// held at the given guide positions and the other joints are solved for; a chain without one
 /// ignores the guide positions.
 #[derive(Debug)]
@@ -1498,12 +1498,13 @@ enum Solver<'a> {
 }
 
 impl<'a> ModelIk<'a> {
-    /// A closed form when the model allows it (a spherical wrist first, then three parallel
-    /// middle axes with a UR-type wrist), the numerical IK otherwise.
+    /// The spherical-wrist closed form when the model allows it, the numerical IK otherwise
+    /// (the IK of every user of this type outside the candidate generator: compensation,
+    /// validation, the campaign; see [`ModelIk::closed_form_first`] for the closed form of arms
+    /// with three parallel middle axes too).
     ///
     /// # Examples
-    /// The Meca500 alone on a table has a spherical wrist; the UR5e has three parallel middle
-    /// axes:
+    /// The Meca500 alone on a table has a spherical wrist; the UR5e has not:
     /// ```
     /// use vatcal_core::CellFile;
     /// use vatcal_kinematics::Model;
@@ -1519,6 +1520,9 @@ impl<'a> ModelIk<'a> {
     /// assert_eq!(ik.method(), IkMethod::ClosedForm);
     /// let ur5e = fixture("ur5e.toml")?;
     /// let ik = ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default())?;
+    /// assert!(ik.method().to_string().contains("spherical wrist"));
+    /// // it has three parallel middle axes and a UR-type wrist
+    /// let ik = ModelIk::closed_form_first(&ur5e, RefineOptions::default(), MultiStartOptions::default())?;
     /// assert_eq!(ik.method(), IkMethod::ParallelClosedForm);
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
@@ -1526,6 +1530,40 @@ impl<'a> ModelIk<'a> {
     /// # Errors
     /// Invalid numerical-IK options or joint limits ([`PlanError::Option`]).
     pub fn new(
+        model: &'a Model,
+        refine: RefineOptions,
+        numeric: MultiStartOptions,
+    ) -> Result<Self, PlanError> {
+        match ToolPoseIk::new(model, refine) {
+            Ok(ik) => {
+                let revolute = revolute_joints(model);
+                let specs = (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect();
+                Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), specs) })
+            }
+            Err(PlanError::UnsupportedArm(reason)) => {
+                let mut me = Self::numerical(model, numeric)?;
+                if let Solver::Numeric { reason: r, .. } = &mut me.solver {
+                    *r = Some(reason);
+                }
+                Ok(me)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// A closed form when the model allows it — a spherical wrist ([`ArmGeometry`]) first, then
+    /// three parallel middle axes with a UR-type wrist ([`ParallelArm`]) — the numerical IK
+    /// otherwise, naming why neither closed form applies. The candidate generator's default
+    /// ([`crate::candidates::IkChoice::ClosedFormFirst`]).
+    ///
+    /// The solutions of a pose are the same set as [`ModelIk::new`]'s up to rounding where the
+    /// numerical IK finds every branch, in closed-form branch order instead of the order the
+    /// starts found them; callers that pick among equally good solutions by their order get
+    /// other picks.
+    ///
+    /// # Errors
+    /// Invalid numerical-IK options or joint limits ([`PlanError::Option`]).
+    pub fn closed_form_first(
         model: &'a Model,
         refine: RefineOptions,
         numeric: MultiStartOptions,
@@ -1549,34 +1587,6 @@ impl<'a> ModelIk<'a> {
             *r = Some(if spherical == parallel { spherical } else { format!("{spherical}; {parallel}") });
         }
         Ok(me)
-    }
-
-    /// Like [`ModelIk::new`] without the closed form of an arm with three parallel middle axes
-    /// (the IK this crate used before it had one): the spherical-wrist closed form when the
-    /// model allows it, the numerical IK otherwise. For comparisons and benchmarks.
-    ///
-    /// # Errors
-    /// As [`ModelIk::new`].
-    pub fn without_parallel_closed_form(
-        model: &'a Model,
-        refine: RefineOptions,
-        numeric: MultiStartOptions,
-    ) -> Result<Self, PlanError> {
-        match ToolPoseIk::new(model, refine) {
-            Ok(ik) => {
-                let revolute = revolute_joints(model);
-                let specs = (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect();
-                Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), specs) })
-            }
-            Err(PlanError::UnsupportedArm(reason)) => {
-                let mut me = Self::numerical(model, numeric)?;
-                if let Solver::Numeric { reason: r, .. } = &mut me.solver {
-                    *r = Some(reason);
-                }
-                Ok(me)
-            }
-            Err(e) => Err(e),
-        }
     }
 
     /// Always the numerical IK (also for a Meca500-like arm, e.g. to cross-check the closed form).
@@ -1653,6 +1663,28 @@ impl<'a> ModelIk<'a> {
                 out.joints().map(|q| ik.kinematics().joints(q)).collect()
             }
         }
+    }
+
+    /// Like [`ModelIk::solve_at_guide`], warm-started when the numerical IK is in use: the
+    /// joint vectors `warm` (solutions of a neighbouring target, e.g. the previous guide step
+    /// or a nearby tool orientation; their guide value is ignored) are tried first, and the
+    /// search stops as soon as `enough` distinct solutions are found (0: every start is tried;
+    /// see [`NumericIk::solve_warm`]). A closed form ignores `warm` and `enough` (it is exact
+    /// and complete). Deterministic for given arguments.
+    pub fn solve_at_guide_warm(
+        &self,
+        guide_mm: f64,
+        target: &Frame,
+        warm: &[JointVector],
+        enough: usize,
+    ) -> Vec<JointVector> {
+        let (Solver::Numeric { free, .. }, Some(Ok(ik))) = (&self.solver, self.numeric_at(guide_mm)) else {
+            return self.solve_at_guide(guide_mm, target);
+        };
+        let starts: Vec<Vec<f64>> = warm.iter().map(|q| free.iter().map(|i| q.get(*i)).collect()).collect();
+        let starts: Vec<&[f64]> = starts.iter().map(Vec::as_slice).collect();
+        let out = ik.solve_warm(&IkTarget::Pose(*target), &starts, enough);
+        out.joints().map(|q| ik.kinematics().joints(q)).collect()
     }
 
     /// Every solution over several guide positions (one pass when the chain has no guide).

@@ -638,6 +638,19 @@ impl<K: ToolKinematics> NumericIk<K> {
     /// Like [`NumericIk::solve`], trying `extra_starts` (e.g. the solutions of a neighbouring
     /// target) before the fixed starts. Extra starts of the wrong length are skipped.
     pub fn solve_from(&self, target: &IkTarget, extra_starts: &[&[f64]]) -> IkOutcome {
+        self.solve_warm(target, extra_starts, 0)
+    }
+
+    /// A warm-started solve: `warm_starts` (e.g. the solutions of a neighbouring target, or of
+    /// the same target at the previous guide step) are tried first, then the fixed starts, and
+    /// the search stops as soon as `enough` distinct solutions are found (0: never early, as
+    /// [`NumericIk::solve_from`]). With `enough` = the neighbour's number of solutions, a
+    /// target next to a solved one costs one short local solve per branch instead of every
+    /// start: each neighbouring solution converges in a few steps to the same branch of this
+    /// target, and the fixed starts run only when some branch was lost (two warm starts on one
+    /// solution, or one that did not converge). A branch the neighbour did not have is found
+    /// only when the fixed starts run. Warm starts of the wrong length are skipped.
+    pub fn solve_warm(&self, target: &IkTarget, warm_starts: &[&[f64]], enough: usize) -> IkOutcome {
         let mut out = IkOutcome {
             solutions: Vec::new(),
             best_position_error_mm: f64::INFINITY,
@@ -647,7 +660,10 @@ impl<K: ToolKinematics> NumericIk<K> {
         let stall = Some(Stall { window: self.opts.stall_iterations.max(1), factor: self.opts.stall_factor });
         let n = self.joints.len();
         let fixed = self.starts.iter().map(Vec::as_slice);
-        for start in extra_starts.iter().copied().filter(|s| s.len() == n).chain(fixed) {
+        for start in warm_starts.iter().copied().filter(|s| s.len() == n).chain(fixed) {
+            if enough > 0 && out.solutions.len() >= enough {
+                break;
+            }
             out.starts += 1;
             let result =
                 levenberg_marquardt(&self.kin, &self.joints, start, target, &self.opts.refine, stall);

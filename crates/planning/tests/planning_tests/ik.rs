@@ -293,8 +293,8 @@ fn ur5e_is_reported_as_not_spherical() {
     let err = ArmGeometry::from_model(&ur5e).expect_err("the UR5e wrist is not spherical").to_string();
     assert!(err.contains("spherical wrist"), "{err}");
     assert!(err.contains("joint row 5") && err.contains("d_mm = 99.700"), "{err}");
-    // without the closed form of three parallel axes (`parallel_arm.rs`), the numerical IK
-    let ik = vatcal_planning::ik::ModelIk::without_parallel_closed_form(
+    // ModelIk::new has no closed form of three parallel axes (`parallel_arm.rs`): numerical IK
+    let ik = vatcal_planning::ik::ModelIk::new(
         &ur5e,
         RefineOptions::default(),
         vatcal_planning::numeric_ik::MultiStartOptions::default(),

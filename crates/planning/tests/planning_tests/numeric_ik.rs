@@ -434,21 +434,17 @@ fn fixture_model(name: &str) -> vatcal_kinematics::Model {
     vatcal_kinematics::Model::from_cell(&cell).expect("model")
 }
 
-/// The UR5e by its closed form (three parallel middle axes) and by the numerical IK (as before
-/// it had one), the Meca500 on a table by the spherical-wrist closed form.
+/// The UR5e by its closed form (three parallel middle axes, `ModelIk::closed_form_first`) and by
+/// the numerical IK (`ModelIk::new`), the Meca500 on a table by the spherical-wrist closed form.
 #[test]
 fn model_ik_solves_the_new_fixtures() {
     for (name, closed_form) in [("ur5e.toml", true), ("ur5e.toml", false), ("meca500-table.toml", true)] {
         let model = fixture_model(name);
         let ik = if closed_form {
-            ModelIk::new(&model, RefineOptions::default(), MultiStartOptions::default()).expect("ik")
+            ModelIk::closed_form_first(&model, RefineOptions::default(), MultiStartOptions::default())
+                .expect("ik")
         } else {
-            ModelIk::without_parallel_closed_form(
-                &model,
-                RefineOptions::default(),
-                MultiStartOptions::default(),
-            )
-            .expect("ik")
+            ModelIk::new(&model, RefineOptions::default(), MultiStartOptions::default()).expect("ik")
         };
         assert_eq!(ik.is_closed_form(), closed_form, "{name}: {}", ik.method());
         assert_eq!(ik.guide_joint(), None, "{name}: no prismatic joint");

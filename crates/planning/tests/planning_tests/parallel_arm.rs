@@ -131,7 +131,7 @@ fn check_closed_form(model: &Model, q: &JointVector) -> Result<usize, String> {
 /// reproduces the pose to 1e-9 mm / 1e-12 rad, no two are the same, and the generating joints
 /// are among them (1e-8 rad). `Ok(number of solutions)`.
 fn check_model_ik(model: &Model, q: &JointVector) -> Result<usize, String> {
-    let ik = ModelIk::new(model, RefineOptions::default(), MultiStartOptions::default())
+    let ik = ModelIk::closed_form_first(model, RefineOptions::default(), MultiStartOptions::default())
         .map_err(|e| e.to_string())?;
     if ik.method() != IkMethod::ParallelClosedForm {
         return Err(format!("not the parallel closed form: {}", ik.method()));
@@ -165,14 +165,14 @@ fn ur5e_has_the_parallel_closed_form() {
     assert_eq!(arm.upper_arm_mm, -425.0);
     assert_eq!(arm.forearm_mm, -392.2);
     assert_eq!(arm.lateral_offset_mm(), 133.3);
-    let ik = ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default()).expect("ik");
+    let ik = ModelIk::closed_form_first(&ur5e, RefineOptions::default(), MultiStartOptions::default())
+        .expect("ik");
     assert!(ik.is_closed_form());
     assert_eq!(ik.method(), IkMethod::ParallelClosedForm);
     assert!(ik.method().to_string().contains("three parallel middle axes"), "{}", ik.method());
     // the IK the planner used before: the numerical one, naming the spherical-wrist row
     let before =
-        ModelIk::without_parallel_closed_form(&ur5e, RefineOptions::default(), MultiStartOptions::default())
-            .expect("numerical");
+        ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default()).expect("numerical");
     assert!(before.method().to_string().contains("d_mm = 99.700"), "{}", before.method());
 }
 
@@ -182,7 +182,8 @@ fn other_structures_are_named_and_fall_back() {
     let table = fixture_model("meca500-table.toml");
     let err = ParallelArm::from_model(&table).expect_err("meca500").to_string();
     assert!(err.contains("joint row 4: alpha_deg = -90.000") && err.contains("parallel"), "{err}");
-    let ik = ModelIk::new(&table, RefineOptions::default(), MultiStartOptions::default()).expect("ik");
+    let ik = ModelIk::closed_form_first(&table, RefineOptions::default(), MultiStartOptions::default())
+        .expect("ik");
     assert_eq!(ik.method(), IkMethod::ClosedForm);
     // a UR5e whose last wrist axis misses the one before (a_5 = 20 mm): no closed form
     let mut rows = [
@@ -196,7 +197,8 @@ fn other_structures_are_named_and_fall_back() {
     let err = ParallelArm::from_model(&ur_like(rows)).expect_err("offset").to_string();
     assert!(err.contains("joint row 6: a_mm = 20.000"), "{err}");
     let model = ur_like(rows);
-    let ik = ModelIk::new(&model, RefineOptions::default(), MultiStartOptions::default()).expect("ik");
+    let ik = ModelIk::closed_form_first(&model, RefineOptions::default(), MultiStartOptions::default())
+        .expect("ik");
     let method = ik.method().to_string();
     assert!(!ik.is_closed_form(), "{method}");
     assert!(method.contains("spherical wrist") && method.contains("joint row 6: a_mm = 20.000"), "{method}");
@@ -261,7 +263,8 @@ fn the_closed_form_finds_every_numeric_solution_of_the_planner_targets() {
     // the planner's TCP targets on the UR5e fixture (3 positions x 3 TCPs x 4 orientations):
     // the closed form finds every solution the multi-start numerical IK finds
     let model = fixture_model("ur5e.toml");
-    let closed = ModelIk::new(&model, RefineOptions::default(), MultiStartOptions::default()).expect("ik");
+    let closed = ModelIk::closed_form_first(&model, RefineOptions::default(), MultiStartOptions::default())
+        .expect("ik");
     let numeric = ModelIk::numerical(&model, MultiStartOptions::default()).expect("numeric");
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let (mut n_closed, mut n_numeric) = (0, 0);
