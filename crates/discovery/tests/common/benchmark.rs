@@ -1764,6 +1764,16 @@ pub fn markdown(results: &[CaseResult]) -> String {
                 if h.why.is_empty() { "—" } else { &h.why }
             ));
         }
+        for h in r
+            .hidden
+            .iter()
+            .filter(|h| h.in_catalog && h.multiple >= MUST_NAME && h.named_driver && !h.named_exactly)
+        {
+            wrong.push(format!(
+                "{} ({:.1}×) named only through its driver (not exactly)",
+                h.label, h.multiple
+            ));
+        }
         if r.false_positive() {
             wrong.push("added on a null case".into());
         } else if !r.fixture_additions.is_empty() {
