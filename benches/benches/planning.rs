@@ -4,6 +4,15 @@
 //! on the nominal model and on a calibrated model, one collision check, and the multi-start
 //! numerical IK (issue 12; no target) of the same tool pose, and the closed form on the Meca500
 //! alone on a table (`fixtures/meca500-table.toml`, issue 12: any 6R arm with a spherical wrist).
+//!
+//! Issue 31 item 5 (`vatcal plan --model fixtures/ur5e.toml` ≤ 2 s on 2 cores): the closed form
+//! of the UR5e (three parallel middle axes, `ParallelArm`), the warm-started numerical IK of the
+//! same pose, and the whole `plan_campaign` on the UR5e fixture with the defaults of
+//! `vatcal plan` (seed 3) three ways — the closed form (the default), the warm-started
+//! numerical IK, and the cold multi-start numerical IK the planner used before (group
+//! `planning_ur5e`; ~5 s per run, filter it out with `planning/` or `planning_ur5e/plan_campaign/c`).
+//! Under `cargo test --all-targets` (no `--bench` argument) each runs once with 12 orientations
+//! instead of 500.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -11,11 +20,24 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use vatcal_core::{CellFile, JointVector, ParamId};
 use vatcal_kinematics::Model;
+use vatcal_planning::candidates::{CandidateOptions, IkChoice};
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::geometry::CellGeometry;
-use vatcal_planning::ik::{ArmAtGuide, ArmGeometry, ModelIk, RefineOptions, ToolPoseIk, robot_base_frame};
+use vatcal_planning::ik::{
+    ArmAtGuide, ArmGeometry, ModelIk, ParallelArm, RefineOptions, ToolPoseIk, robot_base_frame,
+};
 use vatcal_planning::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, solve_local};
 use vatcal_planning::plan::{PlanOptions, plan_campaign};
+
+/// Whether this is a measurement (`cargo bench` passes `--bench`) rather than `cargo test
+/// --benches`, which runs every benchmark once to check that it runs.
+fn measuring() -> bool {
+    std::env::args().any(|a| a == "--bench")
+}
+
+fn fixture(name: &str) -> CellFile {
+    CellFile::load(format!("{}/../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).expect("fixture")
+}
 
 fn cell() -> CellFile {
     CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-zaber.toml"))
@@ -86,6 +108,36 @@ fn bench_ik(c: &mut Criterion) {
     group.bench_function("numeric_multistart_ur5e_fixture", |b| {
         b.iter(|| black_box(ur5e_ik.solve(&[], black_box(&ur5e_target))))
     });
+    // issue 31: the UR5e's closed form (bare, and as the planner's IK: 8 branches refined on the
+    // model) and the numerical IK warm-started from the solutions of a pose 3 deg away on every
+    // joint (stops once it has as many solutions as that neighbour)
+    let ur5e_arm = ParallelArm::from_model(&ur5e).expect("ur5e parallel arm");
+    let ur5e_local = robot_base_frame(&ur5e, 0.0).inverse().compose(&ur5e_target);
+    group.bench_function("closed_form_8_branches_ur5e", |b| {
+        b.iter(|| black_box(ur5e_arm.solve(black_box(&ur5e_local))))
+    });
+    let ur5e_closed =
+        ModelIk::closed_form_first(&ur5e, RefineOptions::default(), MultiStartOptions::default())
+            .expect("ur5e closed form");
+    assert!(ur5e_closed.is_closed_form());
+    group.bench_function("model_ik_closed_form_ur5e", |b| {
+        b.iter(|| black_box(ur5e_closed.solve(&[], black_box(&ur5e_target))))
+    });
+    let ur5e_numeric = ModelIk::numerical(&ur5e, MultiStartOptions::default()).expect("numeric");
+    let neighbour_q =
+        JointVector::from_slice(&ur5e_q.as_slice().iter().map(|v| v + 0.05).collect::<Vec<_>>())
+            .expect("joints");
+    let neighbour = ur5e_numeric.solve(&[], &ur5e.chain(&neighbour_q).tool);
+    group.bench_function("numeric_warm_ur5e_fixture", |b| {
+        b.iter(|| {
+            black_box(ur5e_numeric.solve_at_guide_warm(
+                0.0,
+                black_box(&ur5e_target),
+                &neighbour,
+                neighbour.len(),
+            ))
+        })
+    });
     // issue 12: the closed form on a chain other than the canonical cell (the Meca500 alone on a
     // table), the planner's IK (`ModelIk`: 8 branches, refined on the model) and the bare closed form
     let table = Model::from_cell(
@@ -125,5 +177,34 @@ fn bench_plan(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_ik, bench_plan);
+/// `plan_campaign` on the UR5e fixture as `vatcal plan --model fixtures/ur5e.toml --seed 3`
+/// plans it, with the IK `ik` (12 orientations in test mode).
+fn bench_plan_ur5e(c: &mut Criterion) {
+    let cell = fixture("ur5e.toml");
+    let model = Model::from_cell(&cell).expect("ur5e model");
+    let geometry = CellGeometry::from_cell(&cell).expect("geometry");
+    let orientations = if measuring() { 500 } else { 12 };
+    let opts = |ik: IkChoice, warm_start: bool| PlanOptions {
+        candidates: CandidateOptions { orientations, ik, warm_start, ..CandidateOptions::default() },
+        params: vatcal_core::ParamSet(Vec::new()),
+        motion: cell.motion_limits(),
+        seed: 3,
+        ..PlanOptions::default()
+    };
+    let mut group = c.benchmark_group("planning_ur5e/plan_campaign");
+    group.sample_size(10).measurement_time(Duration::from_secs(20));
+    for (name, ik, warm) in [
+        ("closed_form", IkChoice::ClosedFormFirst, true),
+        ("numeric_warm", IkChoice::Numerical, true),
+        ("numeric_cold_before", IkChoice::WithoutParallelClosedForm, false),
+    ] {
+        let o = opts(ik, warm);
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(plan_campaign(&model, &geometry, &o).expect("plan")))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_ik, bench_plan, bench_plan_ur5e);
 criterion_main!(benches);

@@ -1,6 +1,7 @@
 //! Which collision pairs reject the candidate poses of a chain that is not the canonical cell
 //! (the check of docs/ARCHITECTURE.md "add a robot"): runs stages 1–3 of the candidate pipeline
-//! (numerical IK, limits, singularities) with the `vatcal plan` defaults and, for every solution
+//! (the planner's IK — a closed form where the chain has one, else the numerical IK —, limits,
+//! singularities) with the `vatcal plan` defaults and, for every solution
 //! that reaches the collision stage, counts its first contact (what rejects it), every contact
 //! with its depth ([`CollisionChecker::contacts`]) and a class (end effector vs an obstacle —
 //! a property of the sampled tool pose, whatever the robot —, arm vs floor, arm vs the other
@@ -51,7 +52,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         return Ok(());
     }
-    let ik = ModelIk::new(&model, opts.refine, opts.numeric)?;
+    let ik = ModelIk::closed_form_first(&model, opts.refine, opts.numeric)?;
     let bounds = JointBounds::new(&model, opts.joint_margin_deg, 0.0)?;
     let mut rng = ChaCha8Rng::seed_from_u64(opts.seed);
     let cone = deg_to_rad(opts.cone_half_angle_deg);

@@ -24,14 +24,28 @@
 //! # Any serial chain
 //! The above is the canonical Meca500-on-guide cell. On any other chain
 //! ([`vatcal_kinematics::Model::is_meca500_on_guide`] false) stage 1 uses
-//! [`ModelIk`]: the closed form + refinement where the chain is a 6R arm with a spherical wrist
-//! ([`crate::ik::ArmGeometry::from_model`], e.g. the Meca500 alone on a table), the multi-start
-//! numerical IK ([`crate::numeric_ik`]) otherwise, with the first prismatic joint, if the chain
-//! has one, held at each of the `guide_steps` positions over its stroke (one pass when the chain
-//! has no prismatic joint); every distinct converged branch counts as an IK solution.
+//! [`ModelIk::closed_form_first`] ([`CandidateOptions::ik`]): the closed form + refinement
+//! where the chain is a 6R arm with a spherical wrist ([`crate::ik::ArmGeometry::from_model`],
+//! e.g. the Meca500 alone on a table) or with three parallel middle axes and a UR-type wrist
+//! ([`crate::ik::ParallelArm::from_model`], e.g. the UR5e), the multi-start numerical IK
+//! ([`crate::numeric_ik`]) otherwise, with the first prismatic joint, if the chain has one,
+//! held at each of the `guide_steps` positions over its stroke (one pass when the chain has no
+//! prismatic joint); every distinct converged branch counts as an IK solution.
 //! [`CandidateSet::ik`] says which IK was used. Stage 3 uses the chain-agnostic singularity
 //! test of [`SingularityMargins`], and the retreat pose is a local solve from the measurement
 //! joints ([`ModelIk::refine_from`]). The other stages are the same.
+//!
+//! # Warm-started numerical IK
+//! With the numerical IK (and [`CandidateOptions::warm_start`], the default) the TCP poses of
+//! each calibration position × TCP are put in a greedy nearest-neighbour order of their tool
+//! poses (distance `|R_a - R_b|_F^2 + (|p_a - p_b| / 100 mm)^2`, from orientation 0) and cut
+//! into chains of [`WARM_CHAIN_LEN`]; the chains run in parallel, the poses of a chain one
+//! after the other. A pose is started from the solutions of the previous pose of its chain at
+//! the same guide step, then from its own solutions at the previous guide step, and its search
+//! stops as soon as it has as many distinct solutions as the first of them that has any
+//! ([`crate::numeric_ik::NumericIk::solve_warm`]); the fixed starts run only when a branch was
+//! lost, and fully for the first pose of a chain. The candidates come out in the same order
+//! (position, TCP, orientation, guide step, branch) and do not depend on the thread count.
 //!
 //! # Orientation distribution
 //! The ball must enter the probe from above: the TriCal's three gauges hold the ball from below

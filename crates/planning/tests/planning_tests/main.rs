@@ -14,3 +14,4 @@ mod parallel_arm;
 mod paths;
 mod plan;
 mod tour;
+mod warm_start;

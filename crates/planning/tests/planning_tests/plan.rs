@@ -4,7 +4,7 @@ use crate::common;
 
 use vatcal_core::JointVector;
 use vatcal_kinematics::Model;
-use vatcal_planning::candidates::{CandidateOptions, generate_candidates};
+use vatcal_planning::candidates::{CandidateOptions, IkChoice, generate_candidates};
 use vatcal_planning::collision::{CollisionChecker, ProbeState};
 use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::motion::{Resolution, interpolate};
@@ -167,17 +167,18 @@ fn too_few_candidates_is_a_clear_error() {
     assert!(err.to_string().contains("requested measurements"), "{err}");
 }
 
-/// A small plan on a version-2 fixture (any chain: numerical IK, generic collision bodies,
-/// default parameter set), every candidate checked by forward kinematics, the tour replayed and
-/// the files read back with the fixture's `q1..qN` columns.
-fn any_chain_plan(fixture: &str, seed: u64) {
+/// A small plan on a version-2 fixture (any chain: the IK `ik` — a closed form where the chain
+/// has one, or the warm-started numerical IK —, generic collision bodies, default parameter
+/// set), every candidate checked by forward kinematics, the tour replayed and the files read
+/// back with the fixture's `q1..qN` columns.
+fn any_chain_plan(fixture: &str, seed: u64, ik: IkChoice) {
     let path = format!("{}/../../fixtures/{fixture}", env!("CARGO_MANIFEST_DIR"));
     let cell = vatcal_core::CellFile::load(&path).expect("fixture");
     let model = Model::from_cell(&cell).expect("model");
     assert!(!model.is_meca500_on_guide());
     let geometry = CellGeometry::from_cell(&cell).expect("geometry");
     let opts = PlanOptions {
-        candidates: CandidateOptions { orientations: 12, guide_steps: 3, ..CandidateOptions::default() },
+        candidates: CandidateOptions { orientations: 12, guide_steps: 3, ik, ..CandidateOptions::default() },
         params: vatcal_core::ParamSet(Vec::new()),
         detmax_restarts: 1,
         tour_restarts: 2,
@@ -187,7 +188,8 @@ fn any_chain_plan(fixture: &str, seed: u64) {
     };
     let plan = plan_campaign(&model, &geometry, &opts).expect("plan");
     eprintln!(
-        "{fixture}: {:?}, {} parameters: {}",
+        "{fixture} ({}): {:?}, {} parameters: {}",
+        plan.candidates.ik,
         plan.candidates.counts,
         plan.params.len(),
         plan.params.names().join(",")
@@ -228,10 +230,15 @@ fn any_chain_plan(fixture: &str, seed: u64) {
 
 #[test]
 fn any_chain_plans_on_the_ur5e_fixture() {
-    any_chain_plan("ur5e.toml", 3);
+    any_chain_plan("ur5e.toml", 3, IkChoice::ClosedFormFirst);
+}
+
+#[test]
+fn any_chain_plans_on_the_ur5e_fixture_with_the_numerical_ik() {
+    any_chain_plan("ur5e.toml", 3, IkChoice::Numerical);
 }
 
 #[test]
 fn any_chain_plans_on_the_meca500_table_fixture() {
-    any_chain_plan("meca500-table.toml", 4);
+    any_chain_plan("meca500-table.toml", 4, IkChoice::ClosedFormFirst);
 }
