@@ -74,6 +74,9 @@ pub struct LackOfFit {
 pub struct NoiseReference {
     /// which reference the size rule used
     pub source: NoiseSource,
+    /// the physical floor of every reference, σ per axis \[mm\]
+    /// ([`crate::DiscoverOptions::noise_floor_mm`])
+    pub floor_mm: f64,
     /// σ per axis of a probe / tracker row the size rule compares with \[mm\] (`None` with
     /// [`NoiseSource::Estimated`]: σ̂ of each refit)
     pub sigmas: KindSigmas,

@@ -142,6 +142,15 @@ pub struct DiscoverOptions {
     /// z below `-`[`VETO_Z`], when validation rows are given): an effect is real only if it
     /// shrinks the gap on data the fit never saw
     pub validation_veto: bool,
+    /// the physical floor of the noise reference, σ per axis \[mm\] (default 0.001: the
+    /// resolution of the finest instrument vatcal reads, the Sylvac gauges' 1 µm; laser
+    /// trackers and motion capture are coarser). Whatever the reference — replicates, a
+    /// stated noise, σ̂ of a refit or of the saturated model — the size rule and the
+    /// gap-over-floor ratio never compare with less: an estimate that collapses to round-off
+    /// (data whose only misfit beyond the start is describable by candidates, e.g. µm fixture
+    /// errors on noise-free data) would otherwise make every effect "not negligible" and the
+    /// gap infinitely far from its floor. The size rule is never waived below it. `0`: off
+    pub noise_floor_mm: f64,
 }
 
 impl Default for DiscoverOptions {
@@ -172,6 +181,7 @@ impl Default for DiscoverOptions {
             excluded_effects: Vec::new(),
             floor_gap_factor: 1.5,
             validation_veto: true,
+            noise_floor_mm: 0.001,
         }
     }
 }
@@ -279,6 +289,9 @@ pub struct RefitEvidence {
     /// without a noise reference (σ̂ in the size rule): the held-out z from which the size
     /// rule is waived (`strong_z_factor · z_r`); `None` when the noise is known
     pub size_rule_waived_above_z: Option<f64>,
+    /// prediction change below which the effect is negligible whatever the noise estimate:
+    /// `negligible_factor · √3 ·` [`DiscoverOptions::noise_floor_mm`] \[mm\] (never waived)
+    pub floor_below_mm: f64,
     /// the round's held-out gap was far above its floor ([`Round::far_from_floor`]): the size
     /// rule is waived for a candidate that passes the held-out test
     pub size_rule_waived_far_from_floor: bool,
@@ -777,14 +790,15 @@ impl Context<'_> {
             let has_probe = ms.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
             if has_probe { k.probe_mm } else { k.tracker_mm }
         });
-        match known {
+        let sigma = match known {
             Some(s) if s > 0.0 && s.is_finite() => s,
             _ => {
                 let own = self.sigma_hat(f, ms, rank);
                 let sat = f64::from_bits(self.saturated_bits.load(std::sync::atomic::Ordering::Relaxed));
                 if sat.is_finite() && sat > 0.0 { own.min(sat) } else { own }
             }
-        }
+        };
+        sigma.max(self.options.noise_floor_mm)
     }
 }
 
@@ -805,7 +819,8 @@ fn gap_over_floor(
         let has_probe = ms.iter().any(|m| matches!(m.target, vatcal_core::Target::Probe { .. }));
         if has_probe { k.probe_mm } else { k.tracker_mm }
     });
-    let sigma = known.or(sigma_saturated).filter(|s| s.is_finite() && *s > 0.0)?;
+    let sigma =
+        known.or(sigma_saturated).filter(|s| s.is_finite() && *s > 0.0)?.max(ctx.options.noise_floor_mm);
     let w = &ctx.options.identify.weights;
     let (mut sum, mut count) = (0.0, 0usize);
     for (m, e) in ms.iter().zip(&held.errors) {
@@ -1106,6 +1121,23 @@ fn refit_candidate(
     )
 }
 
+/// The physical floor of the noise for the size rule of `effects` \[mm per axis\]:
+/// [`DiscoverOptions::noise_floor_mm`], and for corrections of fixture coordinates (effects
+/// driven by the TCP or the calibration position: a ball or socket off its CMM value) at least
+/// the fixtures' stated CMM uncertainty [`DiscoverOptions::cmm_sigma_mm`] — a coordinate
+/// correction within the CMM's own uncertainty is not a missing physical effect (the reported
+/// prediction uncertainty already includes it, `CmmUncertainty`).
+fn physical_floor_mm(effects: &[(EffectSpec, Vec<ParamId>)], opts: &DiscoverOptions) -> f64 {
+    let fixture = !effects.is_empty()
+        && effects.iter().all(|(s, _)| {
+            matches!(
+                crate::catalog::driver_of(s),
+                crate::location::Driver::Tcp | crate::location::Driver::Position
+            )
+        });
+    if fixture { opts.noise_floor_mm.max(opts.cmm_sigma_mm) } else { opts.noise_floor_mm }
+}
+
 /// Refits with several effects at once (each with its not yet fitted parameters) on all data,
 /// confirms them together on the held-out confirmation data and collects the evidence.
 #[allow(clippy::too_many_arguments)]
@@ -1198,6 +1230,7 @@ fn refit_effects(
             * ctx.noise_sigma(&fit1, ctx.measurements, rank0 + added.len()),
         size_rule_waived_above_z: ctx.strong_z(th.z_required),
         size_rule_waived_far_from_floor: th.far_from_floor,
+        floor_below_mm: opts.negligible_factor * 3f64.sqrt() * physical_floor_mm(effects, opts),
         values,
         std_errors,
         confounding,
@@ -1386,6 +1419,14 @@ fn decide(e: &RefitEvidence, fit1: &Fit) -> CandidateStatus {
         ));
     }
     let waived = e.size_rule_waived_far_from_floor || e.size_rule_waived_above_z.is_some_and(|z| h.z >= z);
+    if h.change_rms_mm < e.floor_below_mm {
+        return CandidateStatus::DetectedNegligible(format!(
+            "detected, negligible ({:.2} um): predictions change by less than the physical noise floor ({:.2} um = sqrt(3) x {:.2} um per axis), whatever the estimate of the noise",
+            1e3 * h.change_rms_mm,
+            1e3 * e.floor_below_mm,
+            1e3 * e.floor_below_mm / 3f64.sqrt()
+        ));
+    }
     if h.change_rms_mm < e.negligible_below_mm && !waived {
         return CandidateStatus::DetectedNegligible(format!(
             "detected, negligible ({:.1} um): predictions change by less than the noise ({:.1} um){}",
@@ -1796,7 +1837,7 @@ fn block_member(c: &Candidate) -> bool {
         && f.converged
         && e.implausible.is_none()
         && e.heldout.z > 1.0
-        && e.heldout.change_rms_mm >= e.negligible_below_mm
+        && e.heldout.change_rms_mm >= e.negligible_below_mm.max(e.floor_below_mm)
 }
 
 /// The block step of a round in which no candidate passed alone (module docs): the refitted
@@ -1898,6 +1939,8 @@ fn backward_check(
         // without a noise reference an effect that still lowers the held-out error by
         // `strong_z_factor` standard errors is kept whatever σ̂ says
         let strong = ctx.strong_z(1.0);
+        // never below the physical floor of the noise (`DiscoverOptions::noise_floor_mm`)
+        let floor_mm = ctx.options.negligible_factor * 3f64.sqrt() * ctx.options.noise_floor_mm;
         let with = recomputed.as_ref().unwrap_or(with_current);
         let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
         // the newest effect was just confirmed; check the earlier ones
@@ -1930,8 +1973,9 @@ fn backward_check(
                 let base = rebuild(start, &specs, &current_ref.model, &params).ok()?;
                 let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
                 let h = HeldOutComparison::new(&without.errors, &with.errors);
-                let keep =
-                    h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+                let keep = h.z > 1.0
+                    && h.change_rms_mm >= floor_mm
+                    && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
                 if keep {
                     return Some((h, None));
                 }
@@ -1940,8 +1984,9 @@ fn backward_check(
             .collect();
         for (&k, outcome) in checked.iter().zip(outcomes) {
             let Some((h, refit)) = outcome else { continue };
-            let keep =
-                h.z > 1.0 && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+            let keep = h.z > 1.0
+                && h.change_rms_mm >= floor_mm
+                && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
             if keep {
                 continue;
             }
@@ -2487,6 +2532,23 @@ fn describe_noise(
             um(stated.tracker_mm)
         ));
     }
+    let floor = opts.noise_floor_mm;
+    if floor > 0.0 {
+        let below: Vec<&str> = [("probe", sigmas.probe_mm), ("tracker", sigmas.tracker_mm)]
+            .into_iter()
+            .filter(|(_, v)| v.is_some_and(|v| v < floor))
+            .map(|(k, _)| k)
+            .collect();
+        text.push_str(&format!(
+            " Physical floor: {:.2} um per axis (--noise-floor-mm): no reference, stated or estimated, is taken below it, and no effect whose predictions change by less than sqrt(3) times it is added{}.",
+            1e3 * floor,
+            if below.is_empty() {
+                String::new()
+            } else {
+                format!(" (the {} reference is below it: the floor is used)", below.join(" and "))
+            }
+        ));
+    }
     if let Some(l) = &lack_of_fit_start {
         text.push_str(&format!(" Starting model: {}.", lack_of_fit_sentence(l)));
     }
@@ -2495,6 +2557,7 @@ fn describe_noise(
     }
     NoiseReference {
         source,
+        floor_mm: opts.noise_floor_mm,
         sigmas,
         pure_error: pure,
         lack_of_fit_start,

@@ -67,9 +67,17 @@ pub struct Args {
     #[arg(long)]
     pub tracker_sigma_mm: Option<f64>,
     /// Standard deviation of the CMM coordinates of the TCPs and calibration positions \[mm\],
-    /// included in the reported prediction uncertainty.
+    /// included in the reported prediction uncertainty; a correction of those coordinates
+    /// (an effect driven by the TCP or the position) must change predictions by more than
+    /// sqrt(3) times it to be added.
     #[arg(long, default_value_t = 0.002)]
     pub cmm_sigma_mm: f64,
+    /// The physical floor of the noise reference, sigma per axis \[mm\]: no reference
+    /// (replicates, stated noise, estimate) is taken below it, and no effect whose predictions
+    /// change by less than sqrt(3) times it is added (default: 1 um, the resolution of the
+    /// finest instrument vatcal reads; 0 switches it off).
+    #[arg(long, default_value_t = 0.001)]
+    pub noise_floor_mm: f64,
     /// Markers (TCPs) at unknown offsets: the TCP ids the rows use that the cell file lacks,
     /// comma-separated, or `all`; added at TCP 1's offset and fitted as by `vatcal identify
     /// --unknown-tcps`. Without it such rows are an error.
@@ -147,6 +155,11 @@ fn check_options(args: &Args) -> anyhow::Result<()> {
         args.cmm_sigma_mm.is_finite() && args.cmm_sigma_mm >= 0.0,
         "--cmm-sigma-mm must be >= 0, got {}",
         args.cmm_sigma_mm
+    );
+    anyhow::ensure!(
+        args.noise_floor_mm.is_finite() && args.noise_floor_mm >= 0.0,
+        "--noise-floor-mm must be >= 0, got {}",
+        args.noise_floor_mm
     );
     for (option, value) in [
         ("--noise-mm", args.noise_mm),
@@ -353,6 +366,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         seed: args.seed,
         known_sigma_mm: args.noise_mm,
         cmm_sigma_mm: args.cmm_sigma_mm,
+        noise_floor_mm: args.noise_floor_mm,
         instrument_sigmas: instrument_sigmas(&args, &measurements)?,
         instrument_noise_origin: recorded_noise(&args)?.2,
         bound_overrides: bound_overrides(&args)?,

@@ -243,12 +243,12 @@ fn fast_subset() {
 }
 
 /// The UR5e twin of `fast_subset`'s first case (null, fixture errors of 1 µm, 180 probe rows,
-/// no noise metadata, no replicates): nothing should be added. With the method before issue
-/// 30's changes σ̂ of the saturated model collapses to ~1e-11 mm, the held-out gap is ~10⁸ times
-/// its floor estimate, and `tcp-offset (TCP 2)` (a 1.9 µm prediction change for the CMM error
-/// of that ball) is added at z = 2.8 — the failure of issue 30, item 1.
+/// no noise metadata, no replicates): nothing should be added. Before issue 30's noise floor σ̂
+/// of the saturated model collapsed to ~1e-11 mm, the held-out gap was ~10⁸ times its floor
+/// estimate, and `tcp-offset (TCP 2)` (a 1.9 µm prediction change for the CMM error of that
+/// ball) was added at z = 2.8 — the failure of issue 30, item 1. Now a fixture correction must
+/// change predictions by more than √3 × the stated CMM uncertainty.
 #[test]
-#[ignore = "fails before issue 30's noise floor: tcp-offset (TCP 2) added for a 1 um fixture error"]
 fn fixture_errors_alone_add_nothing_on_the_ur5e() {
     let r = run_case(case(
         0,
