@@ -17,7 +17,7 @@
 use std::hint::black_box;
 use std::time::Duration;
 
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
 use vatcal_core::{CellFile, JointVector, ParamId};
 use vatcal_kinematics::Model;
 use vatcal_planning::candidates::{CandidateOptions, IkChoice};
@@ -192,7 +192,8 @@ fn bench_plan_ur5e(c: &mut Criterion) {
         ..PlanOptions::default()
     };
     let mut group = c.benchmark_group("planning_ur5e/plan_campaign");
-    group.sample_size(10).measurement_time(Duration::from_secs(20));
+    // flat sampling: ten samples of equal length (the linear default needs 55 runs)
+    group.sample_size(10).sampling_mode(SamplingMode::Flat).measurement_time(Duration::from_secs(30));
     for (name, ik, warm) in [
         ("closed_form", IkChoice::ClosedFormFirst, true),
         ("numeric_warm", IkChoice::Numerical, true),
