@@ -347,17 +347,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let (measurements, sources) = args.read.markers_with_sources(&args.measurements, &model)?;
     anyhow::ensure!(!measurements.is_empty(), "{}: no measurement rows", args.measurements.display());
     // issue 31: TCP ids the rows use that the cell lacks are markers at unknown offsets
-    let markers =
-        super::markers::add_unknown_tcps(&mut cell, args.unknown_tcps.as_deref(), &measurements, &sources)?;
-    let model = if markers.added.is_empty() {
-        model
-    } else {
-        Model::from_cell(&cell)
-            .with_context(|| format!("{}: cannot build the model", args.model.display()))?
-    };
-    if let Some(line) = markers.describe() {
-        println!("{line}");
-    }
+    let (model, _markers) = super::markers::model_with_unknown_tcps(
+        &mut cell,
+        model,
+        &args.model,
+        args.unknown_tcps.as_deref(),
+        &measurements,
+        &sources,
+    )?;
     let validation = args.validation.as_ref().map(|p| read_all(p, &model, &args.read)).transpose()?;
     let (model, params) = start_and_parameter_set(&args, &model, &measurements)?;
     let options = DiscoverOptions {

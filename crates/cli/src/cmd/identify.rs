@@ -131,17 +131,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let (measurements, sources) = read_all(&args, &model)?;
     // issue 31: TCP ids the rows use that the cell lacks are markers at unknown offsets
-    let markers =
-        super::markers::add_unknown_tcps(&mut cell, args.unknown_tcps.as_deref(), &measurements, &sources)?;
-    let model = if markers.added.is_empty() {
-        model
-    } else {
-        Model::from_cell(&cell)
-            .with_context(|| format!("{}: cannot build the model", args.model.display()))?
-    };
-    if let Some(line) = markers.describe() {
-        println!("{line}");
-    }
+    let (model, markers) = super::markers::model_with_unknown_tcps(
+        &mut cell,
+        model,
+        &args.model,
+        args.unknown_tcps.as_deref(),
+        &measurements,
+        &sources,
+    )?;
     let method: Method = args.method.parse().map_err(anyhow::Error::msg).context("--method")?;
     let distances = args
         .point_distances

@@ -75,6 +75,30 @@ fn row_name(sources: &[RowSource], k: usize) -> String {
     sources.get(k).map_or_else(|| format!("row {}", k + 1), ToString::to_string)
 }
 
+/// [`add_unknown_tcps`] for a command: resolves `--unknown-tcps` against the rows, prints what
+/// it did, and returns the model rebuilt from the cell when markers were added (`model` as it
+/// was otherwise) with what the flag resolved to. `model_path` names the cell file in errors.
+pub fn model_with_unknown_tcps(
+    cell: &mut CellFile,
+    model: Model,
+    model_path: &std::path::Path,
+    spec: Option<&str>,
+    rows: &[Measurement],
+    sources: &[RowSource],
+) -> anyhow::Result<(Model, UnknownTcps)> {
+    use anyhow::Context;
+    let markers = add_unknown_tcps(cell, spec, rows, sources)?;
+    if let Some(line) = markers.describe() {
+        println!("{line}");
+    }
+    if markers.added.is_empty() {
+        return Ok((model, markers));
+    }
+    let model = Model::from_cell(cell)
+        .with_context(|| format!("{}: cannot build the model", model_path.display()))?;
+    Ok((model, markers))
+}
+
 /// Resolves `--unknown-tcps` (`flag` names it in messages) against the rows and adds the TCPs
 /// the rows use that the cell lacks, at the placeholder (TCP 1's offset, else the first TCP's,
 /// else the flange origin). Without the flag such rows are an error naming the first row and the
