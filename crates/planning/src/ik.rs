@@ -146,6 +146,23 @@ pub fn leading_prismatic_joints(model: &Model) -> usize {
     model.joint_kinds().iter().take_while(|k| !k.is_revolute()).count()
 }
 
+/// The cell row of the first arm joint of a chain that is six revolute joints after its
+/// prismatic external axes (if any) — what every closed-form IK needs.
+///
+/// # Errors
+/// [`PlanError::UnsupportedArm`] describing the chain otherwise.
+pub fn six_revolute_arm(model: &Model) -> Result<usize, PlanError> {
+    let n = model.joint_count();
+    let k = leading_prismatic_joints(model);
+    if n != k + 6 || !model.joint_kinds()[k..].iter().all(|j| j.is_revolute()) {
+        return Err(PlanError::UnsupportedArm(format!(
+            "the closed-form IK needs six revolute joints after the prismatic external axes (if any); this chain has {}",
+            model.describe_chain()
+        )));
+    }
+    Ok(k + 1)
+}
+
 /// World pose of the robot base frame `B` (parent of the arm's first MDH frame) at guide
 /// position `q1_mm`: the frame after the prismatic joints in front of the arm (the first at
 /// `q1_mm`, any others at 0; `q1_mm` is ignored without one), followed by the fixed part
@@ -313,15 +330,7 @@ impl ArmGeometry {
     /// fit (the wrist first: a UR5e-class arm is reported as not having a spherical wrist).
     pub fn from_model(model: &Model) -> Result<Self, PlanError> {
         use std::f64::consts::PI;
-        let n = model.joint_count();
-        let k = leading_prismatic_joints(model);
-        if n != k + 6 || !model.joint_kinds()[k..].iter().all(|j| j.is_revolute()) {
-            return Err(PlanError::UnsupportedArm(format!(
-                "the closed-form IK needs six revolute joints after the prismatic external axes (if any); this chain has {}",
-                model.describe_chain()
-            )));
-        }
-        let f = k + 1;
+        let f = six_revolute_arm(model)?;
         // cell row of arm joint j
         let r = |j: usize| f + j - 1;
         let row = |j: usize| model.row(r(j));

@@ -59,7 +59,7 @@ use vatcal_kinematics::Model;
 use crate::error::PlanError;
 use crate::ik::{
     ArmGeometry, ArmSolutions, ClosedFormArm, ELBOW_SEED_RAD, STRUCTURE_ANGLE_TOL_RAD,
-    STRUCTURE_LENGTH_TOL_MM, leading_prismatic_joints, structure_error, wrap_angle,
+    STRUCTURE_LENGTH_TOL_MM, structure_error, wrap_angle,
 };
 
 /// The nominal geometry of a 6R arm with three parallel middle axes and a UR-type wrist, as
@@ -178,15 +178,7 @@ impl ParallelArm {
     /// fit (e.g. for a Meca500-like arm: `alpha_deg = -90.000` of the row of arm joint 4, which
     /// must be parallel to arm joint 3).
     pub fn from_model(model: &Model) -> Result<Self, PlanError> {
-        let n = model.joint_count();
-        let k = leading_prismatic_joints(model);
-        if n != k + 6 || !model.joint_kinds()[k..].iter().all(|j| j.is_revolute()) {
-            return Err(PlanError::UnsupportedArm(format!(
-                "the closed-form IK needs six revolute joints after the prismatic external axes (if any); this chain has {}",
-                model.describe_chain()
-            )));
-        }
-        let f = k + 1;
+        let f = crate::ik::six_revolute_arm(model)?;
         let r = |j: usize| f + j - 1;
         let row = |j: usize| model.row(r(j));
         let parallel_why = format!("the axes of joints {}, {}, {} parallel", r(2), r(3), r(4));
