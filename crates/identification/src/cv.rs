@@ -142,9 +142,6 @@ pub struct CandidateScore {
     pub fold_rms_mm: Vec<f64>,
     /// fold fits that reached the iteration cap and were scored at their last iterate
     pub capped_fits: usize,
-    /// the prior standard deviation of every parameter (internal units, same order as
-    /// `params`; empty without priors)
-    pub prior_sigmas: Vec<f64>,
     /// RMS of the residual norms of the fit on all rows \[mm\]
     pub train_rms_mm: f64,
     /// condition number of the fit on all rows
@@ -211,7 +208,11 @@ fn splitmix(state: &mut u64) -> u64 {
 /// The fold of every measurement (0..K), posture groups kept together, dealt round-robin after
 /// a seeded Fisher–Yates shuffle.
 pub fn posture_folds(measurements: &[Measurement], folds: usize, seed: u64) -> (Vec<usize>, usize) {
-    let groups = posture_groups(measurements);
+    deal_folds(&posture_groups(measurements), measurements.len(), folds, seed)
+}
+
+/// [`posture_folds`] of posture groups already found (`rows` measurements in all).
+fn deal_folds(groups: &[Vec<usize>], rows: usize, folds: usize, seed: u64) -> (Vec<usize>, usize) {
     let mut order: Vec<usize> = (0..groups.len()).collect();
     let mut state = seed;
     for i in (1..order.len()).rev() {
@@ -219,7 +220,7 @@ pub fn posture_folds(measurements: &[Measurement], folds: usize, seed: u64) -> (
         order.swap(i, j);
     }
     let k = folds.max(2).min(groups.len().max(1));
-    let mut fold_of = vec![0; measurements.len()];
+    let mut fold_of = vec![0; rows];
     for (slot, g) in order.iter().enumerate() {
         for &row in &groups[*g] {
             fold_of[row] = slot % k;
@@ -275,13 +276,17 @@ pub fn cross_validate_sets(
     if let Some(k) = cv.prior_scale.iter().chain(&cv.prior_scales).find(|k| !(k.is_finite() && **k > 0.0)) {
         return Err(IdentifyError::InvalidOptions(format!("prior scale must be a positive number, got {k}")));
     }
-    let groups = posture_groups(measurements).len();
-    let (_, k) = posture_folds(measurements, cv.folds, cv.seed);
+    let posture = posture_groups(measurements);
+    let groups = posture.len();
+    let (first, k) = deal_folds(&posture, measurements.len(), cv.folds, cv.seed);
     let repeats = if k >= groups { 1 } else { cv.repeats.max(1) };
-    let splits: Vec<Vec<usize>> = (0..repeats as u64)
-        .map(|r| posture_folds(measurements, cv.folds, cv.seed.wrapping_add(r)).0)
+    let splits: Vec<Vec<usize>> = std::iter::once(first)
+        .chain(
+            (1..repeats as u64)
+                .map(|r| deal_folds(&posture, measurements.len(), cv.folds, cv.seed.wrapping_add(r)).0),
+        )
         .collect();
-    let mut jobs = Vec::new();
+    let mut candidates = Vec::new();
     for set in &cv.candidates {
         let (params, unusable) = match generic_set(start, measurements, *set, design) {
             Ok(p) => (p, None),
@@ -311,15 +316,20 @@ pub fn cross_validate_sets(
             None => vec![None],
         };
         for scale in scales {
-            jobs.push((*set, params.clone(), scale, unusable.clone()));
+            candidates.push(score_candidate(
+                start,
+                measurements,
+                options,
+                cv,
+                *set,
+                &params,
+                scale,
+                unusable.clone(),
+                &splits,
+                k,
+            )?);
         }
     }
-    let candidates = jobs
-        .into_iter()
-        .map(|(set, params, scale, unusable)| {
-            score_candidate(start, measurements, options, cv, set, &params, scale, unusable, &splits, k)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
     choose(candidates, k, repeats, groups, cv.seed)
 }
 
@@ -337,7 +347,6 @@ fn score_candidate(
     splits: &[Vec<usize>],
     k: usize,
 ) -> Result<CandidateScore, IdentifyError> {
-    let fit_options = cv.fit_options(prior_scale, start, measurements, params, options);
     let mut score = CandidateScore {
         set,
         prior_scale,
@@ -349,13 +358,15 @@ fn score_candidate(
         train_rms_mm: f64::NAN,
         condition_number: f64::NAN,
         capped_fits: 0,
-        prior_sigmas: fit_options.priors.clone().unwrap_or_default(),
         rejected: unusable,
     };
     if score.rejected.is_some() {
         return Ok(score);
     }
-    let fold_options = IdentifyOptions { accept_iteration_cap: true, ..fit_options.clone() };
+    let fold_options = IdentifyOptions {
+        accept_iteration_cap: true,
+        ..cv.fit_options(prior_scale, start, measurements, params, options)
+    };
     match identify(start, measurements, params, &fold_options) {
         Ok(fit) => {
             score.train_rms_mm = fit.residual_stats.rms;
@@ -606,11 +617,10 @@ fn named_set_options(
     options: IdentifyOptions,
 ) -> IdentifyOptions {
     match cv.prior_scale {
+        // the priors and the cap of the default path; the condition cap stays the caller's
         Some(k) => IdentifyOptions {
-            priors: Some(PriorSpec::new(cv.widths, k).sigmas(start, measurements, params)),
-            prior_sigma_from_fit: true,
-            max_iterations: cv_iteration_cap(options.max_iterations, params.len()),
-            ..options
+            max_condition_number: options.max_condition_number,
+            ..cv.fit_options(Some(k), start, measurements, params, &options)
         },
         None => options,
     }
