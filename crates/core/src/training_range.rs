@@ -20,6 +20,13 @@ pub const MIN_TOLERANCE_DEG: f64 = 0.5;
 pub const MIN_TOLERANCE_MM: f64 = 0.5;
 /// Fraction of a joint's training range it may be left by without a warning.
 pub const TOLERANCE_FRACTION: f64 = 0.01;
+/// Extrapolation warnings a command prints at most (then a count of the rest).
+pub const MAX_WARNINGS: usize = 20;
+
+/// The joints of [`TrainingRange::excursions`] as one comma-separated list, for a warning.
+pub fn list(excursions: &[JointExcursion]) -> String {
+    excursions.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+}
 
 /// Per-joint minimum and maximum over the rows a calibration was fitted on, in file units
 /// (mm for prismatic, degrees for revolute joints). The optional `[training_range]` table of a

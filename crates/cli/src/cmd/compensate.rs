@@ -10,13 +10,11 @@ use vatcal_compensation::{
     Branch, CompensationError, Compensator, EachOptions, PathOptions, PathResult, PoseRequest, Preference,
     SolveOptions,
 };
+use vatcal_core::training_range;
 use vatcal_core::{CellFile, JointVector};
 use vatcal_drivers_meca500::Command as MecaCommand;
 use vatcal_drivers_meca500::codec::format_number;
 use vatcal_kinematics::Model;
-
-/// Extrapolation warnings shown at most (then a count).
-const MAX_EXTRAPOLATION_WARNINGS: usize = 20;
 
 /// The canonical nominal cell, used when neither `--nominal` nor the calibrated file names one.
 const BUILT_IN_NOMINAL: &str = vatcal_core::CANONICAL_CELL_TOML;
@@ -324,14 +322,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 continue;
             }
             outside += 1;
-            if outside <= MAX_EXTRAPOLATION_WARNINGS {
-                let list: Vec<String> = joints.iter().map(ToString::to_string).collect();
+            if outside <= training_range::MAX_WARNINGS {
                 eprintln!(
                     "warning: {}:{}: the target leaves the training range of {}: {}",
                     args.poses.display(),
                     line_of(row),
                     args.model.display(),
-                    list.join(", ")
+                    training_range::list(&joints)
                 );
             }
         }
@@ -342,8 +339,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 result.solved().count(),
                 range.rows
             );
-            if outside > MAX_EXTRAPOLATION_WARNINGS {
-                eprintln!("warning: ... and {} more", outside - MAX_EXTRAPOLATION_WARNINGS);
+            if outside > training_range::MAX_WARNINGS {
+                eprintln!("warning: ... and {} more", outside - training_range::MAX_WARNINGS);
             }
             eprintln!("{msg}");
             let _ = writeln!(header, "# {msg}");

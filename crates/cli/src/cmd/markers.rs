@@ -112,21 +112,18 @@ pub fn add_unknown_tcps(
     let known: Vec<u32> = cell.tcps.iter().map(|t| t.id).collect();
     let missing = missing_tcps(rows, &known);
     let missing_ids: Vec<u32> = missing.iter().map(|(id, _)| *id).collect();
-    let listed: Option<Vec<u32>> = match spec.map(str::trim) {
-        None => None,
-        Some("all") => Some(missing_ids.clone()),
-        Some(text) => Some(parse_ids(text)?),
-    };
-    let Some(listed) = listed else {
-        if let Some(&(id, row)) = missing.first() {
-            bail!(
+    let listed = match spec.map(str::trim) {
+        None => match missing.first() {
+            Some(&(id, row)) => bail!(
                 "{}: column `tcp`: unknown tcp id {id} (the model has {known:?}); the rows use TCP id(s) {} that the cell file lacks: pass `--unknown-tcps {}` (or `--unknown-tcps all`) to fit them as markers at unknown offsets",
                 row_name(sources, row),
                 join(&missing_ids),
                 join(&missing_ids)
-            );
-        }
-        return Ok(UnknownTcps::default());
+            ),
+            None => return Ok(UnknownTcps::default()),
+        },
+        Some("all") => missing_ids.clone(),
+        Some(text) => parse_ids(text)?,
     };
     let used = used_tcps(rows);
     for id in &listed {
@@ -150,17 +147,13 @@ pub fn add_unknown_tcps(
         Some(t) => ([t.x_mm, t.y_mm, t.z_mm], format!("the cell's tcp {}", t.id)),
         None => ([0.0; 3], "the flange origin".to_string()),
     };
-    let mut out = UnknownTcps { placeholder, ..UnknownTcps::default() };
-    for id in listed {
-        if known.contains(&id) {
-            out.already_known.push(id);
-        } else if !out.added.contains(&id) {
-            out.added.push(id);
-        }
+    let (mut already_known, mut added): (Vec<u32>, Vec<u32>) =
+        listed.into_iter().partition(|id| known.contains(id));
+    for ids in [&mut added, &mut already_known] {
+        ids.sort_unstable();
+        ids.dedup();
     }
-    out.added.sort_unstable();
-    out.already_known.sort_unstable();
-    out.already_known.dedup();
+    let out = UnknownTcps { added, already_known, placeholder };
     let [x_mm, y_mm, z_mm] = out.placeholder.0;
     for id in &out.added {
         cell.tcps.push(PointEntry { id: *id, x_mm, y_mm, z_mm });
@@ -170,8 +163,11 @@ pub fn add_unknown_tcps(
 
 /// `--unknown-tcps 2,3,4`: the ids (at least one, each a non-negative integer).
 fn parse_ids(text: &str) -> anyhow::Result<Vec<u32>> {
-    let ids = text
-        .split(',')
+    // `split` yields at least one piece: an empty list has to be caught before it
+    if text.is_empty() {
+        bail!("--unknown-tcps: no TCP ids given (expected ids like 2,3,4 or `all`)");
+    }
+    text.split(',')
         .map(|s| {
             s.trim().parse::<u32>().map_err(|_| {
                 anyhow::anyhow!(
@@ -180,11 +176,7 @@ fn parse_ids(text: &str) -> anyhow::Result<Vec<u32>> {
                 )
             })
         })
-        .collect::<anyhow::Result<Vec<u32>>>()?;
-    if ids.is_empty() {
-        bail!("--unknown-tcps: no TCP ids given");
-    }
-    Ok(ids)
+        .collect()
 }
 
 /// The markers of a fit, one line each: every TCP the rows use, its offset in frame N and the

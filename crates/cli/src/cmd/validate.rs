@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
 use vatcal_core::JointKind;
-use vatcal_core::training_range::{JointExcursion, TrainingRange};
+use vatcal_core::training_range::{self, JointExcursion, TrainingRange};
 use vatcal_identification::{ErrorStats, ValidationReport, validate};
 use vatcal_io::RowSource;
 use vatcal_report::{HistogramOptions, PlotSpec, Series, histogram_svg, save_svg};
@@ -103,21 +103,22 @@ pub struct ExtrapolatedRow {
 
 /// Validates the model(s), prints the statistics, writes the plot and the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let model = super::load_model(&args.model)?;
+    // one read of the cell file: the model and its `[training_range]`
+    let model_cell = vatcal_core::CellFile::load(&args.model)?;
+    let model = vatcal_kinematics::Model::from_cell(&model_cell)
+        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let (tracker, sources) = args.read.markers_with_sources(&args.tracker, &model)?;
     // markers: the model must have every TCP the rows use (a calibrated cell written by
     // `identify --unknown-tcps` has them)
-    if let Some(&(id, row)) = super::markers::missing_tcps(&tracker, &model.tcp_ids()).first() {
-        let missing: Vec<String> = super::markers::missing_tcps(&tracker, &model.tcp_ids())
-            .iter()
-            .map(|(id, _)| id.to_string())
-            .collect();
+    let known = model.tcp_ids();
+    let missing = super::markers::missing_tcps(&tracker, &known);
+    if let Some(&(id, row)) = missing.first() {
+        let ids: Vec<String> = missing.iter().map(|(id, _)| id.to_string()).collect();
         anyhow::bail!(
-            "{}: column `tcp`: unknown tcp id {id} (the model {} has {:?}): validate the calibrated cell that `vatcal identify --unknown-tcps {}` writes (it contains the fitted markers)",
+            "{}: column `tcp`: unknown tcp id {id} (the model {} has {known:?}): validate the calibrated cell that `vatcal identify --unknown-tcps {}` writes (it contains the fitted markers)",
             sources.get(row).map_or_else(|| args.tracker.display().to_string(), ToString::to_string),
             args.model.display(),
-            model.tcp_ids(),
-            missing.join(",")
+            ids.join(",")
         );
     }
     let tested =
@@ -156,8 +157,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         println!("mean error reduced by a factor of {f:.1}");
     }
     // issue 29: postures outside the joint range the model was calibrated on
-    let training = vatcal_core::CellFile::load(&args.model)?.training_range;
-    let extrapolation = training
+    let extrapolation = model_cell
+        .training_range
         .map(|range| extrapolation(range, model.joint_kinds(), &tracker, &sources, &tested, &args.model));
     if let Some(path) = &args.plot {
         write_histogram(path, &args, &tested, baseline.as_ref().map(|(_, b)| b))?;
@@ -178,9 +179,6 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     Ok(())
 }
-
-/// Warnings shown at most (the JSON report lists every row).
-const MAX_EXTRAPOLATION_WARNINGS: usize = 20;
 
 /// Checks every row against the training range: a warning per row outside (stderr, naming
 /// file:line and the joints), a summary line, and the report's `extrapolation`.
@@ -218,21 +216,20 @@ fn extrapolation(
         let (file, line) = sources
             .get(k)
             .map_or_else(|| (String::new(), 0), |s: &RowSource| (s.path.display().to_string(), s.line));
-        if out.rows.len() < MAX_EXTRAPOLATION_WARNINGS {
-            let list: Vec<String> = joints.iter().map(ToString::to_string).collect();
+        if out.rows.len() < training_range::MAX_WARNINGS {
             eprintln!(
                 "warning: {file}:{line}: outside the training range of {}: {} (error {error_mm:.4} mm)",
                 model_path.display(),
-                list.join(", ")
+                training_range::list(&joints)
             );
         }
         out.rows.push(ExtrapolatedRow { row: k, file, line, error_mm, joints });
     }
     out.n_rows = out.rows.len();
-    if out.n_rows > MAX_EXTRAPOLATION_WARNINGS {
+    if out.n_rows > training_range::MAX_WARNINGS {
         eprintln!(
             "warning: ... and {} more rows outside the training range (the JSON report lists every one)",
-            out.n_rows - MAX_EXTRAPOLATION_WARNINGS
+            out.n_rows - training_range::MAX_WARNINGS
         );
     }
     let mean = |(sum, n): (f64, usize)| (n > 0).then(|| sum / n as f64);

@@ -13,6 +13,15 @@ fn fixture(name: &str) -> String {
     format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
+/// `vatcal import-urdf` of the fixture `urdf` from `base` to `tip`, writing `out`.
+fn import_urdf(urdf: &str, base: &str, tip: &str, out: &std::path::Path) -> std::process::Output {
+    vatcal()
+        .args(["import-urdf", &fixture(urdf), "--base-link", base, "--tip-link", tip, "--out"])
+        .arg(out)
+        .output()
+        .expect("run")
+}
+
 /// Imports `urdf`, then computes the TCP of 60 random joint rows within the limits (a) through
 /// `vatcal fk` on the written cell (when `through_cli`) or (b) by loading the written cell with
 /// the library, and returns the largest distance to the URDF's own FK [mm] and the import's
@@ -20,11 +29,7 @@ fn fixture(name: &str) -> String {
 fn import_and_compare(urdf: &str, base: &str, tip: &str, seed: u64, through_cli: bool) -> (f64, String) {
     let dir = tempfile::tempdir().expect("tmp");
     let cell_path = dir.path().join("cell.toml");
-    let out = vatcal()
-        .args(["import-urdf", &fixture(urdf), "--base-link", base, "--tip-link", tip, "--out"])
-        .arg(&cell_path)
-        .output()
-        .expect("run");
+    let out = import_urdf(urdf, base, tip, &cell_path);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let summary = String::from_utf8(out.stdout).expect("utf8");
     let cell = vatcal_core::CellFile::load(&cell_path).expect("the written cell loads");
@@ -140,19 +145,7 @@ fn humanoid_sole_to_gripper_vatcal_fk_matches_the_urdf() {
 fn humanoid_cell_records_the_reversed_joints() {
     let dir = tempfile::tempdir().expect("tmp");
     let cell_path = dir.path().join("h.toml");
-    let out = vatcal()
-        .args([
-            "import-urdf",
-            &fixture("humanoid-tree.urdf"),
-            "--base-link",
-            "gripper_left_base_link",
-            "--tip-link",
-            "left_sole_link",
-            "--out",
-        ])
-        .arg(&cell_path)
-        .output()
-        .expect("run");
+    let out = import_urdf("humanoid-tree.urdf", "gripper_left_base_link", "left_sole_link", &cell_path);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let cell = vatcal_core::CellFile::load(&cell_path).expect("the written cell loads");
     let reversed: Vec<&str> = cell.extra["urdf_import"]["reversed_joints"]
@@ -178,19 +171,7 @@ fn humanoid_cell_records_the_reversed_joints() {
 #[test]
 fn same_link_is_an_error() {
     let dir = tempfile::tempdir().expect("tmp");
-    let out = vatcal()
-        .args([
-            "import-urdf",
-            &fixture("humanoid-tree.urdf"),
-            "--base-link",
-            "torso_2_link",
-            "--tip-link",
-            "torso_2_link",
-            "--out",
-        ])
-        .arg(dir.path().join("x.toml"))
-        .output()
-        .expect("run");
+    let out = import_urdf("humanoid-tree.urdf", "torso_2_link", "torso_2_link", &dir.path().join("x.toml"));
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("humanoid-tree.urdf") && err.contains("the same link"), "{err}");
@@ -200,19 +181,7 @@ fn same_link_is_an_error() {
 #[test]
 fn errors_name_the_link() {
     let dir = tempfile::tempdir().expect("tmp");
-    let out = vatcal()
-        .args([
-            "import-urdf",
-            &fixture("ur5e.urdf"),
-            "--base-link",
-            "base_link",
-            "--tip-link",
-            "tool1",
-            "--out",
-        ])
-        .arg(dir.path().join("x.toml"))
-        .output()
-        .expect("run");
+    let out = import_urdf("ur5e.urdf", "base_link", "tool1", &dir.path().join("x.toml"));
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("ur5e.urdf") && err.contains("`tool1`"), "{err}");

@@ -67,16 +67,11 @@ fn marker_rows(
     out
 }
 
-fn mean_of(validate_json: &Path) -> f64 {
+/// The statistic `stat` (`mean_mm`, `rms_mm`) of the model in a `vatcal validate` report.
+fn stat_of(validate_json: &Path, stat: &str) -> f64 {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(validate_json).expect("report")).expect("json");
-    v["model"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean")
-}
-
-fn rms_of(validate_json: &Path) -> f64 {
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(validate_json).expect("report")).expect("json");
-    v["model"]["validation"]["stats"]["rms_mm"].as_f64().expect("rms")
+    v["model"]["validation"]["stats"][stat].as_f64().unwrap_or_else(|| panic!("{stat}"))
 }
 
 /// The simulated case through the binary: the user's cell knows one marker (at the wrong
@@ -155,7 +150,7 @@ fn three_unknown_markers_reach_the_noise_floor_on_held_out_postures() {
     let calibrated = CellFile::load(&cal).expect("calibrated");
     assert_eq!(calibrated.tcps.iter().map(|t| t.id).collect::<Vec<_>>(), [1, 2, 3]);
     run(&["validate", "--model", &s(&cal), "--tracker", &s(&held), "--report", &s(&val)]);
-    let after = mean_of(&val);
+    let after = stat_of(&val, "mean_mm");
     // the user's cell cannot validate rows of markers it lacks: the message says what to use
     let err = fail(&["validate", "--model", &s(&model), "--tracker", &s(&held)]);
     assert!(err.contains("unknown tcp id 2") && err.contains("--unknown-tcps 2,3"), "{err}");
@@ -285,7 +280,7 @@ fn tiago_fit(dir: &Path, cell: &str, extra: &[&str]) -> (f64, String) {
     args.extend(units);
     let out = vatcal().current_dir(tiago()).args(&args).output().expect("run");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    (rms_of(&val), stdout)
+    (stat_of(&val, "rms_mm"), stdout)
 }
 
 /// The real four-point files: the imported cell (TCP 1 only) with `--unknown-tcps 2,3,4` does
