@@ -1309,6 +1309,34 @@ pub struct CaseResult {
 }
 
 impl CaseResult {
+    /// The result of a case that did not run to the end (`error`): nothing added, nothing
+    /// scored.
+    fn failed(
+        case: Case,
+        rows: usize,
+        floor_mm: Option<f64>,
+        truth_mm: f64,
+        seconds: f64,
+        error: String,
+    ) -> CaseResult {
+        CaseResult {
+            tags: case.categories(),
+            case,
+            rows,
+            hidden: Vec::new(),
+            fixture_additions: Vec::new(),
+            added: Vec::new(),
+            negligible: Vec::new(),
+            start_mm: f64::NAN,
+            discovered_mm: f64::NAN,
+            floor_mm,
+            truth_mm,
+            rounds: 0,
+            seconds,
+            error: Some(error),
+        }
+    }
+
     /// discovered / floor.
     pub fn ratio(&self) -> Option<f64> {
         self.floor_mm.map(|f| self.discovered_mm / f.max(1e-12))
@@ -1441,22 +1469,7 @@ pub fn run_case(case: Case) -> CaseResult {
 /// (`DiscoverOptions::excluded_effects`).
 pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
     let Some(data) = CaseData::build(&mut case) else {
-        return CaseResult {
-            tags: case.categories(),
-            case,
-            rows: 0,
-            hidden: Vec::new(),
-            fixture_additions: Vec::new(),
-            added: Vec::new(),
-            negligible: Vec::new(),
-            start_mm: f64::NAN,
-            discovered_mm: f64::NAN,
-            floor_mm: None,
-            truth_mm: f64::NAN,
-            rounds: 0,
-            seconds: 0.0,
-            error: Some("the case could not be generated".into()),
-        };
+        return CaseResult::failed(case, 0, None, f64::NAN, 0.0, "the case could not be generated".into());
     };
     let truth_mm = {
         let e: Vec<Vector3<f64>> = data
@@ -1482,22 +1495,14 @@ pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
     let d = match result {
         Ok(d) => d,
         Err(e) => {
-            return CaseResult {
-                tags: case.categories(),
-                rows: data.measurements.len(),
-                hidden: Vec::new(),
-                fixture_additions: Vec::new(),
-                added: Vec::new(),
-                negligible: Vec::new(),
-                start_mm: f64::NAN,
-                discovered_mm: f64::NAN,
+            return CaseResult::failed(
+                case,
+                data.measurements.len(),
                 floor_mm,
                 truth_mm,
-                rounds: 0,
                 seconds,
-                error: Some(e.to_string()),
-                case,
-            };
+                e.to_string(),
+            );
         }
     };
     let guide = data.nominal.guide_joint().unwrap_or(1) as u8;

@@ -32,6 +32,11 @@ fn case(id: usize, seed: u64, robot: Robot, data: DataKind, hidden: &[(Shape, f6
     }
 }
 
+/// Generator v3's campaign entry (180 rows) with fixture errors of `fixture_sigma_mm`.
+fn campaign(fixture_sigma_mm: f64) -> (Shape, f64) {
+    (Shape::Campaign { rows: V3_ROWS, fixture_sigma_mm }, 0.0)
+}
+
 /// Generator v3 (the current one, [`GENERATOR_VERSION`]) is deterministic and draws every
 /// category issue 30 asks for: fixture errors in about half the cases (null cases included),
 /// no metadata without replicates, the gravity-load look-alikes alone and together, the start
@@ -108,7 +113,6 @@ fn fixture_errors_and_the_start_without_compliance_are_generated_as_described() 
         .iter()
         .map(|j| (Shape::Catalog(EffectSpec::JointCompliance { joint: *j }), 0.0))
         .collect();
-    let campaign = |sigma| (Shape::Campaign { rows: V3_ROWS, fixture_sigma_mm: sigma }, 0.0);
     let mut with =
         case(0, 31, Robot::Canonical, DataKind::Probe, &[compliance.clone(), vec![campaign(0.001)]].concat());
     let mut without =
@@ -124,12 +128,12 @@ fn fixture_errors_and_the_start_without_compliance_are_generated_as_described() 
         assert!(h.values.len() == 1 && h.values[0] > 0.0 && h.multiple > 0.0, "{h:?}");
     }
     // fixture coordinates: ~1 µm off in `a`, exact in `b`; nothing else differs
-    let mut largest = 0.0f64;
-    let mut moved = 0;
     for id in a.true_params.iter() {
         let (pa, pb) = (a.truth.model.param(*id).expect("param"), b.truth.model.param(*id).expect("param"));
         assert_eq!(pa, pb, "{id} differs: only the fixture coordinates may");
     }
+    let mut largest = 0.0f64;
+    let mut moved = 0;
     for id in a.nominal.tcp_ids() {
         let (ta, tb) = (a.truth.model.tcp(id).expect("tcp"), b.truth.model.tcp(id).expect("tcp"));
         largest = largest.max((ta - tb).amax());
@@ -205,13 +209,7 @@ fn generated_rows_sit_on_the_truth_and_the_correction_removes_the_extra_physics(
 #[test]
 fn fast_subset() {
     let cases = vec![
-        case(
-            0,
-            11,
-            Robot::Canonical,
-            DataKind::Probe,
-            &[(Shape::Campaign { rows: V3_ROWS, fixture_sigma_mm: FIXTURE_SIGMA_MM }, 0.0)],
-        ),
+        case(0, 11, Robot::Canonical, DataKind::Probe, &[campaign(FIXTURE_SIGMA_MM)]),
         case(
             1,
             12,
@@ -250,13 +248,7 @@ fn fast_subset() {
 /// change predictions by more than √3 × the stated CMM uncertainty.
 #[test]
 fn fixture_errors_alone_add_nothing_on_the_ur5e() {
-    let r = run_case(case(
-        0,
-        12,
-        Robot::Ur5e,
-        DataKind::Probe,
-        &[(Shape::Campaign { rows: V3_ROWS, fixture_sigma_mm: FIXTURE_SIGMA_MM }, 0.0)],
-    ));
+    let r = run_case(case(0, 12, Robot::Ur5e, DataKind::Probe, &[campaign(FIXTURE_SIGMA_MM)]));
     eprintln!("{}", markdown(std::slice::from_ref(&r)));
     assert!(r.error.is_none(), "{:?}", r.error);
     assert!(r.added.is_empty(), "null case with fixture errors: added {:?}", r.added);

@@ -6,37 +6,18 @@
 //! predicted positions on postures the fit never saw.
 
 use nalgebra::{Rotation3, Vector3};
-use vatcal_core::{CellFile, Measurement, PointDistance};
+
+use crate::common::{geometry_truth, ur5e, ur5e_cell};
+use vatcal_core::{Measurement, PointDistance};
 use vatcal_identification::{
     CvOptions, IdentifyOptions, InitOptions, calibrate, identify, initialise, posture_folds, validate,
 };
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet};
 use vatcal_sim::truth::{
-    ErrorBudget, ProbeNoise, perturbed_truth, probe_start_poses, synthetic_probe_measurements,
-    synthetic_tracker_measurements, synthetic_tracker_measurements_in_frame,
+    ProbeNoise, probe_start_poses, synthetic_probe_measurements, synthetic_tracker_measurements,
+    synthetic_tracker_measurements_in_frame,
 };
-
-fn ur5e_cell() -> CellFile {
-    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml")).expect("fixture")
-}
-
-/// Geometry errors only (the compliance is an explicit addition, tested by the CV's candidates).
-fn geometry_budget() -> ErrorBudget {
-    ErrorBudget { compliance_range: (0.0, 0.0), ..ErrorBudget::realistic() }
-}
-
-const MARKER_MM: [f64; 3] = [30.0, -50.0, 56.6]; // |.| = 80 mm
-
-/// The truth: perturbed geometry, the measured point 80 mm from the nominal TCP 1.
-fn truth(nominal: &Model, seed: u64) -> Model {
-    let mut t = perturbed_truth(nominal, seed, &geometry_budget());
-    let tcp = t.tcp(1).expect("tcp 1") + Vector3::from(MARKER_MM);
-    for (axis, v) in vatcal_core::Axis::ALL.iter().zip(tcp.iter()) {
-        t.set_param(vatcal_core::ParamId::Tcp { id: 1, axis: *axis }, *v).expect("tcp");
-    }
-    t
-}
 
 /// Tracker rows of TCP 1 in an instrument frame `y = R x + t`.
 fn tracker_rows(
@@ -54,8 +35,8 @@ fn tracker_rows(
 /// model reaches the noise floor on 300 held-out postures.
 #[test]
 fn tracker_frame_anywhere_and_unknown_marker_calibrate_to_the_noise_floor() {
-    let nominal = Model::from_cell(&ur5e_cell()).expect("model");
-    let truth = truth(&nominal, 11);
+    let nominal = ur5e();
+    let truth = geometry_truth(&nominal, 11);
     let r = Rotation3::from_euler_angles(0.9, -0.6, 2.2);
     let t = Vector3::new(1300.0, -1500.0, 500.0);
     assert!(t.norm() > 2000.0);
@@ -100,8 +81,8 @@ fn tracker_frame_anywhere_and_unknown_marker_calibrate_to_the_noise_floor() {
 #[test]
 fn registration_initialisation_converges_for_random_rotations() {
     use rand::{RngExt, SeedableRng};
-    let nominal = Model::from_cell(&ur5e_cell()).expect("model");
-    let truth = truth(&nominal, 3);
+    let nominal = ur5e();
+    let truth = geometry_truth(&nominal, 3);
     let mut rng = rand::rngs::StdRng::seed_from_u64(42);
     for case in 0..12 {
         // uniform random rotation from a random unit quaternion
@@ -146,7 +127,7 @@ fn two_socket_cell() -> (Model, Model, Vec<u32>) {
         (p.x_mm, p.y_mm, p.z_mm) = (s.x, s.y, s.z);
     }
     let true_nominal = Model::from_cell(&cell).expect("model");
-    let truth = truth(&true_nominal, 21);
+    let truth = geometry_truth(&true_nominal, 21);
     // the user's nominal model knows neither socket (placeholder coordinates)
     for (k, p) in cell.calibration_positions.iter_mut().enumerate() {
         (p.x_mm, p.y_mm, p.z_mm) = (100.0 * k as f64, 0.0, 0.0);
@@ -266,7 +247,7 @@ fn a_known_distance_is_weighed_by_the_fits_own_sigma() {
 /// Folds keep repeated readings of one posture together and depend only on the seed.
 #[test]
 fn posture_folds_are_deterministic_and_keep_postures_together() {
-    let nominal = Model::from_cell(&ur5e_cell()).expect("model");
+    let nominal = ur5e();
     let mut rows = synthetic_tracker_measurements(&nominal, 30, 0.0, 1);
     let repeats: Vec<Measurement> = rows.iter().take(10).copied().collect();
     rows.extend(repeats);

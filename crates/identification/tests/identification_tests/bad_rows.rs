@@ -8,48 +8,36 @@
 //! 0.0046 mm Cauchy, 0.0046 mm Huber, 0.0043 mm dropping at 4 σ̂ (row 17 dropped, 2 rounds).
 
 use nalgebra::{Rotation3, Vector3};
-use vatcal_core::{CellFile, Measurement, Target};
+use vatcal_core::{Measurement, Target};
 use vatcal_identification::{
     CvOptions, DEFAULT_OUTLIER_K, IdentifyError, IdentifyOptions, RobustLoss, RobustOptions, calibrate,
     calibrate_dropping_outliers, calibrate_robust, flag_outliers, identify, robust_sigma_mm, validate,
 };
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet};
-use vatcal_sim::truth::{ErrorBudget, perturbed_truth, synthetic_tracker_measurements_in_frame};
+use vatcal_sim::truth::synthetic_tracker_measurements_in_frame;
+
+use crate::common::{geometry_truth, ur5e};
 
 /// The displaced row and its displacement (60 mm).
 const BAD_ROW: usize = 17;
 const DISPLACEMENT_MM: [f64; 3] = [36.0, -28.8, 38.4];
 
-fn ur5e() -> Model {
-    let cell =
-        CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml")).expect("fixture");
-    Model::from_cell(&cell).expect("model")
-}
-
-/// The UR5e truth (perturbed geometry, no compliance), the marker 80 mm from TCP 1, seen by a
-/// tracker rotated and two metres away: `n` rows with `sigma_mm` noise per axis.
+/// Tracker rows of the truth (perturbed geometry, no compliance, the marker 80 mm from TCP 1:
+/// [`geometry_truth`]) seen by a tracker rotated and two metres away: `n` rows with `sigma_mm`
+/// noise per axis.
 fn rows(truth: &Model, n: usize, sigma_mm: f64, seed: u64) -> Vec<Measurement> {
     let r = Rotation3::from_euler_angles(0.9, -0.6, 2.2);
     let t = Vector3::new(1300.0, -1500.0, 500.0);
     synthetic_tracker_measurements_in_frame(truth, n, sigma_mm, seed, 1, &r, &t)
 }
 
-fn truth(nominal: &Model) -> Model {
-    let budget = ErrorBudget { compliance_range: (0.0, 0.0), ..ErrorBudget::realistic() };
-    let mut t = perturbed_truth(nominal, 11, &budget);
-    let tcp = t.tcp(1).expect("tcp 1") + Vector3::new(30.0, -50.0, 56.6);
-    for (axis, v) in vatcal_core::Axis::ALL.iter().zip(tcp.iter()) {
-        t.set_param(vatcal_core::ParamId::Tcp { id: 1, axis: *axis }, *v).expect("tcp");
-    }
-    t
-}
-
-fn displaced(clean: &[Measurement]) -> Vec<Measurement> {
-    let mut bad = clean.to_vec();
-    let Target::Tracker { xyz_mm } = bad[BAD_ROW].target else { unreachable!("tracker rows") };
-    bad[BAD_ROW].target = Target::Tracker { xyz_mm: xyz_mm + Vector3::from(DISPLACEMENT_MM) };
-    bad
+/// `rows` with row `k` displaced by `by_mm`.
+fn displaced(rows: &[Measurement], k: usize, by_mm: Vector3<f64>) -> Vec<Measurement> {
+    let mut out = rows.to_vec();
+    let Target::Tracker { xyz_mm } = out[k].target else { unreachable!("tracker rows") };
+    out[k].target = Target::Tracker { xyz_mm: xyz_mm + by_mm };
+    out
 }
 
 /// The case through the library: flagged by index, the robust and the dropping fits
@@ -58,10 +46,10 @@ fn displaced(clean: &[Measurement]) -> Vec<Measurement> {
 fn a_row_60_mm_off_is_named_down_weighted_and_dropped() {
     assert!((Vector3::from(DISPLACEMENT_MM).norm() - 60.0).abs() < 1e-9);
     let nominal = ur5e();
-    let truth = truth(&nominal);
+    let truth = geometry_truth(&nominal, 11);
     let clean = rows(&truth, 80, 0.01, 5);
     let held_out = rows(&truth, 300, 0.0, 6);
-    let bad = displaced(&clean);
+    let bad = displaced(&clean, BAD_ROW, Vector3::from(DISPLACEMENT_MM));
     let design = DataDesign::default();
     let (options, cv) = (IdentifyOptions::default(), CvOptions::default());
     let held = |m: &Model| validate(m, &held_out).expect("validate").stats.mean;
@@ -76,27 +64,11 @@ fn a_row_60_mm_off_is_named_down_weighted_and_dropped() {
         flag_outliers(&default_fit.fit.residuals, &bad, &options.weights, DEFAULT_OUTLIER_K).expect("scan");
     let e_default = held(&default_fit.fit.model);
 
-    let cauchy = calibrate_robust(
-        &nominal,
-        &bad,
-        "default",
-        &design,
-        &options,
-        &cv,
-        &RobustOptions::new(RobustLoss::Cauchy),
-    )
-    .expect("cauchy");
+    let robust =
+        |loss| calibrate_robust(&nominal, &bad, "default", &design, &options, &cv, &RobustOptions::new(loss));
+    let cauchy = robust(RobustLoss::Cauchy).expect("cauchy");
     let e_cauchy = held(&cauchy.robust.fit.model);
-    let huber = calibrate_robust(
-        &nominal,
-        &bad,
-        "default",
-        &design,
-        &options,
-        &cv,
-        &RobustOptions::new(RobustLoss::Huber),
-    )
-    .expect("huber");
+    let huber = robust(RobustLoss::Huber).expect("huber");
     let e_huber = held(&huber.robust.fit.model);
     let dropped =
         calibrate_dropping_outliers(&nominal, &bad, "default", &design, &options, &cv, 4.0).expect("drop");
@@ -148,7 +120,7 @@ fn a_row_60_mm_off_is_named_down_weighted_and_dropped() {
 #[test]
 fn unit_row_weights_change_nothing_and_bad_ones_are_refused() {
     let nominal = ur5e();
-    let truth = truth(&nominal);
+    let truth = geometry_truth(&nominal, 11);
     let train = rows(&truth, 60, 0.01, 8);
     let init = vatcal_identification::initialise(
         &nominal,
@@ -163,9 +135,12 @@ fn unit_row_weights_change_nothing_and_bad_ones_are_refused() {
         &DataDesign::default(),
     )
     .expect("set");
+    let weighted_fit = |rows: &[Measurement], weights: Vec<f64>| {
+        let options = IdentifyOptions { row_weights: Some(weights), ..IdentifyOptions::default() };
+        identify(&init.model, rows, &params, &options)
+    };
     let plain = identify(&init.model, &train, &params, &IdentifyOptions::default()).expect("plain");
-    let ones = IdentifyOptions { row_weights: Some(vec![1.0; train.len()]), ..IdentifyOptions::default() };
-    let weighted = identify(&init.model, &train, &params, &ones).expect("ones");
+    let weighted = weighted_fit(&train, vec![1.0; train.len()]).expect("ones");
     for (a, b) in plain.values.iter().zip(&weighted.values) {
         assert_eq!(a.to_bits(), b.to_bits());
     }
@@ -173,16 +148,8 @@ fn unit_row_weights_change_nothing_and_bad_ones_are_refused() {
     // a row of weight 1e-12 is as good as absent: the fit equals the fit without it
     let mut w = vec![1.0; train.len()];
     w[3] = 1e-12;
-    let mut moved = train.clone();
-    let Target::Tracker { xyz_mm } = moved[3].target else { unreachable!("tracker") };
-    moved[3].target = Target::Tracker { xyz_mm: xyz_mm + Vector3::new(50.0, 0.0, 0.0) };
-    let light = identify(
-        &init.model,
-        &moved,
-        &params,
-        &IdentifyOptions { row_weights: Some(w), ..IdentifyOptions::default() },
-    )
-    .expect("light");
+    let moved = displaced(&train, 3, Vector3::new(50.0, 0.0, 0.0));
+    let light = weighted_fit(&moved, w).expect("light");
     let without: Vec<Measurement> =
         train.iter().enumerate().filter(|(k, _)| *k != 3).map(|(_, m)| *m).collect();
     let reference = identify(&init.model, &without, &params, &IdentifyOptions::default()).expect("without");
@@ -193,13 +160,7 @@ fn unit_row_weights_change_nothing_and_bad_ones_are_refused() {
     for (bad, what) in
         [(vec![1.0; 3], "3 weights for 60 measurements"), (vec![0.0; train.len()], "finite and > 0")]
     {
-        let e = identify(
-            &init.model,
-            &train,
-            &params,
-            &IdentifyOptions { row_weights: Some(bad), ..IdentifyOptions::default() },
-        )
-        .expect_err("refused");
+        let e = weighted_fit(&train, bad).expect_err("refused");
         assert!(matches!(e, IdentifyError::InvalidOptions(_)) && e.to_string().contains(what), "{e}");
     }
 }

@@ -3,7 +3,7 @@
 //! set; weak directions found from the design.
 
 use nalgebra::{Rotation3, Vector3};
-use vatcal_core::{Axis, CellFile, Measurement, ParamId, ParamSet};
+use vatcal_core::{Axis, Measurement, ParamId, ParamSet};
 use vatcal_identification::{
     CvOptions, IdentificationReport, IdentifyOptions, KindWeights, PriorKind, PriorOverride, PriorSpec,
     PriorWidths, calibrate, validate, weak_directions,
@@ -12,19 +12,13 @@ use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet};
 use vatcal_sim::truth::{ErrorBudget, perturbed_truth_any_chain, synthetic_tracker_measurements_in_frame};
 
-fn ur5e() -> Model {
-    let cell =
-        CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml")).expect("fixture");
-    Model::from_cell(&cell).expect("model")
-}
+use crate::common::{set_tcp1, ur5e};
 
 /// Truth with the realistic budget, the marker `marker_mm` from the nominal TCP 1.
 fn truth(nominal: &Model, seed: u64, marker_mm: [f64; 3]) -> Model {
     let mut t = perturbed_truth_any_chain(nominal, seed, &ErrorBudget::realistic());
     let tcp = nominal.tcp(1).expect("tcp 1") + Vector3::from(marker_mm);
-    for (axis, v) in Axis::ALL.iter().zip(tcp.iter()) {
-        t.set_param(ParamId::Tcp { id: 1, axis: *axis }, *v).expect("tcp");
-    }
+    set_tcp1(&mut t, tcp);
     t
 }
 
