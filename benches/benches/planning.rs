@@ -35,13 +35,13 @@ fn measuring() -> bool {
     std::env::args().any(|a| a == "--bench")
 }
 
+/// The cell file `fixtures/<name>`.
 fn fixture(name: &str) -> CellFile {
-    CellFile::load(format!("{}/../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).expect("fixture")
+    CellFile::load(format!("{}/../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).expect(name)
 }
 
 fn cell() -> CellFile {
-    CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-zaber.toml"))
-        .expect("canonical cell fixture")
+    fixture("meca500-zaber.toml")
 }
 
 fn bench_ik(c: &mut Criterion) {
@@ -97,10 +97,7 @@ fn bench_ik(c: &mut Criterion) {
             ))
         })
     });
-    let ur5e = Model::from_cell(
-        &CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/ur5e.toml")).expect("ur5e fixture"),
-    )
-    .expect("ur5e model");
+    let ur5e = Model::from_cell(&fixture("ur5e.toml")).expect("ur5e model");
     let ur5e_ik =
         ModelIk::new(&ur5e, RefineOptions::default(), MultiStartOptions::default()).expect("ur5e ik");
     let ur5e_q = JointVector::from_slice(&[0.3, -1.2, 1.1, -0.8, 1.4, 0.6]).expect("joints");
@@ -140,11 +137,7 @@ fn bench_ik(c: &mut Criterion) {
     });
     // issue 12: the closed form on a chain other than the canonical cell (the Meca500 alone on a
     // table), the planner's IK (`ModelIk`: 8 branches, refined on the model) and the bare closed form
-    let table = Model::from_cell(
-        &CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/meca500-table.toml"))
-            .expect("meca500-table fixture"),
-    )
-    .expect("meca500-table model");
+    let table = Model::from_cell(&fixture("meca500-table.toml")).expect("meca500-table model");
     let table_ik =
         ModelIk::new(&table, RefineOptions::default(), MultiStartOptions::default()).expect("table ik");
     assert!(table_ik.is_closed_form());

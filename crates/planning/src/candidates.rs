@@ -330,31 +330,35 @@ impl Pipeline<'_> {
         match &self.solver {
             Solver::Canonical { ik, bases } => self.run_canonical(ik, bases, task),
             Solver::Any { ik, guide } => {
-                let (candidates, counts, _) = self.run_any(ik, guide, task, None);
+                let (candidates, counts, _) = self.run_any(ik, guide, task, false, None);
                 (candidates, counts)
             }
         }
     }
 
-    /// True when the TCP poses are solved in warm-started chains (numerical IK, warm starts on).
-    fn warm_chains(&self) -> bool {
-        matches!(&self.solver, Solver::Any { ik, .. } if !ik.is_closed_form()) && self.opts.warm_start
+    /// The IK and guide positions when the TCP poses are solved in warm-started chains
+    /// (numerical IK, warm starts on).
+    fn warm_solver(&self) -> Option<(&ModelIk<'_>, &[f64])> {
+        match &self.solver {
+            Solver::Any { ik, guide } if self.opts.warm_start && !ik.is_closed_form() => Some((ik, guide)),
+            _ => None,
+        }
     }
 
-    /// Stages 1..5 on any chain (see the module docs); with warm starts, `previous` holds the
-    /// solutions of the preceding pose of the chain at every guide step. Also returns this
+    /// Stages 1..5 on any chain (see the module docs); with `warm` starts, `previous` holds
+    /// the solutions of the preceding pose of the chain at every guide step. Also returns this
     /// pose's solutions at every guide step.
     fn run_any(
         &self,
         ik: &ModelIk<'_>,
         guide: &[f64],
         task: &PoseTask,
+        warm: bool,
         previous: Option<&[Vec<JointVector>]>,
     ) -> (Vec<Candidate>, StageCounts, StepSolutions) {
         let mut counts = StageCounts { poses: 1, ..StageCounts::default() };
         let mut out = Vec::new();
-        let steps: Vec<f64> = if guide.is_empty() { vec![0.0] } else { guide.to_vec() };
-        let warm = self.opts.warm_start && !ik.is_closed_form();
+        let steps: &[f64] = if guide.is_empty() { &[0.0] } else { guide };
         let mut solved: StepSolutions = Vec::with_capacity(steps.len());
         for (step, g) in steps.iter().enumerate() {
             let solutions = if warm {
@@ -382,28 +386,20 @@ impl Pipeline<'_> {
         (out, counts, solved)
     }
 
-    /// Stages 1..5 of the TCP poses `chain` (indices into `tasks`) one after the other, each
-    /// warm-started from the previous one's solutions; results by task index.
+    /// Stages 1..5 of the TCP poses `chain` (indices into `tasks`) one after the other with the
+    /// warm-started IK `ik` ([`Pipeline::warm_solver`]), each from the previous one's
+    /// solutions; results by task index.
     fn run_chain(
         &self,
+        (ik, guide): (&ModelIk<'_>, &[f64]),
         tasks: &[PoseTask],
         chain: &[usize],
         bar: &ProgressBar,
     ) -> Vec<(usize, (Vec<Candidate>, StageCounts))> {
-        let Solver::Any { ik, guide } = &self.solver else {
-            return chain
-                .iter()
-                .map(|&i| {
-                    let r = self.run(&tasks[i]);
-                    bar.inc(1);
-                    (i, r)
-                })
-                .collect();
-        };
         let mut previous: Option<StepSolutions> = None;
         let mut out = Vec::with_capacity(chain.len());
         for &i in chain {
-            let (candidates, counts, solved) = self.run_any(ik, guide, &tasks[i], previous.as_deref());
+            let (candidates, counts, solved) = self.run_any(ik, guide, &tasks[i], true, previous.as_deref());
             previous = Some(solved);
             bar.inc(1);
             out.push((i, (candidates, counts)));
@@ -557,10 +553,10 @@ pub fn generate_candidates(
     };
     let tasks = sample_tasks(model, &positions, &tcps, opts)?;
     let bar = progress_bar(tasks.len() as u64, opts.progress);
-    let results: Vec<(Vec<Candidate>, StageCounts)> = if pipeline.warm_chains() {
+    let results: Vec<(Vec<Candidate>, StageCounts)> = if let Some(warm) = pipeline.warm_solver() {
         let chains = warm_chains(&tasks, WARM_CHAIN_LEN);
         let mut by_task: Vec<(usize, (Vec<Candidate>, StageCounts))> =
-            chains.par_iter().flat_map_iter(|c| pipeline.run_chain(&tasks, c, &bar)).collect();
+            chains.par_iter().flat_map_iter(|c| pipeline.run_chain(warm, &tasks, c, &bar)).collect();
         by_task.sort_unstable_by_key(|(i, _)| *i);
         by_task.into_iter().map(|(_, r)| r).collect()
     } else {

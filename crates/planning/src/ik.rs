@@ -290,7 +290,7 @@ pub(crate) fn structure_error(row: usize, field: &str, value: String, want: &str
 }
 
 /// `Ok(±pi/2)` when `alpha` is within the tolerance of ±90 deg.
-fn quarter_turn(row: usize, alpha: f64, why: &str) -> Result<f64, PlanError> {
+pub(crate) fn quarter_turn(row: usize, alpha: f64, why: &str) -> Result<f64, PlanError> {
     use std::f64::consts::FRAC_PI_2;
     let sign = if wrap_angle(alpha - FRAC_PI_2).abs() <= STRUCTURE_ANGLE_TOL_RAD {
         1.0
@@ -306,6 +306,36 @@ fn quarter_turn(row: usize, alpha: f64, why: &str) -> Result<f64, PlanError> {
         ));
     };
     Ok(sign * FRAC_PI_2)
+}
+
+/// `Ok(0)` or `Ok(pi)` when `alpha` (a structure angle of joint row `row`) is within the
+/// tolerance of 0 or 180 deg (parallel axes).
+pub(crate) fn zero_or_half_turn(row: usize, alpha: f64, why: &str) -> Result<f64, PlanError> {
+    use std::f64::consts::PI;
+    if wrap_angle(alpha).abs() <= STRUCTURE_ANGLE_TOL_RAD {
+        Ok(0.0)
+    } else if wrap_angle(alpha - PI).abs() <= STRUCTURE_ANGLE_TOL_RAD {
+        Ok(PI)
+    } else {
+        Err(structure_error(
+            row,
+            "alpha_deg",
+            format!("{:.3}", alpha.to_degrees()),
+            &format!("0 or 180 ± {:.1} deg", STRUCTURE_ANGLE_TOL_RAD.to_degrees()),
+            why,
+        ))
+    }
+}
+
+/// `cos` of an exact structure angle 0 or pi: +1 or -1.
+pub(crate) fn sign_of_cos(alpha: f64) -> f64 {
+    if alpha == 0.0 { 1.0 } else { -1.0 }
+}
+
+/// One MDH link `Rx(alpha) Tx(a) Rz(theta) Tz(d)` with `Rx(alpha)` given.
+pub(crate) fn mdh_link(rx: &Matrix3<f64>, a: f64, theta: f64, d: f64) -> Frame {
+    let r = rx * rot_z(theta);
+    Frame { r, p: Vector3::new(a, 0.0, 0.0) + r.column(2) * d }
 }
 
 impl ArmGeometry {
@@ -329,7 +359,6 @@ impl ArmGeometry {
     /// [`PlanError::UnsupportedArm`] naming the first joint row, field and value that do not
     /// fit (the wrist first: a UR5e-class arm is reported as not having a spherical wrist).
     pub fn from_model(model: &Model) -> Result<Self, PlanError> {
-        use std::f64::consts::PI;
         let f = six_revolute_arm(model)?;
         // cell row of arm joint j
         let r = |j: usize| f + j - 1;
@@ -354,20 +383,7 @@ impl ArmGeometry {
         let alpha4 = quarter_turn(r(5), row(5).alpha, "perpendicular wrist axes")?;
         let alpha5 = quarter_turn(r(6), row(6).alpha, "perpendicular wrist axes")?;
         let alpha1 = quarter_turn(r(2), row(2).alpha, "the shoulder joint perpendicular to the base joint")?;
-        let alpha2_got = row(3).alpha;
-        let alpha2 = if wrap_angle(alpha2_got).abs() <= STRUCTURE_ANGLE_TOL_RAD {
-            0.0
-        } else if wrap_angle(alpha2_got - PI).abs() <= STRUCTURE_ANGLE_TOL_RAD {
-            PI
-        } else {
-            return Err(structure_error(
-                r(3),
-                "alpha_deg",
-                format!("{:.3}", alpha2_got.to_degrees()),
-                &format!("0 or 180 ± {:.1} deg", STRUCTURE_ANGLE_TOL_RAD.to_degrees()),
-                "the shoulder and elbow joints parallel",
-            ));
-        };
+        let alpha2 = zero_or_half_turn(r(3), row(3).alpha, "the shoulder and elbow joints parallel")?;
         let alpha3 = quarter_turn(r(4), row(4).alpha, "the forearm joint perpendicular to the elbow joint")?;
         let upper_arm_mm = row(3).a;
         if upper_arm_mm.abs() < 1.0 {
@@ -388,7 +404,7 @@ impl ArmGeometry {
                 "a wrist centre off the elbow axis",
             ));
         }
-        let sigma = if alpha2 == 0.0 { 1.0 } else { -1.0 };
+        let sigma = sign_of_cos(alpha2);
         let theta_offset_rad = std::array::from_fn(|j| row(j + 1).theta_offset);
         Ok(Self {
             shoulder_height_mm: row(1).d,
@@ -407,7 +423,7 @@ impl ArmGeometry {
 
     /// `cos(alpha_2)`: +1 when `alpha_2 = 0`, -1 when `alpha_2 = pi`.
     fn sigma(&self) -> f64 {
-        if self.alpha_rad[1] == 0.0 { 1.0 } else { -1.0 }
+        sign_of_cos(self.alpha_rad[1])
     }
 
     /// All closed-form solutions for the tool-changer frame pose `target` given in the robot
@@ -495,18 +511,14 @@ impl ArmGeometry {
     /// [`ArmGeometry::solve`]). The sideways shoulder offset is put on arm row 3.
     pub fn forward(&self, q: &[f64; 6]) -> Frame {
         let t: [f64; 6] = std::array::from_fn(|k| q[k] + self.theta_offset_rad[k]);
-        let link = |rx: &Matrix3<f64>, a: f64, theta: f64, d: f64| {
-            let r = rx * rot_z(theta);
-            Frame { r, p: Vector3::new(a, 0.0, 0.0) + r.column(2) * d }
-        };
         let rx = &self.rx;
         [
-            link(&rot_x(0.0), 0.0, t[0], self.shoulder_height_mm),
-            link(&rx[0], self.shoulder_forward_mm, t[1], 0.0),
-            link(&rx[1], self.upper_arm_mm, t[2], self.sigma() * self.shoulder_lateral_mm),
-            link(&rx[2], self.elbow_offset_mm, t[3], self.forearm_mm),
-            link(&rx[3], 0.0, t[4], 0.0),
-            link(&rx[4], 0.0, t[5], self.flange_mm),
+            mdh_link(&rot_x(0.0), 0.0, t[0], self.shoulder_height_mm),
+            mdh_link(&rx[0], self.shoulder_forward_mm, t[1], 0.0),
+            mdh_link(&rx[1], self.upper_arm_mm, t[2], self.sigma() * self.shoulder_lateral_mm),
+            mdh_link(&rx[2], self.elbow_offset_mm, t[3], self.forearm_mm),
+            mdh_link(&rx[3], 0.0, t[4], 0.0),
+            mdh_link(&rx[4], 0.0, t[5], self.flange_mm),
         ]
         .iter()
         .fold(Frame::identity(), |acc, l| acc.compose(l))
@@ -1544,18 +1556,8 @@ impl<'a> ModelIk<'a> {
         numeric: MultiStartOptions,
     ) -> Result<Self, PlanError> {
         match ToolPoseIk::new(model, refine) {
-            Ok(ik) => {
-                let revolute = revolute_joints(model);
-                let specs = (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect();
-                Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), specs) })
-            }
-            Err(PlanError::UnsupportedArm(reason)) => {
-                let mut me = Self::numerical(model, numeric)?;
-                if let Solver::Numeric { reason: r, .. } = &mut me.solver {
-                    *r = Some(reason);
-                }
-                Ok(me)
-            }
+            Ok(ik) => Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), all_joint_specs(model)) }),
+            Err(PlanError::UnsupportedArm(reason)) => Self::numerical_because(model, numeric, reason),
             Err(e) => Err(e),
         }
     }
@@ -1577,23 +1579,33 @@ impl<'a> ModelIk<'a> {
         refine: RefineOptions,
         numeric: MultiStartOptions,
     ) -> Result<Self, PlanError> {
-        let specs = || {
-            let revolute = revolute_joints(model);
-            (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect()
-        };
         let spherical = match ToolPoseIk::new(model, refine) {
-            Ok(ik) => return Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), specs()) }),
+            Ok(ik) => {
+                return Ok(Self { model, solver: Solver::ClosedForm(Box::new(ik), all_joint_specs(model)) });
+            }
             Err(PlanError::UnsupportedArm(reason)) => reason,
             Err(e) => return Err(e),
         };
         let parallel = match ToolPoseIk::<ParallelArm>::with_closed_form(model, refine) {
-            Ok(ik) => return Ok(Self { model, solver: Solver::Parallel(Box::new(ik), specs()) }),
+            Ok(ik) => {
+                return Ok(Self { model, solver: Solver::Parallel(Box::new(ik), all_joint_specs(model)) });
+            }
             Err(PlanError::UnsupportedArm(reason)) => reason,
             Err(e) => return Err(e),
         };
+        let reason = if spherical == parallel { spherical } else { format!("{spherical}; {parallel}") };
+        Self::numerical_because(model, numeric, reason)
+    }
+
+    /// The numerical IK, `reason` saying why no closed form applies.
+    fn numerical_because(
+        model: &'a Model,
+        numeric: MultiStartOptions,
+        reason: String,
+    ) -> Result<Self, PlanError> {
         let mut me = Self::numerical(model, numeric)?;
         if let Solver::Numeric { reason: r, .. } = &mut me.solver {
-            *r = Some(if spherical == parallel { spherical } else { format!("{spherical}; {parallel}") });
+            *r = Some(reason);
         }
         Ok(me)
     }
@@ -1738,6 +1750,13 @@ impl<'a> ModelIk<'a> {
         }
         Ok(out)
     }
+}
+
+/// Every joint's spec of `model` (the closed forms normalise their solutions into the limits
+/// with them).
+fn all_joint_specs(model: &Model) -> Vec<JointSpec> {
+    let revolute = revolute_joints(model);
+    (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect()
 }
 
 /// `solutions` with every value normalised into its joint's limits ([`JointSpec::normalise`]).

@@ -53,13 +53,14 @@
 
 use nalgebra::{Matrix3, Vector3};
 use vatcal_core::Frame;
-use vatcal_core::frame::{rot_x, rot_z};
+use vatcal_core::frame::rot_x;
 use vatcal_kinematics::Model;
 
 use crate::error::PlanError;
 use crate::ik::{
     ArmGeometry, ArmSolutions, ClosedFormArm, ELBOW_SEED_RAD, STRUCTURE_ANGLE_TOL_RAD,
-    STRUCTURE_LENGTH_TOL_MM, structure_error, wrap_angle,
+    STRUCTURE_LENGTH_TOL_MM, mdh_link, quarter_turn, sign_of_cos, structure_error, wrap_angle,
+    zero_or_half_turn,
 };
 
 /// The nominal geometry of a 6R arm with three parallel middle axes and a UR-type wrist, as
@@ -122,52 +123,6 @@ pub struct ParallelArm {
     rx: [Matrix3<f64>; 5],
 }
 
-/// `Ok(±pi/2)` when `alpha` is within the tolerance of ±90 deg.
-fn quarter(row: usize, alpha: f64, why: &str) -> Result<f64, PlanError> {
-    use std::f64::consts::FRAC_PI_2;
-    for sign in [1.0, -1.0] {
-        if wrap_angle(alpha - sign * FRAC_PI_2).abs() <= STRUCTURE_ANGLE_TOL_RAD {
-            return Ok(sign * FRAC_PI_2);
-        }
-    }
-    Err(structure_error(
-        row,
-        "alpha_deg",
-        format!("{:.3}", alpha.to_degrees()),
-        &format!("±90 ± {:.1} deg", STRUCTURE_ANGLE_TOL_RAD.to_degrees()),
-        why,
-    ))
-}
-
-/// `Ok(0)` or `Ok(pi)` when `alpha` is within the tolerance of 0 or 180 deg.
-fn parallel(row: usize, alpha: f64, why: &str) -> Result<f64, PlanError> {
-    use std::f64::consts::PI;
-    if wrap_angle(alpha).abs() <= STRUCTURE_ANGLE_TOL_RAD {
-        Ok(0.0)
-    } else if wrap_angle(alpha - PI).abs() <= STRUCTURE_ANGLE_TOL_RAD {
-        Ok(PI)
-    } else {
-        Err(structure_error(
-            row,
-            "alpha_deg",
-            format!("{:.3}", alpha.to_degrees()),
-            &format!("0 or 180 ± {:.1} deg", STRUCTURE_ANGLE_TOL_RAD.to_degrees()),
-            why,
-        ))
-    }
-}
-
-/// `cos` of an exact structural angle 0 or pi: +1 or -1.
-fn sign_of_cos(alpha: f64) -> f64 {
-    if alpha == 0.0 { 1.0 } else { -1.0 }
-}
-
-/// One MDH link `Rx(alpha) Tx(a) Rz(theta) Tz(d)` with `Rx(alpha)` given.
-fn link(rx: &Matrix3<f64>, a: f64, theta: f64, d: f64) -> Frame {
-    let r = rx * rot_z(theta);
-    Frame { r, p: Vector3::new(a, 0.0, 0.0) + r.column(2) * d }
-}
-
 impl ParallelArm {
     /// Reads the nominal geometry from `model`, checking the structure of the module docs
     /// (angles within 0.05 rad, zero lengths and `beta` within 5 mm / 0.05 rad, so that a
@@ -182,11 +137,11 @@ impl ParallelArm {
         let r = |j: usize| f + j - 1;
         let row = |j: usize| model.row(r(j));
         let parallel_why = format!("the axes of joints {}, {}, {} parallel", r(2), r(3), r(4));
-        let alpha1 = quarter(r(2), row(2).alpha, "the shoulder joint perpendicular to the base joint")?;
-        let alpha2 = parallel(r(3), row(3).alpha, &parallel_why)?;
-        let alpha3 = parallel(r(4), row(4).alpha, &parallel_why)?;
-        let alpha4 = quarter(r(5), row(5).alpha, "the wrist joints perpendicular")?;
-        let alpha5 = quarter(r(6), row(6).alpha, "the wrist joints perpendicular")?;
+        let alpha1 = quarter_turn(r(2), row(2).alpha, "the shoulder joint perpendicular to the base joint")?;
+        let alpha2 = zero_or_half_turn(r(3), row(3).alpha, &parallel_why)?;
+        let alpha3 = zero_or_half_turn(r(4), row(4).alpha, &parallel_why)?;
+        let alpha4 = quarter_turn(r(5), row(5).alpha, "the wrist joints perpendicular")?;
+        let alpha5 = quarter_turn(r(6), row(6).alpha, "the wrist joints perpendicular")?;
         if row(6).a.abs() > STRUCTURE_LENGTH_TOL_MM {
             return Err(structure_error(
                 r(6),
@@ -274,7 +229,7 @@ impl ParallelArm {
         };
         let rx = &self.rx;
         let base_to_2 = |theta1: f64| {
-            link(&Matrix3::identity(), 0.0, theta1, self.shoulder_height_mm)
+            mdh_link(&Matrix3::identity(), 0.0, theta1, self.shoulder_height_mm)
                 .compose(&Frame { r: rx[0], p: Vector3::new(self.shoulder_forward_mm, 0.0, 0.0) })
         };
         for (shoulder_bit, theta1) in [(0u8, phi + shoulder_angle), (1, phi + PI - shoulder_angle)] {
@@ -296,8 +251,8 @@ impl ParallelArm {
                     0.0
                 };
                 // step 4: the planar three-link arm
-                let l5 = link(&rx[3], self.wrist_forward_mm, theta5, self.wrist2_mm);
-                let l6 = link(&rx[4], 0.0, theta6, self.flange_mm);
+                let l5 = mdh_link(&rx[3], self.wrist_forward_mm, theta5, self.wrist2_mm);
+                let l6 = mdh_link(&rx[4], 0.0, theta6, self.flange_mm);
                 let t4 = target.compose(&l5.compose(&l6).inverse());
                 let p = frame_2_inv.compose(&t4);
                 let (x, y) = (p.p.x, p.p.y);
@@ -345,12 +300,12 @@ impl ParallelArm {
         let rx = &self.rx;
         let [d2, d3, d4] = self.parallel_d_mm;
         [
-            link(&Matrix3::identity(), 0.0, t[0], self.shoulder_height_mm),
-            link(&rx[0], self.shoulder_forward_mm, t[1], d2),
-            link(&rx[1], self.upper_arm_mm, t[2], d3),
-            link(&rx[2], self.forearm_mm, t[3], d4),
-            link(&rx[3], self.wrist_forward_mm, t[4], self.wrist2_mm),
-            link(&rx[4], 0.0, t[5], self.flange_mm),
+            mdh_link(&Matrix3::identity(), 0.0, t[0], self.shoulder_height_mm),
+            mdh_link(&rx[0], self.shoulder_forward_mm, t[1], d2),
+            mdh_link(&rx[1], self.upper_arm_mm, t[2], d3),
+            mdh_link(&rx[2], self.forearm_mm, t[3], d4),
+            mdh_link(&rx[3], self.wrist_forward_mm, t[4], self.wrist2_mm),
+            mdh_link(&rx[4], 0.0, t[5], self.flange_mm),
         ]
         .iter()
         .fold(Frame::identity(), |acc, l| acc.compose(l))

@@ -46,7 +46,7 @@ fn max_diff(a: &JointVector, b: &JointVector) -> f64 {
     a.as_slice().iter().zip(b.as_slice()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
-fn pose_errors(model: &Model, q: &JointVector, target: &Frame) -> (f64, f64) {
+pub(super) fn pose_errors(model: &Model, q: &JointVector, target: &Frame) -> (f64, f64) {
     let tool = model.chain(q).tool;
     ((tool.p - target.p).norm(), rotation_angle_between(&tool.r, &target.r))
 }
@@ -168,7 +168,7 @@ proptest! {
 // Any 6R arm with a spherical wrist (issue 12): the closed form outside the canonical cell.
 
 /// A model of the canonical fixture's sibling `fixtures/<name>`.
-fn fixture_model(name: &str) -> Model {
+pub(super) fn fixture_model(name: &str) -> Model {
     let path = format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"));
     Model::from_cell(&vatcal_core::CellFile::load(&path).expect("fixture")).expect("model")
 }
@@ -177,7 +177,13 @@ fn fixture_model(name: &str) -> Model {
 /// `(alpha_deg, a_mm, theta_deg, d_mm)` and continuous joints (no limits; the IK wraps into
 /// (-180, 180] deg).
 fn table_arm(rows: [(f64, f64, f64, f64); 6]) -> Model {
-    let path = format!("{}/../../fixtures/meca500-table.toml", env!("CARGO_MANIFEST_DIR"));
+    fixture_arm("meca500-table.toml", rows)
+}
+
+/// The six-joint fixture `fixtures/<name>` with the MDH rows `(alpha_deg, a_mm, theta_deg,
+/// d_mm)` and continuous joints (no limits).
+pub(super) fn fixture_arm(name: &str, rows: [(f64, f64, f64, f64); 6]) -> Model {
+    let path = format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"));
     let mut cell = vatcal_core::CellFile::load(&path).expect("fixture");
     for (row, (alpha, a, theta, d)) in cell.joints.iter_mut().zip(rows) {
         row.alpha_deg = alpha;
@@ -223,7 +229,7 @@ fn sign_variant(variant: u8) -> Model {
 }
 
 /// Largest difference of two joint vectors, revolute joints modulo a whole turn.
-fn max_wrapped_diff(a: &JointVector, b: &JointVector) -> f64 {
+pub(super) fn max_wrapped_diff(a: &JointVector, b: &JointVector) -> f64 {
     a.as_slice()
         .iter()
         .zip(b.as_slice())
@@ -261,13 +267,13 @@ fn check_model_ik(model: &Model, q: &JointVector) -> Result<usize, String> {
 }
 
 /// Joints in (-170, 170) deg (six revolute joints).
-fn arm_joints() -> impl Strategy<Value = JointVector> {
+pub(super) fn arm_joints() -> impl Strategy<Value = JointVector> {
     proptest::array::uniform6(-170.0..170.0f64)
         .prop_map(|d| JointVector::from_slice(&d.map(f64::to_radians)).expect("six joints"))
 }
 
 /// Away from the branch-merging singularities (the chain-agnostic inverse condition number).
-fn regular_any(model: &Model, q: &JointVector) -> bool {
+pub(super) fn regular_any(model: &Model, q: &JointVector) -> bool {
     let margins = SingularityMargins { min_inverse_condition: 0.03, ..SingularityMargins::default() };
     margins.clear(model, &model.chain(q))
 }

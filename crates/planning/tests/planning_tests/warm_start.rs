@@ -3,14 +3,15 @@
 //! guide step from the previous one, and the candidate generator's warm chains are
 //! deterministic (also on one thread) and find nearly every solution the cold multi-start finds.
 
+use super::ik::pose_errors;
 use crate::common;
 
-use vatcal_core::{CellFile, Frame, JointVector};
+use vatcal_core::{CellFile, JointVector};
 use vatcal_kinematics::Model;
 use vatcal_planning::candidates::{Candidate, CandidateOptions, CandidateSet, IkChoice, generate_candidates};
 use vatcal_planning::collision::CollisionChecker;
 use vatcal_planning::geometry::CellGeometry;
-use vatcal_planning::ik::{ChainTool, ModelIk, RefineOptions, rotation_angle_between, wrap_angle};
+use vatcal_planning::ik::{ChainTool, ModelIk, RefineOptions, wrap_angle};
 use vatcal_planning::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk};
 
 fn fixture(name: &str) -> (CellFile, Model) {
@@ -18,11 +19,6 @@ fn fixture(name: &str) -> (CellFile, Model) {
     let cell = CellFile::load(&path).expect("fixture");
     let model = Model::from_cell(&cell).expect("model");
     (cell, model)
-}
-
-fn pose_errors(model: &Model, q: &JointVector, target: &Frame) -> (f64, f64) {
-    let tool = model.chain(q).tool;
-    ((tool.p - target.p).norm(), rotation_angle_between(&tool.r, &target.r))
 }
 
 fn same(a: &JointVector, b: &JointVector) -> bool {
