@@ -68,11 +68,11 @@ fn run(cell_path: &str, seed: &str, ik: &str, orientations: &str) -> Result<(), 
         seed: seed.parse()?,
         ..PlanOptions::default()
     };
-    let (t0, c0) = (Instant::now(), cpu_ns());
+    let (t0, c0) = (Instant::now(), vatcal_benches::cpu_ns());
     let candidates = campaign_candidates(&model, &geometry, &opts)?;
-    let (t1, c1) = (Instant::now(), cpu_ns());
+    let (t1, c1) = (Instant::now(), vatcal_benches::cpu_ns());
     let plan = plan_campaign(&model, &geometry, &opts)?;
-    let (t2, c2) = (Instant::now(), cpu_ns());
+    let (t2, c2) = (Instant::now(), vatcal_benches::cpu_ns());
     let ms = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e3;
     let cpu = |a: u64, b: u64| b.saturating_sub(a) as f64 * 1e-6;
     println!("IK: {}", candidates.ik);
@@ -87,15 +87,4 @@ fn run(cell_path: &str, seed: &str, ik: &str, orientations: &str) -> Result<(), 
         plan.quality.candidates_o1
     );
     Ok(())
-}
-
-/// CPU time of the process so far [ns] (Linux: on-CPU time of every live thread from
-/// `/proc/self/task/*/schedstat`; 0 elsewhere).
-fn cpu_ns() -> u64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
-    tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next().and_then(|x| x.parse::<u64>().ok()))
-        .sum()
 }

@@ -31,9 +31,9 @@ fn run(cell: &str, candidates: &str, count: &str, restarts: &str) -> Result<(), 
     let count: usize = count.parse()?;
     let restarts: usize = restarts.parse()?;
     let t0 = Instant::now();
-    let mut last = (t0, cpu_ns());
+    let mut last = (t0, vatcal_benches::cpu_ns());
     let mut lap = |what: &str| {
-        let now = (Instant::now(), cpu_ns());
+        let now = (Instant::now(), vatcal_benches::cpu_ns());
         println!(
             "{what:<28} {:8.2} ms wall {:8.2} ms CPU",
             (now.0 - last.0).as_secs_f64() * 1e3,
@@ -59,20 +59,9 @@ fn run(cell: &str, candidates: &str, count: &str, restarts: &str) -> Result<(), 
     println!(
         "total {:8.2} ms wall {:8.2} ms CPU; O1 {:.4}, selected {:?}",
         t0.elapsed().as_secs_f64() * 1e3,
-        cpu_ns() as f64 * 1e-6,
+        vatcal_benches::cpu_ns() as f64 * 1e-6,
         i.raw.o1,
         s.selected
     );
     Ok(())
-}
-
-/// CPU time of the process so far [ns] (Linux: on-CPU time of every live thread from
-/// `/proc/self/task/*/schedstat`; 0 elsewhere).
-fn cpu_ns() -> u64 {
-    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
-    tasks
-        .flatten()
-        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
-        .filter_map(|s| s.split_whitespace().next().and_then(|x| x.parse::<u64>().ok()))
-        .sum()
 }

@@ -28,3 +28,14 @@ pub fn candidate_poses(model: &Model, count: usize, seed: u64) -> Vec<Measuremen
     assert_eq!(poses.len(), count, "pose generation");
     poses
 }
+
+/// CPU time of the process so far \[ns\] (Linux: on-CPU time of every live thread from
+/// `/proc/self/task/*/schedstat`; 0 elsewhere).
+pub fn cpu_ns() -> u64 {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else { return 0 };
+    tasks
+        .flatten()
+        .filter_map(|t| std::fs::read_to_string(t.path().join("schedstat")).ok())
+        .filter_map(|s| s.split_whitespace().next().and_then(|x| x.parse::<u64>().ok()))
+        .sum()
+}
