@@ -33,6 +33,7 @@ pub mod measurement;
 pub mod params;
 pub mod training_range;
 pub mod units;
+mod vocabulary;
 
 pub use cell::{CellError, CellFile};
 

@@ -22,9 +22,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::cell::EffectEntry;
 use crate::measurement::{Measurement, MeasurementContext};
-use crate::params::{Axis, EffectParam, ParamId, ParamUnit};
 use crate::units::JointKind;
 use crate::units::MAX_JOINTS;
+pub use crate::vocabulary::EffectKind;
+use crate::vocabulary::{Axis, EffectParam, ParamId, ParamUnit};
 
 /// Writes the `ErrorEffect` methods of a per-joint effect that follow from its [`PerJoint`]
 /// (`per_joint!(instances: X)`), and from its [`JointParam`] too
@@ -146,58 +147,7 @@ pub fn catalog() -> &'static [&'static dyn ErrorEffect] {
     &CATALOG[..]
 }
 
-/// The effect catalog. `name()` gives the exact catalog name used in files and reports.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-pub enum EffectKind {
-    /// `joint-compliance`: theta_i += c_i tau_i
-    JointCompliance,
-    /// `joint-cyclic`: theta_i += s sin(k q_i) + c cos(k q_i)
-    JointCyclic,
-    /// `joint-scale`: theta_i += g_i q_i
-    JointScale,
-    /// `joint-backlash`: theta_i += b_i dir_i
-    JointBacklash,
-    /// `guide-angular`: carriage pitch/yaw/roll as Legendre polynomials of q1
-    GuideAngular,
-    /// `guide-straightness`: lateral carriage deviation as Legendre polynomials of q1
-    GuideStraightness,
-    /// `guide-scale`: d_1 += s q1
-    GuideScale,
-    /// `guide-carriage-tilt`: carriage rotation proportional to the arm's gravity moment
-    GuideCarriageTilt,
-    /// `tool-frame`: lateral offset and tilt of the tool-changer frame
-    ToolFrame,
-    /// `tcp-offset`: error of a TCP's CMM coordinates
-    TcpOffset,
-    /// `position-offset`: error of a calibration position
-    PositionOffset,
-    /// `thermal-drift`: arm length scaling with time or temperature
-    ThermalDrift,
-    /// `hayati-beta`: beta on an MDH row other than 4
-    HayatiBeta,
-    /// an effect added after the original catalog, identified by its own id (the `ID` constant
-    /// of its module; unique, checked by a test)
-    Extension(u8),
-}
-
 impl EffectKind {
-    /// The 13 entries of the original catalog (every registered effect: [`catalog()`]).
-    pub const ALL: [EffectKind; 13] = [
-        EffectKind::JointCompliance,
-        EffectKind::JointCyclic,
-        EffectKind::JointScale,
-        EffectKind::JointBacklash,
-        EffectKind::GuideAngular,
-        EffectKind::GuideStraightness,
-        EffectKind::GuideScale,
-        EffectKind::GuideCarriageTilt,
-        EffectKind::ToolFrame,
-        EffectKind::TcpOffset,
-        EffectKind::PositionOffset,
-        EffectKind::ThermalDrift,
-        EffectKind::HayatiBeta,
-    ];
-
     /// The registered implementation (`None` only for an unregistered extension id).
     pub fn effect(self) -> Option<&'static dyn ErrorEffect> {
         catalog().iter().copied().find(|e| e.kind() == self)
