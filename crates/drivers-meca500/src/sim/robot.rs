@@ -346,29 +346,30 @@ impl SimRobot {
         Ok(())
     }
 
+    /// The replies to a command that is not queued: motor state, queries, settings (a queued
+    /// command that arrives here is accepted into the queue).
     fn request(&mut self, command: Command, now: Duration) -> Vec<Reply> {
-        let one = |c: u16, p: &str| vec![Reply::new(c, p)];
+        if let Some(replies) = self.motor_request(&command, now) {
+            return replies;
+        }
+        if let Some(replies) = self.query(&command, now) {
+            return replies;
+        }
         match command {
-            Command::ActivateRobot => {
-                if self.error.is_some() {
-                    one(code::IN_ERROR, "The robot is in error.")
-                } else if self.estop_pressed {
-                    one(code::ACTIVATION_FAILED, "Activation failed: E-Stop pressed.")
-                } else if self.activated {
-                    self.already(
-                        code::ACTIVATED,
-                        code::ALREADY_ACTIVATED,
-                        "Motors activated.",
-                        "Motors already activated.",
-                    )
-                } else {
-                    self.pending = Some((
-                        now.saturating_add(self.scaled(self.config.activation_time)),
-                        Pending::Activation,
-                    ));
-                    Vec::new()
-                }
-            }
+            Command::SetRtc(_) | Command::Empty => Vec::new(),
+            other => match self.setting(&other, now) {
+                Some(replies) => replies,
+                // unreachable for well-formed input: queued commands are routed elsewhere
+                None => self.accept_queued(other, now).into_iter().collect(),
+            },
+        }
+    }
+
+    /// Activation, homing, error reset, pause/resume/clear; None for another command.
+    fn motor_request(&mut self, command: &Command, now: Duration) -> Option<Vec<Reply>> {
+        let one = |c: u16, p: &str| vec![Reply::new(c, p)];
+        Some(match command {
+            Command::ActivateRobot => self.activate(now),
             Command::DeactivateRobot => {
                 self.stop_motion(now);
                 self.discard_queue();
@@ -377,19 +378,7 @@ impl SimRobot {
                 self.paused_since = None;
                 one(code::DEACTIVATED, "Motors deactivated.")
             }
-            Command::Home => {
-                if !self.activated {
-                    one(code::NOT_ACTIVATED, "The robot is not activated.")
-                } else if self.error.is_some() {
-                    one(code::IN_ERROR, "The robot is in error.")
-                } else if self.homed {
-                    self.already(code::HOMED, code::ALREADY_HOMED, "Homing done.", "Homing already done.")
-                } else {
-                    self.pending =
-                        Some((now.saturating_add(self.scaled(self.config.homing_time)), Pending::Homing));
-                    Vec::new()
-                }
-            }
+            Command::Home => self.home(now),
             Command::ResetError => match &self.error {
                 None => one(code::NO_ERROR_TO_RESET, "There was no error to reset."),
                 Some((c, _)) if NOT_RESETTABLE.contains(c) && (*c != code::ESTOP || self.estop_pressed) => {
@@ -402,7 +391,7 @@ impl SimRobot {
             },
             Command::PauseMotion => {
                 if !self.activated {
-                    return one(code::NOT_ACTIVATED, "The robot is not activated.");
+                    return Some(one(code::NOT_ACTIVATED, "The robot is not activated."));
                 }
                 self.paused_since.get_or_insert(now);
                 one(code::PAUSED, "Motion paused.")
@@ -425,46 +414,102 @@ impl SimRobot {
                 out.extend(discarded);
                 out
             }
-            Command::GetStatusRobot => vec![self.status_word(now).to_reply()],
-            Command::GetJoints => vec![six_reply(code::JOINTS, None, &self.joints_now(now))],
-            Command::GetPose => vec![six_reply(code::POSE, None, &self.pose_now(now))],
+            _ => return None,
+        })
+    }
+
+    /// `ActivateRobot`: refused in error or with the E-Stop pressed, answered at once when
+    /// already active, else pending for the activation time.
+    fn activate(&mut self, now: Duration) -> Vec<Reply> {
+        let one = |c: u16, p: &str| vec![Reply::new(c, p)];
+        if self.error.is_some() {
+            one(code::IN_ERROR, "The robot is in error.")
+        } else if self.estop_pressed {
+            one(code::ACTIVATION_FAILED, "Activation failed: E-Stop pressed.")
+        } else if self.activated {
+            self.already(
+                code::ACTIVATED,
+                code::ALREADY_ACTIVATED,
+                "Motors activated.",
+                "Motors already activated.",
+            )
+        } else {
+            self.pending =
+                Some((now.saturating_add(self.scaled(self.config.activation_time)), Pending::Activation));
+            Vec::new()
+        }
+    }
+
+    /// `Home`: refused when not activated or in error, answered at once when already homed,
+    /// else pending for the homing time.
+    fn home(&mut self, now: Duration) -> Vec<Reply> {
+        let one = |c: u16, p: &str| vec![Reply::new(c, p)];
+        if !self.activated {
+            one(code::NOT_ACTIVATED, "The robot is not activated.")
+        } else if self.error.is_some() {
+            one(code::IN_ERROR, "The robot is in error.")
+        } else if self.homed {
+            self.already(code::HOMED, code::ALREADY_HOMED, "Homing done.", "Homing already done.")
+        } else {
+            self.pending = Some((now.saturating_add(self.scaled(self.config.homing_time)), Pending::Homing));
+            Vec::new()
+        }
+    }
+
+    /// The `Get…` requests (status, joints, pose, frames, firmware, monitoring); None for
+    /// another command.
+    fn query(&self, command: &Command, now: Duration) -> Option<Vec<Reply>> {
+        let reply = match command {
+            Command::GetStatusRobot => self.status_word(now).to_reply(),
+            Command::GetJoints => six_reply(code::JOINTS, None, &self.joints_now(now)),
+            Command::GetPose => six_reply(code::POSE, None, &self.pose_now(now)),
             Command::GetRtTargetJointPos | Command::GetRtJointPos => {
                 let c =
-                    if command == Command::GetRtJointPos { code::RT_JOINTS } else { code::RT_TARGET_JOINTS };
-                vec![six_reply(c, Some(now), &self.joints_now(now))]
+                    if *command == Command::GetRtJointPos { code::RT_JOINTS } else { code::RT_TARGET_JOINTS };
+                six_reply(c, Some(now), &self.joints_now(now))
             }
             Command::GetRtTargetCartPos | Command::GetRtCartPos => {
-                let c = if command == Command::GetRtCartPos { code::RT_CART } else { code::RT_TARGET_CART };
-                vec![six_reply(c, Some(now), &self.pose_now(now))]
+                let c = if *command == Command::GetRtCartPos { code::RT_CART } else { code::RT_TARGET_CART };
+                six_reply(c, Some(now), &self.pose_now(now))
             }
-            Command::GetRobotSerial => vec![Reply::new(code::SERIAL, self.config.serial.clone())],
+            Command::GetRobotSerial => Reply::new(code::SERIAL, self.config.serial.clone()),
             Command::GetFwVersion => {
                 let (a, b, c) = self.config.firmware;
-                vec![Reply::new(code::FW_VERSION, format!("v{a}.{b}.{c}"))]
+                Reply::new(code::FW_VERSION, format!("v{a}.{b}.{c}"))
             }
             Command::GetFwVersionFull => {
                 let (a, b, c) = self.config.firmware;
-                vec![Reply::new(code::FW_VERSION_FULL, format!("{a}.{b}.{c}.0-sim"))]
+                Reply::new(code::FW_VERSION_FULL, format!("{a}.{b}.{c}.0-sim"))
             }
-            Command::GetProductType => vec![Reply::new(code::PRODUCT_TYPE, self.config.model.clone())],
-            Command::GetTrf => vec![six_reply(code::TRF, None, &kinematics::to_xyzabc(&self.trf))],
-            Command::GetWrf => vec![six_reply(code::WRF, None, &kinematics::to_xyzabc(&self.wrf))],
+            Command::GetProductType => Reply::new(code::PRODUCT_TYPE, self.config.model.clone()),
+            Command::GetTrf => six_reply(code::TRF, None, &kinematics::to_xyzabc(&self.trf)),
+            Command::GetWrf => six_reply(code::WRF, None, &kinematics::to_xyzabc(&self.wrf)),
             Command::GetMonitoringInterval => {
-                vec![Reply::new(code::MONITORING_INTERVAL, format_number(self.monitoring_interval_s))]
+                Reply::new(code::MONITORING_INTERVAL, format_number(self.monitoring_interval_s))
             }
-            Command::GetRealTimeMonitoring => vec![self.rt_codes_reply()],
+            Command::GetRealTimeMonitoring => self.rt_codes_reply(),
+            _ => return None,
+        };
+        Some(vec![reply])
+    }
+
+    /// The settings answered at once (monitoring, end-of-block/movement events, queue sync,
+    /// control-port monitoring); None for another command.
+    fn setting(&mut self, command: &Command, now: Duration) -> Option<Vec<Reply>> {
+        let one = |c: u16, p: &str| vec![Reply::new(c, p)];
+        Some(match command {
             Command::SetRealTimeMonitoring(codes) => {
                 self.rt_codes = match codes {
                     RealTimeCodes::All => SUPPORTED_RT_CODES.into_iter().collect(),
                     RealTimeCodes::Codes(c) => {
-                        c.into_iter().filter(|c| SUPPORTED_RT_CODES.contains(c)).collect()
+                        c.iter().copied().filter(|c| SUPPORTED_RT_CODES.contains(c)).collect()
                     }
                 };
                 vec![self.rt_codes_reply()]
             }
             Command::SetMonitoringInterval(t) => {
-                if (0.001..=1.0).contains(&t) {
-                    self.monitoring_interval_s = t;
+                if (0.001..=1.0).contains(t) {
+                    self.monitoring_interval_s = *t;
                     Vec::new()
                 } else {
                     self.enter_error(code::BAD_ARGUMENTS, "Monitoring interval out of range.", now);
@@ -472,16 +517,16 @@ impl SimRobot {
                 }
             }
             Command::SetEob(e) => {
-                self.eob_events = e;
-                if e {
+                self.eob_events = *e;
+                if *e {
                     one(code::EOB_ON, "End of block is enabled.")
                 } else {
                     one(code::EOB_OFF, "End of block is disabled.")
                 }
             }
             Command::SetEom(e) => {
-                self.eom_events = e;
-                if e {
+                self.eom_events = *e;
+                if *e {
                     one(code::EOM_ON, "End of movement is enabled.")
                 } else {
                     one(code::EOM_OFF, "End of movement is disabled.")
@@ -489,19 +534,15 @@ impl SimRobot {
             }
             Command::SyncCmdQueue(n) => one(code::SYNC, &n.to_string()),
             Command::SetCtrlPortMonitoring(e) => {
-                self.ctrl_port_monitoring = e;
-                let mut out = one(code::CTRL_PORT_MONITORING, if e { "1" } else { "0" });
-                if e {
+                self.ctrl_port_monitoring = *e;
+                let mut out = one(code::CTRL_PORT_MONITORING, if *e { "1" } else { "0" });
+                if *e {
                     out.push(self.status_word(now).to_reply());
                 }
                 out
             }
-            Command::SetRtc(_) | Command::Empty => Vec::new(),
-            queued => {
-                // unreachable for well-formed input: queued commands are routed elsewhere
-                self.accept_queued(queued, now).into_iter().collect()
-            }
-        }
+            _ => return None,
+        })
     }
 
     fn already(&self, new_fw: u16, old_fw: u16, new_text: &str, old_text: &str) -> Vec<Reply> {
