@@ -7,7 +7,9 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use vatcal_core::{CellFile, Frame, JointKind, JointVector, MeasurementContext, ParamSet};
+use vatcal_core::{
+    CellFile, EffectSpec, Frame, JointKind, JointVector, MeasurementContext, ParamId, ParamSet,
+};
 use vatcal_gravity_torque::{GravityModel, gravity_torques_n};
 use vatcal_kinematics::Model;
 
@@ -33,6 +35,25 @@ fn bench_kinematics(c: &mut Criterion) {
     let ctx = MeasurementContext::default();
     c.bench_function("kinematics/fk_tcp/with_compliance", |b| {
         b.iter(|| model.tcp_position(black_box(&q), 2).expect("fk"))
+    });
+    // a discovered-like model: catalog effects on top (their values are read inside every FK)
+    let mut discovered = model.clone();
+    for spec in [
+        EffectSpec::JointCyclic { joint: 2, harmonic: 1 },
+        EffectSpec::JointCyclic { joint: 3, harmonic: 1 },
+        EffectSpec::JointScale { joint: 4 },
+        EffectSpec::GuideAngular { order: 2 },
+        EffectSpec::GuideStraightness { order: 3 },
+        EffectSpec::GuideCarriageTilt,
+    ] {
+        discovered.enable_effect(spec).expect("effect");
+    }
+    let effect_params: Vec<ParamId> =
+        discovered.all_params().0.into_iter().filter(|p| matches!(p, ParamId::Effect(_))).collect();
+    let values: Vec<f64> = (0..effect_params.len()).map(|k| 1e-5 * (k as f64 + 1.0)).collect();
+    discovered.set_params(&ParamSet(effect_params), &values).expect("effect values");
+    c.bench_function("kinematics/fk_tcp/with_effects", |b| {
+        b.iter(|| discovered.tcp_position(black_box(&q), 2).expect("fk"))
     });
     c.bench_function("kinematics/fk_tcp/nominal", |b| {
         b.iter(|| nominal.tcp_position(black_box(&q), 2).expect("fk"))

@@ -2,7 +2,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 use vatcal_core::effects::{EffectInputs, Hook};
-use vatcal_core::params::Axis;
+use vatcal_core::params::{Axis, EffectParam};
 use vatcal_core::{Frame, JointKind, JointVector, MAX_JOINTS, MeasurementContext};
 
 use vatcal_core::frame::{rot_x as rx, rot_y as ry, rot_z as rz};
@@ -384,9 +384,12 @@ impl Model {
     /// only when an effect is on). One dynamic call per effect, none per joint.
     fn effect_state(&self, x: &EffectInputs<'_>) -> EffectState {
         let mut st = EffectState::default();
-        for (spec, effect) in self.effects.iter().zip(&self.effect_impls) {
+        for ((spec, effect), table) in
+            self.effects.iter().zip(&self.effect_impls).zip(&self.effect_value_tables)
+        {
+            let mut cursor = EffectValueCursor { table, next: 0 };
             effect.contributions(spec, x, &mut |param, hook, coefficient| {
-                let v = self.effect_value(param) * coefficient;
+                let v = cursor.value(param) * coefficient;
                 match hook {
                     Hook::Joint(j) => {
                         if let Some(o) = st.joint.get_mut((j as usize).wrapping_sub(1)) {
@@ -835,5 +838,33 @@ mod tests {
         check(&model, "effect switched on");
         let reloaded = Model::from_cell(&model.to_cell()).expect("round trip");
         check(&reloaded, "cell file round trip");
+    }
+}
+
+/// Reads one effect's parameter values from its table ([`Model`]'s `effect_value_tables`):
+/// effects report their hooks in the order of their parameters, so the next entry is almost
+/// always the one asked for (O(1)); otherwise a scan of the effect's few parameters. A parameter
+/// the table lacks (a built-in effect's) reads 0, as the map did.
+struct EffectValueCursor<'a> {
+    table: &'a [(EffectParam, f64)],
+    next: usize,
+}
+
+impl EffectValueCursor<'_> {
+    #[inline]
+    fn value(&mut self, param: EffectParam) -> f64 {
+        if let Some((p, v)) = self.table.get(self.next)
+            && *p == param
+        {
+            self.next += 1;
+            return *v;
+        }
+        match self.table.iter().position(|(p, _)| *p == param) {
+            Some(k) => {
+                self.next = k + 1;
+                self.table[k].1
+            }
+            None => 0.0,
+        }
     }
 }

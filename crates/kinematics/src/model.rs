@@ -117,6 +117,10 @@ pub struct Model {
     /// the registered implementation of each switched-on effect, `effect_impls[k]` for
     /// `effects[k]` (looked up once, not per sample)
     pub(crate) effect_impls: Vec<&'static dyn ErrorEffect>,
+    /// the values of each switched-on effect's parameters, `effect_value_tables[k]` for
+    /// `effects[k]` in the order of its [`EffectSpec::params`] (a copy of `effect_values` the
+    /// FK reads without a map lookup per hook; kept in sync by `refresh_caches`)
+    pub(crate) effect_value_tables: Vec<Vec<(EffectParam, f64)>>,
     template: CellFile,
 }
 
@@ -227,6 +231,7 @@ impl Model {
             gravity,
             effects: Vec::new(),
             effect_values: BTreeMap::new(),
+            effect_value_tables: Vec::new(),
             thermal_reference_c: 20.0,
             row_fixed: [Frame::identity(); MAX_JOINTS],
             row_trig: [(0.0, 1.0); MAX_JOINTS],
@@ -693,11 +698,20 @@ impl Model {
         s
     }
 
-    pub(crate) fn effect_value(&self, p: EffectParam) -> f64 {
-        self.effect_values.get(&ParamId::Effect(p)).copied().unwrap_or(0.0)
-    }
-
     pub(crate) fn refresh_caches(&mut self) {
+        self.effect_value_tables = self
+            .effects
+            .iter()
+            .map(|spec| {
+                spec.params()
+                    .into_iter()
+                    .filter_map(|id| match id {
+                        ParamId::Effect(p) => Some((p, self.effect_values.get(&id).copied().unwrap_or(0.0))),
+                        _ => None,
+                    })
+                    .collect()
+            })
+            .collect();
         for (k, row) in self.rows[..self.n].iter().enumerate() {
             self.row_fixed[k] = row_fixed_frame(row);
             self.row_trig[k] = row.alpha.sin_cos();
