@@ -653,6 +653,34 @@ fn insert_transform(w: &Frame, t: [f64; 3], ex: f64, ey: f64, ez: Option<f64>) -
     (local, ax)
 }
 
+/// Reads one effect's parameter values from its table ([`Model`]'s `effect_value_tables`):
+/// effects report their hooks in the order of their parameters, so the next entry is almost
+/// always the one asked for (O(1)); otherwise a scan of the effect's few parameters. A parameter
+/// the table lacks (a built-in effect's) reads 0, as the map did.
+struct EffectValueCursor<'a> {
+    table: &'a [(EffectParam, f64)],
+    next: usize,
+}
+
+impl EffectValueCursor<'_> {
+    #[inline]
+    fn value(&mut self, param: EffectParam) -> f64 {
+        if let Some((p, v)) = self.table.get(self.next)
+            && *p == param
+        {
+            self.next += 1;
+            return *v;
+        }
+        match self.table.iter().position(|(p, _)| *p == param) {
+            Some(k) => {
+                self.next = k + 1;
+                self.table[k].1
+            }
+            None => 0.0,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use proptest::prelude::*;
@@ -838,33 +866,5 @@ mod tests {
         check(&model, "effect switched on");
         let reloaded = Model::from_cell(&model.to_cell()).expect("round trip");
         check(&reloaded, "cell file round trip");
-    }
-}
-
-/// Reads one effect's parameter values from its table ([`Model`]'s `effect_value_tables`):
-/// effects report their hooks in the order of their parameters, so the next entry is almost
-/// always the one asked for (O(1)); otherwise a scan of the effect's few parameters. A parameter
-/// the table lacks (a built-in effect's) reads 0, as the map did.
-struct EffectValueCursor<'a> {
-    table: &'a [(EffectParam, f64)],
-    next: usize,
-}
-
-impl EffectValueCursor<'_> {
-    #[inline]
-    fn value(&mut self, param: EffectParam) -> f64 {
-        if let Some((p, v)) = self.table.get(self.next)
-            && *p == param
-        {
-            self.next += 1;
-            return *v;
-        }
-        match self.table.iter().position(|(p, _)| *p == param) {
-            Some(k) => {
-                self.next = k + 1;
-                self.table[k].1
-            }
-            None => 0.0,
-        }
     }
 }
