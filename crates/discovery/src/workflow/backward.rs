@@ -1,0 +1,143 @@
+//! **The backward check** after an addition: earlier effects that no longer lower the held-out
+//! error given the new one are removed.
+
+use rayon::prelude::*;
+use vatcal_core::effects::EffectSpec;
+use vatcal_core::{ParamId, ParamSet};
+use vatcal_kinematics::Model;
+
+use super::context::{Context, CrossValidation};
+use super::report::{AddedEffect, RemovedEffect};
+use super::size::{noise_sigma, strong_z};
+use crate::DiscoveryError;
+use crate::criteria::HeldOutComparison;
+use crate::fit::{Fit, fit};
+
+/// `start` with the effects `specs` switched on and every parameter of `params` set to its
+/// value in `values_from` (effects not in `specs` are absent, their parameters unfitted).
+pub(super) fn rebuild(
+    start: &Model,
+    specs: &[EffectSpec],
+    values_from: &Model,
+    params: &ParamSet,
+) -> Result<Model, String> {
+    let mut m = start.clone();
+    for s in specs {
+        m.enable_effect(*s).map_err(|e| e.to_string())?;
+    }
+    for p in params.iter() {
+        let v = values_from.param(*p).map_err(|e| e.to_string())?;
+        m.set_param(*p, v).map_err(|e| e.to_string())?;
+    }
+    Ok(m)
+}
+
+/// Backward check after an addition: every earlier added effect must still lower the held-out
+/// error of the confirmation data by more than one standard error (and by more than the
+/// noise) given the others; the weakest one that does not is removed and the model refitted,
+/// until all pass. Returns the removed effects.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn backward_check(
+    start: &Model,
+    added: &mut Vec<AddedEffect>,
+    fresh: usize,
+    current: &mut Fit,
+    round: usize,
+    with_current: &CrossValidation,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Result<Vec<RemovedEffect>, DiscoveryError> {
+    let mut removed = Vec::new();
+    let mut recomputed: Option<CrossValidation> = None;
+    // parameters of the effect(s) just added: an earlier effect can only have become redundant
+    // if its parameters are correlated with these
+    let newest: Vec<usize> = added
+        .iter()
+        .rev()
+        .take(fresh)
+        .flat_map(|a| a.spec.params())
+        .filter_map(|p| current.params.index_of(p))
+        .collect();
+    // a single new effect was just confirmed alone and is not re-tested; every member of a
+    // block is (each must still lower the held-out error given the others)
+    let exempt = usize::from(fresh == 1);
+    while added.len() >= 2 {
+        let rank = current.params.len();
+        let _ = fresh;
+        let negligible_below_mm =
+            ctx.options.negligible_factor * 3f64.sqrt() * noise_sigma(ctx, current, ctx.measurements, rank);
+        // without a noise reference an effect that still lowers the held-out error by
+        // `strong_z_factor` standard errors is kept whatever σ̂ says
+        let strong = strong_z(ctx, 1.0);
+        // never below the physical floor of the noise (`DiscoverOptions::noise_floor_mm`)
+        let floor_mm = ctx.options.negligible_factor * 3f64.sqrt() * ctx.options.noise_floor_mm;
+        let with = recomputed.as_ref().unwrap_or(with_current);
+        let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
+        // the newest effect was just confirmed; check the earlier ones
+        let checked: Vec<usize> = (0..added.len() - exempt.min(added.len()))
+            .filter(|&k| {
+                let own_idx: Vec<usize> =
+                    added[k].spec.params().iter().filter_map(|p| current.params.index_of(*p)).collect();
+                recomputed.is_some()
+                    || own_idx.iter().any(|a| {
+                        newest.iter().any(|b| {
+                            current
+                                .correlation(*a, *b)
+                                .is_none_or(|c| c.abs() >= ctx.options.redundancy_correlation)
+                        })
+                    })
+            })
+            .collect();
+        // each check (a cross-validation without one effect, and its refit) is independent:
+        // in parallel, the weakest chosen in effect order as before
+        let current_ref: &Fit = current;
+        let added_ref: &[AddedEffect] = added;
+        let outcomes: Vec<Option<(HeldOutComparison, Option<Fit>)>> = checked
+            .par_iter()
+            .map(|&k| {
+                let own: Vec<ParamId> = added_ref[k].spec.params();
+                let params =
+                    ParamSet(current_ref.params.iter().copied().filter(|p| !own.contains(p)).collect());
+                let specs: Vec<EffectSpec> =
+                    added_ref.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, a)| a.spec).collect();
+                let base = rebuild(start, &specs, &current_ref.model, &params).ok()?;
+                let without = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
+                let h = HeldOutComparison::new(&without.errors, &with.errors);
+                let keep = h.z > 1.0
+                    && h.change_rms_mm >= floor_mm
+                    && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+                if keep {
+                    return Some((h, None));
+                }
+                Some((h, fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()))
+            })
+            .collect();
+        for (&k, outcome) in checked.iter().zip(outcomes) {
+            let Some((h, refit)) = outcome else { continue };
+            let keep = h.z > 1.0
+                && h.change_rms_mm >= floor_mm
+                && (h.change_rms_mm >= negligible_below_mm || strong.is_some_and(|z| h.z >= z));
+            if keep {
+                continue;
+            }
+            let Some(refit) = refit else {
+                notes.push(format!("backward check: refit without {} failed; kept", added[k].label));
+                continue;
+            };
+            if weakest.as_ref().is_none_or(|(_, w, _)| h.z < w.z) {
+                weakest = Some((k, h, refit));
+            }
+        }
+        let Some((k, h, refit)) = weakest else { break };
+        let gone = added.remove(k);
+        removed.push(RemovedEffect {
+            label: gone.label,
+            added_in_round: gone.round,
+            removed_in_round: round,
+            heldout: h,
+        });
+        *current = refit;
+        recomputed = Some(ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds));
+    }
+    Ok(removed)
+}

@@ -1,0 +1,69 @@
+//! **The block step**: when no candidate passes alone, the ones that each helped by more than
+//! one standard error are refitted and confirmed together.
+
+use vatcal_core::ParamId;
+use vatcal_core::effects::EffectSpec;
+
+use super::candidate::Candidate;
+use super::confirm::refit_effects;
+use super::context::{Context, CrossValidation};
+use super::decide::{HELDOUT_NOT_LOWER, decide};
+use super::report::{CandidateStatus, RefitEvidence};
+use super::screen::Thresholds;
+use super::veto::{VALIDATION_WORSE, validation_worse};
+use crate::fit::Fit;
+
+/// Whether a refitted candidate failed **only** the held-out z-test but still lowered the
+/// held-out error by more than one standard error and changed the predictions by more than
+/// the noise: a member of the round's block.
+pub(super) fn block_member(c: &Candidate) -> bool {
+    let Some((e, f, _)) = &c.refit else { return false };
+    matches!(&c.status, CandidateStatus::Rejected(why) if why.starts_with(HELDOUT_NOT_LOWER))
+        && f.converged
+        && e.implausible.is_none()
+        && e.heldout.z > 1.0
+        && e.heldout.change_rms_mm >= e.negligible_below_mm.max(e.floor_below_mm)
+}
+
+/// The block step of a round in which no candidate passed alone (module docs): the refitted
+/// candidates that each lowered the held-out error by more than one standard error are
+/// refitted **together** and confirmed together at `z_block` (one more test of the round).
+/// Returns the members' indices and the block's evidence, fit and confirmation CV when the
+/// block passes the decision rule.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn block_step(
+    candidates: &[Candidate],
+    current: &Fit,
+    j0: &faer::Mat<f64>,
+    rank0: usize,
+    held0: &CrossValidation,
+    z_block: f64,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Option<(Vec<usize>, RefitEvidence, Fit, CrossValidation)> {
+    let members: Vec<usize> = (0..candidates.len()).filter(|i| block_member(&candidates[*i])).collect();
+    if members.len() < 2 {
+        return None;
+    }
+    let effects: Vec<(EffectSpec, Vec<ParamId>)> =
+        members.iter().map(|i| (candidates[*i].spec, candidates[*i].new_params.clone())).collect();
+    let th = Thresholds { ln_screen: f64::NAN, z_required: z_block, far_from_floor: false };
+    match refit_effects(current, j0, rank0, held0, &effects, &th, ctx, notes) {
+        Ok((evidence, fit1, held1)) => match decide(&evidence, &fit1) {
+            CandidateStatus::PassedNotBest if validation_worse(current, &fit1, ctx) => {
+                notes.push(format!("block not added: {VALIDATION_WORSE}"));
+                None
+            }
+            CandidateStatus::PassedNotBest => Some((members, evidence, fit1, held1)),
+            other => {
+                let label = effects.iter().map(|(s, _)| s.label()).collect::<Vec<_>>().join(" + ");
+                notes.push(format!("block {label} not added: {other:?}"));
+                None
+            }
+        },
+        Err(why) => {
+            notes.push(format!("block refit failed: {why}"));
+            None
+        }
+    }
+}

@@ -1,0 +1,149 @@
+//! The record of an added effect: its values, evidence, gap before and after, the plot of the
+//! residual against its driver; and the final model's predicted uncertainty.
+
+use std::collections::BTreeMap;
+
+use nalgebra::Vector3;
+use vatcal_core::effects::EffectSpec;
+use vatcal_core::{Measurement, ParamSet};
+use vatcal_kinematics::Model;
+
+use super::candidate::Candidate;
+use super::context::{Context, CrossValidation};
+use super::report::{AddedEffect, DriverPlot, Gap, PredictedUncertainty, RefitEvidence, file_value};
+use crate::DiscoveryError;
+use crate::catalog::{driver_of_in, meaning};
+use crate::fit::Fit;
+use crate::location::PoseData;
+
+pub(super) fn driver_plot(
+    spec: &EffectSpec,
+    model: &Model,
+    ms: &[Measurement],
+    before: &[Vector3<f64>],
+    after: &[Vector3<f64>],
+) -> Result<DriverPlot, DiscoveryError> {
+    let n = model.joint_count() as u8;
+    let driver = driver_of_in(spec, model.guide_joint().unwrap_or(1) as u8, n);
+    let pose = PoseData::of(model, ms)?;
+    let joint = spec.joint().map(usize::from).filter(|j| model.is_revolute(*j));
+    let y_label = match joint {
+        Some(j) => format!("residual as joint-{j} angle error [urad]"),
+        None => "residual norm [um]".to_string(),
+    };
+    let mut plot = DriverPlot {
+        x_label: driver.label_for(model.joint_kinds()),
+        y_label,
+        x: Vec::new(),
+        before: Vec::new(),
+        after: Vec::new(),
+    };
+    for (i, m) in ms.iter().enumerate() {
+        let Some(x) = driver.value(i, m, &pose) else { continue };
+        let y = |r: &Vector3<f64>| match (joint, pose.joint_directions.as_ref()) {
+            (Some(j), Some(dirs)) => {
+                let d = dirs[i][j - 1];
+                let l2 = d.norm_squared();
+                if l2 > 0.0 { 1e6 * r.dot(&d) / l2 } else { 0.0 }
+            }
+            _ => 1e3 * r.norm(),
+        };
+        plot.x.push(x);
+        plot.before.push(y(&before[i]));
+        plot.after.push(y(&after[i]));
+    }
+    Ok(plot)
+}
+
+/// The record of an added candidate (its refit must be present).
+pub(super) fn added_effect(
+    c: &Candidate,
+    round: usize,
+    current: &Fit,
+    gap_before: &Gap,
+    ctx: &Context<'_>,
+) -> Result<(AddedEffect, Fit, CrossValidation), DiscoveryError> {
+    let lost = || DiscoveryError::Numerical("internal: the added candidate has no refit or score".into());
+    let (evidence, fit1, _) = c.refit.as_ref().ok_or_else(lost)?;
+    let held1 = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
+    let gap_after = ctx.gap(&fit1.model, &held1)?;
+    let added = added_record(c, evidence, fit1, round, current, gap_before, &gap_after, ctx)?;
+    Ok((added, fit1.clone(), held1))
+}
+
+/// The record of candidate `c` added with the refit `fit1` (its own or a block's) and its
+/// evidence; values and standard errors restricted to `c`'s parameters.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn added_record(
+    c: &Candidate,
+    evidence: &RefitEvidence,
+    fit1: &Fit,
+    round: usize,
+    current: &Fit,
+    gap_before: &Gap,
+    gap_after: &Gap,
+    ctx: &Context<'_>,
+) -> Result<AddedEffect, DiscoveryError> {
+    let lost = || DiscoveryError::Numerical("internal: the added candidate has no score".into());
+    let score = c.score.ok_or_else(lost)?;
+    let keys: Vec<String> = c.new_params.iter().map(|p| file_value(*p, 0.0).0).collect();
+    let own = |m: &BTreeMap<String, f64>| -> BTreeMap<String, f64> {
+        m.iter().filter(|(k, _)| keys.contains(k)).map(|(k, v)| (k.clone(), *v)).collect()
+    };
+    let plot = driver_plot(&c.spec, &fit1.model, ctx.measurements, &current.residuals, &fit1.residuals)?;
+    Ok(AddedEffect {
+        effect: c.spec.kind().name().to_string(),
+        joint: c.spec.joint(),
+        label: c.spec.label(),
+        meaning: meaning(c.spec.kind()).to_string(),
+        spec: c.spec,
+        round,
+        values: own(&evidence.values),
+        std_errors: own(&evidence.std_errors),
+        novelty: c.directions.as_ref().map_or(0.0, |d| d.novelty),
+        score,
+        comparison: evidence.comparison,
+        heldout: evidence.heldout,
+        confounding: evidence.confounding.clone(),
+        gap_before_mm: gap_before.headline_mm(),
+        gap_after_mm: gap_after.headline_mm(),
+        gap_before: gap_before.clone(),
+        gap_after: gap_after.clone(),
+        plot,
+    })
+}
+
+/// Predicted TCP uncertainty of the final model at the validation poses (or the measurement
+/// poses), without and with the systematic CMM errors.
+pub(super) fn predicted_uncertainty(
+    model: &Model,
+    params: &ParamSet,
+    ctx: &Context<'_>,
+) -> Result<PredictedUncertainty, String> {
+    let id = vatcal_identification::identify(model, ctx.measurements, params, &ctx.options.identify)
+        .map_err(|e| e.to_string())?;
+    let cmm = vatcal_identification::CmmUncertainty::new(
+        &id,
+        ctx.measurements,
+        &ctx.options.identify.weights,
+        ctx.options.cmm_sigma_mm,
+    )
+    .map_err(|e| e.to_string())?;
+    let (label, poses) = match ctx.validation {
+        Some(v) if !v.is_empty() => ("validation", v),
+        _ => ("measurements", ctx.measurements),
+    };
+    let (mut stat, mut total) = (0.0, 0.0);
+    for m in poses {
+        stat += id.predicted_position_sigma(&m.q, m.tcp).map_err(|e| e.to_string())?.norm();
+        total += cmm.total_sigma(&id, &m.q, m.tcp).map_err(|e| e.to_string())?.norm();
+    }
+    let n = poses.len().max(1) as f64;
+    Ok(PredictedUncertainty {
+        poses: label.to_string(),
+        count: poses.len(),
+        statistical_mean_mm: stat / n,
+        with_cmm_mean_mm: total / n,
+        cmm_sigma_mm: ctx.options.cmm_sigma_mm,
+    })
+}
