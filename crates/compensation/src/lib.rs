@@ -40,13 +40,16 @@
 //! See `docs/compensation.md`.
 
 mod accuracy;
+mod branch;
 mod each;
 mod error;
 mod path;
 mod pose;
 pub mod solve;
+mod split;
 
 pub use accuracy::{ErrorSummary, PathAccuracy, path_accuracy};
+pub use branch::Branch;
 pub use each::{EachOptions, Preference};
 pub use error::CompensationError;
 pub use path::{Compensated, Compensator, CorrectedPose, PathOptions, PathResult, RowOutcome, SkippedRow};
@@ -54,4 +57,5 @@ pub use pose::{
     PoseRequest, ToolTarget, euler_xyz_deg_to_rotation, frame_to_meca_pose, meca_pose_to_frame,
     rotation_to_euler_xyz_deg,
 };
-pub use solve::{Branch, JointSplit, SolveOptions};
+pub use solve::SolveOptions;
+pub use split::JointSplit;

@@ -16,134 +16,14 @@
 
 use std::fmt;
 
-use nalgebra::{Matrix6, Vector6};
-use vatcal_core::{Frame, JointVector, MAX_JOINTS};
+use nalgebra::Vector6;
+use vatcal_core::{Frame, JointVector};
 use vatcal_kinematics::{Chain, Model};
-use vatcal_planning::ik::{ArmGeometry, rotation_vector, wrap_angle};
+use vatcal_planning::ik::rotation_vector;
 
-use crate::{CompensationError, ToolTarget};
-
-/// Which joints of a chain a pose request gives and which the solver finds.
-///
-/// A pose fixes six degrees of freedom, so exactly six joints are solved for:
-/// * a chain of **six** joints: all six (the request gives none; columns
-///   `tcp,x,y,z,alpha,beta,gamma`);
-/// * a chain of **more than six** joints: the request gives the prismatic joints (the
-///   "external axes", e.g. the canonical cell's guide `q1`), and there must be exactly
-///   `N − 6` of them, so that six joints are left;
-/// * a chain of **fewer than six** joints cannot reach an arbitrary pose: an error (compensate
-///   positions only with a six-joint model, or extend the chain).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct JointSplit {
-    n: usize,
-    given: [bool; MAX_JOINTS],
-    /// 0-based indices of the solved joints, in chain order
-    free: [usize; 6],
-    free_revolute: [bool; 6],
-}
-
-impl JointSplit {
-    /// The split of `model`'s chain (see the type docs).
-    ///
-    /// # Errors
-    /// [`CompensationError::UnsupportedChain`] for fewer than six joints, or more than six
-    /// joints whose prismatic joints are not exactly `N − 6`.
-    pub fn of(model: &Model) -> Result<Self, CompensationError> {
-        let kinds = model.joint_kinds();
-        let n = kinds.len();
-        let unsupported =
-            |reason: String| CompensationError::UnsupportedChain { chain: model.describe_chain(), reason };
-        if n < 6 {
-            return Err(unsupported(format!(
-                "a pose (position and orientation: 6 degrees of freedom) needs at least 6 joints; \
-                 {n} joints cannot reach an arbitrary pose"
-            )));
-        }
-        let mut given = [false; MAX_JOINTS];
-        if n > 6 {
-            let prismatic = kinds.iter().filter(|k| !k.is_revolute()).count();
-            if prismatic != n - 6 {
-                return Err(unsupported(format!(
-                    "a request gives the prismatic joints (external axes) and the pose determines the \
-                     other six; this chain has {prismatic} prismatic joint(s), so {} joints would be left \
-                     for the 6 degrees of freedom of a pose",
-                    n - prismatic
-                )));
-            }
-            for (g, k) in given.iter_mut().zip(kinds) {
-                *g = !k.is_revolute();
-            }
-        }
-        let mut free = [0; 6];
-        let mut free_revolute = [false; 6];
-        for (slot, k) in (0..n).filter(|k| !given[*k]).enumerate() {
-            free[slot] = k;
-            free_revolute[slot] = kinds[k].is_revolute();
-        }
-        Ok(Self { n, given, free, free_revolute })
-    }
-
-    /// Number of joints of the chain.
-    pub fn joint_count(&self) -> usize {
-        self.n
-    }
-
-    /// The joints a request gives (1-based, in chain order).
-    pub fn given_joints(&self) -> impl Iterator<Item = usize> + '_ {
-        (0..self.n).filter(|k| self.given[*k]).map(|k| k + 1)
-    }
-
-    /// The six joints the solver finds (1-based, in chain order).
-    pub fn solved_joints(&self) -> [usize; 6] {
-        self.free.map(|k| k + 1)
-    }
-
-    /// 0-based indices of the solved joints.
-    pub(crate) fn free(&self) -> &[usize; 6] {
-        &self.free
-    }
-
-    /// True when solved joint `slot` (0..6) is revolute.
-    pub(crate) fn free_revolute(&self, slot: usize) -> bool {
-        self.free_revolute[slot]
-    }
-
-    /// `q` with its given joints set to the values in `given`.
-    #[inline]
-    pub(crate) fn apply_given(&self, q: &mut JointVector, given: &JointVector) {
-        for k in 0..self.n {
-            if self.given[k] {
-                q[k] = given[k];
-            }
-        }
-    }
-
-    /// The 6×6 Jacobian of the tool frame with respect to the solved joints: column
-    /// `[z_i × (p − o_i); z_i]` for a revolute and `[z_i; 0]` for a prismatic joint `i` (world
-    /// axes of MDH frame `i`; rows: translation, then rotation). On the canonical cell this is
-    /// `vatcal_planning::ik::tool_jacobian`.
-    #[inline]
-    pub fn jacobian(&self, chain: &Chain) -> Matrix6<f64> {
-        let p = chain.tool.p;
-        let mut j = Matrix6::zeros();
-        for (c, &k) in self.free.iter().enumerate() {
-            let f = &chain.frames[k + 1];
-            let z = f.z_axis();
-            if self.free_revolute[c] {
-                let lin = z.cross(&(p - f.p));
-                for r in 0..3 {
-                    j[(r, c)] = lin[r];
-                    j[(r + 3, c)] = z[r];
-                }
-            } else {
-                for r in 0..3 {
-                    j[(r, c)] = z[r];
-                }
-            }
-        }
-        j
-    }
-}
+use crate::ToolTarget;
+pub use crate::branch::Branch;
+pub use crate::split::JointSplit;
 
 /// Weight of the orientation error against the position error in the step acceptance
 /// (mm per rad).
@@ -305,102 +185,11 @@ pub fn newton(
     }
 }
 
-/// An IK branch.
-///
-/// On the canonical cell (closed-form IK of the Meca500 arm), 0..=7 with the bits of
-/// `vatcal_planning::ik::ArmSolutions`: bit 0 shoulder (set: wrist centre behind the J1 axis),
-/// bit 1 elbow (set: the `−acos` elbow), bit 2 wrist (set: `θ_6 < 0`, cell joint 6 = Meca500
-/// J5).
-///
-/// On any other chain (numerical IK) the branch is the sign of the determinant of the 6×6
-/// Jacobian of the solved joints ([`JointSplit::jacobian`]): [`Branch::DET_POSITIVE`] or
-/// [`Branch::DET_NEGATIVE`]. The solution branches of a six-degree-of-freedom arm are separated
-/// by its singular configurations (`det J = 0`), so two solutions of opposite sign are on
-/// different branches, and a path whose sign changes passes a singularity (a flip).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct Branch(pub u8);
-
-impl Branch {
-    /// Numerical-IK branch class: `det J > 0`.
-    pub const DET_POSITIVE: Branch = Branch(8);
-    /// Numerical-IK branch class: `det J < 0`.
-    pub const DET_NEGATIVE: Branch = Branch(9);
-
-    /// The numerical-IK branch class of a Jacobian determinant.
-    pub fn of_determinant(det: f64) -> Self {
-        if det < 0.0 { Self::DET_NEGATIVE } else { Self::DET_POSITIVE }
-    }
-
-    /// True for a numerical-IK class ([`Branch::DET_POSITIVE`], [`Branch::DET_NEGATIVE`]).
-    pub fn is_determinant_class(self) -> bool {
-        self == Self::DET_POSITIVE || self == Self::DET_NEGATIVE
-    }
-
-    /// The branch as written in the `branch` column: `0..7` on the canonical cell, `+` / `-`
-    /// (sign of `det J`) for a numerical-IK class.
-    pub fn column(self) -> String {
-        match self {
-            Self::DET_POSITIVE => "+".into(),
-            Self::DET_NEGATIVE => "-".into(),
-            b => b.0.to_string(),
-        }
-    }
-
-    /// The branch of arm joints `q` on the closed-form geometry `arm` (a calibrated model's
-    /// arm is close enough: branches differ by sign changes far from its small errors, except
-    /// right at a singularity).
-    pub fn of(arm: &ArmGeometry, q: &JointVector) -> Self {
-        let q_arm: [f64; 6] = std::array::from_fn(|k| q[k + 1]);
-        let theta: [f64; 6] = std::array::from_fn(|k| q_arm[k] + arm.theta_offset_rad[k]);
-        let tool = arm.forward(&q_arm);
-        let w = tool.p - tool.z_axis() * arm.flange_mm;
-        let (s2, c2) = theta[0].sin_cos();
-        let shoulder = w.x * c2 + w.y * s2 < 0.0;
-        let delta = arm.forearm_mm.atan2(arm.elbow_offset_mm);
-        let elbow = wrap_angle(theta[2] + delta) < 0.0;
-        let wrist = wrap_angle(theta[4]) < 0.0;
-        Self(u8::from(shoulder) | (u8::from(elbow) << 1) | (u8::from(wrist) << 2))
-    }
-
-    /// Shoulder bit: wrist centre behind the J1 axis.
-    pub fn shoulder_back(self) -> bool {
-        self.0 & 1 != 0
-    }
-
-    /// Elbow bit: the `−acos` elbow solution.
-    pub fn elbow_down(self) -> bool {
-        self.0 & 2 != 0
-    }
-
-    /// Wrist bit: `θ_6 < 0` (Meca500 J5 negative, up to its offset).
-    pub fn wrist_negative(self) -> bool {
-        self.0 & 4 != 0
-    }
-}
-
-impl fmt::Display for Branch {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            Self::DET_POSITIVE => return write!(f, "+ (det J > 0)"),
-            Self::DET_NEGATIVE => return write!(f, "- (det J < 0)"),
-            _ => {}
-        }
-        let s = |b: bool| if b { '-' } else { '+' };
-        write!(
-            f,
-            "{} (shoulder {}, elbow {}, wrist {})",
-            self.0,
-            s(self.shoulder_back()),
-            s(self.elbow_down()),
-            s(self.wrist_negative())
-        )
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use vatcal_core::CellFile;
+    use vatcal_planning::ik::ArmGeometry;
 
     fn nominal() -> Model {
         let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-zaber.toml"))
