@@ -1,0 +1,80 @@
+//! Candidate poses `position,tcp,q1..qN`: read with their raw rows, so a selection is written
+//! back with exactly the input's columns.
+
+use std::path::Path;
+
+use vatcal_core::Measurement;
+use vatcal_kinematics::Model;
+
+use crate::columns::required_columns;
+use crate::error::{IoError, csv_error};
+use crate::table::{RowIds, Table};
+use crate::write::writer;
+
+/// A candidate-pose table: the parsed measurements plus the raw rows, so a selection can be
+/// written back with exactly the input's columns.
+#[derive(Debug, Clone)]
+pub struct CandidateTable {
+    /// the header of the input
+    pub headers: csv::StringRecord,
+    /// the raw rows, in input order
+    pub records: Vec<csv::StringRecord>,
+    /// 1-based line numbers of the rows
+    pub lines: Vec<u64>,
+    /// the candidates as probe measurements (the target is the calibration position)
+    pub measurements: Vec<Measurement>,
+}
+
+/// Reads candidate poses `position,tcp,q1..qN` (other columns kept verbatim).
+///
+/// # Examples
+/// Read candidates, keep two and write them back with the input's columns:
+/// ```
+/// use vatcal_core::CellFile;
+/// use vatcal_io::read_candidates;
+/// use vatcal_kinematics::Model;
+///
+/// let model = Model::from_cell(&CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/meca500-table.toml"))?)?;
+/// let dir = std::env::temp_dir();
+/// let (input, output) = (dir.join(format!("vatcal-doc-cand-{}.csv", std::process::id())), dir.join(format!("vatcal-doc-sel-{}.csv", std::process::id())));
+/// std::fs::write(&input, "position,tcp,q1,q2,q3,q4,q5,q6,note\n1,1,0,0,0,0,0,0,a\n1,2,10,0,0,0,0,0,b\n1,3,20,0,0,0,0,0,c\n")?;
+/// let table = read_candidates(&input, &model)?;
+/// table.write_subset(&output, &[2, 0])?;
+/// let text = std::fs::read_to_string(&output)?;
+/// std::fs::remove_file(&input)?;
+/// std::fs::remove_file(&output)?;
+/// assert_eq!(table.measurements.len(), 3);
+/// assert_eq!(text, "position,tcp,q1,q2,q3,q4,q5,q6,note\n1,3,20,0,0,0,0,0,c\n1,1,0,0,0,0,0,0,a\n");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+///
+/// # Errors
+/// As [`read_probe_measurements`](crate::read_probe_measurements) (without the check of the effects'
+/// context columns).
+pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<CandidateTable, IoError> {
+    let path = path.as_ref();
+    let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
+    let ids = RowIds::of(model);
+    let measurements = t.convert(|line, rec| t.probe_measurement(line, rec, model, &ids))?;
+    Ok(CandidateTable {
+        headers: t.headers.clone(),
+        lines: t.rows.iter().map(|r| r.0).collect(),
+        records: t.rows.into_iter().map(|r| r.1).collect(),
+        measurements,
+    })
+}
+
+impl CandidateTable {
+    /// Writes the rows at `indices` (in that order) with the input's header and columns.
+    pub fn write_subset(&self, path: impl AsRef<Path>, indices: &[usize]) -> Result<(), IoError> {
+        let path = path.as_ref();
+        let mut w = writer(path)?;
+        w.write_record(&self.headers).map_err(|e| csv_error(path, &e))?;
+        for &i in indices {
+            if let Some(rec) = self.records.get(i) {
+                w.write_record(rec).map_err(|e| csv_error(path, &e))?;
+            }
+        }
+        w.flush().map_err(|source| IoError::File { path: path.into(), cause: source })
+    }
+}
