@@ -333,16 +333,52 @@ pub(crate) fn convert(
     text: &str,
     origin: &str,
 ) -> Result<ImportedChain, UrdfImportError> {
-    let robot = tree.robot;
+    // 1. the steps from the base link to the tip link and the actuated joints among them
     let (steps, rows) = path_steps(tree, path, base, tip, text, origin)?;
     let n = rows.len();
+    // 2. joint axes and tip pose at q = 0, in the base-link frame
+    let (axes, tip_pose) = axes_at_zero(&steps, n);
+    // 3. MDH frames 1..N at q = 0
+    let frames = mdh_frames(&axes, &tip_pose);
+    // 4. frame 0 = frame 1 at q = 0 (tilted by alpha_0 = 90° when z_1 lies near the base's x
+    //    axis, so that the base angles stay far from gimbal lock)
+    let alpha0 = if frames[0].z_axis().x.abs() > 0.7 { FRAC_PI_2 } else { 0.0 };
+    let f0 = frames[0].compose(&Frame { r: rot_x(-alpha0), p: Vector3::zeros() });
+    // 5. rows
+    let joints = imported_joints(&rows, &f0, &frames);
+    let tcp = frames[n - 1].inverse().transform_point(&tip_pose.p);
+    // 6. inertials
+    let frame_of_joint: HashMap<usize, usize> =
+        rows.iter().enumerate().map(|(i, r)| (r.joint, i + 1)).collect();
+    let carried = carried_links(tree, base, path, &frame_of_joint, origin)?;
+    let (inertials, mut notes) = inertials(tree, &carried, &frames, text, origin)?;
+    let link_radii_mm = link_radii(tree, &carried, n, text, origin, &mut notes)?;
+    if let Some(note) = reversed_joints_note(&rows) {
+        notes.insert(0, note);
+    }
+    let chain = ImportedChain {
+        robot_name: tree.robot.name.clone(),
+        base_link: base.to_string(),
+        tip_link: tip.to_string(),
+        joints,
+        base_in_world: base_in_world(&f0),
+        tcp_mm: [clean(tcp.x), clean(tcp.y), clean(tcp.z)],
+        inertials,
+        link_radii_mm,
+        notes,
+    };
+    // 7. self-check against the URDF's own forward kinematics
+    self_check(&steps, &chain, origin)?;
+    Ok(chain)
+}
 
-    // 2. joint axes and tip pose at q = 0, in the base-link frame. A joint traversed up the
-    //    tree moves the rest of the chain by motion(-q) about its axis, i.e. by +q about the
-    //    opposite direction: z_i points against the URDF axis and q_i keeps the URDF's sign.
+/// The `n` joint axes and the tip pose at q = 0, in the base-link frame. A joint traversed up
+/// the tree moves the rest of the chain by motion(-q) about its axis, i.e. by +q about the
+/// opposite direction: z_i points against the URDF axis and q_i keeps the URDF's sign.
+fn axes_at_zero(steps: &[Step], n: usize) -> (Vec<Line>, Frame) {
     let mut x = Frame::identity();
     let mut axes = Vec::with_capacity(n);
-    for s in &steps {
+    for s in steps {
         if !s.reversed {
             x = x.compose(&s.origin);
         }
@@ -354,9 +390,13 @@ pub(crate) fn convert(
             x = x.compose(&s.origin.inverse());
         }
     }
-    let tip_pose = x;
+    (axes, x)
+}
 
-    // 3. MDH frames 1..N at q = 0
+/// The MDH frames 1..N at q = 0: each on its axis, its x axis along the common normal to the
+/// next axis (the last one's origin the tip point's projection on its axis).
+fn mdh_frames(axes: &[Line], tip_pose: &Frame) -> Vec<Frame> {
+    let n = axes.len();
     let tol_sin = PARALLEL_AXES_TOLERANCE_DEG.to_radians().sin();
     let mut frames: Vec<Frame> = Vec::with_capacity(n);
     let mut preferred = axes[0].point;
@@ -377,16 +417,15 @@ pub(crate) fn convert(
             frames.push(frame_from(o, perp_unit(&z, &hints), z));
         }
     }
+    frames
+}
 
-    // 4. frame 0 = frame 1 at q = 0 (tilted by alpha_0 = 90° when z_1 lies near the base's x
-    //    axis, so that the base angles stay far from gimbal lock)
-    let alpha0 = if frames[0].z_axis().x.abs() > 0.7 { FRAC_PI_2 } else { 0.0 };
-    let f0 = frames[0].compose(&Frame { r: rot_x(-alpha0), p: Vector3::zeros() });
-
-    // 5. rows
-    let mut joints = Vec::with_capacity(n);
+/// The MDH rows of the actuated joints: frame i relative to frame i - 1 (`f0` before the
+/// first), rounded ([`clean`]).
+fn imported_joints(rows: &[Actuated], f0: &Frame, frames: &[Frame]) -> Vec<ImportedJoint> {
+    let mut joints = Vec::with_capacity(rows.len());
     for (i, r) in rows.iter().enumerate() {
-        let prev = if i == 0 { &f0 } else { &frames[i - 1] };
+        let prev = if i == 0 { f0 } else { &frames[i - 1] };
         let [alpha, a, beta, theta, d] = decompose(&prev.inverse().compose(&frames[i]));
         joints.push(ImportedJoint {
             name: r.name.clone(),
@@ -403,48 +442,37 @@ pub(crate) fn convert(
             q_max: r.q_max.map(clean),
         });
     }
+    joints
+}
+
+/// Frame 0 in the base link's frame as the cell file's `[base_in_world]`.
+fn base_in_world(f0: &Frame) -> BaseInWorld {
     let [ba, bb, bg] = xyz_euler(&f0.r);
-    let base_in_world = BaseInWorld {
+    BaseInWorld {
         x_mm: clean(f0.p.x),
         y_mm: clean(f0.p.y),
         z_mm: clean(f0.p.z),
         alpha_deg: clean(ba.to_degrees()),
         beta_deg: clean(bb.to_degrees()),
         gamma_deg: clean(bg.to_degrees()),
-    };
-    let tcp = frames[n - 1].inverse().transform_point(&tip_pose.p);
-
-    // 6. inertials
-    let frame_of_joint: HashMap<usize, usize> =
-        rows.iter().enumerate().map(|(i, r)| (r.joint, i + 1)).collect();
-    let carried = carried_links(tree, base, path, &frame_of_joint, origin)?;
-    let (inertials, mut notes) = inertials(tree, &carried, &frames, text, origin)?;
-    let link_radii_mm = link_radii(tree, &carried, n, text, origin, &mut notes)?;
-    let reversed: Vec<&str> = rows.iter().filter(|r| r.reversed).map(|r| r.name.as_str()).collect();
-    if !reversed.is_empty() {
-        notes.insert(
-            0,
-            format!(
-                "the chain goes up the tree through joint(s) {} (child to parent): their z axes point \
-                 against the URDF axes, so joint values stay the URDF joint positions",
-                reversed.join(", ")
-            ),
-        );
     }
+}
 
-    let chain = ImportedChain {
-        robot_name: robot.name.clone(),
-        base_link: base.to_string(),
-        tip_link: tip.to_string(),
-        joints,
-        base_in_world,
-        tcp_mm: [clean(tcp.x), clean(tcp.y), clean(tcp.z)],
-        inertials,
-        link_radii_mm,
-        notes,
-    };
+/// The note naming the joints the chain traverses up the tree (None when there are none).
+fn reversed_joints_note(rows: &[Actuated]) -> Option<String> {
+    let reversed: Vec<&str> = rows.iter().filter(|r| r.reversed).map(|r| r.name.as_str()).collect();
+    (!reversed.is_empty()).then(|| {
+        format!(
+            "the chain goes up the tree through joint(s) {} (child to parent): their z axes point \
+             against the URDF axes, so joint values stay the URDF joint positions",
+            reversed.join(", ")
+        )
+    })
+}
 
-    // 7. self-check against the URDF's own forward kinematics
+/// Compares the chain's tip with the URDF's own forward kinematics at q = 0 and three spread
+/// postures: [`UrdfImportError::SelfCheck`] beyond [`SELF_CHECK_MM`].
+fn self_check(steps: &[Step], chain: &ImportedChain, origin: &str) -> Result<(), UrdfImportError> {
     let mut worst: f64 = 0.0;
     for sample in 0..4 {
         let q: Vec<f64> = chain
@@ -459,12 +487,12 @@ pub(crate) fn convert(
                 }
             })
             .collect();
-        worst = worst.max((urdf_tip(&steps, &q) - chain_tip(&chain, &q)).norm());
+        worst = worst.max((urdf_tip(steps, &q) - chain_tip(chain, &q)).norm());
     }
     if worst.is_nan() || worst > SELF_CHECK_MM {
         return Err(UrdfImportError::SelfCheck { origin: origin.to_string(), deviation_mm: worst });
     }
-    Ok(chain)
+    Ok(())
 }
 
 /// How a link moves relative to the base link.
