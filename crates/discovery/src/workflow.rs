@@ -45,6 +45,7 @@ mod record;
 mod report;
 mod rivals;
 mod screen;
+mod setup;
 mod size;
 mod stop;
 mod veto;
@@ -59,30 +60,26 @@ pub use screen::{GENERIC_SCREENING_SHARE, MAX_PROPOSED_HARMONIC, candidates, rou
 pub use veto::VETO_Z;
 
 use vatcal_core::{Measurement, ParamSet};
-use vatcal_identification::KindSigmas;
 use vatcal_kinematics::Model;
 use vatcal_observability::assemble_jacobian;
 
 use self::backward::backward_check;
-use self::block::block_step;
+use self::block::add_block;
 use self::borderline::mark_borderline;
 use self::candidate::{Candidate, candidate_score};
 use self::confirm::confirm_screened;
-use self::context::{Context, CrossValidation, chain_scale, summarize_fit, weigh_rows};
-use self::decide::IMPLAUSIBLE;
-use self::record::{added_effect, added_record, predicted_uncertainty};
+use self::context::{Context, CrossValidation, summarize_fit, weigh_rows};
+use self::record::{Addition, added_effect, decision, findings, predicted_uncertainty};
 use self::rivals::choose_among_rivals;
-use self::screen::{Thresholds, score_candidates, screening_weights};
-use self::size::{describe_noise, noise_reference, saturated_sigma};
-use self::stop::{best_passing, gap_over_floor, nothing_added};
+use self::screen::{Thresholds, rank_candidates, score_candidates};
+use self::setup::{Setup, prepare};
+use self::size::{describe_noise, saturated_sigma};
+use self::stop::{best_passing, gap_over_floor};
 use self::veto::veto_on_validation;
 use crate::DiscoveryError;
-use crate::distributions::normal_upper_quantile;
-use crate::fit::fit;
-use crate::folds::{screening_split, stratified_folds};
+use crate::fit::{Fit, fit};
 use crate::linear::ColumnSpace;
-use crate::location::locate;
-use crate::noise::NoiseSource;
+use crate::location::{DriverSummary, locate};
 
 /// Runs the discovery loop from `start` with the fitted parameter set `params` on
 /// `measurements`; `validation` (e.g. tracker measurements) is used only to report the gap.
@@ -132,339 +129,368 @@ pub fn discover(
     if measurements.is_empty() {
         return Err(DiscoveryError::NoMeasurements);
     }
-    let mut notes = Vec::new();
-    let mut options = options.clone();
-    // separate σ for probe and tracker residuals (inverse-variance weights)
-    let first = fit(start, measurements, params, &options.identify)?;
-    let estimated = KindSigmas::estimate(measurements, &first.residuals, params.len());
-    let kinds = start.joint_kinds().to_vec();
-    let pure = if options.use_replicates {
-        crate::noise::pure_error(measurements, &first.residuals, &kinds, options.replicate_tolerance)
-    } else {
-        None
-    };
-    let (reference, source) = noise_reference(pure.as_ref(), options.instrument_sigmas, measurements);
-    let known = reference.filter(|k| k.probe_mm.is_some() && k.tracker_mm.is_some());
-    let kind_sigmas = known.unwrap_or(estimated);
-    let weighted =
-        options.weight_by_kind && kind_sigmas.probe_mm.is_some() && kind_sigmas.tracker_mm.is_some();
-    let mut current = if weighted {
-        options.identify.weights = kind_sigmas.weights();
-        notes.push(format!(
-            "probe and tracker residuals weighted by their {} sigma ({:.4} / {:.4} mm per axis)",
-            match (known.is_some(), source) {
-                (true, NoiseSource::Replicates) => "replicates'",
-                (true, _) => "instruments' known",
-                (false, _) => "own estimated",
-            },
-            kind_sigmas.probe_mm.unwrap_or(0.0),
-            kind_sigmas.tracker_mm.unwrap_or(0.0)
-        ));
-        fit(start, measurements, params, &options.identify)?
-    } else {
-        first
-    };
-    let start_residuals = current.residuals.clone();
-    let is_screen = screening_split(measurements, options.screen_fraction, options.seed);
-    let screen: Vec<Measurement> =
-        measurements.iter().zip(&is_screen).filter(|(_, s)| **s).map(|(m, _)| *m).collect();
-    let confirm_idx: Vec<usize> = (0..measurements.len()).filter(|i| !is_screen[*i]).collect();
-    let confirm_ms: Vec<Measurement> = confirm_idx.iter().map(|i| measurements[*i]).collect();
-    let k = options.folds.max(2);
-    let mut confirm_folds = vec![None; measurements.len()];
-    for (i, f) in confirm_idx.iter().zip(stratified_folds(&confirm_ms, k, options.seed.wrapping_add(1))) {
-        confirm_folds[*i] = Some(f);
+    let setup = prepare(start, measurements, params, validation, options)?;
+    let mut run = Run::new(&setup)?;
+    for index in 1..=setup.ctx.options.max_rounds.max(1) {
+        if !run.round(index, start, &setup.ctx)? {
+            break;
+        }
     }
-    let all_folds = stratified_folds(measurements, k, options.seed).into_iter().map(Some).collect();
-    let split = [screen.len(), confirm_ms.len()];
-    let ctx = Context {
-        measurements,
-        validation,
-        all_folds,
-        confirm_folds,
-        screen,
-        options,
-        reference,
-        saturated_bits: std::sync::atomic::AtomicU64::new(f64::NAN.to_bits()),
-        scale: chain_scale(start, measurements)?,
-    };
-    let options = &ctx.options;
-    let mut skipped_folds = 0;
-    let mut held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
-    skipped_folds += held_all.skipped.len();
-    notes.extend(held_all.skipped.iter().map(|s| format!("held-out gap: skipped {s}")));
-    let initial_gap = ctx.gap(&current.model, &held_all)?;
-    let mut gap = initial_gap.clone();
-    let mut rounds = Vec::new();
-    let mut added_effects: Vec<AddedEffect> = Vec::new();
-    let mut removed_effects = Vec::new();
-    let mut negligible_effects = Vec::new();
-    let mut bound_hits = Vec::new();
-    let mut ambiguities = Vec::new();
-    // confirmation-fold CV of the current model, when already known
-    let mut confirm_cv: Option<CrossValidation> = None;
-    for index in 1..=options.max_rounds.max(1) {
-        let spend = round_spending(index);
+    Ok(run.finish(setup, params))
+}
+
+/// What the loop has found so far.
+struct Run {
+    /// the current model's fit to all data
+    current: Fit,
+    /// its all-data cross-validation
+    held_all: CrossValidation,
+    initial_gap: Gap,
+    gap: Gap,
+    rounds: Vec<Round>,
+    added: Vec<AddedEffect>,
+    removed: Vec<RemovedEffect>,
+    negligible: Vec<NegligibleEffect>,
+    bound_hits: Vec<BoundHit>,
+    ambiguities: Vec<Ambiguity>,
+    /// confirmation-fold CV of the current model, when already known
+    confirm_cv: Option<CrossValidation>,
+    skipped_folds: usize,
+    notes: Vec<String>,
+}
+
+/// The current model at the start of a round: its weighted Jacobian on all data and rank,
+/// the location of its residuals and the summary of its fit.
+struct Base {
+    j0: faer::Mat<f64>,
+    rank0: usize,
+    location: Vec<DriverSummary>,
+    fit: FitSummary,
+}
+
+/// The screening of a round: the candidates (best score first) and the round's thresholds.
+struct Screened {
+    candidates: Vec<Candidate>,
+    th: Thresholds,
+    sigma_saturated: Option<f64>,
+    gap_over_floor: Option<f64>,
+    /// σ̂ of the screening fit
+    sigma_screen: f64,
+}
+
+impl Run {
+    /// The starting model's all-data cross-validation and gap.
+    fn new(setup: &Setup<'_>) -> Result<Self, DiscoveryError> {
+        let ctx = &setup.ctx;
+        let current = setup.current.clone();
+        let mut notes = setup.notes.clone();
+        let held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
+        notes.extend(held_all.skipped.iter().map(|s| format!("held-out gap: skipped {s}")));
+        let initial_gap = ctx.gap(&current.model, &held_all)?;
+        Ok(Self {
+            skipped_folds: held_all.skipped.len(),
+            current,
+            held_all,
+            gap: initial_gap.clone(),
+            initial_gap,
+            rounds: Vec::new(),
+            added: Vec::new(),
+            removed: Vec::new(),
+            negligible: Vec::new(),
+            bound_hits: Vec::new(),
+            ambiguities: Vec::new(),
+            confirm_cv: None,
+            notes,
+        })
+    }
+
+    /// One round: screen, confirm, choose, add, check backward. Returns whether the loop
+    /// goes on (something was added).
+    fn round(&mut self, index: usize, start: &Model, ctx: &Context<'_>) -> Result<bool, DiscoveryError> {
+        let base = self.base(ctx)?;
+        let screen_fit =
+            match fit(&self.current.model, &ctx.screen, &self.current.params, &ctx.options.identify) {
+                Ok(f) => f,
+                Err(e) => {
+                    self.rounds.push(failed_round(index, base, &e, ctx));
+                    return Ok(false);
+                }
+            };
+        let mut s = self.screen(index, &screen_fit, &base, ctx)?;
+        let held0 = self.confirmation_baseline(index, &s, ctx);
+        self.confirm(index, &mut s, &base, &held0, ctx)?;
+        let next = self.choose(index, &mut s.candidates, &base, &held0, ctx)?;
+        let mut decision = decision(next.as_ref(), &s.candidates, s.th.ln_screen);
+        let done = next.is_none();
+        let removed = match next {
+            Some(next) => self.apply(next, index, start, ctx, &mut decision)?,
+            None => Vec::new(),
+        };
+        self.rounds.push(Round {
+            index,
+            fit: base.fit,
+            location: base.location,
+            ln_threshold: s.th.ln_screen,
+            sigma_saturated_mm: s.sigma_saturated,
+            z_required: s.th.z_required,
+            gap_over_floor: s.gap_over_floor,
+            far_from_floor: s.th.far_from_floor,
+            candidates: s.candidates.into_iter().map(candidate_score).collect(),
+            removed: removed.clone(),
+            decision,
+        });
+        self.removed.extend(removed);
+        Ok(!done)
+    }
+
+    /// The current model's weighted Jacobian, rank, residual location and fit summary.
+    fn base(&self, ctx: &Context<'_>) -> Result<Base, DiscoveryError> {
+        let (current, measurements) = (&self.current, ctx.measurements);
         let mut j0 = assemble_jacobian(&current.model, measurements, &current.params)
             .map_err(DiscoveryError::Jacobian)?;
-        weigh_rows(&mut j0, measurements, &options.identify.weights);
+        weigh_rows(&mut j0, measurements, &ctx.options.identify.weights);
         let rank0 = ColumnSpace::of(j0.as_ref())?.rank();
         let location = locate(&current.model, measurements, &current.residuals)?;
-        let fit_summary = summarize_fit(&current, measurements, rank0, &ctx);
-        // screening on S
-        let screen_fit = match fit(&current.model, &ctx.screen, &current.params, &options.identify) {
-            Ok(f) => f,
-            Err(e) => {
-                rounds.push(Round {
-                    index,
-                    fit: fit_summary,
-                    location,
-                    ln_threshold: f64::NAN,
-                    sigma_saturated_mm: None,
-                    z_required: f64::NAN,
-                    gap_over_floor: None,
-                    far_from_floor: false,
-                    candidates: Vec::new(),
-                    removed: Vec::new(),
-                    decision: format!(
-                        "nothing added: the fit to the {} screening measurements failed ({e}); more measurements are needed",
-                        ctx.screen.len()
-                    ),
-                });
-                break;
-            }
-        };
-        let mut js = assemble_jacobian(&screen_fit.model, &ctx.screen, &current.params)
+        let fit = summarize_fit(current, measurements, rank0, ctx);
+        Ok(Base { j0, rank0, location, fit })
+    }
+
+    /// Screening on S: every candidate scored, the saturated σ̂, the gap over its floor, the
+    /// round's thresholds; candidates sorted best first.
+    fn screen(
+        &mut self,
+        index: usize,
+        screen_fit: &Fit,
+        base: &Base,
+        ctx: &Context<'_>,
+    ) -> Result<Screened, DiscoveryError> {
+        let options = &ctx.options;
+        let mut js = assemble_jacobian(&screen_fit.model, &ctx.screen, &self.current.params)
             .map_err(DiscoveryError::Jacobian)?;
         weigh_rows(&mut js, &ctx.screen, &options.identify.weights);
         let space = ColumnSpace::of(js.as_ref())?;
-        let mut candidates = score_candidates(&current, &screen_fit, &space, &ctx, &mut notes)?;
+        let mut candidates = score_candidates(&self.current, screen_fit, &space, ctx, &mut self.notes)?;
         let m = candidates.iter().filter(|c| c.score.is_some()).count().max(1);
         let sigma_saturated = if ctx.reference.is_none() && options.saturated_noise {
-            saturated_sigma(&current, &candidates, &j0, &ctx)
+            saturated_sigma(&self.current, &candidates, &base.j0, ctx)
         } else {
             None
         };
         ctx.saturated_bits
             .store(sigma_saturated.unwrap_or(f64::NAN).to_bits(), std::sync::atomic::Ordering::Relaxed);
-        let gap_over_floor = gap_over_floor(&held_all, sigma_saturated, rank0, &ctx);
-        let th = Thresholds {
-            ln_screen: (options.alpha * spend / m as f64).ln(),
-            z_required: normal_upper_quantile(
-                options.confirm_alpha * spend / options.max_refits.max(1) as f64,
-            ),
-            far_from_floor: gap_over_floor.is_some_and(|r| r > options.floor_gap_factor),
-        };
-        screening_weights(&mut candidates);
-        let key = |c: &Candidate| c.weighted_ln_p().unwrap_or(f64::INFINITY);
-        candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
-        let any_screened = candidates
-            .iter()
-            .any(|c| c.weighted_ln_p().is_some_and(|p| th.far_from_floor || p < th.ln_screen));
-        let cached = confirm_cv.take();
-        let held0 = if !any_screened {
-            CrossValidation { errors: vec![None; measurements.len()], skipped: Vec::new() }
-        } else if let Some(h) = cached {
-            h
-        } else {
-            let h = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
-            notes.extend(
-                h.skipped.iter().map(|s| format!("round {index} confirmation baseline: skipped {s}")),
-            );
-            h
-        };
+        let gap_over_floor = gap_over_floor(&self.held_all, sigma_saturated, base.rank0, ctx);
+        let th = Thresholds::new(options, round_spending(index), m, gap_over_floor);
+        rank_candidates(&mut candidates);
+        let sigma_screen = ctx.sigma_hat(screen_fit, &ctx.screen, space.rank());
+        Ok(Screened { candidates, th, sigma_saturated, gap_over_floor, sigma_screen })
+    }
+
+    /// The current model's confirmation-fold cross-validation (cached from the last round when
+    /// known; empty when no candidate is to be confirmed).
+    fn confirmation_baseline(&mut self, index: usize, s: &Screened, ctx: &Context<'_>) -> CrossValidation {
+        let cached = self.confirm_cv.take();
+        if !s.th.any_screened(&s.candidates) {
+            return CrossValidation { errors: vec![None; ctx.measurements.len()], skipped: Vec::new() };
+        }
+        if let Some(h) = cached {
+            return h;
+        }
+        let h = ctx.cross_validate(&self.current.model, &self.current.params, &ctx.confirm_folds);
+        self.notes
+            .extend(h.skipped.iter().map(|s| format!("round {index} confirmation baseline: skipped {s}")));
+        h
+    }
+
+    /// Confirmation on C of the screened candidates, the borderline ones' detectability, the
+    /// round's bound hits and negligible effects, and the validation veto.
+    fn confirm(
+        &mut self,
+        index: usize,
+        s: &mut Screened,
+        base: &Base,
+        held0: &CrossValidation,
+        ctx: &Context<'_>,
+    ) -> Result<(), DiscoveryError> {
+        let candidates = &mut s.candidates;
         let mut fold_notes = Vec::new();
-        confirm_screened(&mut candidates, &current, &j0, rank0, &held0, &th, &ctx, &mut fold_notes);
-        skipped_folds += held0.skipped.len() + fold_notes.len();
-        notes.extend(fold_notes);
-        let sigma_screen = ctx.sigma_hat(&screen_fit, &ctx.screen, space.rank());
-        mark_borderline(&mut candidates, sigma_screen, th.ln_screen, ctx.screen.len(), measurements.len());
-        for c in &candidates {
-            if let (CandidateStatus::Rejected(why), Some((e, ..))) = (&c.status, &c.refit)
-                && let Some(reason) = why.strip_prefix(IMPLAUSIBLE)
-            {
-                bound_hits.push(BoundHit {
-                    round: index,
-                    effect: c.spec.kind().name().to_string(),
-                    label: c.spec.label(),
-                    reason: reason.to_string(),
-                    heldout_z: e.heldout.z,
-                    otherwise_passed: true,
-                });
+        confirm_screened(candidates, &self.current, &base.j0, base.rank0, held0, &s.th, ctx, &mut fold_notes);
+        self.skipped_folds += held0.skipped.len() + fold_notes.len();
+        self.notes.extend(fold_notes);
+        let (n_screen, total) = (ctx.screen.len(), ctx.measurements.len());
+        mark_borderline(candidates, s.sigma_screen, s.th.ln_screen, n_screen, total);
+        let (bound_hits, negligible) = findings(candidates, index);
+        self.bound_hits.extend(bound_hits);
+        self.negligible.extend(negligible);
+        veto_on_validation(candidates, &self.current, ctx)
+    }
+
+    /// The round's addition: the best passing candidate (or a look-alike of it), else, with
+    /// the block step on, the block of candidates that helped; `None` when nothing passes.
+    fn choose(
+        &mut self,
+        index: usize,
+        candidates: &mut [Candidate],
+        base: &Base,
+        held0: &CrossValidation,
+        ctx: &Context<'_>,
+    ) -> Result<Option<Addition>, DiscoveryError> {
+        match best_passing(candidates) {
+            Some(best) => self.add_best(index, best, candidates, held0, ctx).map(Some),
+            None if ctx.options.block_step => {
+                let (current, spend) = (&self.current, round_spending(index));
+                let (j0, rank0) = (&base.j0, base.rank0);
+                let block = add_block(
+                    candidates,
+                    current,
+                    j0,
+                    rank0,
+                    held0,
+                    (index, spend),
+                    &self.gap,
+                    ctx,
+                    &mut self.notes,
+                )?;
+                Ok(block.map(|(addition, held1)| {
+                    self.confirm_cv = Some(held1);
+                    addition
+                }))
             }
-            if let (CandidateStatus::DetectedNegligible(_), Some((e, ..))) = (&c.status, &c.refit) {
-                negligible_effects.push(NegligibleEffect {
-                    label: c.spec.label(),
-                    round: index,
-                    change_um: 1e3 * e.heldout.change_rms_mm,
-                    heldout: e.heldout,
-                });
-            }
+            None => Ok(None),
         }
-        veto_on_validation(&mut candidates, &current, &ctx)?;
-        let mut block: Option<Vec<usize>> = None;
-        let mut ambiguity_line: Option<String> = None;
-        let mut extra_added: Vec<AddedEffect> = Vec::new();
-        let next = match best_passing(&candidates) {
-            None if options.block_step => {
-                let z_block = normal_upper_quantile(
-                    options.confirm_alpha * spend / (options.max_refits.max(1) + 1) as f64,
-                );
-                match block_step(&candidates, &current, &j0, rank0, &held0, z_block, &ctx, &mut notes) {
-                    Some((members, evidence, fit1, held1)) => {
-                        let held_gap = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
-                        let gap_after = ctx.gap(&fit1.model, &held_gap)?;
-                        let mut records = Vec::new();
-                        for i in &members {
-                            records.push(added_record(
-                                &candidates[*i],
-                                &evidence,
-                                &fit1,
-                                index,
-                                &current,
-                                &gap,
-                                &gap_after,
-                                &ctx,
-                            )?);
-                            candidates[*i].status = CandidateStatus::Added;
-                        }
-                        confirm_cv = Some(held1);
-                        block = Some(members);
-                        let rest = records.split_off(1);
-                        extra_added = rest;
-                        records.pop().map(|first| (first, fit1, held_gap))
-                    }
-                    None => None,
-                }
-            }
-            None => None,
-            Some(best) => {
-                let (b, rivalry) = choose_among_rivals(&mut candidates, best, &held0, index, &ctx)?;
-                if let Some(a) = rivalry {
-                    ambiguity_line = Some(a.sentence.clone());
-                    ambiguities.push(a);
-                }
-                if let Some(mut a) = candidates[b].refit.as_ref().and_then(|r| r.0.rival.clone()) {
-                    a.round = index;
-                    ambiguity_line = Some(match ambiguity_line.take() {
-                        Some(l) => format!("{l}; {}", a.sentence),
-                        None => a.sentence.clone(),
-                    });
-                    ambiguities.push(a);
-                }
-                candidates[b].status = CandidateStatus::Added;
-                let added = added_effect(&candidates[b], index, &current, &gap, &ctx)?;
-                // the confirmation CV of the refit is that of the new current model: reused by
-                // the backward check and as the next round's baseline
-                confirm_cv = candidates[b].refit.as_mut().map(|r| {
-                    std::mem::replace(&mut r.2, CrossValidation { errors: Vec::new(), skipped: Vec::new() })
-                });
-                Some(added)
-            }
-        };
-        let mut decision = match (&next, &block) {
-            (Some((added, ..)), Some(members)) => {
-                let labels: Vec<String> = members.iter().map(|i| candidates[*i].spec.label()).collect();
-                format!(
-                    "no candidate passed alone; added together as a block ({}): held-out RMS {:.4} -> {:.4} mm, z = {:.1}, predictions change {:.1} um; gap {:.4} -> {:.4} mm",
-                    labels.join(", "),
-                    added.heldout.rms_before_mm,
-                    added.heldout.rms_after_mm,
-                    added.heldout.z,
-                    1e3 * added.heldout.change_rms_mm,
-                    added.gap_before_mm,
-                    added.gap_after_mm
-                )
-            }
-            (Some((added, ..)), None) => match &ambiguity_line {
-                Some(a) => format!("{}; {a}", added.summary_line()),
-                None => added.summary_line(),
-            },
-            (None, _) => nothing_added(&candidates, th.ln_screen),
-        };
-        let mut removed = Vec::new();
-        let done = next.is_none();
-        if let Some((added, fit1, held1)) = next {
-            skipped_folds += held1.skipped.len();
-            gap = added.gap_after.clone();
-            added_effects.push(added);
-            let fresh = 1 + extra_added.len();
-            added_effects.append(&mut extra_added);
-            current = fit1;
-            held_all = held1;
-            let with = match confirm_cv.take() {
-                Some(cv) => cv,
-                None => ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds),
-            };
-            removed = backward_check(
-                start,
-                &mut added_effects,
-                fresh,
-                &mut current,
-                index,
-                &with,
-                &ctx,
-                &mut notes,
-            )?;
-            if removed.is_empty() {
-                confirm_cv = Some(with);
-            } else {
-                held_all = ctx.cross_validate(&current.model, &current.params, &ctx.all_folds);
-                gap = ctx.gap(&current.model, &held_all)?;
-                let names: Vec<&str> = removed.iter().map(|r| r.label.as_str()).collect();
-                decision.push_str(&format!("; backward check removed {}", names.join(", ")));
-            }
+    }
+
+    /// Adds the passing candidate `best` or the look-alike chosen among its rivals.
+    fn add_best(
+        &mut self,
+        index: usize,
+        best: usize,
+        candidates: &mut [Candidate],
+        held0: &CrossValidation,
+        ctx: &Context<'_>,
+    ) -> Result<Addition, DiscoveryError> {
+        let (b, rivalry) = choose_among_rivals(candidates, best, held0, index, ctx)?;
+        let mut ambiguity_line = None;
+        if let Some(a) = rivalry {
+            ambiguity_line = Some(a.sentence.clone());
+            self.ambiguities.push(a);
         }
-        rounds.push(Round {
-            index,
-            fit: fit_summary,
-            location,
-            ln_threshold: th.ln_screen,
-            sigma_saturated_mm: sigma_saturated,
-            z_required: th.z_required,
-            gap_over_floor,
-            far_from_floor: th.far_from_floor,
-            candidates: candidates.into_iter().map(candidate_score).collect(),
-            removed: removed.clone(),
-            decision,
+        if let Some(mut a) = candidates[b].refit.as_ref().and_then(|r| r.0.rival.clone()) {
+            a.round = index;
+            ambiguity_line = Some(match ambiguity_line.take() {
+                Some(l) => format!("{l}; {}", a.sentence),
+                None => a.sentence.clone(),
+            });
+            self.ambiguities.push(a);
+        }
+        candidates[b].status = CandidateStatus::Added;
+        let (added, fit1, held_all) = added_effect(&candidates[b], index, &self.current, &self.gap, ctx)?;
+        // the confirmation CV of the refit is that of the new current model: reused by the
+        // backward check and as the next round's baseline
+        self.confirm_cv = candidates[b].refit.as_mut().map(|r| {
+            std::mem::replace(&mut r.2, CrossValidation { errors: Vec::new(), skipped: Vec::new() })
         });
-        removed_effects.extend(removed);
-        if done {
-            break;
+        Ok(Addition { added, extra: Vec::new(), fit: fit1, held_all, block: None, ambiguity_line })
+    }
+
+    /// Makes `next` the current model and runs the backward check; returns the effects it
+    /// removed (named in `decision`).
+    fn apply(
+        &mut self,
+        next: Addition,
+        index: usize,
+        start: &Model,
+        ctx: &Context<'_>,
+        decision: &mut String,
+    ) -> Result<Vec<RemovedEffect>, DiscoveryError> {
+        self.skipped_folds += next.held_all.skipped.len();
+        self.gap = next.added.gap_after.clone();
+        self.added.push(next.added);
+        let fresh = 1 + next.extra.len();
+        self.added.extend(next.extra);
+        self.current = next.fit;
+        self.held_all = next.held_all;
+        let with = match self.confirm_cv.take() {
+            Some(cv) => cv,
+            None => ctx.cross_validate(&self.current.model, &self.current.params, &ctx.confirm_folds),
+        };
+        let (added, current, notes) = (&mut self.added, &mut self.current, &mut self.notes);
+        let removed = backward_check(start, added, fresh, current, index, &with, ctx, notes)?;
+        if removed.is_empty() {
+            self.confirm_cv = Some(with);
+        } else {
+            self.held_all = ctx.cross_validate(&self.current.model, &self.current.params, &ctx.all_folds);
+            self.gap = ctx.gap(&self.current.model, &self.held_all)?;
+            let names: Vec<&str> = removed.iter().map(|r| r.label.as_str()).collect();
+            decision.push_str(&format!("; backward check removed {}", names.join(", ")));
+        }
+        Ok(removed)
+    }
+
+    /// The report: the noise reference's account, the final model's predicted uncertainty.
+    fn finish(mut self, setup: Setup<'_>, params: &ParamSet) -> Discovery {
+        let ctx = &setup.ctx;
+        if self.skipped_folds > 0 {
+            self.notes.push(format!(
+                "{} cross-validation fold(s) skipped over the run (their fit failed)",
+                self.skipped_folds
+            ));
+        }
+        let (current, start_residuals) = (&self.current, &setup.start_residuals);
+        let noise = describe_noise(
+            setup.source,
+            ctx.reference,
+            setup.pure,
+            start_residuals,
+            params.len(),
+            current,
+            ctx,
+        );
+        let uncertainty = match predicted_uncertainty(&current.model, &current.params, ctx) {
+            Ok(u) => Some(u),
+            Err(e) => {
+                self.notes.push(format!("predicted uncertainty not computed: {e}"));
+                None
+            }
+        };
+        Discovery {
+            model: self.current.model,
+            params: self.current.params,
+            added_effects: self.added,
+            removed_effects: self.removed,
+            negligible_effects: self.negligible,
+            bound_hits: self.bound_hits,
+            ambiguities: self.ambiguities,
+            rounds: self.rounds,
+            split: setup.split,
+            kind_sigmas: setup.kind_sigmas,
+            noise,
+            skipped_folds: self.skipped_folds,
+            initial_gap_mm: self.initial_gap.headline_mm(),
+            initial_gap: self.initial_gap,
+            final_gap_mm: self.gap.headline_mm(),
+            final_gap: self.gap,
+            uncertainty,
+            notes: self.notes,
         }
     }
-    let _ = &held_all;
-    if skipped_folds > 0 {
-        notes.push(format!(
-            "{skipped_folds} cross-validation fold(s) skipped over the run (their fit failed)"
-        ));
+}
+
+/// The record of a round whose fit to the screening measurements failed (the loop stops).
+fn failed_round(index: usize, base: Base, e: &DiscoveryError, ctx: &Context<'_>) -> Round {
+    Round {
+        index,
+        fit: base.fit,
+        location: base.location,
+        ln_threshold: f64::NAN,
+        sigma_saturated_mm: None,
+        z_required: f64::NAN,
+        gap_over_floor: None,
+        far_from_floor: false,
+        candidates: Vec::new(),
+        removed: Vec::new(),
+        decision: format!(
+            "nothing added: the fit to the {} screening measurements failed ({e}); more measurements are needed",
+            ctx.screen.len()
+        ),
     }
-    let noise = describe_noise(source, reference, pure, &start_residuals, params.len(), &current, &ctx);
-    let uncertainty = match predicted_uncertainty(&current.model, &current.params, &ctx) {
-        Ok(u) => Some(u),
-        Err(e) => {
-            notes.push(format!("predicted uncertainty not computed: {e}"));
-            None
-        }
-    };
-    Ok(Discovery {
-        model: current.model,
-        params: current.params,
-        added_effects,
-        removed_effects,
-        negligible_effects,
-        bound_hits,
-        ambiguities,
-        rounds,
-        split,
-        kind_sigmas,
-        noise,
-        skipped_folds,
-        initial_gap_mm: initial_gap.headline_mm(),
-        initial_gap,
-        final_gap_mm: gap.headline_mm(),
-        final_gap: gap,
-        uncertainty,
-        notes,
-    })
 }

@@ -8,10 +8,20 @@ use super::candidate::Candidate;
 use super::confirm::refit_effects;
 use super::context::{Context, CrossValidation};
 use super::decide::{HELDOUT_NOT_LOWER, decide};
-use super::report::{CandidateStatus, RefitEvidence};
+use super::options::DiscoverOptions;
+use super::record::{Addition, added_record};
+use super::report::{CandidateStatus, Gap, RefitEvidence};
 use super::screen::Thresholds;
 use super::veto::{VALIDATION_WORSE, validation_worse};
+use crate::DiscoveryError;
+use crate::distributions::normal_upper_quantile;
 use crate::fit::Fit;
+
+/// z the block must exceed in a round that spends `spend` ([`super::round_spending`]): one more
+/// test of the round, at `confirm_alpha·spend/(max_refits + 1)`.
+pub(super) fn block_z(options: &DiscoverOptions, spend: f64) -> f64 {
+    normal_upper_quantile(options.confirm_alpha * spend / (options.max_refits.max(1) + 1) as f64)
+}
 
 /// Whether a refitted candidate failed **only** the held-out z-test but still lowered the
 /// held-out error by more than one standard error and changed the predictions by more than
@@ -66,4 +76,40 @@ pub(super) fn block_step(
             None
         }
     }
+}
+
+/// The block step of a round in which no candidate passed alone and the block step is on:
+/// when the block passes, its members are marked added and recorded (the first as the
+/// addition, the others as its extra members). Returns the addition and the block's
+/// confirmation cross-validation (that of the new current model).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn add_block(
+    candidates: &mut [Candidate],
+    current: &Fit,
+    j0: &faer::Mat<f64>,
+    rank0: usize,
+    held0: &CrossValidation,
+    (round, spend): (usize, f64),
+    gap: &Gap,
+    ctx: &Context<'_>,
+    notes: &mut Vec<String>,
+) -> Result<Option<(Addition, CrossValidation)>, DiscoveryError> {
+    let z_block = block_z(&ctx.options, spend);
+    let Some((members, evidence, fit1, held1)) =
+        block_step(candidates, current, j0, rank0, held0, z_block, ctx, notes)
+    else {
+        return Ok(None);
+    };
+    let held_gap = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
+    let gap_after = ctx.gap(&fit1.model, &held_gap)?;
+    let mut records = Vec::new();
+    for i in &members {
+        records.push(added_record(&candidates[*i], &evidence, &fit1, round, current, gap, &gap_after, ctx)?);
+        candidates[*i].status = CandidateStatus::Added;
+    }
+    let extra = records.split_off(1);
+    let Some(added) = records.pop() else { return Ok(None) };
+    let addition =
+        Addition { added, extra, fit: fit1, held_all: held_gap, block: Some(members), ambiguity_line: None };
+    Ok(Some((addition, held1)))
 }

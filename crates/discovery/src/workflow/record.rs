@@ -10,7 +10,12 @@ use vatcal_kinematics::Model;
 
 use super::candidate::Candidate;
 use super::context::{Context, CrossValidation};
-use super::report::{AddedEffect, DriverPlot, Gap, PredictedUncertainty, RefitEvidence, file_value};
+use super::decide::IMPLAUSIBLE;
+use super::report::{
+    AddedEffect, BoundHit, CandidateStatus, DriverPlot, Gap, NegligibleEffect, PredictedUncertainty,
+    RefitEvidence, file_value,
+};
+use super::stop::nothing_added;
 use crate::DiscoveryError;
 use crate::catalog::{driver_of_in, meaning};
 use crate::fit::Fit;
@@ -146,4 +151,74 @@ pub(super) fn predicted_uncertainty(
         with_cmm_mean_mm: total / n,
         cmm_sigma_mm: ctx.options.cmm_sigma_mm,
     })
+}
+
+/// An addition of a round: the effect added (the first member of a block), the block's other
+/// members, the new current fit and its all-data cross-validation.
+pub(super) struct Addition {
+    /// the effect added (a block's first member)
+    pub(super) added: AddedEffect,
+    /// a block's other members
+    pub(super) extra: Vec<AddedEffect>,
+    /// the fit with the addition
+    pub(super) fit: Fit,
+    /// its all-data cross-validation (the reported gap)
+    pub(super) held_all: CrossValidation,
+    /// the block's members (indices into the round's candidates), when a block was added
+    pub(super) block: Option<Vec<usize>>,
+    /// the look-alikes among which the added one was chosen, in one sentence
+    pub(super) ambiguity_line: Option<String>,
+}
+
+/// The round's bound hits and negligible effects (refitted candidates refused at a
+/// plausibility bound / detected but negligible).
+pub(super) fn findings(candidates: &[Candidate], round: usize) -> (Vec<BoundHit>, Vec<NegligibleEffect>) {
+    let mut bound_hits = Vec::new();
+    let mut negligible = Vec::new();
+    for c in candidates {
+        if let (CandidateStatus::Rejected(why), Some((e, ..))) = (&c.status, &c.refit)
+            && let Some(reason) = why.strip_prefix(IMPLAUSIBLE)
+        {
+            bound_hits.push(BoundHit {
+                round,
+                effect: c.spec.kind().name().to_string(),
+                label: c.spec.label(),
+                reason: reason.to_string(),
+                heldout_z: e.heldout.z,
+                otherwise_passed: true,
+            });
+        }
+        if let (CandidateStatus::DetectedNegligible(_), Some((e, ..))) = (&c.status, &c.refit) {
+            negligible.push(NegligibleEffect {
+                label: c.spec.label(),
+                round,
+                change_um: 1e3 * e.heldout.change_rms_mm,
+                heldout: e.heldout,
+            });
+        }
+    }
+    (bound_hits, negligible)
+}
+
+/// What the round decided, in one sentence (before the backward check).
+pub(super) fn decision(next: Option<&Addition>, candidates: &[Candidate], ln_screen: f64) -> String {
+    let Some(next) = next else { return nothing_added(candidates, ln_screen) };
+    let added = &next.added;
+    match (&next.block, &next.ambiguity_line) {
+        (Some(members), _) => {
+            let labels: Vec<String> = members.iter().map(|i| candidates[*i].spec.label()).collect();
+            format!(
+                "no candidate passed alone; added together as a block ({}): held-out RMS {:.4} -> {:.4} mm, z = {:.1}, predictions change {:.1} um; gap {:.4} -> {:.4} mm",
+                labels.join(", "),
+                added.heldout.rms_before_mm,
+                added.heldout.rms_after_mm,
+                added.heldout.z,
+                1e3 * added.heldout.change_rms_mm,
+                added.gap_before_mm,
+                added.gap_after_mm
+            )
+        }
+        (None, Some(a)) => format!("{}; {a}", added.summary_line()),
+        (None, None) => added.summary_line(),
+    }
 }

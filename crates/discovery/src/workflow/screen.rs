@@ -10,8 +10,10 @@ use vatcal_observability::assemble_jacobian;
 
 use super::candidate::Candidate;
 use super::context::{Context, columns, weigh_rows, weighted_residual};
+use super::options::DiscoverOptions;
 use super::report::CandidateStatus;
 use crate::DiscoveryError;
+use crate::distributions::normal_upper_quantile;
 use crate::fit::Fit;
 use crate::linear::{ColumnSpace, EffectDirections, score_test};
 
@@ -168,8 +170,39 @@ pub(super) fn score_candidates(
 pub(super) struct Thresholds {
     pub(super) ln_screen: f64,
     pub(super) z_required: f64,
-    /// the held-out gap is well above its floor estimate ([`Round::far_from_floor`])
+    /// the held-out gap is well above its floor estimate ([`super::Round::far_from_floor`])
     pub(super) far_from_floor: bool,
+}
+
+impl Thresholds {
+    /// Round `r`'s thresholds (`spend` = [`round_spending`]`(r)`, `m` scored candidates): the
+    /// screening level `ln(alpha·spend/m)`, the held-out z at `confirm_alpha·spend/max_refits`,
+    /// and whether the gap is more than [`DiscoverOptions::floor_gap_factor`] times its floor.
+    pub(super) fn new(options: &DiscoverOptions, spend: f64, m: usize, gap_over_floor: Option<f64>) -> Self {
+        Self {
+            ln_screen: (options.alpha * spend / m as f64).ln(),
+            z_required: normal_upper_quantile(
+                options.confirm_alpha * spend / options.max_refits.max(1) as f64,
+            ),
+            far_from_floor: gap_over_floor.is_some_and(|r| r > options.floor_gap_factor),
+        }
+    }
+
+    /// Whether any candidate is to be confirmed: one passes the screening threshold, or the
+    /// gap is far from its floor and one was scored.
+    pub(super) fn any_screened(&self, candidates: &[Candidate]) -> bool {
+        candidates
+            .iter()
+            .any(|c| c.weighted_ln_p().is_some_and(|p| self.far_from_floor || p < self.ln_screen))
+    }
+}
+
+/// Sorts the scored candidates by weighted screening p-value, best first (unscored last),
+/// after setting their weights ([`screening_weights`]).
+pub(super) fn rank_candidates(candidates: &mut [Candidate]) {
+    screening_weights(candidates);
+    let key = |c: &Candidate| c.weighted_ln_p().unwrap_or(f64::INFINITY);
+    candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
 }
 
 #[cfg(test)]
