@@ -20,41 +20,7 @@ use vatcal_kinematics::Model;
 
 use crate::{CALIBRATED, NOMINAL, PipelineError};
 
-/// Why the validation's printing path is not commanded by the compensation's targets (the
-/// source of [`PipelineError::Compensation`]).
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum PrintingPathCheckError {
-    /// The plan has no run with this label over every slice.
-    #[error("no `{label}` printing-path run of every slice")]
-    MissingRun {
-        /// run label ([`NOMINAL`] or [`CALIBRATED`])
-        label: String,
-    },
-    /// The compensation library cannot solve the targets (its error is the source).
-    #[error("{targets} targets of the printing path")]
-    Solve {
-        /// `compensated` (under the calibrated model) or `uncompensated` (under the nominal)
-        targets: &'static str,
-        /// why
-        #[source]
-        source: vatcal_compensation::CompensationError,
-    },
-    /// A commanded joint differs from its target by more than [`JOINT_AGREEMENT`].
-    #[error(
-        "the `{label}` printing-path run differs from the compensation's targets by {difference:.3e} (allowed {JOINT_AGREEMENT:.0e})"
-    )]
-    Differs {
-        /// run label
-        label: String,
-        /// largest difference \[rad for revolute, mm for prismatic joints\]
-        difference: f64,
-    },
-}
-
-/// Largest allowed difference between a commanded joint of the validation's printing path and
-/// the compensation's target \[rad for q2..q7, mm for q1\].
-pub const JOINT_AGREEMENT: f64 = 1e-6;
+pub use crate::error::{JOINT_AGREEMENT, PrintingPathCheckError};
 
 /// Mean and largest of a set of distances \[mm\].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

@@ -15,23 +15,22 @@
 //! [`propose_plan`] is also what `vatcal discover --propose N --out-plan DIR` runs.
 
 use serde::Serialize;
+use vatcal_campaign::CampaignConfig;
 use vatcal_core::effects::EffectSpec;
-use vatcal_core::{Measurement, ParamId};
-use vatcal_discovery::Discovery;
+use vatcal_core::{JointVector, Measurement, ParamId, ParamSet};
+use vatcal_discovery::propose::borderline_effects;
 use vatcal_discovery::propose::{Borderline, Proposal, design_quality, propose};
 use vatcal_discovery::workflow::{CandidateStatus, file_value};
+use vatcal_discovery::{DiscoverOptions, Discovery, discover};
 use vatcal_kinematics::Model;
 use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::plan::{Plan, PlanOptions, campaign_candidates, plan_selection};
 
-use crate::PipelineError;
+use crate::campaign_runner::run_campaign;
+use crate::folders::{LOOP_PROPOSAL, RunFolder};
+use crate::{DeviceSet, PipelineError, Progress, RunOptions, Stage, plan_options};
 
-/// Journal of the measurements the loop proposed (in the run folder).
-pub const LOOP_JOURNAL: &str = "discovery_loop.journal";
-/// Probe measurements of the loop's campaign (in the run folder).
-pub const LOOP_MEASUREMENTS_CSV: &str = "discovery_loop_measurements.csv";
-/// Plan folder of the loop's campaign, with `proposal.json` (in the run folder).
-pub const LOOP_PLAN: &str = "discovery_loop_plan";
+pub use crate::folders::{LOOP_JOURNAL, LOOP_MEASUREMENTS_CSV, LOOP_PLAN};
 
 /// The measurements proposed to decide some candidate effects, planned as a campaign.
 #[derive(Debug, Clone)]
@@ -404,4 +403,136 @@ pub fn continued_discovery(first: &Discovery, mut cont: Discovery) -> Discovery 
     cont.initial_gap = first.initial_gap.clone();
     cont.initial_gap_mm = first.initial_gap_mm;
     cont
+}
+
+/// How the measurement loop runs (the discovery stage's loop settings).
+#[derive(Debug, Clone, Copy)]
+pub struct LoopSettings<'a> {
+    /// measurements proposed when the discovery ends undecided; 0: no loop
+    pub count: usize,
+    /// at most this many undecided candidates are targeted
+    pub targets: usize,
+    /// the discovery's settings (each rediscovery on all data)
+    pub discover: &'a DiscoverOptions,
+}
+
+/// What the measurement loop works on.
+#[derive(Debug, Clone, Copy)]
+pub struct LoopInputs<'a> {
+    /// the run's options (cell, sizes, seed)
+    pub opts: &'a RunOptions,
+    /// the nominal model (the loop's campaign is planned and run on it)
+    pub nominal: &'a Model,
+    /// the calibrated model (the fresh rediscovery starts from it)
+    pub calibrated: &'a Model,
+    /// the calibration's parameters (the paper's 34 on the canonical cell)
+    pub base: &'a ParamSet,
+    /// the run folder (`discovery_loop_plan/`, `discovery_loop.journal`)
+    pub folder: &'a RunFolder,
+}
+
+/// The devices the measurement loop measures on (`None`: read the loop's journal instead).
+#[allow(missing_debug_implementations)]
+pub struct LoopDevices<'a> {
+    /// the cell's devices
+    pub devices: &'a mut dyn DeviceSet,
+    /// campaign settings
+    pub config: CampaignConfig,
+    /// progress reports
+    pub progress: &'a mut dyn Progress,
+}
+
+/// What the measurement loop produced.
+#[derive(Debug, Clone)]
+pub struct LoopOutcome {
+    /// the discovery kept (the first one when no loop measured)
+    pub discovery: Discovery,
+    /// the loop's report (`None`: no loop configured)
+    pub report: Option<LoopReport>,
+    /// the probe measurements the loop added
+    pub measurements: Vec<Measurement>,
+    /// where the loop's campaign left the arm (`None`: it did not measure)
+    pub last_joints: Option<JointVector>,
+}
+
+/// The measurement loop after the first discovery `first` on the probe data `all`: with
+/// `settings.count > 0` and borderline or rival candidates, the proposed measurements are
+/// planned into `discovery_loop_plan/` (starting at `start`), measured on `devices` (journal
+/// `discovery_loop.journal`, resumed when present) or, without devices, read from that
+/// journal, and discovery runs on all data, continued from the model before the loop and from
+/// the starting parameters again, the lower cross-validated gap kept ([`LoopChoice`]).
+/// Deterministic: a finished run read back from its journal gives the same outcome.
+///
+/// # Errors
+/// The proposal cannot be planned, the loop's campaign fails or (no devices) its journal is
+/// missing, or a rediscovery fails.
+pub fn measurement_loop(
+    inputs: &LoopInputs<'_>,
+    settings: &LoopSettings<'_>,
+    first: Discovery,
+    all: &[Measurement],
+    start: Option<JointVector>,
+    devices: Option<LoopDevices<'_>>,
+) -> Result<LoopOutcome, PipelineError> {
+    let none =
+        |discovery, report| LoopOutcome { discovery, report, measurements: Vec::new(), last_joints: None };
+    if settings.count == 0 {
+        return Ok(none(first, None));
+    }
+    let targets = borderline_effects(&first, all, settings.targets);
+    if targets.is_empty() {
+        let report = LoopReport::not_run(
+            &first,
+            "nothing borderline: no candidate of the last round was refitted and left undecided, no unsettled rivals",
+        );
+        return Ok(none(first, Some(report)));
+    }
+    let LoopInputs { opts, nominal, calibrated, base, folder } = *inputs;
+    let geometry = CellGeometry::from_cell(&opts.nominal)?;
+    let mut plan_opts = plan_options(opts);
+    plan_opts.count = settings.count;
+    plan_opts.params = first.params.clone();
+    plan_opts.start = start;
+    plan_opts.seed = opts.seed ^ 0x000d_15c0_100b_0004;
+    let focus: Vec<EffectSpec> = targets.iter().map(|t| t.spec).collect();
+    let proposed = propose_plan(&first, all, &focus, nominal, &geometry, &plan_opts)?;
+    let plan_folder = folder.loop_plan();
+    plan_folder.write(&proposed.plan)?;
+    let proposal = plan_folder.path(LOOP_PROPOSAL);
+    std::fs::write(&proposal, serde_json::to_string_pretty(&proposed.proposal)?)
+        .map_err(|e| PipelineError::Io { path: proposal.clone(), source: e })?;
+    let tour = plan_folder.read_tour(nominal.joint_kinds())?;
+    let made = match devices {
+        Some(LoopDevices { devices, config, progress }) => {
+            let journal = folder.path(LOOP_JOURNAL);
+            run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, None, progress)?
+        }
+        None => folder.journal_report(LOOP_JOURNAL)?,
+    };
+    vatcal_io::write_measurements_for(
+        folder.path(LOOP_MEASUREMENTS_CSV),
+        &made.measurements,
+        nominal.joint_kinds(),
+    )?;
+    let mut with_loop = all.to_vec();
+    with_loop.extend_from_slice(&made.measurements);
+    // two ways to use the new rows: continue from the model before the loop, or search again
+    // from the 34 parameters; both are scored by cross-validation on the same data (same
+    // folds), the lower gap is kept. Independent: side by side
+    let (cont, fresh) = rayon::join(
+        || discover(&first.model, &with_loop, &first.params, None, settings.discover),
+        || discover(calibrated, &with_loop, base, None, settings.discover),
+    );
+    let continued = continued_discovery(&first, cont?);
+    let fresh = fresh?;
+    let choice = LoopChoice::of(&continued, &fresh);
+    let second = if choice.kept_continued { continued } else { fresh };
+    let mut report = LoopReport::of(&first, all, &targets, &proposed, &made.measurements, &second)?;
+    report.choice = Some(choice);
+    Ok(LoopOutcome {
+        discovery: second,
+        report: Some(report),
+        last_joints: made.records.last().map(|r| r.state.joints),
+        measurements: made.measurements,
+    })
 }

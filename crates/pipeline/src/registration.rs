@@ -21,8 +21,7 @@ use vatcal_kinematics::Model;
 
 use crate::{DeviceSet, PipelineError, TrackerRegistrationMode};
 
-/// The registration of a run folder (JSON).
-pub const TRACKER_REGISTRATION_FILE: &str = "tracker-registration.json";
+pub use crate::folders::{TRACKER_READINGS_FILE, TRACKER_REGISTRATION_FILE};
 
 /// The tracker registration of a run (`report.json`'s `tracker_registration`, the file
 /// [`TRACKER_REGISTRATION_FILE`]).
@@ -159,12 +158,6 @@ pub fn registration_step(
     }
     Ok(Some(report))
 }
-
-/// The nest readings of an unfinished registration (JSON list of `{"position": n,
-/// "tracker_mm": [x, y, z]}`), written after every reading and removed once the fit is saved:
-/// a registration interrupted between two readings (kill -9, a fault) continues with the next
-/// position instead of measuring the nest again.
-pub const TRACKER_READINGS_FILE: &str = "tracker-registration.readings.json";
 
 #[derive(Serialize, Deserialize)]
 struct NestReading {

@@ -20,10 +20,10 @@ use vatcal_planning::motion::MotionTimer;
 use vatcal_planning::output::PlanSummary;
 
 use crate::PipelineError;
-use crate::calibrate::StagesFile;
+use crate::folders::{CAMPAIGN_JOURNAL, DISCOVERY_JOURNAL, LOOP_JOURNAL, VALIDATION_JOURNAL};
+use crate::state::StagesFile;
 
-/// The timing file of a run folder.
-pub const TIMING_FILE: &str = "timing.json";
+pub use crate::folders::TIMING_FILE;
 
 /// Measured and estimated seconds of one kind of step.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
@@ -217,19 +217,16 @@ pub(crate) struct TimingInputs<'a> {
 /// [`RunTiming::set_wall`]).
 pub(crate) fn measure(i: &TimingInputs<'_>) -> Result<RunTiming, PipelineError> {
     let timer = MotionTimer::for_model(i.motion, i.nominal)?;
-    let campaign = campaign_timing(&i.out.join(crate::folders::CAMPAIGN_JOURNAL), i.tour, &timer)?;
+    let campaign = campaign_timing(&i.out.join(CAMPAIGN_JOURNAL), i.tour, &timer)?;
     let discovery = match i.discovery_tour {
-        Some(tour) => {
-            Some(campaign_timing(&i.out.join(crate::discovery_stage::DISCOVERY_JOURNAL), tour, &timer)?)
-        }
+        Some(tour) => Some(campaign_timing(&i.out.join(DISCOVERY_JOURNAL), tour, &timer)?),
         None => None,
     };
     let discovery_loop = match i.loop_tour {
-        Some(tour) => Some(campaign_timing(&i.out.join(crate::discovery_loop::LOOP_JOURNAL), tour, &timer)?),
+        Some(tour) => Some(campaign_timing(&i.out.join(LOOP_JOURNAL), tour, &timer)?),
         None => None,
     };
-    let validation =
-        campaign_timing(&i.out.join(crate::folders::VALIDATION_JOURNAL), i.validation_steps, &timer)?;
+    let validation = campaign_timing(&i.out.join(VALIDATION_JOURNAL), i.validation_steps, &timer)?;
     Ok(RunTiming {
         stages: Vec::new(),
         planner_campaign_estimate_s: i.plan.timing.planned_paths_s,
