@@ -24,10 +24,10 @@ use vatcal_pipeline::{
     CalibrateOptions, DeviceSet, DeviceSource, DiscoveryStageOptions, PipelineError, RunOptions, Stage,
 };
 
-use super::campaign::{
+use super::shared::cell::{
     OperatorKind, RealCell, check_cell_options, connect_cell, install_stop_handler, load_nominal, one_line,
 };
-use super::demo::BarProgress;
+use super::shared::progress::BarProgress;
 
 /// Arguments of `vatcal calibrate`.
 #[derive(Debug, clap::Args)]

@@ -20,28 +20,19 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{Context, bail};
-use vatcal_campaign::{CampaignConfig, CellDevices, ConsoleOperator};
-use vatcal_core::CellFile;
-use vatcal_devices::{ConnectedDevices, DevicesFile, SimControlOperator};
-use vatcal_hardware_traits::{
-    Clock, ErrorKind, Gauge, JointLayout, LinearAxis, MotionOptions, Operator, PositionTracker,
-    ProbePlacement, RobotArm, SystemClock, Thermometer, TriCal,
-};
+use vatcal_campaign::{CampaignConfig, CampaignPlan, CampaignReport};
+use vatcal_devices::DevicesFile;
+use vatcal_hardware_traits::{JointLayout, MotionOptions};
 use vatcal_kinematics::Model;
 use vatcal_pipeline::plans::{discovery_campaign_stage, discovery_tour_of, tracker_campaign_stage};
-use vatcal_pipeline::stop::{StopFlag, StoppableArm, StoppableAxis};
-use vatcal_pipeline::{DeviceSet, PlanFolder, PlanKind, RunFolder};
+use vatcal_pipeline::stop::StopFlag;
+use vatcal_pipeline::{PipelineError, PlanFolder, PlanKind, RegistrationReport, RunFolder};
 
-use super::demo::BarProgress;
-
-/// Who re-places the probe plate.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum OperatorKind {
-    /// a person at the cell: the instruction is printed, Enter confirms
-    Console,
-    /// the simulator (`sim_control` in the devices file) moves the plate
-    Auto,
-}
+pub use super::shared::cell::OperatorKind;
+use super::shared::cell::{
+    RealCell, check_cell_options, connect_cell, install_stop_handler, load_nominal, one_line,
+};
+use super::shared::progress::BarProgress;
 
 /// Arguments of `vatcal campaign`.
 #[derive(Debug, clap::Args)]
@@ -84,236 +75,16 @@ pub struct Args {
     pub quiet: bool,
 }
 
-/// The connected devices, wrapped so that Ctrl-C stops the arm and the guide (also the
-/// devices of `vatcal calibrate`).
-pub(crate) struct RealCell {
-    pub(crate) arm: StoppableArm<Box<dyn RobotArm>>,
-    /// the guide, on a cell whose chain has one
-    pub(crate) guide: Option<StoppableAxis<Box<dyn LinearAxis>>>,
-    pub(crate) probe: TriCal<Box<dyn Gauge>>,
-    /// the devices file's tracker (the validation's)
-    pub(crate) tracker: Option<Box<dyn PositionTracker>>,
-    /// the devices file says the tracker reports in the tank frame (`frame = "tank"`): the
-    /// validation checks its registration instead of registering it
-    pub(crate) tracker_in_tank_frame: bool,
-    pub(crate) operator: Box<dyn Operator>,
-    /// the wall clock, or the simulated cell's virtual time with `--operator auto`
-    pub(crate) clock: Box<dyn Clock>,
-    /// the devices file's thermometer: every measurement records `temperature_c`
-    pub(crate) thermometer: Option<Box<dyn Thermometer>>,
-}
-
-impl DeviceSet for RealCell {
-    fn tracker_registration(&self) -> vatcal_pipeline::TrackerRegistrationMode {
-        if self.tracker_in_tank_frame {
-            vatcal_pipeline::TrackerRegistrationMode::Check
-        } else {
-            vatcal_pipeline::TrackerRegistrationMode::Register
-        }
-    }
-
-    fn devices(&mut self) -> CellDevices<'_> {
-        CellDevices {
-            arm: &mut self.arm,
-            guide: self.guide.as_mut().map(|g| g as &mut dyn LinearAxis),
-            probe: &mut self.probe,
-            tracker: self.tracker.as_mut().map(|t| t as &mut dyn PositionTracker),
-            operator: &mut self.operator,
-            clock: &*self.clock,
-            thermometer: self.thermometer.as_mut().map(|t| t as &mut dyn Thermometer),
-        }
-    }
-}
-
-impl RealCell {
-    /// Stops the arm and the guide (best effort; errors are printed).
-    pub(crate) fn stop_motion(&mut self) {
-        if let Err(e) = self.arm.inner_mut().stop() {
-            eprintln!("warning: stopping the arm: {e}");
-        }
-        if let Some(Err(e)) = self.guide.as_mut().map(|g| g.inner_mut().stop()) {
-            eprintln!("warning: stopping the guide: {e}");
-        }
-    }
-}
-
-pub(crate) fn load_nominal(path: Option<&PathBuf>) -> anyhow::Result<(Model, String)> {
-    let (cell, source) = match path {
-        Some(p) => (CellFile::load(p)?, p.display().to_string()),
-        None => (
-            CellFile::from_toml_str(vatcal_demo::BUILT_IN_CELL, vatcal_demo::BUILT_IN_CELL_NAME)?,
-            vatcal_demo::BUILT_IN_CELL_NAME.to_string(),
-        ),
-    };
-    let model = Model::from_cell(&cell).with_context(|| format!("{source}: cannot build the model"))?;
-    Ok((model, source))
-}
-
-/// Checks every device before anything moves; prints what it finds. An arm in error mode
-/// (the fault that stopped the previous run) has its error reset; the arm is activated
-/// and homed and the guide homed if needed (the campaign would do it anyway; doing it here
-/// shows the operator the state of the cell first).
-pub(crate) fn check_devices(cell: &mut RealCell, timeout: Duration) -> anyhow::Result<()> {
-    let status = cell.arm.status().context("arm: reading the status")?;
-    println!(
-        "  arm: activated {}, homed {}, error {}",
-        status.activated,
-        status.homed,
-        status.error.as_ref().map_or("none".to_string(), |(code, text)| format!("[{code}] {text}"))
-    );
-    if let Some((code, text)) = &status.error {
-        // a fault stopped the previous run (robot error, released E-stop): the operator fixed
-        // the cause and asked to continue; leaving error mode moves nothing
-        println!("  arm: in error mode [{code}] {text}; resetting the error …");
-        cell.arm.reset_error().context("arm: resetting the error")?;
-    }
-    if !(status.activated && status.homed && status.error.is_none()) {
-        println!("  arm: activating and homing …");
-    }
-    cell.arm.activate_and_home(timeout).context("arm: activating and homing")?;
-    let joints = cell.arm.joints().context("arm: reading the joints")?;
-    let deg: Vec<f64> = joints.to_deg().iter().map(|v| (v * 1000.0).round() / 1000.0).collect();
-    println!("  arm: joints {deg:?} deg");
-    if let Some(guide) = cell.guide.as_mut() {
-        let homed = guide.is_homed().context("guide: reading the state")?;
-        if !homed {
-            println!("  guide: not homed, homing …");
-            guide.home(timeout).context("guide: homing")?;
-        }
-        let at = guide.position_mm().context("guide: reading the position")?;
-        println!("  guide: homed, at {at:.3} mm");
-    }
-    let range = vatcal_hardware_traits::Probe3d::range_mm(&cell.probe);
-    match vatcal_hardware_traits::Probe3d::read(&mut cell.probe) {
-        Ok(r) => println!(
-            "  gauges: {:.4}, {:.4}, {:.4} mm (within ±{range} mm)",
-            r.gauges_mm[0], r.gauges_mm[1], r.gauges_mm[2]
-        ),
-        // no ball in the probe yet: the plungers rest beyond the range; they answered
-        Err(e) if e.kind() == ErrorKind::OutOfRange => {
-            println!("  gauges: answering; a reading is beyond ±{range} mm (no ball seated yet): {e}")
-        }
-        Err(e) => return Err(anyhow::Error::new(e).context("gauges: reading the three gauges")),
-    }
-    Ok(())
-}
-
-/// The error and its causes on one line, without repeating a cause whose text an outer error
-/// already quotes (the campaign's errors carry their device error in their own message).
-pub(crate) fn one_line(e: &(dyn std::error::Error + 'static)) -> String {
-    let mut line = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        let text = c.to_string();
-        if !line.contains(&text) {
-            line.push_str(": ");
-            line.push_str(&text);
-        }
-        cause = c.source();
-    }
-    line
-}
-
-/// Checks the options shared by `vatcal campaign` and `vatcal calibrate`: the speed fraction,
-/// the motion timeout, and a simulator control port for the automatic operator.
-pub(crate) fn check_cell_options(
-    speed: f64,
-    motion_timeout_s: f64,
-    operator: OperatorKind,
-    devices_file: &DevicesFile,
-    devices: &std::path::Path,
-) -> anyhow::Result<()> {
-    if !(speed > 0.0 && speed <= 1.0) {
-        bail!("--speed must be in (0, 1], got {speed}");
-    }
-    if !(motion_timeout_s.is_finite() && motion_timeout_s > 0.0) {
-        bail!("--motion-timeout-s must be > 0, got {motion_timeout_s}");
-    }
-    if operator == OperatorKind::Auto && devices_file.sim_control.is_none() {
-        bail!(
-            "{}: `--operator auto` needs `sim_control = {{ tcp = \"host:port\" }}` (the simulator's cell-control port)",
-            devices.display()
-        );
-    }
-    Ok(())
-}
-
-/// Connects the devices of `devices_file` (printing what it found), builds the probe for the
-/// calibration positions of `nominal`, picks the operator and the clock, and checks every
-/// device ([`check_devices`]; on failure the motion is stopped).
-pub(crate) fn connect_cell(
-    devices_file: &DevicesFile,
-    operator: OperatorKind,
-    nominal: &Model,
-    flag: &StopFlag,
-    timeout: Duration,
-) -> anyhow::Result<RealCell> {
-    println!("connecting:");
-    let ConnectedDevices { arm, guide, gauges, sim_control, thermometer, found, tracker } =
-        devices_file.connect()?;
-    for line in &found {
-        println!("  {line}");
-    }
-    // with the simulated operator, `time_s` is the simulated cell's virtual time (what the
-    // in-process demo records), not the wall clock of a run sped up by `--time-scale`
-    let mut clock: Box<dyn Clock> = Box::new(SystemClock);
-    let operator: Box<dyn Operator> = match (operator, sim_control) {
-        (OperatorKind::Auto, Some(control)) => {
-            clock = Box::new(control.clock().context("reading the simulated cell's clock (TIME?)")?);
-            Box::new(SimControlOperator::new(control))
-        }
-        (OperatorKind::Auto, None) => bail!("--operator auto: no sim_control connection"),
-        (OperatorKind::Console, _) => Box::new(ConsoleOperator::stdio()),
-    };
-    let positions: Vec<_> =
-        nominal.position_ids().into_iter().filter_map(|id| nominal.position(id).map(|p| (id, p))).collect();
-    let probe = TriCal::new(gauges, devices_file.probe_config(ProbePlacement::radial_placements(&positions)))
-        .context("building the TriCal probe")?;
-    let mut cell = RealCell {
-        arm: StoppableArm::new(arm, flag.clone()),
-        guide: guide.map(|g| StoppableAxis::new(g, flag.clone())),
-        probe,
-        tracker,
-        tracker_in_tank_frame: devices_file.tracker_reports_in_tank_frame(),
-        operator,
-        clock,
-        thermometer,
-    };
-    println!("checking:");
-    if let Err(e) = check_devices(&mut cell, timeout) {
-        cell.stop_motion();
-        return Err(e);
-    }
-    Ok(cell)
-}
-
-/// Installs the Ctrl-C handler: the first interrupt raises `flag` (the arm and the guide
-/// stop, the journal keeps every completed step), the second exits.
-pub(crate) fn install_stop_handler(flag: &StopFlag) -> anyhow::Result<()> {
-    let handler_flag = flag.clone();
-    ctrlc::set_handler(move || {
-        if handler_flag.is_raised() {
-            eprintln!("\nsecond interrupt: exiting now (the journal keeps every completed step)");
-            std::process::exit(130);
-        }
-        eprintln!("\ninterrupt: stopping the arm and the guide …");
-        handler_flag.raise();
-    })
-    .context("installing the Ctrl-C handler")
-}
-
-/// Runs the subcommand.
-pub fn run(args: Args) -> anyhow::Result<()> {
-    // everything that can be checked without the cell, before connecting
-    let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
+/// The plan folder's kind and its campaign (a discovery plan's tour with its two-sided
+/// repeats), checked against the nominal model.
+fn read_plan(args: &Args, nominal: &Model, nominal_source: &str) -> anyhow::Result<(PlanKind, CampaignPlan)> {
     let plan_folder = PlanFolder::new(&args.plan);
     let header = plan_folder.read_header()?;
-    let kind = header.kind;
-    let tour = match kind {
+    let tour = match header.kind {
         PlanKind::Discovery => {
             discovery_tour_of(
                 &plan_folder,
-                &nominal,
+                nominal,
                 header.two_sided_repeats.unwrap_or(0),
                 header.repeat_overshoot_deg.unwrap_or(0.0).to_radians(),
             )?
@@ -321,19 +92,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         PlanKind::Calibration | PlanKind::Validation => plan_folder.read_tour(nominal.joint_kinds())?,
     };
-    tour.validate(&nominal)
+    tour.validate(nominal)
         .with_context(|| format!("{}: the plan does not fit {nominal_source}", args.plan.display()))?;
-    let devices_file = DevicesFile::load(&args.devices)?;
-    devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
-    check_cell_options(args.speed, args.motion_timeout_s, args.operator, &devices_file, &args.devices)?;
-    if kind == PlanKind::Validation && devices_file.tracker.is_none() {
-        bail!(
-            "{}: {} is a validation plan and the devices file has no `tracker` (docs/formats.md, devices file)",
-            args.devices.display(),
-            args.plan.display()
-        );
-    }
-    let folder = RunFolder::new(&args.out);
+    Ok((header.kind, tour))
+}
+
+/// A campaign already started in the run folder needs `--resume`; `--resume` needs one.
+fn check_journal(args: &Args, kind: PlanKind, folder: &RunFolder) -> anyhow::Result<()> {
     let journal = folder.path(kind.journal());
     // a validation campaign starts with the tracker registration, journaled too
     let started = journal.exists() || (kind == PlanKind::Validation && folder.validation_started());
@@ -347,8 +112,74 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
         ),
         (false, true) => bail!("--resume: {} does not exist (nothing to resume)", journal.display()),
-        _ => {}
+        _ => Ok(()),
     }
+}
+
+/// The campaign settings of the options (the devices file's noise recorded with the data).
+fn campaign_config(args: &Args, devices_file: &DevicesFile) -> CampaignConfig {
+    let timeout = Duration::from_secs_f64(args.motion_timeout_s);
+    CampaignConfig {
+        motion: MotionOptions { speed_fraction: args.speed, timeout },
+        home_timeout: timeout,
+        skip_failed_measurements: args.skip_failed,
+        show_progress: false,
+        note: format!("vatcal campaign, plan {}, devices {}", args.plan.display(), args.devices.display()),
+        noise: {
+            let (probe_sigma_mm, tracker_sigma_mm) = devices_file.noise_sigmas_mm();
+            vatcal_io::metadata::NoiseMetadata { probe_sigma_mm, tracker_sigma_mm }
+        },
+        ..CampaignConfig::default()
+    }
+}
+
+/// Runs the campaign of a plan of `kind` (the pipeline's stage for that kind) on the cell.
+fn run_kind(
+    kind: PlanKind,
+    cell: &mut RealCell,
+    nominal: &Model,
+    tour: &CampaignPlan,
+    folder: &RunFolder,
+    config: CampaignConfig,
+    progress: &mut BarProgress,
+) -> Result<(CampaignReport, Option<RegistrationReport>), PipelineError> {
+    match kind {
+        PlanKind::Calibration => {
+            vatcal_pipeline::campaign_stage(cell, nominal, tour, folder, config, progress).map(|r| (r, None))
+        }
+        PlanKind::Discovery => {
+            discovery_campaign_stage(cell, nominal, tour, folder, config, progress).map(|r| (r, None))
+        }
+        PlanKind::Validation => {
+            let (report, registration) =
+                tracker_campaign_stage(cell, nominal, tour, folder, config, progress)?;
+            vatcal_io::write_measurements_for(
+                folder.path(kind.measurements()),
+                &report.measurements,
+                nominal.joint_kinds(),
+            )?;
+            Ok((report, registration))
+        }
+    }
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> anyhow::Result<()> {
+    // everything that can be checked without the cell, before connecting
+    let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
+    let (kind, tour) = read_plan(&args, &nominal, &nominal_source)?;
+    let devices_file = DevicesFile::load(&args.devices)?;
+    devices_file.check_cell(&JointLayout::of(nominal.joint_kinds()), &nominal.describe_chain())?;
+    check_cell_options(args.speed, args.motion_timeout_s, args.operator, &devices_file, &args.devices)?;
+    if kind == PlanKind::Validation && devices_file.tracker.is_none() {
+        bail!(
+            "{}: {} is a validation plan and the devices file has no `tracker` (docs/formats.md, devices file)",
+            args.devices.display(),
+            args.plan.display()
+        );
+    }
+    let folder = RunFolder::new(&args.out);
+    check_journal(&args, kind, &folder)?;
     folder.create()?;
 
     let flag = StopFlag::new();
@@ -365,43 +196,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     let timeout = Duration::from_secs_f64(args.motion_timeout_s);
     let mut cell = connect_cell(&devices_file, args.operator, &nominal, &flag, timeout)?;
-
-    let config = CampaignConfig {
-        motion: MotionOptions { speed_fraction: args.speed, timeout },
-        home_timeout: timeout,
-        skip_failed_measurements: args.skip_failed,
-        show_progress: false,
-        note: format!("vatcal campaign, plan {}, devices {}", args.plan.display(), args.devices.display()),
-        noise: {
-            let (probe_sigma_mm, tracker_sigma_mm) = devices_file.noise_sigmas_mm();
-            vatcal_io::metadata::NoiseMetadata { probe_sigma_mm, tracker_sigma_mm }
-        },
-        ..CampaignConfig::default()
-    };
+    let config = campaign_config(&args, &devices_file);
     let mut progress = BarProgress::new(!args.quiet && std::io::stderr().is_terminal());
-    let result = match kind {
-        PlanKind::Calibration => {
-            vatcal_pipeline::campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress)
-                .map(|r| (r, None))
-        }
-        PlanKind::Discovery => {
-            discovery_campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress)
-                .map(|r| (r, None))
-        }
-        PlanKind::Validation => {
-            tracker_campaign_stage(&mut cell, &nominal, &tour, &folder, config, &mut progress).and_then(
-                |(report, registration)| {
-                    vatcal_io::write_measurements_for(
-                        folder.path(kind.measurements()),
-                        &report.measurements,
-                        nominal.joint_kinds(),
-                    )?;
-                    Ok((report, registration))
-                },
-            )
-        }
-    };
+    let result = run_kind(kind, &mut cell, &nominal, &tour, &folder, config, &mut progress);
     progress.clear();
+    let journal = folder.path(kind.journal());
     match result {
         Ok((report, registration)) => {
             if let Some(r) = registration {
@@ -428,31 +227,5 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             bail!("campaign stopped ({hint}): {}", one_line(&e))
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::one_line;
-
-    #[derive(Debug)]
-    struct E(&'static str, Option<Box<E>>);
-    impl std::fmt::Display for E {
-        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-            f.write_str(self.0)
-        }
-    }
-    impl std::error::Error for E {
-        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-            self.1.as_deref().map(|e| e as &(dyn std::error::Error + 'static))
-        }
-    }
-
-    #[test]
-    fn one_line_skips_causes_already_quoted() {
-        let inner = E("gauge 2: timeout", None);
-        let middle = E("step 3: centring: gauge 2: timeout", Some(Box::new(inner)));
-        let outer = E("campaign failed", Some(Box::new(middle)));
-        assert_eq!(one_line(&outer), "campaign failed: step 3: centring: gauge 2: timeout");
     }
 }

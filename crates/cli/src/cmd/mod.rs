@@ -14,6 +14,7 @@ pub mod observability;
 pub mod plan;
 pub mod read_args;
 pub mod select;
+pub mod shared;
 pub mod sim_cell;
 pub mod size_args;
 pub mod torque;
