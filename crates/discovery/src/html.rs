@@ -26,6 +26,15 @@ fn gap_row(name: &str, g: &Gap) -> Vec<String> {
 /// Builds the HTML report of a discovery run.
 pub fn html_report(d: &Discovery) -> Result<HtmlReport, PlotError> {
     let mut r = HtmlReport::new("vatcal discover: missing-effect discovery");
+    summary(&mut r, d);
+    added_section(&mut r, d)?;
+    negligible_and_removed(&mut r, d);
+    rounds_and_notes(&mut r, d);
+    Ok(r)
+}
+
+/// The headline, the gap table and the predicted uncertainty.
+fn summary(r: &mut HtmlReport, d: &Discovery) {
     let names: Vec<String> = d.added_effects.iter().map(|a| format!("**{}**", a.label)).collect();
     r.paragraph(format!(
         "{} effect(s) added{}. Gap ({}): **{:.4} mm** before, **{:.4} mm** after. Screening used {} \
@@ -52,46 +61,52 @@ pub fn html_report(d: &Discovery) -> Result<HtmlReport, PlotError> {
             u.count, u.poses, u.statistical_mean_mm, u.with_cmm_mean_mm, u.cmm_sigma_mm
         ));
     }
+}
+
+/// The effects added: a table and each one's plot.
+fn added_section(r: &mut HtmlReport, d: &Discovery) -> Result<(), PlotError> {
     r.heading("Effects added");
     if d.added_effects.is_empty() {
         r.paragraph("None: no candidate shrank the held-out gap by more than its uncertainty.");
-    } else {
-        let rows: Vec<Vec<String>> = d
-            .added_effects
-            .iter()
-            .map(|a| {
-                let values: Vec<String> = a.values.iter().map(|(k, v)| format!("`{k}` = {v:.4e}")).collect();
-                vec![
-                    a.round.to_string(),
-                    a.label.clone(),
-                    a.meaning.clone(),
-                    values.join(", "),
-                    format!("{} -> {}", mm(a.heldout.rms_before_mm), mm(a.heldout.rms_after_mm)),
-                    format!("{:.1}", a.heldout.z),
-                    format!("{} -> {}", mm(a.gap_before_mm), mm(a.gap_after_mm)),
-                ]
-            })
-            .collect();
-        r.table(
-            &[
-                "round",
-                "effect",
-                "meaning",
-                "identified values",
-                "confirmation held-out RMS [mm]",
-                "z",
-                "gap [mm]",
-            ],
-            &rows,
-        );
-        for (k, a) in d.added_effects.iter().enumerate() {
-            let svg = effect_plot_svg(k + 1, a)?;
-            r.svg(
-                svg,
-                format!("{}: residual against {}, before and after adding it", a.label, a.plot.x_label),
-            );
-        }
+        return Ok(());
     }
+    let rows: Vec<Vec<String>> = d
+        .added_effects
+        .iter()
+        .map(|a| {
+            let values: Vec<String> = a.values.iter().map(|(k, v)| format!("`{k}` = {v:.4e}")).collect();
+            vec![
+                a.round.to_string(),
+                a.label.clone(),
+                a.meaning.clone(),
+                values.join(", "),
+                format!("{} -> {}", mm(a.heldout.rms_before_mm), mm(a.heldout.rms_after_mm)),
+                format!("{:.1}", a.heldout.z),
+                format!("{} -> {}", mm(a.gap_before_mm), mm(a.gap_after_mm)),
+            ]
+        })
+        .collect();
+    r.table(
+        &[
+            "round",
+            "effect",
+            "meaning",
+            "identified values",
+            "confirmation held-out RMS [mm]",
+            "z",
+            "gap [mm]",
+        ],
+        &rows,
+    );
+    for (k, a) in d.added_effects.iter().enumerate() {
+        let svg = effect_plot_svg(k + 1, a)?;
+        r.svg(svg, format!("{}: residual against {}, before and after adding it", a.label, a.plot.x_label));
+    }
+    Ok(())
+}
+
+/// The effects detected but negligible, and those removed by the backward check.
+fn negligible_and_removed(r: &mut HtmlReport, d: &Discovery) {
     if !d.negligible_effects.is_empty() {
         r.heading("Detected, negligible (not added)");
         let rows: Vec<Vec<String>> = d
@@ -124,6 +139,10 @@ pub fn html_report(d: &Discovery) -> Result<HtmlReport, PlotError> {
             .collect();
         r.table(&["effect", "added in round", "removed in round", "z of keeping it"], &rows);
     }
+}
+
+/// Every round's decision, and the notes.
+fn rounds_and_notes(r: &mut HtmlReport, d: &Discovery) {
     r.heading("Rounds");
     let rows: Vec<Vec<String>> = d
         .rounds
@@ -143,5 +162,4 @@ pub fn html_report(d: &Discovery) -> Result<HtmlReport, PlotError> {
         r.heading("Notes");
         r.paragraph(d.notes.join("\n\n"));
     }
-    Ok(r)
 }

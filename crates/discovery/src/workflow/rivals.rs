@@ -35,44 +35,11 @@ pub(super) fn fit_resolving_rivals(
     label: &str,
     ctx: &Context<'_>,
 ) -> Result<(Fit, ParamSet, Vec<ParamId>, Option<Ambiguity>), String> {
-    let opts = &ctx.options;
-    let (mut params1, mut added) = (params1, added);
-    let refused = loop {
-        match fit(start, ctx.measurements, &params1, &opts.identify) {
-            Ok(f) => return Ok((f, params1, added, None)),
-            Err(DiscoveryError::Fit(e)) => match *e {
-                vatcal_identification::IdentifyError::IllConditioned(id) => break id,
-                // some of the candidate's parameters are exact combinations of the model's on
-                // these data (e.g. a tool-frame shift once two TCP offsets are in): fit the
-                // candidate's other directions, as the screening's identifiable subset meant to
-                vatcal_identification::IdentifyError::Unidentifiable { ref unidentifiable, .. }
-                    if added.iter().any(|p| unidentifiable.contains(p))
-                        && !added.iter().all(|p| unidentifiable.contains(p)) =>
-                {
-                    added.retain(|p| !unidentifiable.contains(p));
-                    params1
-                        .0
-                        .retain(|p| !unidentifiable.contains(p) || current.params.index_of(*p).is_some());
-                }
-                other => return Err(format!("refit failed: {other}")),
-            },
-            Err(e) => return Err(format!("refit failed: {e}")),
-        }
+    let (refused, added) = match plain_fit(start, current, params1, added, ctx)? {
+        PlainFit::Fitted(f, params1, added) => return Ok((*f, params1, added, None)),
+        PlainFit::Refused(id, added) => (id, added),
     };
-    let n_old = current.params.len();
-    let corr = &refused.correlation;
-    let mut pairs: Vec<(ParamId, ParamId, f64)> = Vec::new();
-    for (a, pa) in added.iter().enumerate() {
-        for e in 0..n_old {
-            let (i, k) = (n_old + a, e);
-            if i < corr.nrows() && k < corr.ncols() {
-                let c = corr[(i, k)];
-                if c.is_finite() && c.abs() >= RIVAL_CORRELATION {
-                    pairs.push((*pa, current.params.0[e], c));
-                }
-            }
-        }
-    }
+    let pairs = rival_pairs(&added, current, &refused.correlation);
     if pairs.is_empty() {
         return Err(format!(
             "refit failed: {}",
@@ -86,6 +53,7 @@ pub(super) fn fit_resolving_rivals(
     // keep: the model's parameters, the candidate's other ones
     let keep_added: Vec<ParamId> = added.iter().copied().filter(|p| !new_rivals.contains(p)).collect();
     let keep_params = ParamSet(current.params.iter().copied().chain(keep_added.iter().copied()).collect());
+    let opts = &ctx.options;
     let keep = if keep_added.is_empty() {
         None
     } else {
@@ -102,24 +70,9 @@ pub(super) fn fit_resolving_rivals(
             .collect(),
     );
     let swap = fit(start, ctx.measurements, &swap_params, &opts.identify).ok();
-    let names = |v: &[ParamId]| v.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ");
     let shown: Vec<String> =
         pairs.iter().map(|(a, e, c)| format!("{}/{} ({c:+.4})", a.name(), e.name())).collect();
-    let validation = ctx.validation.filter(|v| !v.is_empty());
-    let val_errors = |f: &Fit| -> Option<Vec<Option<Vector3<f64>>>> {
-        validation.and_then(|v| residuals(&f.model, v).ok()).map(|r| r.into_iter().map(Some).collect())
-    };
-    let swap_z = match (&keep, &swap, validation) {
-        (Some(k), Some(s), Some(_)) => match (val_errors(k), val_errors(s)) {
-            (Some(vk), Some(vs)) => Some(HeldOutComparison::new(&vk, &vs).z),
-            _ => None,
-        },
-        (None, Some(s), Some(_)) => match (val_errors(current), val_errors(s)) {
-            (Some(vc), Some(vs)) => Some(HeldOutComparison::new(&vc, &vs).z),
-            _ => None,
-        },
-        _ => None,
-    };
+    let swap_z = swap_z(keep.as_ref(), swap.as_ref(), current, ctx);
     let use_swap = swap.is_some() && (keep.is_none() || swap_z.is_some_and(|z| z > 2.0));
     let (chosen_fit, chosen_params, chosen_added, basis, chosen_name, rival_name) = if use_swap {
         let Some(f) = swap else {
@@ -144,6 +97,105 @@ pub(super) fn fit_resolving_rivals(
             format!("{label} ({})", names(&new_rivals)),
         )
     };
+    let ambiguity = resolution(basis, chosen_name, rival_name, swap_z, &shown);
+    Ok((chosen_fit, chosen_params, chosen_added, Some(ambiguity)))
+}
+
+/// The outcome of the plain refit.
+enum PlainFit {
+    /// fitted: the fit, its parameters, the candidate's parameters in it
+    Fitted(Box<Fit>, ParamSet, Vec<ParamId>),
+    /// refused as ill-conditioned (its correlations name the rivals), with the candidate's
+    /// parameters that were fitted
+    Refused(Box<vatcal_identification::Identification>, Vec<ParamId>),
+}
+
+/// Fits `params1`; when some of the candidate's parameters are exact combinations of the
+/// model's on these data (e.g. a tool-frame shift once two TCP offsets are in) they are
+/// dropped and the candidate's other directions fitted, as the screening's identifiable subset
+/// meant to.
+fn plain_fit(
+    start: &Model,
+    current: &Fit,
+    params1: ParamSet,
+    added: Vec<ParamId>,
+    ctx: &Context<'_>,
+) -> Result<PlainFit, String> {
+    let (mut params1, mut added) = (params1, added);
+    loop {
+        match fit(start, ctx.measurements, &params1, &ctx.options.identify) {
+            Ok(f) => return Ok(PlainFit::Fitted(Box::new(f), params1, added)),
+            Err(DiscoveryError::Fit(e)) => match *e {
+                vatcal_identification::IdentifyError::IllConditioned(id) => {
+                    return Ok(PlainFit::Refused(id, added));
+                }
+                vatcal_identification::IdentifyError::Unidentifiable { ref unidentifiable, .. }
+                    if added.iter().any(|p| unidentifiable.contains(p))
+                        && !added.iter().all(|p| unidentifiable.contains(p)) =>
+                {
+                    added.retain(|p| !unidentifiable.contains(p));
+                    params1
+                        .0
+                        .retain(|p| !unidentifiable.contains(p) || current.params.index_of(*p).is_some());
+                }
+                other => return Err(format!("refit failed: {other}")),
+            },
+            Err(e) => return Err(format!("refit failed: {e}")),
+        }
+    }
+}
+
+/// The (added, existing) parameter pairs whose |correlation| in the refused fit (parameters:
+/// the current ones followed by `added`) is at least [`RIVAL_CORRELATION`].
+fn rival_pairs(
+    added: &[ParamId],
+    current: &Fit,
+    corr: &nalgebra::DMatrix<f64>,
+) -> Vec<(ParamId, ParamId, f64)> {
+    let n_old = current.params.len();
+    let mut pairs = Vec::new();
+    for (a, pa) in added.iter().enumerate() {
+        for e in 0..n_old {
+            let (i, k) = (n_old + a, e);
+            if i < corr.nrows() && k < corr.ncols() {
+                let c = corr[(i, k)];
+                if c.is_finite() && c.abs() >= RIVAL_CORRELATION {
+                    pairs.push((*pa, current.params.0[e], c));
+                }
+            }
+        }
+    }
+    pairs
+}
+
+/// Parameter names, comma separated.
+fn names(v: &[ParamId]) -> String {
+    v.iter().map(|p| p.name()).collect::<Vec<_>>().join(", ")
+}
+
+/// Paired z of the swap's improvement on the validation rows over the keep resolution (or over
+/// the current model when keep could not be fitted); `None` without validation rows.
+fn swap_z(keep: Option<&Fit>, swap: Option<&Fit>, current: &Fit, ctx: &Context<'_>) -> Option<f64> {
+    let validation = ctx.validation.filter(|v| !v.is_empty())?;
+    let swap = swap?;
+    let val_errors = |f: &Fit| -> Option<Vec<Option<Vector3<f64>>>> {
+        residuals(&f.model, validation).ok().map(|r| r.into_iter().map(Some).collect())
+    };
+    let baseline = keep.unwrap_or(current);
+    match (val_errors(baseline), val_errors(swap)) {
+        (Some(vb), Some(vs)) => Some(HeldOutComparison::new(&vb, &vs).z),
+        _ => None,
+    }
+}
+
+/// The ambiguity of a keep-or-swap resolution (round 0: set by the caller).
+fn resolution(
+    basis: &str,
+    chosen_name: String,
+    rival_name: String,
+    swap_z: Option<f64>,
+    shown: &[String],
+) -> Ambiguity {
     let why = match basis {
         "validation" => format!(
             "{chosen_name} predicts the validation rows better (paired z = {:.2})",
@@ -157,18 +209,17 @@ pub(super) fn fit_resolving_rivals(
             ))
         ),
     };
-    let ambiguity = Ambiguity {
+    Ambiguity {
         round: 0,
-        chosen: chosen_name.clone(),
-        rivals: vec![rival_name.clone()],
-        basis: basis.to_string(),
-        validation_z: vec![swap_z],
         sentence: format!(
             "{chosen_name} or {rival_name}: indistinguishable on these data (correlation {}); {why}",
             shown.join(", ")
         ),
-    };
-    Ok((chosen_fit, chosen_params, chosen_added, Some(ambiguity)))
+        chosen: chosen_name,
+        rivals: vec![rival_name],
+        basis: basis.to_string(),
+        validation_z: vec![swap_z],
+    }
 }
 
 /// Cosine between two candidates' changes of the held-out predictions (`e0 − e_with`) over the
@@ -203,7 +254,26 @@ pub(super) fn choose_among_rivals(
     round: usize,
     ctx: &Context<'_>,
 ) -> Result<(usize, Option<Ambiguity>), DiscoveryError> {
-    let Some((_, _, cv_best)) = candidates[best].refit.as_ref() else { return Ok((best, None)) };
+    let rivals = rivals_of(candidates, best, held0);
+    if rivals.is_empty() {
+        return Ok((best, None));
+    }
+    let (chosen, basis) = match by_validation(candidates, best, &rivals, ctx)? {
+        Some(chosen) => (chosen, "validation"),
+        None => simplest(candidates, best, &rivals, ctx)?,
+    };
+    let ambiguity = rivalry(candidates, best, &rivals, (chosen, basis), round, ctx)?;
+    if chosen != best {
+        candidates[best].status = CandidateStatus::PassedNotBest;
+    }
+    Ok((chosen, Some(ambiguity)))
+}
+
+/// The refitted candidates whose held-out prediction changes point the same way as `best`'s
+/// (cosine ≥ [`RIVAL_COSINE`]) and whose held-out errors are not distinguishable from its
+/// (paired |z| < 2): passing ones, or ones that failed only the held-out test at z > 1.
+fn rivals_of(candidates: &[Candidate], best: usize, held0: &CrossValidation) -> Vec<usize> {
+    let Some((_, _, cv_best)) = candidates[best].refit.as_ref() else { return Vec::new() };
     let mut rivals: Vec<usize> = Vec::new();
     for (i, c) in candidates.iter().enumerate() {
         let Some((e, f, cv)) = c.refit.as_ref() else { continue };
@@ -221,68 +291,94 @@ pub(super) fn choose_among_rivals(
             rivals.push(i);
         }
     }
-    if rivals.is_empty() {
-        return Ok((best, None));
+    rivals
+}
+
+/// Errors of candidate `i`'s refit on the validation rows (`None` without validation rows or
+/// refit).
+fn validation_errors(
+    candidates: &[Candidate],
+    i: usize,
+    ctx: &Context<'_>,
+) -> Result<Option<Vec<Option<Vector3<f64>>>>, DiscoveryError> {
+    match (ctx.validation.filter(|v| !v.is_empty()), candidates[i].refit.as_ref()) {
+        (Some(v), Some((_, f, _))) => Ok(Some(residuals(&f.model, v)?.into_iter().map(Some).collect())),
+        _ => Ok(None),
     }
-    let mut chosen = best;
-    let mut basis = "held-out";
-    // validation rows: the one that generalises
-    let validation = ctx.validation.filter(|v| !v.is_empty());
-    let val_errors = |i: usize| -> Result<Option<Vec<Option<Vector3<f64>>>>, DiscoveryError> {
-        match (validation, candidates[i].refit.as_ref()) {
-            (Some(v), Some((_, f, _))) => Ok(Some(residuals(&f.model, v)?.into_iter().map(Some).collect())),
-            _ => Ok(None),
-        }
-    };
-    if let Some(vb) = val_errors(best)? {
-        let mut best_z = 2.0;
-        for &i in &rivals {
-            if let Some(vi) = val_errors(i)? {
-                let z = HeldOutComparison::new(&vb, &vi).z;
-                if z > best_z {
-                    best_z = z;
-                    chosen = i;
-                    basis = "validation";
-                }
+}
+
+/// The rival that predicts the validation rows significantly better than `best` (the largest
+/// paired z above 2), if any: the one that generalises.
+fn by_validation(
+    candidates: &[Candidate],
+    best: usize,
+    rivals: &[usize],
+    ctx: &Context<'_>,
+) -> Result<Option<usize>, DiscoveryError> {
+    let Some(vb) = validation_errors(candidates, best, ctx)? else { return Ok(None) };
+    let (mut chosen, mut best_z) = (None, 2.0);
+    for &i in rivals {
+        if let Some(vi) = validation_errors(candidates, i, ctx)? {
+            let z = HeldOutComparison::new(&vb, &vi).z;
+            if z > best_z {
+                best_z = z;
+                chosen = Some(i);
             }
         }
     }
-    if chosen == best {
-        // the data cannot tell: the simplest passing one — among the rivals the validation
-        // rows do not show significantly worse than the best one (a simpler rival that
-        // predicts them worse at z > 2 is not "indistinguishable")
-        let size = |i: usize| candidates[i].refit.as_ref().map_or(usize::MAX, |r| r.0.fitted_params.len());
-        let vb = val_errors(best)?;
-        let mut eligible = Vec::new();
-        for &i in &rivals {
-            let worse = match (&vb, val_errors(i)?) {
-                (Some(b), Some(vi)) => HeldOutComparison::new(&vi, b).z > 2.0,
-                _ => false,
-            };
-            if !worse {
-                eligible.push(i);
-            }
-        }
-        if let Some(&simpler) = eligible
-            .iter()
-            .filter(|i| candidates[**i].status == CandidateStatus::PassedNotBest)
-            .filter(|i| size(**i) < size(best))
-            .min_by_key(|i| size(**i))
-        {
-            chosen = simpler;
-            basis = "simpler";
-        } else if eligible.is_empty() && !rivals.is_empty() {
-            // the best one predicts the validation rows significantly better than every rival
-            basis = "validation";
+    Ok(chosen)
+}
+
+/// When the validation rows do not prefer a rival: the simplest passing one (fewer fitted
+/// parameters than `best`) among the rivals the validation rows do not show significantly
+/// worse than `best` (a simpler rival that predicts them worse at z > 2 is not
+/// "indistinguishable"), basis `simpler`; else `best`, basis `validation` when it predicts the
+/// validation rows significantly better than every rival, `held-out` otherwise.
+fn simplest(
+    candidates: &[Candidate],
+    best: usize,
+    rivals: &[usize],
+    ctx: &Context<'_>,
+) -> Result<(usize, &'static str), DiscoveryError> {
+    let size = |i: usize| candidates[i].refit.as_ref().map_or(usize::MAX, |r| r.0.fitted_params.len());
+    let vb = validation_errors(candidates, best, ctx)?;
+    let mut eligible = Vec::new();
+    for &i in rivals {
+        let worse = match (&vb, validation_errors(candidates, i, ctx)?) {
+            (Some(b), Some(vi)) => HeldOutComparison::new(&vi, b).z > 2.0,
+            _ => false,
+        };
+        if !worse {
+            eligible.push(i);
         }
     }
+    if let Some(&simpler) = eligible
+        .iter()
+        .filter(|i| candidates[**i].status == CandidateStatus::PassedNotBest)
+        .filter(|i| size(**i) < size(best))
+        .min_by_key(|i| size(**i))
+    {
+        return Ok((simpler, "simpler"));
+    }
+    Ok((best, if eligible.is_empty() && !rivals.is_empty() { "validation" } else { "held-out" }))
+}
+
+/// The ambiguity of round `round`: `best` and its `rivals`, the one `chosen` and why.
+fn rivalry(
+    candidates: &[Candidate],
+    best: usize,
+    rivals: &[usize],
+    (chosen, basis): (usize, &str),
+    round: usize,
+    ctx: &Context<'_>,
+) -> Result<Ambiguity, DiscoveryError> {
     let mut group: Vec<usize> = vec![best];
-    group.extend(&rivals);
+    group.extend(rivals);
     let others: Vec<usize> = group.iter().copied().filter(|i| *i != chosen).collect();
-    let vc = val_errors(chosen)?;
+    let vc = validation_errors(candidates, chosen, ctx)?;
     let mut validation_z = Vec::new();
     for &i in &others {
-        validation_z.push(match (&vc, val_errors(i)?) {
+        validation_z.push(match (&vc, validation_errors(candidates, i, ctx)?) {
             (Some(c), Some(o)) => Some(HeldOutComparison::new(&o, c).z),
             _ => None,
         });
@@ -292,7 +388,7 @@ pub(super) fn choose_among_rivals(
     let why = match basis {
         "validation" => format!("{} predicts the validation rows better", label(chosen)),
         "simpler" => format!("the data cannot tell them apart, {} has fewer parameters", label(chosen)),
-        _ if validation.is_some() => {
+        _ if ctx.validation.is_some_and(|v| !v.is_empty()) => {
             format!(
                 "neither predicts the validation rows significantly better; kept {}, the larger held-out improvement",
                 label(chosen)
@@ -304,16 +400,12 @@ pub(super) fn choose_among_rivals(
         ),
     };
     let sentence = format!("{}: indistinguishable on these data; {why}", names.join(" or "));
-    let ambiguity = Ambiguity {
+    Ok(Ambiguity {
         round,
         chosen: label(chosen),
         rivals: others.iter().map(|i| label(*i)).collect(),
         basis: basis.to_string(),
         validation_z,
         sentence,
-    };
-    if chosen != best {
-        candidates[best].status = CandidateStatus::PassedNotBest;
-    }
-    Ok((chosen, Some(ambiguity)))
+    })
 }
