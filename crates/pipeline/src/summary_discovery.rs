@@ -30,6 +30,32 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
         d.final_gap_mm,
         n = o.base_params,
     );
+    model_comparison(&mut m, report, o);
+    let _ = writeln!(m, "True-structure fit: {}.\n", o.true_structure_note);
+    added_effects_section(&mut m, o);
+    if let Some(l) = &o.measurement_loop {
+        let lines = l.lines();
+        let _ = writeln!(
+            m,
+            "**Measurement loop** (`{LOOP_PLAN}/`, `{LOOP_JOURNAL}`): {}\n",
+            lines.join("\n").trim_start_matches("measurement loop: ")
+        );
+    }
+    for n in &d.negligible_effects {
+        let _ = writeln!(m, "* detected, negligible ({:.1} µm): {} (not added)", n.change_um, n.label);
+    }
+    for x in &d.removed_effects {
+        let _ = writeln!(m, "* removed by the backward check: {}", x.label);
+    }
+    for p in &o.plots {
+        let _ = writeln!(m, "* `{}`: {}", p.file, p.caption);
+    }
+    let _ = writeln!(m);
+    m
+}
+
+/// The four-row comparison of the validated models and the share of the gap closed.
+fn model_comparison<S>(m: &mut String, report: &RunReport<S>, o: &DiscoveryOutcome) {
     let _ = writeln!(
         m,
         "| model (tracker validation) | random poses mean [mm] | random p95 [mm] | printing path mean [mm] | build plate mean [mm] |\n|---|---:|---:|---:|---:|"
@@ -68,7 +94,11 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
         }
         let _ = writeln!(m, ".\n");
     }
-    let _ = writeln!(m, "True-structure fit: {}.\n", o.true_structure_note);
+}
+
+/// Each added effect and how much of the probe gap it closed (or why none was added).
+fn added_effects_section(m: &mut String, o: &DiscoveryOutcome) {
+    let d = &o.discovery;
     if d.added_effects.is_empty() {
         let _ = writeln!(
             m,
@@ -108,23 +138,4 @@ pub fn summary_section<S>(report: &RunReport<S>, o: &DiscoveryOutcome) -> String
         }
         let _ = writeln!(m);
     }
-    if let Some(l) = &o.measurement_loop {
-        let lines = l.lines();
-        let _ = writeln!(
-            m,
-            "**Measurement loop** (`{LOOP_PLAN}/`, `{LOOP_JOURNAL}`): {}\n",
-            lines.join("\n").trim_start_matches("measurement loop: ")
-        );
-    }
-    for n in &d.negligible_effects {
-        let _ = writeln!(m, "* detected, negligible ({:.1} µm): {} (not added)", n.change_um, n.label);
-    }
-    for x in &d.removed_effects {
-        let _ = writeln!(m, "* removed by the backward check: {}", x.label);
-    }
-    for p in &o.plots {
-        let _ = writeln!(m, "* `{}`: {}", p.file, p.caption);
-    }
-    let _ = writeln!(m);
-    m
 }

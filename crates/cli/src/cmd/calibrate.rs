@@ -118,6 +118,46 @@ impl DeviceSource for LazyCell<'_> {
     }
 }
 
+/// The pipeline's options of the arguments: the nominal cell (the built-in canonical cell by
+/// default) and the campaign settings.
+fn run_options(args: &Args, sizes: vatcal_pipeline::RunSizes) -> anyhow::Result<RunOptions> {
+    let timeout = Duration::from_secs_f64(args.motion_timeout_s);
+    let nominal_cell = match &args.model {
+        Some(p) => vatcal_core::CellFile::load(p)?,
+        None => {
+            vatcal_core::CellFile::from_toml_str(vatcal_demo::BUILT_IN_CELL, vatcal_demo::BUILT_IN_CELL_NAME)?
+        }
+    };
+    Ok(RunOptions {
+        seed: args.seed,
+        nominal: nominal_cell,
+        sizes,
+        campaign: CampaignConfig {
+            motion: MotionOptions { speed_fraction: args.speed, timeout },
+            home_timeout: timeout,
+            skip_failed_measurements: !args.stop_on_failed,
+            show_progress: false,
+            note: format!("vatcal calibrate, seed {}, devices {}", args.seed, args.devices.display()),
+            ..CampaignConfig::default()
+        },
+    })
+}
+
+/// The discovery stage's options (`None` with `--no-discovery`): the candidate effects of the
+/// chain, the instruments' noise (the paper's budget unless given).
+fn discovery_options(args: &Args, nominal: &Model, count: usize) -> Option<DiscoveryStageOptions> {
+    let (probe_default, tracker_default) =
+        vatcal_demo::instrument_noise_mm(&vatcal_sim::NoiseBudget::paper());
+    (!args.no_discovery).then(|| DiscoveryStageOptions {
+        plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(nominal),
+        count,
+        ..DiscoveryStageOptions::new(args.seed).with_instrument_noise(
+            args.probe_sigma_mm.unwrap_or(probe_default),
+            args.tracker_sigma_mm.unwrap_or(tracker_default),
+        )
+    })
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let (nominal, nominal_source) = load_nominal(args.model.as_ref())?;
@@ -135,41 +175,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         sizes = sizes.quick();
         discovery_count = 60;
     }
-    let timeout = Duration::from_secs_f64(args.motion_timeout_s);
-    let nominal_cell = match &args.model {
-        Some(p) => vatcal_core::CellFile::load(p)?,
-        None => {
-            vatcal_core::CellFile::from_toml_str(vatcal_demo::BUILT_IN_CELL, vatcal_demo::BUILT_IN_CELL_NAME)?
-        }
-    };
-    let opts = RunOptions {
-        seed: args.seed,
-        nominal: nominal_cell,
-        sizes,
-        campaign: CampaignConfig {
-            motion: MotionOptions { speed_fraction: args.speed, timeout },
-            home_timeout: timeout,
-            skip_failed_measurements: !args.stop_on_failed,
-            show_progress: false,
-            note: format!("vatcal calibrate, seed {}, devices {}", args.seed, args.devices.display()),
-            ..CampaignConfig::default()
-        },
-    };
-    let (probe_default, tracker_default) =
-        vatcal_demo::instrument_noise_mm(&vatcal_sim::NoiseBudget::paper());
-    let discovery = (!args.no_discovery).then(|| DiscoveryStageOptions {
-        plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(&nominal),
-        count: discovery_count,
-        ..DiscoveryStageOptions::new(args.seed).with_instrument_noise(
-            args.probe_sigma_mm.unwrap_or(probe_default),
-            args.tracker_sigma_mm.unwrap_or(tracker_default),
-        )
-    });
+    let opts = run_options(&args, sizes)?;
+    let discovery = discovery_options(&args, &nominal, discovery_count);
     let mut cal = cal;
     if discovery.is_none() {
         cal.stages.retain(|s| *s != Stage::Discover);
     }
 
+    let timeout = Duration::from_secs_f64(args.motion_timeout_s);
     let flag = StopFlag::new();
     install_stop_handler(&flag)?;
     println!(
