@@ -441,6 +441,198 @@ fn num(x: f64) -> Value {
 /// The names of the candidates compared against the default (the nested sets).
 const NESTED: [&str; 4] = ["registration", "joint-offsets", "kinematic", "kinematic+compliance"];
 
+/// What one robot's cases add up to: per candidate label the ratios to the hindsight best,
+/// how often the default chose each set, and the two done-means checks counted over cases.
+#[derive(Default)]
+struct RobotTally {
+    /// per candidate label: the ratios over cases
+    ratios: Vec<(String, Vec<f64>)>,
+    chosen_counts: Vec<(String, usize)>,
+    within: usize,
+    below: usize,
+    n_cases: usize,
+}
+
+/// The best of the hindsight grid: its label and held-out RMS (`none`, NaN when all failed).
+fn hindsight_best(scored: &[Scored]) -> (String, f64) {
+    scored
+        .iter()
+        .filter(|s| s.label.starts_with("k+c priors"))
+        .map(|s| (s.label.clone(), rms_of(s)))
+        .filter(|(_, r)| r.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((String::from("none"), f64::NAN))
+}
+
+/// The largest distance between the truth's and the nominal's TCP 1 on the held-out postures.
+fn truth_max_mm(case: &Case) -> f64 {
+    case.held_out
+        .iter()
+        .filter_map(|(q, _)| {
+            Some((case.truth.tcp_position(q, 1).ok()? - case.nominal.tcp_position(q, 1).ok()?).norm())
+        })
+        .fold(0.0f64, f64::max)
+}
+
+/// Prints the case's truth and sizes, and the header of its candidate table.
+fn print_case_header(case: &Case, truth_max_mm: f64, seconds: f64) {
+    println!(
+        "\n{} seed {}: truth max deflection {:.2} mrad, marker {:.1} mm from TCP 1, frame {:.0} mm / {:.2} rad away; \
+         {} train rows, {} held out; nominal-vs-truth (same frame) up to {:.1} mm; {:.1} s",
+        case.robot.name(),
+        case.seed,
+        case.max_deflection_rad * 1e3,
+        case.marker_offset_mm,
+        case.frame_distance_mm,
+        case.frame_angle_rad,
+        case.train.len(),
+        case.held_out.len(),
+        truth_max_mm,
+        seconds
+    );
+    println!(
+        "  {:<22} {:>6} {:>10} {:>10} {:>10} {:>10} {:>9} {:>8}",
+        "candidate", "params", "train RMS", "mean", "RMS", "max", "cond", "ratio"
+    );
+}
+
+/// Prints one candidate's row of the table and returns its JSON.
+fn candidate_row(s: &Scored, ratio: f64) -> Value {
+    match &s.outcome {
+        Ok(o) => println!(
+            "  {:<22} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>9.2e} {:>8.3}{}",
+            s.label,
+            o.n_params,
+            o.train_rms_mm,
+            o.mean_mm,
+            o.rms_mm,
+            o.max_mm,
+            o.condition_number,
+            ratio,
+            o.chosen.as_ref().map(|c| format!("  (chose `{c}`)")).unwrap_or_default()
+        ),
+        Err(e) => println!("  {:<22} FAILED: {e}", s.label),
+    }
+    match &s.outcome {
+        Ok(o) => json!({
+            "label": s.label, "ok": true, "n_params": o.n_params,
+            "train_rms_mm": num(o.train_rms_mm), "held_out_mean_mm": num(o.mean_mm),
+            "held_out_rms_mm": num(o.rms_mm), "held_out_max_mm": num(o.max_mm),
+            "condition_number": num(o.condition_number), "ratio_to_hindsight_best": num(ratio),
+            "chosen": o.chosen,
+            "cv": o.cv_table.iter().map(|(l, r, rej)| json!({"label": l, "cv_rms_mm": num(*r), "rejected": rej})).collect::<Vec<_>>(),
+        }),
+        Err(e) => json!({"label": s.label, "ok": false, "error": e}),
+    }
+}
+
+impl RobotTally {
+    /// Adds one candidate's ratio to the hindsight best.
+    fn add_ratio(&mut self, label: &str, ratio: f64) {
+        match self.ratios.iter_mut().find(|(l, _)| l == label) {
+            Some((_, v)) => v.push(ratio),
+            None => self.ratios.push((label.to_string(), vec![ratio])),
+        }
+    }
+
+    /// Counts the default's choice and its two checks on one case; returns the checks
+    /// (default within 10 % of the hindsight best, default below every nested set).
+    fn add_case(&mut self, scored: &[Scored], best_rms: f64) -> (bool, bool) {
+        let default_rms = rms_of(&scored[0]);
+        let chosen =
+            scored[0].outcome.as_ref().ok().and_then(|o| o.chosen.clone()).unwrap_or_else(|| "failed".into());
+        match self.chosen_counts.iter_mut().find(|(l, _)| *l == chosen) {
+            Some((_, c)) => *c += 1,
+            None => self.chosen_counts.push((chosen.clone(), 1)),
+        }
+        let ok_within = default_rms <= 1.1 * best_rms;
+        let ok_below = NESTED.iter().all(|name| {
+            let r = scored.iter().find(|s| s.label == *name).map_or(f64::NAN, rms_of);
+            // a failed nested fit does not count against the default
+            !r.is_finite() || default_rms < r
+        }) && default_rms.is_finite();
+        self.within += usize::from(ok_within);
+        self.below += usize::from(ok_below);
+        self.n_cases += 1;
+        (ok_within, ok_below)
+    }
+}
+
+/// Generates, scores and prints one case; adds it to `tally` and returns its JSON.
+fn run_case(robot: Robot, seed: u64, tally: &mut RobotTally) -> Result<Value, Box<dyn std::error::Error>> {
+    let case = generate(robot, seed)?;
+    let t0 = Instant::now();
+    let scored = score_case(&case);
+    let seconds = t0.elapsed().as_secs_f64();
+    let (best_label, best_rms) = hindsight_best(&scored);
+    let truth_max_mm = truth_max_mm(&case);
+    print_case_header(&case, truth_max_mm, seconds);
+    let mut cands = Vec::new();
+    for s in &scored {
+        let ratio = rms_of(s) / best_rms;
+        cands.push(candidate_row(s, ratio));
+        tally.add_ratio(&s.label, ratio);
+    }
+    let (ok_within, ok_below) = tally.add_case(&scored, best_rms);
+    println!(
+        "  hindsight best: {best_label} ({best_rms:.4} mm RMS); default within 10 %: {ok_within}; default below every nested set: {ok_below}"
+    );
+    Ok(json!({
+        "seed": seed, "seconds": seconds,
+        "truth": {
+            "max_deflection_mrad": case.max_deflection_rad * 1e3,
+            "marker_offset_mm": case.marker_offset_mm,
+            "frame_distance_mm": case.frame_distance_mm,
+            "frame_angle_rad": case.frame_angle_rad,
+            "nominal_vs_truth_max_mm": truth_max_mm,
+        },
+        "hindsight_best": {"label": best_label, "held_out_rms_mm": num(best_rms)},
+        "default_within_10_percent": ok_within,
+        "default_below_every_nested_set": ok_below,
+        "candidates": cands,
+    }))
+}
+
+/// Runs `cases` cases of `robot` from `seed_base`, prints the medians and the done-means
+/// checks; returns the robot's JSON and whether both checks pass on the medians.
+fn run_robot(robot: Robot, seed_base: u64, cases: u64) -> Result<(Value, bool), Box<dyn std::error::Error>> {
+    let mut tally = RobotTally::default();
+    let mut case_json = Vec::new();
+    for seed in seed_base..seed_base + cases {
+        case_json.push(run_case(robot, seed, &mut tally)?);
+    }
+    let RobotTally { ratios, chosen_counts, within, below, n_cases } = tally;
+    println!("\n{}: median over {n_cases} cases of held-out RMS / hindsight-best RMS", robot.name());
+    let medians: Vec<(String, f64)> = ratios.iter().map(|(l, v)| (l.clone(), median(v.clone()))).collect();
+    for (l, m) in &medians {
+        println!("  {l:<22} {m:>8.3}");
+    }
+    let default_median = medians[0].1;
+    let median_within = default_median <= 1.1;
+    let median_below = NESTED.iter().all(|name| {
+        medians.iter().find(|(l, _)| l == name).is_none_or(|(_, m)| !m.is_finite() || default_median < *m)
+    });
+    println!("  default chose: {chosen_counts:?}");
+    println!(
+        "  done-means checks: default within 10 % of hindsight best: median {median_within}, cases {within}/{n_cases}; \
+         default below every nested set: median {median_below}, cases {below}/{n_cases}"
+    );
+    let json = json!({
+        "robot": robot.name(),
+        "cases": case_json,
+        "median_ratio_to_hindsight_best": medians.iter().map(|(l, m)| json!({"label": l, "median_ratio": num(*m)})).collect::<Vec<_>>(),
+        "default_chose": chosen_counts.iter().map(|(l, c)| json!({"label": l, "cases": c})).collect::<Vec<_>>(),
+        "checks": {
+            "default_within_10_percent_median": median_within,
+            "default_within_10_percent_cases": within,
+            "default_below_every_nested_set_median": median_below,
+            "default_below_every_nested_set_cases": below,
+            "cases": n_cases,
+        },
+    });
+    Ok((json, median_within && median_below))
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let cases: u64 = args.first().map(|s| s.parse()).transpose()?.unwrap_or(6);
@@ -455,150 +647,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut robots_json = Vec::new();
     let mut all_checks = true;
     for robot in Robot::ALL {
-        let mut case_json = Vec::new();
-        // per candidate label: the ratios over cases
-        let mut ratios: Vec<(String, Vec<f64>)> = Vec::new();
-        let mut chosen_counts: Vec<(String, usize)> = Vec::new();
-        let (mut within, mut below, mut n_cases) = (0usize, 0usize, 0usize);
-        for seed in seed_base..seed_base + cases {
-            let case = generate(robot, seed)?;
-            let t0 = Instant::now();
-            let scored = score_case(&case);
-            let seconds = t0.elapsed().as_secs_f64();
-            let grid: Vec<&Scored> = scored.iter().filter(|s| s.label.starts_with("k+c priors")).collect();
-            let (best_label, best_rms) = grid
-                .iter()
-                .map(|s| (s.label.clone(), rms_of(s)))
-                .filter(|(_, r)| r.is_finite())
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .unwrap_or((String::from("none"), f64::NAN));
-            let truth_max_mm = case
-                .held_out
-                .iter()
-                .filter_map(|(q, _)| {
-                    Some((case.truth.tcp_position(q, 1).ok()? - case.nominal.tcp_position(q, 1).ok()?).norm())
-                })
-                .fold(0.0f64, f64::max);
-            println!(
-                "\n{} seed {}: truth max deflection {:.2} mrad, marker {:.1} mm from TCP 1, frame {:.0} mm / {:.2} rad away; \
-                 {} train rows, {} held out; nominal-vs-truth (same frame) up to {:.1} mm; {:.1} s",
-                case.robot.name(),
-                case.seed,
-                case.max_deflection_rad * 1e3,
-                case.marker_offset_mm,
-                case.frame_distance_mm,
-                case.frame_angle_rad,
-                case.train.len(),
-                case.held_out.len(),
-                truth_max_mm,
-                seconds
-            );
-            println!(
-                "  {:<22} {:>6} {:>10} {:>10} {:>10} {:>10} {:>9} {:>8}",
-                "candidate", "params", "train RMS", "mean", "RMS", "max", "cond", "ratio"
-            );
-            let default_rms = rms_of(&scored[0]);
-            let mut cands = Vec::new();
-            for s in &scored {
-                let ratio = rms_of(s) / best_rms;
-                match &s.outcome {
-                    Ok(o) => println!(
-                        "  {:<22} {:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>9.2e} {:>8.3}{}",
-                        s.label,
-                        o.n_params,
-                        o.train_rms_mm,
-                        o.mean_mm,
-                        o.rms_mm,
-                        o.max_mm,
-                        o.condition_number,
-                        ratio,
-                        o.chosen.as_ref().map(|c| format!("  (chose `{c}`)")).unwrap_or_default()
-                    ),
-                    Err(e) => println!("  {:<22} FAILED: {e}", s.label),
-                }
-                match ratios.iter_mut().find(|(l, _)| *l == s.label) {
-                    Some((_, v)) => v.push(ratio),
-                    None => ratios.push((s.label.clone(), vec![ratio])),
-                }
-                cands.push(match &s.outcome {
-                    Ok(o) => json!({
-                        "label": s.label, "ok": true, "n_params": o.n_params,
-                        "train_rms_mm": num(o.train_rms_mm), "held_out_mean_mm": num(o.mean_mm),
-                        "held_out_rms_mm": num(o.rms_mm), "held_out_max_mm": num(o.max_mm),
-                        "condition_number": num(o.condition_number), "ratio_to_hindsight_best": num(ratio),
-                        "chosen": o.chosen,
-                        "cv": o.cv_table.iter().map(|(l, r, rej)| json!({"label": l, "cv_rms_mm": num(*r), "rejected": rej})).collect::<Vec<_>>(),
-                    }),
-                    Err(e) => json!({"label": s.label, "ok": false, "error": e}),
-                });
-            }
-            let chosen = scored[0]
-                .outcome
-                .as_ref()
-                .ok()
-                .and_then(|o| o.chosen.clone())
-                .unwrap_or_else(|| "failed".into());
-            match chosen_counts.iter_mut().find(|(l, _)| *l == chosen) {
-                Some((_, c)) => *c += 1,
-                None => chosen_counts.push((chosen.clone(), 1)),
-            }
-            let ok_within = default_rms <= 1.1 * best_rms;
-            let ok_below = NESTED.iter().all(|name| {
-                let r = scored.iter().find(|s| s.label == *name).map_or(f64::NAN, rms_of);
-                // a failed nested fit does not count against the default
-                !r.is_finite() || default_rms < r
-            }) && default_rms.is_finite();
-            within += usize::from(ok_within);
-            below += usize::from(ok_below);
-            n_cases += 1;
-            println!(
-                "  hindsight best: {best_label} ({best_rms:.4} mm RMS); default within 10 %: {ok_within}; default below every nested set: {ok_below}"
-            );
-            case_json.push(json!({
-                "seed": seed, "seconds": seconds,
-                "truth": {
-                    "max_deflection_mrad": case.max_deflection_rad * 1e3,
-                    "marker_offset_mm": case.marker_offset_mm,
-                    "frame_distance_mm": case.frame_distance_mm,
-                    "frame_angle_rad": case.frame_angle_rad,
-                    "nominal_vs_truth_max_mm": truth_max_mm,
-                },
-                "hindsight_best": {"label": best_label, "held_out_rms_mm": num(best_rms)},
-                "default_within_10_percent": ok_within,
-                "default_below_every_nested_set": ok_below,
-                "candidates": cands,
-            }));
-        }
-        println!("\n{}: median over {n_cases} cases of held-out RMS / hindsight-best RMS", robot.name());
-        let medians: Vec<(String, f64)> =
-            ratios.iter().map(|(l, v)| (l.clone(), median(v.clone()))).collect();
-        for (l, m) in &medians {
-            println!("  {l:<22} {m:>8.3}");
-        }
-        let default_median = medians[0].1;
-        let median_within = default_median <= 1.1;
-        let median_below = NESTED.iter().all(|name| {
-            medians.iter().find(|(l, _)| l == name).is_none_or(|(_, m)| !m.is_finite() || default_median < *m)
-        });
-        println!("  default chose: {chosen_counts:?}");
-        println!(
-            "  done-means checks: default within 10 % of hindsight best: median {median_within}, cases {within}/{n_cases}; \
-             default below every nested set: median {median_below}, cases {below}/{n_cases}"
-        );
-        all_checks &= median_within && median_below;
-        robots_json.push(json!({
-            "robot": robot.name(),
-            "cases": case_json,
-            "median_ratio_to_hindsight_best": medians.iter().map(|(l, m)| json!({"label": l, "median_ratio": num(*m)})).collect::<Vec<_>>(),
-            "default_chose": chosen_counts.iter().map(|(l, c)| json!({"label": l, "cases": c})).collect::<Vec<_>>(),
-            "checks": {
-                "default_within_10_percent_median": median_within,
-                "default_within_10_percent_cases": within,
-                "default_below_every_nested_set_median": median_below,
-                "default_below_every_nested_set_cases": below,
-                "cases": n_cases,
-            },
-        }));
+        let (json, checks) = run_robot(robot, seed_base, cases)?;
+        all_checks &= checks;
+        robots_json.push(json);
     }
     let seconds = started.elapsed().as_secs_f64();
     println!("\nboth done-means checks pass on the medians of both robots: {all_checks}; {seconds:.1} s");
