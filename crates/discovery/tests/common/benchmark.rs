@@ -1096,83 +1096,17 @@ impl CaseData {
         if fixture_sigma > 0.0 {
             add_cmm_errors(&mut model, case.seed, fixture_sigma);
         }
-        // a v3 case (it has a campaign entry) measures sizes in the linear regime
-        let v3 = case.hidden.iter().any(|h| !h.shape.is_effect());
-        let missing_compliances: Vec<ParamId> = case
-            .hidden
-            .iter()
-            .filter_map(|h| match h.shape {
-                Shape::Catalog(EffectSpec::JointCompliance { joint }) => Some(ParamId::Compliance(joint)),
-                _ => None,
-            })
-            .collect();
+        let sizing = Sizing::new(case, &nominal, &poses, &params, &space, sigma_mm);
         let mut extras = Vec::new();
         for h in &mut case.hidden {
             // not drawn: the fixture errors and the missing compliances have the truth's size;
             // their multiple is recorded
-            let given: Option<Vec<f64>> = match h.shape {
-                Shape::Campaign { fixture_sigma_mm, .. } => {
-                    let mut off = nominal.clone();
-                    add_cmm_errors(&mut off, case.seed, fixture_sigma_mm);
-                    let mut d = Vec::with_capacity(3 * poses.rows.len());
-                    for m in &poses.rows {
-                        d.extend((off.predict(m).ok()? - nominal.predict(m).ok()?).iter());
-                    }
-                    h.multiple = unabsorbed_rms(&space, &d) / (3f64.sqrt() * sigma_mm);
-                    Some(Vec::new())
-                }
-                Shape::Catalog(EffectSpec::JointCompliance { joint }) => {
-                    let id = ParamId::Compliance(joint);
-                    let v = model.param(id).ok()? - nominal.param(id).ok()?;
-                    // its size given the other missing compliances (the compliances of
-                    // neighbouring joints overlap: what only this one does is what must be named)
-                    let mut with_others = params.clone();
-                    with_others.0.extend(missing_compliances.iter().filter(|p| **p != id));
-                    let j = assemble_jacobian(&nominal, &poses.rows, &with_others).ok()?;
-                    let space_j = ColumnSpace::of(j.as_ref()).ok()?;
-                    let (size, _) = linear_unabsorbed_rms(&nominal, &h.shape, &[v], &poses.rows, &space_j);
-                    h.multiple = size / (3f64.sqrt() * sigma_mm);
-                    Some(vec![v])
-                }
-                _ => None,
-            };
-            if let Some(values) = given {
+            if let Some(values) = sizing.given(h, &model)? {
                 h.values = values;
                 h.requested_multiple = h.multiple;
                 continue;
             }
-            let unit: Vec<f64> = match &h.shape {
-                Shape::Catalog(spec) => spec
-                    .params()
-                    .iter()
-                    .map(|id| gaussian(&mut rng) * bound_of(id).map_or(1e-3, |b| b.0))
-                    .collect(),
-                _ => vec![1e-3],
-            };
-            let (size, peak) = if v3 {
-                linear_unabsorbed_rms(&nominal, &h.shape, &unit, &poses.rows, &space)
-            } else {
-                (unabsorbed_rms(&space, &displacement_field(&nominal, &h.shape, &unit, &poses.rows)), 0.0)
-            };
-            let mut scale = h.requested_multiple * 3f64.sqrt() * sigma_mm / size.max(1e-300);
-            // cap at the plausibility bound / physical cap (90 % of it); v3: also at a TCP
-            // displacement of 90 % of `V3_MAX_DISPLACEMENT_MM`
-            let displacement_cap =
-                if v3 && peak > 0.0 { 0.9 * V3_MAX_DISPLACEMENT_MM / peak } else { f64::INFINITY };
-            let cap = displacement_cap.min(match &h.shape {
-                Shape::Catalog(spec) => spec
-                    .params()
-                    .iter()
-                    .zip(&unit)
-                    .filter_map(|(id, u)| bound_of(id).map(|b| 0.9 * b.0 / u.abs().max(1e-300)))
-                    .fold(f64::INFINITY, f64::min),
-                s => 0.9 * extra_cap(s) / unit[0],
-            });
-            if scale > cap {
-                scale = cap;
-            }
-            h.values = unit.iter().map(|u| u * scale).collect();
-            h.multiple = size * scale / (3f64.sqrt() * sigma_mm);
+            sizing.draw(h, &mut rng);
             match &h.shape {
                 Shape::Catalog(spec) => {
                     model.enable_effect(*spec).ok()?;
@@ -1185,45 +1119,164 @@ impl CaseData {
             }
         }
         let truth = Truth { model, extras, across_guide: across_guide(&nominal) };
-        // measure: probe rows driven onto position + noise, tracker rows at their joints
-        let mut measurements = Vec::with_capacity(poses.rows.len());
-        let mut last: Option<JointVector> = None;
-        for (m, rep) in poses.rows.iter().zip(&poses.replicated) {
-            let noise = |rng: &mut ChaCha8Rng, s: f64| Vector3::from_fn(|_, _| s * gaussian(rng));
-            match m.target {
-                Target::Probe { position } => {
-                    let target = truth.model.position(position)? + noise(&mut rng, PROBE_SIGMA_MM);
-                    // a replicate starts from the previous measurement's joints
-                    let start = if *rep { last.unwrap_or(m.q) } else { m.q };
-                    let Some(q) = truth.reach(&start, &m.context, m.tcp, &target) else { continue };
-                    last = Some(q);
-                    measurements.push(Measurement { q, ..*m });
-                }
-                Target::Tracker { .. } => {
-                    let p = truth.position(&m.q, &m.context, m.tcp)? + noise(&mut rng, TRACKER_SIGMA_MM);
-                    measurements
-                        .push(Measurement { context: m.context, ..Measurement::tracker(m.tcp, m.q, p) });
-                }
-            }
-        }
+        let measurements = measure_poses(&truth, &poses, &mut rng)?;
         if measurements.is_empty() {
             return None;
         }
-        // validation: random tracker poses over the workspace, contexts inside the campaign's
-        let tcps = nominal.tcp_ids();
-        let total_s = SECONDS_PER_ROW * measurements.len() as f64;
-        let mut validation = Vec::with_capacity(VALIDATION_ROWS);
-        for _ in 0..VALIDATION_ROWS {
-            let q = random_joints(&nominal, &mut rng, 0.1);
-            let tcp = tcps[rng.random_range(0..tcps.len())];
-            let t = rng.random_range(0.0..total_s);
-            let ctx = context(&nominal, &mut rng, t, total_s);
-            let p = truth.position(&q, &ctx, tcp)?
-                + Vector3::from_fn(|_, _| TRACKER_SIGMA_MM * gaussian(&mut rng));
-            validation.push(Measurement { context: ctx, ..Measurement::tracker(tcp, q, p) });
-        }
+        let validation = validation_rows(&nominal, &truth, measurements.len(), &mut rng)?;
         Some(CaseData { nominal, truth, params, true_params, measurements, validation, sigma_mm })
     }
+}
+
+/// What sizing a case's hidden effects needs: the poses, the fitted parameters' column space
+/// and the noise the multiples are of.
+struct Sizing<'a> {
+    seed: u64,
+    nominal: &'a Model,
+    poses: &'a Poses,
+    params: &'a ParamSet,
+    space: &'a ColumnSpace,
+    sigma_mm: f64,
+    /// a v3 case (it has a campaign entry) measures sizes in the linear regime
+    v3: bool,
+    missing_compliances: Vec<ParamId>,
+}
+
+impl<'a> Sizing<'a> {
+    fn new(
+        case: &Case,
+        nominal: &'a Model,
+        poses: &'a Poses,
+        params: &'a ParamSet,
+        space: &'a ColumnSpace,
+        sigma_mm: f64,
+    ) -> Self {
+        let missing_compliances: Vec<ParamId> = case
+            .hidden
+            .iter()
+            .filter_map(|h| match h.shape {
+                Shape::Catalog(EffectSpec::JointCompliance { joint }) => Some(ParamId::Compliance(joint)),
+                _ => None,
+            })
+            .collect();
+        let v3 = case.hidden.iter().any(|h| !h.shape.is_effect());
+        Self { seed: case.seed, nominal, poses, params, space, sigma_mm, v3, missing_compliances }
+    }
+
+    /// The values of a hidden entry that is not drawn (fixture errors, a missing compliance:
+    /// the truth's size), its multiple recorded in `h`; `Some(None)` for a drawn one, `None`
+    /// when the model rejects a pose.
+    fn given(&self, h: &mut HiddenEffect, model: &Model) -> Option<Option<Vec<f64>>> {
+        let (nominal, rows) = (self.nominal, &self.poses.rows);
+        match h.shape {
+            Shape::Campaign { fixture_sigma_mm, .. } => {
+                let mut off = nominal.clone();
+                add_cmm_errors(&mut off, self.seed, fixture_sigma_mm);
+                let mut d = Vec::with_capacity(3 * rows.len());
+                for m in rows {
+                    d.extend((off.predict(m).ok()? - nominal.predict(m).ok()?).iter());
+                }
+                h.multiple = unabsorbed_rms(self.space, &d) / (3f64.sqrt() * self.sigma_mm);
+                Some(Some(Vec::new()))
+            }
+            Shape::Catalog(EffectSpec::JointCompliance { joint }) => {
+                let id = ParamId::Compliance(joint);
+                let v = model.param(id).ok()? - nominal.param(id).ok()?;
+                // its size given the other missing compliances (the compliances of
+                // neighbouring joints overlap: what only this one does is what must be named)
+                let mut with_others = self.params.clone();
+                with_others.0.extend(self.missing_compliances.iter().filter(|p| **p != id));
+                let j = assemble_jacobian(nominal, rows, &with_others).ok()?;
+                let space_j = ColumnSpace::of(j.as_ref()).ok()?;
+                let (size, _) = linear_unabsorbed_rms(nominal, &h.shape, &[v], rows, &space_j);
+                h.multiple = size / (3f64.sqrt() * self.sigma_mm);
+                Some(Some(vec![v]))
+            }
+            _ => Some(None),
+        }
+    }
+
+    /// Draws a hidden entry's direction and scales it to its requested multiple, capped at
+    /// the plausibility bound / physical cap (90 % of it; v3: also at a TCP displacement of
+    /// 90 % of `V3_MAX_DISPLACEMENT_MM`); sets its values and actual multiple.
+    fn draw(&self, h: &mut HiddenEffect, rng: &mut ChaCha8Rng) {
+        let (nominal, rows) = (self.nominal, &self.poses.rows);
+        let unit: Vec<f64> = match &h.shape {
+            Shape::Catalog(spec) => {
+                spec.params().iter().map(|id| gaussian(rng) * bound_of(id).map_or(1e-3, |b| b.0)).collect()
+            }
+            _ => vec![1e-3],
+        };
+        let (size, peak) = if self.v3 {
+            linear_unabsorbed_rms(nominal, &h.shape, &unit, rows, self.space)
+        } else {
+            (unabsorbed_rms(self.space, &displacement_field(nominal, &h.shape, &unit, rows)), 0.0)
+        };
+        let mut scale = h.requested_multiple * 3f64.sqrt() * self.sigma_mm / size.max(1e-300);
+        let displacement_cap =
+            if self.v3 && peak > 0.0 { 0.9 * V3_MAX_DISPLACEMENT_MM / peak } else { f64::INFINITY };
+        let cap = displacement_cap.min(match &h.shape {
+            Shape::Catalog(spec) => spec
+                .params()
+                .iter()
+                .zip(&unit)
+                .filter_map(|(id, u)| bound_of(id).map(|b| 0.9 * b.0 / u.abs().max(1e-300)))
+                .fold(f64::INFINITY, f64::min),
+            s => 0.9 * extra_cap(s) / unit[0],
+        });
+        if scale > cap {
+            scale = cap;
+        }
+        h.values = unit.iter().map(|u| u * scale).collect();
+        h.multiple = size * scale / (3f64.sqrt() * self.sigma_mm);
+    }
+}
+
+/// Measures the case's poses on the truth: probe rows driven onto their position + noise (a
+/// replicate starts from the previous measurement's joints), tracker rows at their joints.
+/// `None` when the truth rejects a pose.
+fn measure_poses(truth: &Truth, poses: &Poses, rng: &mut ChaCha8Rng) -> Option<Vec<Measurement>> {
+    let mut measurements = Vec::with_capacity(poses.rows.len());
+    let mut last: Option<JointVector> = None;
+    for (m, rep) in poses.rows.iter().zip(&poses.replicated) {
+        let noise = |rng: &mut ChaCha8Rng, s: f64| Vector3::from_fn(|_, _| s * gaussian(rng));
+        match m.target {
+            Target::Probe { position } => {
+                let target = truth.model.position(position)? + noise(rng, PROBE_SIGMA_MM);
+                let start = if *rep { last.unwrap_or(m.q) } else { m.q };
+                let Some(q) = truth.reach(&start, &m.context, m.tcp, &target) else { continue };
+                last = Some(q);
+                measurements.push(Measurement { q, ..*m });
+            }
+            Target::Tracker { .. } => {
+                let p = truth.position(&m.q, &m.context, m.tcp)? + noise(rng, TRACKER_SIGMA_MM);
+                measurements.push(Measurement { context: m.context, ..Measurement::tracker(m.tcp, m.q, p) });
+            }
+        }
+    }
+    Some(measurements)
+}
+
+/// Validation: random tracker poses over the workspace, contexts inside the campaign's
+/// (`rows` measurements long).
+fn validation_rows(
+    nominal: &Model,
+    truth: &Truth,
+    rows: usize,
+    rng: &mut ChaCha8Rng,
+) -> Option<Vec<Measurement>> {
+    let tcps = nominal.tcp_ids();
+    let total_s = SECONDS_PER_ROW * rows as f64;
+    let mut validation = Vec::with_capacity(VALIDATION_ROWS);
+    for _ in 0..VALIDATION_ROWS {
+        let q = random_joints(nominal, rng, 0.1);
+        let tcp = tcps[rng.random_range(0..tcps.len())];
+        let t = rng.random_range(0.0..total_s);
+        let ctx = context(nominal, rng, t, total_s);
+        let p = truth.position(&q, &ctx, tcp)? + Vector3::from_fn(|_, _| TRACKER_SIGMA_MM * gaussian(rng));
+        validation.push(Measurement { context: ctx, ..Measurement::tracker(tcp, q, p) });
+    }
+    Some(validation)
 }
 
 impl CaseData {
@@ -1647,9 +1700,17 @@ fn pct(a: usize, b: usize) -> String {
 
 /// The results as the Markdown tables of `docs/discovery-benchmark.md`.
 pub fn markdown(results: &[CaseResult]) -> String {
-    use std::fmt::Write;
     let mut s = String::new();
-    let ok: Vec<&CaseResult> = results.iter().filter(|r| r.error.is_none()).collect();
+    targets_table(&mut s, results);
+    category_table(&mut s, results);
+    size_table(&mut s, results);
+    wrong_table(&mut s, results);
+    s
+}
+
+/// The targets per subset of the cases.
+fn targets_table(s: &mut String, results: &[CaseResult]) {
+    use std::fmt::Write;
     let _ = writeln!(s, "### Targets\n");
     let _ = writeln!(
         s,
@@ -1683,6 +1744,11 @@ pub fn markdown(results: &[CaseResult]) -> String {
             pct(t.within_floor, t.with_floor)
         );
     }
+}
+
+/// The outcomes per category.
+fn category_table(s: &mut String, results: &[CaseResult]) {
+    use std::fmt::Write;
     let _ = writeln!(s, "\n### By category\n");
     let _ = writeln!(
         s,
@@ -1710,6 +1776,12 @@ pub fn markdown(results: &[CaseResult]) -> String {
             pct(t.within_floor, t.with_floor),
         );
     }
+}
+
+/// Detection by size, the held-out / floor ratios and the wall time.
+fn size_table(s: &mut String, results: &[CaseResult]) {
+    use std::fmt::Write;
+    let ok: Vec<&CaseResult> = results.iter().filter(|r| r.error.is_none()).collect();
     let _ = writeln!(s, "\n### Detection by size (multiples of the noise of the prediction change)\n");
     let _ = writeln!(
         s,
@@ -1750,6 +1822,11 @@ pub fn markdown(results: &[CaseResult]) -> String {
         "Discovery wall time summed over the cases: {secs:.0} s; failed runs: {}.",
         results.len() - ok.len()
     );
+}
+
+/// The cases it gets wrong, one row each.
+fn wrong_table(s: &mut String, results: &[CaseResult]) {
+    use std::fmt::Write;
     let _ = writeln!(s, "\n### Cases it gets wrong\n");
     let _ = writeln!(
         s,
@@ -1757,36 +1834,7 @@ pub fn markdown(results: &[CaseResult]) -> String {
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|");
     for r in results {
-        let mut wrong = Vec::new();
-        if let Some(e) = &r.error {
-            wrong.push(format!("run failed: {e}"));
-        }
-        for h in r.hidden.iter().filter(|h| h.multiple >= MUST_NAME && !h.named_driver) {
-            wrong.push(format!(
-                "missed {} ({:.1}×): {}",
-                h.label,
-                h.multiple,
-                if h.why.is_empty() { "—" } else { &h.why }
-            ));
-        }
-        for h in r
-            .hidden
-            .iter()
-            .filter(|h| h.in_catalog && h.multiple >= MUST_NAME && h.named_driver && !h.named_exactly)
-        {
-            wrong.push(format!(
-                "{} ({:.1}×) named only through its driver (not exactly)",
-                h.label, h.multiple
-            ));
-        }
-        if r.false_positive() {
-            wrong.push("added on a null case".into());
-        } else if !r.fixture_additions.is_empty() {
-            wrong.push(format!("fixture-type addition not hidden: {}", r.fixture_additions.join(", ")));
-        }
-        if r.ratio().is_some_and(|x| x > FLOOR_FACTOR) {
-            wrong.push(format!("held-out {:.2}× the floor", r.ratio().unwrap_or(f64::NAN)));
-        }
+        let wrong = what_went_wrong(r);
         if wrong.is_empty() {
             continue;
         }
@@ -1809,5 +1857,36 @@ pub fn markdown(results: &[CaseResult]) -> String {
             wrong.join("; ").replace('|', "/")
         );
     }
-    s
+}
+
+/// What went wrong in one case (empty when nothing did).
+fn what_went_wrong(r: &CaseResult) -> Vec<String> {
+    let mut wrong = Vec::new();
+    if let Some(e) = &r.error {
+        wrong.push(format!("run failed: {e}"));
+    }
+    for h in r.hidden.iter().filter(|h| h.multiple >= MUST_NAME && !h.named_driver) {
+        wrong.push(format!(
+            "missed {} ({:.1}×): {}",
+            h.label,
+            h.multiple,
+            if h.why.is_empty() { "—" } else { &h.why }
+        ));
+    }
+    for h in r
+        .hidden
+        .iter()
+        .filter(|h| h.in_catalog && h.multiple >= MUST_NAME && h.named_driver && !h.named_exactly)
+    {
+        wrong.push(format!("{} ({:.1}×) named only through its driver (not exactly)", h.label, h.multiple));
+    }
+    if r.false_positive() {
+        wrong.push("added on a null case".into());
+    } else if !r.fixture_additions.is_empty() {
+        wrong.push(format!("fixture-type addition not hidden: {}", r.fixture_additions.join(", ")));
+    }
+    if r.ratio().is_some_and(|x| x > FLOOR_FACTOR) {
+        wrong.push(format!("held-out {:.2}× the floor", r.ratio().unwrap_or(f64::NAN)));
+    }
+    wrong
 }
