@@ -58,6 +58,56 @@ impl RowIds {
     }
 }
 
+/// Fails unless the joint columns `q{k}` of the header are exactly `q1..qN` of an `n`-joint
+/// model ([`IoError::JointColumns`] naming the header line).
+fn check_joint_columns(
+    path: &Path,
+    headers: &csv::StringRecord,
+    header_line: u64,
+    n: usize,
+) -> Result<(), IoError> {
+    let mut found: Vec<usize> =
+        headers.iter().filter_map(|h| h.strip_prefix('q').and_then(|k| k.parse::<usize>().ok())).collect();
+    found.sort_unstable();
+    if found == (1..=n).collect::<Vec<_>>() {
+        return Ok(());
+    }
+    let found = found.iter().map(|k| format!("q{k}")).collect::<Vec<_>>().join(",");
+    Err(IoError::JointColumns {
+        path: path.into(),
+        line: header_line,
+        joints: n,
+        expected: span(&joint_columns(n)),
+        found: if found.is_empty() { "none".into() } else { found },
+    })
+}
+
+impl RowColumns {
+    /// The fields of the model's joint columns (when `joint_columns_of_model`), its `dir{i}`
+    /// columns the header has, and the context and offset columns, from the header's `index`.
+    fn of(index: &[(String, usize)], model: &Model, joint_columns_of_model: bool) -> Self {
+        let column = |c: &str| index.iter().find(|(name, _)| name == c).map(|(_, i)| *i);
+        let joint_names =
+            if joint_columns_of_model { joint_columns(model.joint_count()) } else { Vec::new() };
+        RowColumns {
+            joints: joint_names
+                .into_iter()
+                .map(|name| {
+                    let field = column(&name);
+                    (name, field)
+                })
+                .collect(),
+            dirs: dir_columns(model.joint_kinds())
+                .into_iter()
+                .filter_map(|(joint, name)| column(&name).map(|i| (joint, name, i)))
+                .collect(),
+            time_s: column("time_s"),
+            temperature_c: column("temperature_c"),
+            offsets: OFFSET_COLUMNS.map(column),
+        }
+    }
+}
+
 impl Table {
     /// Reads a table whose joint columns must be exactly `q1..qN` of `model`.
     pub(crate) fn read_for(path: &Path, model: &Model, required: &[String]) -> Result<Table, IoError> {
@@ -83,6 +133,9 @@ impl Table {
         Self::read_checked(path, required, model, false)
     }
 
+    /// Reads the file: its header (the first line neither blank nor a comment; its joint
+    /// columns exactly the model's `q1..qN` when `joint_columns_of_model`, every `required`
+    /// column present) and its data rows with their lines.
     pub(crate) fn read_checked(
         path: &Path,
         required: &[&str],
@@ -108,22 +161,7 @@ impl Table {
             }
         }
         if joint_columns_of_model {
-            let n = model.joint_count();
-            let mut found: Vec<usize> = headers
-                .iter()
-                .filter_map(|h| h.strip_prefix('q').and_then(|k| k.parse::<usize>().ok()))
-                .collect();
-            found.sort_unstable();
-            if found != (1..=n).collect::<Vec<_>>() {
-                let found = found.iter().map(|k| format!("q{k}")).collect::<Vec<_>>().join(",");
-                return Err(IoError::JointColumns {
-                    path: path.into(),
-                    line: header_line,
-                    joints: n,
-                    expected: span(&joint_columns(n)),
-                    found: if found.is_empty() { "none".into() } else { found },
-                });
-            }
+            check_joint_columns(path, &headers, header_line, model.joint_count())?;
         }
         for col in required {
             if !index.iter().any(|(name, _)| name == col) {
@@ -145,25 +183,7 @@ impl Table {
         if rows.is_empty() {
             return Err(IoError::Empty { path: path.into() });
         }
-        let column = |c: &str| index.iter().find(|(name, _)| name == c).map(|(_, i)| *i);
-        let joint_names =
-            if joint_columns_of_model { joint_columns(model.joint_count()) } else { Vec::new() };
-        let cols = RowColumns {
-            joints: joint_names
-                .into_iter()
-                .map(|name| {
-                    let field = column(&name);
-                    (name, field)
-                })
-                .collect(),
-            dirs: dir_columns(model.joint_kinds())
-                .into_iter()
-                .filter_map(|(joint, name)| column(&name).map(|i| (joint, name, i)))
-                .collect(),
-            time_s: column("time_s"),
-            temperature_c: column("temperature_c"),
-            offsets: OFFSET_COLUMNS.map(column),
-        };
+        let cols = RowColumns::of(&index, model, joint_columns_of_model);
         Ok(Table {
             path: path.into(),
             headers,
