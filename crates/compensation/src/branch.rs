@@ -14,9 +14,9 @@ use vatcal_planning::ik::{ArmGeometry, wrap_angle};
 ///
 /// On any other chain (numerical IK) the branch is the sign of the determinant of the 6×6
 /// Jacobian of the solved joints ([`JointSplit::jacobian`](crate::JointSplit::jacobian)):
-/// [`Branch::DET_POSITIVE`] or [`Branch::DET_NEGATIVE`]. The solution branches of a six-degree-of-freedom arm are separated
-/// by its singular configurations (`det J = 0`), so two solutions of opposite sign are on
-/// different branches, and a path whose sign changes passes a singularity (a flip).
+/// [`Branch::DET_POSITIVE`] or [`Branch::DET_NEGATIVE`]. The solution branches of a
+/// six-degree-of-freedom arm are separated by its singular configurations (`det J = 0`), so two
+/// solutions of opposite sign are on different branches, and a path whose sign changes passes a singularity (a flip).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Branch(pub u8);
 

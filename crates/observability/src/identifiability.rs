@@ -60,6 +60,8 @@ use vatcal_core::{JointKind, Measurement, ParamId, ParamSet};
 use vatcal_kinematics::Model;
 
 use crate::error::ObservabilityError;
+// resolving a `--params` spec needs the generic sets, which build on this module
+pub use crate::sets::param_set_from_spec;
 
 /// Default relative rank tolerance for analytic Jacobians (see the module docs).
 pub const DEFAULT_RELATIVE_TOLERANCE: f64 = 1e-8;
@@ -734,19 +736,6 @@ pub fn default_params(model: &Model, measurements: &[Measurement]) -> Result<Par
     } else {
         all_identifiable(model, measurements)
     }
-}
-
-/// Resolves a `--params` specification: `paper34`, `geometric` (canonical cell only), a
-/// comma-separated list of names, `all-identifiable` (the [`all_identifiable`] basis for these
-/// measurements), `default` ([`default_params`]) or a robot-agnostic set (`registration`,
-/// `joint-offsets`, `kinematic`, `kinematic+compliance`): [`crate::sets::resolve_spec`] without
-/// unknown fixed points or distances.
-pub fn param_set_from_spec(
-    spec: &str,
-    model: &Model,
-    measurements: &[Measurement],
-) -> Result<ParamSet, ObservabilityError> {
-    crate::sets::resolve_spec(spec, model, measurements, &crate::sets::DataDesign::default())
 }
 
 /// The columns of `j` (columns = `params`) that belong to `subset`, in `subset`'s order.

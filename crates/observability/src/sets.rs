@@ -340,6 +340,19 @@ pub fn resolve_spec(
     Ok(set)
 }
 
+/// Resolves a `--params` specification: `paper34`, `geometric` (canonical cell only), a
+/// comma-separated list of names, `all-identifiable` (the [`all_identifiable`] basis for these
+/// measurements), `default` ([`default_params`](crate::identifiability::default_params)) or a
+/// robot-agnostic set (`registration`, `joint-offsets`, `kinematic`, `kinematic+compliance`):
+/// [`resolve_spec`] without unknown fixed points or distances.
+pub fn param_set_from_spec(
+    spec: &str,
+    model: &Model,
+    measurements: &[Measurement],
+) -> Result<ParamSet, ObservabilityError> {
+    resolve_spec(spec, model, measurements, &DataDesign::default())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

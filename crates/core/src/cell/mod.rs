@@ -6,8 +6,8 @@
 //! * Version 2 (`format = "serial-robot-cell"`, `version = 2`): any serial chain of
 //!   1..=[`MAX_JOINTS`](crate::units::MAX_JOINTS) rows, each `kind = "revolute" | "prismatic"`
 //!   in any order, with optional limits on revolute rows (absent = continuous joint), an
-//!   optional `[robot]` table, and the same other tables as version 1. Frame N (the last row) is the flange in which the TCPs are
-//!   given.
+//!   optional `[robot]` table, and the same other tables as version 1. Frame N (the last row)
+//!   is the flange in which the TCPs are given.
 //!
 //! [`CellFile`] mirrors the TOML exactly, in **file units** (mm, degrees, kg, rad/(N·m), m/s²).
 //! [`CellFile::from_toml_str`] parses *and validates*; every validation error names the file,
