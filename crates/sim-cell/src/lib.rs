@@ -354,6 +354,123 @@ pub struct SimCell {
     addrs: SimCellAddrs,
 }
 
+impl SimCellOptions {
+    /// The address of `port` on the bind address.
+    fn at(&self, port: u16) -> SocketAddr {
+        SocketAddr::new(self.bind, port)
+    }
+
+    /// The error of a server of `device` that cannot listen on `port`.
+    fn bind_error(&self, device: &str, port: u16) -> impl FnOnce(std::io::Error) -> SimCellError {
+        let address = self.at(port);
+        let device = device.to_owned();
+        move |source| SimCellError::Bind { device, address, source }
+    }
+}
+
+/// The guide's server, if the cell has a guide: microsteps of the default lead, stroke and
+/// speed of the nominal cell, its moves coupled to the world; with the link the gauges read it
+/// through.
+fn start_guide(
+    options: &SimCellOptions,
+    cell: &VirtualCell,
+) -> Result<Option<(Arc<ZaberSim>, GuideLink)>, SimCellError> {
+    let Some((_, stroke_mm)) = cell.guide_limits_mm() else { return Ok(None) };
+    let mut zaber_config = ZaberConfig { time_scale: options.time_scale, ..ZaberConfig::default() };
+    zaber_config.travel_mm = stroke_mm;
+    let limits = options.nominal.to_cell().motion_limits();
+    zaber_config.maxspeed = ZaberConfig::maxspeed_for(limits.guide_speed_mm_per_s, zaber_config.microstep_mm);
+    let microstep_mm = zaber_config.microstep_mm;
+    let full_maxspeed = zaber_config.maxspeed;
+    zaber_config.bind = options.at(options.ports.zaber);
+    let motion_maxspeed = Arc::new(std::sync::atomic::AtomicI64::new(0));
+    zaber_config.backend = Some(Arc::new(GuideCoupling {
+        cell: cell.clone(),
+        microstep_mm,
+        motion_maxspeed: Arc::clone(&motion_maxspeed),
+    }));
+    let sim =
+        Arc::new(ZaberSim::start(zaber_config).map_err(options.bind_error("zaber", options.ports.zaber))?);
+    let link = GuideLink { sim: Arc::downgrade(&sim), microstep_mm, full_maxspeed, motion_maxspeed };
+    Ok(Some((sim, link)))
+}
+
+/// The arm's server: the nominal cell's joint limits, motions coupled to the world.
+fn start_arm(options: &SimCellOptions, cell: &VirtualCell) -> Result<Arc<Meca500Sim>, SimCellError> {
+    let mut meca_config = MecaConfig { time_scale: options.time_scale, ..MecaConfig::default() };
+    for (slot, (lo, hi)) in meca_config.joint_limits_deg.iter_mut().zip(cell.arm_joint_limits()) {
+        *slot = (lo.to_degrees(), hi.to_degrees());
+    }
+    meca_config.control_bind = options.at(options.ports.meca500_control);
+    meca_config.monitoring_bind = options.at(options.ports.meca500_monitoring);
+    meca_config.backend = Some(Arc::new(ArmCoupling { cell: cell.clone() }));
+    Ok(Arc::new(
+        Meca500Sim::start(meca_config)
+            .map_err(options.bind_error("meca500", options.ports.meca500_control))?,
+    ))
+}
+
+/// The gauges' servers: the S_Dial's 12.5 mm travel, reading zero (a centred calibration
+/// ball) at 6 mm so that the display is the in-process reading and the master ball (+6.35 mm)
+/// still fits; their plungers coupled to the arm and the guide.
+fn start_gauges(
+    options: &SimCellOptions,
+    cell: &VirtualCell,
+    meca500: &Arc<Meca500Sim>,
+    guide_link: Option<GuideLink>,
+) -> Result<(Vec<SylvacSim>, Vec<Arc<GaugeCoupling>>), SimCellError> {
+    let range_mm = cell.config().gauge_range_mm;
+    let mut gauges = Vec::new();
+    let mut gauge_couplings = Vec::new();
+    for (index, port) in options.ports.gauges.iter().enumerate() {
+        let coupling = Arc::new(GaugeCoupling::new(
+            cell.clone(),
+            index,
+            range_mm,
+            Arc::downgrade(meca500),
+            guide_link.clone(),
+        ));
+        let decimals = options.gauge_decimals;
+        let config = SylvacConfig {
+            id: format!("SY289-SIM{}", index + 1),
+            resolution_mm: 10f64.powi(-(decimals as i32)),
+            decimals_mm: decimals,
+            seed: options.seed.wrapping_add(index as u64),
+            bind: options.at(*port),
+            plunger: Some(coupling.clone()),
+            zeroed_at_mm: Some(range_mm),
+            ..SylvacConfig::default()
+        };
+        let name = format!("gauge-{}", index + 1);
+        gauges.push(SylvacSim::start(config).map_err(options.bind_error(&name, *port))?);
+        gauge_couplings.push(coupling);
+    }
+    Ok((gauges, gauge_couplings))
+}
+
+/// The tracker's server: the SMR's world position in the tracker's frame (`options`'
+/// tracker pose), after the gauges' `sync`.
+fn start_tracker(
+    options: &SimCellOptions,
+    cell: &VirtualCell,
+    sync: &Arc<GaugeCoupling>,
+) -> Result<TrackerSim, SimCellError> {
+    TrackerSim::start(TrackerConfig {
+        identity: format!("vatcal sim-cell tracker (seed {})", options.seed),
+        bind: options.at(options.ports.tracker),
+        source: Some(Arc::new(TrackerCoupling {
+            cell: cell.clone(),
+            sync: Arc::clone(sync),
+            tracker_from_world: options.tracker_pose.inverse(),
+            read_time: std::time::Duration::from_secs_f64(
+                cell.config().timing.tracker_read_s / options.time_scale,
+            ),
+        })),
+        ..TrackerConfig::default()
+    })
+    .map_err(options.bind_error("tracker", options.ports.tracker))
+}
+
 impl SimCell {
     /// Builds the virtual world and starts every server.
     ///
@@ -368,81 +485,13 @@ impl SimCell {
             options.sim_config(),
             options.seed,
         );
-        let at = |port: u16| SocketAddr::new(options.bind, port);
-        let bind_err = |device: &str, port: u16| {
-            let address = at(port);
-            let device = device.to_owned();
-            move |source| SimCellError::Bind { device, address, source }
+        let at = |port: u16| options.at(port);
+        let (zaber, guide_link) = match start_guide(&options, &cell)? {
+            Some((sim, link)) => (Some(sim), Some(link)),
+            None => (None, None),
         };
-
-        // the guide, if the cell has one: microsteps of the default lead, stroke and speed of
-        // the nominal cell
-        let mut zaber = None;
-        let mut guide_link = None;
-        if let Some((_, stroke_mm)) = cell.guide_limits_mm() {
-            let mut zaber_config = ZaberConfig { time_scale: options.time_scale, ..ZaberConfig::default() };
-            zaber_config.travel_mm = stroke_mm;
-            let limits = options.nominal.to_cell().motion_limits();
-            zaber_config.maxspeed =
-                ZaberConfig::maxspeed_for(limits.guide_speed_mm_per_s, zaber_config.microstep_mm);
-            let microstep_mm = zaber_config.microstep_mm;
-            let full_maxspeed = zaber_config.maxspeed;
-            zaber_config.bind = at(options.ports.zaber);
-            let motion_maxspeed = Arc::new(std::sync::atomic::AtomicI64::new(0));
-            zaber_config.backend = Some(Arc::new(GuideCoupling {
-                cell: cell.clone(),
-                microstep_mm,
-                motion_maxspeed: Arc::clone(&motion_maxspeed),
-            }));
-            let sim =
-                Arc::new(ZaberSim::start(zaber_config).map_err(bind_err("zaber", options.ports.zaber))?);
-            guide_link =
-                Some(GuideLink { sim: Arc::downgrade(&sim), microstep_mm, full_maxspeed, motion_maxspeed });
-            zaber = Some(sim);
-        }
-
-        // the arm: the nominal cell's joint limits, motions coupled to the world
-        let mut meca_config = MecaConfig { time_scale: options.time_scale, ..MecaConfig::default() };
-        for (slot, (lo, hi)) in meca_config.joint_limits_deg.iter_mut().zip(cell.arm_joint_limits()) {
-            *slot = (lo.to_degrees(), hi.to_degrees());
-        }
-        meca_config.control_bind = at(options.ports.meca500_control);
-        meca_config.monitoring_bind = at(options.ports.meca500_monitoring);
-        meca_config.backend = Some(Arc::new(ArmCoupling { cell: cell.clone() }));
-        let meca500 = Arc::new(
-            Meca500Sim::start(meca_config).map_err(bind_err("meca500", options.ports.meca500_control))?,
-        );
-
-        // the gauges: the S_Dial's 12.5 mm travel, reading zero (a centred calibration ball)
-        // at 6 mm so that the display is the in-process reading and the master ball (+6.35 mm)
-        // still fits
-        let range_mm = cell.config().gauge_range_mm;
-        let mut gauges = Vec::new();
-        let mut gauge_couplings = Vec::new();
-        for (index, port) in options.ports.gauges.iter().enumerate() {
-            let coupling = Arc::new(GaugeCoupling::new(
-                cell.clone(),
-                index,
-                range_mm,
-                Arc::downgrade(&meca500),
-                guide_link.clone(),
-            ));
-            let decimals = options.gauge_decimals;
-            let config = SylvacConfig {
-                id: format!("SY289-SIM{}", index + 1),
-                resolution_mm: 10f64.powi(-(decimals as i32)),
-                decimals_mm: decimals,
-                seed: options.seed.wrapping_add(index as u64),
-                bind: at(*port),
-                plunger: Some(coupling.clone()),
-                zeroed_at_mm: Some(range_mm),
-                ..SylvacConfig::default()
-            };
-            let name = format!("gauge-{}", index + 1);
-            gauges.push(SylvacSim::start(config).map_err(bind_err(&name, *port))?);
-            gauge_couplings.push(coupling);
-        }
-
+        let meca500 = start_arm(&options, &cell)?;
+        let (gauges, gauge_couplings) = start_gauges(&options, &cell, &meca500, guide_link)?;
         let control = SimServer::spawn(
             "sim-cell-control",
             &[at(options.ports.control)],
@@ -451,23 +500,8 @@ impl SimCell {
                 Arc::new(move || coupling.sync())
             }),
         )
-        .map_err(bind_err("cell-control", options.ports.control))?;
-
-        let tracker = TrackerSim::start(TrackerConfig {
-            identity: format!("vatcal sim-cell tracker (seed {})", options.seed),
-            bind: at(options.ports.tracker),
-            source: Some(Arc::new(TrackerCoupling {
-                cell: cell.clone(),
-                sync: Arc::clone(&gauge_couplings[0]),
-                tracker_from_world: options.tracker_pose.inverse(),
-                read_time: std::time::Duration::from_secs_f64(
-                    cell.config().timing.tracker_read_s / options.time_scale,
-                ),
-            })),
-            ..TrackerConfig::default()
-        })
-        .map_err(bind_err("tracker", options.ports.tracker))?;
-
+        .map_err(options.bind_error("cell-control", options.ports.control))?;
+        let tracker = start_tracker(&options, &cell, &gauge_couplings[0])?;
         let addrs = SimCellAddrs {
             meca500_control: meca500.control_addr(),
             meca500_monitoring: meca500.monitoring_addr().unwrap_or_else(|| at(0)),
