@@ -13,6 +13,7 @@
 //! selection as a plan folder for `vatcal campaign --plan`.
 
 use nalgebra::{DMatrix, Matrix3};
+use rayon::prelude::*;
 use serde::Serialize;
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::{Measurement, ParamId, ParamSet, Target};
@@ -229,31 +230,15 @@ pub fn propose(
         |info: &DMatrix<f64>| ln_det(info) - ln_det(&info.view((0, 0), (nn, nn)).into_owned()) - focus_scale;
     let ln_ds_before = ln_ds(&info);
     let std_before = focus_std(&info, k, &scale);
+    let blocks = Blocks::of(&b);
     let block = |i: usize| b.rows(3 * i, 3).into_owned();
-    // gain of adding candidate i: ln det(I + B M⁻¹ Bᵀ) − ln det(I + B_n M_nn⁻¹ B_nᵀ)
-    let gain = |inv: &DMatrix<f64>, inv_nn: &DMatrix<f64>, i: usize| {
-        let bi = block(i);
-        let bn = bi.columns(0, nn).into_owned();
-        let g = Matrix3::identity() + Matrix3::from_iterator((&bi * inv * bi.transpose()).iter().copied());
-        let h = Matrix3::identity() + Matrix3::from_iterator((&bn * inv_nn * bn.transpose()).iter().copied());
-        g.determinant().max(f64::MIN_POSITIVE).ln() - h.determinant().max(f64::MIN_POSITIVE).ln()
-    };
-    let inverses = |info: &DMatrix<f64>| {
-        let inv = info.clone().try_inverse();
-        let inv_nn = info.view((0, 0), (nn, nn)).into_owned().try_inverse();
-        inv.zip(inv_nn).ok_or_else(|| DiscoveryError::Numerical("singular information matrix".into()))
-    };
     let n_pool = pool.len();
     let count = count.min(n_pool);
     let mut chosen: Vec<usize> = Vec::with_capacity(count);
     let mut taken = vec![false; n_pool];
     for _ in 0..count {
-        let (inv, inv_nn) = inverses(&info)?;
-        let best = (0..n_pool)
-            .filter(|i| !taken[*i])
-            .map(|i| (i, gain(&inv, &inv_nn, i)))
-            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
-        let Some((i, _)) = best else { break };
+        let factor = Factor::of(&info)?;
+        let Some((i, _)) = best_gain(&blocks, &factor, nn, &taken) else { break };
         taken[i] = true;
         chosen.push(i);
         let bi = block(i);
@@ -264,13 +249,9 @@ pub fn propose(
         let out = *slot;
         let bo = block(out);
         let without = &info - bo.transpose() * &bo;
-        let (inv, inv_nn) = inverses(&without)?;
-        let current = gain(&inv, &inv_nn, out);
-        let best = (0..n_pool)
-            .filter(|i| !taken[*i])
-            .map(|i| (i, gain(&inv, &inv_nn, i)))
-            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
-        if let Some((i, g)) = best
+        let factor = Factor::of(&without)?;
+        let current = factor.gain(blocks.rows(out), nn);
+        if let Some((i, g)) = best_gain(&blocks, &factor, nn, &taken)
             && g > current + 1e-9
         {
             taken[out] = false;
@@ -290,6 +271,89 @@ pub fn propose(
         std_before,
         std_after: focus_std(&info, k, &scale),
     })
+}
+
+/// The scaled pool rows, row-major and contiguous: candidate `i`'s three rows are
+/// `data[3·i·p .. 3·(i+1)·p]`.
+struct Blocks {
+    data: Vec<f64>,
+    p: usize,
+}
+
+impl Blocks {
+    fn of(b: &DMatrix<f64>) -> Self {
+        let p = b.ncols();
+        let mut data = Vec::with_capacity(b.nrows() * p);
+        for r in 0..b.nrows() {
+            data.extend((0..p).map(|c| b[(r, c)]));
+        }
+        Self { data, p }
+    }
+
+    /// Candidate `i`'s three rows, one after the other.
+    fn rows(&self, i: usize) -> &[f64] {
+        &self.data[3 * i * self.p..3 * (i + 1) * self.p]
+    }
+}
+
+/// The Cholesky factor `L` of an information matrix `M = L Lᵀ` (lower triangle, row-major).
+/// Its leading `nn × nn` block is the factor of `M_nn`, so one forward substitution
+/// `Y = L⁻¹ Bᵀ` of a candidate's rows gives both `B M⁻¹ Bᵀ = YᵀY` and
+/// `B_n M_nn⁻¹ B_nᵀ = Y_nᵀY_n` (`Y_n` its first `nn` rows).
+struct Factor {
+    l: Vec<f64>,
+    p: usize,
+}
+
+impl Factor {
+    fn of(info: &DMatrix<f64>) -> Result<Self, DiscoveryError> {
+        let p = info.nrows();
+        let chol = info
+            .clone()
+            .cholesky()
+            .ok_or_else(|| DiscoveryError::Numerical("singular information matrix".into()))?;
+        let lm = chol.l();
+        let mut l = Vec::with_capacity(p * p);
+        for r in 0..p {
+            l.extend((0..p).map(|c| lm[(r, c)]));
+        }
+        Ok(Self { l, p })
+    }
+
+    /// Gain in `ln Ds` of adding the candidate with `rows` (three rows of length p):
+    /// `ln det(I + B M⁻¹ Bᵀ) − ln det(I + B_n M_nn⁻¹ B_nᵀ)` (matrix determinant lemma).
+    fn gain(&self, rows: &[f64], nn: usize) -> f64 {
+        let p = self.p;
+        let mut y = [vec![0.0; p], vec![0.0; p], vec![0.0; p]];
+        for r in 0..p {
+            let lr = &self.l[r * p..r * p + r];
+            for (a, ya) in y.iter_mut().enumerate() {
+                let dot: f64 = lr.iter().zip(&ya[..r]).map(|(l, v)| l * v).sum();
+                ya[r] = (rows[a * p + r] - dot) / self.l[r * p + r];
+            }
+        }
+        let gram = |n: usize| {
+            Matrix3::from_fn(|a, b| {
+                let d: f64 = y[a][..n].iter().zip(&y[b][..n]).map(|(u, v)| u * v).sum();
+                if a == b { 1.0 + d } else { d }
+            })
+        };
+        gram(p).determinant().max(f64::MIN_POSITIVE).ln() - gram(nn).determinant().max(f64::MIN_POSITIVE).ln()
+    }
+}
+
+/// The untaken candidate with the largest gain (the lowest index among equal gains): the
+/// gains are computed in parallel, one per candidate (each the same whatever the thread
+/// count), and compared in candidate order.
+fn best_gain(blocks: &Blocks, factor: &Factor, nn: usize, taken: &[bool]) -> Option<(usize, f64)> {
+    let gains: Vec<f64> = (0..taken.len())
+        .into_par_iter()
+        .map(|i| if taken[i] { f64::NAN } else { factor.gain(blocks.rows(i), nn) })
+        .collect();
+    (0..taken.len())
+        .filter(|i| !taken[*i])
+        .map(|i| (i, gains[i]))
+        .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
 }
 
 /// `ln Ds` and the focus parameters' predicted standard deviations for `existing` plus the
