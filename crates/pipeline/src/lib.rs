@@ -9,17 +9,17 @@
 //!   a run (journals, CSVs, plan folders, report files);
 //! * **the stages**, each a module that takes inputs and returns outputs and knows nothing of
 //!   the others:
-//!   1. [`plan_stage`] (`vatcal-planning`): candidate measurement poses, Detmax selection, the
+//!   1. [`plan_stage`](mod@plan_stage) (`vatcal-planning`): candidate measurement poses, Detmax selection, the
 //!      time-optimal tour, written as a [`PlanFolder`];
-//!   2. [`campaign_stage`] (`vatcal-campaign`): the planned measurements on any [`DeviceSet`]
+//!   2. [`campaign_stage`](mod@campaign_stage) (`vatcal-campaign`): the planned measurements on any [`DeviceSet`]
 //!      with TriCal auto-centering, the crash-safe journal and `measurements.csv` (also what
 //!      `vatcal campaign` runs on the real cell);
-//!   3. [`identify_stage`] (`vatcal-identification`): the plan's parameter set (the paper's 34
+//!   3. [`identify_stage`](mod@identify_stage) (`vatcal-identification`): the plan's parameter set (the paper's 34
 //!      parameters on the canonical cell, the chain's identifiable default set otherwise) by
 //!      Levenberg–Marquardt;
-//!   4. [`discovery_stage`] (`vatcal-discovery`, optional): a second probe campaign, the
+//!   4. [`discovery_stage`](mod@discovery_stage) (`vatcal-discovery`, optional): a second probe campaign, the
 //!      missing-effect discovery and its measurement loop ([`discovery_loop`]);
-//!   5. [`validation_stage`] (`vatcal_campaign::validation`): random poses and a printing path
+//!   5. [`validation_stage`](mod@validation_stage) (`vatcal_campaign::validation`): random poses and a printing path
 //!      measured with the tracker, commanded by every model; the printing path (the guide
 //!      lifting the part out of the tank) exists on the canonical Meca500-on-guide cell only:
 //!      any other chain is validated on the random poses alone ([`has_printing_path`]);
