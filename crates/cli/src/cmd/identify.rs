@@ -64,7 +64,7 @@ pub struct Args {
     /// Markers (TCPs) at unknown offsets, e.g. several points of one tracked body: a
     /// comma-separated list of the TCP ids the rows use that the cell file lacks (added at TCP
     /// 1's offset, placed by the initialisation, identified with the rest), or `all` (every such
-    /// id). Without it such rows are an error. An id the cell file has is fitted anyway.
+    /// id). Without it such rows are an error, and so is a listed id the cell file has.
     #[arg(long, value_name = "IDS|all")]
     pub unknown_tcps: Option<String>,
     /// A known distance between two fixed points, `A,B,MM` or `A,B,MM,SIGMA_MM` (default sigma

@@ -4,6 +4,7 @@
 //! contains them.
 
 use std::collections::BTreeMap;
+use std::path::Path;
 
 use anyhow::bail;
 use vatcal_core::cell::PointEntry;
@@ -17,33 +18,23 @@ use vatcal_kinematics::Model;
 pub struct UnknownTcps {
     /// TCP ids added to the cell (at the placeholder), ascending
     pub added: Vec<u32>,
-    /// ids listed that the cell file already has (fitted as measured TCPs anyway)
-    pub already_known: Vec<u32>,
     /// the placeholder offset the added TCPs start from \[mm, frame N\] and where it came from
     pub placeholder: ([f64; 3], String),
 }
 
 impl UnknownTcps {
-    /// One line for the terminal (nothing when the flag added nothing and named nothing).
+    /// One line for the terminal (nothing when the flag added nothing).
     pub fn describe(&self) -> Option<String> {
-        let mut parts = Vec::new();
-        if !self.added.is_empty() {
-            parts.push(format!(
+        (!self.added.is_empty()).then(|| {
+            format!(
                 "unknown markers: tcp {} added at the placeholder ({:.3}, {:.3}, {:.3}) mm ({}); the initialisation solves them, the fit identifies them",
                 join(&self.added),
                 self.placeholder.0[0],
                 self.placeholder.0[1],
                 self.placeholder.0[2],
                 self.placeholder.1
-            ));
-        }
-        if !self.already_known.is_empty() {
-            parts.push(format!(
-                "note: --unknown-tcps {}: in the cell file already; a TCP the rows use is fitted as a measured TCP anyway (its cell value is the start)",
-                join(&self.already_known)
-            ));
-        }
-        (!parts.is_empty()).then(|| parts.join("\n"))
+            )
+        })
     }
 }
 
@@ -81,13 +72,13 @@ fn row_name(sources: &[RowSource], k: usize) -> String {
 pub fn model_with_unknown_tcps(
     cell: &mut CellFile,
     model: Model,
-    model_path: &std::path::Path,
+    model_path: &Path,
     spec: Option<&str>,
     rows: &[Measurement],
     sources: &[RowSource],
 ) -> anyhow::Result<(Model, UnknownTcps)> {
     use anyhow::Context;
-    let markers = add_unknown_tcps(cell, spec, rows, sources)?;
+    let markers = add_unknown_tcps(cell, model_path, spec, rows, sources)?;
     if let Some(line) = markers.describe() {
         println!("{line}");
     }
@@ -102,9 +93,12 @@ pub fn model_with_unknown_tcps(
 /// Resolves `--unknown-tcps` (`flag` names it in messages) against the rows and adds the TCPs
 /// the rows use that the cell lacks, at the placeholder (TCP 1's offset, else the first TCP's,
 /// else the flange origin). Without the flag such rows are an error naming the first row and the
-/// flag to pass; a listed id no row uses is an error; a listed id the cell has is a note.
+/// flag to pass; a listed id no row uses is an error; a listed id the cell file has (given both
+/// as known and as unknown) is an error naming its `[[tcps]]` entry in `cell_path` by line and
+/// column ([`known_and_unknown`]).
 pub fn add_unknown_tcps(
     cell: &mut CellFile,
+    cell_path: &Path,
     spec: Option<&str>,
     rows: &[Measurement],
     sources: &[RowSource],
@@ -125,6 +119,10 @@ pub fn add_unknown_tcps(
         Some("all") => missing_ids.clone(),
         Some(text) => parse_ids(text)?,
     };
+    let conflicts: Vec<u32> = listed.iter().copied().filter(|id| known.contains(id)).collect();
+    if !conflicts.is_empty() {
+        bail!("{}", known_and_unknown(cell_path, &conflicts, &listed));
+    }
     let used = used_tcps(rows);
     for id in &listed {
         if !used.contains(id) {
@@ -147,18 +145,54 @@ pub fn add_unknown_tcps(
         Some(t) => ([t.x_mm, t.y_mm, t.z_mm], format!("the cell's tcp {}", t.id)),
         None => ([0.0; 3], "the flange origin".to_string()),
     };
-    let (mut already_known, mut added): (Vec<u32>, Vec<u32>) =
-        listed.into_iter().partition(|id| known.contains(id));
-    for ids in [&mut added, &mut already_known] {
-        ids.sort_unstable();
-        ids.dedup();
-    }
-    let out = UnknownTcps { added, already_known, placeholder };
+    let mut added = listed;
+    added.sort_unstable();
+    added.dedup();
+    let out = UnknownTcps { added, placeholder };
     let [x_mm, y_mm, z_mm] = out.placeholder.0;
     for id in &out.added {
         cell.tcps.push(PointEntry { id: *id, x_mm, y_mm, z_mm });
     }
     Ok(out)
+}
+
+/// The one-line error of TCP ids `conflicts` that `--unknown-tcps` lists (as `listed`) and the
+/// cell file has: it names the first one's `[[tcps]]` entry as `file:line:column` (the column of
+/// its `id` value), where the user either removes the entry (to fit the marker from the
+/// placeholder) or drops the id from the flag (to fit it from its cell value). The file alone
+/// when its text does not show the entry (e.g. an inline table).
+fn known_and_unknown(cell_path: &Path, conflicts: &[u32], listed: &[u32]) -> String {
+    let first = conflicts[0];
+    let others =
+        if conflicts.len() > 1 { format!(" (also tcp {})", join(&conflicts[1..])) } else { String::new() };
+    format!(
+        "{}: tcp {first} is given both as known (this [[tcps]] entry of the cell file) and as unknown (--unknown-tcps {}){others}: drop it from --unknown-tcps to fit it from its cell value, or remove the entry to fit it as a marker at an unknown offset",
+        tcp_entry_location(cell_path, first),
+        join(listed)
+    )
+}
+
+/// `file:line:column` of the `id = {id}` key of a `[[tcps]]` entry of the cell file (the column
+/// of the value), or the file alone when the text does not show it.
+fn tcp_entry_location(cell_path: &Path, id: u32) -> String {
+    let file = cell_path.display();
+    let Ok(text) = std::fs::read_to_string(cell_path) else { return file.to_string() };
+    let mut in_tcps = false;
+    for (k, line) in text.lines().enumerate() {
+        let code = line.split('#').next().unwrap_or("");
+        let trimmed = code.trim();
+        if trimmed.starts_with('[') {
+            in_tcps = trimmed.split_whitespace().collect::<String>() == "[[tcps]]";
+            continue;
+        }
+        let Some((key, value)) = code.split_once('=') else { continue };
+        if !in_tcps || key.trim() != "id" || value.trim().parse::<u32>() != Ok(id) {
+            continue;
+        }
+        let at = key.len() + 1 + (value.len() - value.trim_start().len());
+        return format!("{file}:{}:{}", k + 1, code[..at].chars().count() + 1);
+    }
+    file.to_string()
 }
 
 /// `--unknown-tcps 2,3,4`: the ids (at least one, each a non-negative integer).

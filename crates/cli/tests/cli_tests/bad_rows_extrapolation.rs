@@ -7,8 +7,11 @@
 
 use super::any_robot::{fixture, run, vatcal};
 use nalgebra::{Rotation3, Vector3};
+use std::path::{Path, PathBuf};
 use vatcal_compensation::PoseRequest;
-use vatcal_core::{Axis, CellFile, JointVector, Measurement, MeasurementContext, ParamId, Target};
+
+use vatcal_core::training_range::TrainingRange;
+use vatcal_core::{Axis, CellFile, JointKind, JointVector, Measurement, MeasurementContext, ParamId, Target};
 use vatcal_kinematics::Model;
 use vatcal_sim::truth::{ErrorBudget, perturbed_truth, synthetic_tracker_measurements};
 
@@ -57,63 +60,108 @@ fn run_full(args: &[&str]) -> (bool, String, String) {
     )
 }
 
-#[test]
-fn bad_rows_are_named_down_weighted_and_dropped_and_extrapolation_is_warned() {
-    let dir = tempfile::tempdir().expect("tmp");
-    let p = |name: &str| dir.path().join(name);
-    let s = |path: &std::path::Path| path.display().to_string();
-    let ur5e = fixture("ur5e.toml");
-    let nominal = Model::from_cell(&CellFile::load(&ur5e).expect("fixture")).expect("model");
-    let kinds = nominal.joint_kinds().to_vec();
-    let truth = truth(&nominal);
-    let clean = rows(&truth, 80, 0.01, 5);
-    let held = rows(&truth, 300, 0.0, 6);
-    vatcal_io::write_measurements_for(p("clean.csv"), &clean, &kinds).expect("write");
-    vatcal_io::write_measurements_for(p("held.csv"), &held, &kinds).expect("write");
-    // the bad file: row 17 displaced by 60 mm, a comment line before it
-    let mut bad = clean.clone();
-    let Target::Tracker { xyz_mm } = bad[BAD_ROW].target else { unreachable!("tracker rows") };
-    bad[BAD_ROW].target = Target::Tracker { xyz_mm: xyz_mm + Vector3::from(DISPLACEMENT_MM) };
-    let text = vatcal_io::measurements_to_csv_for(&bad, &kinds);
-    let mut lines: Vec<&str> = text.lines().collect();
-    let header = lines.iter().position(|l| !l.starts_with('#')).expect("header");
-    lines.insert(header + 1 + BAD_ROW, "# the tracker lost the marker on the next row");
-    let bad_line = header + 1 + BAD_ROW + 2; // 1-based line of the displaced row
-    std::fs::write(p("bad.csv"), lines.join("\n") + "\n").expect("write");
-    let bad_csv = s(&p("bad.csv"));
-    let named = format!("{bad_csv}:{bad_line}");
+/// A path as an argument.
+fn s(path: &Path) -> String {
+    path.display().to_string()
+}
 
-    let identify = |data: &str, out: &str, extra: &[&str]| -> String {
+/// The files of the run: the UR5e fixture, the truth, 80 clean rows and 300 held-out ones, and
+/// the bad file (row 17 displaced by 60 mm, a comment line before it).
+struct Case {
+    dir: tempfile::TempDir,
+    ur5e: String,
+    kinds: Vec<JointKind>,
+    truth: Model,
+    clean: Vec<Measurement>,
+    bad_csv: String,
+    /// 1-based line of the displaced row
+    bad_line: usize,
+    /// `file:line` of the displaced row
+    named: String,
+}
+
+impl Case {
+    fn new() -> Self {
+        let dir = tempfile::tempdir().expect("tmp");
+        let ur5e = fixture("ur5e.toml");
+        let nominal = Model::from_cell(&CellFile::load(&ur5e).expect("fixture")).expect("model");
+        let kinds = nominal.joint_kinds().to_vec();
+        let truth = truth(&nominal);
+        let clean = rows(&truth, 80, 0.01, 5);
+        let held = rows(&truth, 300, 0.0, 6);
+        let p = |name: &str| dir.path().join(name);
+        vatcal_io::write_measurements_for(p("clean.csv"), &clean, &kinds).expect("write");
+        vatcal_io::write_measurements_for(p("held.csv"), &held, &kinds).expect("write");
+        // the bad file: row 17 displaced by 60 mm, a comment line before it
+        let mut bad = clean.clone();
+        let Target::Tracker { xyz_mm } = bad[BAD_ROW].target else { unreachable!("tracker rows") };
+        bad[BAD_ROW].target = Target::Tracker { xyz_mm: xyz_mm + Vector3::from(DISPLACEMENT_MM) };
+        let text = vatcal_io::measurements_to_csv_for(&bad, &kinds);
+        let mut lines: Vec<&str> = text.lines().collect();
+        let header = lines.iter().position(|l| !l.starts_with('#')).expect("header");
+        lines.insert(header + 1 + BAD_ROW, "# the tracker lost the marker on the next row");
+        let bad_line = header + 1 + BAD_ROW + 2; // 1-based line of the displaced row
+        std::fs::write(p("bad.csv"), lines.join("\n") + "\n").expect("write");
+        let bad_csv = s(&p("bad.csv"));
+        let named = format!("{bad_csv}:{bad_line}");
+        Case { dir, ur5e, kinds, truth, clean, bad_csv, bad_line, named }
+    }
+
+    /// A file of the run's folder.
+    fn p(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    /// `vatcal identify` of `data` on the UR5e fixture, writing `{out}.toml` and `{out}.json`.
+    fn identify(&self, data: &str, out: &str, extra: &[&str]) -> String {
         let mut args = vec![
             "identify".to_string(),
             "--model".into(),
-            ur5e.clone(),
+            self.ur5e.clone(),
             "--measurements".into(),
             data.to_string(),
             "--out".into(),
-            s(&p(&format!("{out}.toml"))),
+            s(&self.p(&format!("{out}.toml"))),
             "--report".into(),
-            s(&p(&format!("{out}.json"))),
+            s(&self.p(&format!("{out}.json"))),
         ];
         args.extend(extra.iter().map(|a| a.to_string()));
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         run(&args)
-    };
-    let held_mean = |model: &str| -> f64 {
+    }
+
+    /// The mean held-out error of a calibrated model \[mm\].
+    fn held_mean(&self, model: &str) -> f64 {
         run(&[
             "validate",
             "--model",
-            &s(&p(model)),
+            &s(&self.p(model)),
             "--tracker",
-            &s(&p("held.csv")),
+            &s(&self.p("held.csv")),
             "--report",
-            &s(&p("v.json")),
+            &s(&self.p("v.json")),
         ]);
-        json(&p("v.json"))["model"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean")
-    };
+        json(&self.p("v.json"))["model"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean")
+    }
+}
 
-    // the clean data: nothing flagged; the training range is recorded in the file and report
-    let out = identify(&s(&p("clean.csv")), "clean", &[]);
+#[test]
+fn bad_rows_are_named_down_weighted_and_dropped_and_extrapolation_is_warned() {
+    let case = Case::new();
+    let range = the_clean_fit_records_its_training_range(&case);
+    the_default_fit_names_the_bad_row_and_keeps_it(&case);
+    cauchy_down_weights_the_bad_row(&case);
+    drop_outliers_removes_the_bad_row_and_calibrates_again(&case);
+    robust_and_dropping_fits_are_back_near_the_clean_fit(&case);
+    bad_flags_are_refused(&case);
+    let postures = validate_warns_of_postures_outside_the_training_range(&case, &range);
+    compensate_warns_of_targets_outside_the_training_range(&case, &postures);
+}
+
+/// The clean data: nothing flagged; the training range is recorded in the file and report.
+fn the_clean_fit_records_its_training_range(case: &Case) -> TrainingRange {
+    let p = |name: &str| case.p(name);
+    let out = case.identify(&s(&p("clean.csv")), "clean", &[]);
     assert!(out.contains("bad rows: 0 beyond 4 x robust sigma"), "{out}");
     assert!(out.contains("training range (80 rows"), "{out}");
     let cell = CellFile::load(p("clean.toml")).expect("calibrated");
@@ -121,45 +169,55 @@ fn bad_rows_are_named_down_weighted_and_dropped_and_extrapolation_is_warned() {
     assert_eq!((range.rows, range.q_min.len()), (80, 6));
     assert_eq!(json(&p("clean.json"))["training_range"]["rows"], 80);
     assert!(std::fs::read_to_string(p("clean.toml")).expect("toml").contains("[training_range]"));
+    range
+}
 
-    // the default names the displaced row by file and line and keeps it
-    let out = identify(&bad_csv, "default", &[]);
+/// The default names the displaced row by file and line and keeps it.
+fn the_default_fit_names_the_bad_row_and_keeps_it(case: &Case) {
+    let (named, bad_line) = (&case.named, case.bad_line);
+    let out = case.identify(&case.bad_csv, "default", &[]);
     eprintln!("{out}");
-    assert!(out.contains(&named) && out.contains("kept in the fit"), "{named}\n{out}");
-    let report = json(&p("default.json"));
+    assert!(out.contains(named) && out.contains("kept in the fit"), "{named}\n{out}");
+    let report = json(&case.p("default.json"));
     let first = &report["bad_rows"]["rows"][0];
     assert_eq!(
         (first["row"].as_u64(), first["line"].as_u64()),
         (Some(BAD_ROW as u64), Some(bad_line as u64))
     );
-    assert_eq!(first["file"].as_str(), Some(bad_csv.as_str()));
+    assert_eq!(first["file"].as_str(), Some(case.bad_csv.as_str()));
     assert!(first["residual_mm"].as_f64().expect("residual") > 40.0);
     assert_eq!(report["bad_rows"]["k"], 4.0);
+}
 
-    // --robust cauchy: down-weighted, named with its weight
-    let out = identify(&bad_csv, "cauchy", &["--robust", "cauchy"]);
-    assert!(out.contains("robust fit (cauchy, c = 2.385") && out.contains(&named), "{out}");
-    let report = json(&p("cauchy.json"));
+/// `--robust cauchy`: down-weighted, named with its weight.
+fn cauchy_down_weights_the_bad_row(case: &Case) {
+    let out = case.identify(&case.bad_csv, "cauchy", &["--robust", "cauchy"]);
+    assert!(out.contains("robust fit (cauchy, c = 2.385") && out.contains(&case.named), "{out}");
+    let report = json(&case.p("cauchy.json"));
     assert_eq!(report["bad_rows"]["robust"]["loss"], "cauchy");
     let row = &report["bad_rows"]["rows"][0];
-    assert_eq!(row["line"].as_u64(), Some(bad_line as u64));
+    assert_eq!(row["line"].as_u64(), Some(case.bad_line as u64));
     assert!(row["weight"].as_f64().expect("weight") < 1e-3, "{row}");
+}
 
-    // --drop-outliers 4: removed, the calibration redone on the rows kept
-    let out = identify(&bad_csv, "drop", &["--drop-outliers", "4"]);
-    assert!(out.contains("--drop-outliers 4: ") && out.contains(&named), "{out}");
-    let report = json(&p("drop.json"));
+/// `--drop-outliers 4`: removed, the calibration redone on the rows kept.
+fn drop_outliers_removes_the_bad_row_and_calibrates_again(case: &Case) {
+    let out = case.identify(&case.bad_csv, "drop", &["--drop-outliers", "4"]);
+    assert!(out.contains("--drop-outliers 4: ") && out.contains(&case.named), "{out}");
+    let report = json(&case.p("drop.json"));
     let dropped = report["bad_rows"]["dropped"].as_array().expect("dropped");
-    assert!(dropped.iter().any(|d| d["line"].as_u64() == Some(bad_line as u64)), "{dropped:?}");
+    assert!(dropped.iter().any(|d| d["line"].as_u64() == Some(case.bad_line as u64)), "{dropped:?}");
     assert_eq!(report["training_range"]["rows"].as_u64(), Some(80 - dropped.len() as u64));
     assert_eq!(report["n_measurements"].as_u64(), Some(80 - dropped.len() as u64));
+}
 
-    // held-out postures: the robust and the dropping fits are back near the clean fit
+/// Held-out postures: the robust and the dropping fits are back near the clean fit.
+fn robust_and_dropping_fits_are_back_near_the_clean_fit(case: &Case) {
     let (e_clean, e_default, e_cauchy, e_drop) = (
-        held_mean("clean.toml"),
-        held_mean("default.toml"),
-        held_mean("cauchy.toml"),
-        held_mean("drop.toml"),
+        case.held_mean("clean.toml"),
+        case.held_mean("default.toml"),
+        case.held_mean("cauchy.toml"),
+        case.held_mean("drop.toml"),
     );
     eprintln!(
         "held-out mean: clean {e_clean:.5} mm, default {e_default:.5} mm, cauchy {e_cauchy:.5} mm, drop {e_drop:.5} mm"
@@ -167,14 +225,23 @@ fn bad_rows_are_named_down_weighted_and_dropped_and_extrapolation_is_warned() {
     assert!(e_default > 2.0 * e_clean, "{e_default} vs {e_clean}");
     assert!(e_cauchy <= 1.2 * e_clean, "{e_cauchy} vs {e_clean}");
     assert!(e_drop <= 1.2 * e_clean, "{e_drop} vs {e_clean}");
+}
 
-    // bad flags
+/// Bad flags of `identify` are refused, naming the flag.
+fn bad_flags_are_refused(case: &Case) {
     let args = |extra: &[&'static str]| -> Vec<String> {
-        let mut a: Vec<String> =
-            ["identify", "--model", &ur5e, "--measurements", &bad_csv, "--out", &s(&p("x.toml"))]
-                .iter()
-                .map(|x| x.to_string())
-                .collect();
+        let mut a: Vec<String> = [
+            "identify",
+            "--model",
+            &case.ur5e,
+            "--measurements",
+            &case.bad_csv,
+            "--out",
+            &s(&case.p("x.toml")),
+        ]
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
         a.extend(extra.iter().map(|x| x.to_string()));
         a
     };
@@ -189,19 +256,27 @@ fn bad_rows_are_named_down_weighted_and_dropped_and_extrapolation_is_warned() {
         let (ok, _, err) = run_full(&a);
         assert!(!ok && err.contains(expected), "{extra:?}: {err}");
     }
+}
 
-    // validate: 40 training postures (inside) and 5 with q2 beyond the training maximum
-    let mut postures: Vec<Measurement> = clean[..40].to_vec();
+/// Validate: 40 training postures (inside) and 5 with q2 beyond the training maximum, each
+/// named; extrapolation is not an error, and a model without a range says nothing about it.
+/// Returns the 45 postures.
+fn validate_warns_of_postures_outside_the_training_range(
+    case: &Case,
+    range: &TrainingRange,
+) -> Vec<Measurement> {
+    let (p, kinds) = (|name: &str| case.p(name), &case.kinds);
+    let mut postures: Vec<Measurement> = case.clean[..40].to_vec();
     let q2_max = range.q_max[1];
     let mut outside_lines = Vec::new();
-    for (k, m) in clean[40..45].iter().enumerate() {
-        let mut v = m.q.to_file_units(&kinds);
+    for (k, m) in case.clean[40..45].iter().enumerate() {
+        let mut v = m.q.to_file_units(kinds);
         v[1] = q2_max + 10.0 + k as f64;
-        let q = JointVector::from_file_units(&v, &kinds).expect("q");
-        postures.push(Measurement::tracker(1, q, seen(&truth, &q)));
+        let q = JointVector::from_file_units(&v, kinds).expect("q");
+        postures.push(Measurement::tracker(1, q, seen(&case.truth, &q)));
         outside_lines.push(2 + 40 + k as u64);
     }
-    vatcal_io::write_measurements_for(p("wide.csv"), &postures, &kinds).expect("write");
+    vatcal_io::write_measurements_for(p("wide.csv"), &postures, kinds).expect("write");
     let (ok, out, err) = run_full(&[
         "validate",
         "--model",
@@ -231,12 +306,16 @@ fn bad_rows_are_named_down_weighted_and_dropped_and_extrapolation_is_warned() {
     assert_eq!(lines, outside_lines);
     assert_eq!(ex["rows"][0]["joints"][0]["joint"].as_u64(), Some(2));
     // extrapolation is not an error, and a model without a range says nothing about it
-    let (ok, out, err) = run_full(&["validate", "--model", &ur5e, "--tracker", &s(&p("wide.csv"))]);
+    let (ok, out, err) = run_full(&["validate", "--model", &case.ur5e, "--tracker", &s(&p("wide.csv"))]);
     assert!(ok && !out.contains("extrapolation") && !err.contains("training range"), "{out}\n{err}");
+    postures
+}
 
-    // compensate: a pose of a training posture is quiet, one beyond the range is named
+/// Compensate: a pose of a training posture is quiet, one beyond the range is named.
+fn compensate_warns_of_targets_outside_the_training_range(case: &Case, postures: &[Measurement]) {
+    let p = |name: &str| case.p(name);
     let calibrated = Model::from_cell(&CellFile::load(p("clean.toml")).expect("cell")).expect("model");
-    for (name, q, warned) in [("inside", clean[3].q, false), ("outside", postures[42].q, true)] {
+    for (name, q, warned) in [("inside", case.clean[3].q, false), ("outside", postures[42].q, true)] {
         let tool = calibrated.chain(&q).tool;
         let r = PoseRequest::from_tool_frame(
             &calibrated,
@@ -255,7 +334,7 @@ fn bad_rows_are_named_down_weighted_and_dropped_and_extrapolation_is_warned() {
             ),
         )
         .expect("write");
-        let near: Vec<String> = q.to_file_units(&kinds).iter().map(|v| v.to_string()).collect();
+        let near: Vec<String> = q.to_file_units(&case.kinds).iter().map(|v| v.to_string()).collect();
         let target = p(&format!("{name}-targets.csv"));
         let (ok, _, err) = run_full(&[
             "compensate",

@@ -10,7 +10,7 @@
 //! * a stage on its own (`--stages identify`) recomputes from the run folder, a stage whose
 //!   predecessor is not done is refused naming it, a resume of another seed is refused.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -175,10 +175,20 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     let mut args = vec!["demo", "--out", s(&demo)];
     args.extend(SMALL);
     ok(&vatcal(&args));
+    let out = calibrate_over_tcp(dir.path(), "run");
+    let (d, c) = (report(&demo), report(&out));
+    assert!(d.get("tracker_registration").is_none(), "the demo's in-process tracker is not registered");
+    the_tracker_is_registered_at_the_simulators_pose(&c, &out);
+    the_validation_agrees_with_the_demo(&d, &c);
+    killed_and_resumed_runs_measure_what_the_uninterrupted_run_measured(dir.path(), &out, &c);
+}
 
+/// `vatcal calibrate` of every stage against a simulated cell served over TCP (seed 3, time
+/// scale 1000), in `dir/name`.
+fn calibrate_over_tcp(dir: &Path, name: &str) -> PathBuf {
     let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
-    let devices = cell.devices_file(dir.path());
-    let out = dir.path().join("run");
+    let devices = cell.devices_file(dir);
+    let out = dir.join(name);
     let mut args = vec!["calibrate", "--devices", s(&devices), "--operator", "auto", "--out", s(&out)];
     args.extend(SMALL);
     let stdout = ok(&vatcal(&args));
@@ -187,9 +197,13 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
         "{stdout}"
     );
     assert!(stdout.contains("tracker registered to the tank on 3 calibration positions"), "{stdout}");
+    out
+}
 
-    let (d, c) = (report(&demo), report(&out));
-    assert!(d.get("tracker_registration").is_none(), "the demo's in-process tracker is not registered");
+/// The tracker is registered on the three calibration positions: the fitted `tank <- tracker`
+/// is the simulator's tracker pose (up to its registration error and the true calibration
+/// positions), and the summaries show it.
+fn the_tracker_is_registered_at_the_simulators_pose(c: &serde_json::Value, out: &Path) {
     let reg = &c["tracker_registration"];
     assert_eq!(reg["mode"], "register");
     let points = reg["points"].as_array().expect("points");
@@ -213,27 +227,27 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
         std::fs::read_to_string(out.join("summary.html")).expect("html").contains("Tracker registration")
     );
     assert!(out.join("tracker-registration.json").exists());
+}
 
+/// The validation errors of the nominal, calibrated and discovered models of the demo (`d`)
+/// and of the run over TCP (`c`) agree within the tracker's noise.
+fn the_validation_agrees_with_the_demo(d: &serde_json::Value, c: &serde_json::Value) {
     // Discovery's additions are discrete decisions (a held-out z against its threshold); at these
     // small sizes a decision near its threshold can fall either way on two noise realisations
     // (measured: the same block at z = 2.41 < 2.96 in the demo, accepted over TCP), so the
     // discovered model is compared like the others only when both runs added the same effects.
     let same_effects = d["discovery"]["added_effects"] == c["discovery"]["added_effects"];
     for label in ["nominal", "calibrated", "discovered"] {
-        let (dr, dp) = means(&d, label);
-        let (cr, cp) = means(&c, label);
+        let (dr, dp) = means(d, label);
+        let (cr, cp) = means(c, label);
         println!("{label}: random {dr:.4} (demo) vs {cr:.4} mm, path {dp:.4} vs {cp:.4} mm");
         if label == "discovered" && !same_effects {
             let labels = |r: &serde_json::Value| {
                 let added = r["discovery"]["added_effects"].as_array().cloned().unwrap_or_default();
                 added.iter().map(|e| e["label"].to_string()).collect::<Vec<_>>().join(", ")
             };
-            println!(
-                "discovery added different effects: demo [{}] vs calibrate [{}]",
-                labels(&d),
-                labels(&c)
-            );
-            for (report, run) in [(&d, "demo"), (&c, "calibrate")] {
+            println!("discovery added different effects: demo [{}] vs calibrate [{}]", labels(d), labels(c));
+            for (report, run) in [(d, "demo"), (c, "calibrate")] {
                 let (r, p) = means(report, label);
                 let (r34, p34) = means(report, "calibrated");
                 // random poses (the discovery's criterion) not worse; the printing path, a small
@@ -246,22 +260,31 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
         assert!((dp - cp).abs() < 0.020, "{label} printing path: demo {dp:.4} vs calibrate {cp:.4} mm");
     }
     // the calibration is real: the calibrated model is far better than the nominal one
-    assert!(means(&c, "calibrated").0 < 0.5 * means(&c, "nominal").0);
+    assert!(means(c, "calibrated").0 < 0.5 * means(c, "nominal").0);
+}
 
-    // kill -9 during the plan, `--resume`, kill -9 during the validation (after the
-    // registration), `--resume`: the same measurements as the uninterrupted run, none twice
+/// The tracker points journaled in a run folder.
+fn tracked(out: &Path) -> usize {
+    std::fs::read_to_string(out.join("validation.journal"))
+        .map_or(0, |t| t.matches("\"outcome\":\"tracked\"").count())
+}
+
+/// kill -9 during the plan, `--resume`, kill -9 during the validation (after the
+/// registration), `--resume`: the same measurements as the uninterrupted run `out` (report
+/// `c`), none twice.
+fn killed_and_resumed_runs_measure_what_the_uninterrupted_run_measured(
+    dir: &Path,
+    out: &Path,
+    c: &serde_json::Value,
+) {
     let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
-    let devices = cell.devices_file(dir.path());
-    let killed = dir.path().join("killed");
+    let devices = cell.devices_file(dir);
+    let killed = dir.join("killed");
     let mut args = vec!["calibrate", "--devices", s(&devices), "--operator", "auto", "--out", s(&killed)];
     args.extend(SMALL);
     kill_in(&args, || stage_running(&killed, "plan"));
     args.push("--resume");
-    let tracked = |out: &Path| {
-        std::fs::read_to_string(out.join("validation.journal"))
-            .map_or(0, |t| t.matches("\"outcome\":\"tracked\"").count())
-    };
-    let planned = tracked(&out);
+    let planned = tracked(out);
     kill_in(&args, || tracked(&killed) >= planned / 3);
     assert!(tracked(&killed) < planned, "killed after the end of the validation");
     let stdout = ok(&vatcal(&args));
@@ -269,8 +292,22 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     for csv in ["measurements.csv", "discovery_measurements.csv"] {
         assert_eq!(rows_without_time(&killed.join(csv)), rows_without_time(&out.join(csv)), "{csv}");
     }
-    // the tracker points: the same poses and approach directions, the same readings up to the
-    // simulated thermal drift of the longer clock (the moves that restored the cell): < 0.1 µm
+    the_tracker_points_agree(&killed, out);
+    assert_eq!(tracked(&killed), planned, "a tracker point measured twice or lost");
+    assert_eq!(attempts(&killed, "plan"), 2);
+    assert_eq!(attempts(&killed, "validation"), 2);
+    assert_eq!(attempts(&killed, "campaign"), 1);
+    assert_eq!(
+        report(&killed)["tracker_registration"]["points"],
+        c["tracker_registration"]["points"],
+        "the resumed validation reuses the registration"
+    );
+}
+
+/// The tracker points of the killed and resumed run and the uninterrupted one: the same poses
+/// and approach directions, the same readings up to the simulated thermal drift of the longer
+/// clock (the moves that restored the cell): < 0.1 µm.
+fn the_tracker_points_agree(killed: &Path, out: &Path) {
     for csv in [
         "validation_random.csv",
         "validation_path_nominal.csv",
@@ -303,15 +340,6 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
             }
         }
     }
-    assert_eq!(tracked(&killed), planned, "a tracker point measured twice or lost");
-    assert_eq!(attempts(&killed, "plan"), 2);
-    assert_eq!(attempts(&killed, "validation"), 2);
-    assert_eq!(attempts(&killed, "campaign"), 1);
-    assert_eq!(
-        report(&killed)["tracker_registration"]["points"],
-        c["tracker_registration"]["points"],
-        "the resumed validation reuses the registration"
-    );
 }
 
 /// Whether `stages.json` of `out` says `stage` is running.

@@ -211,9 +211,10 @@ fn args(v: &[String]) -> Vec<&str> {
     v.iter().map(String::as_str).collect()
 }
 
-/// The flag's other paths: a partial list, an id no row uses, an id the cell has, bad syntax.
+/// The flag's other paths: a partial list, an id no row uses, bad syntax, an id the cell has
+/// (an error: given both as known and as unknown), the complete list.
 #[test]
-fn unknown_tcps_flag_errors_and_notes() {
+fn unknown_tcps_flag_errors() {
     let dir = tempfile::tempdir().expect("tmp");
     let s = |p: &Path| p.display().to_string();
     let truth = truth(3);
@@ -249,10 +250,54 @@ fn unknown_tcps_flag_errors_and_notes() {
     // not an id
     let err = fail(&args(&with("2,x")));
     assert!(err.contains("`x` is not a TCP id"), "{err}");
-    // an id the cell has: a note, and the fit goes on (tcp 1 is fitted as a measured TCP anyway)
-    let out = run(&args(&with("1,2,3")));
-    assert!(out.contains("note: --unknown-tcps 1: in the cell file already"), "{out}");
+    // an id the cell has: given both as known and as unknown, an error naming its entry
+    let err = fail(&args(&with("1,2,3")));
+    assert!(
+        err.contains(&format!("{}:", s(&model))) && err.contains("tcp 1 is given both as known"),
+        "{err}"
+    );
+    // the list of the ids the cell lacks: the fit goes on (tcp 1 is fitted as a measured TCP)
+    let out = run(&args(&with("2,3")));
     assert!(out.contains("tcp 1:") && out.contains("tcp 3:"), "{out}");
+}
+
+/// Issue 31's bad input: a TCP id given both as known (a `[[tcps]]` entry of the cell file) and
+/// as unknown (`--unknown-tcps`) is a one-line error naming the cell file, the line of the
+/// entry's `id` and the column of its value, where the user removes one of the two.
+#[test]
+fn a_tcp_id_both_known_and_unknown_is_one_line_naming_the_cell_entry() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let s = |p: &Path| p.display().to_string();
+    let truth = truth(3);
+    let frame = (Rotation3::identity(), Vector3::zeros());
+    let train = dir.path().join("train.csv");
+    vatcal_io::write_measurements_for(&train, &marker_rows(&truth, 25, 0.01, 9, &frame), truth.joint_kinds())
+        .expect("write");
+    // the fixture has TCPs 1..3: the `id = 2` line of its second [[tcps]] entry
+    let cell = fixture("ur5e.toml");
+    let text = std::fs::read_to_string(&cell).expect("fixture");
+    let lines: Vec<&str> = text.lines().collect();
+    let entry = lines.iter().enumerate().filter(|(_, l)| l.trim() == "[[tcps]]").nth(1).expect("2nd tcp").0;
+    let (k, id_line) =
+        lines.iter().enumerate().skip(entry).find(|(_, l)| l.trim_start().starts_with("id")).expect("id");
+    assert_eq!(id_line.trim(), "id = 2");
+    let column = id_line.find('2').expect("value") + 1;
+    for discover in [false, true] {
+        let mut a = vec![if discover { "discover" } else { "identify" }, "--model", &cell];
+        let (train, out) = (s(&train), s(&dir.path().join("cal.toml")));
+        a.extend(["--measurements", &train, "--unknown-tcps", "2"]);
+        if !discover {
+            a.extend(["--out", &out]);
+        }
+        let err = fail(&a);
+        let want = format!(
+            "error: {cell}:{}:{column}: tcp 2 is given both as known (this [[tcps]] entry of the cell file) and as \
+             unknown (--unknown-tcps 2)",
+            k + 1
+        );
+        assert!(err.starts_with(&want), "{want}\n{err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    }
 }
 
 fn tiago() -> PathBuf {

@@ -12,7 +12,7 @@
 //!   and `time_s`, the two-sided repeats approached from the opposite side on every joint →
 //!   `vatcal discover` reads them.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use super::calibrate::kill_in;
 use super::campaign_sim::{SimCellProcess, campaign_args, identify_run, ok, plan, s, vatcal};
@@ -52,8 +52,20 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     let calibrated = identify_run(&run);
 
     // validation by hand
-    let vplan = dir.path().join("vplan");
-    let path_model = format!("calibrated={}", s(&calibrated));
+    let (vplan, planned) = plan_validation(dir.path(), &calibrated);
+    a_validation_plan_without_a_tracker_is_refused(dir.path(), &devices, &vplan);
+    let rows = validation_killed_half_way_and_resumed(dir.path(), &devices, &vplan, planned);
+    the_calibrated_model_validates_better_than_the_nominal(dir.path(), &calibrated, &rows, planned);
+
+    // discovery by hand
+    discovery_plan_campaign_and_discover(dir.path(), &devices, &calibrated);
+}
+
+/// `vatcal plan --kind validation`: 20 random poses and the printing path of the nominal and
+/// the calibrated model. Returns the plan folder and its number of tracker points.
+fn plan_validation(dir: &Path, calibrated: &Path) -> (PathBuf, usize) {
+    let vplan = dir.join("vplan");
+    let path_model = format!("calibrated={}", s(calibrated));
     ok(&vatcal(&[
         "plan",
         "--kind",
@@ -76,26 +88,38 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     assert_eq!(vs["path_runs"], serde_json::json!(["nominal", "calibrated"]), "{vs}");
     let planned = vs["tracker_measurements"].as_u64().expect("count") as usize;
     assert_eq!(planned, 20 + 2 * 20 * 3, "{vs}");
-    // a validation plan without a tracker in the devices file is refused before connecting
-    let no_tracker = dir.path().join("no-tracker.toml");
-    let text = std::fs::read_to_string(&devices).expect("devices");
+    (vplan, planned)
+}
+
+/// A validation plan without a tracker in the devices file is refused before connecting.
+fn a_validation_plan_without_a_tracker_is_refused(dir: &Path, devices: &Path, vplan: &Path) {
+    let no_tracker = dir.join("no-tracker.toml");
+    let text = std::fs::read_to_string(devices).expect("devices");
     let kept: Vec<&str> = text.lines().filter(|l| !l.starts_with("tracker")).collect();
     std::fs::write(&no_tracker, kept.join("\n")).expect("write");
-    let never = dir.path().join("never");
-    let refused = vatcal(&campaign_args(&no_tracker, &vplan, &never));
+    let never = dir.join("never");
+    let refused = vatcal(&campaign_args(&no_tracker, vplan, &never));
     let err = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success() && err.contains("no `tracker`"), "{err}");
+}
 
-    // kill -9 half-way through the tracker points, then --resume
-    let vrun = dir.path().join("vrun");
+/// `kill -9` half-way through the tracker points, then `--resume`: the registration is
+/// reused and every point is journaled once. Returns the tracker rows' file.
+fn validation_killed_half_way_and_resumed(
+    dir: &Path,
+    devices: &Path,
+    vplan: &Path,
+    planned: usize,
+) -> PathBuf {
+    let vrun = dir.join("vrun");
     let journal = vrun.join("validation.journal");
     let tracked =
         || std::fs::read_to_string(&journal).map_or(0, |t| t.matches("\"outcome\":\"tracked\"").count());
-    kill_in(&campaign_args(&devices, &vplan, &vrun), || tracked() >= planned / 2);
+    kill_in(&campaign_args(devices, vplan, &vrun), || tracked() >= planned / 2);
     let before_resume = tracked();
     assert!(before_resume >= planned / 2 && before_resume < planned, "{before_resume} of {planned}");
     let registration = std::fs::read_to_string(vrun.join("tracker-registration.json")).expect("registration");
-    let stdout = campaign(&devices, &vplan, &vrun, true);
+    let stdout = campaign(devices, vplan, &vrun, true);
     assert!(stdout.contains("resumed at step"), "{stdout}");
     assert_eq!(
         std::fs::read_to_string(vrun.join("tracker-registration.json")).expect("registration"),
@@ -109,15 +133,26 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     let (header, data) = table(&rows);
     assert!(header.starts_with(&["tcp".into(), "q1".into()]) && header.contains(&"x".into()), "{header:?}");
     assert_eq!(data.len(), planned);
-    let report = dir.path().join("validate.json");
+    rows
+}
+
+/// `vatcal validate` reads the tracker rows: every planned point, the calibrated model several
+/// times better than the nominal one.
+fn the_calibrated_model_validates_better_than_the_nominal(
+    dir: &Path,
+    calibrated: &Path,
+    rows: &Path,
+    planned: usize,
+) {
+    let report = dir.join("validate.json");
     let stdout = ok(&vatcal(&[
         "validate",
         "--model",
-        s(&calibrated),
+        s(calibrated),
         "--baseline",
         FIXTURE,
         "--tracker",
-        s(&rows),
+        s(rows),
         "--report",
         s(&report),
     ]));
@@ -130,9 +165,13 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     // the paper-like truth is ~1.3 mm off nominal; the 34 parameters remove most of it
     assert!((0.5..3.0).contains(&nominal), "nominal {nominal}");
     assert!(cal < nominal / 3.0, "calibrated {cal} vs nominal {nominal}");
+}
 
-    // discovery by hand
-    let dplan = dir.path().join("dplan");
+/// `vatcal plan --kind discovery` → `vatcal campaign --plan` → probe rows with `dir2..dir7`
+/// and `time_s`, each two-sided repeat after its pose with every direction reversed →
+/// `vatcal discover` reads them.
+fn discovery_plan_campaign_and_discover(dir: &Path, devices: &Path, calibrated: &Path) {
+    let dplan = dir.join("dplan");
     ok(&vatcal(&[
         "plan",
         "--kind",
@@ -155,8 +194,8 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     ]));
     let ds = summary(&dplan);
     assert_eq!((ds["kind"].as_str(), ds["two_sided_repeats"].as_u64()), (Some("discovery"), Some(4)), "{ds}");
-    let drun = dir.path().join("drun");
-    campaign(&devices, &dplan, &drun, false);
+    let drun = dir.join("drun");
+    campaign(devices, &dplan, &drun, false);
     let (header, data) = table(&drun.join("discovery_measurements.csv"));
     for col in ["position", "tcp", "time_s", "dir2", "dir7"] {
         assert!(header.iter().any(|h| h == col), "{col} in {header:?}");
@@ -179,7 +218,7 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     let stdout = ok(&vatcal(&[
         "discover",
         "--model",
-        s(&calibrated),
+        s(calibrated),
         "--measurements",
         s(&drun.join("discovery_measurements.csv")),
         "--seed",
