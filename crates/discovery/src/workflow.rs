@@ -25,7 +25,7 @@
 //! A cross-validation fold whose fit fails (ill-conditioned, not converged) is skipped,
 //! counted and reported; it does not abort the run.
 //!
-//! One file per decision: [`screen`](self::screen) (candidates, scores, levels),
+//! One file per decision: `screen` (candidates, scores, levels),
 //! `confirm` (refits on the held-out confirmation data), `decide` (the decision rule),
 //! `size` (the noise reference and the size rule), `plausible` (bounds), `rivals`
 //! (look-alikes), `veto` (the validation rows), `block` (the block step), `backward` (the

@@ -1,4 +1,4 @@
-//! The settings of [`discover`](super::discover).
+//! The settings of [`discover`](crate::workflow::discover)(super::discover).
 
 use std::collections::BTreeMap;
 
@@ -6,11 +6,11 @@ use vatcal_identification::{IdentifyOptions, KindSigmas};
 
 use crate::noise::ReplicateTolerance;
 
-/// Settings of [`discover`].
+/// Settings of [`discover`](crate::workflow::discover).
 #[derive(Debug, Clone)]
 pub struct DiscoverOptions {
     /// family-wise false-alarm probability of the screening over **all** rounds: round r
-    /// (1-based) spends `alpha·s_r` ([`round_spending`]), split over its m scored candidates
+    /// (1-based) spends `alpha·s_r` ([`round_spending`](crate::workflow::round_spending)), split over its m scored candidates
     pub alpha: f64,
     /// family-wise level of the held-out confirmation over all rounds: round r confirms at
     /// `confirm_alpha·s_r/max_refits` per refitted candidate (one-sided paired z-test)
@@ -77,7 +77,7 @@ pub struct DiscoverOptions {
     pub strong_z_factor: f64,
     /// without a noise reference, compare with the lower of a refit's σ̂ and σ̂ of the round's
     /// saturated linear model (current parameters plus every scored candidate's directions;
-    /// [`Round::sigma_saturated_mm`]), which holds only what no candidate can describe
+    /// [`Round::sigma_saturated_mm`](crate::workflow::Round::sigma_saturated_mm)), which holds only what no candidate can describe
     pub saturated_noise: bool,
     /// plausibility bounds set by the user, per effect (catalog name, e.g. `joint-backlash`):
     /// the largest plausible magnitude of each of its parameters in file units (deg for
@@ -89,13 +89,13 @@ pub struct DiscoverOptions {
     /// --exclude-effect NAME`). Empty: the whole catalog.
     pub excluded_effects: Vec<String>,
     /// discovery keeps going while the held-out gap is more than this many times its floor
-    /// estimate ([`Round::gap_over_floor`]): such a round confirms its best-scored candidates
+    /// estimate ([`Round::gap_over_floor`](crate::workflow::Round::gap_over_floor)): such a round confirms its best-scored candidates
     /// even when none passes the screening threshold and waives the size rule for the ones
     /// that pass the held-out test (a model that far from the noise is missing something
     /// that matters); `f64::INFINITY` switches this off
     pub floor_gap_factor: f64,
     /// refuse an addition that makes the validation rows' error significantly larger (paired
-    /// z below `-`[`VETO_Z`], when validation rows are given): an effect is real only if it
+    /// z below `-`[`VETO_Z`](crate::workflow::VETO_Z), when validation rows are given): an effect is real only if it
     /// shrinks the gap on data the fit never saw
     pub validation_veto: bool,
     /// the physical floor of the noise reference, σ per axis \[mm\] (default 0.001: the

@@ -120,7 +120,7 @@ pub struct RefitEvidence {
     /// rule is waived (`strong_z_factor · z_r`); `None` when the noise is known
     pub size_rule_waived_above_z: Option<f64>,
     /// prediction change below which the effect is negligible whatever the noise estimate:
-    /// `negligible_factor · √3 ·` [`DiscoverOptions::noise_floor_mm`] \[mm\] (never waived)
+    /// `negligible_factor · √3 ·` [`DiscoverOptions::noise_floor_mm`](crate::workflow::DiscoverOptions::noise_floor_mm) \[mm\] (never waived)
     pub floor_below_mm: f64,
     /// the round's held-out gap was far above its floor ([`Round::far_from_floor`]): the size
     /// rule is waived for a candidate that passes the held-out test
@@ -241,7 +241,7 @@ pub struct Round {
     pub location: Vec<DriverSummary>,
     /// screening threshold `ln(alpha·s_r/m)` of a candidate of weight 1; each candidate's own
     /// threshold adds the ln of its weight (physical effects and generic fallbacks share the
-    /// level 0.8 : 0.2, [`GENERIC_SCREENING_SHARE`])
+    /// level 0.8 : 0.2, [`GENERIC_SCREENING_SHARE`](crate::workflow::GENERIC_SCREENING_SHARE))
     pub ln_threshold: f64,
     /// without a noise reference: σ̂ per axis of the saturated linear model (the current
     /// parameters plus every scored candidate's, on all data) \[mm\], an upper bound of the
@@ -253,7 +253,7 @@ pub struct Round {
     /// held-out gap of the current model (all-data cross-validation, rows weighted by kind)
     /// over its floor estimate `√(3σ²(1 + p/N))`, σ the noise reference (replicates or
     /// instruments) or, without one, the saturated σ̂; `None` when no σ is known. Above
-    /// [`DiscoverOptions::floor_gap_factor`] the round keeps going ([`Round::far_from_floor`])
+    /// [`DiscoverOptions::floor_gap_factor`](crate::workflow::DiscoverOptions::floor_gap_factor) the round keeps going ([`Round::far_from_floor`])
     pub gap_over_floor: Option<f64>,
     /// whether the gap was well above its floor: the round then confirms the best-scored
     /// candidates even when none passes the screening threshold, and waives the size rule for
