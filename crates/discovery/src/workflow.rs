@@ -48,6 +48,7 @@ mod screen;
 mod setup;
 mod size;
 mod stop;
+mod swap;
 mod veto;
 
 pub use options::DiscoverOptions;
@@ -59,6 +60,7 @@ pub use rivals::{RIVAL_CORRELATION, RIVAL_COSINE};
 pub use screen::{GENERIC_SCREENING_SHARE, MAX_PROPOSED_HARMONIC, candidates, round_spending};
 pub use veto::VETO_Z;
 
+use vatcal_core::effects::EffectSpec;
 use vatcal_core::{Measurement, ParamSet};
 use vatcal_kinematics::Model;
 use vatcal_observability::assemble_jacobian;
@@ -75,6 +77,7 @@ use self::screen::{Thresholds, rank_candidates, score_candidates};
 use self::setup::{Setup, prepare};
 use self::size::{describe_noise, saturated_sigma};
 use self::stop::{best_passing, gap_over_floor};
+use self::swap::swap_check;
 use self::veto::veto_on_validation;
 use crate::DiscoveryError;
 use crate::fit::{Fit, fit};
@@ -155,6 +158,8 @@ struct Run {
     ambiguities: Vec<Ambiguity>,
     /// confirmation-fold CV of the current model, when already known
     confirm_cv: Option<CrossValidation>,
+    /// effects a look-alike replaced (never tried again)
+    swapped_out: Vec<EffectSpec>,
     skipped_folds: usize,
     notes: Vec<String>,
 }
@@ -200,6 +205,7 @@ impl Run {
             bound_hits: Vec::new(),
             ambiguities: Vec::new(),
             confirm_cv: None,
+            swapped_out: Vec::new(),
             notes,
         })
     }
@@ -221,11 +227,19 @@ impl Run {
         self.confirm(index, &mut s, &base, &held0, ctx)?;
         let next = self.choose(index, &mut s.candidates, &base, &held0, ctx)?;
         let mut decision = decision(next.as_ref(), &s.candidates, s.th.ln_screen);
-        let done = next.is_none();
-        let removed = match next {
+        let mut done = next.is_none();
+        let mut removed = match next {
             Some(next) => self.apply(next, index, start, ctx, &mut decision)?,
             None => Vec::new(),
         };
+        if done && ctx.options.lookalike_swap {
+            let swap = self.swap(index, start, &mut s.candidates, &held0, ctx)?;
+            if let Some((sentence, gone)) = swap {
+                decision = sentence;
+                removed.push(gone);
+                done = false;
+            }
+        }
         self.rounds.push(Round {
             index,
             fit: base.fit,
@@ -424,6 +438,28 @@ impl Run {
             decision.push_str(&format!("; backward check removed {}", names.join(", ")));
         }
         Ok(removed)
+    }
+
+    /// The swap check of a round that added nothing: an earlier addition replaced by a
+    /// look-alike that predicts the held-out points significantly better. Returns the round's
+    /// decision and the effect swapped out.
+    fn swap(
+        &mut self,
+        index: usize,
+        start: &Model,
+        candidates: &mut [Candidate],
+        held0: &CrossValidation,
+        ctx: &Context<'_>,
+    ) -> Result<Option<(String, RemovedEffect)>, DiscoveryError> {
+        let (added, current, out) = (&mut self.added, &mut self.current, &mut self.swapped_out);
+        let Some(swap) = swap_check(start, added, current, candidates, held0, index, out, ctx)? else {
+            return Ok(None);
+        };
+        self.held_all = ctx.cross_validate(&self.current.model, &self.current.params, &ctx.all_folds);
+        self.gap = ctx.gap(&self.current.model, &self.held_all)?;
+        self.confirm_cv = None;
+        self.ambiguities.push(swap.ambiguity);
+        Ok(Some((swap.sentence, swap.removed)))
     }
 
     /// The report: the noise reference's account, the final model's predicted uncertainty.

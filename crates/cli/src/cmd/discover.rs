@@ -78,6 +78,11 @@ pub struct Args {
     /// finest instrument vatcal reads; 0 switches it off).
     #[arg(long, default_value_t = 0.001)]
     pub noise_floor_mm: f64,
+    /// Do not re-examine earlier additions when the forward search stops (the swap check:
+    /// an added effect is replaced by a look-alike on the data that predicts the held-out
+    /// points significantly better; docs/discovery.md).
+    #[arg(long)]
+    pub no_lookalike_swap: bool,
     /// Markers (TCPs) at unknown offsets: the TCP ids the rows use that the cell file lacks,
     /// comma-separated, or `all`; added at TCP 1's offset and fitted as by `vatcal identify
     /// --unknown-tcps`. Without it such rows are an error.
@@ -364,6 +369,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         known_sigma_mm: args.noise_mm,
         cmm_sigma_mm: args.cmm_sigma_mm,
         noise_floor_mm: args.noise_floor_mm,
+        lookalike_swap: !args.no_lookalike_swap,
         instrument_sigmas: instrument_sigmas(&args, &measurements)?,
         instrument_noise_origin: recorded_noise(&args)?.2,
         bound_overrides: bound_overrides(&args)?,

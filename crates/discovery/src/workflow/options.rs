@@ -98,6 +98,11 @@ pub struct DiscoverOptions {
     /// z below `-`[`VETO_Z`](crate::workflow::VETO_Z), when validation rows are given): an effect is real only if it
     /// shrinks the gap on data the fit never saw
     pub validation_veto: bool,
+    /// when a round adds nothing, re-examine earlier additions against that round's
+    /// look-alikes and swap one in when it predicts the held-out points significantly better
+    /// (the swap check, `workflow/swap.rs`; `vatcal discover --no-lookalike-swap` switches it
+    /// off)
+    pub lookalike_swap: bool,
     /// the physical floor of the noise reference, σ per axis \[mm\] (default 0.001: the
     /// resolution of the finest instrument vatcal reads, the Sylvac gauges' 1 µm; laser
     /// trackers and motion capture are coarser). Whatever the reference — replicates, a
@@ -137,6 +142,7 @@ impl Default for DiscoverOptions {
             excluded_effects: Vec::new(),
             floor_gap_factor: 1.5,
             validation_veto: true,
+            lookalike_swap: true,
             noise_floor_mm: 0.001,
         }
     }
