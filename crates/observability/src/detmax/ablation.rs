@@ -92,7 +92,7 @@ pub fn position_ablation(
 }
 
 /// All `k`-element subsets of `ids`, in lexicographic order.
-pub(super) fn subsets(ids: &[u32], k: usize) -> Vec<Vec<u32>> {
+fn subsets(ids: &[u32], k: usize) -> Vec<Vec<u32>> {
     if k == 0 {
         return vec![Vec::new()];
     }

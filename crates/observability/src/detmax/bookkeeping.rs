@@ -14,9 +14,9 @@ use rayon::prelude::*;
 use super::candidates::{CHUNK, Candidates};
 
 /// A Cholesky pivot `L_ii²` below this fraction of `M_ii` counts as singular.
-pub(super) const PIVOT_FRACTION: f64 = 1e-13;
+const PIVOT_FRACTION: f64 = 1e-13;
 
-pub(super) type Sym3 = [f64; 6];
+type Sym3 = [f64; 6];
 
 pub(super) fn sym_of(m: &Matrix3<f64>) -> Sym3 {
     [
@@ -29,7 +29,7 @@ pub(super) fn sym_of(m: &Matrix3<f64>) -> Sym3 {
     ]
 }
 
-pub(super) fn det_i_plus(g: &Sym3, s: f64) -> f64 {
+fn det_i_plus(g: &Sym3, s: f64) -> f64 {
     let (a, b, c, d, e, f) = (1.0 + s * g[0], s * g[1], s * g[2], 1.0 + s * g[3], s * g[4], 1.0 + s * g[5]);
     a * (d * f - e * e) - b * (b * f - e * c) + c * (b * e - d * c)
 }
@@ -110,7 +110,7 @@ pub(super) fn is_above(a: f64, b: f64) -> bool {
     a.partial_cmp(&b) == Some(Ordering::Greater)
 }
 
-pub(super) fn symmetrize(m: &mut Mat<f64>) {
+fn symmetrize(m: &mut Mat<f64>) {
     for i in 0..m.nrows() {
         for j in 0..i {
             let v = 0.5 * (m[(i, j)] + m[(j, i)]);
@@ -128,10 +128,10 @@ pub(super) fn symmetrize(m: &mut Mat<f64>) {
 /// 3 × 3 updates vectorise across candidates.
 pub(super) struct Work<'a> {
     /// the caller's candidates (natural units)
-    pub(super) orig: &'a Candidates,
+    orig: &'a Candidates,
     /// column factors `1/‖col_j‖` (1 for an all-zero column)
     pub(super) factors: Vec<f64>,
-    pub(super) rows32: Vec<f32>,
+    rows32: Vec<f32>,
     /// `2 Σ ln(1/‖col_j‖)`: ln det of the normalised M = natural ln det + this
     pub(super) log_scale: f64,
     /// ridge on the normalised columns (`ridge / N`, 0 for an all-zero column)
@@ -139,7 +139,7 @@ pub(super) struct Work<'a> {
 }
 
 /// `(start, len)` of chunk `ci` of `n` candidates.
-pub(super) fn chunk_range(ci: usize, n: usize) -> (usize, usize) {
+fn chunk_range(ci: usize, n: usize) -> (usize, usize) {
     let start = ci * CHUNK;
     (start, CHUNK.min(n - start))
 }
@@ -201,7 +201,7 @@ impl<'a> Work<'a> {
 
     /// Chunk `ci` of the f32 copy: 3len × L, column-major, planar rows (row `a·len + i` is row
     /// `a` of candidate `start + i`), so faer's matmul reads it without repacking.
-    pub(super) fn chunk32(&self, ci: usize) -> MatRef<'_, f32> {
+    fn chunk32(&self, ci: usize) -> MatRef<'_, f32> {
         let l = self.l();
         let (start, len) = chunk_range(ci, self.len());
         MatRef::from_column_major_slice(&self.rows32[3 * start * l..3 * (start + len) * l], 3 * len, l)
@@ -209,11 +209,11 @@ impl<'a> Work<'a> {
 }
 
 /// The six entries of a symmetric 3 × 3 matrix: (row, column) of g₀..g₅.
-pub(super) const SYM: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+const SYM: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
 
 /// `G += sign · Q Qᵀ` for every candidate of a chunk: `g` holds the six planes of G (see
 /// [`SYM`]), `r[a][j]` the plane of `Q[a][j]`. One sweep over the candidates, vectorisable.
-pub(super) fn add_outer_products(g: &mut [f64], r: &[[&[f32]; 3]; 3], sign: f32, len: usize) {
+fn add_outer_products(g: &mut [f64], r: &[[&[f32]; 3]; 3], sign: f32, len: usize) {
     let (g0, rest) = g.split_at_mut(len);
     let (g1, rest) = rest.split_at_mut(len);
     let (g2, rest) = rest.split_at_mut(len);
@@ -235,7 +235,7 @@ pub(super) fn add_outer_products(g: &mut [f64], r: &[[&[f32]; 3]; 3], sign: f32,
 }
 
 /// `det(I + G)` for every candidate of a chunk from the six planes of G.
-pub(super) fn det_planes(g: &[f64], len: usize, out: &mut Vec<f64>) {
+fn det_planes(g: &[f64], len: usize, out: &mut Vec<f64>) {
     let p = |e: usize| &g[e * len..(e + 1) * len];
     let (g0, g1, g2, g3, g4, g5) = (p(0), p(1), p(2), p(3), p(4), p(5));
     out.clear();
@@ -243,7 +243,7 @@ pub(super) fn det_planes(g: &[f64], len: usize, out: &mut Vec<f64>) {
 }
 
 /// Best non-member of chunk `(start, len)` by `det(I + G)` (ties: lowest index).
-pub(super) fn chunk_best(
+fn chunk_best(
     g: &[f64],
     start: usize,
     len: usize,
@@ -274,13 +274,13 @@ pub(super) struct State<'a> {
     pub(super) design: Vec<usize>,
     pub(super) member: Vec<bool>,
     pub(super) fixed: Vec<bool>,
-    pub(super) minv: Mat<f64>,
+    minv: Mat<f64>,
     pub(super) log_det: f64,
     /// `G_k` of all candidates, per chunk six planes (g₀..g₅ of [`SYM`]) over its candidates
     pub(super) g: Vec<f64>,
     /// best non-member `(k, det(I + G_k))`, refreshed by every pass over `g`
     pub(super) best: Option<(usize, f64)>,
-    pub(super) since_refactor: usize,
+    since_refactor: usize,
     pub(super) refactor_every: usize,
 }
 
@@ -336,7 +336,7 @@ impl<'a> State<'a> {
     /// `G_k = B_k M⁻¹ B_kᵀ` for all k: with `M⁻¹ = U Uᵀ` (Cholesky), per chunk `V = B_ch U`
     /// (faer matmul, f32) and `G_k[a][b] = Σ_j V[a][j] V[b][j]`, vectorised across the chunk's
     /// candidates. False if `M⁻¹` is not positive definite.
-    pub(super) fn recompute_g(&mut self) -> bool {
+    fn recompute_g(&mut self) -> bool {
         let (w, member) = (self.w, &self.member);
         let (n, l) = (w.len(), w.l());
         let Ok(llt) = self.minv.llt(Side::Lower) else { return false };

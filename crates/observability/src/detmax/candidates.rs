@@ -14,7 +14,7 @@ use crate::identifiability::{measurement_block, reindex};
 /// Candidates per chunk of the batched updates. Fixed, so results do not depend on the
 /// number of threads.
 pub(super) const CHUNK: usize = 1024;
-pub(super) const JACOBIAN_CHUNK: usize = 256;
+const JACOBIAN_CHUNK: usize = 256;
 
 /// The candidate poses as stacked 3 × L Jacobian blocks (candidate k = rows `3k..3k+3`),
 /// stored row-major so that each candidate's block is contiguous.

@@ -14,7 +14,7 @@ use super::options::{DetmaxOptions, Objective};
 /// Minimum improvement of ln det for an exchange or excursion to count.
 pub(super) const MIN_IMPROVEMENT: f64 = 1e-12;
 
-pub(super) enum Step {
+enum Step {
     Swapped,
     Converged,
 }
@@ -26,7 +26,7 @@ impl State<'_> {
     }
 
     /// The `count` non-members with the largest gains (descending, ties by index).
-    pub(super) fn top_additions(&self, count: usize) -> Vec<usize> {
+    fn top_additions(&self, count: usize) -> Vec<usize> {
         let mut v: Vec<(usize, f64)> =
             (0..self.w.len()).filter(|k| !self.member[*k]).map(|k| (k, gain_of(&self.g_of(k)))).collect();
         v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
@@ -55,7 +55,7 @@ impl State<'_> {
     }
 
     /// Removable members in ascending order.
-    pub(super) fn removable(&self) -> Vec<usize> {
+    fn removable(&self) -> Vec<usize> {
         let mut members: Vec<usize> = self.design.iter().copied().filter(|k| !self.fixed[*k]).collect();
         members.sort_unstable();
         members
@@ -63,7 +63,7 @@ impl State<'_> {
 
     /// Removable member with the smallest loss (ties: lowest index); None when removing any
     /// member would make M singular.
-    pub(super) fn best_removal(&self) -> Option<(usize, f64)> {
+    fn best_removal(&self) -> Option<(usize, f64)> {
         let mut best: Option<(usize, f64)> = None;
         for k in self.removable() {
             let v = loss_of(&sym_of(&self.exact_g(k)));
@@ -74,7 +74,7 @@ impl State<'_> {
         best.filter(|b| b.1.is_finite())
     }
 
-    pub(super) fn remove(&mut self, k: usize) -> bool {
+    fn remove(&mut self, k: usize) -> bool {
         let z = self.z_of(k);
         let g = self.bz(k, &z);
         let i_minus = Matrix3::identity() - g;
@@ -96,7 +96,7 @@ impl State<'_> {
 
     /// One Wynn–Mitchell step: add the best candidate, remove the member with the smallest
     /// loss, both applied as a single rank-6 update.
-    pub(super) fn exchange(&mut self) -> Step {
+    fn exchange(&mut self) -> Step {
         let Some((k_in, _)) = self.best_addition() else { return Step::Converged };
         let z_in = self.z_of(k_in);
         let g_in = self.bz(k_in, &z_in);
@@ -193,7 +193,7 @@ pub(super) fn exact_objective_value(c: &Candidates, design: &[usize], objective:
     objective_of_information(&m, c.parameter_count(), design.len(), objective)
 }
 
-pub(super) fn objective_of_information(m: &Mat<f64>, l: usize, poses: usize, objective: Objective) -> f64 {
+fn objective_of_information(m: &Mat<f64>, l: usize, poses: usize, objective: Objective) -> f64 {
     match m.self_adjoint_eigenvalues(Side::Lower) {
         Ok(ev) => {
             let s: Vec<f64> = ev.iter().map(|x| x.max(0.0).sqrt()).collect();

@@ -18,9 +18,9 @@ use crate::error::ObservabilityError;
 use crate::identifiability::{AnalysisOptions, analyze_jacobian, rank_deficient_error};
 
 /// Relative ridge used by the greedy start before it is removed again.
-pub(super) const GREEDY_RIDGE: f64 = 1e-6;
+const GREEDY_RIDGE: f64 = 1e-6;
 
-pub(super) fn splitmix64(mut x: u64) -> u64 {
+fn splitmix64(mut x: u64) -> u64 {
     x = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
     let mut z = x;
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -57,7 +57,7 @@ pub(super) fn random_start(
 
 /// Greedy (Dykstra) design: from `fixed` and a tiny ridge, add the best candidate until
 /// `count`; then rebuild with the requested ridge. None if the result is singular.
-pub(super) fn greedy_state<'a>(w: &'a Work<'a>, o: &DetmaxOptions, fixed_mask: &[bool]) -> Option<State<'a>> {
+fn greedy_state<'a>(w: &'a Work<'a>, o: &DetmaxOptions, fixed_mask: &[bool]) -> Option<State<'a>> {
     let n = w.len().max(1) as f64;
     let greedy_ridge: Vec<f64> =
         (0..w.l()).map(|j| w.ridge.get(j).copied().unwrap_or(0.0).max(GREEDY_RIDGE / n)).collect();
@@ -73,11 +73,11 @@ pub(super) fn greedy_state<'a>(w: &'a Work<'a>, o: &DetmaxOptions, fixed_mask: &
 }
 
 /// ln det(M + R) in natural units of a design, from scratch.
-pub(super) fn natural_log_det(w: &Work<'_>, design: &[usize]) -> f64 {
+fn natural_log_det(w: &Work<'_>, design: &[usize]) -> f64 {
     factor(&with_ridge(w.information(design), &w.ridge)).map_or(f64::NEG_INFINITY, |f| f.1 - w.log_scale)
 }
 
-pub(super) fn run_restart<'a>(
+fn run_restart<'a>(
     c: &Candidates,
     w: &'a Work<'a>,
     o: &DetmaxOptions,
@@ -144,7 +144,7 @@ pub(super) fn run_restart<'a>(
 }
 
 /// A finished restart: sorted design, tracked natural ln det, summary.
-pub(super) type RestartRun = (Vec<usize>, f64, RestartOutcome);
+type RestartRun = (Vec<usize>, f64, RestartOutcome);
 
 /// Detmax selection of `options.count` candidates (module docs).
 ///
@@ -241,7 +241,7 @@ pub fn greedy(candidates: &Candidates, options: &DetmaxOptions) -> Result<Select
 
 /// Refuses a candidate set whose information matrix is singular, naming the parameters
 /// through the identifiability analysis.
-pub(super) fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
+fn check_candidate_rank(c: &Candidates) -> Result<(), ObservabilityError> {
     let total = c.total_information();
     let l = c.parameter_count();
     let d: Vec<f64> = (0..l).map(|j| total[(j, j)]).collect();

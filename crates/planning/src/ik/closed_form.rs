@@ -196,7 +196,7 @@ impl ArmGeometry {
     }
 
     /// `cos(alpha_2)`: +1 when `alpha_2 = 0`, -1 when `alpha_2 = pi`.
-    pub(super) fn sigma(&self) -> f64 {
+    fn sigma(&self) -> f64 {
         sign_of_cos(self.alpha_rad[1])
     }
 
@@ -304,14 +304,7 @@ impl ArmGeometry {
     /// `Rx(pi)` when `alpha_3 = alpha_4`) is `Ry(a) Rz(b) Ry(c)` (Y-Z-Y Euler angles) with
     /// `theta_4 = -sign(alpha_3) a`, `theta_5 = p b`, `theta_6 = -sign(alpha_5) p c`
     /// (`p = -1` when `alpha_3 = alpha_4`, else 1).
-    pub(super) fn push_wrist(
-        &self,
-        out: &mut ArmSolutions,
-        target: &Frame,
-        arm: [f64; 3],
-        beyond: bool,
-        branch: u8,
-    ) {
+    fn push_wrist(&self, out: &mut ArmSolutions, target: &Frame, arm: [f64; 3], beyond: bool, branch: u8) {
         use std::f64::consts::PI;
         let [t1, t2, t3] = arm;
         let [_, alpha2, alpha3, alpha4, alpha5] = self.alpha_rad;

@@ -13,13 +13,13 @@ use crate::numeric_ik::{IkTarget, JointSpec, MultiStartOptions, NumericIk, solve
 use crate::parallel_arm::ParallelArm;
 
 /// Per joint of `model` (1..=N): true when revolute.
-pub(super) fn revolute_joints(model: &Model) -> Vec<bool> {
+fn revolute_joints(model: &Model) -> Vec<bool> {
     model.joint_kinds().iter().map(|k| k.is_revolute()).collect()
 }
 
 /// The numerical IK's view of joint `i` (1-based) of `model`: kind and limits (none for a
 /// continuous joint).
-pub(super) fn joint_spec(model: &Model, i: usize, revolute: bool) -> JointSpec {
+fn joint_spec(model: &Model, i: usize, revolute: bool) -> JointSpec {
     match (model.joint_limit(i), revolute) {
         (Some((lo, hi)), true) => JointSpec::revolute(lo, hi),
         (Some((lo, hi)), false) => JointSpec::prismatic(lo, hi),
@@ -79,11 +79,11 @@ impl std::fmt::Display for IkMethod {
 #[derive(Debug)]
 pub struct ModelIk<'a> {
     pub(super) model: &'a Model,
-    pub(super) solver: Solver<'a>,
+    solver: Solver<'a>,
 }
 
 #[derive(Debug)]
-pub(super) enum Solver<'a> {
+enum Solver<'a> {
     /// the closed form, and every joint's spec (to normalise the solutions into the limits)
     ClosedForm(Box<ToolPoseIk<'a>>, Vec<JointSpec>),
     /// the closed form of an arm with three parallel middle axes, and every joint's spec
@@ -177,7 +177,7 @@ impl<'a> ModelIk<'a> {
     }
 
     /// The numerical IK, `reason` saying why no closed form applies.
-    pub(super) fn numerical_because(
+    fn numerical_because(
         model: &'a Model,
         numeric: MultiStartOptions,
         reason: String,
@@ -233,7 +233,7 @@ impl<'a> ModelIk<'a> {
     }
 
     /// The numerical solver with the guide at `guide_mm` (`None` for the closed form).
-    pub(super) fn numeric_at(&self, guide_mm: f64) -> Option<Result<NumericIk<ChainTool<'a>>, PlanError>> {
+    fn numeric_at(&self, guide_mm: f64) -> Option<Result<NumericIk<ChainTool<'a>>, PlanError>> {
         let Solver::Numeric { guide, free, specs, opts, .. } = &self.solver else {
             return None;
         };
@@ -333,13 +333,13 @@ impl<'a> ModelIk<'a> {
 
 /// Every joint's spec of `model` (the closed forms normalise their solutions into the limits
 /// with them).
-pub(super) fn all_joint_specs(model: &Model) -> Vec<JointSpec> {
+fn all_joint_specs(model: &Model) -> Vec<JointSpec> {
     let revolute = revolute_joints(model);
     (1..=revolute.len()).map(|i| joint_spec(model, i, revolute[i - 1])).collect()
 }
 
 /// `solutions` with every value normalised into its joint's limits ([`JointSpec::normalise`]).
-pub(super) fn normalised(mut solutions: Vec<JointVector>, specs: &[JointSpec]) -> Vec<JointVector> {
+fn normalised(mut solutions: Vec<JointVector>, specs: &[JointSpec]) -> Vec<JointVector> {
     for q in &mut solutions {
         for (v, spec) in q.as_mut_slice().iter_mut().zip(specs) {
             *v = spec.normalise(*v);

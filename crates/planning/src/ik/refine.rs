@@ -69,7 +69,7 @@ impl<'a> ArmAtGuide<'a> {
         self.arm().joints(q)
     }
 
-    pub(super) fn arm(&self) -> ArmWithFixed<'a> {
+    fn arm(&self) -> ArmWithFixed<'a> {
         let first = leading_prismatic_joints(self.model) + 1;
         let mut fixed = JointVector::zeros(self.model.joint_count());
         if first > 1 {
@@ -98,7 +98,7 @@ impl ToolKinematics for ArmAtGuide<'_> {
 /// Six revolute joints `first..first + 6` (1-based) of a model solved for, every other joint
 /// held at its value in `fixed`.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct ArmWithFixed<'a> {
+struct ArmWithFixed<'a> {
     pub(super) model: &'a Model,
     pub(super) fixed: JointVector,
     pub(super) first: usize,

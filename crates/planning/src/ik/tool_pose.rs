@@ -43,7 +43,7 @@ pub const SEED_CORRECTIONS: usize = 2;
 
 /// True when the model's tool frame is the closed-form arm's at a few test configurations
 /// (nominal model: no seed correction needed).
-pub(super) fn closed_form_is_exact<A: ClosedFormArm>(model: &Model, arm: &A) -> bool {
+fn closed_form_is_exact<A: ClosedFormArm>(model: &Model, arm: &A) -> bool {
     let tests = [
         [120.0, 30.0, 20.0, -40.0, 50.0, 60.0, -70.0],
         [10.0, -100.0, -50.0, 30.0, -120.0, -20.0, 150.0],

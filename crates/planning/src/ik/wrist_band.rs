@@ -24,13 +24,13 @@ pub const WRIST_RESEEDS: usize = 12;
 
 /// At most this many distinct solutions has the inverse kinematics of a 6R arm (a general 6R
 /// arm has up to 16); the wrist band search stops there.
-pub(super) const MAX_6R_SOLUTIONS: usize = 16;
+const MAX_6R_SOLUTIONS: usize = 16;
 
 /// Gauss–Newton steps of each fit of that scan (continued from the previous step's fit).
-pub(super) const WRIST_FIT_ITERATIONS: usize = 8;
+const WRIST_FIT_ITERATIONS: usize = 8;
 
 /// Regula falsi steps on `theta_4` for each solution bracketed by that scan.
-pub(super) const WRIST_ROOT_ITERATIONS: usize = 40;
+const WRIST_ROOT_ITERATIONS: usize = 40;
 
 impl<'a, A: ClosedFormArm> ToolPoseIk<'a, A> {
     /// Completes `solutions` (refined solutions for the world tool pose `target`, arm joints
@@ -117,7 +117,7 @@ impl<'a, A: ClosedFormArm> ToolPoseIk<'a, A> {
     /// curve of least-squares fits with arm joint 4 held (first), and those refined from `q`
     /// turned by a multiple of `360 deg /` [`WRIST_RESEEDS`] (second; the curve need not stay
     /// near the singularity over a whole turn, e.g. to the wrist-flipped solution).
-    pub(super) fn search_soft_wrist_direction(
+    fn search_soft_wrist_direction(
         &self,
         q: &JointVector,
         theta5: f64,
@@ -183,7 +183,7 @@ impl<'a, A: ClosedFormArm> ToolPoseIk<'a, A> {
     /// the one soft variable, not a Newton step of the full arm: at a fold of the solution set
     /// the arm's Jacobian is nearly singular, and its quasi-Newton iteration (gravity torques held
     /// fixed, see the module docs) can stall just short of the tolerances there.
-    pub(super) fn wrist_root(
+    fn wrist_root(
         &self,
         target: &Frame,
         (a, na): (JointVector, nalgebra::Vector6<f64>),
@@ -229,7 +229,7 @@ impl<'a, A: ClosedFormArm> ToolPoseIk<'a, A> {
     /// damped Gauss–Newton steps on the other five arm joints (weighted error as in the
     /// refinement) from `q`, up to `iterations`, until a step lowers the cost by less than
     /// `rel_tol` times the cost.
-    pub(super) fn fit_with_joint4_held(
+    fn fit_with_joint4_held(
         &self,
         q: JointVector,
         target: &Frame,
@@ -298,7 +298,7 @@ impl<'a, A: ClosedFormArm> ToolPoseIk<'a, A> {
 
     /// True when the arm joints of `a` and `b` differ by less than `tol_rad` each (modulo a
     /// whole turn) and the guide is the same.
-    pub(super) fn same_arm_joints(&self, a: &JointVector, b: &JointVector, tol_rad: f64) -> bool {
+    fn same_arm_joints(&self, a: &JointVector, b: &JointVector, tol_rad: f64) -> bool {
         let first = self.arm.first_joint() - 1;
         a.as_slice()
             .iter()
@@ -310,7 +310,7 @@ impl<'a, A: ClosedFormArm> ToolPoseIk<'a, A> {
 
 /// A least-squares fit of the tool pose with arm joint 4 held
 /// ([`ToolPoseIk::add_wrist_band_solutions`]); all vectors weighted as in the refinement.
-pub(super) struct WristFit {
+struct WristFit {
     /// the fitted joints
     pub(super) q: JointVector,
     /// weighted error `[p* - p; log(R* R^T)]` at the fit
@@ -318,13 +318,13 @@ pub(super) struct WristFit {
     /// weighted Jacobian columns of the five fitted arm joints
     pub(super) a: nalgebra::Matrix6x5<f64>,
     /// weighted Jacobian column of arm joint 4
-    pub(super) j4: nalgebra::Vector6<f64>,
+    j4: nalgebra::Vector6<f64>,
 }
 
 impl WristFit {
     /// The unit normal of the five fitted columns closest to `near` (the part of `near` normal
     /// to them, normalised); `None` when `near` lies in their span or they are dependent.
-    pub(super) fn normal(&self, near: nalgebra::Vector6<f64>) -> Option<nalgebra::Vector6<f64>> {
+    fn normal(&self, near: nalgebra::Vector6<f64>) -> Option<nalgebra::Vector6<f64>> {
         let ch = (self.a.transpose() * self.a).cholesky()?;
         let v = near - self.a * ch.solve(&(self.a.transpose() * near));
         let norm = v.norm();
