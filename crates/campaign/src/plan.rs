@@ -176,7 +176,7 @@ impl CampaignPlan {
             steps.push(CampaignStep::Move { path: vec![m.q] });
             steps.push(match m.target {
                 Target::Probe { position } => CampaignStep::Measure { position, tcp: m.tcp },
-                Target::Tracker { .. } => CampaignStep::Track { tcp: m.tcp },
+                Target::Tracker { .. } | Target::Orientation { .. } => CampaignStep::Track { tcp: m.tcp },
             });
         }
         Self { steps }
@@ -405,6 +405,12 @@ impl CampaignPlan {
     /// Checks the plan against the model: waypoints inside the joint limits, known ids, every
     /// measurement at the position where the plate is.
     pub fn validate(&self, model: &Model) -> Result<(), CampaignPlanError> {
+        self.validate_from(model, None)
+    }
+
+    /// [`CampaignPlan::validate`] with the plate already at `plate_at_start` when the plan
+    /// starts (left there by the campaign before).
+    pub fn validate_from(&self, model: &Model, plate_at_start: Option<u32>) -> Result<(), CampaignPlanError> {
         if self.steps.is_empty() {
             return Err(CampaignPlanError::Empty);
         }
@@ -412,7 +418,7 @@ impl CampaignPlan {
         let known = |step: usize, what: &'static str, id: u32, ids: &[u32]| {
             if ids.contains(&id) { Ok(()) } else { Err(CampaignPlanError::UnknownId { step, what, id }) }
         };
-        let mut placed = None;
+        let mut placed = plate_at_start;
         for (step, s) in self.steps.iter().enumerate() {
             match s {
                 CampaignStep::PlaceProbe { position } => {
@@ -538,6 +544,26 @@ mod tests {
             }
         }
         assert_eq!(back.measurement_count(), 5);
+    }
+
+    #[test]
+    fn a_plan_may_start_where_the_plate_already_is() {
+        let cell = vatcal_core::CellFile::load(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../fixtures/meca500-zaber.toml"
+        ))
+        .expect("cell");
+        let model = Model::from_cell(&cell).expect("model");
+        let q = JointVector::from_mm_deg(100.0, [10.0, 20.0, -20.0, 5.0, 30.0, 0.0]);
+        let plan = CampaignPlan {
+            steps: vec![CampaignStep::Move { path: vec![q] }, CampaignStep::Measure { position: 1, tcp: 2 }],
+        };
+        assert!(matches!(plan.validate(&model), Err(CampaignPlanError::PlateNotThere { step: 1, .. })));
+        plan.validate_from(&model, Some(1)).expect("the plate is at position 1 already");
+        assert!(matches!(
+            plan.validate_from(&model, Some(2)),
+            Err(CampaignPlanError::PlateNotThere { placed: Some(2), .. })
+        ));
     }
 
     #[test]

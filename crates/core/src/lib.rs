@@ -50,7 +50,7 @@ pub use cell::{CellError, CellFile};
 pub const CANONICAL_CELL_TOML: &str = include_str!("../cells/meca500-zaber.toml");
 pub use effects::{EffectKind, EffectSpec, ThermalDriver};
 pub use frame::Frame;
-pub use measurement::{Measurement, MeasurementContext, PointDistance, Target};
+pub use measurement::{Measurement, MeasurementContext, PointDistance, Target, rotation_error};
 pub use params::{Axis, BaseParam, ParamId, ParamSet, ToolFrameDof};
 pub use units::{
     JointKind, JointVector, JointVectorError, MAX_JOINTS, MECA500_ON_GUIDE_KINDS, deg_to_rad, rad_to_deg,

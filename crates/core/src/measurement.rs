@@ -1,6 +1,6 @@
 //! Measurements: what the cell recorded, in internal units.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::units::{JointVector, MAX_JOINTS};
@@ -51,6 +51,37 @@ pub enum Target {
         /// measured world position \[mm\]
         xyz_mm: Vector3<f64>,
     },
+    /// The orientation of the tool-changer frame (the marker body of a pose row) was measured
+    /// as `rotation` in the world frame (residual: the rotation vector
+    /// `log(R_measured · R_modelᵀ)` \[rad\], world axes). A pose row is read as two
+    /// measurements: a [`Target::Tracker`] one for its position and this one.
+    Orientation {
+        /// measured world orientation of the tool frame (unit quaternion)
+        rotation: UnitQuaternion<f64>,
+    },
+}
+
+impl Target {
+    /// Whether the residuals are rotation-vector errors \[rad\] rather than positions \[mm\].
+    pub fn is_orientation(&self) -> bool {
+        matches!(self, Target::Orientation { .. })
+    }
+}
+
+/// Rotation-vector error `log(measured · modelᵀ)` \[rad\] (world axes) between two rotation
+/// matrices: the small rotation that takes the model's orientation to the measured one.
+/// Computed as `atan2(‖v‖, c) · v/‖v‖` from the skew part `v` and `c = (tr − 1)/2`, accurate
+/// to rounding for small errors (where an `acos` of the trace is not).
+pub fn rotation_error(measured: &Matrix3<f64>, model: &Matrix3<f64>) -> Vector3<f64> {
+    let e = measured * model.transpose();
+    let v = 0.5 * Vector3::new(e[(2, 1)] - e[(1, 2)], e[(0, 2)] - e[(2, 0)], e[(1, 0)] - e[(0, 1)]);
+    let s = v.norm();
+    let c = 0.5 * (e.trace() - 1.0);
+    let angle = s.atan2(c);
+    if s < 1e-300 {
+        return v;
+    }
+    v * (angle / s)
 }
 
 /// One measurement: joints, which TCP, what was observed.
@@ -95,6 +126,18 @@ impl Measurement {
         }
     }
 
+    /// An orientation measurement without context data: the world orientation `rotation` of
+    /// the tool frame of TCP `tcp`'s tool at joints `q` (the rotation half of a pose row).
+    pub fn orientation(tcp: u32, q: JointVector, rotation: UnitQuaternion<f64>) -> Self {
+        Self {
+            tcp,
+            q,
+            target: Target::Orientation { rotation },
+            context: MeasurementContext::default(),
+            probe_offset_mm: None,
+        }
+    }
+
     /// The same probe measurement with the final centring offset `offset_mm` (world axes)
     /// recorded: the observed target becomes `calibration position + offset_mm`.
     pub fn with_probe_offset(mut self, offset_mm: Vector3<f64>) -> Self {
@@ -116,7 +159,7 @@ impl Measurement {
     pub fn position(&self) -> Option<u32> {
         match self.target {
             Target::Probe { position } => Some(position),
-            Target::Tracker { .. } => None,
+            Target::Tracker { .. } | Target::Orientation { .. } => None,
         }
     }
 }

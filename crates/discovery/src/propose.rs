@@ -152,6 +152,7 @@ fn rows(
         let w = match ms[r / 3].target {
             Target::Probe { .. } => weights.probe,
             Target::Tracker { .. } => weights.tracker,
+            Target::Orientation { .. } => weights.orientation,
         };
         w.sqrt() * j[(r, c)]
     }))

@@ -241,10 +241,7 @@ fn mean_squared(
         let m = &measurements[k];
         let e = model.residual(m).map_err(|source| IdentifyError::Measurement { index: k, source })?
             + m.target_offset_mm();
-        let w = match m.target {
-            vatcal_core::Target::Probe { .. } => options.weights.probe,
-            vatcal_core::Target::Tracker { .. } => options.weights.tracker,
-        };
+        let w = options.weights.of(&m.target);
         // a robust fit's per-row weights count in the score as in the fit (a down-weighted bad
         // row must not decide the choice)
         let row = options.row_weights.as_ref().and_then(|r| r.get(k)).copied().unwrap_or(1.0);

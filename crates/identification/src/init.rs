@@ -130,6 +130,7 @@ pub fn initialise(
     let anchored = measurements.iter().any(|m| match m.target {
         Target::Tracker { .. } => true,
         Target::Probe { position } => !options.free_positions.contains(&position),
+        Target::Orientation { .. } => false,
     });
     let register = options.register_base && anchored;
     let mut last = rms_before_mm;
@@ -162,15 +163,20 @@ pub fn initialise(
     })
 }
 
-/// RMS of the residual norms [mm].
+/// RMS of the residual norms of the position rows [mm] (orientation rows left out).
 fn rms(model: &Model, measurements: &[Measurement]) -> Result<f64, IdentifyError> {
     let mut sum = 0.0;
+    let mut count = 0usize;
     for (index, m) in measurements.iter().enumerate() {
+        if m.target.is_orientation() {
+            continue;
+        }
+        count += 1;
         let e = model.residual(m).map_err(|source| IdentifyError::Measurement { index, source })?
             + m.target_offset_mm();
         sum += e.norm_squared();
     }
-    Ok((sum / measurements.len() as f64).sqrt())
+    Ok((sum / count.max(1) as f64).sqrt())
 }
 
 /// The observed point of a row whose target is known (tracker, probe at a known position).
@@ -180,7 +186,7 @@ fn observed(model: &Model, m: &Measurement, free: &[u32]) -> Option<Vector3<f64>
         Target::Probe { position } if !free.contains(&position) => {
             model.position(position).map(|p| p + m.target_offset_mm())
         }
-        Target::Probe { .. } => None,
+        Target::Probe { .. } | Target::Orientation { .. } => None,
     }
 }
 

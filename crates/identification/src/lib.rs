@@ -191,10 +191,7 @@ fn data_sigma_hat_mm(
         .zip(measurements)
         .enumerate()
         .map(|(k, (e, m))| {
-            let w = match m.target {
-                Target::Probe { .. } => weights.probe,
-                Target::Tracker { .. } => weights.tracker,
-            };
+            let w = weights.of(&m.target);
             w * row_weights.map_or(1.0, |r| r[k]) * e.norm_squared()
         })
         .sum();

@@ -14,11 +14,33 @@ pub struct KindWeights {
     pub probe: f64,
     /// weight of tracker measurements (> 0)
     pub tracker: f64,
+    /// weight of orientation measurements (> 0) \[mm²/rad²\]: `(σ_p / σ_o)²` with σ_o the
+    /// orientation noise \[rad\] (default 100: 0.01 mm ≙ 1 mrad)
+    #[serde(default = "default_orientation_weight")]
+    pub orientation: f64,
+}
+
+fn default_orientation_weight() -> f64 {
+    KindWeights::DEFAULT_ORIENTATION
+}
+
+impl KindWeights {
+    /// Default orientation weight \[mm²/rad²\]: a probe σ of 0.01 mm against 1 mrad.
+    pub const DEFAULT_ORIENTATION: f64 = 100.0;
+
+    /// The weight of a measurement's kind.
+    pub fn of(&self, target: &vatcal_core::Target) -> f64 {
+        match target {
+            vatcal_core::Target::Probe { .. } => self.probe,
+            vatcal_core::Target::Tracker { .. } => self.tracker,
+            vatcal_core::Target::Orientation { .. } => self.orientation,
+        }
+    }
 }
 
 impl Default for KindWeights {
     fn default() -> Self {
-        Self { probe: 1.0, tracker: 1.0 }
+        Self { probe: 1.0, tracker: 1.0, orientation: Self::DEFAULT_ORIENTATION }
     }
 }
 

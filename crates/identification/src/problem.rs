@@ -11,7 +11,7 @@
 
 use faer::MatMut;
 use nalgebra::Vector3;
-use vatcal_core::{Measurement, ParamSet, PointDistance, Target};
+use vatcal_core::{Measurement, ParamSet, PointDistance};
 use vatcal_kinematics::Model;
 
 use crate::{IdentifyError, IdentifyOptions, KindWeights};
@@ -188,13 +188,7 @@ impl<'a> Problem<'a> {
 
 /// `√w` of every measurement's kind.
 pub(crate) fn row_weights(measurements: &[Measurement], weights: &KindWeights) -> Vec<f64> {
-    measurements
-        .iter()
-        .map(|m| match m.target {
-            Target::Probe { .. } => weights.probe.sqrt(),
-            Target::Tracker { .. } => weights.tracker.sqrt(),
-        })
-        .collect()
+    measurements.iter().map(|m| weights.of(&m.target).sqrt()).collect()
 }
 
 /// `√(w_kind · w_k)` of every measurement: its kind's weight times its own row weight
@@ -208,10 +202,7 @@ pub(crate) fn row_weights_times(
         .iter()
         .enumerate()
         .map(|(k, m)| {
-            let kind = match m.target {
-                Target::Probe { .. } => weights.probe,
-                Target::Tracker { .. } => weights.tracker,
-            };
+            let kind = weights.of(&m.target);
             (kind * per_row.get(k).copied().unwrap_or(1.0)).sqrt()
         })
         .collect()
@@ -260,7 +251,7 @@ mod tests {
         priors[3] = 0.01;
         priors[30] = 0.5;
         let options = IdentifyOptions {
-            weights: KindWeights { probe: 4.0, tracker: 0.25 },
+            weights: KindWeights { probe: 4.0, tracker: 0.25, ..KindWeights::default() },
             priors: Some(priors),
             ..IdentifyOptions::default()
         };

@@ -33,7 +33,7 @@ use std::str::FromStr;
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use vatcal_core::{Measurement, ParamSet, Target};
+use vatcal_core::{Measurement, ParamSet};
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::DataDesign;
 
@@ -130,10 +130,7 @@ impl FromStr for RobustLoss {
 
 /// `√w_kind` of a row.
 fn kind_weight(m: &Measurement, weights: &KindWeights) -> f64 {
-    match m.target {
-        Target::Probe { .. } => weights.probe,
-        Target::Tracker { .. } => weights.tracker,
-    }
+    weights.of(&m.target)
 }
 
 /// The kind-weighted residual norms `√w_k ‖e_k‖` \[mm\].

@@ -30,21 +30,44 @@ pub struct KindSigmas {
 impl KindSigmas {
     /// Estimates each kind's σ from the residuals of a fit of `fitted_params` parameters:
     /// `σ_g² = RSS_g / (3 n_g) · N / (N − L)` (the degrees of freedom shared in proportion to
-    /// the residual counts).
+    /// the residual counts). Orientation rows count in `N` but form a group of their own
+    /// ([`KindSigmas::orientation_rad`]).
     pub fn estimate(measurements: &[Measurement], residuals: &[Vector3<f64>], fitted_params: usize) -> Self {
-        let n = 3 * measurements.len().min(residuals.len());
-        let dof_factor = if n > fitted_params { n as f64 / (n - fitted_params) as f64 } else { f64::NAN };
-        let group = |probe: bool| {
-            let (mut rss, mut count) = (0.0, 0usize);
-            for (m, r) in measurements.iter().zip(residuals) {
-                if matches!(m.target, Target::Probe { .. }) == probe {
-                    rss += r.norm_squared();
-                    count += 3;
-                }
-            }
-            (count > 0 && dof_factor.is_finite()).then(|| (rss / count as f64 * dof_factor).sqrt())
+        Self {
+            probe_mm: group_sigma(measurements, residuals, fitted_params, |t| {
+                matches!(t, Target::Probe { .. })
+            }),
+            tracker_mm: group_sigma(measurements, residuals, fitted_params, |t| {
+                matches!(t, Target::Tracker { .. })
+            }),
+        }
+    }
+
+    /// σ per axis of the orientation residuals \[rad\] of the same fit (`None` without
+    /// orientation rows), estimated as [`KindSigmas::estimate`] does for the other kinds.
+    pub fn orientation_rad(
+        measurements: &[Measurement],
+        residuals: &[Vector3<f64>],
+        fitted_params: usize,
+    ) -> Option<f64> {
+        group_sigma(measurements, residuals, fitted_params, Target::is_orientation)
+    }
+
+    /// [`KindSigmas::weights`] with the orientation weight `(σ_p / σ_o)²` (or `(σ_t / σ_o)²`
+    /// without probe rows, tracker then weighing 1) from the orientation σ `orientation_rad`;
+    /// the default orientation weight when it or the reference σ is missing or zero.
+    pub fn weights_with_orientation(&self, orientation_rad: Option<f64>) -> KindWeights {
+        let mut w = self.weights();
+        let ok = |s: Option<f64>| s.filter(|v| *v > 0.0 && v.is_finite());
+        let reference = match (ok(self.probe_mm), ok(self.tracker_mm)) {
+            (Some(p), _) => Some(p),
+            (None, Some(t)) => Some(t),
+            (None, None) => None,
         };
-        Self { probe_mm: group(true), tracker_mm: group(false) }
+        if let (Some(r), Some(o)) = (reference, ok(orientation_rad)) {
+            w.orientation = (r / o).powi(2);
+        }
+        w
     }
 
     /// Inverse-variance weights (probe = 1, tracker = (σ_p/σ_t)²); the default weights when a
@@ -52,11 +75,31 @@ impl KindSigmas {
     pub fn weights(&self) -> KindWeights {
         match (self.probe_mm, self.tracker_mm) {
             (Some(p), Some(t)) if p > 0.0 && t > 0.0 && p.is_finite() && t.is_finite() => {
-                KindWeights { probe: 1.0, tracker: (p / t).powi(2) }
+                KindWeights { probe: 1.0, tracker: (p / t).powi(2), ..KindWeights::default() }
             }
             _ => KindWeights::default(),
         }
     }
+}
+
+/// σ per axis of the residuals of the rows whose target passes `kind` (see
+/// [`KindSigmas::estimate`]).
+fn group_sigma(
+    measurements: &[Measurement],
+    residuals: &[Vector3<f64>],
+    fitted_params: usize,
+    kind: impl Fn(&Target) -> bool,
+) -> Option<f64> {
+    let n = 3 * measurements.len().min(residuals.len());
+    let dof_factor = if n > fitted_params { n as f64 / (n - fitted_params) as f64 } else { f64::NAN };
+    let (mut rss, mut count) = (0.0, 0usize);
+    for (m, r) in measurements.iter().zip(residuals) {
+        if kind(&m.target) {
+            rss += r.norm_squared();
+            count += 3;
+        }
+    }
+    (count > 0 && dof_factor.is_finite()).then(|| (rss / count as f64 * dof_factor).sqrt())
 }
 
 /// Propagation of systematic CMM errors of the TCP and calibration-position coordinates into
@@ -107,11 +150,7 @@ impl CmmUncertainty {
         let mut j = to_dmatrix(&assemble_jacobian(model, measurements, &fit.params)?);
         let mut jc = to_dmatrix(&assemble_jacobian(model, measurements, &coordinates)?);
         for (k, m) in measurements.iter().enumerate() {
-            let s = match m.target {
-                Target::Probe { .. } => weights.probe,
-                Target::Tracker { .. } => weights.tracker,
-            }
-            .sqrt();
+            let s = weights.of(&m.target).sqrt();
             for row in 3 * k..3 * k + 3 {
                 j.row_mut(row).scale_mut(s);
                 jc.row_mut(row).scale_mut(s);

@@ -21,7 +21,7 @@
 use faer::Mat;
 use nalgebra::{DMatrix, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
-use vatcal_core::{Measurement, ParamId, ParamSet, Target};
+use vatcal_core::{Measurement, ParamId, ParamSet};
 use vatcal_kinematics::Model;
 
 use crate::{IdentifyError, KindWeights};
@@ -107,10 +107,7 @@ pub fn weak_directions(
     let row_scale: Vec<f64> = measurements
         .iter()
         .flat_map(|m| {
-            let w = match m.target {
-                Target::Probe { .. } => weights.probe,
-                Target::Tracker { .. } => weights.tracker,
-            };
+            let w = weights.of(&m.target);
             [w.sqrt() / sigma_data_mm; 3]
         })
         .collect();

@@ -86,6 +86,7 @@ pub fn measurements_to_csv_for(measurements: &[Measurement], kinds: &[JointKind]
     let dir_cols = dir_columns(kinds);
     let any_probe = measurements.iter().any(|m| matches!(m.target, Target::Probe { .. }));
     let any_tracker = measurements.iter().any(|m| matches!(m.target, Target::Tracker { .. }));
+    let any_rotation = measurements.iter().any(|m| m.target.is_orientation());
     let time = measurements.iter().any(|m| m.context.time_s.is_some());
     let temp = measurements.iter().any(|m| m.context.temperature_c.is_some());
     let dir = measurements.iter().any(|m| m.context.dir.is_some());
@@ -98,6 +99,9 @@ pub fn measurements_to_csv_for(measurements: &[Measurement], kinds: &[JointKind]
     header.extend(joint_cols.iter().map(String::as_str));
     if any_tracker {
         header.extend(["x", "y", "z"]);
+    }
+    if any_rotation {
+        header.extend(["qw", "qx", "qy", "qz"]);
     }
     if time {
         header.push("time_s");
@@ -123,7 +127,18 @@ pub fn measurements_to_csv_for(measurements: &[Measurement], kinds: &[JointKind]
         if any_tracker {
             match m.target {
                 Target::Tracker { xyz_mm } => rec.extend(xyz_mm.iter().map(|v| v.to_string())),
-                Target::Probe { .. } => rec.extend([String::new(), String::new(), String::new()]),
+                Target::Probe { .. } | Target::Orientation { .. } => {
+                    rec.extend([String::new(), String::new(), String::new()])
+                }
+            }
+        }
+        if any_rotation {
+            match m.target {
+                Target::Orientation { rotation } => {
+                    let q = rotation.quaternion();
+                    rec.extend([q.w, q.i, q.j, q.k].iter().map(|v| v.to_string()));
+                }
+                _ => rec.extend(std::iter::repeat_n(String::new(), 4)),
             }
         }
         if time {

@@ -242,28 +242,40 @@ impl Model {
     }
 
     /// What the model predicts a measurement should read: `FK - calibration_position` for a
-    /// probe measurement (ideally 0), `FK` for a tracker measurement \[mm\].
+    /// probe measurement (ideally 0), `FK` for a tracker measurement \[mm\], the rotation
+    /// vector `log(R_model · R_measuredᵀ)` for an orientation measurement (ideally 0) \[rad\].
     pub fn predict(&self, m: &Measurement) -> Result<Vector3<f64>, ModelError> {
+        if let Target::Orientation { rotation } = &m.target {
+            return self.orientation_predict(m, rotation);
+        }
         let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
         Ok(match m.target {
             Target::Probe { position } => p - self.position_or_err(position)?,
-            Target::Tracker { .. } => p,
+            // orientation measurements returned above
+            Target::Tracker { .. } | Target::Orientation { .. } => p,
         })
     }
 
-    /// Residual of a measurement \[mm\]: `calibration_position - FK` (probe) or
-    /// `measured_xyz - FK` (tracker).
+    /// Residual of a measurement: `calibration_position - FK` (probe) or `measured_xyz - FK`
+    /// (tracker) \[mm\]; `log(R_measured · R_modelᵀ)` (orientation) \[rad\].
     pub fn residual(&self, m: &Measurement) -> Result<Vector3<f64>, ModelError> {
+        if let Target::Orientation { rotation } = &m.target {
+            return Ok(-self.orientation_predict(m, rotation)?);
+        }
         let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
         Ok(match m.target {
             Target::Probe { position } => self.position_or_err(position)? - p,
             Target::Tracker { xyz_mm } => xyz_mm - p,
+            // returned above
+            Target::Orientation { .. } => Vector3::zeros(),
         })
     }
 
     /// Jacobian of [`Model::predict`] (= minus the Jacobian of [`Model::residual`]) with respect
     /// to `params`, column-major into `out`; returns the residual. Calibration-position
-    /// parameters contribute `-e_axis` to probe measurements at that position.
+    /// parameters contribute `-e_axis` to probe measurements at that position. Orientation
+    /// measurements get finite-difference rows (see [`Model::tool_rotation_ctx`] and the
+    /// `orientation` module).
     ///
     /// # Panics
     /// If `out.len() != 3 * params.len()`.
@@ -274,6 +286,10 @@ impl Model {
         params: &[ParamId],
         out: &mut [f64],
     ) -> Result<Vector3<f64>, ModelError> {
+        if let Target::Orientation { rotation } = &m.target {
+            assert_eq!(out.len(), 3 * params.len(), "measurement_jacobian_into: out has the wrong length");
+            return self.orientation_jacobian_into(m, rotation, params, out);
+        }
         let p = self.jacobian_into(&m.q, &m.context, m.tcp, params, out)?;
         match m.target {
             Target::Probe { position } => {
@@ -288,6 +304,8 @@ impl Model {
                 Ok(target - p)
             }
             Target::Tracker { xyz_mm } => Ok(xyz_mm - p),
+            // returned above
+            Target::Orientation { .. } => Ok(Vector3::zeros()),
         }
     }
 }

@@ -23,6 +23,7 @@ mod chain;
 pub mod effects;
 mod jacobian;
 mod model;
+mod orientation;
 
 pub use chain::{Chain, GravityLoads};
 pub use model::{MdhRow, Model, ModelError};

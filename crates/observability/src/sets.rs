@@ -211,6 +211,8 @@ pub fn anchored(measurements: &[Measurement], design: &DataDesign) -> bool {
     measurements.iter().any(|m| match m.target {
         vatcal_core::Target::Tracker { .. } => true,
         vatcal_core::Target::Probe { position } => !design.free_positions.contains(&position),
+        // fixes the world frame's rotation only, not its origin
+        vatcal_core::Target::Orientation { .. } => false,
     })
 }
 

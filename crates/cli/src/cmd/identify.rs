@@ -151,7 +151,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         method,
         max_iterations: args.max_iterations,
         max_condition_number: args.max_condition_number,
-        weights: KindWeights { probe: 1.0, tracker: args.tracker_weight },
+        weights: KindWeights { probe: 1.0, tracker: args.tracker_weight, ..KindWeights::default() },
         ..IdentifyOptions::default()
     };
     let cv = cv_options(&args)?;

@@ -119,6 +119,7 @@ pub(super) fn kind_weight(m: &Measurement, w: &KindWeights) -> f64 {
     match m.target {
         vatcal_core::Target::Probe { .. } => w.probe,
         vatcal_core::Target::Tracker { .. } => w.tracker,
+        vatcal_core::Target::Orientation { .. } => w.orientation,
     }
 }
 

@@ -317,7 +317,7 @@ fn weights_balance_probe_and_tracker_measurements() {
             &mixed,
             &ParamSet::paper34(),
             &IdentifyOptions {
-                weights: KindWeights { probe: 1.0, tracker: tracker_weight },
+                weights: KindWeights { probe: 1.0, tracker: tracker_weight, ..KindWeights::default() },
                 ..IdentifyOptions::default()
             },
         )
@@ -346,7 +346,7 @@ fn weights_balance_probe_and_tracker_measurements() {
         &mixed,
         &ParamSet::paper34(),
         &IdentifyOptions {
-            weights: KindWeights { probe: 100.0, tracker: 100.0 },
+            weights: KindWeights { probe: 100.0, tracker: 100.0, ..KindWeights::default() },
             ..IdentifyOptions::default()
         },
     )

@@ -9,5 +9,6 @@ mod common;
 mod any_instrument;
 mod bad_rows;
 mod identify;
+mod pose_rows;
 mod priors_default;
 mod uncertainty;

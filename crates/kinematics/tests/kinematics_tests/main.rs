@@ -8,3 +8,4 @@ mod canonical_regression;
 mod independent;
 mod link_bending;
 mod link_out_of_plane;
+mod orientation;
