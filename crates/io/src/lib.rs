@@ -33,6 +33,7 @@ mod measurements;
 pub mod metadata;
 mod options;
 mod pose_requests;
+mod pose_rows;
 mod row_lines;
 mod table;
 mod write;
@@ -53,6 +54,9 @@ pub use options::{
     RowSource, dirs_from_row_order,
 };
 pub use pose_requests::{PoseRequestRow, read_pose_requests};
+pub use pose_rows::{
+    QUATERNION_NORM_TOLERANCE, is_pose_header, read_pose_measurements, read_pose_measurements_with,
+};
 pub use vatcal_core::MECA500_ON_GUIDE_KINDS;
 pub use write::{
     measurements_to_csv, measurements_to_csv_for, write_joint_rows, write_joint_rows_for, write_measurements,
