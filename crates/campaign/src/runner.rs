@@ -98,6 +98,10 @@ pub struct CampaignConfig {
     /// the instruments' noise, recorded in `measurements_csv` as a `# vatcal-noise:` line
     /// (none by default)
     pub noise: vatcal_io::metadata::NoiseMetadata,
+    /// the calibration position the probe plate is already at when the campaign starts (left
+    /// there by the campaign before): the plan may measure there before any `place_probe`
+    /// step, and no operator is asked to place it again (`None`: the plan must place it)
+    pub plate_at_start: Option<u32>,
 }
 
 impl Default for CampaignConfig {
@@ -119,6 +123,7 @@ impl Default for CampaignConfig {
             skip_failed_tracks: false,
             sync_journal_each_step: true,
             noise: vatcal_io::metadata::NoiseMetadata::default(),
+            plate_at_start: None,
         }
     }
 }
@@ -347,7 +352,7 @@ impl<'a> Campaign<'a> {
 
     /// The plan is valid for the controller model and the probe knows every position.
     fn check_plan(&self, plan: &CampaignPlan) -> Result<(), CampaignError> {
-        plan.validate(self.controller)?;
+        plan.validate_from(self.controller, self.config.plate_at_start)?;
         for s in &plan.steps {
             if let CampaignStep::Measure { position, .. } = s
                 && self.devices.probe.placement(*position).is_none()
@@ -477,7 +482,7 @@ impl<'a> Campaign<'a> {
             guide_from_mm: self.layout.guide_mm(&joints),
             joints,
             dir: vec![0; self.layout.arm_joint_count()],
-            placement: None,
+            placement: self.config.plate_at_start,
         })
     }
 

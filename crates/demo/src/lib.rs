@@ -78,6 +78,9 @@ pub struct DemoOptions {
     /// extra probe measurements of the discovery stage (default 360,
     /// `DiscoveryStageOptions::new`)
     pub discovery_count: usize,
+    /// device-time budget of the discovery measurements \[s\] (default 15 min,
+    /// `DiscoveryStageOptions::budget_s`; `None`: `discovery_count` whatever it takes)
+    pub discovery_budget_s: Option<f64>,
     /// which stages run, and whether the report folder is resumed (default: every stage, a
     /// fresh run; `vatcal demo --stages … --resume`)
     pub calibrate: CalibrateOptions,
@@ -98,6 +101,7 @@ impl DemoOptions {
             truth: TruthSpec::PaperLike,
             discovery: true,
             discovery_count: DiscoveryStageOptions::new(seed).count,
+            discovery_budget_s: DiscoveryStageOptions::new(seed).budget_s,
             calibrate: CalibrateOptions::default(),
         })
     }
@@ -490,6 +494,7 @@ pub fn run_demo_stages(
         true_effects: Some(cell.truth().effects().to_vec()),
         plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(&nominal),
         count: opts.discovery_count,
+        budget_s: opts.discovery_budget_s,
         ..DiscoveryStageOptions::new(opts.seed).with_instrument_noise(probe_sigma_mm, tracker_sigma_mm)
     });
     let outcome = vatcal_pipeline::calibrate(

@@ -15,7 +15,7 @@
 //! [`propose_plan`] is also what `vatcal discover --propose N --out-plan DIR` runs.
 
 use serde::Serialize;
-use vatcal_campaign::CampaignConfig;
+use vatcal_campaign::{CampaignConfig, CampaignPlan};
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::{JointVector, Measurement, ParamId, ParamSet};
 use vatcal_discovery::propose::borderline_effects;
@@ -24,8 +24,11 @@ use vatcal_discovery::workflow::{CandidateStatus, file_value};
 use vatcal_discovery::{DiscoverOptions, Discovery, discover};
 use vatcal_kinematics::Model;
 use vatcal_planning::geometry::CellGeometry;
-use vatcal_planning::plan::{Plan, PlanOptions, campaign_candidates, plan_selection};
+use vatcal_planning::plan::{Plan, PlanOptions, StepKind, campaign_candidates, plan_selection};
 
+use crate::budget::{
+    BatchSpend, BudgetReport, MIN_SIGMA_GAIN, PREDICTION_MARGIN, campaign_device_s, measure_steps,
+};
 use crate::campaign_runner::run_campaign;
 use crate::folders::{LOOP_PROPOSAL, RunFolder};
 use crate::{DeviceSet, PipelineError, Progress, RunOptions, Stage, plan_options};
@@ -60,7 +63,31 @@ pub fn propose_plan(
     geometry: &CellGeometry,
     opts: &PlanOptions,
 ) -> Result<ProposedPlan, PipelineError> {
-    let candidates = campaign_candidates(plan_model, geometry, opts)?;
+    propose_plan_at(d, measurements, focus, plan_model, geometry, opts, None)
+}
+
+/// [`propose_plan`] with the probe plate left at calibration position `probe_at` by the
+/// campaign before: the pool is that position's candidates (when it has any), and the plan
+/// starts without placing the plate again — a re-placement is the costliest step of a small
+/// batch (≈ 60 s against ≈ 10 s per measurement).
+///
+/// # Errors
+/// As [`propose_plan`].
+pub fn propose_plan_at(
+    d: &Discovery,
+    measurements: &[Measurement],
+    focus: &[EffectSpec],
+    plan_model: &Model,
+    geometry: &CellGeometry,
+    opts: &PlanOptions,
+    probe_at: Option<u32>,
+) -> Result<ProposedPlan, PipelineError> {
+    let mut candidates = campaign_candidates(plan_model, geometry, opts)?;
+    if let Some(p) = probe_at
+        && candidates.candidates.iter().any(|c| c.position == p)
+    {
+        candidates.candidates.retain(|c| c.position == p);
+    }
     let pool: Vec<Measurement> =
         candidates.candidates.iter().map(|c| Measurement::probe(c.position, c.tcp, c.q)).collect();
     if pool.is_empty() {
@@ -72,7 +99,13 @@ pub fn propose_plan(
     let weights = d.kind_sigmas.weights();
     let proposal = propose(&d.model, &d.params, measurements, focus, &pool, opts.count, &weights)?;
     let n = pool.len();
-    let plan = plan_selection(plan_model, geometry, candidates, proposal.selected.clone(), opts)?;
+    let mut plan = plan_selection(plan_model, geometry, candidates, proposal.selected.clone(), opts)?;
+    if let Some(p) = probe_at
+        && plan.steps.first().is_some_and(|s| s.kind == StepKind::ReplaceProbe && s.position == p)
+    {
+        // the plate is already there
+        plan.steps.remove(0);
+    }
     Ok(ProposedPlan { proposal, plan, pool: n })
 }
 
@@ -153,10 +186,11 @@ pub struct LoopChoice {
     pub continued_gap_mm: f64,
     /// effects of the continued discovery
     pub continued_effects: usize,
-    /// cross-validated gap of the discovery from the starting parameters \[mm\]
-    pub fresh_gap_mm: f64,
-    /// effects of the discovery from the starting parameters
-    pub fresh_effects: usize,
+    /// cross-validated gap of the discovery from the starting parameters \[mm\] (`None`: not
+    /// run, the continued discovery left nothing undecided)
+    pub fresh_gap_mm: Option<f64>,
+    /// effects of the discovery from the starting parameters (`None`: not run)
+    pub fresh_effects: Option<usize>,
 }
 
 impl LoopChoice {
@@ -166,8 +200,20 @@ impl LoopChoice {
             kept_continued: continued.final_gap_mm <= fresh.final_gap_mm,
             continued_gap_mm: continued.final_gap_mm,
             continued_effects: continued.added_effects.len(),
-            fresh_gap_mm: fresh.final_gap_mm,
-            fresh_effects: fresh.added_effects.len(),
+            fresh_gap_mm: Some(fresh.final_gap_mm),
+            fresh_effects: Some(fresh.added_effects.len()),
+        }
+    }
+
+    /// The continued discovery kept without a search from the starting parameters (it left
+    /// nothing undecided).
+    pub fn continued_only(continued: &Discovery) -> Self {
+        Self {
+            kept_continued: true,
+            continued_gap_mm: continued.final_gap_mm,
+            continued_effects: continued.added_effects.len(),
+            fresh_gap_mm: None,
+            fresh_effects: None,
         }
     }
 
@@ -175,7 +221,13 @@ impl LoopChoice {
     pub fn line(&self) -> String {
         let continued =
             ("continued from the model before the loop", self.continued_gap_mm, self.continued_effects);
-        let fresh = ("from the starting parameters again", self.fresh_gap_mm, self.fresh_effects);
+        let (Some(fresh_gap), Some(fresh_effects)) = (self.fresh_gap_mm, self.fresh_effects) else {
+            return format!(
+                "kept the discovery {} (cross-validated gap {:.4} mm, {} effects); no search from the starting parameters: the continued one left nothing undecided",
+                continued.0, continued.1, continued.2
+            );
+        };
+        let fresh = ("from the starting parameters again", fresh_gap, fresh_effects);
         let (kept, other) = if self.kept_continued { (continued, fresh) } else { (fresh, continued) };
         format!(
             "kept the discovery {} (cross-validated gap {:.4} mm, {} effects; the other {:.4} mm, {} effects)",
@@ -429,6 +481,9 @@ pub struct LoopInputs<'a> {
     pub base: &'a ParamSet,
     /// the run folder (`discovery_loop_plan/`, `discovery_loop.journal`)
     pub folder: &'a RunFolder,
+    /// where the campaign before left the probe plate (the loop measures there, without a
+    /// re-placement); `None`: anywhere
+    pub probe_at: Option<u32>,
 }
 
 /// The devices the measurement loop measures on (`None`: read the loop's journal instead).
@@ -466,6 +521,7 @@ pub struct LoopOutcome {
 /// # Errors
 /// The proposal cannot be planned, the loop's campaign fails or (no devices) its journal is
 /// missing, or a rediscovery fails.
+#[allow(clippy::too_many_arguments)]
 pub fn measurement_loop(
     inputs: &LoopInputs<'_>,
     settings: &LoopSettings<'_>,
@@ -473,21 +529,27 @@ pub fn measurement_loop(
     all: &[Measurement],
     start: Option<JointVector>,
     devices: Option<LoopDevices<'_>>,
+    mut budget: Option<&mut BudgetReport>,
 ) -> Result<LoopOutcome, PipelineError> {
     let none =
         |discovery, report| LoopOutcome { discovery, report, measurements: Vec::new(), last_joints: None };
+    let mut stop = |why: &str| {
+        if let Some(b) = budget.as_deref_mut() {
+            b.stop = why.to_string();
+        }
+    };
     if settings.count == 0 {
+        stop("no targeted batch configured (loop count 0)");
         return Ok(none(first, None));
     }
     let targets = borderline_effects(&first, all, settings.targets);
     if targets.is_empty() {
-        let report = LoopReport::not_run(
-            &first,
-            "nothing borderline: no candidate of the last round was refitted and left undecided, no unsettled rivals",
-        );
+        let why = "nothing borderline: no candidate of the last round was refitted and left undecided, no unsettled rivals";
+        stop(&format!("every question decided after the Detmax batch ({why})"));
+        let report = LoopReport::not_run(&first, why);
         return Ok(none(first, Some(report)));
     }
-    let LoopInputs { opts, nominal, calibrated, base, folder } = *inputs;
+    let LoopInputs { opts, nominal, calibrated, base, folder, probe_at } = *inputs;
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
     let mut plan_opts = plan_options(opts);
     plan_opts.count = settings.count;
@@ -495,16 +557,24 @@ pub fn measurement_loop(
     plan_opts.start = start;
     plan_opts.seed = opts.seed ^ 0x000d_15c0_100b_0004;
     let focus: Vec<EffectSpec> = targets.iter().map(|t| t.spec).collect();
-    let proposed = propose_plan(&first, all, &focus, nominal, &geometry, &plan_opts)?;
+    let proposed = propose_plan_at(&first, all, &focus, nominal, &geometry, &plan_opts, probe_at)?;
     let plan_folder = folder.loop_plan();
     plan_folder.write(&proposed.plan)?;
     let proposal = plan_folder.path(LOOP_PROPOSAL);
     std::fs::write(&proposal, serde_json::to_string_pretty(&proposed.proposal)?)
         .map_err(|e| PipelineError::Io { path: proposal.clone(), source: e })?;
     let tour = plan_folder.read_tour(nominal.joint_kinds())?;
+    if let Some(b) = budget.as_deref_mut()
+        && let Some(why) = targeted_batch_refused(b, &tour, start, &proposed.proposal)
+    {
+        b.stop = why.clone();
+        return Ok(none(first.clone(), Some(LoopReport::not_run(&first, why))));
+    }
     let made = match devices {
         Some(LoopDevices { devices, config, progress }) => {
             let journal = folder.path(LOOP_JOURNAL);
+            // the plate stays where the Detmax batch left it (the plan starts there)
+            let config = vatcal_campaign::CampaignConfig { plate_at_start: probe_at, ..config };
             run_campaign(devices, nominal, &tour, &journal, config, Stage::Discover, None, progress)?
         }
         None => folder.journal_report(LOOP_JOURNAL)?,
@@ -514,19 +584,30 @@ pub fn measurement_loop(
         &made.measurements,
         nominal.joint_kinds(),
     )?;
+    if let Some(b) = budget {
+        if let Some(last) = b.batches.last_mut() {
+            last.device_s = Some(campaign_device_s(&made));
+        }
+        b.spent_s += campaign_device_s(&made);
+        b.stop = "the targeted batch was the stage's last (one per run)".into();
+    }
     let mut with_loop = all.to_vec();
     with_loop.extend_from_slice(&made.measurements);
-    // two ways to use the new rows: continue from the model before the loop, or search again
-    // from the 34 parameters; both are scored by cross-validation on the same data (same
-    // folds), the lower gap is kept. Independent: side by side
-    let (cont, fresh) = rayon::join(
-        || discover(&first.model, &with_loop, &first.params, None, settings.discover),
-        || discover(calibrated, &with_loop, base, None, settings.discover),
-    );
-    let continued = continued_discovery(&first, cont?);
-    let fresh = fresh?;
-    let choice = LoopChoice::of(&continued, &fresh);
-    let second = if choice.kept_continued { continued } else { fresh };
+    // the new rows decide the undecided candidates on top of the model before the loop; only
+    // when that continued discovery still leaves something undecided is the search run again
+    // from the 34 parameters (greedy, it can end at another structure), the lower
+    // cross-validated gap kept (same folds)
+    let cont = discover(&first.model, &with_loop, &first.params, None, settings.discover)?;
+    let decided = borderline_effects(&cont, &with_loop, settings.targets).is_empty();
+    let continued = continued_discovery(&first, cont);
+    let (second, choice) = if decided {
+        let choice = LoopChoice::continued_only(&continued);
+        (continued, choice)
+    } else {
+        let fresh = discover(calibrated, &with_loop, base, None, settings.discover)?;
+        let choice = LoopChoice::of(&continued, &fresh);
+        (if choice.kept_continued { continued } else { fresh }, choice)
+    };
     let mut report = LoopReport::of(&first, all, &targets, &proposed, &made.measurements, &second)?;
     report.choice = Some(choice);
     Ok(LoopOutcome {
@@ -535,4 +616,41 @@ pub fn measurement_loop(
         last_joints: made.records.last().map(|r| r.state.joints),
         measurements: made.measurements,
     })
+}
+
+/// Why the targeted batch `tour` (proposed as `proposal`) is not measured, if it is not: it
+/// does not fit what is left of the budget `b`, or it would shrink no undecided parameter's σ
+/// by [`MIN_SIGMA_GAIN`] (the expected gain too small for its device time). Records the batch
+/// (not measured yet) in `b`.
+fn targeted_batch_refused(
+    b: &mut BudgetReport,
+    tour: &CampaignPlan,
+    start: Option<JointVector>,
+    proposal: &Proposal,
+) -> Option<String> {
+    let predicted_s = b.time_model.predict_s(tour, start);
+    let planned = measure_steps(tour);
+    b.push(BatchSpend { batch: "targeted".into(), planned, predicted_s, device_s: None });
+    let gain = proposal
+        .std_before
+        .iter()
+        .zip(&proposal.std_after)
+        .filter(|(before, _)| **before > 0.0)
+        .map(|(before, after)| 1.0 - after / before)
+        .fold(0.0, f64::max);
+    if PREDICTION_MARGIN * predicted_s > b.left_s() {
+        return Some(format!(
+            "the targeted batch ({planned} measurements, {predicted_s:.0} s predicted, {PREDICTION_MARGIN} x with the margin) does not fit the {:.0} s left of the {:.0} s budget",
+            b.left_s(),
+            b.budget_s
+        ));
+    }
+    if gain < MIN_SIGMA_GAIN {
+        return Some(format!(
+            "the targeted batch would shrink the undecided parameters' sigma by at most {:.0} % (< {:.0} %): too little for {predicted_s:.0} s of device time",
+            100.0 * gain,
+            100.0 * MIN_SIGMA_GAIN
+        ));
+    }
+    None
 }

@@ -26,9 +26,14 @@ use vatcal_identification::{IdentifyOptions, identify};
 use vatcal_kinematics::Model;
 use vatcal_kinematics::effects::{DataAvailability, missing_data};
 use vatcal_planning::geometry::CellGeometry;
+use vatcal_planning::motion::MotionTimer;
 use vatcal_planning::output::PlanSummary;
 use vatcal_planning::plan::plan_campaign;
 
+use crate::budget::{
+    BatchSpend, BudgetReport, DeviceTimeModel, PREDICTION_MARGIN, campaign_device_s, fit_batch, journal_end,
+    measure_steps, targeted_reserve_s,
+};
 use crate::campaign_runner::run_campaign;
 pub use crate::discovery_loop::LoopDevices;
 use crate::discovery_loop::{LoopInputs, LoopReport, LoopSettings, measurement_loop};
@@ -62,6 +67,11 @@ pub struct DiscoveryStageOptions {
     pub loop_count: usize,
     /// at most this many undecided candidates are targeted by the loop
     pub loop_targets: usize,
+    /// device-time budget of the discovery measurements \[s\] ([`crate::budget`]): the Detmax
+    /// batch is sized to fit it (`count` is then the largest size tried) and the targeted
+    /// batch is measured only when it fits what is left; `None`: `count` measurements and the
+    /// loop whatever they take
+    pub budget_s: Option<f64>,
 }
 
 impl DiscoveryStageOptions {
@@ -81,6 +91,10 @@ impl DiscoveryStageOptions {
             repeat_overshoot_rad: 1e-3,
             loop_count: 12,
             loop_targets: 2,
+            // no budget by default yet: at 15 min the one-at-a-time search adds too little
+            // (the demo's discovered/34 error 49-71 % instead of 23 %, docs/discovery.md,
+            // "The measurement budget"); `vatcal demo --discovery-budget-min 15` sizes it
+            budget_s: None,
         }
     }
 
@@ -170,6 +184,8 @@ pub struct DiscoveryOutcome {
     /// the direction columns recorded with each measurement, e.g. `dir2..dir7` on the
     /// canonical cell, `dir1..dir6` on a six-joint arm
     pub dir_columns: String,
+    /// how the device-time budget sized the batches and what they cost (`None`: no budget)
+    pub budget: Option<BudgetReport>,
 }
 
 /// How the summary names a calibration parameter set: `the paper's 34 parameters` for
@@ -210,6 +226,21 @@ pub fn plan_discovery(
     start: Option<JointVector>,
     folder: &PlanFolder,
 ) -> Result<PlanSummary, PipelineError> {
+    plan_discovery_of(opts, stage, stage.count, nominal, base, geometry, start, folder)
+}
+
+/// [`plan_discovery`] with `count` measurements.
+#[allow(clippy::too_many_arguments)]
+fn plan_discovery_of(
+    opts: &RunOptions,
+    stage: &DiscoveryStageOptions,
+    count: usize,
+    nominal: &Model,
+    base: &ParamSet,
+    geometry: &CellGeometry,
+    start: Option<JointVector>,
+    folder: &PlanFolder,
+) -> Result<PlanSummary, PipelineError> {
     let mut model = nominal.clone();
     let mut params = base.0.clone();
     for spec in &stage.plan_effects {
@@ -221,7 +252,7 @@ pub fn plan_discovery(
         }
     }
     let mut options = crate::plan_options(opts);
-    options.count = stage.count;
+    options.count = count;
     options.params = ParamSet(params);
     options.start = start;
     options.seed = opts.seed ^ 0x000d_15c0_7e11_0003;
@@ -300,11 +331,116 @@ pub fn discovery_stage(
 ) -> Result<DiscoveryOutcome, PipelineError> {
     let folder = RunFolder::new(out);
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
-    plan_discovery(opts, stage, nominal, base, &geometry, start, &folder.discovery_plan())?;
+    let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
+    match stage.budget_s {
+        None => {
+            plan_discovery(opts, stage, nominal, base, &geometry, start, &folder.discovery_plan())?;
+        }
+        Some(budget_s) => plan_within_budget(&inputs, budget_s, &geometry, start)?,
+    }
     let (tour, repeats) = discovery_tour(stage, nominal, out)?;
     let campaign = discovery_campaign_stage(devices, nominal, &tour, &folder, config.clone(), progress)?;
-    let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
-    discovery_analysis(&inputs, &campaign, repeats, Some(LoopDevices { devices, config, progress }))
+    let budget = detmax_spend(&inputs, &tour, &campaign)?;
+    discovery_analysis(&inputs, &campaign, repeats, Some(LoopDevices { devices, config, progress }), budget)
+}
+
+/// The time model of the cell's devices ([`DeviceTimeModel`]), learned on the run folder's
+/// calibration campaign (`campaign.journal` with `plan/tour.csv`); the planner's estimates
+/// when there is none.
+///
+/// # Errors
+/// A bad journal or tour, or motion limits the planner cannot time.
+pub fn device_time_model(
+    opts: &RunOptions,
+    nominal: &Model,
+    out: &Path,
+) -> Result<DeviceTimeModel, PipelineError> {
+    let folder = RunFolder::new(out);
+    let timer = MotionTimer::for_model(&opts.nominal.motion_limits(), nominal)?;
+    let journal = folder.journal();
+    if !journal.is_file() || !folder.plan().path(crate::folders::TOUR_CSV).is_file() {
+        return Ok(DeviceTimeModel::planner(timer));
+    }
+    let tour = folder.plan().read_tour(nominal.joint_kinds())?;
+    DeviceTimeModel::from_campaign(&journal, &tour, timer)
+}
+
+/// The device time held back for the targeted batch: the loop's measurements at the probe
+/// placement the Detmax batch ends at (no re-placement; 0 without a loop).
+fn targeted_reserve(inputs: &AnalysisInputs<'_>, time: &DeviceTimeModel) -> f64 {
+    let stage = inputs.stage;
+    if stage.loop_count == 0 {
+        return 0.0;
+    }
+    PREDICTION_MARGIN * targeted_reserve_s(time, stage.loop_count, 0)
+}
+
+/// Plans the Detmax batch into `discovery_plan/` sized to fit `budget_s` less the targeted
+/// batch's reserve ([`fit_batch`], predictions by [`device_time_model`]; at most
+/// `stage.count` measurements).
+///
+/// # Errors
+/// A planning failure, or a budget that cannot fit the smallest batch.
+fn plan_within_budget(
+    inputs: &AnalysisInputs<'_>,
+    budget_s: f64,
+    geometry: &CellGeometry,
+    start: Option<JointVector>,
+) -> Result<(), PipelineError> {
+    let AnalysisInputs { opts, stage, nominal, base, out, .. } = *inputs;
+    let time = device_time_model(opts, nominal, out)?;
+    let reserve = targeted_reserve(inputs, &time);
+    let folder = RunFolder::new(out).discovery_plan();
+    let fixed = opts.nominal.calibration_positions.len() as f64 * time.placement_s;
+    let arm_at = journal_end(&RunFolder::new(out).journal());
+    let predict = |count: usize| -> Result<f64, PipelineError> {
+        plan_discovery_of(opts, stage, count, nominal, base, geometry, start, &folder)?;
+        let (tour, _) = discovery_tour(stage, nominal, out)?;
+        Ok(PREDICTION_MARGIN * time.predict_s(&tour, arm_at))
+    };
+    // Detmax needs a pose per three parameters it plans for, and a margin over that
+    let planned_params = base.len() + stage.plan_effects.iter().map(|e| e.params().len()).sum::<usize>();
+    let min_count = planned_params.div_ceil(3) + 6;
+    match fit_batch(stage.count, min_count, budget_s - reserve, fixed, predict)? {
+        Some(_) => Ok(()),
+        None => Err(PipelineError::Option {
+            option: "discovery budget".into(),
+            reason: format!(
+                "{:.1} min of device time cannot fit the smallest Detmax batch ({} measurements for {planned_params} parameters) with {reserve:.0} s held back for the targeted batch",
+                budget_s / 60.0,
+                min_count.max(crate::budget::MIN_DETMAX_BATCH)
+            ),
+        }),
+    }
+}
+
+/// The budget report after the Detmax batch (`tour`, measured as `campaign`): `None` without a
+/// budget. The same from a run's devices and from its journals.
+///
+/// # Errors
+/// A bad calibration journal or tour.
+fn detmax_spend(
+    inputs: &AnalysisInputs<'_>,
+    tour: &CampaignPlan,
+    campaign: &CampaignReport,
+) -> Result<Option<BudgetReport>, PipelineError> {
+    let Some(budget_s) = inputs.stage.budget_s else { return Ok(None) };
+    let time = device_time_model(inputs.opts, inputs.nominal, inputs.out)?;
+    let mut report = BudgetReport {
+        budget_s,
+        time_model: time,
+        targeted_reserve_s: targeted_reserve(inputs, &time),
+        batches: Vec::new(),
+        spent_s: 0.0,
+        stop: String::new(),
+    };
+    report.push(BatchSpend {
+        batch: "detmax".into(),
+        planned: measure_steps(tour),
+        predicted_s: time.predict_s(tour, journal_end(&RunFolder::new(inputs.out).journal())),
+        device_s: Some(campaign_device_s(campaign)),
+    });
+    Ok(Some(report))
 }
 
 /// The discovery stage of a finished run recomputed from its journals (`discovery.journal`
@@ -323,10 +459,11 @@ pub fn discovery_recompute(
     calibration: &[Measurement],
     out: &Path,
 ) -> Result<DiscoveryOutcome, PipelineError> {
-    let (_, repeats) = discovery_tour(stage, nominal, out)?;
+    let (tour, repeats) = discovery_tour(stage, nominal, out)?;
     let campaign = RunFolder::new(out).journal_report(DISCOVERY_JOURNAL)?;
     let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
-    discovery_analysis(&inputs, &campaign, repeats, None)
+    let budget = detmax_spend(&inputs, &tour, &campaign)?;
+    discovery_analysis(&inputs, &campaign, repeats, None, budget)
 }
 
 /// What the offline half of the discovery stage works on ([`discovery_analysis`]).
@@ -383,6 +520,7 @@ pub fn discovery_analysis(
     campaign: &vatcal_campaign::CampaignReport,
     repeats: usize,
     devices: Option<LoopDevices<'_>>,
+    mut budget: Option<BudgetReport>,
 ) -> Result<DiscoveryOutcome, PipelineError> {
     let AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out } = *inputs;
     let mut all = calibration.to_vec();
@@ -390,10 +528,16 @@ pub fn discovery_analysis(
     let first = discover(calibrated, &all, base, None, &stage.discover)?;
     let campaign_end = campaign.records.last().map(|r| r.state.joints);
     let folder = RunFolder::new(out);
-    let loop_inputs = LoopInputs { opts, nominal, calibrated, base, folder: &folder };
+    // where the Detmax batch left the probe plate: the targeted batch measures there
+    let probe_at = campaign.records.iter().rev().find_map(|r| match r.outcome {
+        vatcal_campaign::StepOutcome::ProbePlaced { position } => Some(position),
+        _ => None,
+    });
+    let loop_inputs = LoopInputs { opts, nominal, calibrated, base, folder: &folder, probe_at };
     let settings =
         LoopSettings { count: stage.loop_count, targets: stage.loop_targets, discover: &stage.discover };
-    let looped = measurement_loop(&loop_inputs, &settings, first, &all, campaign_end, devices)?;
+    let looped =
+        measurement_loop(&loop_inputs, &settings, first, &all, campaign_end, devices, budget.as_mut())?;
     all.extend_from_slice(&looped.measurements);
     let (true_structure, true_structure_note) = match &stage.true_effects {
         None => (None, "no true structure known (a real cell)".to_string()),
@@ -415,6 +559,7 @@ pub fn discovery_analysis(
         base_params: base.len(),
         base_name: parameter_set_name(base),
         dir_columns: dir_columns_text(nominal.joint_kinds()),
+        budget,
     })
 }
 

@@ -43,6 +43,7 @@ pub mod plans;
 mod progress;
 mod state;
 // what the stages share
+pub mod budget;
 mod campaign_runner;
 pub mod registration;
 mod two_sided;

@@ -312,6 +312,9 @@ pub struct DiscoveryReport {
     pub true_structure: String,
     /// the loop's remarks
     pub notes: Vec<String>,
+    /// how the device-time budget sized the discovery's batches, what they cost and why the
+    /// measuring stopped (`None`: no budget)
+    pub budget: Option<crate::budget::BudgetReport>,
 }
 
 impl DiscoveryReport {
@@ -334,6 +337,7 @@ impl DiscoveryReport {
             final_gap_mm: d.final_gap_mm,
             true_structure: o.true_structure_note.clone(),
             notes: d.notes.clone(),
+            budget: o.budget.clone(),
         })
     }
 }

@@ -411,6 +411,7 @@ pub(crate) fn measure_timing(
         plan,
         discovery_tour: discovery_tour.as_ref(),
         loop_tour: loop_tour.as_ref(),
+        budget: discovered.and_then(|d| d.budget.as_ref()),
         validation_steps,
     })
 }

@@ -111,6 +111,10 @@ pub struct RunTiming {
     pub discovery_loop: Option<CampaignTiming>,
     /// the validation campaign
     pub validation: CampaignTiming,
+    /// the discovery's device-time budget \[s\] (`None`: no discovery or no budget)
+    pub discovery_budget_s: Option<f64>,
+    /// device time the discovery's batches took (Detmax and targeted) \[s\]
+    pub discovery_spent_s: Option<f64>,
 }
 
 impl RunTiming {
@@ -210,6 +214,8 @@ pub(crate) struct TimingInputs<'a> {
     pub discovery_tour: Option<&'a CampaignPlan>,
     /// the measurement loop's tour, when the loop measured
     pub loop_tour: Option<&'a CampaignPlan>,
+    /// the discovery's budget report, when it had one
+    pub budget: Option<&'a crate::budget::BudgetReport>,
     pub validation_steps: &'a CampaignPlan,
 }
 
@@ -237,11 +243,13 @@ pub(crate) fn measure(i: &TimingInputs<'_>) -> Result<RunTiming, PipelineError> 
         discovery,
         discovery_loop,
         validation,
+        discovery_budget_s: i.budget.map(|b| b.budget_s),
+        discovery_spent_s: i.budget.map(|b| b.spent_s),
     })
 }
 
 /// The steps of one journal by kind, `plan` giving each step's kind and planned path.
-fn campaign_timing(
+pub(crate) fn campaign_timing(
     journal: &Path,
     plan: &CampaignPlan,
     timer: &MotionTimer,

@@ -67,6 +67,12 @@ pub struct Args {
     /// Extra probe measurements of the discovery stage.
     #[arg(long, default_value_t = 360)]
     pub discovery_count: usize,
+    /// Device time the discovery measurements may take, in minutes, or `none` (the default:
+    /// `--discovery-count` measurements and the targeted batch, whatever they take): the
+    /// Detmax batch is sized to fit it, less a reserve for the targeted batch, which is
+    /// measured only when it fits what is left (docs/discovery.md, "The measurement budget").
+    #[arg(long, value_name = "MIN|none", default_value = "none", value_parser = super::shared::budget::parse_budget_min)]
+    pub discovery_budget_min: super::shared::budget::BudgetSeconds,
     /// Skip the discovery stage (the validation then measures the nominal and the calibrated
     /// model only).
     #[arg(long)]
@@ -151,6 +157,7 @@ fn discovery_options(args: &Args, nominal: &Model, count: usize) -> Option<Disco
     (!args.no_discovery).then(|| DiscoveryStageOptions {
         plan_effects: vatcal_pipeline::discovery_stage::plan_effects_for(nominal),
         count,
+        budget_s: args.discovery_budget_min.0,
         ..DiscoveryStageOptions::new(args.seed).with_instrument_noise(
             args.probe_sigma_mm.unwrap_or(probe_default),
             args.tracker_sigma_mm.unwrap_or(tracker_default),

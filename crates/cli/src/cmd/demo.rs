@@ -45,6 +45,12 @@ pub struct Args {
     /// `vatcal calibrate --discovery-count`).
     #[arg(long)]
     pub discovery_count: Option<usize>,
+    /// Device time the discovery measurements may take, in minutes, or `none` (the default:
+    /// `--discovery-count` measurements and the targeted batch, whatever they take): the
+    /// Detmax batch is sized to fit it, less a reserve for the targeted batch, which is
+    /// measured only when it fits what is left (docs/discovery.md, "The measurement budget").
+    #[arg(long, value_name = "MIN|none", default_value = "none", value_parser = super::shared::budget::parse_budget_min)]
+    pub discovery_budget_min: super::shared::budget::BudgetSeconds,
     /// Hidden truth of the virtual cell: `ideal` (errors of the 34 parameters only),
     /// `paper-like` (plus the physics they miss, docs/virtual-cell.md) or a cell file of the truth.
     #[arg(long, default_value = "paper-like", value_name = "ideal|paper-like|FILE")]
@@ -89,6 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let mut progress = BarProgress::new(!args.quiet && std::io::stdout().is_terminal());
     opts.truth = args.truth.clone();
     opts.discovery = !args.no_discovery;
+    opts.discovery_budget_s = args.discovery_budget_min.0;
     println!(
         "vatcal demo: simulated calibration of {}{} (seed {}, truth {}), report in {}",
         opts.nominal_source,

@@ -49,3 +49,40 @@ fn the_demo_discovers_on_the_paper_like_truth_and_validates_four_models() {
     let html = &demo.summary_html;
     assert!(html.contains("<svg") && html.contains("true structure (floor)"));
 }
+
+/// `--discovery-budget-min`: a quick demo with a 12-minute budget sizes its Detmax batch to fit,
+/// measures the targeted batch only if it fits what is left, and spends at most the budget;
+/// report.json and timing.json say what was predicted and spent.
+#[test]
+fn a_discovery_budget_sizes_the_batches_and_is_not_exceeded() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let mut opts = vatcal_demo::DemoOptions::new(3).expect("built-in cell").quick();
+    opts.discovery_budget_s = Some(720.0);
+    // more than the budget can take: it shrinks the batch
+    opts.discovery_count = 75;
+    let out = vatcal_demo::run_demo(&opts, dir.path(), &mut |_| {}).expect("demo");
+    let d = out.discovery.as_ref().expect("discovery outcome");
+    let b = d.budget.as_ref().expect("the budget report");
+    assert_eq!(b.budget_s, 720.0);
+    assert!(b.spent_s <= 720.0, "spent {} s of 720 s: {b:?}", b.spent_s);
+    assert_eq!(b.batches[0].batch, "detmax");
+    assert!(b.batches[0].planned < opts.discovery_count, "{b:?}");
+    assert!(d.extra_measurements <= b.batches[0].planned, "{b:?}");
+    let measured: f64 = b.batches.iter().filter_map(|x| x.device_s).sum();
+    assert!((measured - b.spent_s).abs() < 1e-9);
+    // the predictions are close to what the batches took
+    for x in b.batches.iter().filter(|x| x.device_s.is_some()) {
+        let t = x.device_s.expect("measured");
+        assert!((x.predicted_s - t).abs() < 0.15 * t, "{x:?}");
+    }
+    assert!(!b.stop.is_empty());
+    let timing: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("timing.json")).expect("timing"))
+            .expect("json");
+    assert_eq!(timing["discovery_budget_s"].as_f64(), Some(720.0));
+    assert_eq!(timing["discovery_spent_s"].as_f64(), Some(b.spent_s));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).expect("report"))
+            .expect("json");
+    assert!(report["discovery"]["budget"]["batches"].is_array());
+}
