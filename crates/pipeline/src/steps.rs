@@ -411,7 +411,7 @@ pub(crate) fn measure_timing(
         plan,
         discovery_tour: discovery_tour.as_ref(),
         loop_tour: loop_tour.as_ref(),
-        budget: discovered.and_then(|d| d.budget.as_ref()),
+        budget: discovered.and_then(|d| d.budget.as_ref()).map(|b| (b.budget_s, b.spent_s)),
         validation_steps,
     })
 }

@@ -214,8 +214,8 @@ pub(crate) struct TimingInputs<'a> {
     pub discovery_tour: Option<&'a CampaignPlan>,
     /// the measurement loop's tour, when the loop measured
     pub loop_tour: Option<&'a CampaignPlan>,
-    /// the discovery's budget report, when it had one
-    pub budget: Option<&'a crate::budget::BudgetReport>,
+    /// the discovery's budget and what its batches spent \[s\], when it had a budget
+    pub budget: Option<(f64, f64)>,
     pub validation_steps: &'a CampaignPlan,
 }
 
@@ -243,8 +243,8 @@ pub(crate) fn measure(i: &TimingInputs<'_>) -> Result<RunTiming, PipelineError> 
         discovery,
         discovery_loop,
         validation,
-        discovery_budget_s: i.budget.map(|b| b.budget_s),
-        discovery_spent_s: i.budget.map(|b| b.spent_s),
+        discovery_budget_s: i.budget.map(|b| b.0),
+        discovery_spent_s: i.budget.map(|b| b.1),
     })
 }
 
