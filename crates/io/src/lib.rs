@@ -55,7 +55,8 @@ pub use options::{
 };
 pub use pose_requests::{PoseRequestRow, read_pose_requests};
 pub use pose_rows::{
-    QUATERNION_NORM_TOLERANCE, is_pose_header, read_pose_measurements, read_pose_measurements_with,
+    QUATERNION_NORM_TOLERANCE, has_pose_header, is_pose_header, read_any_measurements_with,
+    read_pose_measurements, read_pose_measurements_with,
 };
 pub use vatcal_core::MECA500_ON_GUIDE_KINDS;
 pub use write::{

@@ -112,6 +112,38 @@ pub fn is_pose_header(columns: &[&str]) -> bool {
     columns.iter().any(|c| ["qw", "rx", "roll"].contains(c) || c.starts_with("euler_"))
 }
 
+/// Whether the file at `path` holds pose rows: its header (the first line neither blank nor a
+/// comment) has rotation columns ([`is_pose_header`]).
+///
+/// # Errors
+/// [`IoError::File`] when the file cannot be read.
+pub fn has_pose_header(path: impl AsRef<Path>) -> Result<bool, IoError> {
+    let path = path.as_ref();
+    let text = std::fs::read_to_string(path).map_err(|cause| IoError::File { path: path.into(), cause })?;
+    let header = text.lines().map(str::trim).find(|l| !l.is_empty() && !l.starts_with('#')).unwrap_or("");
+    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
+    Ok(is_pose_header(&columns))
+}
+
+/// Reads measurements of any kind: pose rows ([`read_pose_measurements_with`]) when the header
+/// has rotation columns, probe and/or tracker rows
+/// ([`read_measurements_with`](crate::read_measurements_with)) otherwise.
+///
+/// # Errors
+/// As the reader chosen.
+pub fn read_any_measurements_with(
+    path: impl AsRef<Path>,
+    model: &Model,
+    options: &ReadOptions,
+) -> Result<ReadOutcome<Measurement>, IoError> {
+    let path = path.as_ref();
+    if has_pose_header(path)? {
+        read_pose_measurements_with(path, model, options)
+    } else {
+        crate::read_measurements_with(path, model, options)
+    }
+}
+
 /// The axes of an Euler convention `seq` (`xyz` extrinsic, `ZYX` intrinsic, ...), or `None`.
 fn euler_convention(seq: &str) -> Option<([usize; 3], bool)> {
     let extrinsic = seq.chars().all(|c| c.is_ascii_lowercase());
@@ -284,6 +316,26 @@ mod tests {
         assert_eq!(xyz, Vector3::new(400e3, 100e3, 300e3));
         let (xyz, _) = read_pose("qw,qx,qy,qz", "1,0,0,0", &deg).expect("mm");
         assert_eq!(xyz, Vector3::new(400.0, 100.0, 300.0));
+    }
+
+    /// `read_any_measurements_with` picks the pose reader by the header, the probe/tracker
+    /// reader otherwise.
+    #[test]
+    fn any_reader_dispatches_on_the_header() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let (pose, tracker) = (dir.path().join("pose.csv"), dir.path().join("tracker.csv"));
+        let head = "tcp,q1,q2,q3,q4,q5,q6,x,y,z";
+        std::fs::write(&pose, format!("# a comment\n{head},rx,ry,rz\n{Q},400,100,300,0,0,5\n"))
+            .expect("write");
+        std::fs::write(&tracker, format!("{head}\n{Q},400,100,300\n")).expect("write");
+        let model = ur5e();
+        let opts = ReadOptions::strict();
+        let p = read_any_measurements_with(&pose, &model, &opts).expect("pose");
+        assert_eq!((p.rows.len(), p.lines.clone()), (2, vec![3, 3]));
+        assert!(p.rows[1].target.is_orientation());
+        let t = read_any_measurements_with(&tracker, &model, &opts).expect("tracker");
+        assert_eq!(t.rows.len(), 1);
+        assert!(matches!(t.rows[0].target, Target::Tracker { .. }));
     }
 
     /// Bad rotations are one-line errors naming file, line and column.

@@ -19,7 +19,7 @@
 //! ([`DataDesign::distances`]) a `kinematic` fit also loses the overall scale (one length).
 
 use faer::Mat;
-use vatcal_core::params::Axis;
+use vatcal_core::params::{Axis, EffectParam, ToolFrameDof};
 use vatcal_core::{BaseParam, Measurement, ParamId, ParamSet, PointDistance};
 use vatcal_kinematics::Model;
 
@@ -32,7 +32,8 @@ use crate::identifiability::{
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum GenericSet {
     /// where the robot is (base pose) and which point the instrument sees (TCP coordinates,
-    /// unknown fixed points)
+    /// unknown fixed points; with orientation rows the tool body's tilt, `tool_rx`, `tool_ry`,
+    /// when the model has the `tool-frame` effect on)
     Registration,
     /// registration + the zero offset of every joint
     JointOffsets,
@@ -235,6 +236,15 @@ pub fn generic_order(
     }
     for id in measured_tcps(measurements) {
         v.extend(xyz(&|axis| ParamId::Tcp { id, axis }));
+    }
+    // orientation rows (pose rows) see the tool body's rotation: its tilt is registration
+    if measurements.iter().any(|m| m.target.is_orientation()) {
+        v.extend(
+            [ToolFrameDof::Rx, ToolFrameDof::Ry]
+                .map(|d| ParamId::Effect(EffectParam::ToolFrame(d)))
+                .into_iter()
+                .filter(|p| model.has_param(*p)),
+        );
     }
     if anchor {
         v.extend(BaseParam::ALL.map(ParamId::Base));

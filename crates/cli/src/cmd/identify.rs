@@ -28,7 +28,9 @@ pub struct Args {
     pub model: PathBuf,
     /// Measurements: CSV with probe rows (position,tcp,q1..qN), tracker rows (tcp,q1..qN,x,y,z,
     /// world mm) or both (a row with an empty `position` is a tracker row); joints in mm for
-    /// prismatic, degrees for revolute joints (the canonical cell: q1 mm, q2..q7 degrees).
+    /// prismatic, degrees for revolute joints (the canonical cell: q1 mm, q2..q7 degrees). Or
+    /// pose rows: tracker rows plus the tool body's rotation (qw,qx,qy,qz / rx,ry,rz /
+    /// roll,pitch,yaw / euler_<seq>_1..3; see docs/formats.md).
     #[arg(long)]
     pub measurements: Option<PathBuf>,
     /// Where to write the calibrated cell file (same format as --model).
@@ -56,6 +58,10 @@ pub struct Args {
     /// (sigma_probe / sigma_tracker)^2).
     #[arg(long, default_value_t = 1.0)]
     pub tracker_weight: f64,
+    /// Weight of the orientation half of pose rows relative to probe rows [mm²/rad²]:
+    /// (sigma_probe [mm] / sigma_orientation [rad])^2; the default 100 puts 0.01 mm against 1 mrad.
+    #[arg(long, default_value_t = KindWeights::DEFAULT_ORIENTATION)]
+    pub orientation_weight: f64,
     /// Calibration positions (fixed points) whose coordinates are unknown and identified with
     /// the rest: a comma-separated list of ids (a position the cell file lacks is added) or
     /// `all` (every position of the cell file).
@@ -139,6 +145,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &measurements,
         &sources,
     )?;
+    let model = with_tool_rotation(model, &measurements)?;
     let method: Method = args.method.parse().map_err(anyhow::Error::msg).context("--method")?;
     let distances = args
         .point_distances
@@ -151,7 +158,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         method,
         max_iterations: args.max_iterations,
         max_condition_number: args.max_condition_number,
-        weights: KindWeights { probe: 1.0, tracker: args.tracker_weight, ..KindWeights::default() },
+        weights: KindWeights {
+            probe: 1.0,
+            tracker: args.tracker_weight,
+            orientation: args.orientation_weight,
+        },
         ..IdentifyOptions::default()
     };
     let cv = cv_options(&args)?;
@@ -544,6 +555,16 @@ fn add_unknown_positions(cell: &mut vatcal_core::CellFile, spec: Option<&str>) -
         }
     }
     Ok(ids)
+}
+
+/// With pose rows (orientation measurements) the tool body's rotation is unknown: the
+/// `tool-frame` effect is switched on (its tilt joins the generic sets; the last joint's offset
+/// turns the body about the flange axis).
+fn with_tool_rotation(mut model: Model, measurements: &[Measurement]) -> anyhow::Result<Model> {
+    if measurements.iter().any(|m| m.target.is_orientation()) {
+        model.enable_effect(vatcal_core::EffectSpec::ToolFrame).context("pose rows: the tool frame")?;
+    }
+    Ok(model)
 }
 
 /// Every row of `--measurements` and `--tracker` (each file: probe rows, tracker rows or both),

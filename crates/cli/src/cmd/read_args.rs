@@ -71,9 +71,10 @@ impl ReadArgs {
         Ok(print_warnings(vatcal_io::read_joint_rows_with(path, model, &self.options()?)?))
     }
 
-    /// `vatcal_io::read_measurements_with` (probe and/or tracker rows), warnings printed.
+    /// `vatcal_io::read_any_measurements_with` (probe and/or tracker rows, or pose rows: a
+    /// tracker and an orientation measurement each), warnings printed.
     pub fn measurements(&self, path: &Path, model: &Model) -> anyhow::Result<Vec<Measurement>> {
-        Ok(print_warnings(vatcal_io::read_measurements_with(path, model, &self.options()?)?))
+        Ok(print_warnings(vatcal_io::read_any_measurements_with(path, model, &self.options()?)?))
     }
 
     /// [`Self::measurements`] with the source (`file:line`) of every row, in the same order,
@@ -85,7 +86,7 @@ impl ReadArgs {
         model: &Model,
     ) -> anyhow::Result<(Vec<Measurement>, Vec<RowSource>)> {
         let options = ReadOptions { any_tcp_id: true, ..self.options()? };
-        let read = vatcal_io::read_measurements_with(path, model, &options)?;
+        let read = vatcal_io::read_any_measurements_with(path, model, &options)?;
         let sources = read.sources();
         Ok((print_warnings(read), sources))
     }

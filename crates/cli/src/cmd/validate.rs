@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
-use vatcal_core::JointKind;
 use vatcal_core::training_range::{self, JointExcursion, TrainingRange};
+use vatcal_core::{JointKind, Measurement};
 use vatcal_identification::{ErrorStats, ValidationReport, validate};
 use vatcal_io::RowSource;
 use vatcal_report::{HistogramOptions, PlotSpec, Series, histogram_svg, save_svg};
@@ -64,6 +64,95 @@ pub struct ValidateOutput {
     /// absent when the file has none)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub extrapolation: Option<Extrapolation>,
+    /// orientation errors of pose rows (absent without them)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<OrientationErrors>,
+}
+
+/// Orientation errors of the pose rows' orientation measurements: statistics of the rotation
+/// angle between the measured and the predicted tool orientation.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct OrientationErrors {
+    /// the model under test
+    pub model: OrientationStats,
+    /// the baseline, if given
+    pub baseline: Option<OrientationStats>,
+}
+
+/// Statistics of rotation-error angles \[mrad\].
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct OrientationStats {
+    /// orientation rows
+    pub n: usize,
+    /// mean angle \[mrad\]
+    pub mean_mrad: f64,
+    /// RMS angle \[mrad\]
+    pub rms_mrad: f64,
+    /// median angle \[mrad\]
+    pub median_mrad: f64,
+    /// 95th percentile \[mrad\]
+    pub p95_mrad: f64,
+    /// largest angle \[mrad\]
+    pub max_mrad: f64,
+}
+
+impl OrientationStats {
+    fn of(s: &ErrorStats) -> Self {
+        Self {
+            n: s.n,
+            mean_mrad: s.mean,
+            rms_mrad: s.rms,
+            median_mrad: s.median,
+            p95_mrad: s.p95,
+            max_mrad: s.max,
+        }
+    }
+}
+
+/// Splits the orientation measurements of pose rows from the position rows (kept with their
+/// sources): `(position rows, their sources, orientation rows)`.
+fn split_orientation(
+    rows: Vec<Measurement>,
+    sources: Vec<RowSource>,
+) -> (Vec<Measurement>, Vec<RowSource>, Vec<Measurement>) {
+    let (mut positions, mut kept, mut orientation) = (Vec::new(), Vec::new(), Vec::new());
+    let mut sources = sources.into_iter();
+    for m in rows {
+        let source = sources.next();
+        if m.target.is_orientation() {
+            orientation.push(m);
+        } else {
+            positions.push(m);
+            kept.extend(source);
+        }
+    }
+    (positions, kept, orientation)
+}
+
+/// Statistics of the orientation errors \[mrad\] of `model` on `rows` (`None` without rows).
+fn orientation_errors(
+    model: &vatcal_kinematics::Model,
+    rows: &[Measurement],
+) -> anyhow::Result<Option<ErrorStats>> {
+    if rows.is_empty() {
+        return Ok(None);
+    }
+    let v = validate(model, rows).context("validating the orientation rows")?;
+    let mrad: Vec<_> = v.errors_mm.iter().map(|e| e * 1e3).collect();
+    Ok(Some(ErrorStats::from_errors(&mrad)))
+}
+
+/// Prints the orientation errors (statistics in mrad) under the position errors.
+fn print_orientation(o: &ErrorStats, baseline: Option<(&PathBuf, &ErrorStats)>, model: &Path) {
+    println!("orientation errors of the pose rows (rotation angle, world axes):");
+    println!(
+        "{:<32} {:>5} {:>9} {:>9} {:>9} {:>9} {:>9}   {:>27}   {:>27}",
+        "[mrad]", "n", "mean", "RMS", "median", "95%", "max", "mean x / y / z", "RMS x / y / z"
+    );
+    if let Some((path, b)) = baseline {
+        print_row(&label("baseline", path), b);
+    }
+    print_row(&label("model", model), o);
 }
 
 /// The validation rows whose joints leave the training range of the model under test.
@@ -107,11 +196,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let model_cell = vatcal_core::CellFile::load(&args.model)?;
     let model = vatcal_kinematics::Model::from_cell(&model_cell)
         .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
-    let (tracker, sources) = args.read.markers_with_sources(&args.tracker, &model)?;
+    let (rows, sources) = args.read.markers_with_sources(&args.tracker, &model)?;
+    let (tracker, sources, orientation) = split_orientation(rows, sources);
     // markers: the model must have every TCP the rows use (a calibrated cell written by
     // `identify --unknown-tcps` has them)
     let known = model.tcp_ids();
-    let missing = super::markers::missing_tcps(&tracker, &known);
+    let missing = super::markers::missing_tcps(&[tracker.as_slice(), &orientation].concat(), &known);
     if let Some(&(id, row)) = missing.first() {
         let ids: Vec<String> = missing.iter().map(|(id, _)| id.to_string()).collect();
         anyhow::bail!(
@@ -140,18 +230,29 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             let base = vatcal_kinematics::Model::from_cell(&cell)
                 .with_context(|| format!("{}: cannot build the model", path.display()))?;
             // read again with the baseline: checks the context columns its effects need
-            let tracker =
-                vatcal_io::read_measurements_with(&args.tracker, &base, &args.read.options()?)?.rows;
-            Some((path, validate(&base, &tracker).with_context(|| format!("validating {}", path.display()))?))
+            let read = vatcal_io::read_any_measurements_with(&args.tracker, &base, &args.read.options()?)?;
+            let (tracker, _, orientation) = split_orientation(read.rows, Vec::new());
+            let v = validate(&base, &tracker).with_context(|| format!("validating {}", path.display()))?;
+            Some((path, v, orientation_errors(&base, &orientation)?))
         }
         None => None,
     };
     println!("{} validation measurements from {}", tracker.len(), args.tracker.display());
     print_header();
-    if let Some((path, v)) = &baseline {
+    if let Some((path, v, _)) = &baseline {
         print_row(&label("baseline", path), &v.stats);
     }
     print_row(&label("model", &args.model), &tested.stats);
+    let orientation = orientation_errors(&model, &orientation)?;
+    if let Some(o) = &orientation {
+        let b = baseline.as_ref().and_then(|(p, _, o)| o.as_ref().map(|o| (*p, o)));
+        print_orientation(o, b, &args.model);
+    }
+    let orientation = orientation.map(|model_stats| OrientationErrors {
+        baseline: baseline.as_ref().and_then(|(_, _, o)| o.as_ref().map(OrientationStats::of)),
+        model: OrientationStats::of(&model_stats),
+    });
+    let baseline = baseline.map(|(p, v, _)| (p, v));
     let factor = baseline.as_ref().map(|(_, b)| b.stats.mean / tested.stats.mean.max(f64::MIN_POSITIVE));
     if let Some(f) = factor {
         println!("mean error reduced by a factor of {f:.1}");
@@ -172,6 +273,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 .map(|(p, v)| ValidatedModel { model_file: p.display().to_string(), validation: v }),
             mean_improvement_factor: factor,
             extrapolation,
+            orientation,
         };
         let text = serde_json::to_string_pretty(&out)?;
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;

@@ -1,0 +1,86 @@
+//! Pose rows through the binary (issue 31 item 1): a ROS-style motion-capture log of the tool
+//! body (metres, radians, quaternions) of the UR5e truth, whose tool is tilted by a few mrad;
+//! `identify` with its defaults, then `validate` on held-out postures reports position and
+//! orientation errors, both at the noise floor.
+
+use std::path::Path;
+
+use nalgebra::{UnitQuaternion, Vector3};
+use rand::rngs::ChaCha8Rng;
+use rand::{RngExt, SeedableRng};
+use vatcal_core::effects::EffectSpec;
+use vatcal_core::params::{EffectParam, ToolFrameDof};
+use vatcal_core::{CellFile, ParamId};
+use vatcal_kinematics::Model;
+use vatcal_sim::truth::{ErrorBudget, perturbed_truth, synthetic_tracker_measurements};
+
+use super::any_robot::{fixture, run};
+
+fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+    // Box-Muller
+    let u1: f64 = rng.random_range(1e-12..1.0);
+    let u2: f64 = rng.random_range(0.0..1.0);
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// The UR5e truth: geometry perturbed (no compliance), the tool tilted by (3, -2) mrad.
+fn truth() -> Model {
+    let nominal = Model::from_cell(&CellFile::load(fixture("ur5e.toml")).expect("fixture")).expect("model");
+    let budget = ErrorBudget { compliance_range: (0.0, 0.0), ..ErrorBudget::realistic() };
+    let mut t = perturbed_truth(&nominal, 23, &budget);
+    t.enable_effect(EffectSpec::ToolFrame).expect("tool frame");
+    t.set_param(ParamId::Effect(EffectParam::ToolFrame(ToolFrameDof::Rx)), 3e-3).expect("rx");
+    t.set_param(ParamId::Effect(EffectParam::ToolFrame(ToolFrameDof::Ry)), -2e-3).expect("ry");
+    t
+}
+
+/// A pose CSV of TCP 1 (metres, radians, `qw,qx,qy,qz`) with noise `sigma_mm` / `sigma_rad`.
+fn write_poses(path: &Path, truth: &Model, n: usize, sigma_mm: f64, sigma_rad: f64, seed: u64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed + 1000);
+    let mut text = String::from("tcp,q1,q2,q3,q4,q5,q6,x,y,z,qw,qx,qy,qz\n");
+    for m in synthetic_tracker_measurements(truth, n, 0.0, seed).into_iter().filter(|m| m.tcp == 1) {
+        let mut g = |s: f64| Vector3::new(gauss(&mut rng), gauss(&mut rng), gauss(&mut rng)) * s;
+        let p = (truth.tcp_position(&m.q, 1).expect("fk") + g(sigma_mm)) / 1000.0;
+        let r = truth.tool_rotation_ctx(&m.q, &m.context).expect("rotation");
+        let q =
+            (UnitQuaternion::from_scaled_axis(g(sigma_rad)) * UnitQuaternion::from_matrix(&r)).into_inner();
+        let joints: Vec<String> = m.q.as_slice().iter().map(f64::to_string).collect();
+        text += &format!("1,{},{},{},{},{},{},{},{}\n", joints.join(","), p.x, p.y, p.z, q.w, q.i, q.j, q.k);
+    }
+    std::fs::write(path, text).expect("write");
+}
+
+#[test]
+fn pose_rows_identify_and_validate_with_orientation_errors() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let s = |p: &Path| p.display().to_string();
+    let truth = truth();
+    let (train, held) = (dir.path().join("train.csv"), dir.path().join("held.csv"));
+    write_poses(&train, &truth, 300, 0.01, 1e-3, 5);
+    write_poses(&held, &truth, 300, 0.0, 0.0, 6);
+    let (cal, val) = (dir.path().join("cal.toml"), dir.path().join("v.json"));
+    let ros = ["--length-unit", "m", "--angle-unit", "rad"];
+    let model = fixture("ur5e.toml");
+    let mut args = vec!["identify", "--model", &model, "--measurements"];
+    let (train_s, cal_s) = (s(&train), s(&cal));
+    args.extend([train_s.as_str(), "--out", cal_s.as_str()]);
+    args.extend(ros);
+    let out = run(&args);
+    eprintln!("{out}");
+    let held_s = s(&held);
+    let val_s = s(&val);
+    let mut args = vec!["validate", "--model", &cal_s, "--baseline", &model, "--tracker", &held_s];
+    args.extend(["--report", val_s.as_str()]);
+    args.extend(ros);
+    let out = run(&args);
+    eprintln!("{out}");
+    assert!(out.contains("orientation errors of the pose rows"), "{out}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&val).expect("report")).expect("json");
+    let position_mm = v["model"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean");
+    let orientation_mrad = v["orientation"]["model"]["mean_mrad"].as_f64().expect("orientation mean");
+    let baseline_mrad = v["orientation"]["baseline"]["mean_mrad"].as_f64().expect("baseline mean");
+    eprintln!("held-out: {position_mm:.5} mm, {orientation_mrad:.3} mrad (nominal {baseline_mrad:.3} mrad)");
+    assert!(position_mm < 0.015, "{position_mm}");
+    assert!(baseline_mrad > 3.0 && orientation_mrad < 0.4, "{orientation_mrad} / {baseline_mrad}");
+}
