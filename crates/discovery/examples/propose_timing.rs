@@ -14,11 +14,9 @@
 #[path = "../tests/common/mod.rs"]
 mod common;
 
-use common::benchmark::{Case, CaseData, DataKind, HiddenEffect, PROBE_SIGMA_MM, Robot, Shape};
+use common::benchmark::{discover_probe_case, probe_case_with};
 use vatcal_core::effects::EffectSpec;
 use vatcal_discovery::propose::{focus_effects, propose};
-use vatcal_discovery::{DiscoverOptions, discover};
-use vatcal_identification::KindSigmas;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -26,28 +24,8 @@ fn main() {
     let count: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(24);
     let seed = 1;
     let spec = EffectSpec::JointCyclic { joint: 5, harmonic: 1 };
-    let mut case = Case {
-        id: 0,
-        seed,
-        robot: Robot::Canonical,
-        data: DataKind::Probe,
-        replicates: false,
-        noise_metadata: true,
-        hidden: vec![HiddenEffect {
-            shape: Shape::Catalog(spec),
-            values: Vec::new(),
-            requested_multiple: 0.8,
-            multiple: 0.8,
-        }],
-    };
-    let data = CaseData::build(&mut case).expect("case");
-    let options = DiscoverOptions {
-        seed,
-        instrument_sigmas: Some(KindSigmas { probe_mm: Some(PROBE_SIGMA_MM), tracker_mm: None }),
-        ..DiscoverOptions::default()
-    };
-    let d = discover(&data.nominal, &data.measurements, &data.params, Some(&data.validation), &options)
-        .expect("discover");
+    let data = probe_case_with(seed, spec, 0.8);
+    let d = discover_probe_case(&data, &data.measurements, seed);
     let focus = focus_effects(&d, &data.measurements, 2);
     let pool = vatcal_sim::truth::probe_start_poses(&data.nominal, pool_size, seed + 1000);
     let weights = d.kind_sigmas.weights();

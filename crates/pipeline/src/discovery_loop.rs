@@ -53,27 +53,14 @@ pub struct ProposedPlan {
 /// `d.model`, rows weighted by `d`'s noise per kind), the plan
 /// [`vatcal_planning::plan::plan_selection`] (order and paths from `opts.start`).
 ///
+/// With `probe_at`, the probe plate left at that calibration position by the campaign before:
+/// the pool is that position's candidates (when it has any), and the plan starts without
+/// placing the plate again — a re-placement is the costliest step of a small batch (≈ 60 s
+/// against ≈ 10 s per measurement).
+///
 /// # Errors
 /// No measurable candidate pose, an effect the model cannot take, or a planning failure.
 pub fn propose_plan(
-    d: &Discovery,
-    measurements: &[Measurement],
-    focus: &[EffectSpec],
-    plan_model: &Model,
-    geometry: &CellGeometry,
-    opts: &PlanOptions,
-) -> Result<ProposedPlan, PipelineError> {
-    propose_plan_at(d, measurements, focus, plan_model, geometry, opts, None)
-}
-
-/// [`propose_plan`] with the probe plate left at calibration position `probe_at` by the
-/// campaign before: the pool is that position's candidates (when it has any), and the plan
-/// starts without placing the plate again — a re-placement is the costliest step of a small
-/// batch (≈ 60 s against ≈ 10 s per measurement).
-///
-/// # Errors
-/// As [`propose_plan`].
-pub fn propose_plan_at(
     d: &Discovery,
     measurements: &[Measurement],
     focus: &[EffectSpec],
@@ -557,7 +544,7 @@ pub fn measurement_loop(
     plan_opts.start = start;
     plan_opts.seed = opts.seed ^ 0x000d_15c0_100b_0004;
     let focus: Vec<EffectSpec> = targets.iter().map(|t| t.spec).collect();
-    let proposed = propose_plan_at(&first, all, &focus, nominal, &geometry, &plan_opts, probe_at)?;
+    let proposed = propose_plan(&first, all, &focus, nominal, &geometry, &plan_opts, probe_at)?;
     let plan_folder = folder.loop_plan();
     plan_folder.write(&proposed.plan)?;
     let proposal = plan_folder.path(LOOP_PROPOSAL);

@@ -438,9 +438,16 @@ fn propose_plan(
         seed: args.seed,
         ..PlanOptions::default()
     };
-    let proposed =
-        vatcal_pipeline::discovery_loop::propose_plan(d, measurements, &focus, &d.model, &geometry, &opts)
-            .context("proposing measurements")?;
+    let proposed = vatcal_pipeline::discovery_loop::propose_plan(
+        d,
+        measurements,
+        &focus,
+        &d.model,
+        &geometry,
+        &opts,
+        None,
+    )
+    .context("proposing measurements")?;
     let proposal = &proposed.proposal;
     let summary = vatcal_planning::output::write_plan(&proposed.plan, dir)?;
     let json = serde_json::to_string_pretty(proposal)?;

@@ -1893,3 +1893,34 @@ fn what_went_wrong(r: &CaseResult) -> Vec<String> {
     }
     wrong
 }
+
+/// A canonical-cell probe case (no replicates, noise recorded) with one hidden catalog effect
+/// of `multiple` × the noise, built with `seed` (the proposal's test and timing example).
+pub fn probe_case_with(seed: u64, spec: EffectSpec, multiple: f64) -> CaseData {
+    let mut c = Case {
+        id: 0,
+        seed,
+        robot: Robot::Canonical,
+        data: DataKind::Probe,
+        replicates: false,
+        noise_metadata: true,
+        hidden: vec![HiddenEffect {
+            shape: Shape::Catalog(spec),
+            values: Vec::new(),
+            requested_multiple: multiple,
+            multiple,
+        }],
+    };
+    CaseData::build(&mut c).expect("case")
+}
+
+/// Discovery on `ms` of a probe case from its nominal model and parameters, with the probe's
+/// stated noise and `seed`.
+pub fn discover_probe_case(d: &CaseData, ms: &[Measurement], seed: u64) -> Discovery {
+    let options = DiscoverOptions {
+        seed,
+        instrument_sigmas: Some(KindSigmas { probe_mm: Some(PROBE_SIGMA_MM), tracker_mm: None }),
+        ..DiscoverOptions::default()
+    };
+    discover(&d.nominal, ms, &d.params, Some(&d.validation), &options).expect("discover")
+}

@@ -7,37 +7,17 @@ use rand::seq::SliceRandom;
 use vatcal_core::Measurement;
 use vatcal_core::effects::EffectSpec;
 use vatcal_discovery::propose::{design_quality, focus_effects, propose};
-use vatcal_discovery::{DiscoverOptions, Discovery, discover};
-use vatcal_identification::{KindSigmas, KindWeights};
+use vatcal_discovery::{Discovery, discover};
+use vatcal_identification::KindWeights;
 
-use crate::common::benchmark::{Case, CaseData, DataKind, HiddenEffect, PROBE_SIGMA_MM, Robot, Shape};
+use crate::common::benchmark::{CaseData, discover_probe_case, probe_case_with};
 
-/// A canonical-cell probe case with one hidden effect of `m` × the noise.
 fn case_with(seed: u64, spec: EffectSpec, m: f64) -> CaseData {
-    let mut c = Case {
-        id: 0,
-        seed,
-        robot: Robot::Canonical,
-        data: DataKind::Probe,
-        replicates: false,
-        noise_metadata: true,
-        hidden: vec![HiddenEffect {
-            shape: Shape::Catalog(spec),
-            values: Vec::new(),
-            requested_multiple: m,
-            multiple: m,
-        }],
-    };
-    CaseData::build(&mut c).expect("case")
+    probe_case_with(seed, spec, m)
 }
 
 fn run(d: &CaseData, ms: &[Measurement], seed: u64) -> Discovery {
-    let options = DiscoverOptions {
-        seed,
-        instrument_sigmas: Some(KindSigmas { probe_mm: Some(PROBE_SIGMA_MM), tracker_mm: None }),
-        ..DiscoverOptions::default()
-    };
-    discover(&d.nominal, ms, &d.params, Some(&d.validation), &options).expect("discover")
+    discover_probe_case(d, ms, seed)
 }
 
 fn added(d: &Discovery, spec: &EffectSpec) -> bool {
