@@ -25,10 +25,13 @@ pub(super) fn block_z(options: &DiscoverOptions, spend: f64) -> f64 {
 
 /// Whether a refitted candidate failed **only** the held-out z-test but still lowered the
 /// held-out error by more than one standard error and changed the predictions by more than
-/// the noise: a member of the round's block.
+/// the noise, or passed everything but was refused **only** by the validation veto (alone it
+/// made the validation rows worse — e.g. one of two large look-alikes missing together): a
+/// member of the round's block, which is confirmed and vetoed as a whole.
 pub(super) fn block_member(c: &Candidate) -> bool {
     let Some((e, f, _)) = &c.refit else { return false };
-    matches!(&c.status, CandidateStatus::Rejected(why) if why.starts_with(HELDOUT_NOT_LOWER))
+    matches!(&c.status, CandidateStatus::Rejected(why)
+        if why.starts_with(HELDOUT_NOT_LOWER) || why.starts_with(VALIDATION_WORSE))
         && f.converged
         && e.implausible.is_none()
         && e.heldout.z > 1.0
