@@ -28,7 +28,8 @@
 //!   [`IdentifyOptions::row_weights`]) or dropped and the calibration redone.
 //! * [`IdentificationReport`] — the JSON report (file units).
 //! * [`KindSigmas`] — σ of probe and tracker residuals estimated separately (inverse-variance
-//!   weights); [`CmmUncertainty`] — systematic CMM errors of the TCP and calibration-position
+//!   weights); [`fit_with_fitted_scatter`] refits pose rows with the orientation weight their
+//!   [`FittedScatter`] calls for; [`CmmUncertainty`] — systematic CMM errors of the TCP and calibration-position
 //!   coordinates propagated into the predicted TCP uncertainty. The residual of a probe
 //!   measurement is taken against `position + recorded centring offset` when the offset is known.
 //! * [`validate`], [`compare_models`] — position errors of one or two models on a validation
@@ -54,6 +55,7 @@ mod problem;
 mod report;
 mod result;
 mod robust;
+mod scatter;
 mod solver;
 mod uncertainty;
 mod validation;
@@ -87,6 +89,7 @@ pub use robust::{
     RobustOptions, RobustReport, SIGMA_ESTIMATOR, calibrate_dropping_outliers, calibrate_robust,
     flag_outliers, irls, robust_sigma_mm,
 };
+pub use scatter::{FittedScatter, SCATTER_MAX_FITS, SCATTER_SETTLED, fit_with_fitted_scatter};
 pub use uncertainty::{CmmUncertainty, KindSigmas};
 pub use validation::{ModelComparison, ValidationReport, compare_models, validate};
 pub use weak::{WeakDirection, weak_directions};

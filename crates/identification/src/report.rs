@@ -118,6 +118,10 @@ pub struct IdentificationReport {
     /// calibrated cell file's `[training_range]`
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub training_range: Option<vatcal_core::training_range::TrainingRange>,
+    /// σ per measurement kind fitted from the residuals and the orientation weight of pose
+    /// rows (`vatcal identify` with orientation rows; issue 31)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fitted_scatter: Option<crate::FittedScatter>,
 }
 
 /// What the initialisation did ([`crate::initialise`]).
@@ -267,6 +271,7 @@ impl IdentificationReport {
             weak_directions: Vec::new(),
             bad_rows: None,
             training_range: None,
+            fitted_scatter: None,
         }
     }
 

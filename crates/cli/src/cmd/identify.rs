@@ -12,9 +12,9 @@ use vatcal_identification::{
     SIGMA_ESTIMATOR, calibrate_dropping_outliers, calibrate_robust, flag_outliers,
 };
 use vatcal_identification::{
-    Calibration, CvOptions, CvSelection, FailureReport, Identification, IdentificationReport, IdentifyError,
-    IdentifyOptions, IterationLog, KindWeights, Method, PriorKind, PriorOverride, PriorWidths, calibrate,
-    file_unit_label, to_file_units,
+    Calibration, CvOptions, CvSelection, FailureReport, FittedScatter, Identification, IdentificationReport,
+    IdentifyError, IdentifyOptions, IterationLog, KindWeights, Method, PriorKind, PriorOverride, PriorWidths,
+    calibrate, file_unit_label, fit_with_fitted_scatter, to_file_units,
 };
 use vatcal_io::RowSource;
 use vatcal_kinematics::Model;
@@ -59,9 +59,11 @@ pub struct Args {
     #[arg(long, default_value_t = 1.0)]
     pub tracker_weight: f64,
     /// Weight of the orientation half of pose rows relative to probe rows [mm²/rad²]:
-    /// (sigma_probe [mm] / sigma_orientation [rad])^2; the default 100 puts 0.01 mm against 1 mrad.
-    #[arg(long, default_value_t = KindWeights::DEFAULT_ORIENTATION)]
-    pub orientation_weight: f64,
+    /// (sigma_probe [mm] / sigma_orientation [rad])^2, e.g. 100 puts 0.01 mm against 1 mrad.
+    /// Without it the weight is fitted: fit with 100, estimate the scatter of each kind from
+    /// the residuals, refit with the weight it calls for, until it settles (at most 3 fits).
+    #[arg(long)]
+    pub orientation_weight: Option<f64>,
     /// Calibration positions (fixed points) whose coordinates are unknown and identified with
     /// the rest: a comma-separated list of ids (a position the cell file lacks is added) or
     /// `all` (every position of the cell file).
@@ -161,7 +163,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         weights: KindWeights {
             probe: 1.0,
             tracker: args.tracker_weight,
-            orientation: args.orientation_weight,
+            orientation: args.orientation_weight.unwrap_or(KindWeights::DEFAULT_ORIENTATION),
         },
         ..IdentifyOptions::default()
     };
@@ -172,21 +174,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .map(|p| p.display().to_string())
         .collect::<Vec<_>>()
         .join(" + ");
-    let n_probe = measurements.iter().filter(|m| matches!(m.target, Target::Probe { .. })).count();
-    let extra = if design.distances.is_empty() {
-        String::new()
-    } else {
-        format!(", {} known distance(s)", design.distances.len())
-    };
     println!(
-        "identifying `{}` from {} measurements ({n_probe} probe, {} tracker{extra}) with {method}",
+        "identifying `{}` from {} with {method}",
         args.params.trim(),
-        measurements.len(),
-        measurements.len() - n_probe,
+        row_counts(&measurements, design.distances.len())
     );
     let bad_rows = BadRowArgs::of(&args)?;
-    let fitted = calibrate_rows(&bad_rows, &model, &measurements, &args.params, &design, &options, &cv);
-    let (cal, handling) = match fitted {
+    let fitted = calibrate_weighed(&args, &bad_rows, &model, &measurements, &design, &options, &cv);
+    let ((cal, handling), scatter) = match fitted {
         Ok(fitted) => fitted,
         Err(IdentifyError::NotConverged(report)) => {
             print_log(&report.iterations);
@@ -221,6 +216,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let fit = &cal.fit;
     print_log(&fit.iterations);
     print_summary(fit, &cal.prior_sigmas);
+    if let Some(s) = &scatter {
+        println!("{}", s.one_line());
+    }
     print_markers(fit, &measurements, &markers);
     print_weak_directions(&cal);
     if cal.selection.is_some() && fit.condition_number > args.max_condition_number {
@@ -244,6 +242,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let mut report = IdentificationReport::from_calibration(&cal);
         report.bad_rows = Some(bad_report);
         report.training_range = training_range;
+        report.fitted_scatter = scatter;
         report.save(path)?;
         println!("report written to {}", path.display());
     }
@@ -324,6 +323,53 @@ fn calibrate_rows(
         return Ok((d.calibration, handling));
     }
     Ok((calibrate(model, rows, spec, design, options, cv)?, Handling::Kept))
+}
+
+/// The summary's counts: "N measurements (P probe, T tracker[, O orientation][, D known
+/// distance(s)])"; a pose row counts as one tracker and one orientation measurement.
+fn row_counts(rows: &[Measurement], distances: usize) -> String {
+    let count = |f: fn(&Target) -> bool| rows.iter().filter(|m| f(&m.target)).count();
+    let n_probe = count(|t| matches!(t, Target::Probe { .. }));
+    let n_orientation = count(Target::is_orientation);
+    let n_tracker = rows.len() - n_probe - n_orientation;
+    let mut text = format!("{} measurements ({n_probe} probe, {n_tracker} tracker", rows.len());
+    if n_orientation > 0 {
+        text += &format!(", {n_orientation} orientation");
+    }
+    if distances > 0 {
+        text += &format!(", {distances} known distance(s)");
+    }
+    text + ")"
+}
+
+/// [`calibrate_rows`]; with orientation rows and no `--orientation-weight`, refitted with the
+/// orientation weight the fitted scatter calls for until it settles. The scatter is returned
+/// whenever there are orientation rows.
+#[allow(clippy::type_complexity)]
+fn calibrate_weighed(
+    args: &Args,
+    bad: &BadRowArgs,
+    model: &Model,
+    rows: &[Measurement],
+    design: &DataDesign,
+    options: &IdentifyOptions,
+    cv: &CvOptions,
+) -> Result<((Calibration, Handling), Option<FittedScatter>), IdentifyError> {
+    let spec = args.params.as_str();
+    if !rows.iter().any(|m| m.target.is_orientation()) {
+        return Ok((calibrate_rows(bad, model, rows, spec, design, options, cv)?, None));
+    }
+    let scatter = |(cal, handling): &(Calibration, Handling), w: &KindWeights| {
+        FittedScatter::of(&handling.kept_rows(rows), &cal.fit, w)
+    };
+    if args.orientation_weight.is_some() {
+        let out = calibrate_rows(bad, model, rows, spec, design, options, cv)?;
+        let s = FittedScatter { stated: true, ..scatter(&out, &options.weights) };
+        return Ok((out, Some(s)));
+    }
+    let (out, s) =
+        fit_with_fitted_scatter(options, |o| calibrate_rows(bad, model, rows, spec, design, o, cv), scatter)?;
+    Ok((out, Some(s)))
 }
 
 /// Rows named at most in the terminal (the report lists all).

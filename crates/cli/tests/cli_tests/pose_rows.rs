@@ -84,3 +84,60 @@ fn pose_rows_identify_and_validate_with_orientation_errors() {
     assert!(position_mm < 0.015, "{position_mm}");
     assert!(baseline_mrad > 3.0 && orientation_mrad < 0.4, "{orientation_mrad} / {baseline_mrad}");
 }
+
+/// `identify` on `train` (ROS units) with `extra` flags and the JSON report; then the held-out
+/// position error [mm] of `validate` on `held`. Returns the report and that error.
+fn identify_and_validate(
+    dir: &Path,
+    train: &Path,
+    held: &Path,
+    extra: &[&str],
+    tag: &str,
+) -> (serde_json::Value, f64) {
+    let s = |p: &Path| p.display().to_string();
+    let (cal, rep, val) =
+        (dir.join(format!("{tag}.toml")), dir.join(format!("{tag}.json")), dir.join(format!("{tag}-v.json")));
+    let (train_s, cal_s, rep_s, held_s, val_s) = (s(train), s(&cal), s(&rep), s(held), s(&val));
+    let ros = ["--length-unit", "m", "--angle-unit", "rad"];
+    let model = fixture("ur5e.toml");
+    let mut args = vec!["identify", "--model", &model, "--measurements", &train_s, "--out", &cal_s];
+    args.extend(["--report", rep_s.as_str(), "--params", "kinematic"]);
+    args.extend(ros);
+    args.extend(extra);
+    let out = run(&args);
+    eprintln!("{out}");
+    assert!(out.contains("fitted scatter per axis: tracker"), "{out}");
+    let mut args = vec!["validate", "--model", &cal_s, "--tracker", &held_s, "--report", &val_s];
+    args.extend(ros);
+    run(&args);
+    let json = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).expect("report")).expect("json")
+    };
+    let v = json(&val);
+    (json(&rep), v["model"]["validation"]["stats"]["mean_mm"].as_f64().expect("mean"))
+}
+
+/// Without --orientation-weight the pose rows are weighed by their fitted scatter: with 10 µm
+/// and 1 mrad of noise the fitted σ come back near those values, the summary counts the
+/// orientation rows apart, and the held-out error is no worse than with the stated default.
+#[test]
+fn pose_rows_are_weighed_by_their_fitted_scatter() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let truth = truth();
+    let (train, held) = (dir.path().join("train.csv"), dir.path().join("held.csv"));
+    write_poses(&train, &truth, 300, 0.01, 1e-3, 15);
+    write_poses(&held, &truth, 300, 0.0, 0.0, 16);
+    let (fitted, fitted_mm) = identify_and_validate(dir.path(), &train, &held, &[], "fitted");
+    let (stated, stated_mm) =
+        identify_and_validate(dir.path(), &train, &held, &["--orientation-weight", "100"], "stated");
+    let s = &fitted["fitted_scatter"];
+    eprintln!("fitted: {s}\nheld-out {fitted_mm:.5} mm (stated weight 100: {stated_mm:.5} mm)");
+    let tracker_mm = s["tracker_mm"].as_f64().expect("tracker sigma");
+    let orientation_rad = s["orientation_rad"].as_f64().expect("orientation sigma");
+    assert!((tracker_mm / 0.01 - 1.0).abs() < 0.2, "{tracker_mm}");
+    assert!((orientation_rad / 1e-3 - 1.0).abs() < 0.2, "{orientation_rad}");
+    assert_eq!(s["stated"], false);
+    assert_eq!(stated["fitted_scatter"]["stated"], true);
+    assert_eq!(stated["fitted_scatter"]["orientation_weight"].as_f64(), Some(100.0));
+    assert!(fitted_mm < 0.015 && fitted_mm <= 1.05 * stated_mm, "{fitted_mm} vs {stated_mm}");
+}
