@@ -11,8 +11,10 @@ use rand::{RngExt, SeedableRng};
 use crate::common::{geometry_truth, ur5e};
 use vatcal_core::effects::EffectSpec;
 use vatcal_core::params::{EffectParam, ToolFrameDof};
-use vatcal_core::{Measurement, ParamId, ParamSet};
-use vatcal_identification::{IdentifyOptions, KindSigmas, KindWeights, identify, validate};
+use vatcal_core::{CellFile, Measurement, ParamId, ParamSet};
+use vatcal_identification::{
+    FittedScatter, IdentifyOptions, KindSigmas, KindWeights, fit_with_fitted_scatter, identify, validate,
+};
 use vatcal_kinematics::Model;
 use vatcal_observability::sets::{DataDesign, GenericSet, generic_set};
 use vatcal_sim::truth::synthetic_tracker_measurements;
@@ -53,11 +55,12 @@ fn pose_rows(truth: &Model, n: usize, sigma_mm: f64, sigma_rad: f64, seed: u64) 
     out
 }
 
-/// Kinematic set of the data plus the tool-frame tilts and joint 6's offset (the rotation of
+/// Kinematic set of the data plus the tool-frame tilts and the last joint's offset (the rotation of
 /// the tool about the flange axis).
 fn params(start: &Model, rows: &[Measurement]) -> ParamSet {
     let mut set = generic_set(start, rows, GenericSet::Kinematic, &DataDesign::default()).expect("set");
-    for p in [ParamId::ThetaOffset(6), tool(ToolFrameDof::Rx), tool(ToolFrameDof::Ry)] {
+    let last = start.joint_kinds().len() as u8;
+    for p in [ParamId::ThetaOffset(last), tool(ToolFrameDof::Rx), tool(ToolFrameDof::Ry)] {
         if !set.0.contains(&p) {
             set.0.push(p);
         }
@@ -130,4 +133,88 @@ fn position_rows_alone_leave_the_tool_rotation_open() {
     let rot = orientation_error(&fit.model, &held_out);
     eprintln!("position rows only: held-out orientation {:.3} mrad", 1e3 * rot);
     assert!(rot > 1e-3, "{rot}");
+}
+
+/// The 7R KUKA iiwa 14 (fixtures/real/mukca, from its URDF).
+fn iiwa14() -> Model {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/real/mukca/cells/iiwa14.toml");
+    Model::from_cell(&CellFile::load(path).expect("fixture")).expect("model")
+}
+
+/// The position rows of `rows`.
+fn positions(rows: &[Measurement]) -> Vec<Measurement> {
+    rows.iter().filter(|m| !m.target.is_orientation()).copied().collect()
+}
+
+/// Fits `train` from `start` weighing the orientation rows by their fitted scatter (the
+/// library path of `vatcal identify`); returns the held-out position mean and max \[mm\], the
+/// held-out orientation error \[rad\] and the scatter.
+fn fit_and_score(
+    start: &Model,
+    train: &[Measurement],
+    held_out: &[Measurement],
+) -> (f64, f64, f64, FittedScatter) {
+    let set = params(start, train);
+    let (fit, scatter) = fit_with_fitted_scatter(
+        &IdentifyOptions::default(),
+        |o| identify(start, train, &set, o),
+        |fit, w| FittedScatter::of(train, fit, w),
+    )
+    .expect("fit");
+    let held = validate(&fit.model, &positions(held_out)).expect("validate").stats;
+    (held.mean, held.max, orientation_error(&fit.model, held_out), scatter)
+}
+
+/// A 7-joint arm (iiwa 14, geometry errors and a (3, -2) mrad tool tilt): pose rows alone, and
+/// pose rows of half the postures mixed with tracker rows of others, reach the noise floor on
+/// held-out tracker points and predict the tool's orientation (the tool rotation is recovered),
+/// weighed by their fitted scatter.
+#[test]
+fn seven_joint_arm_pose_rows_alone_and_mixed_reach_the_noise_floor() {
+    let nominal = iiwa14();
+    assert_eq!(nominal.joint_kinds().len(), 7);
+    let truth = truth(&nominal);
+    let mut start = nominal.clone();
+    start.enable_effect(EffectSpec::ToolFrame).expect("tool frame");
+    let held_out = pose_rows(&truth, 400, 0.0, 0.0, 26);
+    let rot_nominal = orientation_error(&start, &held_out);
+    let alone = pose_rows(&truth, 120, SIGMA_MM, SIGMA_RAD, 25);
+    let mut mixed = pose_rows(&truth, 60, SIGMA_MM, SIGMA_RAD, 25);
+    mixed.extend(synthetic_tracker_measurements(&truth, 80, SIGMA_MM, 27));
+    for (name, train) in [("pose rows alone", &alone), ("pose + tracker rows", &mixed)] {
+        let (mean, max, rot, s) = fit_and_score(&start, train, &held_out);
+        eprintln!(
+            "iiwa14, {name} ({} rows): held-out position mean {mean:.5} mm (max {max:.5}), orientation {:.3} mrad (nominal {:.3}); {}",
+            train.len(),
+            1e3 * rot,
+            1e3 * rot_nominal,
+            s.one_line()
+        );
+        let sigma_rad = s.orientation_rad.expect("orientation rows");
+        assert!((sigma_rad / SIGMA_RAD - 1.0).abs() < 0.2, "{name}: orientation sigma {sigma_rad}");
+        assert!(mean < 0.015 && max < 0.05, "{name}: {mean} / {max}");
+        assert!(rot_nominal > 3e-3, "the truth's tool is tilted: {rot_nominal}");
+        assert!(rot < 4e-4, "{name}: held-out orientation error {rot} rad");
+    }
+}
+
+/// Orientation noise five times what the default weight assumes (10 µm, 5 mrad): the fitted
+/// scatter weighs the orientation rows down to about (0.01 / 0.005)² = 4 mm²/rad² in a few
+/// fits, and the held-out positions are no worse than with the default weight.
+#[test]
+fn a_noisier_orientation_is_weighed_down_by_its_fitted_scatter() {
+    let nominal = iiwa14();
+    let truth = truth(&nominal);
+    let mut start = nominal.clone();
+    start.enable_effect(EffectSpec::ToolFrame).expect("tool frame");
+    let held_out = pose_rows(&truth, 400, 0.0, 0.0, 36);
+    let train = pose_rows(&truth, 120, SIGMA_MM, 5.0 * SIGMA_RAD, 35);
+    let (mean, _, _, s) = fit_and_score(&start, &train, &held_out);
+    let set = params(&start, &train);
+    let fixed = identify(&start, &train, &set, &IdentifyOptions::default()).expect("fit");
+    let fixed_mean = validate(&fixed.model, &positions(&held_out)).expect("validate").stats.mean;
+    eprintln!("{}; held-out {mean:.5} mm (default weight {fixed_mean:.5} mm)", s.one_line());
+    assert!(s.fits >= 2 && s.settled, "{s:?}");
+    assert!((s.orientation_weight / 4.0 - 1.0).abs() < 0.35, "{s:?}");
+    assert!(mean <= 1.02 * fixed_mean, "{mean} vs {fixed_mean}");
 }
