@@ -361,4 +361,45 @@ mod tests {
         assert!(e.contains(":2: column `ry`: `n/a` is not a number"), "{e}");
         assert_eq!(e.lines().count(), 1, "{e}");
     }
+
+    /// Pose rows written by vatcal (`write_measurements_for`: a tracker and an orientation
+    /// measurement of one posture become one `x,y,z,qw,qx,qy,qz` row) read back with the pose
+    /// reader: the same measurements in the same order, positions bit-identical, postures and
+    /// rotations to rounding.
+    #[test]
+    fn pose_rows_written_by_vatcal_read_back() {
+        use vatcal_core::{JointVector, Measurement};
+        let model = ur5e();
+        let mut written = Vec::new();
+        for k in 0..5 {
+            let t = f64::from(k);
+            let q =
+                JointVector::from_slice(&[0.1 * t, -1.4 + 0.05 * t, 0.9, -1.0, -0.9, 0.2 * t]).expect("q");
+            let p = model.tcp_position(&q, 1).expect("fk");
+            let r = UnitQuaternion::from_euler_angles(0.3 * t, -0.2, 1.0 + 0.1 * t);
+            written.push(Measurement::tracker(1, q, p));
+            written.push(Measurement::orientation(1, q, r));
+        }
+        let dir = tempfile::tempdir().expect("tmp");
+        let path = dir.path().join("poses.csv");
+        crate::write_measurements_for(&path, &written, model.joint_kinds()).expect("write");
+        let text = std::fs::read_to_string(&path).expect("read");
+        assert!(text.starts_with("tcp,q1,q2,q3,q4,q5,q6,x,y,z,qw,qx,qy,qz\n"), "{text}");
+        assert_eq!(text.lines().count(), 1 + 5, "one row per pose: {text}");
+        let read = read_pose_measurements(&path, &model).expect("pose reader");
+        assert_eq!(read.len(), written.len());
+        for (a, b) in written.iter().zip(&read) {
+            assert_eq!(a.tcp, b.tcp);
+            let dq =
+                a.q.as_slice().iter().zip(b.q.as_slice()).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+            assert!(dq < 1e-12, "{dq}");
+            match (a.target, b.target) {
+                (Target::Tracker { xyz_mm: x }, Target::Tracker { xyz_mm: y }) => assert_eq!(x, y),
+                (Target::Orientation { rotation: x }, Target::Orientation { rotation: y }) => {
+                    assert!(x.angle_to(&y) < 1e-12, "{}", x.angle_to(&y));
+                }
+                t => panic!("kinds differ: {t:?}"),
+            }
+        }
+    }
 }

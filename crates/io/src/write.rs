@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use nalgebra::UnitQuaternion;
 use vatcal_core::{JointKind, JointVector, MECA500_ON_GUIDE_KINDS, Measurement, Target};
 
 use crate::columns::{OFFSET_COLUMNS, dir_columns, joint_columns};
@@ -80,89 +81,152 @@ pub fn measurements_to_csv(measurements: &[Measurement]) -> String {
 
 /// Renders measurements of a chain with joints `kinds` as CSV text: `q1..qN` in mm
 /// (prismatic) / degrees (revolute), `dir{i}` for the revolute joints (see
-/// [`write_measurements_for`]).
+/// [`write_measurements_for`]). A tracker measurement directly followed by an orientation
+/// measurement of the same TCP, posture and context (as the pose reader returns a pose row) is
+/// written as one pose row `x,y,z,qw,qx,qy,qz`: a file of pose rows reads back with
+/// [`read_pose_measurements`](crate::read_pose_measurements).
 pub fn measurements_to_csv_for(measurements: &[Measurement], kinds: &[JointKind]) -> String {
-    let joint_cols = joint_columns(kinds.len());
-    let dir_cols = dir_columns(kinds);
-    let any_probe = measurements.iter().any(|m| matches!(m.target, Target::Probe { .. }));
-    let any_tracker = measurements.iter().any(|m| matches!(m.target, Target::Tracker { .. }));
-    let any_rotation = measurements.iter().any(|m| m.target.is_orientation());
-    let time = measurements.iter().any(|m| m.context.time_s.is_some());
-    let temp = measurements.iter().any(|m| m.context.temperature_c.is_some());
-    let dir = measurements.iter().any(|m| m.context.dir.is_some());
-    let offset = measurements.iter().any(|m| m.probe_offset_mm.is_some());
-    let mut header: Vec<&str> = Vec::new();
-    if any_probe {
-        header.push("position");
-    }
-    header.push("tcp");
-    header.extend(joint_cols.iter().map(String::as_str));
-    if any_tracker {
-        header.extend(["x", "y", "z"]);
-    }
-    if any_rotation {
-        header.extend(["qw", "qx", "qy", "qz"]);
-    }
-    if time {
-        header.push("time_s");
-    }
-    if temp {
-        header.push("temperature_c");
-    }
-    if dir {
-        header.extend(dir_cols.iter().map(|(_, c)| c.as_str()));
-    }
-    if offset {
-        header.extend(OFFSET_COLUMNS);
-    }
-    let mut out = header.join(",");
+    let rows = pose_pairs(measurements);
+    let columns = Columns::of(measurements, kinds);
+    let mut out = columns.header().join(",");
     out.push('\n');
-    for m in measurements {
-        let mut rec: Vec<String> = Vec::with_capacity(header.len());
-        if any_probe {
+    for (m, rotation) in &rows {
+        out.push_str(&columns.record(m, *rotation, kinds).join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// The rows to write: each measurement with its rotation (an orientation measurement's own,
+/// or the one of the orientation measurement that follows a tracker measurement of the same
+/// TCP, posture and context, merged into its pose row).
+fn pose_pairs(measurements: &[Measurement]) -> Vec<(Measurement, Option<UnitQuaternion<f64>>)> {
+    let mut rows = Vec::with_capacity(measurements.len());
+    let mut k = 0;
+    while k < measurements.len() {
+        let m = measurements[k];
+        let next = measurements.get(k + 1).and_then(|n| match n.target {
+            Target::Orientation { rotation } if matches!(m.target, Target::Tracker { .. }) => {
+                (Measurement { target: m.target, ..*n } == m).then_some(rotation)
+            }
+            _ => None,
+        });
+        let own = match m.target {
+            Target::Orientation { rotation } => Some(rotation),
+            _ => None,
+        };
+        rows.push((m, next.or(own)));
+        k += if next.is_some() { 2 } else { 1 };
+    }
+    rows
+}
+
+/// Which columns a set of measurements needs.
+struct Columns {
+    joints: Vec<String>,
+    dirs: Vec<(usize, String)>,
+    probe: bool,
+    position: bool,
+    rotation: bool,
+    time: bool,
+    temp: bool,
+    dir: bool,
+    offset: bool,
+}
+
+impl Columns {
+    fn of(measurements: &[Measurement], kinds: &[JointKind]) -> Self {
+        let any = |f: fn(&Measurement) -> bool| measurements.iter().any(f);
+        Self {
+            joints: joint_columns(kinds.len()),
+            dirs: dir_columns(kinds),
+            probe: any(|m| matches!(m.target, Target::Probe { .. })),
+            position: any(|m| matches!(m.target, Target::Tracker { .. })),
+            rotation: any(|m| m.target.is_orientation()),
+            time: any(|m| m.context.time_s.is_some()),
+            temp: any(|m| m.context.temperature_c.is_some()),
+            dir: any(|m| m.context.dir.is_some()),
+            offset: any(|m| m.probe_offset_mm.is_some()),
+        }
+    }
+
+    fn header(&self) -> Vec<&str> {
+        let mut header: Vec<&str> = Vec::new();
+        if self.probe {
+            header.push("position");
+        }
+        header.push("tcp");
+        header.extend(self.joints.iter().map(String::as_str));
+        if self.position {
+            header.extend(["x", "y", "z"]);
+        }
+        if self.rotation {
+            header.extend(["qw", "qx", "qy", "qz"]);
+        }
+        if self.time {
+            header.push("time_s");
+        }
+        if self.temp {
+            header.push("temperature_c");
+        }
+        if self.dir {
+            header.extend(self.dirs.iter().map(|(_, c)| c.as_str()));
+        }
+        if self.offset {
+            header.extend(OFFSET_COLUMNS);
+        }
+        header
+    }
+
+    /// One row: `m`'s fields, with `rotation` in the quaternion columns.
+    fn record(
+        &self,
+        m: &Measurement,
+        rotation: Option<UnitQuaternion<f64>>,
+        kinds: &[JointKind],
+    ) -> Vec<String> {
+        let blanks = |n: usize| std::iter::repeat_n(String::new(), n);
+        let mut rec: Vec<String> = Vec::new();
+        if self.probe {
             rec.push(m.position().map(|p| p.to_string()).unwrap_or_default());
         }
         rec.push(m.tcp.to_string());
         rec.extend(joint_fields(&m.q, kinds));
-        if any_tracker {
+        if self.position {
             match m.target {
                 Target::Tracker { xyz_mm } => rec.extend(xyz_mm.iter().map(|v| v.to_string())),
-                Target::Probe { .. } | Target::Orientation { .. } => {
-                    rec.extend([String::new(), String::new(), String::new()])
-                }
+                Target::Probe { .. } | Target::Orientation { .. } => rec.extend(blanks(3)),
             }
         }
-        if any_rotation {
-            match m.target {
-                Target::Orientation { rotation } => {
-                    let q = rotation.quaternion();
+        if self.rotation {
+            match rotation {
+                Some(r) => {
+                    let q = r.quaternion();
                     rec.extend([q.w, q.i, q.j, q.k].iter().map(|v| v.to_string()));
                 }
-                _ => rec.extend(std::iter::repeat_n(String::new(), 4)),
+                None => rec.extend(blanks(4)),
             }
         }
-        if time {
+        if self.time {
             rec.push(m.context.time_s.map(|v| v.to_string()).unwrap_or_default());
         }
-        if temp {
+        if self.temp {
             rec.push(m.context.temperature_c.map(|v| v.to_string()).unwrap_or_default());
         }
-        if dir {
+        if self.dir {
             match m.context.dir {
-                Some(d) => rec.extend(dir_cols.iter().map(|(joint, _)| d[joint - 1].to_string())),
-                None => rec.extend(std::iter::repeat_n(String::new(), dir_cols.len())),
+                Some(d) => rec.extend(self.dirs.iter().map(|(joint, _)| d[joint - 1].to_string())),
+                None => rec.extend(blanks(self.dirs.len())),
             }
         }
-        if offset {
+        if self.offset {
             match m.probe_offset_mm {
                 Some(o) => rec.extend(o.iter().map(|v| v.to_string())),
-                None => rec.extend(std::iter::repeat_n(String::new(), 3)),
+                None => rec.extend(blanks(3)),
             }
         }
-        out.push_str(&rec.join(","));
-        out.push('\n');
+        rec
     }
-    out
 }
 
 /// Writes probe and/or tracker measurements of the canonical 7-joint Meca500-on-guide cell
@@ -195,8 +259,10 @@ pub fn write_measurements(path: impl AsRef<Path>, measurements: &[Measurement]) 
 
 /// Writes probe and/or tracker measurements of a chain with joints `kinds` (e.g.
 /// `model.joint_kinds()`): `position` (probe), `tcp`, `q1..qN` (mm for prismatic, degrees for
-/// revolute joints), `x,y,z` (tracker), `time_s`, `temperature_c`, `dir{i}` of the revolute
-/// joints, the centring offsets.
+/// revolute joints), `x,y,z` (tracker), `qw,qx,qy,qz` (orientation; a tracker measurement
+/// and the orientation measurement after it of one posture share a pose row, see
+/// [`measurements_to_csv_for`]), `time_s`, `temperature_c`, `dir{i}` of the revolute joints,
+/// the centring offsets.
 ///
 /// # Errors
 /// [`IoError::File`] when the file cannot be written.
