@@ -229,8 +229,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     // issue 29: the bad rows, and the joint range of the rows the fit used
     let bad_report = report_bad_rows(&bad_rows, &handling, fit, &measurements, &sources, &options.weights)?;
+    // a pose row's orientation measurement repeats its tracker measurement's posture
     let fitted_rows = handling.kept_rows(&measurements);
-    let training_range = TrainingRange::from_postures(model.joint_kinds(), fitted_rows.iter().map(|m| &m.q));
+    let postures = fitted_rows.iter().filter(|m| !m.target.is_orientation()).map(|m| &m.q);
+    let training_range = TrainingRange::from_postures(model.joint_kinds(), postures);
     print_training_range(training_range.as_ref(), model.joint_kinds());
     let mut calibrated = fit.model.to_cell();
     calibrated.training_range = training_range.clone();
@@ -372,6 +374,12 @@ fn calibrate_weighed(
     Ok((out, Some(s)))
 }
 
+/// A row's residual norm with its unit: mm, or mrad for an orientation row (its residual is
+/// in rad; the JSON report keeps the number as it is).
+fn residual_text(row: &Measurement, norm: f64) -> String {
+    if row.target.is_orientation() { format!("{:.4} mrad", 1e3 * norm) } else { format!("{norm:.4} mm") }
+}
+
 /// Rows named at most in the terminal (the report lists all).
 const MAX_BAD_ROWS_SHOWN: usize = 20;
 
@@ -418,9 +426,9 @@ fn report_bad_rows(
         );
         for d in dropped {
             println!(
-                "  {}  residual {:.4} mm ({:.1} robust sigma), round {}",
+                "  {}  residual {} ({:.1} robust sigma), round {}",
                 where_(d.index),
-                d.residual_mm,
+                residual_text(&rows[d.index], d.residual_mm),
                 d.sigmas,
                 d.round
             );
@@ -462,9 +470,9 @@ fn report_bad_rows(
         };
         if shown < MAX_BAD_ROWS_SHOWN {
             println!(
-                "  {}  residual {:.4} mm ({:.1} robust sigma){}",
+                "  {}  residual {} ({:.1} robust sigma){}",
                 where_(row),
-                f.residual_mm,
+                residual_text(&rows[row], f.residual_mm),
                 f.sigmas,
                 weight.map_or_else(String::new, |w| format!(", weight {w:.3e}"))
             );
