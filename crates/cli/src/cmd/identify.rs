@@ -12,9 +12,9 @@ use vatcal_identification::{
     SIGMA_ESTIMATOR, calibrate_dropping_outliers, calibrate_robust, flag_outliers,
 };
 use vatcal_identification::{
-    Calibration, CvOptions, CvSelection, FailureReport, FittedScatter, Identification, IdentificationReport,
-    IdentifyError, IdentifyOptions, IterationLog, KindWeights, Method, PriorKind, PriorOverride, PriorWidths,
-    calibrate, file_unit_label, fit_with_fitted_scatter, to_file_units,
+    Calibration, CvOptions, CvSelection, ErrorStats, FailureReport, FittedScatter, Identification,
+    IdentificationReport, IdentifyError, IdentifyOptions, IterationLog, KindWeights, Method, PriorKind,
+    PriorOverride, PriorWidths, calibrate, file_unit_label, fit_with_fitted_scatter, to_file_units,
 };
 use vatcal_io::RowSource;
 use vatcal_kinematics::Model;
@@ -215,7 +215,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     }
     let fit = &cal.fit;
     print_log(&fit.iterations);
-    print_summary(fit, &cal.prior_sigmas);
+    print_summary(fit, &cal.prior_sigmas, &handling.kept_rows(&measurements));
     if let Some(s) = &scatter {
         println!("{}", s.one_line());
     }
@@ -689,10 +689,39 @@ fn print_weak_directions(cal: &Calibration) {
     }
 }
 
-fn print_summary(fit: &Identification, prior_sigmas: &[f64]) {
-    let s = &fit.residual_stats;
+/// The residuals line: with orientation rows (in rad) one line for the position rows and one
+/// for the orientation rows (mrad).
+fn print_residuals(fit: &Identification, rows: &[Measurement]) {
+    if !rows.iter().any(|m| m.target.is_orientation()) || rows.len() != fit.residuals.len() {
+        println!("residuals: {}", fit.residual_stats.one_line());
+        return;
+    }
+    let of = |orientation: bool| -> Vec<nalgebra::Vector3<f64>> {
+        rows.iter()
+            .zip(&fit.residuals)
+            .filter(|(m, _)| m.target.is_orientation() == orientation)
+            .map(|(_, r)| *r)
+            .collect()
+    };
+    let positions = of(false);
+    if !positions.is_empty() {
+        println!("residuals of the position rows: {}", ErrorStats::from_errors(&positions).one_line());
+    }
+    let o = ErrorStats::from_errors(&of(true));
+    println!(
+        "residuals of the orientation rows: mean {:.4} mrad, RMS {:.4} mrad, median {:.4} mrad, 95% {:.4} mrad, max {:.4} mrad (n = {})",
+        1e3 * o.mean,
+        1e3 * o.rms,
+        1e3 * o.median,
+        1e3 * o.p95,
+        1e3 * o.max,
+        o.n
+    );
+}
+
+fn print_summary(fit: &Identification, prior_sigmas: &[f64], rows: &[Measurement]) {
     println!("{}", fit.termination.describe());
-    println!("residuals: {}", s.one_line());
+    print_residuals(fit, rows);
     println!(
         "sigma_hat {:.5} mm (dof {}), condition number {:.1} (column-normalised Jacobian)",
         fit.sigma_hat_mm, fit.dof, fit.condition_number
