@@ -30,7 +30,7 @@ pub struct Args {
     /// world mm) or both (a row with an empty `position` is a tracker row); joints in mm for
     /// prismatic, degrees for revolute joints (the canonical cell: q1 mm, q2..q7 degrees). Or
     /// pose rows: tracker rows plus the tool body's rotation (qw,qx,qy,qz / rx,ry,rz /
-    /// roll,pitch,yaw / euler_<seq>_1..3; see docs/formats.md).
+    /// roll,pitch,yaw / `euler_<seq>_1..3`; see docs/formats.md).
     #[arg(long)]
     pub measurements: Option<PathBuf>,
     /// Where to write the calibrated cell file (same format as --model).
@@ -58,8 +58,8 @@ pub struct Args {
     /// (sigma_probe / sigma_tracker)^2).
     #[arg(long, default_value_t = 1.0)]
     pub tracker_weight: f64,
-    /// Weight of the orientation half of pose rows relative to probe rows [mm²/rad²]:
-    /// (sigma_probe [mm] / sigma_orientation [rad])^2, e.g. 100 puts 0.01 mm against 1 mrad.
+    /// Weight of the orientation half of pose rows relative to probe rows, in mm²/rad²:
+    /// (sigma_probe in mm / sigma_orientation in rad)^2, e.g. 100 puts 0.01 mm against 1 mrad.
     /// Without it the weight is fitted: fit with 100, estimate the scatter of each kind from
     /// the residuals, refit with the weight it calls for, until it settles (at most 3 fits).
     #[arg(long)]
