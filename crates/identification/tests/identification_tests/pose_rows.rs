@@ -165,36 +165,40 @@ fn fit_and_score(
     (held.mean, held.max, orientation_error(&fit.model, held_out), scatter)
 }
 
-/// A 7-joint arm (iiwa 14, geometry errors and a (3, -2) mrad tool tilt): pose rows alone, and
-/// pose rows of half the postures mixed with tracker rows of others, reach the noise floor on
-/// held-out tracker points and predict the tool's orientation (the tool rotation is recovered),
-/// weighed by their fitted scatter.
+/// Pose rows alone, and pose rows of half the postures mixed with tracker rows of others, on a
+/// 7-joint arm (iiwa 14) and on the UR5e (geometry errors and a (3, -2) mrad tool tilt each):
+/// both reach the noise floor on held-out tracker points and predict the tool's orientation
+/// (the tool rotation is recovered), weighed by their fitted scatter.
 #[test]
-fn seven_joint_arm_pose_rows_alone_and_mixed_reach_the_noise_floor() {
-    let nominal = iiwa14();
-    assert_eq!(nominal.joint_kinds().len(), 7);
-    let truth = truth(&nominal);
-    let mut start = nominal.clone();
-    start.enable_effect(EffectSpec::ToolFrame).expect("tool frame");
-    let held_out = pose_rows(&truth, 400, 0.0, 0.0, 26);
-    let rot_nominal = orientation_error(&start, &held_out);
-    let alone = pose_rows(&truth, 120, SIGMA_MM, SIGMA_RAD, 25);
-    let mut mixed = pose_rows(&truth, 60, SIGMA_MM, SIGMA_RAD, 25);
-    mixed.extend(synthetic_tracker_measurements(&truth, 80, SIGMA_MM, 27));
-    for (name, train) in [("pose rows alone", &alone), ("pose + tracker rows", &mixed)] {
-        let (mean, max, rot, s) = fit_and_score(&start, train, &held_out);
-        eprintln!(
-            "iiwa14, {name} ({} rows): held-out position mean {mean:.5} mm (max {max:.5}), orientation {:.3} mrad (nominal {:.3}); {}",
-            train.len(),
-            1e3 * rot,
-            1e3 * rot_nominal,
-            s.one_line()
-        );
-        let sigma_rad = s.orientation_rad.expect("orientation rows");
-        assert!((sigma_rad / SIGMA_RAD - 1.0).abs() < 0.2, "{name}: orientation sigma {sigma_rad}");
-        assert!(mean < 0.015 && max < 0.05, "{name}: {mean} / {max}");
-        assert!(rot_nominal > 3e-3, "the truth's tool is tilted: {rot_nominal}");
-        assert!(rot < 4e-4, "{name}: held-out orientation error {rot} rad");
+fn pose_rows_alone_and_mixed_reach_the_noise_floor_on_a_7_joint_arm_and_the_ur5e() {
+    assert_eq!(iiwa14().joint_kinds().len(), 7);
+    for (arm, nominal, draws) in [("iiwa14", iiwa14(), 120), ("UR5e", ur5e(), 240)] {
+        let truth = truth(&nominal);
+        let mut start = nominal.clone();
+        start.enable_effect(EffectSpec::ToolFrame).expect("tool frame");
+        let held_out = pose_rows(&truth, 2 * draws, 0.0, 0.0, 26);
+        let rot_nominal = orientation_error(&start, &held_out);
+        let alone = pose_rows(&truth, draws, SIGMA_MM, SIGMA_RAD, 25);
+        let mut mixed = pose_rows(&truth, draws / 2, SIGMA_MM, SIGMA_RAD, 25);
+        mixed.extend(synthetic_tracker_measurements(&truth, 2 * draws / 3, SIGMA_MM, 27));
+        for (name, train) in [("pose rows alone", &alone), ("pose + tracker rows", &mixed)] {
+            let (mean, max, rot, s) = fit_and_score(&start, train, &held_out);
+            eprintln!(
+                "{arm}, {name} ({} rows): held-out position mean {mean:.5} mm (max {max:.5}), orientation {:.3} mrad (nominal {:.3}); {}",
+                train.len(),
+                1e3 * rot,
+                1e3 * rot_nominal,
+                s.one_line()
+            );
+            let sigma_rad = s.orientation_rad.expect("orientation rows");
+            assert!(
+                (sigma_rad / SIGMA_RAD - 1.0).abs() < 0.2,
+                "{arm}, {name}: orientation sigma {sigma_rad}"
+            );
+            assert!(mean < 0.015 && max < 0.05, "{arm}, {name}: {mean} / {max}");
+            assert!(rot_nominal > 3e-3, "the truth's tool is tilted: {rot_nominal}");
+            assert!(rot < 4e-4, "{arm}, {name}: held-out orientation error {rot} rad");
+        }
     }
 }
 
