@@ -68,7 +68,7 @@ pub(crate) fn paper_literal(
     let mut block = vec![0.0; 3 * l];
     let mut delta = vec![0.0; l];
     problem.residuals(&model, &values, &mut r, &mut vecs)?;
-    let mut log = vec![log_entry(0, &vecs, sum_sq(&r), 0.0, 0.0)];
+    let mut log = vec![log_entry(0, problem.measurements, &vecs, sum_sq(&r), 0.0, 0.0)];
     let start_mean = log[0].mean_mm;
     let finish = |model, values, log, termination| {
         Ok(Outcome { model, values, log, termination, linearisation: None })
@@ -91,7 +91,14 @@ pub(crate) fn paper_literal(
             return finish(model, values, log, Termination::NonFinite);
         }
         problem.residuals(&next_model, &next, &mut r, &mut vecs)?;
-        let entry = log_entry(iteration, &vecs, sum_sq(&r), 0.0, step_measure(&delta, &typical));
+        let entry = log_entry(
+            iteration,
+            problem.measurements,
+            &vecs,
+            sum_sq(&r),
+            0.0,
+            step_measure(&delta, &typical),
+        );
         let (mean, previous) = (entry.mean_mm, log[log.len() - 1].mean_mm);
         log.push(entry);
         if !mean.is_finite() {

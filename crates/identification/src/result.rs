@@ -12,12 +12,16 @@ use crate::{ErrorStats, Method};
 pub struct IterationLog {
     /// iteration number (0 = start)
     pub iteration: usize,
-    /// mean residual magnitude over the measurements \[mm\]
+    /// mean residual magnitude over the point measurements (probe, tracker) \[mm\]
     pub mean_mm: f64,
-    /// RMS residual magnitude \[mm\]
+    /// RMS residual magnitude of the point measurements \[mm\]
     pub rms_mm: f64,
-    /// largest residual magnitude \[mm\]
+    /// largest residual magnitude of the point measurements \[mm\]
     pub max_mm: f64,
+    /// RMS rotation-vector residual of the orientation rows \[mrad\] (`None`: no orientation
+    /// rows)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation_rms_mrad: Option<f64>,
     /// weighted cost `Σ w_k ‖r_k‖²` plus the prior terms \[mm²\]
     pub cost: f64,
     /// damping λ of the accepted step (0 for Gauss–Newton and the paper-literal method)

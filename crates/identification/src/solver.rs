@@ -10,6 +10,7 @@
 //! `λ ← λ·ν, ν ← 2ν` after a failure).
 
 use nalgebra::Vector3;
+use vatcal_core::{Measurement, Target};
 use vatcal_kinematics::Model;
 
 use crate::dense::DenseQr;
@@ -35,27 +36,38 @@ pub(crate) fn sum_sq(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum()
 }
 
-/// Log line from the unweighted residual vectors.
+/// Log line from the unweighted residual vectors of `measurements`: the position statistics
+/// over the point measurements (probe, tracker) in mm, the orientation rows' RMS apart (their
+/// residuals are rotation vectors in rad, not mm).
 pub(crate) fn log_entry(
     iteration: usize,
+    measurements: &[Measurement],
     vecs: &[Vector3<f64>],
     cost: f64,
     lambda: f64,
     step_norm: f64,
 ) -> IterationLog {
-    let n = vecs.len().max(1) as f64;
-    let (mut sum, mut sum_sq, mut max) = (0.0, 0.0, 0.0f64);
-    for e in vecs {
+    let (mut n, mut sum, mut sum_sq, mut max) = (0usize, 0.0, 0.0, 0.0f64);
+    let (mut n_o, mut sum_sq_o) = (0usize, 0.0);
+    for (m, e) in measurements.iter().zip(vecs) {
         let v = e.norm();
-        sum += v;
-        sum_sq += v * v;
-        max = max.max(v);
+        if matches!(m.target, Target::Orientation { .. }) {
+            n_o += 1;
+            sum_sq_o += v * v;
+        } else {
+            n += 1;
+            sum += v;
+            sum_sq += v * v;
+            max = max.max(v);
+        }
     }
+    let n_f = n.max(1) as f64;
     IterationLog {
         iteration,
-        mean_mm: sum / n,
-        rms_mm: (sum_sq / n).sqrt(),
+        mean_mm: sum / n_f,
+        rms_mm: (sum_sq / n_f).sqrt(),
         max_mm: max,
+        orientation_rms_mrad: (n_o > 0).then(|| 1e3 * (sum_sq_o / n_o as f64).sqrt()),
         cost,
         lambda,
         step_norm,
@@ -312,7 +324,7 @@ pub(crate) fn least_squares(
     let gauss_newton = options.method == Method::GaussNewton;
     let mut it = Iteration::new(problem, start, options);
     it.evaluate_residuals()?;
-    let start_entry = log_entry(0, &it.vecs, it.cost, 0.0, 0.0);
+    let start_entry = log_entry(0, problem.measurements, &it.vecs, it.cost, 0.0, 0.0);
     let start_mean = start_entry.mean_mm;
     it.log.push(start_entry);
     if !it.cost.is_finite() {
@@ -382,7 +394,8 @@ pub(crate) fn least_squares(
             }
             let step_norm = trial.map_or(0.0, |t| t.1);
             it.accept();
-            let entry = log_entry(iteration, &it.vecs, it.cost, used_lambda, step_norm);
+            let entry =
+                log_entry(iteration, it.problem.measurements, &it.vecs, it.cost, used_lambda, step_norm);
             let mean = entry.mean_mm;
             it.log.push(entry);
             if gauss_newton && (mean.is_nan() || mean > options.divergence_factor * start_mean) {

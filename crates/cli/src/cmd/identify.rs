@@ -638,14 +638,27 @@ fn read_all(args: &Args, model: &Model) -> anyhow::Result<(Vec<Measurement>, Vec
 }
 
 fn print_log(log: &[IterationLog]) {
+    let orientation = log.iter().any(|it| it.orientation_rms_mrad.is_some());
     println!(
-        "{:>4}  {:>12}  {:>12}  {:>12}  {:>10}  {:>10}",
-        "iter", "mean [mm]", "RMS [mm]", "max [mm]", "lambda", "step"
+        "{:>4}  {:>12}  {:>12}  {:>12}  {:>10}  {:>10}{}",
+        "iter",
+        "mean [mm]",
+        "RMS [mm]",
+        "max [mm]",
+        "lambda",
+        "step",
+        if orientation { format!("  {:>16}", "orient RMS [mrad]") } else { String::new() }
     );
     for it in log {
         println!(
-            "{:>4}  {:>12.6}  {:>12.6}  {:>12.6}  {:>10.3e}  {:>10.3e}",
-            it.iteration, it.mean_mm, it.rms_mm, it.max_mm, it.lambda, it.step_norm
+            "{:>4}  {:>12.6}  {:>12.6}  {:>12.6}  {:>10.3e}  {:>10.3e}{}",
+            it.iteration,
+            it.mean_mm,
+            it.rms_mm,
+            it.max_mm,
+            it.lambda,
+            it.step_norm,
+            it.orientation_rms_mrad.map_or(String::new(), |o| format!("  {o:>16.4}"))
         );
     }
 }
