@@ -3,9 +3,9 @@
 //! Every table reader skips `#` lines, so metadata never changes what a file's rows mean; a
 //! reader that wants it asks for it with [`read_metadata`]. One kind exists:
 //!
-//! * `# vatcal-noise: probe_sigma_mm=0.002 tracker_sigma_mm=0.0067` — the measuring
-//!   instruments' noise, σ per axis of one probe row / one tracker row \[mm\] (either key may be
-//!   left out). `vatcal campaign` writes it from the devices file's `[noise]` table;
+//! * `# vatcal-noise: probe_sigma_mm=0.002 tracker_sigma_mm=0.0067 orientation_sigma_mrad=1` —
+//!   the measuring instruments' noise, σ per axis of one probe row / one tracker row \[mm\] and
+//!   of the rotation of one pose row \[mrad\] (any key may be left out). `vatcal campaign` writes it from the devices file's `[noise]` table;
 //!   `vatcal discover` uses it as the noise reference of its size rule when no replicate
 //!   measurements are in the data (flags given on the command line take precedence).
 //!
@@ -28,12 +28,16 @@ pub struct NoiseMetadata {
     pub probe_sigma_mm: Option<f64>,
     /// σ per axis of one tracker row \[mm\]
     pub tracker_sigma_mm: Option<f64>,
+    /// σ per axis of the rotation of one pose row (its rotation-vector residual) \[mrad\]
+    pub orientation_sigma_mrad: Option<f64>,
 }
 
 impl NoiseMetadata {
-    /// True when neither sigma is given.
+    /// True when no sigma is given.
     pub fn is_empty(&self) -> bool {
-        self.probe_sigma_mm.is_none() && self.tracker_sigma_mm.is_none()
+        self.probe_sigma_mm.is_none()
+            && self.tracker_sigma_mm.is_none()
+            && self.orientation_sigma_mrad.is_none()
     }
 
     /// The comment line (with `#` and a trailing newline) that records this noise; empty when
@@ -45,6 +49,9 @@ impl NoiseMetadata {
         }
         if let Some(s) = self.tracker_sigma_mm {
             fields.push(format!("tracker_sigma_mm={s}"));
+        }
+        if let Some(s) = self.orientation_sigma_mrad {
+            fields.push(format!("orientation_sigma_mrad={s}"));
         }
         if fields.is_empty() { String::new() } else { format!("# {NOISE_TAG} {}\n", fields.join(" ")) }
     }
@@ -103,13 +110,19 @@ pub fn parse_metadata(path: &Path, text: &str) -> Result<Metadata, IoError> {
             let slot = match key {
                 "probe_sigma_mm" => &mut noise.probe_sigma_mm,
                 "tracker_sigma_mm" => &mut noise.tracker_sigma_mm,
+                "orientation_sigma_mrad" => &mut noise.orientation_sigma_mrad,
                 _ => {
-                    return Err(row(key, "unknown key (known: probe_sigma_mm, tracker_sigma_mm)".into()));
+                    return Err(row(
+                        key,
+                        "unknown key (known: probe_sigma_mm, tracker_sigma_mm, orientation_sigma_mrad)"
+                            .into(),
+                    ));
                 }
             };
             let v: f64 = value.parse().map_err(|_| row(key, format!("`{value}` is not a number")))?;
             if !(v.is_finite() && v > 0.0) {
-                return Err(row(key, format!("must be a positive number of mm, got {value}")));
+                let unit = if key.ends_with("_mrad") { "mrad" } else { "mm" };
+                return Err(row(key, format!("must be a positive number of {unit}, got {value}")));
             }
             if slot.is_some() {
                 return Err(row(key, "given twice".into()));
@@ -133,12 +146,16 @@ mod tests {
 
     #[test]
     fn noise_line_round_trips_and_other_comments_are_ignored() {
-        let n = NoiseMetadata { probe_sigma_mm: Some(0.002), tracker_sigma_mm: Some(0.0067) };
+        let n = NoiseMetadata {
+            probe_sigma_mm: Some(0.002),
+            tracker_sigma_mm: Some(0.0067),
+            orientation_sigma_mrad: Some(0.5),
+        };
         let text = format!("# a comment\n{}position,tcp\n# vatcal-other: x=1\n", n.header_line());
         assert_eq!(parse(&text).expect("parses").noise, Some(n));
         assert_eq!(parse("position,tcp\n1,2\n").expect("parses").noise, None);
         assert_eq!(NoiseMetadata::default().header_line(), "");
-        let probe_only = NoiseMetadata { probe_sigma_mm: Some(0.003), tracker_sigma_mm: None };
+        let probe_only = NoiseMetadata { probe_sigma_mm: Some(0.003), ..NoiseMetadata::default() };
         assert_eq!(probe_only.header_line(), "# vatcal-noise: probe_sigma_mm=0.003\n");
     }
 
@@ -148,6 +165,11 @@ mod tests {
             ("x\n# vatcal-noise: probe_sigma=0.1\n", "probe_sigma", "unknown key"),
             ("# vatcal-noise: probe_sigma_mm=abc\n", "probe_sigma_mm", "not a number"),
             ("# vatcal-noise: tracker_sigma_mm=-1\n", "tracker_sigma_mm", "positive"),
+            (
+                "# vatcal-noise: orientation_sigma_mrad=0\n",
+                "orientation_sigma_mrad",
+                "positive number of mrad",
+            ),
             ("# vatcal-noise: probe_sigma_mm=1 probe_sigma_mm=2\n", "probe_sigma_mm", "twice"),
             ("# vatcal-noise: 0.002\n", "0.002", "key=value"),
         ] {

@@ -127,7 +127,11 @@ fn campaign_config(args: &Args, devices_file: &DevicesFile) -> CampaignConfig {
         note: format!("vatcal campaign, plan {}, devices {}", args.plan.display(), args.devices.display()),
         noise: {
             let (probe_sigma_mm, tracker_sigma_mm) = devices_file.noise_sigmas_mm();
-            vatcal_io::metadata::NoiseMetadata { probe_sigma_mm, tracker_sigma_mm }
+            vatcal_io::metadata::NoiseMetadata {
+                probe_sigma_mm,
+                tracker_sigma_mm,
+                orientation_sigma_mrad: None,
+            }
         },
         ..CampaignConfig::default()
     }

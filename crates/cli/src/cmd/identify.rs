@@ -163,7 +163,8 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         weights: KindWeights {
             probe: 1.0,
             tracker: args.tracker_weight,
-            orientation: args.orientation_weight.unwrap_or(KindWeights::DEFAULT_ORIENTATION),
+            orientation: stated_orientation_weight(&args, &measurements)?
+                .unwrap_or(KindWeights::DEFAULT_ORIENTATION),
         },
         ..IdentifyOptions::default()
     };
@@ -364,7 +365,9 @@ fn calibrate_weighed(
     let scatter = |(cal, handling): &(Calibration, Handling), w: &KindWeights| {
         FittedScatter::of(&handling.kept_rows(rows), &cal.fit, w)
     };
-    if args.orientation_weight.is_some() {
+    if args.orientation_weight.is_some()
+        || stated_noise(args).is_some_and(|n| n.orientation_sigma_mrad.is_some())
+    {
         let out = calibrate_rows(bad, model, rows, spec, design, options, cv)?;
         let s = FittedScatter { stated: true, ..scatter(&out, &options.weights) };
         return Ok((out, Some(s)));
@@ -372,6 +375,43 @@ fn calibrate_weighed(
     let (out, s) =
         fit_with_fitted_scatter(options, |o| calibrate_rows(bad, model, rows, spec, design, o, cv), scatter)?;
     Ok((out, Some(s)))
+}
+
+/// The instruments' noise recorded in the measurement files (`# vatcal-noise:` of
+/// `--measurements`, else of `--tracker`), when any; unreadable metadata counts as none (the
+/// readers report a bad file).
+fn stated_noise(args: &Args) -> Option<vatcal_io::metadata::NoiseMetadata> {
+    [&args.measurements, &args.tracker]
+        .into_iter()
+        .flatten()
+        .find_map(|p| vatcal_io::metadata::read_metadata(p).ok().and_then(|m| m.noise))
+}
+
+/// The orientation weight the user states: `--orientation-weight`, else the files' recorded
+/// noise (`orientation_sigma_mrad` with the σ of the reference kind — probe rows when there are
+/// any, else tracker rows): `w_ref · (σ_ref / σ_orientation)²` in mm²/rad². `None`: fitted
+/// from the scatter.
+///
+/// # Errors
+/// An orientation σ is recorded but the reference kind's σ is not.
+fn stated_orientation_weight(args: &Args, rows: &[Measurement]) -> anyhow::Result<Option<f64>> {
+    if let Some(w) = args.orientation_weight {
+        return Ok(Some(w));
+    }
+    let Some(noise) = stated_noise(args) else { return Ok(None) };
+    let Some(sigma_mrad) = noise.orientation_sigma_mrad else { return Ok(None) };
+    let probe_rows = rows.iter().any(|m| m.position().is_some());
+    let (reference, w_ref, name) = if probe_rows {
+        (noise.probe_sigma_mm, 1.0, "probe_sigma_mm")
+    } else {
+        (noise.tracker_sigma_mm, args.tracker_weight, "tracker_sigma_mm")
+    };
+    let sigma_ref = reference.ok_or_else(|| {
+        anyhow::anyhow!(
+            "the measurement file records orientation_sigma_mrad but not {name}: the orientation weight needs both (or give --orientation-weight)"
+        )
+    })?;
+    Ok(Some(w_ref * (sigma_ref / (1e-3 * sigma_mrad)).powi(2)))
 }
 
 /// A row's residual norm with its unit: mm, or mrad for an orientation row (its residual is

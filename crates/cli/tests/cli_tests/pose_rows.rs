@@ -141,3 +141,34 @@ fn pose_rows_are_weighed_by_their_fitted_scatter() {
     assert_eq!(stated["fitted_scatter"]["orientation_weight"].as_f64(), Some(100.0));
     assert!(fitted_mm < 0.015 && fitted_mm <= 1.05 * stated_mm, "{fitted_mm} vs {stated_mm}");
 }
+
+/// A stated orientation noise in the file (`# vatcal-noise: … orientation_sigma_mrad=…`) sets
+/// the orientation weight (no refits from the scatter): `w_tracker · (σ_tracker / σ_o)²`; an
+/// orientation σ without the reference kind's σ is a one-line error.
+#[test]
+fn a_stated_orientation_noise_sets_the_weight() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let truth = truth();
+    let (train, held) = (dir.path().join("train.csv"), dir.path().join("held.csv"));
+    write_poses(&train, &truth, 200, 0.01, 1e-3, 25);
+    write_poses(&held, &truth, 100, 0.0, 0.0, 26);
+    let rows = std::fs::read_to_string(&train).expect("train");
+    std::fs::write(&train, format!("# vatcal-noise: tracker_sigma_mm=0.01 orientation_sigma_mrad=2\n{rows}"))
+        .expect("write");
+    let (report, held_mm) = identify_and_validate(dir.path(), &train, &held, &[], "noise");
+    let s = &report["fitted_scatter"];
+    assert_eq!(s["stated"], true, "{s}");
+    // σ_tracker / σ_o = 0.01 mm / 0.002 rad = 5 mm/rad, weight 25 mm²/rad² (tracker weight 1)
+    let w = s["orientation_weight"].as_f64().expect("weight");
+    assert!((w - 25.0).abs() < 1e-9, "{w}");
+    assert!(held_mm < 0.02, "{held_mm}");
+    std::fs::write(&train, format!("# vatcal-noise: orientation_sigma_mrad=2\n{rows}")).expect("write");
+    let model = fixture("ur5e.toml");
+    let (train_s, out_s) = (train.display().to_string(), dir.path().join("x.toml").display().to_string());
+    let args = ["identify", "--model", &model, "--measurements", &train_s, "--out", &out_s];
+    let ros = ["--length-unit", "m", "--angle-unit", "rad"];
+    let out = super::any_robot::vatcal().args([&args[..], &ros[..]].concat()).output().expect("run");
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(e.contains("orientation_sigma_mrad but not tracker_sigma_mm"), "{e}");
+}
