@@ -74,7 +74,7 @@ pub struct Metadata {
 /// std::fs::write(&path, "# vatcal-noise: probe_sigma_mm=0.003\nposition,tcp,q1\n")?;
 /// let meta = read_metadata(&path);
 /// std::fs::remove_file(&path)?;
-/// assert_eq!(meta?.noise, Some(NoiseMetadata { probe_sigma_mm: Some(0.003), tracker_sigma_mm: None }));
+/// assert_eq!(meta?.noise, Some(NoiseMetadata { probe_sigma_mm: Some(0.003), ..NoiseMetadata::default() }));
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 ///
