@@ -5,7 +5,6 @@ use std::path::Path;
 use vatcal_core::{JointVector, MeasurementContext};
 use vatcal_kinematics::Model;
 
-use crate::columns::required_columns;
 use crate::error::IoError;
 use crate::options::{ReadOptions, ReadOutcome};
 use crate::table::Table;
@@ -89,8 +88,7 @@ pub fn read_joint_rows_with(
     options: &ReadOptions,
 ) -> Result<ReadOutcome<JointRow>, IoError> {
     let path = path.as_ref();
-    let t = Table::read_for_with(path, model, &required_columns(&["tcp"], model, &[]), *options)?;
-    t.check_model_columns(model)?;
+    let t = Table::read_model_rows(path, model, &["tcp"], &[], *options)?;
     let tcps = model.tcp_ids();
     let rows = t.convert(|line, rec| {
         Ok(JointRow {

@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 use vatcal_core::{Measurement, Target};
 use vatcal_kinematics::Model;
 
-use crate::columns::{OFFSET_COLUMNS, joint_columns, required_columns, span};
+use crate::columns::{OFFSET_COLUMNS, joint_columns, span};
 use crate::error::IoError;
 use crate::options::{ReadOptions, ReadOutcome};
 use crate::table::{RowIds, Table};
@@ -107,8 +107,7 @@ pub fn read_probe_measurements_with(
     options: &ReadOptions,
 ) -> Result<ReadOutcome<Measurement>, IoError> {
     let path = path.as_ref();
-    let t = Table::read_for_with(path, model, &required_columns(&["position", "tcp"], model, &[]), *options)?;
-    t.check_model_columns(model)?;
+    let t = Table::read_model_rows(path, model, &["position", "tcp"], &[], *options)?;
     let ids = RowIds::of(model);
     let rows = t.convert(|line, rec| t.probe_measurement(line, rec, model, &ids))?;
     t.finish(model, rows, |m| &m.q, |m| &mut m.context)
@@ -125,9 +124,7 @@ pub fn read_tracker_measurements_with(
     options: &ReadOptions,
 ) -> Result<ReadOutcome<Measurement>, IoError> {
     let path = path.as_ref();
-    let t =
-        Table::read_for_with(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]), *options)?;
-    t.check_model_columns(model)?;
+    let t = Table::read_model_rows(path, model, &["tcp"], &["x", "y", "z"], *options)?;
     let ids = RowIds::of(model);
     let rows = t.convert(|line, rec| t.tracker_measurement(line, rec, model, &ids))?;
     t.check_tracker_length_unit(&rows)?;
@@ -146,8 +143,7 @@ pub fn read_measurements_with(
     options: &ReadOptions,
 ) -> Result<ReadOutcome<Measurement>, IoError> {
     let path = path.as_ref();
-    let t = Table::read_for_with(path, model, &required_columns(&["tcp"], model, &[]), *options)?;
-    t.check_model_columns(model)?;
+    let t = Table::read_model_rows(path, model, &["tcp"], &[], *options)?;
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
     if !t.has("position") && !has_xyz {
         return Err(t.err(

@@ -18,7 +18,6 @@ use nalgebra::{Quaternion, Unit, UnitQuaternion, Vector3};
 use vatcal_core::{Measurement, Target};
 use vatcal_kinematics::Model;
 
-use crate::columns::required_columns;
 use crate::error::IoError;
 use crate::options::{ReadOptions, ReadOutcome};
 use crate::table::{RowIds, Table};
@@ -75,9 +74,7 @@ pub fn read_pose_measurements_with(
     options: &ReadOptions,
 ) -> Result<ReadOutcome<Measurement>, IoError> {
     let path = path.as_ref();
-    let t =
-        Table::read_for_with(path, model, &required_columns(&["tcp"], model, &["x", "y", "z"]), *options)?;
-    t.check_model_columns(model)?;
+    let t = Table::read_model_rows(path, model, &["tcp"], &["x", "y", "z"], *options)?;
     let kind = t.rotation_columns()?;
     let ids = RowIds::of(model);
     let rows = t.convert(|line, rec| {

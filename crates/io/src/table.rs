@@ -127,6 +127,23 @@ impl Table {
         Ok(t)
     }
 
+    /// Reads a table of `model`'s rows: the columns `prefix`, the model's joint columns, then
+    /// `suffix` required ([`crate::columns::required_columns`]), read with `opts` and checked
+    /// against the model's joints ([`Table::check_model_columns`]) — the start of every reader
+    /// of joint rows.
+    pub(crate) fn read_model_rows(
+        path: &Path,
+        model: &Model,
+        prefix: &[&str],
+        suffix: &[&str],
+        opts: ReadOptions,
+    ) -> Result<Table, IoError> {
+        let t =
+            Self::read_for_with(path, model, &crate::columns::required_columns(prefix, model, suffix), opts)?;
+        t.check_model_columns(model)?;
+        Ok(t)
+    }
+
     /// Reads a table of `model`'s rows without joint columns of its own (pose requests: the
     /// caller checks its `q` columns).
     pub(crate) fn read(path: &Path, model: &Model, required: &[&str]) -> Result<Table, IoError> {
