@@ -148,6 +148,28 @@ pub struct Selection {
 }
 
 impl Selection {
+    /// The selection of the winning restart `best` (`(restart index, design, tracked ln det)`)
+    /// among `restarts`.
+    ///
+    /// # Errors
+    /// No restart ran (`best` is `None`).
+    pub(super) fn of_best(
+        best: Option<(usize, Vec<usize>, f64)>,
+        restarts: Vec<RestartOutcome>,
+    ) -> Result<Self, ObservabilityError> {
+        let (best_restart, selected, tracked_log_det) =
+            best.ok_or_else(|| ObservabilityError::InvalidInput("no restart ran".into()))?;
+        let won = &restarts[best_restart];
+        Ok(Selection {
+            selected,
+            log_det: won.log_det,
+            tracked_log_det,
+            objective_value: won.objective_value,
+            best_restart,
+            restarts,
+        })
+    }
+
     /// O1 of the selection from its log-determinant (exact when there is no ridge):
     /// `exp(ln det / 2L) / √n`, in the units of the candidate blocks.
     pub fn o1(&self, parameter_count: usize) -> f64 {

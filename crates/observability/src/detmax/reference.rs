@@ -99,15 +99,5 @@ pub fn naive_detmax(
             greedy_start: false,
         });
     }
-    let (best_restart, selected, tracked_log_det) =
-        best.ok_or_else(|| ObservabilityError::InvalidInput("no restart ran".into()))?;
-    let won = &restarts[best_restart];
-    Ok(Selection {
-        selected,
-        log_det: won.log_det,
-        tracked_log_det,
-        objective_value: won.objective_value,
-        best_restart,
-        restarts,
-    })
+    Selection::of_best(best, restarts)
 }

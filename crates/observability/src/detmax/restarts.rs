@@ -195,17 +195,7 @@ pub fn detmax(candidates: &Candidates, options: &DetmaxOptions) -> Result<Select
         }
         restarts.push(outcome);
     }
-    let (best_restart, selected, tracked_log_det) =
-        best.ok_or_else(|| ObservabilityError::InvalidInput("no restart ran".into()))?;
-    let won = &restarts[best_restart];
-    Ok(Selection {
-        selected,
-        log_det: won.log_det,
-        tracked_log_det,
-        objective_value: won.objective_value,
-        best_restart,
-        restarts,
-    })
+    Selection::of_best(best, restarts)
 }
 
 /// Greedy sequential D-optimal design (Dykstra): from `fixed` (and a tiny ridge while the
