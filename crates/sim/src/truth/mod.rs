@@ -140,6 +140,28 @@ pub fn signed_truth(nominal: &Model, seed: u64, budget: &ErrorBudget) -> Model {
 
 /// The parameter list of [`perturbed_truth`] / [`signed_truth`]; `draw(rng, size)` gives one
 /// error of the given size.
+/// Adds the errors of the fixtures' coordinates to `truth`: every TCP, then every calibration
+/// position of `nominal`, each axis drawn by `add` (the last draws of [`perturb`] and
+/// [`perturb_any_chain`], in this order).
+fn add_fixture_errors(
+    truth: &mut Model,
+    rng: &mut ChaCha8Rng,
+    nominal: &Model,
+    budget: &ErrorBudget,
+    add: &impl Fn(&mut Model, &mut ChaCha8Rng, ParamId, f64),
+) {
+    for id in nominal.tcp_ids() {
+        for axis in vatcal_core::Axis::ALL {
+            add(truth, rng, ParamId::Tcp { id, axis }, budget.tcp_mm);
+        }
+    }
+    for id in nominal.position_ids() {
+        for axis in vatcal_core::Axis::ALL {
+            add(truth, rng, ParamId::Position { id, axis }, budget.position_mm);
+        }
+    }
+}
+
 fn perturb(
     nominal: &Model,
     seed: u64,
@@ -184,16 +206,7 @@ fn perturb(
         add(&mut truth, &mut rng, ParamId::D(2), budget.length_mm);
         add(&mut truth, &mut rng, ParamId::D(3), budget.length_mm);
     }
-    for id in nominal.tcp_ids() {
-        for axis in vatcal_core::Axis::ALL {
-            add(&mut truth, &mut rng, ParamId::Tcp { id, axis }, budget.tcp_mm);
-        }
-    }
-    for id in nominal.position_ids() {
-        for axis in vatcal_core::Axis::ALL {
-            add(&mut truth, &mut rng, ParamId::Position { id, axis }, budget.position_mm);
-        }
-    }
+    add_fixture_errors(&mut truth, &mut rng, nominal, budget, &add);
     truth
 }
 
@@ -263,16 +276,7 @@ fn perturb_any_chain(
         let c = if hi > lo { rng.random_range(lo..hi) } else { lo };
         let _ = truth.set_param(ParamId::Compliance(j), c);
     }
-    for id in nominal.tcp_ids() {
-        for axis in vatcal_core::Axis::ALL {
-            add(&mut truth, &mut rng, ParamId::Tcp { id, axis }, budget.tcp_mm);
-        }
-    }
-    for id in nominal.position_ids() {
-        for axis in vatcal_core::Axis::ALL {
-            add(&mut truth, &mut rng, ParamId::Position { id, axis }, budget.position_mm);
-        }
-    }
+    add_fixture_errors(&mut truth, &mut rng, nominal, budget, &add);
     truth
 }
 
