@@ -233,7 +233,7 @@ impl Run {
             None => Vec::new(),
         };
         if done && ctx.options.lookalike_swap {
-            let swap = self.swap(index, start, &mut s.candidates, &held0, ctx)?;
+            let swap = self.swap(index, start, &mut s.candidates, (&held0, &base.j0), ctx)?;
             if let Some((sentence, gone)) = swap {
                 decision = sentence;
                 removed.push(gone);
@@ -440,19 +440,20 @@ impl Run {
         Ok(removed)
     }
 
-    /// The swap check of a round that added nothing: an earlier addition replaced by a
-    /// look-alike that predicts the held-out points significantly better. Returns the round's
+    /// The swap check of a round that added nothing (`baseline`: the current model's
+    /// confirmation CV and weighted Jacobian): an earlier addition replaced by a look-alike
+    /// that predicts the held-out points significantly better. Returns the round's
     /// decision and the effect swapped out.
     fn swap(
         &mut self,
         index: usize,
         start: &Model,
         candidates: &mut [Candidate],
-        held0: &CrossValidation,
+        baseline: (&CrossValidation, &faer::Mat<f64>),
         ctx: &Context<'_>,
     ) -> Result<Option<(String, RemovedEffect)>, DiscoveryError> {
         let (added, current, out) = (&mut self.added, &mut self.current, &mut self.swapped_out);
-        let Some(swap) = swap_check(start, added, current, candidates, held0, index, out, ctx)? else {
+        let Some(swap) = swap_check(start, added, current, candidates, baseline, index, out, ctx)? else {
             return Ok(None);
         };
         self.held_all = ctx.cross_validate(&self.current.model, &self.current.params, &ctx.all_folds);

@@ -54,7 +54,7 @@ pub(super) struct Swap {
 }
 
 /// The swap check of round `round`, in which nothing was added (`held0`: the confirmation CV
-/// of `current`). Replaces at most one earlier addition by a look-alike candidate of the round
+/// of `current`, `j0` its weighted Jacobian on all data). Replaces at most one earlier addition by a look-alike candidate of the round
 /// that predicts the held-out points significantly better; `swapped_out` holds the effects
 /// already swapped out (never tried again). Returns the swap made, if any.
 #[allow(clippy::too_many_arguments)]
@@ -63,7 +63,7 @@ pub(super) fn swap_check(
     added: &mut [AddedEffect],
     current: &mut Fit,
     candidates: &mut [Candidate],
-    held0: &CrossValidation,
+    (held0, j0): (&CrossValidation, &Mat<f64>),
     round: usize,
     swapped_out: &mut Vec<EffectSpec>,
     ctx: &Context<'_>,
@@ -71,7 +71,7 @@ pub(super) fn swap_check(
     if added.is_empty() || held0.errors.iter().all(Option::is_none) {
         return Ok(None);
     }
-    let pairs = lookalike_pairs(added, current, candidates, swapped_out, ctx)?;
+    let pairs = lookalike_pairs(added, current, j0, candidates, swapped_out, ctx)?;
     let tried: Vec<(usize, usize, f64)> = pairs.into_iter().take(MAX_SWAP_TRIALS).collect();
     let outcomes: Vec<Option<(HeldOutComparison, Fit)>> = tried
         .par_iter()
@@ -183,10 +183,12 @@ fn swap_evidence(
 /// Every (earlier addition `k`, candidate `b`) pair that looks alike on the data, most collinear
 /// first: the largest cosine between a direction of `b` (switched on at zero in the current
 /// model) and the span of `k`'s directions, both with the rest of the model projected out, at
-/// least [`LOOKALIKE_COSINE`]. Candidates already swapped out, or without a score, are skipped.
+/// least [`LOOKALIKE_COSINE`] (`j0`: the current model's weighted Jacobian on all data).
+/// Candidates already swapped out, or without a score, are skipped.
 fn lookalike_pairs(
     added: &[AddedEffect],
     current: &Fit,
+    j0: &Mat<f64>,
     candidates: &[Candidate],
     swapped_out: &[EffectSpec],
     ctx: &Context<'_>,
@@ -213,9 +215,6 @@ fn lookalike_pairs(
             Some(j)
         })
         .collect();
-    let mut j0 = assemble_jacobian(&current.model, ctx.measurements, &current.params)
-        .map_err(DiscoveryError::Jacobian)?;
-    weigh_rows(&mut j0, ctx.measurements, &ctx.options.identify.weights);
     let mut pairs = Vec::new();
     for (k, a) in added.iter().enumerate() {
         let own_a: Vec<usize> = a.spec.params().iter().filter_map(|p| current.params.index_of(*p)).collect();
@@ -223,8 +222,8 @@ fn lookalike_pairs(
             continue;
         }
         let rest: Vec<usize> = (0..current.params.len()).filter(|i| !own_a.contains(i)).collect();
-        let rest_space = ColumnSpace::of(columns(&j0, &rest).as_ref())?;
-        let pa = rest_space.project_out(columns(&j0, &own_a).as_ref());
+        let rest_space = ColumnSpace::of(columns(j0, &rest).as_ref())?;
+        let pa = rest_space.project_out(columns(j0, &own_a).as_ref());
         for (&b, jb) in eligible.iter().zip(&with_b) {
             let Some(jb) = jb else { continue };
             let pb = rest_space.project_out(jb.as_ref());
