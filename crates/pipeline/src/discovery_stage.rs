@@ -332,15 +332,16 @@ pub fn discovery_stage(
     let folder = RunFolder::new(out);
     let geometry = CellGeometry::from_cell(&opts.nominal)?;
     let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
-    match stage.budget_s {
-        None => {
+    let clock = calibration_clock(&inputs)?;
+    match (stage.budget_s, &clock) {
+        (Some(budget_s), Some(clock)) => plan_within_budget(&inputs, budget_s, clock, &geometry, start)?,
+        _ => {
             plan_discovery(opts, stage, nominal, base, &geometry, start, &folder.discovery_plan())?;
         }
-        Some(budget_s) => plan_within_budget(&inputs, budget_s, &geometry, start)?,
     }
     let (tour, repeats) = discovery_tour(stage, nominal, out)?;
     let campaign = discovery_campaign_stage(devices, nominal, &tour, &folder, config.clone(), progress)?;
-    let budget = detmax_spend(&inputs, &tour, &campaign)?;
+    let budget = detmax_spend(&inputs, clock, &tour, &campaign);
     discovery_analysis(&inputs, &campaign, repeats, Some(LoopDevices { devices, config, progress }), budget)
 }
 
@@ -365,6 +366,22 @@ pub fn device_time_model(
     DeviceTimeModel::from_campaign(&journal, &tour, timer)
 }
 
+/// With a budget, the time model of the cell's devices ([`device_time_model`]) and where the
+/// calibration campaign left the arm (the start of the Detmax batch's first move); `None`
+/// without a budget. Read once per stage from the run folder's calibration journal.
+///
+/// # Errors
+/// As [`device_time_model`].
+fn calibration_clock(
+    inputs: &AnalysisInputs<'_>,
+) -> Result<Option<(DeviceTimeModel, Option<JointVector>)>, PipelineError> {
+    if inputs.stage.budget_s.is_none() {
+        return Ok(None);
+    }
+    let time = device_time_model(inputs.opts, inputs.nominal, inputs.out)?;
+    Ok(Some((time, journal_end(&RunFolder::new(inputs.out).journal()))))
+}
+
 /// The device time held back for the targeted batch: the loop's measurements at the probe
 /// placement the Detmax batch ends at (no re-placement; 0 without a loop).
 fn targeted_reserve(inputs: &AnalysisInputs<'_>, time: &DeviceTimeModel) -> f64 {
@@ -384,15 +401,15 @@ fn targeted_reserve(inputs: &AnalysisInputs<'_>, time: &DeviceTimeModel) -> f64 
 fn plan_within_budget(
     inputs: &AnalysisInputs<'_>,
     budget_s: f64,
+    (time, arm_at): &(DeviceTimeModel, Option<JointVector>),
     geometry: &CellGeometry,
     start: Option<JointVector>,
 ) -> Result<(), PipelineError> {
     let AnalysisInputs { opts, stage, nominal, base, out, .. } = *inputs;
-    let time = device_time_model(opts, nominal, out)?;
-    let reserve = targeted_reserve(inputs, &time);
+    let reserve = targeted_reserve(inputs, time);
     let folder = RunFolder::new(out).discovery_plan();
     let fixed = opts.nominal.calibration_positions.len() as f64 * time.placement_s;
-    let arm_at = journal_end(&RunFolder::new(out).journal());
+    let arm_at = *arm_at;
     let predict = |count: usize| -> Result<f64, PipelineError> {
         plan_discovery_of(opts, stage, count, nominal, base, geometry, start, &folder)?;
         let (tour, _) = discovery_tour(stage, nominal, out)?;
@@ -414,18 +431,16 @@ fn plan_within_budget(
     }
 }
 
-/// The budget report after the Detmax batch (`tour`, measured as `campaign`): `None` without a
-/// budget. The same from a run's devices and from its journals.
-///
-/// # Errors
-/// A bad calibration journal or tour.
+/// The budget report after the Detmax batch (`tour`, measured as `campaign`; `clock` from
+/// [`calibration_clock`]): `None` without a budget. The same from a run's devices and from its
+/// journals.
 fn detmax_spend(
     inputs: &AnalysisInputs<'_>,
+    clock: Option<(DeviceTimeModel, Option<JointVector>)>,
     tour: &CampaignPlan,
     campaign: &CampaignReport,
-) -> Result<Option<BudgetReport>, PipelineError> {
-    let Some(budget_s) = inputs.stage.budget_s else { return Ok(None) };
-    let time = device_time_model(inputs.opts, inputs.nominal, inputs.out)?;
+) -> Option<BudgetReport> {
+    let (budget_s, (time, arm_at)) = (inputs.stage.budget_s?, clock?);
     let mut report = BudgetReport {
         budget_s,
         time_model: time,
@@ -437,10 +452,10 @@ fn detmax_spend(
     report.push(BatchSpend {
         batch: "detmax".into(),
         planned: measure_steps(tour),
-        predicted_s: time.predict_s(tour, journal_end(&RunFolder::new(inputs.out).journal())),
+        predicted_s: time.predict_s(tour, arm_at),
         device_s: Some(campaign_device_s(campaign)),
     });
-    Ok(Some(report))
+    Some(report)
 }
 
 /// The discovery stage of a finished run recomputed from its journals (`discovery.journal`
@@ -462,7 +477,7 @@ pub fn discovery_recompute(
     let (tour, repeats) = discovery_tour(stage, nominal, out)?;
     let campaign = RunFolder::new(out).journal_report(DISCOVERY_JOURNAL)?;
     let inputs = AnalysisInputs { opts, stage, nominal, calibrated, base, calibration, out };
-    let budget = detmax_spend(&inputs, &tour, &campaign)?;
+    let budget = detmax_spend(&inputs, calibration_clock(&inputs)?, &tour, &campaign);
     discovery_analysis(&inputs, &campaign, repeats, None, budget)
 }
 
