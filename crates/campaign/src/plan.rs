@@ -156,7 +156,9 @@ impl CampaignPlan {
     /// A plan from measurement poses in tour order. Probe poses (`Target::Probe`): a plate
     /// placement whenever the position changes (preceded by a move to `clear_pose` if given,
     /// followed by zeroing if asked), then a straight joint move to the pose and a
-    /// measurement. Tracker poses: a move and a tracker measurement.
+    /// measurement. Tracker poses: a move and a tracker measurement. Plane-contact poses: the
+    /// move only (no instrument of the cell reads a contact; the robot's guarded touch and its
+    /// joint readings are the measurement).
     pub fn from_poses(poses: &[Measurement], options: &CampaignPlanOptions) -> Self {
         let mut steps = Vec::new();
         let mut placed = None;
@@ -174,10 +176,14 @@ impl CampaignPlan {
                 placed = Some(position);
             }
             steps.push(CampaignStep::Move { path: vec![m.q] });
-            steps.push(match m.target {
-                Target::Probe { position } => CampaignStep::Measure { position, tcp: m.tcp },
-                Target::Tracker { .. } | Target::Orientation { .. } => CampaignStep::Track { tcp: m.tcp },
-            });
+            match m.target {
+                Target::Probe { position } => steps.push(CampaignStep::Measure { position, tcp: m.tcp }),
+                Target::Tracker { .. } | Target::Orientation { .. } => {
+                    steps.push(CampaignStep::Track { tcp: m.tcp })
+                }
+                // no instrument reads a contact: the robot's own guarded touch records it
+                Target::Plane { .. } => {}
+            }
         }
         Self { steps }
     }

@@ -50,8 +50,10 @@ pub use cell::{CellError, CellFile};
 pub const CANONICAL_CELL_TOML: &str = include_str!("../cells/meca500-zaber.toml");
 pub use effects::{EffectKind, EffectSpec, ThermalDriver};
 pub use frame::Frame;
-pub use measurement::{Measurement, MeasurementContext, PointDistance, Target, rotation_error};
-pub use params::{Axis, BaseParam, ParamId, ParamSet, ToolFrameDof};
+pub use measurement::{
+    Measurement, MeasurementContext, PlaneDistance, PointDistance, Target, rotation_error,
+};
+pub use params::{Axis, BaseParam, ParamId, ParamSet, PlaneDof, ToolFrameDof};
 pub use units::{
     JointKind, JointVector, JointVectorError, MAX_JOINTS, MECA500_ON_GUIDE_KINDS, deg_to_rad, rad_to_deg,
 };

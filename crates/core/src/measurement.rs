@@ -59,12 +59,40 @@ pub enum Target {
         /// measured world orientation of the tool frame (unit quaternion)
         rotation: UnitQuaternion<f64>,
     },
+    /// The TCP touched contact plane `plane` (a plane row `plane,tcp,q…`): the residual is
+    /// `offset − n·FK` \[mm\], the TCP's height above the plane with the sign reversed. With
+    /// `normal` the tool axis (z of the tool-changer frame) was also held normal to the plane
+    /// (a flat face pressed on it): two more rows, `−r·u'·(n × z)` and `−r·v'·(n × z)`, the
+    /// height error at the rim of the contact face of radius `r` (the plane's
+    /// `contact_radius_mm`) along the plane's basis directions \[mm\]. Without `normal` those
+    /// two rows are zero and carry no information (see [`Target::residual_rows`]).
+    Plane {
+        /// contact plane id
+        plane: u32,
+        /// the tool axis was held normal to the plane too
+        normal: bool,
+    },
 }
 
 impl Target {
     /// Whether the residuals are rotation-vector errors \[rad\] rather than positions \[mm\].
     pub fn is_orientation(&self) -> bool {
         matches!(self, Target::Orientation { .. })
+    }
+
+    /// Whether this is a plane contact ([`Target::Plane`]).
+    pub fn is_plane(&self) -> bool {
+        matches!(self, Target::Plane { .. })
+    }
+
+    /// How many of the measurement's three residual rows carry information: 1 for a plane
+    /// contact without the tool axis held normal (its other two rows are zero, with zero
+    /// Jacobian rows), 3 otherwise. Degrees of freedom and RMS values count these rows.
+    pub fn residual_rows(&self) -> usize {
+        match self {
+            Target::Plane { normal: false, .. } => 1,
+            _ => 3,
+        }
     }
 }
 
@@ -138,6 +166,18 @@ impl Measurement {
         }
     }
 
+    /// A plane contact without context data: TCP `tcp` touched plane `plane` at joints `q`,
+    /// with the tool axis held normal to the plane when `normal`.
+    pub fn plane(plane: u32, tcp: u32, q: JointVector, normal: bool) -> Self {
+        Self {
+            tcp,
+            q,
+            target: Target::Plane { plane, normal },
+            context: MeasurementContext::default(),
+            probe_offset_mm: None,
+        }
+    }
+
     /// The same probe measurement with the final centring offset `offset_mm` (world axes)
     /// recorded: the observed target becomes `calibration position + offset_mm`.
     pub fn with_probe_offset(mut self, offset_mm: Vector3<f64>) -> Self {
@@ -159,7 +199,15 @@ impl Measurement {
     pub fn position(&self) -> Option<u32> {
         match self.target {
             Target::Probe { position } => Some(position),
-            Target::Tracker { .. } | Target::Orientation { .. } => None,
+            Target::Tracker { .. } | Target::Orientation { .. } | Target::Plane { .. } => None,
+        }
+    }
+
+    /// Contact plane id of a plane contact.
+    pub fn plane_id(&self) -> Option<u32> {
+        match self.target {
+            Target::Plane { plane, .. } => Some(plane),
+            _ => None,
         }
     }
 }
@@ -220,5 +268,49 @@ impl PointDistance {
         let distance_mm = num(2, "distance_mm")?;
         let sigma_mm = if fields.len() == 4 { num(3, "sigma_mm")? } else { Self::DEFAULT_SIGMA_MM };
         Ok(Self { a, b, distance_mm, sigma_mm })
+    }
+}
+
+/// A known distance between two parallel contact planes (e.g. a table and the top face of a
+/// gauge block standing on it): three residual rows of their own, `distance_mm − (offset_b −
+/// offset_a)` and the parallelism `L·(n_b − n_a)·u_a`, `L·(n_b − n_a)·v_a` at the lever
+/// [`PlaneDistance::PARALLEL_LEVER_MM`], each with standard deviation `sigma_mm`. Plane rows
+/// alone do not fix the chain's scale (every length and plane offset scaled together fits the
+/// same contacts); a known distance does.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PlaneDistance {
+    /// first plane id
+    pub a: u32,
+    /// second plane id (its offset is the larger: `offset_b = offset_a + distance_mm`)
+    pub b: u32,
+    /// the known distance between the planes along their common normal \[mm\]
+    pub distance_mm: f64,
+    /// its standard deviation \[mm\] (also of the parallelism at the lever)
+    pub sigma_mm: f64,
+}
+
+impl PlaneDistance {
+    /// The lever \[mm\] at which the two normals' difference is expressed as a length: a
+    /// tilt of 0.1 mrad between the planes is 10 µm over 100 mm.
+    pub const PARALLEL_LEVER_MM: f64 = 100.0;
+
+    /// Parses `a,b,distance_mm` or `a,b,distance_mm,sigma_mm` (the CLI's `--plane-distance`;
+    /// default σ [`PointDistance::DEFAULT_SIGMA_MM`]).
+    ///
+    /// # Examples
+    /// ```
+    /// use vatcal_core::PlaneDistance;
+    ///
+    /// let d = PlaneDistance::parse("1,2,50,0.002")?;
+    /// assert_eq!((d.a, d.b, d.distance_mm, d.sigma_mm), (1, 2, 50.0, 0.002));
+    /// assert!(PlaneDistance::parse("1,1,50").is_err());
+    /// # Ok::<(), String>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`PointDistance::parse`], naming the plane ids.
+    pub fn parse(spec: &str) -> Result<Self, String> {
+        let d = PointDistance::parse(spec).map_err(|e| e.replace("point id", "plane id"))?;
+        Ok(Self { a: d.a, b: d.b, distance_mm: d.distance_mm, sigma_mm: d.sigma_mm })
     }
 }

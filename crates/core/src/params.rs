@@ -14,6 +14,7 @@
 //! | `ParamId::Base(..)` | `base_x`, `base_y`, `base_z` (mm), `base_alpha`, `base_beta`, `base_gamma` (rad) | |
 //! | `ParamId::Tcp{id, axis}` | `tcp{id}_{x,y,z}` | mm |
 //! | `ParamId::Position{id, axis}` | `position{id}_{x,y,z}` | mm |
+//! | `ParamId::Plane{id, dof}` | `plane{id}_tilt_u`, `plane{id}_tilt_v` (rad), `plane{id}_offset` (mm) | |
 //! | `ParamId::Effect(..)` | see [`EffectParam`] | see there |
 //!
 //! Names round-trip: `ParamId::from_name(&p.name()) == Some(p)`.
@@ -24,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::effects::catalog;
 use crate::units::{JointKind, MAX_JOINTS};
-pub use crate::vocabulary::{Axis, BaseParam, EffectParam, ParamId, ParamUnit, ToolFrameDof};
+pub use crate::vocabulary::{Axis, BaseParam, EffectParam, ParamId, ParamUnit, PlaneDof, ToolFrameDof};
 
 impl ParamId {
     /// The stable name (e.g. `alpha_1`, `theta_offset_2`, `c_4`, `base_gamma`, `tcp2_z`).
@@ -39,6 +40,7 @@ impl ParamId {
             ParamId::Base(b) => format!("base_{}", b.suffix()),
             ParamId::Tcp { id, axis } => format!("tcp{id}_{}", axis.letter()),
             ParamId::Position { id, axis } => format!("position{id}_{}", axis.letter()),
+            ParamId::Plane { id, dof } => format!("plane{id}_{}", dof.suffix()),
             ParamId::Effect(e) => match e.kind().effect() {
                 Some(effect) => effect.param_name(&e),
                 None => format!("{e:?}"),
@@ -82,6 +84,11 @@ impl ParamId {
             let (id, ax) = s.split_once('_')?;
             return Some(ParamId::Position { id: id.parse().ok()?, axis: Axis::from_letter(ax)? });
         }
+        if let Some(s) = name.strip_prefix("plane") {
+            let (id, dof) = s.split_once('_')?;
+            let dof = PlaneDof::ALL.into_iter().find(|d| d.suffix() == dof)?;
+            return Some(ParamId::Plane { id: id.parse().ok()?, dof });
+        }
         catalog().iter().find_map(|e| e.parse_param(name)).map(ParamId::Effect)
     }
 
@@ -96,6 +103,8 @@ impl ParamId {
                 _ => ParamUnit::Rad,
             },
             ParamId::Tcp { .. } | ParamId::Position { .. } => ParamUnit::Mm,
+            ParamId::Plane { dof: PlaneDof::Offset, .. } => ParamUnit::Mm,
+            ParamId::Plane { .. } => ParamUnit::Rad,
             ParamId::Effect(e) => e.kind().effect().map_or(ParamUnit::Ratio, |effect| effect.param_unit(e)),
         }
     }
@@ -105,11 +114,11 @@ impl ParamId {
     pub fn typical_scale(&self) -> f64 {
         match self.unit() {
             ParamUnit::Mm => match self {
-                ParamId::Base(_) => 1.0,
+                ParamId::Base(_) | ParamId::Plane { .. } => 1.0,
                 _ => 0.1,
             },
             ParamUnit::Rad => match self {
-                ParamId::Base(_) => 1e-2,
+                ParamId::Base(_) | ParamId::Plane { .. } => 1e-2,
                 _ => 1e-3,
             },
             ParamUnit::RadPerNm => 1e-4,

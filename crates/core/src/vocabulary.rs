@@ -295,8 +295,44 @@ pub enum ParamId {
         /// axis
         axis: Axis,
     },
+    /// a contact plane's normal tilt or offset in the world (plane rows, [`PlaneDof`])
+    Plane {
+        /// plane id
+        id: u32,
+        /// which degree of freedom
+        dof: PlaneDof,
+    },
     /// a parameter of an optional effect block
     Effect(EffectParam),
+}
+
+/// The three degrees of freedom of a contact plane `n·x = offset` in the world frame. The
+/// normal is `n = normalize(n₀ + tilt_u·u + tilt_v·v)`, with `n₀` the plane's reference
+/// normal (the cell file's, or the first estimate from the data) and `u`, `v` a fixed
+/// orthonormal basis of the plane `n₀` spans; the offset is the plane's signed distance from
+/// the world origin along `n` \[mm\].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum PlaneDof {
+    /// tilt of the normal towards `u` \[rad\]
+    TiltU,
+    /// tilt of the normal towards `v` \[rad\]
+    TiltV,
+    /// signed distance of the plane from the world origin along its normal \[mm\]
+    Offset,
+}
+
+impl PlaneDof {
+    /// All three, in the order tilt_u, tilt_v, offset.
+    pub const ALL: [PlaneDof; 3] = [PlaneDof::TiltU, PlaneDof::TiltV, PlaneDof::Offset];
+
+    /// The name suffix (`tilt_u`, `tilt_v`, `offset`).
+    pub fn suffix(self) -> &'static str {
+        match self {
+            PlaneDof::TiltU => "tilt_u",
+            PlaneDof::TiltV => "tilt_v",
+            PlaneDof::Offset => "offset",
+        }
+    }
 }
 
 /// Physical kind of a parameter, which fixes its unit.

@@ -15,7 +15,7 @@ use vatcal_core::{Measurement, Target};
 pub fn stratum(m: &Measurement) -> Option<u32> {
     match m.target {
         Target::Probe { position } => Some(position),
-        Target::Tracker { .. } | Target::Orientation { .. } => None,
+        Target::Tracker { .. } | Target::Orientation { .. } | Target::Plane { .. } => None,
     }
 }
 

@@ -107,7 +107,7 @@ impl Driver {
             Driver::Tcp => Some(f64::from(m.tcp)),
             Driver::Position => Some(match m.target {
                 Target::Probe { position } => f64::from(position),
-                Target::Tracker { .. } | Target::Orientation { .. } => 0.0,
+                Target::Tracker { .. } | Target::Orientation { .. } | Target::Plane { .. } => 0.0,
             }),
             Driver::Time => m.context.time_s,
             Driver::Temperature => m.context.temperature_c,

@@ -16,7 +16,7 @@ use nalgebra::{DMatrix, Matrix3};
 use rayon::prelude::*;
 use serde::Serialize;
 use vatcal_core::effects::EffectSpec;
-use vatcal_core::{Measurement, ParamId, ParamSet, Target};
+use vatcal_core::{Measurement, ParamId, ParamSet};
 use vatcal_identification::KindWeights;
 use vatcal_kinematics::Model;
 use vatcal_observability::assemble_jacobian;
@@ -148,14 +148,7 @@ fn rows(
         return Ok(DMatrix::zeros(0, params.len()));
     }
     let j = assemble_jacobian(model, ms, params).map_err(DiscoveryError::Jacobian)?;
-    Ok(DMatrix::from_fn(j.nrows(), j.ncols(), |r, c| {
-        let w = match ms[r / 3].target {
-            Target::Probe { .. } => weights.probe,
-            Target::Tracker { .. } => weights.tracker,
-            Target::Orientation { .. } => weights.orientation,
-        };
-        w.sqrt() * j[(r, c)]
-    }))
+    Ok(DMatrix::from_fn(j.nrows(), j.ncols(), |r, c| weights.of(&ms[r / 3].target).sqrt() * j[(r, c)]))
 }
 
 /// `ln det` of a symmetric positive (semi)definite matrix via Cholesky (−∞ when singular).

@@ -523,7 +523,11 @@ pub fn prepare_calibration(
     cv: &CvOptions,
 ) -> Result<CalibrationStart, IdentifyError> {
     design.check(nominal)?;
-    let options = IdentifyOptions { point_distances: design.distances.clone(), ..options.clone() };
+    let options = IdentifyOptions {
+        point_distances: design.distances.clone(),
+        plane_distances: design.plane_distances.clone(),
+        ..options.clone()
+    };
     let trimmed = spec.trim();
     let canonical = nominal.is_meca500_on_guide();
     let canonical_fit = canonical
@@ -542,7 +546,11 @@ pub fn prepare_calibration(
     }
     // the registration set does not need the distances (and unknown points may still coincide
     // at their placeholder coordinates, where a distance row is undefined)
-    let points_only = DataDesign { free_positions: design.free_positions.clone(), distances: Vec::new() };
+    let points_only = DataDesign {
+        free_positions: design.free_positions.clone(),
+        free_planes: design.free_planes.clone(),
+        ..DataDesign::default()
+    };
     let registration = generic_set(nominal, measurements, GenericSet::Registration, &points_only)?;
     let init = initialise(nominal, measurements, &InitOptions::for_params(&registration))?;
     let start = init.model.clone();

@@ -86,6 +86,16 @@ pub enum IdentifyError {
         /// explanation from the identifiability analysis
         message: String,
     },
+    /// A contact plane's rows do not fix it: fewer than three contacts, or all on a line.
+    #[error(
+        "plane {id}: its {rows} plane row(s) do not fix a plane (needs at least three contacts not on one line)"
+    )]
+    UndeterminedPlane {
+        /// plane id
+        id: u32,
+        /// number of its plane rows
+        rows: usize,
+    },
     /// The identifiability analysis itself failed.
     #[error("identifiability check failed: {0}")]
     Observability(#[source] ObservabilityError),

@@ -20,7 +20,10 @@
 //!    coordinates `t` and the free points `p_j` (the pivot calibration of a ball in a socket).
 //!    With the TCPs known, a free point is the mean of its predicted positions.
 //!
-//! The two steps repeat until the RMS residual stops falling (at most
+//! 3. **Contact planes** the fit identifies: the least-squares plane through their rows'
+//!    predicted contacts (`planes::plane_of_rows`).
+//!
+//! The steps repeat until the RMS residual stops falling (at most
 //! [`InitOptions::max_rounds`]); the fit then starts from the result. The registration needs
 //! at least three non-collinear observed points; it is skipped when every probe row is at an
 //! unknown fixed point (the points absorb the base pose).
@@ -40,13 +43,21 @@ pub struct InitOptions {
     pub tcps: Vec<u32>,
     /// solve the coordinates of these calibration positions (unknown fixed points, step 2)
     pub free_positions: Vec<u32>,
+    /// re-estimate these contact planes through the predicted contacts (step 3)
+    pub free_planes: Vec<u32>,
     /// at most this many rounds of steps 1 and 2 (default 30)
     pub max_rounds: usize,
 }
 
 impl Default for InitOptions {
     fn default() -> Self {
-        Self { register_base: true, tcps: Vec::new(), free_positions: Vec::new(), max_rounds: 30 }
+        Self {
+            register_base: true,
+            tcps: Vec::new(),
+            free_positions: Vec::new(),
+            free_planes: Vec::new(),
+            max_rounds: 30,
+        }
     }
 }
 
@@ -60,6 +71,7 @@ impl InitOptions {
             match *p {
                 ParamId::Tcp { id, .. } if !o.tcps.contains(&id) => o.tcps.push(id),
                 ParamId::Position { id, .. } if !o.free_positions.contains(&id) => o.free_positions.push(id),
+                ParamId::Plane { id, .. } if !o.free_planes.contains(&id) => o.free_planes.push(id),
                 _ => {}
             }
         }
@@ -130,7 +142,8 @@ pub fn initialise(
     let anchored = measurements.iter().any(|m| match m.target {
         Target::Tracker { .. } => true,
         Target::Probe { position } => !options.free_positions.contains(&position),
-        Target::Orientation { .. } => false,
+        // orientation rows fix no point; plane rows only a height
+        Target::Orientation { .. } | Target::Plane { .. } => false,
     });
     let register = options.register_base && anchored;
     let mut last = rms_before_mm;
@@ -142,6 +155,7 @@ pub fn initialise(
             register_base(&mut model, measurements, &options.free_positions)?;
         }
         solve_points(&mut model, measurements, options)?;
+        fit_free_planes(&mut model, measurements, &options.free_planes)?;
         let now = rms(&model, measurements)?;
         if now > last {
             // a round that makes things worse (degenerate data) is undone
@@ -163,7 +177,7 @@ pub fn initialise(
     })
 }
 
-/// RMS of the residual norms of the position rows [mm] (orientation rows left out).
+/// RMS of the residual norms of the position and plane rows [mm] (orientation rows left out).
 fn rms(model: &Model, measurements: &[Measurement]) -> Result<f64, IdentifyError> {
     let mut sum = 0.0;
     let mut count = 0usize;
@@ -186,8 +200,25 @@ fn observed(model: &Model, m: &Measurement, free: &[u32]) -> Option<Vector3<f64>
         Target::Probe { position } if !free.contains(&position) => {
             model.position(position).map(|p| p + m.target_offset_mm())
         }
-        Target::Probe { .. } | Target::Orientation { .. } => None,
+        Target::Probe { .. } | Target::Orientation { .. } | Target::Plane { .. } => None,
     }
+}
+
+/// Step 3: each free plane through its rows' predicted contacts (its contact radius kept).
+fn fit_free_planes(
+    model: &mut Model,
+    measurements: &[Measurement],
+    free: &[u32],
+) -> Result<(), IdentifyError> {
+    for id in free {
+        let radius = model
+            .plane(*id)
+            .map_or(vatcal_core::cell::PlaneEntry::DEFAULT_CONTACT_RADIUS_MM, |p| p.contact_radius_mm);
+        if let Some(plane) = crate::planes::plane_of_rows(model, measurements, *id, radius)? {
+            model.insert_plane(*id, plane);
+        }
+    }
+    Ok(())
 }
 
 /// Step 1: the rigid transform (Kabsch) from predicted to observed points, composed into the

@@ -49,6 +49,7 @@ mod init;
 mod literal;
 mod method;
 mod options;
+mod planes;
 mod prediction;
 mod priors;
 mod problem;
@@ -76,6 +77,7 @@ pub use init::{InitOptions, Initialisation, initialise};
 pub use literal::PAPER_ERROR_CHANGE_MM;
 pub use method::Method;
 pub use options::{IdentifyOptions, KindWeights, Scaling};
+pub use planes::{estimate_planes, plane_of_rows, plane_through};
 pub use priors::{COMPLIANCE_TORQUE_FLOOR, PriorKind, PriorOverride, PriorSpec, PriorWidths};
 pub use problem::residual_vector;
 pub use report::{
@@ -145,7 +147,8 @@ pub fn identify(
 ) -> Result<Identification, IdentifyError> {
     let mut fit = identify_once(start, measurements, params, options)?;
     let has_priors = options.priors.as_ref().is_some_and(|p| p.iter().any(|s| s.is_finite()));
-    let reweight = (options.distance_sigma_from_fit && !options.point_distances.is_empty())
+    let reweight = (options.distance_sigma_from_fit
+        && !(options.point_distances.is_empty() && options.plane_distances.is_empty()))
         || (options.prior_sigma_from_fit && has_priors);
     if !reweight {
         return Ok(fit);
@@ -312,8 +315,9 @@ fn check_rank(
     options: &IdentifyOptions,
 ) -> Result<(), IdentifyError> {
     let design = vatcal_observability::sets::DataDesign {
-        free_positions: Vec::new(),
         distances: options.point_distances.clone(),
+        plane_distances: options.plane_distances.clone(),
+        ..Default::default()
     };
     let checked =
         vatcal_observability::sets::analyze_design(start, measurements, &design, params).and_then(|r| {

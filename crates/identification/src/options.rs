@@ -1,7 +1,7 @@
 //! Options of [`identify`](crate::identify).
 
 use serde::{Deserialize, Serialize};
-use vatcal_core::{ParamSet, PointDistance};
+use vatcal_core::{ParamSet, PlaneDistance, PointDistance};
 
 use crate::{IdentifyError, Method};
 
@@ -18,6 +18,13 @@ pub struct KindWeights {
     /// orientation noise \[rad\] (default 100: 0.01 mm ≙ 1 mrad)
     #[serde(default = "default_orientation_weight")]
     pub orientation: f64,
+    /// weight of plane contacts (> 0; default 1: contact heights in mm like the points)
+    #[serde(default = "default_plane_weight")]
+    pub plane: f64,
+}
+
+fn default_plane_weight() -> f64 {
+    1.0
 }
 
 fn default_orientation_weight() -> f64 {
@@ -34,13 +41,14 @@ impl KindWeights {
             vatcal_core::Target::Probe { .. } => self.probe,
             vatcal_core::Target::Tracker { .. } => self.tracker,
             vatcal_core::Target::Orientation { .. } => self.orientation,
+            vatcal_core::Target::Plane { .. } => self.plane,
         }
     }
 }
 
 impl Default for KindWeights {
     fn default() -> Self {
-        Self { probe: 1.0, tracker: 1.0, orientation: Self::DEFAULT_ORIENTATION }
+        Self { probe: 1.0, tracker: 1.0, orientation: Self::DEFAULT_ORIENTATION, plane: 1.0 }
     }
 }
 
@@ -115,6 +123,10 @@ pub struct IdentifyOptions {
     /// `distance_sigma_from_fit`), so that the
     /// positions identified as parameters keep the scale (default none)
     pub point_distances: Vec<PointDistance>,
+    /// known distances between parallel contact planes: three residual rows each
+    /// (`vatcal_observability::sets::plane_distance_rows`), weighted like the point distances
+    /// (default none)
+    pub plane_distances: Vec<PlaneDistance>,
     /// weigh the known distances against the data's own scatter (default true): a distance
     /// row is weighted `σ_data / σ_d`, where `σ_data` is first `measurement_sigma_mm` and then,
     /// refit by refit, σ̂ of the data rows of the previous fit (`√(Σ w_k‖e_k‖² / (3n − L))`),
@@ -166,6 +178,7 @@ impl Default for IdentifyOptions {
             accept_iteration_cap: false,
             divergence_factor: 100.0,
             point_distances: Vec::new(),
+            plane_distances: Vec::new(),
             distance_sigma_from_fit: true,
             prior_sigma_from_fit: false,
             distance_data_sigma_mm: None,
@@ -217,15 +230,12 @@ impl IdentifyOptions {
                 self.correlation_threshold
             ));
         }
-        for d in &self.point_distances {
-            if !(d.distance_mm.is_finite()
-                && d.distance_mm > 0.0
-                && d.sigma_mm.is_finite()
-                && d.sigma_mm > 0.0)
-            {
+        let distances = self.point_distances.iter().map(|d| (d.a, d.b, d.distance_mm, d.sigma_mm));
+        let planes = self.plane_distances.iter().map(|d| (d.a, d.b, d.distance_mm, d.sigma_mm));
+        for (a, b, distance_mm, sigma_mm) in distances.chain(planes) {
+            if !(distance_mm.is_finite() && distance_mm > 0.0 && sigma_mm.is_finite() && sigma_mm > 0.0) {
                 return bad(format!(
-                    "point_distances: {},{}: distance {} mm and sigma {} mm must be finite and > 0",
-                    d.a, d.b, d.distance_mm, d.sigma_mm
+                    "point/plane distances: {a},{b}: distance {distance_mm} mm and sigma {sigma_mm} mm must be finite and > 0"
                 ));
             }
         }
@@ -239,7 +249,9 @@ impl IdentifyOptions {
         {
             return bad(format!("row_weights: the weight of row {k} must be finite and > 0, got {v}"));
         }
-        if self.method == Method::PaperLiteral && !self.point_distances.is_empty() {
+        if self.method == Method::PaperLiteral
+            && !(self.point_distances.is_empty() && self.plane_distances.is_empty())
+        {
             return bad("point distances are not supported by the paper-literal method".into());
         }
         if let Some(p) = &self.priors {

@@ -44,7 +44,8 @@ pub enum PriorKind {
     Compliance,
     /// catalog effect parameters, in multiples of their typical size
     Effect,
-    /// base pose (the instrument or world frame)
+    /// base pose (the instrument or world frame) and contact planes (offsets in mm, tilts
+    /// at the width / 1000 mm in rad)
     Base,
     /// TCP / marker coordinates \[mm\]
     Tcp,
@@ -78,7 +79,8 @@ impl PriorKind {
             ParamId::Beta(_) => PriorKind::Beta,
             ParamId::Compliance(_) => PriorKind::Compliance,
             ParamId::Effect(_) => PriorKind::Effect,
-            ParamId::Base(_) => PriorKind::Base,
+            // a contact plane is a fixture of the world frame, like the base pose
+            ParamId::Base(_) | ParamId::Plane { .. } => PriorKind::Base,
             ParamId::Tcp { .. } => PriorKind::Tcp,
             ParamId::Position { .. } => PriorKind::Position,
         }
@@ -351,6 +353,10 @@ impl PriorSpec {
                         vatcal_core::BaseParam::X | vatcal_core::BaseParam::Y | vatcal_core::BaseParam::Z => {
                             w
                         }
+                        _ => w / 1000.0,
+                    },
+                    (PriorKind::Base, ParamId::Plane { dof, .. }) => match dof {
+                        vatcal_core::PlaneDof::Offset => w,
                         _ => w / 1000.0,
                     },
                     _ => w,

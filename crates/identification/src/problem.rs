@@ -11,8 +11,9 @@
 
 use faer::MatMut;
 use nalgebra::Vector3;
-use vatcal_core::{Measurement, ParamSet, PointDistance};
+use vatcal_core::{Measurement, ParamSet};
 use vatcal_kinematics::Model;
+use vatcal_observability::sets::DataDesign;
 
 use crate::{IdentifyError, IdentifyOptions, KindWeights};
 
@@ -27,9 +28,10 @@ pub(crate) struct Problem<'a> {
     pub priors: Vec<(usize, f64)>,
     /// starting values (prior means)
     pub start: Vec<f64>,
-    /// known distances between fixed points: one row each after the measurement rows
-    pub distances: Vec<PointDistance>,
-    /// `σ_data / σ_d` of every distance row
+    /// known distances between fixed points (one row each) and between parallel planes
+    /// (three rows each) after the measurement rows
+    pub design: DataDesign,
+    /// `σ_data / σ_d` of every constraint row
     pub distance_weight: Vec<f64>,
 }
 
@@ -65,19 +67,24 @@ impl<'a> Problem<'a> {
             },
             priors,
             start,
-            distances: options.point_distances.clone(),
-            distance_weight: options
-                .point_distances
-                .iter()
-                .map(|d| options.distance_data_sigma_mm.unwrap_or(options.measurement_sigma_mm) / d.sigma_mm)
-                .collect(),
+            design: DataDesign {
+                distances: options.point_distances.clone(),
+                plane_distances: options.plane_distances.clone(),
+                ..DataDesign::default()
+            },
+            distance_weight: {
+                let data = options.distance_data_sigma_mm.unwrap_or(options.measurement_sigma_mm);
+                let points = options.point_distances.iter().map(|d| data / d.sigma_mm);
+                let planes = options.plane_distances.iter().flat_map(|d| [data / d.sigma_mm; 3]);
+                points.chain(planes).collect()
+            },
         }
     }
 
-    /// Number of data rows: 3 per measurement, then one per known distance (the prior rows
+    /// Number of data rows: 3 per measurement, then the known distances' rows (the prior rows
     /// follow).
     pub fn measurement_rows(&self) -> usize {
-        3 * self.measurements.len() + self.distances.len()
+        3 * self.measurements.len() + self.design.constraint_rows()
     }
 
     /// The distance rows: residuals into `r[3n..]` and, when `jac` is given, their Jacobian
@@ -87,19 +94,17 @@ impl<'a> Problem<'a> {
         model: &Model,
         r: &mut [f64],
         mut jac: Option<&mut MatMut<'_, f64>>,
-        row: &mut [f64],
     ) -> Result<(), IdentifyError> {
         let base = 3 * self.measurements.len();
-        for (k, d) in self.distances.iter().enumerate() {
+        self.design.for_each_constraint_row(model, &self.params.0, |k, e, row| {
             let w = self.distance_weight[k];
-            let e = vatcal_observability::sets::distance_row(model, d, &self.params.0, row)?;
             r[base + k] = w * e;
             if let Some(j) = jac.as_deref_mut() {
                 for (c, v) in row.iter().enumerate() {
                     j[(base + k, c)] = w * v;
                 }
             }
-        }
+        })?;
         Ok(())
     }
 
@@ -129,9 +134,8 @@ impl<'a> Problem<'a> {
             let w = self.row_weight[k];
             r[3 * k..3 * k + 3].copy_from_slice(&[w * e.x, w * e.y, w * e.z]);
         }
-        if !self.distances.is_empty() {
-            let mut row = vec![0.0; self.cols()];
-            self.distance_rows(model, r, None, &mut row)?;
+        if self.design.constraint_rows() > 0 {
+            self.distance_rows(model, r, None)?;
         }
         self.prior_residuals(values, r);
         Ok(())
@@ -170,9 +174,8 @@ impl<'a> Problem<'a> {
                 }
             }
         }
-        if !self.distances.is_empty() {
-            let mut row = vec![0.0; l];
-            self.distance_rows(model, r, Some(&mut jac), &mut row)?;
+        if self.design.constraint_rows() > 0 {
+            self.distance_rows(model, r, Some(&mut jac))?;
         }
         let base = self.measurement_rows();
         for (row, (j, c)) in self.priors.iter().enumerate() {

@@ -145,25 +145,45 @@ pub fn read_measurements_with(
     let path = path.as_ref();
     let t = Table::read_model_rows(path, model, &["tcp"], &[], *options)?;
     let has_xyz = t.has("x") && t.has("y") && t.has("z");
-    if !t.has("position") && !has_xyz {
+    let q = span(&joint_columns(model.joint_count()));
+    if t.has("normal") && !t.has("plane") {
         return Err(t.err(
             t.header_line,
-            "position / x,y,z",
+            "plane",
+            format!("the header has `normal` but no `plane`: a plane row needs its plane's id (plane,tcp,{q}[,normal])"),
+        ));
+    }
+    if !t.has("position") && !has_xyz && !t.has("plane") {
+        return Err(t.err(
+            t.header_line,
+            "position / x,y,z / plane",
             format!(
-                "the header has neither probe rows' `position` nor tracker rows' `x,y,z` (probe rows: position,tcp,{q}; tracker rows: tcp,{q},x,y,z)",
-                q = span(&joint_columns(model.joint_count()))
+                "the header has neither probe rows' `position`, tracker rows' `x,y,z` nor plane rows' `plane` (probe rows: position,tcp,{q}; tracker rows: tcp,{q},x,y,z; plane rows: plane,tcp,{q})"
             ),
         ));
     }
     let ids = RowIds::of(model);
     let rows = t.convert(|line, rec| {
-        let has_pos = t.field(rec, "position").is_some_and(|s| !s.is_empty());
-        if !has_pos && t.field(rec, "x").is_none_or(str::is_empty) {
-            let column = if t.has("position") { "position" } else { "x" };
+        let filled = |c: &str| t.field(rec, c).is_some_and(|s| !s.is_empty());
+        let (has_pos, has_plane) = (filled("position"), filled("plane"));
+        if has_pos && has_plane {
+            return Err(t.err(line, "plane", "a row is a probe row (`position`) or a plane row (`plane`), not both"));
+        }
+        if has_plane {
+            return t.plane_measurement(line, rec, model, &ids);
+        }
+        if !has_pos && !filled("x") {
+            let column = if filled("normal") || (t.has("plane") && !t.has("position") && !has_xyz) {
+                "plane"
+            } else if t.has("position") {
+                "position"
+            } else {
+                "x"
+            };
             return Err(t.err(
                 line,
                 column,
-                "empty: a probe row needs `position`, a tracker row `x,y,z` (this row has neither)",
+                "empty: a probe row needs `position`, a tracker row `x,y,z`, a plane row `plane` (this row has none)",
             ));
         }
         if has_pos {
@@ -190,6 +210,31 @@ impl Table {
         let mut m = self.measurement(line, rec, model, ids, Target::Probe { position })?;
         m.probe_offset_mm = self.probe_offset(line, rec)?;
         Ok(m)
+    }
+
+    /// A plane row's measurement: `plane` (any id: planes the cell file lacks are identified),
+    /// the optional `normal` (`1`/`true`: the tool axis was held normal to the plane; empty,
+    /// `0`, `false`: not), `tcp`, the joints and the context columns.
+    pub(crate) fn plane_measurement(
+        &self,
+        line: u64,
+        rec: &csv::StringRecord,
+        model: &Model,
+        ids: &RowIds,
+    ) -> Result<Measurement, IoError> {
+        let plane = self.any_id(line, rec, "plane")?;
+        let normal = match self.field(rec, "normal").map(str::trim).unwrap_or("") {
+            "" | "0" | "false" => false,
+            "1" | "true" => true,
+            other => {
+                return Err(self.err(
+                    line,
+                    "normal",
+                    format!("`{other}` is not 1/true or 0/false (empty: 0)"),
+                ));
+            }
+        };
+        self.measurement(line, rec, model, ids, Target::Plane { plane, normal })
     }
 
     /// A tracker row's measurement: `tcp`, the joints, the context columns and `x,y,z` in the

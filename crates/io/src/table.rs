@@ -320,15 +320,20 @@ impl Table {
         col: &str,
         known: &[u32],
     ) -> Result<u32, IoError> {
-        let s = self.field(rec, col).unwrap_or("");
-        let v: u32 =
-            s.parse().map_err(|_| self.err(line, col, format!("`{s}` is not a non-negative integer id")))?;
+        let v = self.any_id(line, rec, col)?;
         let free_point = col == "position" && self.opts.any_position_id;
         let free_tcp = col == "tcp" && self.opts.any_tcp_id;
         if !(known.contains(&v) || free_point || free_tcp) {
             return Err(self.err(line, col, format!("unknown {col} id {v} (the model has {known:?})")));
         }
         Ok(v)
+    }
+
+    /// A non-negative integer id in column `col`, not checked against the model (e.g. a
+    /// contact plane's: planes the cell file lacks are identified).
+    pub(crate) fn any_id(&self, line: u64, rec: &csv::StringRecord, col: &str) -> Result<u32, IoError> {
+        let s = self.field(rec, col).unwrap_or("");
+        s.parse().map_err(|_| self.err(line, col, format!("`{s}` is not a non-negative integer id")))
     }
 
     pub(crate) fn warn(&self, line: u64, column: &str, message: String) {

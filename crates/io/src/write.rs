@@ -126,6 +126,8 @@ struct Columns {
     joints: Vec<String>,
     dirs: Vec<(usize, String)>,
     probe: bool,
+    plane: bool,
+    normal: bool,
     position: bool,
     rotation: bool,
     time: bool,
@@ -141,6 +143,8 @@ impl Columns {
             joints: joint_columns(kinds.len()),
             dirs: dir_columns(kinds),
             probe: any(|m| matches!(m.target, Target::Probe { .. })),
+            plane: any(|m| m.target.is_plane()),
+            normal: any(|m| matches!(m.target, Target::Plane { normal: true, .. })),
             position: any(|m| matches!(m.target, Target::Tracker { .. })),
             rotation: any(|m| m.target.is_orientation()),
             time: any(|m| m.context.time_s.is_some()),
@@ -154,6 +158,12 @@ impl Columns {
         let mut header: Vec<&str> = Vec::new();
         if self.probe {
             header.push("position");
+        }
+        if self.plane {
+            header.push("plane");
+        }
+        if self.normal {
+            header.push("normal");
         }
         header.push("tcp");
         header.extend(self.joints.iter().map(String::as_str));
@@ -190,12 +200,21 @@ impl Columns {
         if self.probe {
             rec.push(m.position().map(|p| p.to_string()).unwrap_or_default());
         }
+        if self.plane {
+            rec.push(m.plane_id().map(|p| p.to_string()).unwrap_or_default());
+        }
+        if self.normal {
+            let normal = matches!(m.target, Target::Plane { normal: true, .. });
+            rec.push(if m.target.is_plane() { u8::from(normal).to_string() } else { String::new() });
+        }
         rec.push(m.tcp.to_string());
         rec.extend(joint_fields(&m.q, kinds));
         if self.position {
             match m.target {
                 Target::Tracker { xyz_mm } => rec.extend(xyz_mm.iter().map(|v| v.to_string())),
-                Target::Probe { .. } | Target::Orientation { .. } => rec.extend(blanks(3)),
+                Target::Probe { .. } | Target::Orientation { .. } | Target::Plane { .. } => {
+                    rec.extend(blanks(3))
+                }
             }
         }
         if self.rotation {

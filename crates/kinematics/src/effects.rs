@@ -75,7 +75,7 @@ pub fn candidate_effects(model: &Model, measurements: &[Measurement]) -> Vec<Eff
         .iter()
         .filter_map(|m| match m.target {
             Target::Probe { position } => Some(position),
-            Target::Tracker { .. } | Target::Orientation { .. } => None,
+            Target::Tracker { .. } | Target::Orientation { .. } | Target::Plane { .. } => None,
         })
         .collect();
     positions.sort_unstable();

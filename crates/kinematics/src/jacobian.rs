@@ -89,6 +89,7 @@ impl Model {
             ParamId::Tcp { id: t, axis } if t == tcp => chain.tool.r * unit(axis),
             ParamId::Tcp { id: t, .. } if self.tcp(t).is_some() => Vector3::zeros(),
             ParamId::Position { id: pos, .. } if self.position(pos).is_some() => Vector3::zeros(),
+            ParamId::Plane { id: pl, .. } if self.plane(pl).is_some() => Vector3::zeros(),
             ParamId::Effect(e) => self.effect_column(chain, q, ctx, p, e)?,
             _ => return Err(ModelError::ParamNotInModel(id.name())),
         })
@@ -248,11 +249,14 @@ impl Model {
         if let Target::Orientation { rotation } = &m.target {
             return self.orientation_predict(m, rotation);
         }
+        if let Some((plane, normal)) = crate::plane::plane_of(m) {
+            return self.plane_predict(m, plane, normal);
+        }
         let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
         Ok(match m.target {
             Target::Probe { position } => p - self.position_or_err(position)?,
             // orientation measurements returned above
-            Target::Tracker { .. } | Target::Orientation { .. } => p,
+            Target::Tracker { .. } | Target::Orientation { .. } | Target::Plane { .. } => p,
         })
     }
 
@@ -262,12 +266,15 @@ impl Model {
         if let Target::Orientation { rotation } = &m.target {
             return Ok(-self.orientation_predict(m, rotation)?);
         }
+        if let Some((plane, normal)) = crate::plane::plane_of(m) {
+            return Ok(-self.plane_predict(m, plane, normal)?);
+        }
         let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
         Ok(match m.target {
             Target::Probe { position } => self.position_or_err(position)? - p,
             Target::Tracker { xyz_mm } => xyz_mm - p,
             // returned above
-            Target::Orientation { .. } => Vector3::zeros(),
+            Target::Orientation { .. } | Target::Plane { .. } => Vector3::zeros(),
         })
     }
 
@@ -290,6 +297,10 @@ impl Model {
             assert_eq!(out.len(), 3 * params.len(), "measurement_jacobian_into: out has the wrong length");
             return self.orientation_jacobian_into(m, rotation, params, out);
         }
+        if let Some((plane, normal)) = crate::plane::plane_of(m) {
+            assert_eq!(out.len(), 3 * params.len(), "measurement_jacobian_into: out has the wrong length");
+            return self.plane_jacobian_into(m, plane, normal, params, out);
+        }
         let p = self.jacobian_into(&m.q, &m.context, m.tcp, params, out)?;
         match m.target {
             Target::Probe { position } => {
@@ -305,7 +316,7 @@ impl Model {
             }
             Target::Tracker { xyz_mm } => Ok(xyz_mm - p),
             // returned above
-            Target::Orientation { .. } => Ok(Vector3::zeros()),
+            Target::Orientation { .. } | Target::Plane { .. } => Ok(Vector3::zeros()),
         }
     }
 }

@@ -24,9 +24,11 @@ pub mod effects;
 mod jacobian;
 mod model;
 mod orientation;
+mod plane;
 
 pub use chain::{Chain, GravityLoads};
 pub use model::{MdhRow, Model, ModelError};
+pub use plane::ContactPlane;
 pub use vatcal_core::Frame;
 /// The cell file a [`Model`] is built from ([`Model::from_cell`]), re-exported so that a user of
 /// this crate needs no other.

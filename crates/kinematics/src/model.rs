@@ -36,6 +36,9 @@ pub enum ModelError {
     /// The calibration position id is not in the model.
     #[error("unknown calibration position id {0} (the model has positions {1:?})")]
     UnknownPosition(u32, Vec<u32>),
+    /// a plane row names a plane the model lacks
+    #[error("unknown contact plane id {0} (the model has planes {1:?})")]
+    UnknownPlane(u32, Vec<u32>),
     /// The parameter does not exist in this model (e.g. an effect that is not switched on).
     #[error("parameter `{0}` is not part of this model (switch its effect on first)")]
     ParamNotInModel(String),
@@ -88,6 +91,8 @@ pub struct Model {
     pub(crate) base: [f64; 6],
     pub(crate) tcps: Vec<(u32, Vector3<f64>)>,
     pub(crate) positions: Vec<(u32, Vector3<f64>)>,
+    /// contact planes of plane rows
+    pub(crate) planes: Vec<(u32, crate::plane::ContactPlane)>,
     /// joint limits (None = continuous revolute joint)
     pub(crate) limits: [Option<(f64, f64)>; MAX_JOINTS],
     /// limits with continuous joints as (-pi, pi), for [`Model::joint_limits`]
@@ -223,6 +228,7 @@ impl Model {
             base,
             tcps: cell.tcps.iter().map(point).collect(),
             positions: cell.calibration_positions.iter().map(point).collect(),
+            planes: cell.planes.iter().map(|e| (e.id, crate::plane::ContactPlane::from_entry(e))).collect(),
             limits,
             ranges,
             guide,
@@ -322,6 +328,7 @@ impl Model {
                 (p.x_mm, p.y_mm, p.z_mm) = (v.x, v.y, v.z);
             }
         }
+        cell.planes = self.planes.iter().map(|(id, p)| p.to_entry(*id)).collect();
         if Vector3::from(cell.gravity.vector_m_per_s2) != self.gravity {
             cell.gravity.vector_m_per_s2 = self.gravity.into();
         }
@@ -605,6 +612,7 @@ impl Model {
             ParamId::Base(_) => true,
             ParamId::Tcp { id, .. } => self.tcp(id).is_some(),
             ParamId::Position { id, .. } => self.position(id).is_some(),
+            ParamId::Plane { id, .. } => self.plane(id).is_some(),
             ParamId::Effect(_) => self.effect_values.contains_key(&id),
         }
     }
@@ -626,6 +634,7 @@ impl Model {
             ParamId::Base(b) => self.base[base_index(b)],
             ParamId::Tcp { id: t, axis } => self.tcp(t).ok_or_else(missing)?[axis.index()],
             ParamId::Position { id: p, axis } => self.position(p).ok_or_else(missing)?[axis.index()],
+            ParamId::Plane { id: p, dof } => self.plane(p).ok_or_else(missing)?.dof(dof),
             ParamId::Effect(_) => *self.effect_values.get(&id).ok_or_else(missing)?,
         })
     }
@@ -668,6 +677,11 @@ impl Model {
                     e.1[axis.index()] = value;
                 }
             }
+            ParamId::Plane { id: p, dof } => {
+                if let Some(e) = self.plane_mut(p) {
+                    e.set_dof(dof, value);
+                }
+            }
             ParamId::Effect(_) => {
                 self.effect_values.insert(id, value);
             }
@@ -694,6 +708,9 @@ impl Model {
     /// Every parameter this model has: the built-ins and those of switched-on effects.
     pub fn all_params(&self) -> ParamSet {
         let mut s = ParamSet::all_builtin_chain(self.joint_kinds(), &self.tcp_ids(), &self.position_ids());
+        for id in self.plane_ids() {
+            s.0.extend(vatcal_core::PlaneDof::ALL.iter().map(|dof| ParamId::Plane { id, dof: *dof }));
+        }
         s.0.extend(self.effect_values.keys().copied());
         s
     }

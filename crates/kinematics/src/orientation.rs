@@ -60,12 +60,30 @@ impl Model {
         let mut work = self.clone();
         for (j, id) in params.iter().enumerate() {
             let col = match id {
-                ParamId::Tcp { .. } | ParamId::Position { .. } => Vector3::zeros(),
+                ParamId::Tcp { .. } | ParamId::Position { .. } | ParamId::Plane { .. } => Vector3::zeros(),
                 _ => work.orientation_column(m, rotation, *id)?,
             };
             out[3 * j..3 * j + 3].copy_from_slice(col.as_slice());
         }
         Ok(-base)
+    }
+
+    /// A copy of the model with the effect that owns `id` switched on (at zero), for the
+    /// finite-difference columns of a parameter the model lacks.
+    ///
+    /// # Errors
+    /// [`ModelError::ParamNotInModel`] when no catalog effect owns `id` on this model.
+    pub(crate) fn with_effect_of(&self, id: ParamId) -> Result<Model, ModelError> {
+        let mut on = self.clone();
+        if let ParamId::Effect(e) = id
+            && let Some(spec) = e.kind().effect().and_then(|eff| eff.owner(&e))
+        {
+            on.enable_effect(spec)?;
+        }
+        if !on.has_param(id) {
+            return Err(ModelError::ParamNotInModel(id.name()));
+        }
+        Ok(on)
     }
 
     /// One central-difference column; the model is restored afterwards.
@@ -76,15 +94,7 @@ impl Model {
         id: ParamId,
     ) -> Result<Vector3<f64>, ModelError> {
         if !self.has_param(id) {
-            let mut on = self.clone();
-            if let ParamId::Effect(e) = id
-                && let Some(spec) = e.kind().effect().and_then(|eff| eff.owner(&e))
-            {
-                on.enable_effect(spec)?;
-            }
-            if !on.has_param(id) {
-                return Err(ModelError::ParamNotInModel(id.name()));
-            }
+            let mut on = self.with_effect_of(id)?;
             return on.orientation_column(m, rotation, id);
         }
         let v = self.param(id)?;

@@ -17,10 +17,14 @@
 //! data at **unknown** fixed points ([`DataDesign::free_positions`]) the base pose is absorbed
 //! by the points and drops out; without a known distance between two points
 //! ([`DataDesign::distances`]) a `kinematic` fit also loses the overall scale (one length).
+//! Plane rows at **unknown** planes ([`DataDesign::free_planes`]) are the same: the plane's
+//! tilts and offset come first, the base pose drops out, and without a known distance between
+//! two parallel planes ([`DataDesign::plane_distances`]) the scale is lost.
 
 use faer::Mat;
+use nalgebra::Vector3;
 use vatcal_core::params::{Axis, EffectParam, ToolFrameDof};
-use vatcal_core::{BaseParam, Measurement, ParamId, ParamSet, PointDistance};
+use vatcal_core::{BaseParam, Measurement, ParamId, ParamSet, PlaneDistance, PlaneDof, PointDistance};
 use vatcal_kinematics::Model;
 
 use crate::ObservabilityError;
@@ -82,6 +86,11 @@ pub struct DataDesign {
     pub free_positions: Vec<u32>,
     /// known distances between fixed points (one residual row each)
     pub distances: Vec<PointDistance>,
+    /// ids of the contact planes whose normal and offset are unknown (identified)
+    pub free_planes: Vec<u32>,
+    /// known distances between parallel contact planes (three residual rows each:
+    /// [`plane_distance_rows`])
+    pub plane_distances: Vec<PlaneDistance>,
 }
 
 impl DataDesign {
@@ -108,8 +117,96 @@ impl DataDesign {
                 )));
             }
         }
+        let planes = model.plane_ids();
+        for (what, id) in self.free_planes.iter().map(|id| ("unknown plane", *id)).chain(
+            self.plane_distances
+                .iter()
+                .flat_map(|d| [("plane distance: plane", d.a), ("plane distance: plane", d.b)]),
+        ) {
+            if !planes.contains(&id) {
+                return Err(ObservabilityError::InvalidInput(format!(
+                    "{what} {id} is not a contact plane of the model or the data (known: {planes:?})"
+                )));
+            }
+        }
         Ok(())
     }
+
+    /// Rows the known distances add after the measurement rows: one per point distance,
+    /// three per plane distance.
+    pub fn constraint_rows(&self) -> usize {
+        self.distances.len() + 3 * self.plane_distances.len()
+    }
+
+    /// Every constraint row's residual and Jacobian row over `params` (point distances, then
+    /// plane distances), handed to `each(row index, residual, jacobian row)` in order.
+    ///
+    /// # Errors
+    /// As [`distance_row`] and [`plane_distance_rows`].
+    pub fn for_each_constraint_row(
+        &self,
+        model: &Model,
+        params: &[ParamId],
+        mut each: impl FnMut(usize, f64, &[f64]),
+    ) -> Result<(), ObservabilityError> {
+        let l = params.len();
+        let mut row = vec![0.0; 3 * l];
+        for (k, d) in self.distances.iter().enumerate() {
+            let e = distance_row(model, d, params, &mut row[..l])?;
+            each(k, e, &row[..l]);
+        }
+        for (k, d) in self.plane_distances.iter().enumerate() {
+            let e = plane_distance_rows(model, d, params, &mut row)?;
+            for (r, e) in e.iter().enumerate() {
+                each(self.distances.len() + 3 * k + r, *e, &row[r * l..(r + 1) * l]);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The three residuals of a known distance between parallel planes at `model`
+/// ([`PlaneDistance`]: `distance_mm − (offset_b − offset_a)` and the parallelism
+/// `−L·(n_b − n_a)·u_a`, `−L·(n_b − n_a)·v_a`) and their Jacobian rows over `params`, row-major
+/// into `rows` (`3 × params.len()`; the sign convention of the measurement rows:
+/// `d(model − observed)/dρ`).
+///
+/// # Errors
+/// [`ObservabilityError::InvalidInput`] when a plane is not in the model.
+pub fn plane_distance_rows(
+    model: &Model,
+    d: &PlaneDistance,
+    params: &[ParamId],
+    rows: &mut [f64],
+) -> Result<[f64; 3], ObservabilityError> {
+    let plane = |id: u32| {
+        model.plane(id).copied().ok_or_else(|| {
+            ObservabilityError::InvalidInput(format!(
+                "plane distance {},{}: plane {id} is not a contact plane of the model",
+                d.a, d.b
+            ))
+        })
+    };
+    let (pa, pb) = (plane(d.a)?, plane(d.b)?);
+    let (u, v) = pa.basis();
+    let lever = PlaneDistance::PARALLEL_LEVER_MM;
+    let dn = pb.normal() - pa.normal();
+    let l = params.len();
+    for (c, p) in params.iter().enumerate() {
+        let (off, dnormal) = match *p {
+            ParamId::Plane { id, dof } if id == d.b => {
+                (if dof == PlaneDof::Offset { 1.0 } else { 0.0 }, pb.normal_derivative(dof))
+            }
+            ParamId::Plane { id, dof } if id == d.a => {
+                (if dof == PlaneDof::Offset { -1.0 } else { 0.0 }, -pa.normal_derivative(dof))
+            }
+            _ => (0.0, Vector3::zeros()),
+        };
+        rows[c] = off;
+        rows[l + c] = lever * dnormal.dot(&u);
+        rows[2 * l + c] = lever * dnormal.dot(&v);
+    }
+    Ok([d.distance_mm - (pb.offset_mm - pa.offset_mm), -lever * dn.dot(&u), -lever * dn.dot(&v)])
 }
 
 /// The residual `distance_mm − |p_a − p_b|` of a known distance at `model`, and its Jacobian
@@ -163,19 +260,17 @@ pub fn assemble_design_jacobian(
     params: &ParamSet,
 ) -> Result<Mat<f64>, ObservabilityError> {
     let j = assemble_jacobian(model, measurements, params)?;
-    if design.distances.is_empty() {
+    if design.constraint_rows() == 0 {
         return Ok(j);
     }
     let (m, l) = (j.nrows(), params.len());
-    let mut out = Mat::<f64>::zeros(m + design.distances.len(), l);
+    let mut out = Mat::<f64>::zeros(m + design.constraint_rows(), l);
     out.as_mut().get_mut(..m, ..).copy_from(j.as_ref());
-    let mut row = vec![0.0; l];
-    for (k, d) in design.distances.iter().enumerate() {
-        distance_row(model, d, &params.0, &mut row)?;
+    design.for_each_constraint_row(model, &params.0, |k, _, row| {
         for (c, v) in row.iter().enumerate() {
             out[(m + k, c)] = *v;
         }
-    }
+    })?;
     Ok(out)
 }
 
@@ -214,6 +309,8 @@ pub fn anchored(measurements: &[Measurement], design: &DataDesign) -> bool {
         vatcal_core::Target::Probe { position } => !design.free_positions.contains(&position),
         // fixes the world frame's rotation only, not its origin
         vatcal_core::Target::Orientation { .. } => false,
+        // a known plane fixes the height along its normal (the rank test drops the rest)
+        vatcal_core::Target::Plane { plane, .. } => !design.free_planes.contains(&plane),
     })
 }
 
@@ -233,6 +330,9 @@ pub fn generic_order(
     let mut v: Vec<ParamId> = Vec::new();
     for id in &design.free_positions {
         v.extend(xyz(&|axis| ParamId::Position { id: *id, axis }));
+    }
+    for id in &design.free_planes {
+        v.extend(PlaneDof::ALL.map(|dof| ParamId::Plane { id: *id, dof }));
     }
     for id in measured_tcps(measurements) {
         v.extend(xyz(&|axis| ParamId::Tcp { id, axis }));

@@ -98,6 +98,7 @@ impl ImportedChain {
                 z_mm: self.tcp_mm[2],
             }],
             calibration_positions: vec![PointEntry { id: 1, x_mm: x, y_mm: y, z_mm: z }],
+            planes: Vec::new(),
             gravity: Gravity { vector_m_per_s2: DEFAULT_GRAVITY_M_PER_S2 },
             inertials: Inertials {
                 links: self.inertials.clone(),

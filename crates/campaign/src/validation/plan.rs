@@ -365,7 +365,7 @@ impl SliceRecord {
             .iter()
             .filter_map(|m| match m.target {
                 Target::Tracker { xyz_mm } => Some((m.tcp, xyz_mm)),
-                Target::Probe { .. } | Target::Orientation { .. } => None,
+                Target::Probe { .. } | Target::Orientation { .. } | Target::Plane { .. } => None,
             })
             .collect()
     }

@@ -80,6 +80,12 @@ pub struct Args {
     /// the data rows by their own fitted scatter. Repeatable.
     #[arg(long = "point-distance")]
     pub point_distances: Vec<String>,
+    /// A known distance between two parallel contact planes of plane rows, `A,B,MM` or
+    /// `A,B,MM,SIGMA_MM` (plane B lies MM above plane A along their common normal, e.g. a gauge
+    /// block's top face on a table; default sigma 0.01 mm, also of their parallelism over
+    /// 100 mm): fixes the scale plane rows alone leave free. Repeatable.
+    #[arg(long = "plane-distance", value_name = "A,B,MM[,SIGMA_MM]")]
+    pub plane_distances: Vec<String>,
     /// `--params default` on a chain other than the canonical cell: number of folds of the
     /// cross-validation that chooses the prior scale (posture groups dealt into K folds; K at
     /// least the number of postures: leave-one-posture-out).
@@ -147,6 +153,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         &measurements,
         &sources,
     )?;
+    // plane rows: planes the cell lacks are identified
+    let (model, free_planes) =
+        super::planes::model_with_unknown_planes(&mut cell, model, &args.model, &measurements)?;
     let model = with_tool_rotation(model, &measurements)?;
     let method: Method = args.method.parse().map_err(anyhow::Error::msg).context("--method")?;
     let distances = args
@@ -154,8 +163,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         .iter()
         .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let design = DataDesign { free_positions, distances };
-    design.check(&model).context("--point-distance / --unknown-positions")?;
+    let design = DataDesign {
+        free_positions,
+        distances,
+        free_planes,
+        plane_distances: super::planes::plane_distances(&args.plane_distances)?,
+    };
+    design.check(&model).context("--point-distance / --plane-distance / --unknown-positions")?;
     let options = IdentifyOptions {
         method,
         max_iterations: args.max_iterations,
@@ -165,6 +179,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             tracker: args.tracker_weight,
             orientation: stated_orientation_weight(&args, &measurements)?
                 .unwrap_or(KindWeights::DEFAULT_ORIENTATION),
+            plane: 1.0,
         },
         ..IdentifyOptions::default()
     };
@@ -178,7 +193,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     println!(
         "identifying `{}` from {} with {method}",
         args.params.trim(),
-        row_counts(&measurements, design.distances.len())
+        row_counts(&measurements, design.distances.len() + design.plane_distances.len())
     );
     let bad_rows = BadRowArgs::of(&args)?;
     let fitted = calibrate_weighed(&args, &bad_rows, &model, &measurements, &design, &options, &cv);
@@ -328,16 +343,21 @@ fn calibrate_rows(
     Ok((calibrate(model, rows, spec, design, options, cv)?, Handling::Kept))
 }
 
-/// The summary's counts: "N measurements (P probe, T tracker[, O orientation][, D known
-/// distance(s)])"; a pose row counts as one tracker and one orientation measurement.
+/// The summary's counts: "N measurements (P probe, T tracker[, O orientation][, C plane
+/// contact(s)][, D known distance(s)])"; a pose row counts as one tracker and one orientation
+/// measurement.
 fn row_counts(rows: &[Measurement], distances: usize) -> String {
     let count = |f: fn(&Target) -> bool| rows.iter().filter(|m| f(&m.target)).count();
     let n_probe = count(|t| matches!(t, Target::Probe { .. }));
     let n_orientation = count(Target::is_orientation);
-    let n_tracker = rows.len() - n_probe - n_orientation;
+    let n_plane = count(Target::is_plane);
+    let n_tracker = rows.len() - n_probe - n_orientation - n_plane;
     let mut text = format!("{} measurements ({n_probe} probe, {n_tracker} tracker", rows.len());
     if n_orientation > 0 {
         text += &format!(", {n_orientation} orientation");
+    }
+    if n_plane > 0 {
+        text += &format!(", {n_plane} plane contact(s)");
     }
     if distances > 0 {
         text += &format!(", {distances} known distance(s)");

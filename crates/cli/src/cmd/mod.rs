@@ -12,6 +12,7 @@ pub mod import_urdf;
 pub mod markers;
 pub mod observability;
 pub mod plan;
+pub mod planes;
 pub mod read_args;
 pub mod select;
 pub mod shared;

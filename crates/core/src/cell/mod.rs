@@ -31,7 +31,7 @@ mod validate;
 
 pub use tables::{
     BaseInWorld, BoxObstacle, CylinderObstacle, EffectEntry, Gravity, Inertials, JointRow, LinkInertial,
-    MotionLimits, Obstacles, PlaneObstacle, PointEntry, RobotInfo, ToolInertial, Units,
+    MotionLimits, Obstacles, PlaneEntry, PlaneObstacle, PointEntry, RobotInfo, ToolInertial, Units,
 };
 
 /// The value of the `format` key of version 1 (the Meca500-on-guide cell).
@@ -99,6 +99,9 @@ pub struct CellFile {
     pub tcps: Vec<PointEntry>,
     /// calibration positions in the world
     pub calibration_positions: Vec<PointEntry>,
+    /// contact planes in the world (optional, for plane rows)
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub planes: Vec<PlaneEntry>,
     /// gravity
     pub gravity: Gravity,
     /// link and tool inertials

@@ -119,6 +119,29 @@ pub struct PointEntry {
     pub z_mm: f64,
 }
 
+/// A `[[planes]]` entry (optional): a contact plane `normal·x = offset_mm` in the world,
+/// known to the cell (its plane rows are then fitted with the plane held fixed). Planes that
+/// plane rows name and the cell file lacks are identified with the rest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlaneEntry {
+    /// plane id (the `plane` column of plane rows)
+    pub id: u32,
+    /// normal direction in the world (any non-zero length; normalised on load)
+    pub normal: [f64; 3],
+    /// signed distance of the plane from the world origin along the unit normal \[mm\]
+    pub offset_mm: f64,
+    /// radius of the flat contact face pressed on the plane when the tool axis is held
+    /// normal to it \[mm\]: the lever at which a tilt becomes a height error (optional;
+    /// default [`PlaneEntry::DEFAULT_CONTACT_RADIUS_MM`])
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_radius_mm: Option<f64>,
+}
+
+impl PlaneEntry {
+    /// Default contact-face radius \[mm\].
+    pub const DEFAULT_CONTACT_RADIUS_MM: f64 = 50.0;
+}
+
 /// `[gravity]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Gravity {

@@ -53,6 +53,7 @@ impl CellFile {
         }
         self.check_base(&c)?;
         self.check_points(&c)?;
+        self.check_planes(&c)?;
         for (k, v) in self.gravity.vector_m_per_s2.iter().enumerate() {
             c.finite(format!("gravity.vector_m_per_s2[{k}]"), *v)?;
         }
@@ -188,6 +189,32 @@ impl CellFile {
                 for (name, v) in [("x_mm", p.x_mm), ("y_mm", p.y_mm), ("z_mm", p.z_mm)] {
                     c.finite(format!("{table}[id={}].{name}", p.id), v)?;
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// `[[planes]]`: unique ids, a finite non-zero normal, a finite offset, a positive
+    /// contact radius.
+    fn check_planes(&self, c: &Check<'_>) -> Result<(), CellError> {
+        let mut ids = BTreeSet::new();
+        for (k, p) in self.planes.iter().enumerate() {
+            if !ids.insert(p.id) {
+                return Err(c.bad(format!("planes[{k}].id"), format!("duplicate id {}", p.id)));
+            }
+            for v in p.normal {
+                c.finite(format!("planes[id={}].normal", p.id), v)?;
+            }
+            if p.normal.iter().map(|v| v * v).sum::<f64>().sqrt() < 1e-9 {
+                return Err(c.bad(format!("planes[id={}].normal", p.id), "must not be zero".into()));
+            }
+            c.finite(format!("planes[id={}].offset_mm", p.id), p.offset_mm)?;
+            if let Some(r) = p.contact_radius_mm
+                && !(r.is_finite() && r > 0.0)
+            {
+                return Err(
+                    c.bad(format!("planes[id={}].contact_radius_mm", p.id), format!("must be > 0, got {r}"))
+                );
             }
         }
         Ok(())

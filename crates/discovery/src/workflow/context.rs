@@ -116,11 +116,7 @@ impl Context<'_> {
 
 /// Weight of a measurement's kind.
 pub(super) fn kind_weight(m: &Measurement, w: &KindWeights) -> f64 {
-    match m.target {
-        vatcal_core::Target::Probe { .. } => w.probe,
-        vatcal_core::Target::Tracker { .. } => w.tracker,
-        vatcal_core::Target::Orientation { .. } => w.orientation,
-    }
+    w.of(&m.target)
 }
 
 /// Multiplies the row block of every measurement by `√w` of its kind.

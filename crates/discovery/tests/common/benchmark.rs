@@ -580,7 +580,7 @@ impl Truth {
                 c.probe_offset_mm = Some(m.probe_offset_mm.unwrap_or_else(Vector3::zeros) - d);
             }
             Target::Tracker { xyz_mm } => c.target = Target::Tracker { xyz_mm: xyz_mm - d },
-            Target::Orientation { .. } => {}
+            Target::Orientation { .. } | Target::Plane { .. } => {}
         }
         c
     }
@@ -1253,7 +1253,7 @@ fn measure_poses(truth: &Truth, poses: &Poses, rng: &mut ChaCha8Rng) -> Option<V
                 let p = truth.position(&m.q, &m.context, m.tcp)? + noise(rng, TRACKER_SIGMA_MM);
                 measurements.push(Measurement { context: m.context, ..Measurement::tracker(m.tcp, m.q, p) });
             }
-            Target::Orientation { .. } => {}
+            Target::Orientation { .. } | Target::Plane { .. } => {}
         }
     }
     Some(measurements)
@@ -1306,7 +1306,7 @@ impl CaseData {
                         out.push(Measurement { context: ctx, ..Measurement::tracker(m.tcp, m.q, xyz) });
                     }
                 }
-                Target::Orientation { .. } => {}
+                Target::Orientation { .. } | Target::Plane { .. } => {}
             }
         }
         out
@@ -1535,7 +1535,7 @@ pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
                 Target::Tracker { xyz_mm } => {
                     xyz_mm - data.truth.position(&m.q, &m.context, m.tcp).unwrap_or(xyz_mm)
                 }
-                Target::Probe { .. } | Target::Orientation { .. } => Vector3::zeros(),
+                Target::Probe { .. } | Target::Orientation { .. } | Target::Plane { .. } => Vector3::zeros(),
             })
             .collect();
         ErrorStats::from_errors(&e).mean

@@ -184,7 +184,9 @@ fn generated_rows_sit_on_the_truth_and_the_correction_removes_the_extra_physics(
                 (data.truth.model.position(position).expect("position"), PROBE_SIGMA_MM)
             }
             Target::Tracker { xyz_mm } => (xyz_mm, TRACKER_SIGMA_MM),
-            Target::Orientation { .. } => unreachable!("the benchmark has no orientation rows"),
+            Target::Orientation { .. } | Target::Plane { .. } => {
+                unreachable!("the benchmark has no orientation or plane rows")
+            }
         };
         assert!((observed - p).norm() < 6.0 * sigma, "row off the truth by {} mm", (observed - p).norm());
         // corrected: the model part alone explains the row

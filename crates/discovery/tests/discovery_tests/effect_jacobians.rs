@@ -97,7 +97,9 @@ fn predict_fixed_tau(model: &Model, m: &Measurement, loads: &GravityLoads) -> Ve
     match m.target {
         Target::Probe { position } => p - model.position(position).expect("known position"),
         Target::Tracker { .. } => p,
-        Target::Orientation { .. } => unreachable!("no orientation rows here"),
+        Target::Orientation { .. } | Target::Plane { .. } => {
+            unreachable!("no orientation or plane rows here")
+        }
     }
 }
 

@@ -157,6 +157,7 @@ fn two_unknown_sockets_with_a_known_distance_identify_to_the_noise_floor() {
     let design = DataDesign {
         free_positions: ids.clone(),
         distances: vec![PointDistance { a: ids[0], b: ids[1], distance_mm: 50.0, sigma_mm: 0.005 }],
+        ..DataDesign::default()
     };
     let cal =
         calibrate(&nominal, &train, "default", &design, &IdentifyOptions::default(), &CvOptions::default())
@@ -209,6 +210,7 @@ fn a_known_distance_is_weighed_by_the_fits_own_sigma() {
     let design = DataDesign {
         free_positions: ids.clone(),
         distances: vec![PointDistance { a: ids[0], b: ids[1], distance_mm: 50.0, sigma_mm: 0.01 }],
+        ..DataDesign::default()
     };
     let fit_with = |sigma_mm: f64, from_fit: bool| {
         let options = IdentifyOptions {

@@ -9,3 +9,4 @@ mod independent;
 mod link_bending;
 mod link_out_of_plane;
 mod orientation;
+mod plane;

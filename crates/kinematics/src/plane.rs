@@ -1,0 +1,265 @@
+//! Contact planes and plane contacts ([`Target::Plane`]): the plane's geometry, the residual
+//! block of a plane row and its parameter Jacobian.
+//!
+//! A plane is `n·x = offset` in the world frame, with `n = normalize(n₀ + tilt_u·u + tilt_v·v)`
+//! (`n₀` the reference normal, `u`, `v` a fixed orthonormal basis of the plane it spans;
+//! [`PlaneDof`]). A plane row's residual block has three rows \[mm\]:
+//!
+//! 1. `offset − n·p`: minus the TCP's height `p` above the plane;
+//! 2. and 3., only when the tool axis was held normal to the plane: `−r·u·(n × z)` and
+//!    `−r·v·(n × z)`, with `z` the tool-changer frame's z axis and `r` the contact-face
+//!    radius: the height error at the rim of a flat face of radius `r` whose axis is tilted by
+//!    `|n × z|` (either sign of `z` is normal). Without the normal they are zero, with zero
+//!    Jacobian rows ([`Target::residual_rows`] counts 1).
+//!
+//! The Jacobian of row 1 is analytic (`nᵀ` times the position Jacobian, and the plane's own
+//! columns); rows 2–3 use the analytic plane columns and central finite differences of the
+//! tool axis for the other parameters (as orientation rows do, see the `orientation` module).
+
+use nalgebra::Vector3;
+use vatcal_core::{Measurement, ParamId, PlaneDof, Target, cell::PlaneEntry};
+
+use crate::model::{Model, ModelError};
+
+/// Relative finite-difference step of the tool-axis rows (times the parameter's typical
+/// scale), as for orientation rows.
+const FD_STEP: f64 = 1e-3;
+
+/// A contact plane of the model (internal units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactPlane {
+    reference_normal: Vector3<f64>,
+    u: Vector3<f64>,
+    v: Vector3<f64>,
+    /// tilt of the normal towards `u` \[rad\]
+    pub tilt_u: f64,
+    /// tilt of the normal towards `v` \[rad\]
+    pub tilt_v: f64,
+    /// signed distance from the world origin along the normal \[mm\]
+    pub offset_mm: f64,
+    /// radius of the contact face for the tool-axis rows \[mm\]
+    pub contact_radius_mm: f64,
+}
+
+impl ContactPlane {
+    /// A plane with normal `normal` (any non-zero length) at `offset_mm` from the world origin,
+    /// tilts zero.
+    ///
+    /// # Examples
+    /// ```
+    /// use nalgebra::Vector3;
+    /// use vatcal_kinematics::ContactPlane;
+    ///
+    /// let table = ContactPlane::new(Vector3::new(0.0, 0.0, 2.0), 10.0, 50.0);
+    /// assert!((table.height_mm(&Vector3::new(3.0, 4.0, 12.5)) - 2.5).abs() < 1e-12);
+    /// ```
+    pub fn new(normal: Vector3<f64>, offset_mm: f64, contact_radius_mm: f64) -> Self {
+        let n = normal.normalize();
+        // the world axis least aligned with n gives a well-conditioned tangent basis
+        let k = (0..3).min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs())).unwrap_or(0);
+        let u = Vector3::ith(k, 1.0).cross(&n).normalize();
+        let v = n.cross(&u);
+        Self { reference_normal: n, u, v, tilt_u: 0.0, tilt_v: 0.0, offset_mm, contact_radius_mm }
+    }
+
+    /// From a cell file's `[[planes]]` entry.
+    pub fn from_entry(e: &PlaneEntry) -> Self {
+        Self::new(
+            Vector3::from(e.normal),
+            e.offset_mm,
+            e.contact_radius_mm.unwrap_or(PlaneEntry::DEFAULT_CONTACT_RADIUS_MM),
+        )
+    }
+
+    /// The unit normal.
+    pub fn normal(&self) -> Vector3<f64> {
+        self.unnormalised().normalize()
+    }
+
+    fn unnormalised(&self) -> Vector3<f64> {
+        self.reference_normal + self.tilt_u * self.u + self.tilt_v * self.v
+    }
+
+    /// The fixed tangent basis `(u, v)` of the reference normal.
+    pub fn basis(&self) -> (Vector3<f64>, Vector3<f64>) {
+        (self.u, self.v)
+    }
+
+    /// Derivative of the unit normal with respect to a tilt (zero for the offset).
+    pub fn normal_derivative(&self, dof: PlaneDof) -> Vector3<f64> {
+        let w = self.unnormalised();
+        let n = w / w.norm();
+        let dir = match dof {
+            PlaneDof::TiltU => self.u,
+            PlaneDof::TiltV => self.v,
+            PlaneDof::Offset => return Vector3::zeros(),
+        };
+        (dir - n * n.dot(&dir)) / w.norm()
+    }
+
+    /// Signed height of the point `p` above the plane \[mm\].
+    pub fn height_mm(&self, p: &Vector3<f64>) -> f64 {
+        self.normal().dot(p) - self.offset_mm
+    }
+
+    /// The value of one degree of freedom.
+    pub fn dof(&self, dof: PlaneDof) -> f64 {
+        match dof {
+            PlaneDof::TiltU => self.tilt_u,
+            PlaneDof::TiltV => self.tilt_v,
+            PlaneDof::Offset => self.offset_mm,
+        }
+    }
+
+    /// Sets one degree of freedom.
+    pub fn set_dof(&mut self, dof: PlaneDof, value: f64) {
+        match dof {
+            PlaneDof::TiltU => self.tilt_u = value,
+            PlaneDof::TiltV => self.tilt_v = value,
+            PlaneDof::Offset => self.offset_mm = value,
+        }
+    }
+
+    /// The cell file entry of this plane (its current normal and offset; tilts folded in).
+    pub fn to_entry(&self, id: u32) -> PlaneEntry {
+        let n = self.normal();
+        PlaneEntry {
+            id,
+            normal: [n.x, n.y, n.z],
+            offset_mm: self.offset_mm,
+            contact_radius_mm: Some(self.contact_radius_mm),
+        }
+    }
+
+    /// The tool-axis rows (2 and 3 of the block) predicted for tool axis `z`: `r·u·(n × z)`,
+    /// `r·v·(n × z)` \[mm\].
+    fn axis_rows(&self, n: &Vector3<f64>, z: &Vector3<f64>) -> [f64; 2] {
+        let c = n.cross(z);
+        [self.contact_radius_mm * self.u.dot(&c), self.contact_radius_mm * self.v.dot(&c)]
+    }
+}
+
+impl Model {
+    /// Ids of the contact planes, in order.
+    pub fn plane_ids(&self) -> Vec<u32> {
+        self.planes.iter().map(|p| p.0).collect()
+    }
+
+    /// Contact plane `id`.
+    pub fn plane(&self, id: u32) -> Option<&ContactPlane> {
+        self.planes.iter().find(|p| p.0 == id).map(|p| &p.1)
+    }
+
+    pub(crate) fn plane_mut(&mut self, id: u32) -> Option<&mut ContactPlane> {
+        self.planes.iter_mut().find(|p| p.0 == id).map(|p| &mut p.1)
+    }
+
+    pub(crate) fn plane_or_err(&self, id: u32) -> Result<&ContactPlane, ModelError> {
+        self.plane(id).ok_or_else(|| ModelError::UnknownPlane(id, self.plane_ids()))
+    }
+
+    /// Adds (or replaces) contact plane `id` (e.g. a plane the cell file lacks, first estimated
+    /// from the data; see `vatcal_identification::estimate_planes`).
+    pub fn insert_plane(&mut self, id: u32, plane: ContactPlane) {
+        match self.plane_mut(id) {
+            Some(p) => *p = plane,
+            None => self.planes.push((id, plane)),
+        }
+    }
+
+    /// The predicted block of a plane row (minus its residual; ideally 0) \[mm\] (module docs).
+    pub(crate) fn plane_predict(
+        &self,
+        m: &Measurement,
+        plane: u32,
+        normal: bool,
+    ) -> Result<Vector3<f64>, ModelError> {
+        let pl = self.plane_or_err(plane)?;
+        let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
+        let mut out = Vector3::new(pl.height_mm(&p), 0.0, 0.0);
+        if normal {
+            let z = self.tool_rotation_ctx(&m.q, &m.context)?.column(2).into_owned();
+            let [a, b] = pl.axis_rows(&pl.normal(), &z);
+            (out.y, out.z) = (a, b);
+        }
+        Ok(out)
+    }
+
+    /// Jacobian of [`Model::plane_predict`] with respect to `params`, column-major into `out`
+    /// (module docs); returns the residual.
+    pub(crate) fn plane_jacobian_into(
+        &self,
+        m: &Measurement,
+        plane: u32,
+        normal: bool,
+        params: &[ParamId],
+        out: &mut [f64],
+    ) -> Result<Vector3<f64>, ModelError> {
+        let pl = *self.plane_or_err(plane)?;
+        let n = pl.normal();
+        // position Jacobian of the TCP (zero columns for the plane's own parameters)
+        let p = self.jacobian_into(&m.q, &m.context, m.tcp, params, out)?;
+        let z = if normal {
+            Some(self.tool_rotation_ctx(&m.q, &m.context)?.column(2).into_owned())
+        } else {
+            None
+        };
+        let mut work = normal.then(|| self.clone());
+        for (j, id) in params.iter().enumerate() {
+            let col = Vector3::new(out[3 * j], out[3 * j + 1], out[3 * j + 2]);
+            let mut block = [n.dot(&col), 0.0, 0.0];
+            match *id {
+                ParamId::Plane { id, dof } if id == plane => {
+                    let dn = pl.normal_derivative(dof);
+                    block[0] = dn.dot(&p) - if dof == PlaneDof::Offset { 1.0 } else { 0.0 };
+                    if let Some(z) = &z {
+                        let c = dn.cross(z);
+                        block[1] = pl.contact_radius_mm * pl.u.dot(&c);
+                        block[2] = pl.contact_radius_mm * pl.v.dot(&c);
+                    }
+                }
+                ParamId::Plane { .. } | ParamId::Tcp { .. } | ParamId::Position { .. } => {}
+                _ => {
+                    if let Some(w) = work.as_mut() {
+                        let dz = w.tool_axis_column(m, *id)?;
+                        [block[1], block[2]] = pl.axis_rows(&n, &dz);
+                    }
+                }
+            }
+            out[3 * j..3 * j + 3].copy_from_slice(&block);
+        }
+        let mut predicted = Vector3::new(pl.height_mm(&p), 0.0, 0.0);
+        if let Some(z) = &z {
+            let [a, b] = pl.axis_rows(&n, z);
+            (predicted.y, predicted.z) = (a, b);
+        }
+        Ok(-predicted)
+    }
+
+    /// Central-difference derivative of the tool axis (z of the tool-changer frame) with
+    /// respect to one parameter; the model is restored afterwards. A parameter of an effect
+    /// that is not switched on is differenced on a copy with the effect on (the derivative at
+    /// zero).
+    fn tool_axis_column(&mut self, m: &Measurement, id: ParamId) -> Result<Vector3<f64>, ModelError> {
+        if !self.has_param(id) {
+            let mut on = self.with_effect_of(id)?;
+            return on.tool_axis_column(m, id);
+        }
+        let v = self.param(id)?;
+        let h = FD_STEP * id.typical_scale();
+        self.set_param(id, v + h)?;
+        let plus = self.tool_rotation_ctx(&m.q, &m.context).map(|r| r.column(2).into_owned());
+        self.set_param(id, v - h)?;
+        let minus = self.tool_rotation_ctx(&m.q, &m.context).map(|r| r.column(2).into_owned());
+        self.set_param(id, v)?;
+        Ok((plus? - minus?) / (2.0 * h))
+    }
+}
+
+/// Whether a measurement is a plane row with the tool axis held normal.
+pub(crate) fn plane_of(m: &Measurement) -> Option<(u32, bool)> {
+    match m.target {
+        Target::Plane { plane, normal } => Some((plane, normal)),
+        _ => None,
+    }
+}
