@@ -51,7 +51,7 @@ pub const CANONICAL_CELL_TOML: &str = include_str!("../cells/meca500-zaber.toml"
 pub use effects::{EffectKind, EffectSpec, ThermalDriver};
 pub use frame::Frame;
 pub use measurement::{
-    Measurement, MeasurementContext, PlaneDistance, PointDistance, Target, rotation_error,
+    Measurement, MeasurementContext, PlaneDistance, PointDistance, Target, informative_rows, rotation_error,
 };
 pub use params::{Axis, BaseParam, ParamId, ParamSet, PlaneDof, ToolFrameDof};
 pub use units::{

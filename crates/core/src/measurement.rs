@@ -96,6 +96,13 @@ impl Target {
     }
 }
 
+/// The residual rows that carry information over a set of measurements (the sum of
+/// [`Target::residual_rows`]: 3 per point, pose half or plane contact with the tool axis held
+/// normal, 1 per plane contact without): the equations a fit's degrees of freedom count.
+pub fn informative_rows(measurements: &[Measurement]) -> usize {
+    measurements.iter().map(|m| m.target.residual_rows()).sum()
+}
+
 /// Rotation-vector error `log(measured · modelᵀ)` \[rad\] (world axes) between two rotation
 /// matrices: the small rotation that takes the model's orientation to the measured one.
 /// Computed as `atan2(‖v‖, c) · v/‖v‖` from the skew part `v` and `c = (tr − 1)/2`, accurate

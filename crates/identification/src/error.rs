@@ -67,9 +67,9 @@ pub enum IdentifyError {
     NoParameters,
     /// Not more equations than unknowns: the noise level (and hence the uncertainties) cannot
     /// be estimated.
-    #[error("{equations} equations (3 per measurement) for {params} parameters: need more than {params} equations, i.e. at least {} measurements", params / 3 + 1)]
+    #[error("{equations} equations (3 per point measurement, 1 per plane contact) for {params} parameters: need more than {params} equations, i.e. at least {} point measurements", params / 3 + 1)]
     TooFewMeasurements {
-        /// 3 × number of measurements
+        /// the informative residual rows (`vatcal_core::informative_rows`)
         equations: usize,
         /// number of parameters
         params: usize,

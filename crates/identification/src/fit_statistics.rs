@@ -119,7 +119,7 @@ pub(crate) fn statistics(
     }
 
     let rss = r[..m_rows].iter().map(|x| x * x).sum::<f64>();
-    let dof = m_rows - l;
+    let dof = problem.informative_rows().saturating_sub(l).max(1);
     let sigma2 = rss / dof as f64;
     // W = N⁻¹ R⁻¹, Cov = σ̂² W Wᵀ
     let w = DMatrix::from_fn(l, l, |i, k| inv_norm[i] * r_inv[(i, k)]);

@@ -201,7 +201,7 @@ fn data_sigma_hat_mm(
             w * row_weights.map_or(1.0, |r| r[k]) * e.norm_squared()
         })
         .sum();
-    let dof = (3 * measurements.len()).saturating_sub(fit.params.len()).max(1);
+    let dof = vatcal_core::informative_rows(measurements).saturating_sub(fit.params.len()).max(1);
     (rss / dof as f64).sqrt()
 }
 
@@ -232,7 +232,7 @@ fn identify_once(
         )));
     }
     let start_values = start.params(params)?;
-    let equations = 3 * measurements.len();
+    let equations = vatcal_core::informative_rows(measurements);
     if equations <= params.len() {
         return Err(IdentifyError::TooFewMeasurements { equations, params: params.len() });
     }

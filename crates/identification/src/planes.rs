@@ -1,6 +1,8 @@
 //! First estimates of contact planes from plane rows: the plane through the model's predicted
 //! contact points (least squares, the smallest singular direction of their scatter), its
-//! normal turned so the robot's base lies on the positive side.
+//! normal turned towards the robot: the mean of the arm's frame origins over the contacts lies
+//! on the positive side (the arm is on the free side of a surface it touches; the base alone
+//! may lie on the plane, e.g. a table at the base's height).
 //!
 //! Used twice: for the planes the data name and the cell file lacks ([`estimate_planes`]: they
 //! are added to the model before the fit, like markers and unknown fixed points), and by
@@ -36,8 +38,8 @@ pub fn plane_through(points: &[Vector3<f64>]) -> Option<(Vector3<f64>, Vector3<f
 }
 
 /// The plane through the predicted contact points of `plane`'s rows at `model`, with the
-/// normal turned so the world position of the robot's base frame has a positive height;
-/// `None` when the rows do not fix a plane (fewer than three, or on a line).
+/// normal turned towards the arm (module docs); `None` when the rows do not fix a plane (fewer
+/// than three, or on a line).
 ///
 /// # Errors
 /// [`IdentifyError::Measurement`] for a row the model cannot evaluate.
@@ -47,7 +49,7 @@ pub fn plane_of_rows(
     plane: u32,
     contact_radius_mm: f64,
 ) -> Result<Option<ContactPlane>, IdentifyError> {
-    let mut points = Vec::new();
+    let (mut points, mut arm, mut frames) = (Vec::new(), Vector3::zeros(), 0usize);
     for (index, m) in measurements.iter().enumerate() {
         if m.plane_id() == Some(plane) {
             points.push(
@@ -55,10 +57,15 @@ pub fn plane_of_rows(
                     .tcp_position_ctx(&m.q, &m.context, m.tcp)
                     .map_err(|source| IdentifyError::Measurement { index, source })?,
             );
+            let chain = model.chain_full(&m.q, &m.context, false, None);
+            for f in &chain.frames()[1..] {
+                arm += f.p;
+                frames += 1;
+            }
         }
     }
     let Some((mut n, c)) = plane_through(&points) else { return Ok(None) };
-    if n.dot(&(model.base_frame().p - c)) < 0.0 {
+    if n.dot(&(arm / frames.max(1) as f64 - c)) < 0.0 {
         n = -n;
     }
     Ok(Some(ContactPlane::new(n, n.dot(&c), contact_radius_mm)))

@@ -108,6 +108,13 @@ impl<'a> Problem<'a> {
         Ok(())
     }
 
+    /// The data rows that carry information: [`Problem::measurement_rows`] less the two zero
+    /// rows of every plane contact without the tool axis held normal (the degrees of freedom
+    /// count these).
+    pub fn informative_rows(&self) -> usize {
+        vatcal_core::informative_rows(self.measurements) + self.design.constraint_rows()
+    }
+
     /// Total rows including prior rows.
     pub fn rows(&self) -> usize {
         self.measurement_rows() + self.priors.len()

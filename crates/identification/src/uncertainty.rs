@@ -90,13 +90,13 @@ fn group_sigma(
     fitted_params: usize,
     kind: impl Fn(&Target) -> bool,
 ) -> Option<f64> {
-    let n = 3 * measurements.len().min(residuals.len());
+    let n = vatcal_core::informative_rows(&measurements[..measurements.len().min(residuals.len())]);
     let dof_factor = if n > fitted_params { n as f64 / (n - fitted_params) as f64 } else { f64::NAN };
     let (mut rss, mut count) = (0.0, 0usize);
     for (m, r) in measurements.iter().zip(residuals) {
         if kind(&m.target) {
             rss += r.norm_squared();
-            count += 3;
+            count += m.target.residual_rows();
         }
     }
     (count > 0 && dof_factor.is_finite()).then(|| (rss / count as f64 * dof_factor).sqrt())

@@ -377,8 +377,8 @@ pub fn generic_order(
 ///
 /// # Errors
 /// As [`analyze_design`]; [`ObservabilityError::InvalidInput`] for a `kinematic` set on data
-/// that fix no length — every probe row at an unknown fixed point, no tracker row and no known
-/// distance: scaling every length of the chain and the points together changes nothing but the
+/// that fix no length — every probe row at an unknown fixed point (every plane row on an
+/// unknown plane), no tracker row and no known distance: scaling every length of the chain and the points together changes nothing but the
 /// size of the residuals, and the fit would shrink the robot.
 pub fn generic_set(
     model: &Model,
@@ -386,9 +386,9 @@ pub fn generic_set(
     set: GenericSet,
     design: &DataDesign,
 ) -> Result<ParamSet, ObservabilityError> {
-    if set >= GenericSet::Kinematic && !anchored(measurements, design) && design.distances.is_empty() {
+    if set >= GenericSet::Kinematic && !anchored(measurements, design) && design.constraint_rows() == 0 {
         return Err(ObservabilityError::InvalidInput(format!(
-            "`{set}` cannot be identified from these data: every row is at an unknown fixed point, so nothing fixes the scale of the chain; give a known distance between two points (--point-distance A,B,MM) or use registration / joint-offsets"
+            "`{set}` cannot be identified from these data: every row is at an unknown fixed point or plane, so nothing fixes the scale of the chain; give a known distance between two points (--point-distance A,B,MM) or two parallel planes (--plane-distance A,B,MM), or use registration / joint-offsets"
         )));
     }
     let order = generic_order(model, measurements, set, design);

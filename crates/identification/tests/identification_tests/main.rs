@@ -9,6 +9,7 @@ mod common;
 mod any_instrument;
 mod bad_rows;
 mod identify;
+mod plane_rows;
 mod pose_rows;
 mod priors_default;
 mod uncertainty;

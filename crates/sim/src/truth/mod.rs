@@ -19,9 +19,11 @@ use vatcal_kinematics::Model;
 
 use crate::config::{CellPhysics, ThermalProfile};
 
+mod planes;
 mod spec;
 mod synthetic;
 
+pub use planes::synthetic_plane_contacts;
 pub use spec::{BuiltTruth, TruthError, TruthSpec};
 pub use synthetic::{
     ProbeNoise, ReachError, probe_start_poses, random_joints, reach, synthetic_probe_measurements,
