@@ -141,12 +141,6 @@ fn held_out_rms_mm(model: &Model, held_out: &[Measurement]) -> f64 {
     validate(&registered, held_out).expect("validate").stats.rms
 }
 
-/// Mean held-out error \[mm\] after registering the model's world onto the tracker's points.
-fn held_out_mean_mm(model: &Model, held_out: &[Measurement]) -> f64 {
-    let registered = initialise(model, held_out, &InitOptions::default()).expect("registration").model;
-    validate(&registered, held_out).expect("validate").stats.mean
-}
-
 fn check_chain(nominal: &Model, truth: &Model, label: &str) {
     let held_out = tracker_rows(truth, 400, 0.0, 99);
     let nominal_mm = held_out_rms_mm(nominal, &held_out);
