@@ -478,3 +478,46 @@ fn any_tcp_id_reads_markers_the_model_lacks() {
     let e = read_measurements_with(f.path(), &ur, &options).expect_err("position 7").to_string();
     assert!(e.contains("unknown position id 7"), "{e}");
 }
+
+/// Issue 31: plane rows `plane,tcp,q…[,normal]` read beside probe and tracker rows (any plane
+/// id: planes the cell lacks are identified), written back with the same columns; a plane row
+/// without its plane id, a `normal` header without `plane`, a row naming both a position and a
+/// plane and a bad `normal` value are each one line naming file, line and column.
+#[test]
+fn plane_rows_are_read_written_and_checked() {
+    let ur = fixture_model("ur5e.toml");
+    let f = file(
+        "plane,normal,position,tcp,q1,q2,q3,q4,q5,q6,x,y,z\n\
+         3,1,,1,10,-80,90,-100,-90,30,,,\n\
+         4,,,1,11,-80,90,-100,-90,30,,,\n\
+         ,,1,1,12,-80,90,-100,-90,30,,,\n\
+         ,,,1,13,-80,90,-100,-90,30,1,2,3\n",
+    );
+    let rows = read_measurements(f.path(), &ur).expect("plane rows");
+    assert_eq!(rows[0].target, Target::Plane { plane: 3, normal: true });
+    assert_eq!(rows[1].target, Target::Plane { plane: 4, normal: false });
+    assert_eq!(rows[2].target, Target::Probe { position: 1 });
+    assert!(matches!(rows[3].target, Target::Tracker { .. }));
+    let out = tempfile::NamedTempFile::new().expect("tmp");
+    write_measurements_for(out.path(), &rows, ur.joint_kinds()).expect("write");
+    let text = std::fs::read_to_string(out.path()).expect("read");
+    assert!(text.starts_with("position,plane,normal,tcp,q1"), "{text}");
+    let back = read_measurements(out.path(), &ur).expect("reread");
+    for (a, b) in back.iter().zip(&rows) {
+        assert_eq!((a.target, a.tcp), (b.target, b.tcp));
+        assert!((a.q.as_slice().iter().zip(b.q.as_slice())).all(|(x, y)| (x - y).abs() < 1e-14));
+    }
+    assert_eq!(back.len(), rows.len());
+    let bad = |text: &str| read_measurements(file(text).path(), &ur).expect_err("bad").to_string();
+    let e = bad("plane,normal,tcp,q1,q2,q3,q4,q5,q6\n3,1,1,10,-80,90,-100,-90,30\n,1,1,10,-80,90,-100,-90,30\n");
+    assert!(e.contains(":3: column `plane`: empty: a probe row needs `position`"), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    let e = bad("normal,tcp,q1,q2,q3,q4,q5,q6\n1,1,10,-80,90,-100,-90,30\n");
+    assert!(e.contains(":1: column `plane`: the header has `normal` but no `plane`"), "{e}");
+    let e = bad("plane,position,tcp,q1,q2,q3,q4,q5,q6\n3,1,1,10,-80,90,-100,-90,30\n");
+    assert!(e.contains(":2: column `plane`: a row is a probe row (`position`) or a plane row"), "{e}");
+    let e = bad("plane,normal,tcp,q1,q2,q3,q4,q5,q6\n3,yes,1,10,-80,90,-100,-90,30\n");
+    assert!(e.contains(":2: column `normal`: `yes` is not 1/true or 0/false"), "{e}");
+    let e = bad("plane,tcp,q1,q2,q3,q4,q5,q6\n-3,1,10,-80,90,-100,-90,30\n");
+    assert!(e.contains(":2: column `plane`: `-3` is not a non-negative integer id"), "{e}");
+}
