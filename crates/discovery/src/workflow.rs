@@ -20,7 +20,13 @@
 //!    data); then a **backward check** removes earlier effects (those correlated with the new
 //!    one) that no longer lower the held-out error by more than one standard error with the
 //!    new one present;
-//! 5. repeat until no candidate is confirmed.
+//! 5. when no candidate passes alone (nor, with the block step, the block of those that each
+//!    helped), the **joint search**: every scored candidate considered together by a
+//!    cross-validated forward path of ridge fits on the screening part (`joint`), the chosen
+//!    set refitted and confirmed together on the confirmation part, each member held to the
+//!    size rule and the plausibility bounds on its own (`joint_add`); the backward check then
+//!    re-tests every effect;
+//! 6. repeat until nothing is added.
 //!
 //! A cross-validation fold whose fit fails (ill-conditioned, not converged) is skipped,
 //! counted and reported; it does not abort the run.
@@ -28,7 +34,8 @@
 //! One file per decision: `screen` (candidates, scores, levels),
 //! `confirm` (refits on the held-out confirmation data), `decide` (the decision rule),
 //! `size` (the noise reference and the size rule), `plausible` (bounds), `rivals`
-//! (look-alikes), `veto` (the validation rows), `block` (the block step), `backward` (the
+//! (look-alikes), `veto` (the validation rows), `block` (the block step), `joint` and
+//! `joint_add` (the joint search's selection and confirmation), `backward` (the
 //! backward check), `stop` (the keep-going rule), `borderline` (the glue to
 //! [`crate::propose`]), `record` (an added effect's record); this file only sequences them.
 
@@ -39,6 +46,8 @@ mod candidate;
 mod confirm;
 mod context;
 mod decide;
+mod joint;
+mod joint_add;
 mod options;
 mod plausible;
 mod record;
@@ -71,6 +80,7 @@ use self::borderline::mark_borderline;
 use self::candidate::{Candidate, candidate_score};
 use self::confirm::confirm_screened;
 use self::context::{Context, CrossValidation, summarize_fit, weigh_rows};
+use self::joint_add::add_joint;
 use self::record::{Addition, added_effect, decision, findings, predicted_uncertainty};
 use self::rivals::choose_among_rivals;
 use self::screen::{Thresholds, rank_candidates, score_candidates};
@@ -339,7 +349,8 @@ impl Run {
     }
 
     /// The round's addition: the best passing candidate (or a look-alike of it), else, with
-    /// the block step on, the block of candidates that helped; `None` when nothing passes.
+    /// the block step on, the block of candidates that helped, else, with the joint search on,
+    /// the set the joint search chose; `None` when nothing passes.
     fn choose(
         &mut self,
         index: usize,
@@ -348,29 +359,24 @@ impl Run {
         held0: &CrossValidation,
         ctx: &Context<'_>,
     ) -> Result<Option<Addition>, DiscoveryError> {
-        match best_passing(candidates) {
-            Some(best) => self.add_best(index, best, candidates, held0, ctx).map(Some),
-            None if ctx.options.block_step => {
-                let (current, spend) = (&self.current, round_spending(index));
-                let (j0, rank0) = (&base.j0, base.rank0);
-                let block = add_block(
-                    candidates,
-                    current,
-                    j0,
-                    rank0,
-                    held0,
-                    (index, spend),
-                    &self.gap,
-                    ctx,
-                    &mut self.notes,
-                )?;
-                Ok(block.map(|(addition, held1)| {
-                    self.confirm_cv = Some(held1);
-                    addition
-                }))
-            }
-            None => Ok(None),
+        if let Some(best) = best_passing(candidates) {
+            return self.add_best(index, best, candidates, held0, ctx).map(Some);
         }
+        let (current, spend) = (&self.current, round_spending(index));
+        let (j0, rank0) = (&base.j0, base.rank0);
+        let mut found = None;
+        if ctx.options.block_step {
+            let at = (index, spend);
+            found = add_block(candidates, current, j0, rank0, held0, at, &self.gap, ctx, &mut self.notes)?;
+        }
+        if found.is_none() && ctx.options.joint_search {
+            let at = (index, spend);
+            found = add_joint(candidates, current, (j0, rank0), held0, at, &self.gap, ctx, &mut self.notes)?;
+        }
+        Ok(found.map(|(addition, held1)| {
+            self.confirm_cv = Some(held1);
+            addition
+        }))
     }
 
     /// Adds the passing candidate `best` or the look-alike chosen among its rivals.
@@ -403,7 +409,15 @@ impl Run {
         self.confirm_cv = candidates[b].refit.as_mut().map(|r| {
             std::mem::replace(&mut r.2, CrossValidation { errors: Vec::new(), skipped: Vec::new() })
         });
-        Ok(Addition { added, extra: Vec::new(), fit: fit1, held_all, block: None, ambiguity_line })
+        Ok(Addition {
+            added,
+            extra: Vec::new(),
+            fit: fit1,
+            held_all,
+            block: None,
+            ambiguity_line,
+            joint_line: None,
+        })
     }
 
     /// Makes `next` the current model and runs the backward check; returns the effects it

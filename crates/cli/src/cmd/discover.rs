@@ -83,6 +83,11 @@ pub struct Args {
     /// points significantly better; docs/discovery.md).
     #[arg(long)]
     pub no_lookalike_swap: bool,
+    /// Do not run the joint search when no single effect and no block passes (all scored
+    /// candidates considered together by a cross-validated forward path on the screening half,
+    /// the chosen set confirmed together on the confirmation half; docs/discovery.md).
+    #[arg(long)]
+    pub no_joint_search: bool,
     /// Markers (TCPs) at unknown offsets: the TCP ids the rows use that the cell file lacks,
     /// comma-separated, or `all`; added at TCP 1's offset and fitted as by `vatcal identify
     /// --unknown-tcps`. Without it such rows are an error.
@@ -370,6 +375,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         cmm_sigma_mm: args.cmm_sigma_mm,
         noise_floor_mm: args.noise_floor_mm,
         lookalike_swap: !args.no_lookalike_swap,
+        joint_search: !args.no_joint_search,
         instrument_sigmas: instrument_sigmas(&args, &measurements)?,
         instrument_noise_origin: recorded_noise(&args)?.2,
         bound_overrides: bound_overrides(&args)?,

@@ -34,8 +34,9 @@ pub(super) fn rebuild(
 
 /// Backward check after an addition: every earlier added effect must still lower the held-out
 /// error of the confirmation data by more than one standard error (and by more than the
-/// noise) given the others; the weakest one that does not is removed and the model refitted,
-/// until all pass. Returns the removed effects.
+/// noise) given the others; the weakest one that does not is removed — together with the
+/// failing ones unrelated to it ([`independent_failures`]) — and the model refitted, until all
+/// pass. Returns the removed effects.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn backward_check(
     start: &Model,
@@ -72,7 +73,6 @@ pub(super) fn backward_check(
         // never below the physical floor of the noise (`DiscoverOptions::noise_floor_mm`)
         let floor_mm = ctx.options.negligible_factor * 3f64.sqrt() * ctx.options.noise_floor_mm;
         let with = recomputed.as_ref().unwrap_or(with_current);
-        let mut weakest: Option<(usize, HeldOutComparison, Fit)> = None;
         // the newest effect was just confirmed; check the earlier ones
         let checked: Vec<usize> = (0..added.len() - exempt.min(added.len()))
             .filter(|&k| {
@@ -112,6 +112,7 @@ pub(super) fn backward_check(
                 Some((h, fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()))
             })
             .collect();
+        let mut failing: Vec<(usize, HeldOutComparison, Fit)> = Vec::new();
         for (&k, outcome) in checked.iter().zip(outcomes) {
             let Some((h, refit)) = outcome else { continue };
             let keep = h.z > 1.0
@@ -124,20 +125,82 @@ pub(super) fn backward_check(
                 notes.push(format!("backward check: refit without {} failed; kept", added[k].label));
                 continue;
             };
-            if weakest.as_ref().is_none_or(|(_, w, _)| h.z < w.z) {
-                weakest = Some((k, h, refit));
-            }
+            failing.push((k, h, refit));
         }
-        let Some((k, h, refit)) = weakest else { break };
-        let gone = added.remove(k);
-        removed.push(RemovedEffect {
-            label: gone.label,
-            added_in_round: gone.round,
-            removed_in_round: round,
-            heldout: h,
-        });
+        if failing.is_empty() {
+            break;
+        }
+        failing.sort_by(|x, y| x.1.z.total_cmp(&y.1.z));
+        let together = independent_failures(&failing, added, current, ctx.options.redundancy_correlation);
+        let zs: Vec<(usize, HeldOutComparison)> = failing.iter().map(|(k, h, _)| (*k, *h)).collect();
+        let (mut ks, refit) = match remove_together(start, added, current, &together, ctx) {
+            Some(refit) => (together, refit),
+            None => {
+                let (k, _, refit) = failing.swap_remove(0);
+                (vec![k], refit)
+            }
+        };
+        ks.sort_unstable_by(|a, b| b.cmp(a));
+        for k in ks {
+            let Some((_, h)) = zs.iter().find(|(j, _)| *j == k) else { continue };
+            let gone = added.remove(k);
+            removed.push(RemovedEffect {
+                label: gone.label,
+                added_in_round: gone.round,
+                removed_in_round: round,
+                heldout: *h,
+            });
+        }
         *current = refit;
         recomputed = Some(ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds));
     }
     Ok(removed)
+}
+
+/// The failing effects (sorted weakest first) that are removed in the same pass: the weakest,
+/// and each further one none of whose parameters correlates (by at least `limit`, or unknown)
+/// with a parameter of one already taken — look-alikes are removed one at a time (each may
+/// carry what the other loses), unrelated failures together.
+fn independent_failures(
+    failing: &[(usize, HeldOutComparison, Fit)],
+    added: &[AddedEffect],
+    current: &Fit,
+    limit: f64,
+) -> Vec<usize> {
+    let idx = |k: usize| -> Vec<usize> {
+        added[k].spec.params().iter().filter_map(|p| current.params.index_of(*p)).collect()
+    };
+    let mut taken: Vec<usize> = Vec::new();
+    let mut taken_idx: Vec<usize> = Vec::new();
+    for (k, ..) in failing {
+        let own = idx(*k);
+        let related = own
+            .iter()
+            .any(|a| taken_idx.iter().any(|b| current.correlation(*a, *b).is_none_or(|c| c.abs() >= limit)));
+        if !related {
+            taken.push(*k);
+            taken_idx.extend(own);
+        }
+    }
+    taken
+}
+
+/// The model refitted without the effects `ks` (indices into `added`); `None` when only one
+/// is removed (its own refit is used) or the refit fails.
+fn remove_together(
+    start: &Model,
+    added: &[AddedEffect],
+    current: &Fit,
+    ks: &[usize],
+    ctx: &Context<'_>,
+) -> Option<Fit> {
+    if ks.len() < 2 {
+        return None;
+    }
+    let own: Vec<ParamId> = ks.iter().flat_map(|k| added[*k].spec.params()).collect();
+    let params = ParamSet(current.params.iter().copied().filter(|p| !own.contains(p)).collect());
+    let specs: Vec<EffectSpec> =
+        added.iter().enumerate().filter(|(i, _)| !ks.contains(i)).map(|(_, a)| a.spec).collect();
+    let base = rebuild(start, &specs, &current.model, &params).ok()?;
+    fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()
 }

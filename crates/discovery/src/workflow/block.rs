@@ -112,7 +112,14 @@ pub(super) fn add_block(
     }
     let extra = records.split_off(1);
     let Some(added) = records.pop() else { return Ok(None) };
-    let addition =
-        Addition { added, extra, fit: fit1, held_all: held_gap, block: Some(members), ambiguity_line: None };
+    let addition = Addition {
+        added,
+        extra,
+        fit: fit1,
+        held_all: held_gap,
+        block: Some(members),
+        ambiguity_line: None,
+        joint_line: None,
+    };
     Ok(Some((addition, held1)))
 }

@@ -41,6 +41,14 @@ pub struct DiscoverOptions {
     /// the backward check: with many missing effects each one's held-out gain is masked by
     /// the others' misfit, together they are not
     pub block_step: bool,
+    /// when no candidate passes alone and no block passes, run the **joint search**
+    /// (`workflow/joint.rs`): every scored candidate's parameters fitted together (ridge toward
+    /// zero with each parameter's typical scale as prior width) on the screening part, the
+    /// candidates ranked by the share of the prediction they carry, the number kept chosen by
+    /// cross-validation on the screening part, and the chosen ones confirmed together on the
+    /// confirmation part (one more test of the round, at `confirm_alpha·s_r/(max_refits + 2)`)
+    /// with the size rule and plausibility applied to each member
+    pub joint_search: bool,
     /// the backward check after an addition re-tests an earlier effect only when one of its
     /// parameters correlates with one of the new effect's by at least this (absolute value,
     /// in the fit with both): an effect can only be made redundant by one that shares its
@@ -128,6 +136,7 @@ impl Default for DiscoverOptions {
             max_rounds: 16,
             redundancy_correlation: 0.2,
             block_step: true,
+            joint_search: true,
             known_sigma_mm: None,
             instrument_sigmas: None,
             weight_by_kind: true,

@@ -168,6 +168,8 @@ pub(super) struct Addition {
     pub(super) block: Option<Vec<usize>>,
     /// the look-alikes among which the added one was chosen, in one sentence
     pub(super) ambiguity_line: Option<String>,
+    /// the joint search's account of the set it added, in one sentence
+    pub(super) joint_line: Option<String>,
 }
 
 /// The round's bound hits and negligible effects (refitted candidates refused at a
@@ -204,6 +206,12 @@ pub(super) fn findings(candidates: &[Candidate], round: usize) -> (Vec<BoundHit>
 pub(super) fn decision(next: Option<&Addition>, candidates: &[Candidate], ln_screen: f64) -> String {
     let Some(next) = next else { return nothing_added(candidates, ln_screen) };
     let added = &next.added;
+    if let Some(line) = &next.joint_line {
+        return format!(
+            "no candidate passed alone and no block passed; {line}; gap {:.4} -> {:.4} mm",
+            added.gap_before_mm, added.gap_after_mm
+        );
+    }
     match (&next.block, &next.ambiguity_line) {
         (Some(members), _) => {
             let labels: Vec<String> = members.iter().map(|i| candidates[*i].spec.label()).collect();

@@ -45,7 +45,8 @@ fn assert_catalog_effects_found(d: &Discovery) {
 
 /// Without any noise reference the size rule compares with σ̂ of the round's saturated model
 /// and is waived for effects whose held-out improvement is far above its uncertainty: the four
-/// catalog effects are added (with the old rule, σ̂ of the refit alone, it stops after one).
+/// catalog effects are added (with the old rule, σ̂ of the refit alone, and the one-at-a-time
+/// search, it stops after one).
 #[test]
 fn without_a_noise_reference_strong_effects_pass_the_size_rule() {
     let s = scenario(71, &hidden(), None, N_PROBE);
@@ -61,9 +62,12 @@ fn without_a_noise_reference_strong_effects_pass_the_size_rule() {
     assert_eq!(d.noise.source, NoiseSource::Estimated);
     assert!(d.noise.explanation.contains("noise reference: none"), "{}", d.noise.explanation);
     assert_catalog_effects_found(&d);
+    // the old rule, and the search of its time (one effect at a time: the joint search adds
+    // what the one-at-a-time search misses whatever the size rule's noise)
     let old = DiscoverOptions {
         strong_z_factor: f64::INFINITY,
         saturated_noise: false,
+        joint_search: false,
         ..DiscoverOptions::default()
     };
     let d_old = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &old)
