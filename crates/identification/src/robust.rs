@@ -54,7 +54,8 @@ pub const CAUCHY_TUNING: f64 = 2.385;
 /// Rounds of removal and refit of [`calibrate_dropping_outliers`] (at most).
 pub const MAX_DROP_ROUNDS: usize = 5;
 /// The robust scale in words, for reports.
-pub const SIGMA_ESTIMATOR: &str = "median residual norm / 1.5382 (median of chi with 3 dof)";
+pub const SIGMA_ESTIMATOR: &str =
+    "median residual norm / 1.5382 (median of chi with 3 dof; 0.6745 for a plane contact's one row)";
 
 /// The M-estimator of a robust fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -138,6 +139,25 @@ fn weighted_norms(residuals: &[Vector3<f64>], rows: &[Measurement], weights: &Ki
     residuals.iter().zip(rows).map(|(e, m)| kind_weight(m, weights).sqrt() * e.norm()).collect()
 }
 
+/// Median of a χ variable with `dof` degrees of freedom (1, 2 or 3: the informative rows of a
+/// measurement, `Target::residual_rows`).
+fn chi_median(dof: usize) -> f64 {
+    match dof {
+        1 => 0.674_489_750_196_081_7,
+        2 => 1.177_410_022_515_474_7,
+        _ => CHI3_MEDIAN,
+    }
+}
+
+/// σ̂_r from the weighted norms: the median over rows of `norm_k / median(χ_{d_k})`, each row
+/// scaled by the median of its own χ (a plane contact without the tool axis has one
+/// informative row, a point three).
+fn sigma_of_norms(norms: &[f64], rows: &[Measurement]) -> f64 {
+    let scaled: Vec<f64> =
+        norms.iter().zip(rows).map(|(n, m)| n / chi_median(m.target.residual_rows())).collect();
+    median(&scaled)
+}
+
 fn median(values: &[f64]) -> f64 {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {
@@ -149,9 +169,10 @@ fn median(values: &[f64]) -> f64 {
 }
 
 /// The robust σ of one coordinate of a weight-1 row: the median of the kind-weighted residual
-/// norms `√w_k ‖e_k‖` over [`CHI3_MEDIAN`] \[mm\] (module docs). `NaN` without rows.
+/// norms `√w_k ‖e_k‖` over [`CHI3_MEDIAN`] \[mm\] (module docs; a plane contact without the
+/// tool axis, one informative row, over the median of χ₁). `NaN` without rows.
 pub fn robust_sigma_mm(residuals: &[Vector3<f64>], rows: &[Measurement], weights: &KindWeights) -> f64 {
-    median(&weighted_norms(residuals, rows, weights)) / CHI3_MEDIAN
+    sigma_of_norms(&weighted_norms(residuals, rows, weights), rows)
 }
 
 /// A row whose residual is beyond `k · σ̂_r`.
@@ -216,7 +237,7 @@ pub fn flag_outliers(
         )));
     }
     let norms = weighted_norms(residuals, rows, weights);
-    let sigma_mm = median(&norms) / CHI3_MEDIAN;
+    let sigma_mm = sigma_of_norms(&norms, rows);
     let mut flagged: Vec<FlaggedRow> = if sigma_mm > 0.0 {
         norms
             .iter()

@@ -215,7 +215,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             if init.registered {
                 "base pose registered, measured TCPs and unknown points solved"
             } else {
-                "measured TCPs and unknown points solved; the base pose is absorbed by the points"
+                "measured TCPs, unknown points and planes solved; the base pose is absorbed by the points or planes"
             }
         );
     }

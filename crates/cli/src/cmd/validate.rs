@@ -35,6 +35,12 @@ pub struct Args {
     /// Number of histogram bins.
     #[arg(long, default_value_t = 40)]
     pub bins: usize,
+    /// The tracker's frame is not the model's world: register it first (the rigid motion that
+    /// best maps each model's predicted points onto the tracker's, six parameters fitted on the
+    /// validation rows themselves), e.g. for a model calibrated from plane contacts or unknown
+    /// fixed points alone, whose world frame the data fix only up to such a motion.
+    #[arg(long)]
+    pub register_frame: bool,
     /// Units, limit tolerance and directions of the measurement file.
     #[command(flatten)]
     pub read: super::read_args::ReadArgs,
@@ -190,6 +196,36 @@ pub struct ExtrapolatedRow {
     pub joints: Vec<JointExcursion>,
 }
 
+/// `model` with its base pose moved by the rigid motion that best maps its predicted points of
+/// the tracker rows onto the measured ones (`--register-frame`); prints the motion.
+fn registered(
+    model: vatcal_kinematics::Model,
+    tracker: &[Measurement],
+    path: &Path,
+) -> anyhow::Result<vatcal_kinematics::Model> {
+    let points: Vec<Measurement> =
+        tracker.iter().filter(|m| matches!(m.target, vatcal_core::Target::Tracker { .. })).copied().collect();
+    let options = vatcal_identification::InitOptions { max_rounds: 1, ..Default::default() };
+    let init = vatcal_identification::initialise(&model, &points, &options)
+        .with_context(|| format!("registering {} onto the tracker frame", path.display()))?;
+    anyhow::ensure!(
+        init.registered,
+        "--register-frame: {} needs at least three tracker rows not on a line",
+        path.display()
+    );
+    let (before, after) = (model.base_frame(), init.model.base_frame());
+    let angle = vatcal_core::rotation_error(&after.r, &before.r).norm();
+    println!(
+        "{}: tracker frame registered (base moved by {:.3} mm and {:.3} mrad; RMS {:.4} -> {:.4} mm)",
+        path.display(),
+        (after.p - before.p).norm(),
+        1e3 * angle,
+        init.rms_before_mm,
+        init.rms_after_mm
+    );
+    Ok(init.model)
+}
+
 /// Validates the model(s), prints the statistics, writes the plot and the report.
 pub fn run(args: Args) -> anyhow::Result<()> {
     // one read of the cell file: the model and its `[training_range]`
@@ -211,6 +247,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             ids.join(",")
         );
     }
+    let model = if args.register_frame { registered(model, &tracker, &args.model)? } else { model };
     let tested =
         validate(&model, &tracker).with_context(|| format!("validating {}", args.model.display()))?;
     let baseline = match &args.baseline {
@@ -229,6 +266,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             }
             let base = vatcal_kinematics::Model::from_cell(&cell)
                 .with_context(|| format!("{}: cannot build the model", path.display()))?;
+            let base = if args.register_frame { registered(base, &tracker, path)? } else { base };
             // read again with the baseline: checks the context columns its effects need
             let read = vatcal_io::read_any_measurements_with(&args.tracker, &base, &args.read.options()?)?;
             let (tracker, _, orientation) = split_orientation(read.rows, Vec::new());

@@ -19,6 +19,7 @@ mod identify_validate;
 mod import_urdf;
 mod markers;
 mod plan_kinds;
+mod plane_rows;
 mod pose_rows;
 mod real_data;
 mod select_observability;

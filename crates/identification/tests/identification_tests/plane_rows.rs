@@ -17,7 +17,7 @@ use vatcal_identification::{
 };
 use vatcal_kinematics::{ContactPlane, Model};
 use vatcal_observability::sets::DataDesign;
-use vatcal_sim::truth::{synthetic_plane_contacts, synthetic_tracker_measurements};
+use vatcal_sim::truth::{add_table_block_walls, synthetic_plane_contacts, synthetic_tracker_measurements};
 
 /// Contact noise per row \[mm\] (height; rim rows of the pressed face).
 const CONTACT_SIGMA_MM: f64 = 0.005;
@@ -32,15 +32,11 @@ fn iiwa14() -> Model {
     Model::from_cell(&CellFile::load(path).expect("fixture")).expect("model")
 }
 
-/// The truth: perturbed geometry; a slightly tilted table at `table_mm`, the block's top 50 mm
-/// above it, a wall at `wall_mm` along x and a side wall at `wall_mm` along −y (both tilted).
+/// The truth: perturbed geometry and the example plane fixture (a slightly tilted table at
+/// `table_mm`, the block's top 50 mm above it, walls at `wall_mm` along x and −y).
 fn truth_with_planes(nominal: &Model, seed: u64, table_mm: f64, wall_mm: f64) -> Model {
     let mut t = geometry_truth(nominal, seed);
-    let up = Vector3::new(0.002, -0.003, 1.0);
-    t.insert_plane(TABLE, ContactPlane::new(up, table_mm, 40.0));
-    t.insert_plane(BLOCK, ContactPlane::new(up, table_mm + 50.0, 40.0));
-    t.insert_plane(WALL, ContactPlane::new(Vector3::new(-1.0, 0.004, 0.002), -wall_mm, 40.0));
-    t.insert_plane(SIDE_WALL, ContactPlane::new(Vector3::new(0.003, 1.0, -0.001), -wall_mm, 40.0));
+    add_table_block_walls(&mut t, table_mm, wall_mm);
     t
 }
 

@@ -23,7 +23,7 @@ mod planes;
 mod spec;
 mod synthetic;
 
-pub use planes::synthetic_plane_contacts;
+pub use planes::{add_table_block_walls, synthetic_plane_contacts};
 pub use spec::{BuiltTruth, TruthError, TruthSpec};
 pub use synthetic::{
     ProbeNoise, ReachError, probe_start_poses, random_joints, reach, synthetic_probe_measurements,

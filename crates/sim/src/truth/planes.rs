@@ -102,3 +102,18 @@ fn touch(
     }
     None
 }
+
+/// The plane fixture of the plane-contact examples (docs/real-data.md, the tests): a table
+/// (plane 1, normal tilted by (2, −3) mrad) at height `table_mm`, the top of a 50 mm gauge block
+/// standing on it (plane 2, parallel, `table_mm + 50`), a wall facing −x at `x = wall_mm`
+/// (plane 3) and one facing +y at `y = −wall_mm` (plane 4), each tilted by a few mrad; contact
+/// radius 40 mm. Added to `model` (replacing planes with these ids).
+pub fn add_table_block_walls(model: &mut Model, table_mm: f64, wall_mm: f64) {
+    use nalgebra::Vector3;
+    use vatcal_kinematics::ContactPlane;
+    let up = Vector3::new(0.002, -0.003, 1.0);
+    model.insert_plane(1, ContactPlane::new(up, table_mm, 40.0));
+    model.insert_plane(2, ContactPlane::new(up, table_mm + 50.0, 40.0));
+    model.insert_plane(3, ContactPlane::new(Vector3::new(-1.0, 0.004, 0.002), -wall_mm, 40.0));
+    model.insert_plane(4, ContactPlane::new(Vector3::new(0.003, 1.0, -0.001), -wall_mm, 40.0));
+}
