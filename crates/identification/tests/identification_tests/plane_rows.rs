@@ -205,3 +205,42 @@ fn a_plane_with_too_few_contacts_is_named() {
         other => panic!("expected plane 7 undetermined, got {other:?}"),
     }
 }
+
+/// Planes given in the cell file are known: held fixed (their parameters are not fitted), and
+/// the rows on them anchor the world (the base pose joins the set where the planes see it).
+#[test]
+fn planes_in_the_cell_file_are_held_fixed() {
+    let nominal = ur5e();
+    let truth = truth_with_planes(&nominal, 11, -50.0, 450.0);
+    let rows = plane_rows(&truth, 30, CONTACT_SIGMA_MM, 5);
+    let mut start = nominal.clone();
+    for id in [TABLE, BLOCK, WALL, SIDE_WALL] {
+        start.insert_plane(id, *truth.plane(id).expect("plane"));
+    }
+    let cal = calibrate(
+        &start,
+        &rows,
+        "default",
+        &DataDesign::default(),
+        &IdentifyOptions::default(),
+        &CvOptions { repeats: 1, ..CvOptions::default() },
+    )
+    .expect("calibration");
+    assert!(
+        !cal.fit.params.iter().any(|p| matches!(p, vatcal_core::ParamId::Plane { .. })),
+        "{:?}",
+        cal.fit.params.names()
+    );
+    assert!(
+        cal.fit.params.iter().any(|p| matches!(p, vatcal_core::ParamId::Base(_))),
+        "{:?}",
+        cal.fit.params.names()
+    );
+    for id in [TABLE, WALL] {
+        assert_eq!(cal.fit.model.plane(id), truth.plane(id), "plane {id} unchanged");
+    }
+    let held_out = tracker_rows(&truth, 300, 0.0, 99);
+    let rms = held_out_rms_mm(&cal.fit.model, &held_out);
+    eprintln!("known planes: held-out RMS after registration {rms:.4} mm");
+    assert!(rms < 0.03, "{rms}");
+}
