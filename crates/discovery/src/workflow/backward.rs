@@ -35,8 +35,9 @@ pub(super) fn rebuild(
 /// Backward check after an addition: every earlier added effect must still lower the held-out
 /// error of the confirmation data by more than one standard error (and by more than the
 /// noise) given the others; the weakest one that does not is removed — together with the
-/// failing ones unrelated to it ([`independent_failures`]) — and the model refitted, until all
-/// pass. Returns the removed effects.
+/// failing ones unrelated to it ([`independent_failures`]) — and the model refitted, and the
+/// effects related to the removed ones ([`related_to`]) are checked again, until all pass.
+/// Returns the removed effects.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn backward_check(
     start: &Model,
@@ -50,6 +51,10 @@ pub(super) fn backward_check(
 ) -> Result<Vec<RemovedEffect>, DiscoveryError> {
     let mut removed = Vec::new();
     let mut recomputed: Option<CrossValidation> = None;
+    // after a removal: the effects whose standing it can have changed (a parameter correlated
+    // with one of the removed effects' in the fit before the removal); the others are not
+    // re-tested
+    let mut affected: Option<Vec<EffectSpec>> = None;
     // parameters of the effect(s) just added: an earlier effect can only have become redundant
     // if its parameters are correlated with these
     let newest: Vec<usize> = added
@@ -78,14 +83,16 @@ pub(super) fn backward_check(
             .filter(|&k| {
                 let own_idx: Vec<usize> =
                     added[k].spec.params().iter().filter_map(|p| current.params.index_of(*p)).collect();
-                recomputed.is_some()
-                    || own_idx.iter().any(|a| {
+                match &affected {
+                    Some(specs) => specs.contains(&added[k].spec),
+                    None => own_idx.iter().any(|a| {
                         newest.iter().any(|b| {
                             current
                                 .correlation(*a, *b)
                                 .is_none_or(|c| c.abs() >= ctx.options.redundancy_correlation)
                         })
-                    })
+                    }),
+                }
             })
             .collect();
         // each check (a cross-validation without one effect, and its refit) is independent:
@@ -130,27 +137,7 @@ pub(super) fn backward_check(
         if failing.is_empty() {
             break;
         }
-        failing.sort_by(|x, y| x.1.z.total_cmp(&y.1.z));
-        let together = independent_failures(&failing, added, current, ctx.options.redundancy_correlation);
-        let zs: Vec<(usize, HeldOutComparison)> = failing.iter().map(|(k, h, _)| (*k, *h)).collect();
-        let (mut ks, refit) = match remove_together(start, added, current, &together, ctx) {
-            Some(refit) => (together, refit),
-            None => {
-                let (k, _, refit) = failing.swap_remove(0);
-                (vec![k], refit)
-            }
-        };
-        ks.sort_unstable_by(|a, b| b.cmp(a));
-        for k in ks {
-            let Some((_, h)) = zs.iter().find(|(j, _)| *j == k) else { continue };
-            let gone = added.remove(k);
-            removed.push(RemovedEffect {
-                label: gone.label,
-                added_in_round: gone.round,
-                removed_in_round: round,
-                heldout: *h,
-            });
-        }
+        let refit = remove_failing(start, added, current, failing, round, ctx, &mut removed, &mut affected);
         *current = refit;
         recomputed = Some(ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds));
     }
@@ -203,4 +190,63 @@ fn remove_together(
         added.iter().enumerate().filter(|(i, _)| !ks.contains(i)).map(|(_, a)| a.spec).collect();
     let base = rebuild(start, &specs, &current.model, &params).ok()?;
     fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()
+}
+
+/// The effects other than `ks` (indices into `added`) with a parameter correlated (by at least
+/// `limit`, or unknown) with a parameter of one of `ks` in `current`.
+fn related_to(ks: &[usize], added: &[AddedEffect], current: &Fit, limit: f64) -> Vec<EffectSpec> {
+    let idx = |a: &AddedEffect| -> Vec<usize> {
+        a.spec.params().iter().filter_map(|p| current.params.index_of(*p)).collect()
+    };
+    let gone: Vec<usize> = ks.iter().flat_map(|k| idx(&added[*k])).collect();
+    added
+        .iter()
+        .enumerate()
+        .filter(|(i, a)| {
+            !ks.contains(i)
+                && idx(a).iter().any(|x| {
+                    gone.iter().any(|g| current.correlation(*x, *g).is_none_or(|c| c.abs() >= limit))
+                })
+        })
+        .map(|(_, a)| a.spec)
+        .collect()
+}
+
+/// Removes the weakest failing effect and those unrelated to it ([`independent_failures`]),
+/// records them in `removed`, sets `affected` to the effects their removal concerns
+/// ([`related_to`]) and returns the refit without them.
+#[allow(clippy::too_many_arguments)]
+fn remove_failing(
+    start: &Model,
+    added: &mut Vec<AddedEffect>,
+    current: &Fit,
+    mut failing: Vec<(usize, HeldOutComparison, Fit)>,
+    round: usize,
+    ctx: &Context<'_>,
+    removed: &mut Vec<RemovedEffect>,
+    affected: &mut Option<Vec<EffectSpec>>,
+) -> Fit {
+    failing.sort_by(|x, y| x.1.z.total_cmp(&y.1.z));
+    let together = independent_failures(&failing, added, current, ctx.options.redundancy_correlation);
+    let zs: Vec<(usize, HeldOutComparison)> = failing.iter().map(|(k, h, _)| (*k, *h)).collect();
+    let (mut ks, refit) = match remove_together(start, added, current, &together, ctx) {
+        Some(refit) => (together, refit),
+        None => {
+            let (k, _, refit) = failing.swap_remove(0);
+            (vec![k], refit)
+        }
+    };
+    *affected = Some(related_to(&ks, added, current, ctx.options.redundancy_correlation));
+    ks.sort_unstable_by(|a, b| b.cmp(a));
+    for k in ks {
+        let Some((_, h)) = zs.iter().find(|(j, _)| *j == k) else { continue };
+        let gone = added.remove(k);
+        removed.push(RemovedEffect {
+            label: gone.label,
+            added_in_round: gone.round,
+            removed_in_round: round,
+            heldout: *h,
+        });
+    }
+    refit
 }

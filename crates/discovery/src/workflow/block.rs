@@ -107,7 +107,14 @@ pub(super) fn add_block(
     let gap_after = ctx.gap(&fit1.model, &held_gap)?;
     let mut records = Vec::new();
     for i in &members {
-        records.push(added_record(&candidates[*i], &evidence, &fit1, round, current, gap, &gap_after, ctx)?);
+        let mut r = added_record(&candidates[*i], &evidence, &fit1, round, current, gap, &gap_after, ctx)?;
+        r.how = format!(
+            "block step: none passed alone; confirmed together with the {} other member(s) (held-out z = {:.1} > {:.2})",
+            members.len() - 1,
+            evidence.heldout.z,
+            evidence.z_required
+        );
+        records.push(r);
         candidates[*i].status = CandidateStatus::Added;
     }
     let extra = records.split_off(1);

@@ -221,7 +221,14 @@ fn record(
     let gap_after = ctx.gap(&fit1.model, &held_gap)?;
     let mut records = Vec::new();
     for i in members {
-        records.push(added_record(&candidates[*i], evidence, &fit1, round, current, gap, &gap_after, ctx)?);
+        let mut r = added_record(&candidates[*i], evidence, &fit1, round, current, gap, &gap_after, ctx)?;
+        r.how = format!(
+            "joint search: nothing passed alone; chosen with the {} other member(s) by the cross-validated forward path over every candidate, confirmed together (held-out z = {:.1} > {:.2}), its own prediction change above the noise",
+            members.len() - 1,
+            evidence.heldout.z,
+            evidence.z_required
+        );
+        records.push(r);
         candidates[*i].status = CandidateStatus::Added;
     }
     let extra = records.split_off(1);

@@ -103,6 +103,10 @@ pub(super) fn added_record(
         meaning: meaning(c.spec.kind()).to_string(),
         spec: c.spec,
         round,
+        how: format!(
+            "forward search: passed alone (held-out z = {:.1} > {:.2})",
+            evidence.heldout.z, evidence.z_required
+        ),
         values: own(&evidence.values),
         std_errors: own(&evidence.std_errors),
         novelty: c.directions.as_ref().map_or(0.0, |d| d.novelty),

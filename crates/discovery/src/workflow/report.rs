@@ -299,6 +299,9 @@ pub struct AddedEffect {
     pub spec: EffectSpec,
     /// round in which it was added
     pub round: usize,
+    /// how it was added: alone by the forward search, in the round's block, or in the set of
+    /// the joint search, in one sentence
+    pub how: String,
     /// identified values in file units, keyed by parameter name with unit
     pub values: BTreeMap<String, f64>,
     /// their standard deviations
