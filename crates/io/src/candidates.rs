@@ -1,5 +1,6 @@
-//! Candidate poses `position,tcp,q1..qN`: read with their raw rows, so a selection is written
-//! back with exactly the input's columns.
+//! Candidate poses `position,tcp,q1..qN` (and plane rows `plane,tcp,q1..qN[,normal]`, tracker
+//! rows `tcp,q1..qN,x,y,z`): read with their raw rows, so a selection is written back with
+//! exactly the input's columns.
 
 use std::path::Path;
 
@@ -21,11 +22,16 @@ pub struct CandidateTable {
     pub records: Vec<csv::StringRecord>,
     /// 1-based line numbers of the rows
     pub lines: Vec<u64>,
-    /// the candidates as probe measurements (the target is the calibration position)
+    /// the candidates as measurements: probe rows (the target is the calibration position),
+    /// plane rows (the contact plane, any id: planes the cell lacks are the caller's to add)
+    /// and tracker rows (their `x,y,z` do not enter a selection)
     pub measurements: Vec<Measurement>,
 }
 
-/// Reads candidate poses `position,tcp,q1..qN` (other columns kept verbatim).
+/// Reads candidate poses `position,tcp,q1..qN` (other columns kept verbatim). A row with a
+/// non-empty `plane` is a plane contact (`plane,tcp,q1..qN[,normal]`, as
+/// [`read_measurements`](crate::read_measurements) reads it), a row with neither `position` nor
+/// `plane` but `x,y,z` a tracker row; the kinds may be mixed in one file.
 ///
 /// # Examples
 /// Read candidates, keep two and write them back with the input's columns:
@@ -50,12 +56,36 @@ pub struct CandidateTable {
 ///
 /// # Errors
 /// As [`read_probe_measurements`](crate::read_probe_measurements) (without the check of the effects'
-/// context columns).
+/// context columns); a header without `position`, `plane` and `x,y,z`; a row with both
+/// `position` and `plane` or with none of the three.
 pub fn read_candidates(path: impl AsRef<Path>, model: &Model) -> Result<CandidateTable, IoError> {
     let path = path.as_ref();
-    let t = Table::read_for(path, model, &required_columns(&["position", "tcp"], model, &[]))?;
+    let t = Table::read_for(path, model, &required_columns(&["tcp"], model, &[]))?;
+    let has_xyz = t.has("x") && t.has("y") && t.has("z");
+    if !t.has("position") && !t.has("plane") && !has_xyz {
+        return Err(t.err(
+            t.header_line,
+            "position",
+            "missing: candidate rows are probe rows (`position`), plane rows (`plane`, optional `normal`) or tracker rows (`x,y,z`)",
+        ));
+    }
     let ids = RowIds::of(model);
-    let measurements = t.convert(|line, rec| t.probe_measurement(line, rec, model, &ids))?;
+    let measurements = t.convert(|line, rec| {
+        let filled = |c: &str| t.field(rec, c).is_some_and(|s| !s.is_empty());
+        match (filled("position"), filled("plane")) {
+            (true, true) => {
+                Err(t.err(line, "plane", "a row is a probe row (`position`) or a plane row (`plane`), not both"))
+            }
+            (true, false) => t.probe_measurement(line, rec, model, &ids),
+            (false, true) => t.plane_measurement(line, rec, model, &ids),
+            (false, false) if has_xyz && filled("x") => t.tracker_measurement(line, rec, model, &ids),
+            (false, false) => Err(t.err(
+                line,
+                if t.has("position") { "position" } else { "plane" },
+                "empty: a candidate row needs `position` (probe), `plane` (plane contact) or `x,y,z` (tracker)",
+            )),
+        }
+    })?;
     Ok(CandidateTable {
         headers: t.headers.clone(),
         lines: t.rows.iter().map(|r| r.0).collect(),

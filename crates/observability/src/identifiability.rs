@@ -299,6 +299,11 @@ pub struct IdentifiabilityReport {
     pub column_norms: Vec<f64>,
     /// number of measurements (poses)
     pub measurement_count: usize,
+    /// number of rows that carry information: [`vatcal_core::informative_rows`] of the
+    /// measurements (3 per point, pose half or plane contact with the tool axis held normal, 1 per
+    /// plane contact without) plus the rows of known distances; from a bare Jacobian
+    /// ([`analyze_jacobian`]) its non-zero rows
+    pub equation_count: usize,
 }
 
 impl IdentifiabilityReport {
@@ -345,9 +350,16 @@ impl IdentifiabilityReport {
 
 impl fmt::Display for IdentifiabilityReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // the informative rows are named when they are not 3 per measurement (plane contacts
+        // without the tool axis, known distances)
+        let rows = if self.equation_count == 3 * self.measurement_count {
+            String::new()
+        } else {
+            format!(", {} informative rows", self.equation_count)
+        };
         writeln!(
             f,
-            "rank {} of {} parameters ({} measurements, relative tolerance {:.1e}, threshold {:.2e})",
+            "rank {} of {} parameters ({} measurements{rows}, relative tolerance {:.1e}, threshold {:.2e})",
             self.rank,
             self.parameter_count,
             self.measurement_count,
@@ -443,11 +455,14 @@ pub fn analyze_with(
         return Err(ObservabilityError::NoMeasurements);
     }
     let j = assemble_jacobian(model, measurements, params)?;
-    analyze_jacobian(j.as_ref(), params, options)
+    let mut report = analyze_jacobian(j.as_ref(), params, options)?;
+    report.equation_count = vatcal_core::informative_rows(measurements);
+    Ok(report)
 }
 
 /// The analysis of [`analyze`] on a given natural-unit Jacobian (rows = measurements × 3,
-/// columns = `params`).
+/// columns = `params`). The report's `measurement_count` is `rows / 3` and its
+/// `equation_count` the number of non-zero rows (callers that know the measurements set both).
 pub fn analyze_jacobian(
     j: MatRef<'_, f64>,
     params: &ParamSet,
@@ -498,6 +513,7 @@ pub fn analyze_jacobian(
         params: params.clone(),
         column_norms,
         measurement_count: j.nrows() / 3,
+        equation_count: (0..j.nrows()).filter(|r| j.row(*r).iter().any(|x| *x != 0.0)).count(),
     })
 }
 
@@ -666,11 +682,16 @@ fn rank_deficient_error_with(report: &IdentifiabilityReport, hint: &str) -> Obse
         report.measurement_count,
         names.join(", ")
     );
-    if 3 * report.measurement_count < report.parameter_count {
+    let l = report.parameter_count;
+    if report.equation_count < l && report.equation_count == 3 * report.measurement_count {
         message.push_str(&format!(
-            ". {} parameters need at least {} poses (3 equations per pose)",
-            report.parameter_count,
-            report.parameter_count.div_ceil(3)
+            ". {l} parameters need at least {} poses (3 equations per pose)",
+            l.div_ceil(3)
+        ));
+    } else if report.equation_count < l {
+        message.push_str(&format!(
+            ". {l} parameters need at least {l} equations; these {} measurements give {} (3 per pose, 1 per plane contact without the tool axis held normal)",
+            report.measurement_count, report.equation_count
         ));
     }
     for r in &report.redundant {
@@ -699,6 +720,9 @@ fn rank_deficient_error_with(report: &IdentifiabilityReport, hint: &str) -> Obse
 /// joints, the base pose, then the parameters of switched-on effects. TCP and
 /// calibration-position coordinates are left out: they are measured on a CMM and kept fixed,
 /// and leaving them free would make the world frame and the tool frame trade places with them.
+/// The contact planes of the cell file are left out for the same reason (they are held fixed;
+/// planes at unknown places come first through [`crate::sets::resolve_spec`] and
+/// [`crate::sets::DataDesign::free_planes`]).
 pub fn preference_order(model: &Model) -> ParamSet {
     let mut v: Vec<ParamId> = if model.is_meca500_on_guide() {
         vatcal_core::canonical::default_param_set().0.into_iter().filter(|p| model.has_param(*p)).collect()
@@ -713,7 +737,9 @@ pub fn preference_order(model: &Model) -> ParamSet {
         v
     };
     for p in model.all_params().0 {
-        if !matches!(p, ParamId::Tcp { .. } | ParamId::Position { .. }) && !v.contains(&p) {
+        if !matches!(p, ParamId::Tcp { .. } | ParamId::Position { .. } | ParamId::Plane { .. })
+            && !v.contains(&p)
+        {
             v.push(p);
         }
     }

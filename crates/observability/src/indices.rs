@@ -149,6 +149,23 @@ pub fn observability_indices(
     params: &ParamSet,
     scaling: ColumnScaling,
 ) -> Result<ObservabilityIndices, ObservabilityError> {
+    observability_indices_for(j, params, scaling, j.nrows() / 3)
+}
+
+/// [`observability_indices`] with the number of poses `m` of O1 given: a Jacobian with rows
+/// beyond the measurement blocks (known distances,
+/// [`crate::sets::assemble_design_jacobian`]) still has `m` = the number of measurements. A
+/// plane contact counts as one pose, whether it gives 1 or 3 informative rows (its zero rows
+/// add nothing to `JᵀJ`), so O1 compares designs of equal size as the paper does.
+///
+/// # Errors
+/// As [`observability_indices`].
+pub fn observability_indices_for(
+    j: MatRef<'_, f64>,
+    params: &ParamSet,
+    scaling: ColumnScaling,
+    pose_count: usize,
+) -> Result<ObservabilityIndices, ObservabilityError> {
     if j.ncols() != params.len() {
         return Err(ObservabilityError::InvalidInput(format!(
             "Jacobian has {} columns for {} parameters",
@@ -159,7 +176,7 @@ pub fn observability_indices(
     let mut scaled: Mat<f64> = j.to_owned();
     scale_columns(&mut scaled, &column_scale_factors(j, &params.0, scaling));
     let s = singular_values(scaled.as_ref())?;
-    let mut idx = ObservabilityIndices::from_singular_values(&s, params.len(), j.nrows() / 3, scaling);
+    let mut idx = ObservabilityIndices::from_singular_values(&s, params.len(), pose_count, scaling);
     idx.rank = normalized_rank(j)?;
     Ok(idx)
 }

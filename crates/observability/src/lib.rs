@@ -31,4 +31,4 @@ pub use identifiability::{
     ColumnScaling, IdentifiabilityReport, LostDirection, Redundancy, all_identifiable, analyze,
     assemble_jacobian, check_identifiable,
 };
-pub use indices::{ObservabilityIndices, observability_indices};
+pub use indices::{ObservabilityIndices, observability_indices, observability_indices_for};

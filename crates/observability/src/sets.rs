@@ -287,8 +287,29 @@ pub fn analyze_design(
     if measurements.is_empty() {
         return Err(ObservabilityError::NoMeasurements);
     }
+    analyze_design_with(model, measurements, design, params, &AnalysisOptions::default())
+}
+
+/// [`analyze_design`] with explicit options. The report counts the measurements and the
+/// informative rows ([`vatcal_core::informative_rows`] plus [`DataDesign::constraint_rows`]).
+///
+/// # Errors
+/// As [`analyze_design`].
+pub fn analyze_design_with(
+    model: &Model,
+    measurements: &[Measurement],
+    design: &DataDesign,
+    params: &ParamSet,
+    options: &AnalysisOptions,
+) -> Result<IdentifiabilityReport, ObservabilityError> {
+    if measurements.is_empty() {
+        return Err(ObservabilityError::NoMeasurements);
+    }
     let j = assemble_design_jacobian(model, measurements, design, params)?;
-    analyze_jacobian(j.as_ref(), params, &AnalysisOptions::default())
+    let mut report = analyze_jacobian(j.as_ref(), params, options)?;
+    report.measurement_count = measurements.len();
+    report.equation_count = vatcal_core::informative_rows(measurements) + design.constraint_rows();
+    Ok(report)
 }
 
 /// The ids of the TCPs the measurements use, ascending.
@@ -400,7 +421,8 @@ pub fn generic_set(
 /// * a [`GenericSet`] name → [`generic_set`];
 /// * `paper34`, `geometric` → the paper's lists, **only on the canonical cell**
 ///   ([`vatcal_core::canonical::CANONICAL_ONLY_SETS`]); refused on any other chain;
-/// * `all-identifiable` → [`all_identifiable`] (plus the free fixed-point coordinates);
+/// * `all-identifiable` → [`all_identifiable`] (plus, first, the free fixed-point coordinates
+///   and the free contact planes' tilts and offsets);
 /// * `default` → the canonical default ([`vatcal_core::canonical::default_param_set`]) on the
 ///   canonical cell; on another chain `all-identifiable` (the CLI's `identify` picks among the
 ///   generic sets by cross-validation instead, `vatcal_identification::cross_validate_sets`);
@@ -430,11 +452,16 @@ pub fn resolve_spec(
         return Ok(vatcal_core::canonical::default_param_set());
     }
     if trimmed == "all-identifiable" || trimmed == "default" {
-        if design.free_positions.is_empty() && design.distances.is_empty() {
+        if design.free_positions.is_empty()
+            && design.distances.is_empty()
+            && design.free_planes.is_empty()
+            && design.plane_distances.is_empty()
+        {
             return all_identifiable(model, measurements);
         }
+        // the free points' coordinates and the free planes' tilts and offsets first
         let mut order = generic_order(model, measurements, GenericSet::Registration, design);
-        order.0.retain(|p| matches!(p, ParamId::Position { .. }));
+        order.0.retain(|p| matches!(p, ParamId::Position { .. } | ParamId::Plane { .. }));
         for p in crate::identifiability::preference_order(model).0 {
             if !order.0.contains(&p) {
                 order.0.push(p);

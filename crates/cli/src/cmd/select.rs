@@ -3,18 +3,20 @@
 //!
 //! Writes the chosen rows with exactly the columns of the input, and prints O1..O5, rank and
 //! condition number of the selection, followed by the paper's ablation: the best selections
-//! restricted to one and to two calibration positions.
+//! restricted to one and to two calibration positions (probe rows only: plane and tracker rows
+//! have no calibration position and are left out of the restricted pools).
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
+use vatcal_core::Measurement;
 use vatcal_observability::ObservabilityError;
 use vatcal_observability::detmax::{
     AblationRow, Candidates, DetmaxOptions, Objective, SelectionIndices, detmax, position_ablation,
     selection_indices,
 };
-use vatcal_observability::identifiability::param_set_from_spec;
+use vatcal_observability::sets::{DataDesign, resolve_spec};
 
 /// Arguments of `vatcal select`.
 #[derive(Debug, clap::Args)]
@@ -23,7 +25,10 @@ pub struct Args {
     #[arg(long)]
     pub model: PathBuf,
     /// Candidate poses (`position,tcp,q1..qN` for the model's N joints; mm for prismatic, degrees
-    /// for revolute joints; other columns are copied to the output unchanged).
+    /// for revolute joints; other columns are copied to the output unchanged). Plane rows
+    /// (`plane,tcp,q1..qN[,normal]`) and tracker rows (`tcp,q1..qN,x,y,z`) may be mixed in;
+    /// contact planes the cell file lacks are estimated from the candidate rows and their tilts
+    /// and offsets are parameters the selection must identify too.
     #[arg(long)]
     pub candidates: PathBuf,
     /// Number of poses to select.
@@ -144,8 +149,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         format!("--objective must be one of o1, o2, o3, o4, o5, got `{}`", args.objective)
     })?;
     let opts = options(&args, objective)?;
-    let model = super::load_model(&args.model)?;
+    let mut cell = vatcal_core::CellFile::load(&args.model)?;
+    let model = vatcal_kinematics::Model::from_cell(&cell)
+        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
     let table = vatcal_io::read_candidates(&args.candidates, &model)?;
+    // plane rows: the planes the cell lacks are estimated from the candidates and analysed free
+    let (model, free_planes) =
+        super::planes::model_with_unknown_planes(&mut cell, model, &args.model, &table.measurements)?;
+    let design = DataDesign { free_planes, ..DataDesign::default() };
     let n = table.measurements.len();
     anyhow::ensure!(
         n >= args.count,
@@ -160,7 +171,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             args.candidates.display()
         );
     }
-    let params = param_set_from_spec(&args.params, &model, &table.measurements).context("--params")?;
+    let params = resolve_spec(&args.params, &model, &table.measurements, &design).context("--params")?;
     let candidates = Candidates::from_measurements(&model, &table.measurements, &params)
         .map_err(|e| anyhow::anyhow!("{}: {}", args.candidates.display(), with_line(e, &table.lines)))?;
     // Objectives other than O1 depend on the column scaling: select on unit columns.
@@ -204,17 +215,39 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let indices = selection_indices(&candidates, &selection.selected)?;
     writeln!(out, "selection: {}", describe(&indices))?;
     if !args.no_ablation {
-        let positions: Vec<Option<u32>> = table.measurements.iter().map(|m| m.position()).collect();
-        let ablation_opts = DetmaxOptions { objective: Objective::O1, ..opts.clone() };
+        ablation(&mut out, &candidates, &table.measurements, &opts, args.count)?;
+    }
+    Ok(())
+}
+
+/// The paper's ablation over the probe rows' calibration positions. Plane and tracker rows
+/// have no calibration position: they are left out of every restricted pool (and named), and
+/// without probe rows the ablation is skipped.
+fn ablation(
+    out: &mut impl Write,
+    candidates: &Candidates,
+    measurements: &[Measurement],
+    opts: &DetmaxOptions,
+    count: usize,
+) -> anyhow::Result<()> {
+    let positions: Vec<Option<u32>> = measurements.iter().map(|m| m.position()).collect();
+    let others = positions.iter().filter(|p| p.is_none()).count();
+    if others == positions.len() {
         writeln!(
             out,
-            "ablation (best Detmax selection of {} poses restricted to fewer calibration positions):",
-            args.count
+            "ablation: no probe rows at calibration positions ({others} plane/tracker rows); skipped"
         )?;
-        for size in [1, 2] {
-            let rows = position_ablation(&candidates, &positions, size, &ablation_opts)?;
-            print_ablation(&mut out, size, &rows, args.count)?;
-        }
+        return Ok(());
+    }
+    let left_out = if others > 0 { format!("; {others} plane/tracker rows left out") } else { String::new() };
+    let ablation_opts = DetmaxOptions { objective: Objective::O1, ..opts.clone() };
+    writeln!(
+        out,
+        "ablation (best Detmax selection of {count} poses restricted to fewer calibration positions{left_out}):"
+    )?;
+    for size in [1, 2] {
+        let rows = position_ablation(candidates, &positions, size, &ablation_opts)?;
+        print_ablation(out, size, &rows, count)?;
     }
     Ok(())
 }

@@ -20,6 +20,7 @@ mod import_urdf;
 mod markers;
 mod plan_kinds;
 mod plane_rows;
+mod plane_rows_observability;
 mod pose_rows;
 mod real_data;
 mod select_observability;

@@ -9,3 +9,4 @@ mod common;
 mod detmax;
 mod identifiability;
 mod indices;
+mod plane_rows;

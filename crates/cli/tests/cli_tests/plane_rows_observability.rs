@@ -1,0 +1,152 @@
+//! `vatcal observability` and `vatcal select` on plane rows (issue 31 item 3): the UR5e's TCP
+//! touching a table and pressing its face on a 50 mm gauge block standing on it, planes the
+//! cell file does not have (estimated from the rows and analysed free), with and without the
+//! known 50 mm between them; candidates mixing plane and tracker rows.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use nalgebra::Vector3;
+use vatcal_core::{CellFile, Measurement, Target};
+use vatcal_kinematics::{ContactPlane, Model};
+use vatcal_sim::truth::{
+    ErrorBudget, perturbed_truth, synthetic_plane_contacts, synthetic_tracker_measurements,
+};
+
+fn fixture() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
+}
+
+/// The perturbed UR5e with a table 50 mm below its base and the block's top 50 mm above it.
+fn truth() -> Model {
+    let nominal = Model::from_cell(&CellFile::load(fixture()).expect("fixture")).expect("model");
+    let budget = ErrorBudget { compliance_range: (0.0, 0.0), ..ErrorBudget::realistic() };
+    let mut t = perturbed_truth(&nominal, 4, &budget);
+    t.insert_plane(1, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), -50.0, 40.0));
+    t.insert_plane(2, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), 0.0, 40.0));
+    t
+}
+
+/// 20 touches of the table, 20 presses on the block (5 µm contact noise).
+fn plane_rows(truth: &Model) -> Vec<Measurement> {
+    let mut rows = synthetic_plane_contacts(truth, 1, 1, false, 20, 0.005, 1);
+    rows.extend(synthetic_plane_contacts(truth, 2, 1, true, 20, 0.005, 2));
+    assert_eq!(rows.len(), 40);
+    rows
+}
+
+/// `plane,tcp,q1..q6,normal,x,y,z,label` (degrees, mm): plane rows leave x,y,z empty, tracker
+/// rows `plane` and `normal`.
+fn write_rows(path: &Path, model: &Model, rows: &[Measurement]) {
+    let mut text = String::from("plane,tcp,q1,q2,q3,q4,q5,q6,normal,x,y,z,label\n");
+    for (i, m) in rows.iter().enumerate() {
+        let q: Vec<String> = m.q.to_file_units(model.joint_kinds()).iter().map(|v| v.to_string()).collect();
+        let (plane, normal, xyz) = match m.target {
+            Target::Plane { plane, normal } => (plane.to_string(), u8::from(normal).to_string(), ",,".into()),
+            Target::Tracker { xyz_mm } => {
+                (String::new(), String::new(), format!("{},{},{}", xyz_mm.x, xyz_mm.y, xyz_mm.z))
+            }
+            _ => unreachable!("plane and tracker rows only"),
+        };
+        text.push_str(&format!("{plane},{},{},{normal},{xyz},row{i}\n", m.tcp, q.join(",")));
+    }
+    std::fs::write(path, text).expect("write rows");
+}
+
+fn vatcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vatcal")).args(args).output().expect("run vatcal")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+#[test]
+fn observability_of_plane_rows_names_the_lost_base_and_the_scale() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let csv = dir.path().join("planes.csv");
+    let truth = truth();
+    write_rows(&csv, &truth, &plane_rows(&truth));
+    let (model, csv) = (fixture(), csv.to_str().expect("path").to_string());
+    let base = ["observability", "--model", model.to_str().expect("path"), "--measurements", &csv];
+
+    // every parameter: the unknown planes' first; the base pose is a gauge of unknown planes
+    let o = vatcal(&base);
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("planes: 2 not in the cell file (1, 2)"), "{out}");
+    assert!(out.contains("40 measurements (40 plane contact(s), 80 informative rows)"), "{out}");
+    assert!(out.contains("identifiable (") && out.contains("plane1_offset"), "{out}");
+    let lost = out.lines().find(|l| l.starts_with("NOT FULLY IDENTIFIABLE")).expect("rank-deficient");
+    for p in ["base_x", "base_y", "base_gamma"] {
+        assert!(lost.contains(p), "{p}: {lost}");
+    }
+
+    // the kinematic set needs the scale
+    let kinematic = [&base[..], &["--params", "kinematic"]].concat();
+    let o = vatcal(&kinematic);
+    let err = text(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("nothing fixes the scale") && err.contains("--plane-distance"), "{err}");
+    let o = vatcal(&[&kinematic[..], &["--plane-distance", "1,2,50"]].concat());
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("(40 plane contact(s), 80 informative rows, 1 known plane distance(s))"), "{out}");
+    assert!(out.contains("83 informative rows"), "{out}");
+    assert!(out.contains("indices") && out.contains("O1 "), "{out}");
+
+    // a plane distance naming a plane the data and the cell do not have
+    let o = vatcal(&[&base[..], &["--plane-distance", "1,7,50"]].concat());
+    let err = text(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("plane 7") && err.contains("--plane-distance"), "{err}");
+}
+
+#[test]
+fn select_picks_among_plane_and_tracker_rows_and_keeps_the_columns() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let truth = truth();
+    let mut rows = plane_rows(&truth);
+    rows.extend(
+        synthetic_tracker_measurements(&truth, 200, 0.01, 3).into_iter().filter(|m| m.tcp == 1).take(40),
+    );
+    assert_eq!(rows.len(), 80);
+    let (cands, selected) = (dir.path().join("cands.csv"), dir.path().join("selected.csv"));
+    write_rows(&cands, &truth, &rows);
+    let model = fixture();
+    let o = vatcal(&[
+        "select",
+        "--model",
+        model.to_str().expect("path"),
+        "--candidates",
+        cands.to_str().expect("path"),
+        "--count",
+        "30",
+        "--restarts",
+        "2",
+        "--seed",
+        "5",
+        "--out",
+        selected.to_str().expect("path"),
+    ]);
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("planes: 2 not in the cell file (1, 2)"), "{out}");
+    assert!(out.contains("selected 30 of 80 candidates"), "{out}");
+    assert!(
+        out.contains("ablation: no probe rows at calibration positions (80 plane/tracker rows); skipped"),
+        "{out}"
+    );
+    let written = std::fs::read_to_string(&selected).expect("selection");
+    let lines: Vec<&str> = written.lines().collect();
+    assert_eq!(lines[0], "plane,tcp,q1,q2,q3,q4,q5,q6,normal,x,y,z,label");
+    assert_eq!(lines.len(), 31);
+    let plane_lines = lines[1..].iter().filter(|l| !l.starts_with(',')).count();
+    eprintln!("{plane_lines} plane rows of 30 selected");
+    // every written line is one of the input's, verbatim
+    let input = std::fs::read_to_string(&cands).expect("candidates");
+    assert!(lines[1..].iter().all(|l| input.lines().any(|i| i == *l)));
+}
