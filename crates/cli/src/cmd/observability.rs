@@ -85,6 +85,25 @@ fn counts(measurements: &[Measurement], design: &DataDesign) -> String {
     text
 }
 
+/// What plane rows cannot see, said once in words (the rank test names parameters, not why).
+fn plane_notes(measurements: &[Measurement], design: &DataDesign) -> Vec<String> {
+    if !measurements.iter().any(|m| m.target.is_plane()) {
+        return Vec::new();
+    }
+    let mut notes = Vec::new();
+    if measurements.iter().all(|m| m.target.is_plane()) {
+        notes.push(
+            "note: plane rows see the TCP's height along each plane's normal (and, pressed, the tool axis's tilt) only: moving the cell along the planes or turning it about their normal is invisible".to_string(),
+        );
+    }
+    if !vatcal_observability::sets::anchored(measurements, design) && design.constraint_rows() == 0 {
+        notes.push(
+            "note: every row is on a plane the cell file lacks and no --plane-distance is given: nothing fixes a length, so the scale of the chain is free".to_string(),
+        );
+    }
+    notes
+}
+
 /// The parameters of `--params` on these data: `all` is [`preference_order`] after the free
 /// planes' tilts and offsets.
 fn resolve(
@@ -142,6 +161,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.params
     )?;
     write!(out, "{report}")?;
+    for note in plane_notes(&measurements, &design) {
+        writeln!(out, "{note}")?;
+    }
     let what = if report.is_full_rank() { "indices" } else { "indices of the identifiable basis" };
     writeln!(out, "{what}, raw units:               {raw}")?;
     writeln!(out, "{what}, unit-normalised columns: {normalized}")?;

@@ -82,6 +82,8 @@ fn observability_of_plane_rows_names_the_lost_base_and_the_scale() {
     for p in ["base_x", "base_y", "base_gamma"] {
         assert!(lost.contains(p), "{p}: {lost}");
     }
+    assert!(out.contains("turning it about their normal is invisible"), "{out}");
+    assert!(out.contains("the scale of the chain is free"), "{out}");
 
     // the kinematic set needs the scale
     let kinematic = [&base[..], &["--params", "kinematic"]].concat();
@@ -94,7 +96,8 @@ fn observability_of_plane_rows_names_the_lost_base_and_the_scale() {
     eprintln!("{out}{err}");
     assert!(o.status.success(), "{err}");
     assert!(out.contains("(40 plane contact(s), 80 informative rows, 1 known plane distance(s))"), "{out}");
-    assert!(out.contains("83 informative rows"), "{out}");
+    assert!(out.contains("83 informative rows") && out.contains("redundant: none"), "{out}");
+    assert!(!out.contains("the scale of the chain is free"), "{out}");
     assert!(out.contains("indices") && out.contains("O1 "), "{out}");
 
     // a plane distance naming a plane the data and the cell do not have
