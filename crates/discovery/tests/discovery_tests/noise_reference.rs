@@ -111,3 +111,30 @@ fn replicates_give_the_noise_reference_and_the_lack_of_fit_test() {
     assert!(start.ln_p_value < -20.0, "{start:?}");
     assert_catalog_effects_found(&d);
 }
+
+/// The joint search (issue 30 item 3) under the old size rule of the test above: alone, every
+/// effect is "negligible" against σ̂ (which holds every effect still missing), so the forward
+/// search adds nothing; the joint search's set passes together, each member's own prediction
+/// change above the noise, and the search goes on from there. The final model holds the hidden
+/// catalog effects (the worked example of docs/discovery.md, "Search, not greed").
+#[test]
+fn the_joint_search_adds_what_one_at_a_time_cannot() {
+    let s = scenario(71, &hidden(), None, N_PROBE);
+    let old_rule = DiscoverOptions {
+        strong_z_factor: f64::INFINITY,
+        saturated_noise: false,
+        ..DiscoverOptions::default()
+    };
+    let d = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &old_rule)
+        .expect("discovery runs");
+    show(&d);
+    assert!(d.rounds[0].decision.contains("joint search over"), "{}", d.rounds[0].decision);
+    assert!(d.added_effects.iter().any(|a| a.how.starts_with("joint search")), "{:?}", found(&d));
+    assert_catalog_effects_found(&d);
+    assert!(found(&d).contains(&("joint-cyclic".to_string(), Some(4))), "{:?}", found(&d));
+    assert!(d.final_gap_mm < 0.01, "{}", d.final_gap_mm);
+    let without = DiscoverOptions { joint_search: false, ..old_rule };
+    let d0 = discover(&common::nominal(), &s.probe, &ParamSet::paper34(), Some(&s.validation), &without)
+        .expect("discovery runs");
+    assert!(d0.added_effects.len() <= 1 && d0.final_gap_mm > 0.1, "{:?} {}", found(&d0), d0.final_gap_mm);
+}
