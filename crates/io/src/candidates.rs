@@ -108,3 +108,61 @@ impl CandidateTable {
         w.flush().map_err(|source| IoError::File { path: path.into(), cause: source })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use vatcal_core::{CellFile, Target};
+
+    fn ur5e() -> Model {
+        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
+            .expect("fixture");
+        Model::from_cell(&cell).expect("model")
+    }
+
+    fn read(text: &str) -> Result<CandidateTable, IoError> {
+        let f = tempfile::NamedTempFile::new().expect("tmp");
+        std::fs::write(f.path(), text).expect("write");
+        read_candidates(f.path(), &ur5e())
+    }
+
+    /// Probe, plane (touched and pressed; a plane id the cell lacks) and tracker rows in one
+    /// file; a selection keeps the input's columns.
+    #[test]
+    fn plane_and_tracker_rows_mix_with_probe_rows() {
+        let head = "position,plane,tcp,q1,q2,q3,q4,q5,q6,normal,x,y,z,note\n";
+        let t = read(&format!(
+            "{head}1,,1,0,-90,90,0,90,0,,,,,a\n,7,1,0,-80,90,0,90,0,1,,,,b\n,7,2,10,-80,90,0,90,0,,,,,c\n,,1,0,-70,90,0,90,0,,1,2,3,d\n"
+        ))
+        .expect("mixed rows");
+        let targets: Vec<Target> = t.measurements.iter().map(|m| m.target).collect();
+        assert_eq!(targets[0], Target::Probe { position: 1 });
+        assert_eq!(targets[1], Target::Plane { plane: 7, normal: true });
+        assert_eq!(targets[2], Target::Plane { plane: 7, normal: false });
+        assert!(matches!(targets[3], Target::Tracker { .. }));
+        assert_eq!(vatcal_core::informative_rows(&t.measurements), 3 + 3 + 1 + 3);
+        let out = tempfile::NamedTempFile::new().expect("tmp");
+        t.write_subset(out.path(), &[2, 1]).expect("write");
+        let text = std::fs::read_to_string(out.path()).expect("read");
+        assert_eq!(text, format!("{head},7,2,10,-80,90,0,90,0,,,,,c\n,7,1,0,-80,90,0,90,0,1,,,,b\n"));
+        // a plane-only file needs no `position` column
+        let t = read("plane,tcp,q1,q2,q3,q4,q5,q6\n3,1,0,-90,90,0,90,0\n").expect("plane rows");
+        assert_eq!(t.measurements[0].target, Target::Plane { plane: 3, normal: false });
+    }
+
+    #[test]
+    fn bad_candidate_rows_name_line_and_column() {
+        let e = read("tcp,q1,q2,q3,q4,q5,q6\n1,0,0,0,0,0,0\n").expect_err("no kind").to_string();
+        assert!(e.contains("position") && e.contains("plane"), "{e}");
+        let e =
+            read("position,plane,tcp,q1,q2,q3,q4,q5,q6\n1,2,1,0,0,0,0,0,0\n").expect_err("both").to_string();
+        assert!(e.contains(":2:") && e.contains("not both"), "{e}");
+        let e =
+            read("position,plane,tcp,q1,q2,q3,q4,q5,q6\n,,1,0,0,0,0,0,0\n").expect_err("none").to_string();
+        assert!(e.contains(":2:") && e.contains("empty"), "{e}");
+        let e = read("plane,tcp,q1,q2,q3,q4,q5,q6,normal\n1,1,0,0,0,0,0,0,maybe\n")
+            .expect_err("normal")
+            .to_string();
+        assert!(e.contains("normal") && e.contains("maybe"), "{e}");
+    }
+}
