@@ -202,6 +202,14 @@ pub(super) fn validate(c: &Candidates, o: &DetmaxOptions) -> Result<(), Observab
             l.div_ceil(3)
         )));
     }
+    // plane contacts without the tool axis give one equation (their other rows are zero)
+    let most = most_equations(c, o.count);
+    if o.ridge <= 0.0 && most < l {
+        return Err(ObservabilityError::InvalidInput(format!(
+            "any {} of these candidates give at most {most} equations for {l} parameters (3 per pose, 1 per plane contact without the tool axis held normal): choose more poses",
+            o.count
+        )));
+    }
     if o.count == 0 {
         return Err(ObservabilityError::InvalidInput("the design size must be at least 1".into()));
     }
@@ -233,4 +241,13 @@ pub(super) fn validate(c: &Candidates, o: &DetmaxOptions) -> Result<(), Observab
         }
     }
     Ok(())
+}
+
+/// The most equations (non-zero Jacobian rows) `count` of the candidates can give: the sum of
+/// the `count` largest per-candidate counts.
+fn most_equations(c: &Candidates, count: usize) -> usize {
+    let mut rows: Vec<usize> =
+        (0..c.len()).map(|k| (0..3).filter(|a| c.row(k, *a).iter().any(|x| *x != 0.0)).count()).collect();
+    rows.sort_unstable_by(|a, b| b.cmp(a));
+    rows.iter().take(count).sum()
 }

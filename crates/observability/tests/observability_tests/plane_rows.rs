@@ -193,4 +193,8 @@ fn detmax_selects_among_plane_and_tracker_rows() {
         chosen.raw.o1
     );
     assert!(chosen.raw.o1 > best_random, "{} vs {best_random}", chosen.raw.o1);
+    // touches give one equation each: 20 of them cannot fix 41 parameters (60 rows would)
+    let touches: Vec<usize> = (30..90).collect();
+    let e = detmax(&candidates.subset(&touches), &DetmaxOptions::new(20)).expect_err("too few equations");
+    assert!(e.to_string().contains("at most 20 equations for 41 parameters"), "{e}");
 }
