@@ -154,7 +154,7 @@ fn any_instrument_errors_name_file_line_and_field() {
     std::fs::write(&neither, "# joint rows only\ntcp,q1,q2,q3,q4,q5,q6\n1,0,-90,90,0,90,0\n").expect("write");
     let e =
         fail(&["identify", "--model", &fixture("ur5e.toml"), "--measurements", &s(&neither), "--out", &out]);
-    assert!(e.contains("neither.csv:2: column `position / x,y,z`"), "{e}");
+    assert!(e.contains("neither.csv:2: column `position / x,y,z / plane`"), "{e}");
     assert_eq!(e.trim().lines().count(), 1, "{e}");
     // a row that is neither kind
     let row = dir.path().join("row.csv");

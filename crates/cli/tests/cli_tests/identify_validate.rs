@@ -166,7 +166,7 @@ fn bad_input_gets_a_clear_error_and_a_non_zero_exit() {
     let out = vatcal(&["validate", "--model", s(&fixture()), "--tracker", s(&joints_only)]);
     assert!(!out.status.success());
     assert!(
-        text(&out.stderr).contains("joints-only.csv:1: column `position / x,y,z`"),
+        text(&out.stderr).contains("joints-only.csv:1: column `position / x,y,z / plane`"),
         "{}",
         text(&out.stderr)
     );
