@@ -20,6 +20,7 @@
 //! change FK and contribute Jacobian columns through the same code path (see [`effects`]).
 
 mod chain;
+mod contact_plane;
 pub mod effects;
 mod jacobian;
 mod model;
@@ -27,8 +28,8 @@ mod orientation;
 mod plane;
 
 pub use chain::{Chain, GravityLoads};
+pub use contact_plane::ContactPlane;
 pub use model::{MdhRow, Model, ModelError};
-pub use plane::ContactPlane;
 pub use vatcal_core::Frame;
 /// The cell file a [`Model`] is built from ([`Model::from_cell`]), re-exported so that a user of
 /// this crate needs no other.

@@ -92,7 +92,7 @@ pub struct Model {
     pub(crate) tcps: Vec<(u32, Vector3<f64>)>,
     pub(crate) positions: Vec<(u32, Vector3<f64>)>,
     /// contact planes of plane rows
-    pub(crate) planes: Vec<(u32, crate::plane::ContactPlane)>,
+    pub(crate) planes: Vec<(u32, crate::contact_plane::ContactPlane)>,
     /// joint limits (None = continuous revolute joint)
     pub(crate) limits: [Option<(f64, f64)>; MAX_JOINTS],
     /// limits with continuous joints as (-pi, pi), for [`Model::joint_limits`]
@@ -228,7 +228,11 @@ impl Model {
             base,
             tcps: cell.tcps.iter().map(point).collect(),
             positions: cell.calibration_positions.iter().map(point).collect(),
-            planes: cell.planes.iter().map(|e| (e.id, crate::plane::ContactPlane::from_entry(e))).collect(),
+            planes: cell
+                .planes
+                .iter()
+                .map(|e| (e.id, crate::contact_plane::ContactPlane::from_entry(e)))
+                .collect(),
             limits,
             ranges,
             guide,

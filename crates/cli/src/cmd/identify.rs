@@ -137,6 +137,29 @@ pub struct Args {
     pub read: super::read_args::ReadArgs,
 }
 
+/// What the fit knows beyond the rows: the unknown fixed points and planes, the known distances
+/// (`--point-distance`, `--plane-distance`), checked against the model.
+fn data_design(
+    args: &Args,
+    model: &Model,
+    free_positions: Vec<u32>,
+    free_planes: Vec<u32>,
+) -> anyhow::Result<DataDesign> {
+    let distances = args
+        .point_distances
+        .iter()
+        .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let design = DataDesign {
+        free_positions,
+        distances,
+        free_planes,
+        plane_distances: super::planes::plane_distances(&args.plane_distances)?,
+    };
+    design.check(model).context("--point-distance / --plane-distance / --unknown-positions")?;
+    Ok(design)
+}
+
 /// Runs the identification, prints one line per iteration and a summary, writes the outputs.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut cell = vatcal_core::CellFile::load(&args.model)?;
@@ -158,18 +181,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         super::planes::model_with_unknown_planes(&mut cell, model, &args.model, &measurements)?;
     let model = with_tool_rotation(model, &measurements)?;
     let method: Method = args.method.parse().map_err(anyhow::Error::msg).context("--method")?;
-    let distances = args
-        .point_distances
-        .iter()
-        .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    let design = DataDesign {
-        free_positions,
-        distances,
-        free_planes,
-        plane_distances: super::planes::plane_distances(&args.plane_distances)?,
-    };
-    design.check(&model).context("--point-distance / --plane-distance / --unknown-positions")?;
+    let design = data_design(&args, &model, free_positions, free_planes)?;
     let options = IdentifyOptions {
         method,
         max_iterations: args.max_iterations,
