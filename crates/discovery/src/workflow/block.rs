@@ -9,7 +9,7 @@ use super::confirm::refit_effects;
 use super::context::{Context, CrossValidation};
 use super::decide::{HELDOUT_NOT_LOWER, decide};
 use super::options::DiscoverOptions;
-use super::record::{Addition, added_record};
+use super::record::{Addition, GroupOrigin, record_group};
 use super::report::{CandidateStatus, Gap, RefitEvidence};
 use super::screen::Thresholds;
 use super::veto::{VALIDATION_WORSE, validation_worse};
@@ -103,30 +103,18 @@ pub(super) fn add_block(
     else {
         return Ok(None);
     };
-    let held_gap = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
-    let gap_after = ctx.gap(&fit1.model, &held_gap)?;
-    let mut records = Vec::new();
-    for i in &members {
-        let mut r = added_record(&candidates[*i], &evidence, &fit1, round, current, gap, &gap_after, ctx)?;
-        r.how = format!(
-            "block step: none passed alone; confirmed together with the {} other member(s) (held-out z = {:.1} > {:.2})",
-            members.len() - 1,
-            evidence.heldout.z,
-            evidence.z_required
-        );
-        records.push(r);
-        candidates[*i].status = CandidateStatus::Added;
-    }
-    let extra = records.split_off(1);
-    let Some(added) = records.pop() else { return Ok(None) };
-    let addition = Addition {
-        added,
-        extra,
-        fit: fit1,
-        held_all: held_gap,
-        block: Some(members),
-        ambiguity_line: None,
-        joint_line: None,
+    let how = |others: usize, e: &RefitEvidence| {
+        format!(
+            "block step: none passed alone; confirmed together with the {others} other member(s) (held-out z = {:.1} > {:.2})",
+            e.heldout.z, e.z_required
+        )
     };
-    Ok(Some((addition, held1)))
+    record_group(
+        candidates,
+        &members.clone(),
+        (&evidence, fit1, held1),
+        (round, current, gap),
+        (GroupOrigin::Block(members), &how),
+        ctx,
+    )
 }

@@ -18,7 +18,7 @@ use super::context::{Context, CrossValidation};
 use super::decide::decide;
 use super::joint::{JointPath, joint_path};
 use super::plausible::plausibility;
-use super::record::{Addition, added_record};
+use super::record::{Addition, GroupOrigin, record_group};
 use super::report::{CandidateStatus, Gap, RefitEvidence};
 use super::screen::Thresholds;
 use super::size::physical_floor_mm;
@@ -116,12 +116,12 @@ pub(super) fn add_joint(
                     evidence.heldout.z,
                     th.z_required,
                 );
-                return record(
+                return record_group(
                     candidates,
                     &members,
                     (&evidence, fit1, held1),
                     (round, current, gap),
-                    line,
+                    (GroupOrigin::JointSearch(line), &joint_how),
                     ctx,
                 );
             }
@@ -207,40 +207,10 @@ fn path_sentence(path: &JointPath, candidates: &[Candidate]) -> String {
     )
 }
 
-/// Marks the members added and records them (the first as the addition, the others as its
-/// extra members), with the set's evidence.
-fn record(
-    candidates: &mut [Candidate],
-    members: &[usize],
-    (evidence, fit1, held1): (&RefitEvidence, Fit, CrossValidation),
-    (round, current, gap): (usize, &Fit, &Gap),
-    line: String,
-    ctx: &Context<'_>,
-) -> Result<Option<(Addition, CrossValidation)>, DiscoveryError> {
-    let held_gap = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
-    let gap_after = ctx.gap(&fit1.model, &held_gap)?;
-    let mut records = Vec::new();
-    for i in members {
-        let mut r = added_record(&candidates[*i], evidence, &fit1, round, current, gap, &gap_after, ctx)?;
-        r.how = format!(
-            "joint search: nothing passed alone; chosen with the {} other member(s) by the cross-validated forward path over every candidate, confirmed together (held-out z = {:.1} > {:.2}), its own prediction change above the noise",
-            members.len() - 1,
-            evidence.heldout.z,
-            evidence.z_required
-        );
-        records.push(r);
-        candidates[*i].status = CandidateStatus::Added;
-    }
-    let extra = records.split_off(1);
-    let Some(added) = records.pop() else { return Ok(None) };
-    let addition = Addition {
-        added,
-        extra,
-        fit: fit1,
-        held_all: held_gap,
-        block: None,
-        ambiguity_line: None,
-        joint_line: Some(line),
-    };
-    Ok(Some((addition, held1)))
+/// How a member of the joint search's set entered the model.
+fn joint_how(others: usize, e: &RefitEvidence) -> String {
+    format!(
+        "joint search: nothing passed alone; chosen with the {others} other member(s) by the cross-validated forward path over every candidate, confirmed together (held-out z = {:.1} > {:.2}), its own prediction change above the noise",
+        e.heldout.z, e.z_required
+    )
 }

@@ -176,6 +176,50 @@ pub(super) struct Addition {
     pub(super) joint_line: Option<String>,
 }
 
+/// How a group of candidates was added: the block step's members, or the joint search's set
+/// with its account in one sentence.
+pub(super) enum GroupOrigin {
+    /// the block step (the members' indices)
+    Block(Vec<usize>),
+    /// the joint search (its account)
+    JointSearch(String),
+}
+
+/// How each member of a group entered the model, from the number of other members and the
+/// group's evidence (the `how` of its record).
+pub(super) type HowAdded<'a> = &'a dyn Fn(usize, &RefitEvidence) -> String;
+
+/// Marks a group's members added and records them (the first as the addition, the others as
+/// its extra members) with the group's evidence; `how(other members, evidence)` says how each
+/// entered. Returns the addition and the group's confirmation cross-validation.
+pub(super) fn record_group(
+    candidates: &mut [Candidate],
+    members: &[usize],
+    (evidence, fit1, held1): (&RefitEvidence, Fit, CrossValidation),
+    (round, current, gap): (usize, &Fit, &Gap),
+    (origin, how): (GroupOrigin, HowAdded<'_>),
+    ctx: &Context<'_>,
+) -> Result<Option<(Addition, CrossValidation)>, DiscoveryError> {
+    let held_gap = ctx.cross_validate(&fit1.model, &fit1.params, &ctx.all_folds);
+    let gap_after = ctx.gap(&fit1.model, &held_gap)?;
+    let mut records = Vec::new();
+    for i in members {
+        let mut r = added_record(&candidates[*i], evidence, &fit1, round, current, gap, &gap_after, ctx)?;
+        r.how = how(members.len() - 1, evidence);
+        records.push(r);
+        candidates[*i].status = CandidateStatus::Added;
+    }
+    let extra = records.split_off(1);
+    let Some(added) = records.pop() else { return Ok(None) };
+    let (block, joint_line) = match origin {
+        GroupOrigin::Block(m) => (Some(m), None),
+        GroupOrigin::JointSearch(line) => (None, Some(line)),
+    };
+    let addition =
+        Addition { added, extra, fit: fit1, held_all: held_gap, block, ambiguity_line: None, joint_line };
+    Ok(Some((addition, held1)))
+}
+
 /// The round's bound hits and negligible effects (refitted candidates refused at a
 /// plausibility bound / detected but negligible).
 pub(super) fn findings(candidates: &[Candidate], round: usize) -> (Vec<BoundHit>, Vec<NegligibleEffect>) {
