@@ -368,7 +368,7 @@ pub fn generic_order(
         );
     }
     if anchor {
-        v.extend(BaseParam::ALL.map(ParamId::Base));
+        v.extend(base_order(model, measurements, design).map(ParamId::Base));
     }
     let n = model.joint_count() as u8;
     if set >= GenericSet::JointOffsets {
@@ -414,6 +414,46 @@ pub fn generic_set(
     }
     let order = generic_order(model, measurements, set, design);
     Ok(analyze_design(model, measurements, design, &order)?.identifiable_set())
+}
+
+/// The base pose's parameters in the order the rank analysis should prefer them: x, y, z, α,
+/// β, γ — unless only rows on known contact planes anchor the world (no tracker row, no probe
+/// row at a known place). Heights then see the base only along the planes' normals: the
+/// translations come in decreasing `Σ |n·axis|` over those rows (a horizontal table: z first,
+/// which it fixes, rather than x standing in for it through a slight tilt) and the rotations in
+/// increasing order (the turn about the normal, which no height sees, last).
+fn base_order(model: &Model, measurements: &[Measurement], design: &DataDesign) -> [BaseParam; 6] {
+    let mut weight = [0.0f64; 3];
+    for m in measurements {
+        match m.target {
+            vatcal_core::Target::Plane { plane, .. } if !design.free_planes.contains(&plane) => {
+                if let Some(p) = model.plane(plane) {
+                    let n = p.normal();
+                    for (w, c) in weight.iter_mut().zip(n.iter()) {
+                        *w += c.abs();
+                    }
+                }
+            }
+            vatcal_core::Target::Plane { .. } | vatcal_core::Target::Orientation { .. } => {}
+            vatcal_core::Target::Tracker { .. } => return BaseParam::ALL,
+            vatcal_core::Target::Probe { position } if !design.free_positions.contains(&position) => {
+                return BaseParam::ALL;
+            }
+            vatcal_core::Target::Probe { .. } => {}
+        }
+    }
+    let mut axes = [0usize, 1, 2];
+    axes.sort_by(|a, b| weight[*b].total_cmp(&weight[*a]));
+    let translations = [BaseParam::X, BaseParam::Y, BaseParam::Z];
+    let rotations = [BaseParam::Alpha, BaseParam::Beta, BaseParam::Gamma];
+    [
+        translations[axes[0]],
+        translations[axes[1]],
+        translations[axes[2]],
+        rotations[axes[2]],
+        rotations[axes[1]],
+        rotations[axes[0]],
+    ]
 }
 
 /// Resolves a `--params` specification for these data:
@@ -501,6 +541,23 @@ mod tests {
         let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
             .expect("fixture");
         Model::from_cell(&cell).expect("model")
+    }
+
+    /// Contacts on one known, slightly tilted table: the base's height is kept (not its x
+    /// standing in for it through the tilt), its in-plane position and turn about the normal
+    /// are not identifiable.
+    #[test]
+    fn a_known_table_keeps_the_base_height_not_its_in_plane_position() {
+        let mut model = ur5e();
+        model.insert_plane(
+            1,
+            vatcal_kinematics::ContactPlane::new(nalgebra::Vector3::new(0.001, 0.0, 1.0), -50.0, 40.0),
+        );
+        let rows = vatcal_sim::truth::synthetic_plane_contacts(&model, 1, 1, false, 60, 0.0, 3);
+        let set = generic_set(&model, &rows, GenericSet::Kinematic, &DataDesign::default()).expect("set");
+        let has = |b| set.0.contains(&ParamId::Base(b));
+        assert!(has(BaseParam::Z), "{:?}", set.names());
+        assert!(!has(BaseParam::X) && !has(BaseParam::Y) && !has(BaseParam::Gamma), "{:?}", set.names());
     }
 
     #[test]
