@@ -75,8 +75,8 @@ pub struct DemoOptions {
     /// run the discovery stage after the calibration (default: on): extra probe measurements,
     /// missing-effect discovery, and the fit with the truth's effect structure (the oracle)
     pub discovery: bool,
-    /// extra probe measurements of the discovery stage (default 360,
-    /// `DiscoveryStageOptions::new`)
+    /// extra probe measurements of the discovery stage, at most (default 360,
+    /// `DiscoveryStageOptions::new`; the budget plans fewer when they do not fit)
     pub discovery_count: usize,
     /// device-time budget of the discovery measurements \[s\] (default 15 min,
     /// `DiscoveryStageOptions::budget_s`; `None`: `discovery_count` whatever it takes)

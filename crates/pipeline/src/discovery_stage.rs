@@ -31,8 +31,8 @@ use vatcal_planning::output::PlanSummary;
 use vatcal_planning::plan::plan_campaign;
 
 use crate::budget::{
-    BatchSpend, BudgetReport, DeviceTimeModel, PREDICTION_MARGIN, campaign_device_s, fit_batch, journal_end,
-    measure_steps, targeted_reserve_s,
+    BatchSpend, BudgetReport, DEFAULT_DISCOVERY_BUDGET_S, DeviceTimeModel, PREDICTION_MARGIN,
+    campaign_device_s, fit_batch, journal_end, measure_steps, targeted_reserve_s,
 };
 use crate::campaign_runner::run_campaign;
 pub use crate::discovery_loop::LoopDevices;
@@ -70,17 +70,22 @@ pub struct DiscoveryStageOptions {
     /// device-time budget of the discovery measurements \[s\] ([`crate::budget`]): the Detmax
     /// batch is sized to fit it (`count` is then the largest size tried) and the targeted
     /// batch is measured only when it fits what is left; `None`: `count` measurements and the
-    /// loop whatever they take
+    /// loop whatever they take. Default ([`DiscoveryStageOptions::new`]): 15 min
+    /// ([`DEFAULT_DISCOVERY_BUDGET_S`]), the same as the default of `--discovery-budget-min`
+    /// of `vatcal demo` and `vatcal calibrate`
     pub budget_s: Option<f64>,
 }
 
 impl DiscoveryStageOptions {
-    /// 360 extra measurements planned for [`default_plan_effects`] plus 12 two-sided repeats
-    /// (1 mrad overshoot); the discovery's defaults with `seed`. Give the instruments' noise with [`DiscoveryStageOptions::with_instrument_noise`]
-    /// so that the size rule does not compare with σ̂, which the physics still unmodelled
-    /// inflates to ~0.1 mm (docs/discovery.md). 360, not 120: the held-out improvement of
-    /// each further effect is masked by the misfit of the ones still missing, and its z grows
-    /// with √n (measured on seed 2: 3 effects added from 189 measurements, 7 from 284).
+    /// At most 360 extra measurements planned for [`default_plan_effects`] plus 12 two-sided
+    /// repeats (1 mrad overshoot), sized to fit a device-time budget of 15 min
+    /// ([`DEFAULT_DISCOVERY_BUDGET_S`], as the CLI's `--discovery-budget-min`; set `budget_s`
+    /// to `None` for all 360 whatever they take); the discovery's defaults with `seed`. Give
+    /// the instruments' noise with [`DiscoveryStageOptions::with_instrument_noise`] so that the
+    /// size rule does not compare with σ̂, which the physics still unmodelled inflates to
+    /// ~0.1 mm (docs/discovery.md). 360, not 120 (unbudgeted): the held-out improvement of each
+    /// further effect is masked by the misfit of the ones still missing, and its z grows with
+    /// √n (measured on seed 2: 3 effects added from 189 measurements, 7 from 284).
     pub fn new(seed: u64) -> Self {
         Self {
             count: 360,
@@ -91,10 +96,10 @@ impl DiscoveryStageOptions {
             repeat_overshoot_rad: 1e-3,
             loop_count: 12,
             loop_targets: 2,
-            // no budget by default yet: at 15 min the one-at-a-time search adds too little
-            // (the demo's discovered/34 error 49-71 % instead of 23 %, docs/discovery.md,
-            // "The measurement budget"); `vatcal demo --discovery-budget-min 15` sizes it
-            budget_s: None,
+            // 15 min of device time, as `--discovery-budget-min` of `vatcal demo` and
+            // `vatcal calibrate`: with the joint search the budgeted campaign gives the demo a
+            // discovered/34 error of 22-30 % (docs/discovery.md, "The measurement budget")
+            budget_s: Some(DEFAULT_DISCOVERY_BUDGET_S),
         }
     }
 

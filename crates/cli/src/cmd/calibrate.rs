@@ -64,14 +64,15 @@ pub struct Args {
     /// Sizes of the run.
     #[command(flatten)]
     pub sizes: super::size_args::SizeArgs,
-    /// Extra probe measurements of the discovery stage.
+    /// Extra probe measurements of the discovery stage, at most (the budget,
+    /// `--discovery-budget-min`, plans fewer when they do not fit).
     #[arg(long, default_value_t = 360)]
     pub discovery_count: usize,
-    /// Device time the discovery measurements may take, in minutes, or `none` (the default:
-    /// `--discovery-count` measurements and the targeted batch, whatever they take): the
+    /// Device time the discovery measurements may take, in minutes (default 15), or `none`
+    /// (`--discovery-count` measurements and the targeted batch, whatever they take): the
     /// Detmax batch is sized to fit it, less a reserve for the targeted batch, which is
     /// measured only when it fits what is left (docs/discovery.md, "The measurement budget").
-    #[arg(long, value_name = "MIN|none", default_value = "none", value_parser = super::shared::budget::parse_budget_min)]
+    #[arg(long, value_name = "MIN|none", default_value = super::shared::budget::DEFAULT_BUDGET_MIN, value_parser = super::shared::budget::parse_budget_min)]
     pub discovery_budget_min: super::shared::budget::BudgetSeconds,
     /// Skip the discovery stage (the validation then measures the nominal and the calibrated
     /// model only).

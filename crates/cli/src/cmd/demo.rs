@@ -41,15 +41,16 @@ pub struct Args {
     /// Sizes of the run.
     #[command(flatten)]
     pub sizes: super::size_args::SizeArgs,
-    /// Extra probe measurements of the discovery stage (default: the discovery's own, 360; as
+    /// Extra probe measurements of the discovery stage, at most (default: the discovery's own,
+    /// 360; the budget, `--discovery-budget-min`, plans fewer when they do not fit; as
     /// `vatcal calibrate --discovery-count`).
     #[arg(long)]
     pub discovery_count: Option<usize>,
-    /// Device time the discovery measurements may take, in minutes, or `none` (the default:
-    /// `--discovery-count` measurements and the targeted batch, whatever they take): the
+    /// Device time the discovery measurements may take, in minutes (default 15), or `none`
+    /// (`--discovery-count` measurements and the targeted batch, whatever they take): the
     /// Detmax batch is sized to fit it, less a reserve for the targeted batch, which is
     /// measured only when it fits what is left (docs/discovery.md, "The measurement budget").
-    #[arg(long, value_name = "MIN|none", default_value = "none", value_parser = super::shared::budget::parse_budget_min)]
+    #[arg(long, value_name = "MIN|none", default_value = super::shared::budget::DEFAULT_BUDGET_MIN, value_parser = super::shared::budget::parse_budget_min)]
     pub discovery_budget_min: super::shared::budget::BudgetSeconds,
     /// Hidden truth of the virtual cell: `ideal` (errors of the 34 parameters only),
     /// `paper-like` (plus the physics they miss, docs/virtual-cell.md) or a cell file of the truth.

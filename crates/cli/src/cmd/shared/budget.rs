@@ -1,6 +1,11 @@
 //! `--discovery-budget-min`: the device time the discovery measurements may take, shared by
 //! `vatcal demo` and `vatcal calibrate`.
 
+/// Default of `--discovery-budget-min` \[min\]: the library's default,
+/// [`vatcal_pipeline::budget::DEFAULT_DISCOVERY_BUDGET_S`] (15 min of device time; a test
+/// keeps the two equal).
+pub const DEFAULT_BUDGET_MIN: &str = "15";
+
 /// A device-time budget given in minutes on the command line, held in seconds.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BudgetSeconds(pub Option<f64>);
@@ -22,7 +27,17 @@ pub fn parse_budget_min(text: &str) -> Result<BudgetSeconds, String> {
 
 #[cfg(test)]
 mod tests {
-    use super::{BudgetSeconds, parse_budget_min};
+    use super::{BudgetSeconds, DEFAULT_BUDGET_MIN, parse_budget_min};
+
+    #[test]
+    fn the_default_is_the_librarys() {
+        assert_eq!(
+            parse_budget_min(DEFAULT_BUDGET_MIN),
+            Ok(BudgetSeconds(Some(vatcal_pipeline::budget::DEFAULT_DISCOVERY_BUDGET_S)))
+        );
+        let stage = vatcal_pipeline::discovery_stage::DiscoveryStageOptions::new(1);
+        assert_eq!(stage.budget_s, Some(vatcal_pipeline::budget::DEFAULT_DISCOVERY_BUDGET_S));
+    }
 
     #[test]
     fn minutes_or_none() {
