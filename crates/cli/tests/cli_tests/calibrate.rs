@@ -7,6 +7,8 @@
 //!   campaign, `--resume`: both campaigns' measurements equal an uninterrupted run's (apart
 //!   from `time_s`: the simulated clock also counts the moves that restore the cell), and the
 //!   stage state counts two attempts of each;
+//! * with a device-time budget that shrinks the discovery batch, `kill -9` during the discovery
+//!   campaign and `--resume` measure the plan the killed attempt was measuring;
 //! * a stage on its own (`--stages identify`) recomputes from the run folder, a stage whose
 //!   predecessor is not done is refused naming it, a resume of another seed is refused.
 
@@ -126,6 +128,41 @@ fn kill_9_during_the_campaign_and_the_discovery_then_resume_gives_an_uninterrupt
         "{}",
         String::from_utf8_lossy(&refused.stderr)
     );
+}
+
+/// A budget that shrinks the batch (12 min; the default 15 fits `--quick`'s 60 poses here):
+/// `vatcal calibrate` killed during the discovery campaign re-sizes the batch on `--resume` from
+/// the same calibration journal, so it measures the plan the killed attempt was measuring (the
+/// same `discovery_plan/tour.csv`).
+#[test]
+fn a_budgeted_discovery_killed_and_resumed_measures_the_same_plan() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let cell = start_cell(3);
+    let devices = devices_file(&cell, dir.path());
+    let out = dir.path().join("budgeted");
+    let mut args = calibrate_args(&devices, &out);
+    let k = args.iter().position(|a| *a == "--discovery-budget-min").expect("the option");
+    args[k + 1] = "12";
+    let k = args.iter().position(|a| *a == "--discovery-count").expect("the option");
+    args.drain(k..k + 2);
+    let journal = out.join("discovery.journal");
+    let at = kill_when(&args, &journal, 8);
+    let tour = out.join("discovery_plan").join("tour.csv");
+    let planned = std::fs::read_to_string(&tour).expect("the killed attempt's discovery plan");
+    let mut resume = args.clone();
+    resume.push("--resume");
+    let stdout = ok(&vatcal(&resume));
+    assert!(stdout.contains("stages run: discovery"), "{stdout}");
+    assert_eq!(attempts(&out, "discovery"), 2);
+    assert_eq!(std::fs::read_to_string(&tour).expect("the resumed plan"), planned, "the same plan");
+    let measured = rows_without_time(&out.join("discovery_measurements.csv")).len();
+    assert!(measured > at, "{measured} discovery measurements, {at} before the kill");
+    // the budget sized the batch: fewer poses than `--quick`'s 60
+    let selected =
+        std::fs::read_to_string(out.join("discovery_plan").join("selected.csv")).expect("selected");
+    let poses = selected.lines().count() - 1;
+    eprintln!("budgeted quick discovery: {poses} poses selected, {measured} measurements");
+    assert!((12..60).contains(&poses), "{poses} poses");
 }
 
 /// Small sizes shared by the demo and `vatcal calibrate` (seed 3): the same plan, discovery
