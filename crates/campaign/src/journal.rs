@@ -160,6 +160,11 @@ pub struct StepRecord {
     pub state: CellState,
     /// what the step produced
     pub outcome: StepOutcome,
+    /// the first step of a resumed run: the time since the previous record includes the stop,
+    /// the recovery to the last recorded state and the restart, so it is not the step's own
+    /// duration (timing models leave it out; absent = false)
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub resumed: bool,
 }
 
 impl StepRecord {
@@ -517,6 +522,7 @@ mod tests {
                 iterations: 3,
                 composite_history_mm: vec![1.0, 0.05, 0.002],
             },
+            resumed: step == 5,
         }
     }
 

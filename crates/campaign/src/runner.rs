@@ -308,7 +308,8 @@ impl<'a> Campaign<'a> {
                 Ok(t) => (t, None),
                 Err(e) => (before_c, Some(e)),
             };
-            let record = StepRecord { step, time_s, temperature_c, state: state.clone(), outcome };
+            let resumed = resumed_at_step == Some(step);
+            let record = StepRecord { step, time_s, temperature_c, state: state.clone(), outcome, resumed };
             journal.append(record.clone())?;
             if let Some(e) = fault {
                 journal.sync()?;

@@ -260,6 +260,11 @@ pub(crate) fn campaign_timing(
     let mut corrections = Vec::new();
     for r in j.records() {
         let dt = r.time_s - previous.as_ref().map_or(0.0, |p| p.0);
+        if r.resumed {
+            // the stop, the recovery and the restart are in this interval: not the step's time
+            previous = Some((r.time_s, r.state.joints));
+            continue;
+        }
         match (plan.steps.get(r.step), &r.outcome) {
             (Some(CampaignStep::Move { path }), _) => {
                 let estimate = previous.as_ref().map(|(_, from)| {
