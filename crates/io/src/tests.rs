@@ -509,7 +509,8 @@ fn plane_rows_are_read_written_and_checked() {
     }
     assert_eq!(back.len(), rows.len());
     let bad = |text: &str| read_measurements(file(text).path(), &ur).expect_err("bad").to_string();
-    let e = bad("plane,normal,tcp,q1,q2,q3,q4,q5,q6\n3,1,1,10,-80,90,-100,-90,30\n,1,1,10,-80,90,-100,-90,30\n");
+    let e =
+        bad("plane,normal,tcp,q1,q2,q3,q4,q5,q6\n3,1,1,10,-80,90,-100,-90,30\n,1,1,10,-80,90,-100,-90,30\n");
     assert!(e.contains(":3: column `plane`: empty: a probe row needs `position`"), "{e}");
     assert_eq!(e.lines().count(), 1, "{e}");
     let e = bad("normal,tcp,q1,q2,q3,q4,q5,q6\n1,1,10,-80,90,-100,-90,30\n");
