@@ -110,6 +110,13 @@ impl ContactPlane {
         }
     }
 
+    /// The predicted block of a contact at TCP position `p` \[mm\]: the height and, with the
+    /// tool axis `z` (held normal), the rim rows ([`ContactPlane::axis_rows`]); zeros without.
+    pub(crate) fn block(&self, p: &Vector3<f64>, z: Option<&Vector3<f64>>) -> Vector3<f64> {
+        let [a, b] = z.map_or([0.0, 0.0], |z| self.axis_rows(&self.normal(), z));
+        Vector3::new(self.height_mm(p), a, b)
+    }
+
     /// The tool-axis rows (2 and 3 of the block) predicted for tool axis `z`: `r·u·(n × z)`,
     /// `r·v·(n × z)` \[mm\].
     pub(crate) fn axis_rows(&self, n: &Vector3<f64>, z: &Vector3<f64>) -> [f64; 2] {

@@ -93,16 +93,27 @@ impl Model {
         rotation: &UnitQuaternion<f64>,
         id: ParamId,
     ) -> Result<Vector3<f64>, ModelError> {
+        self.central_difference(id, &|model| model.orientation_predict(m, rotation))
+    }
+
+    /// Central difference of `f` with respect to parameter `id` (step `FD_STEP ×` its typical
+    /// scale); the model is restored afterwards. A parameter of an effect that is not switched
+    /// on is differenced on a copy with the effect on (the derivative at zero, as the analytic
+    /// columns give).
+    pub(crate) fn central_difference(
+        &mut self,
+        id: ParamId,
+        f: &dyn Fn(&Model) -> Result<Vector3<f64>, ModelError>,
+    ) -> Result<Vector3<f64>, ModelError> {
         if !self.has_param(id) {
-            let mut on = self.with_effect_of(id)?;
-            return on.orientation_column(m, rotation, id);
+            return self.with_effect_of(id)?.central_difference(id, f);
         }
         let v = self.param(id)?;
         let h = FD_STEP * id.typical_scale();
         self.set_param(id, v + h)?;
-        let plus = self.orientation_predict(m, rotation);
+        let plus = f(self);
         self.set_param(id, v - h)?;
-        let minus = self.orientation_predict(m, rotation);
+        let minus = f(self);
         self.set_param(id, v)?;
         Ok((plus? - minus?) / (2.0 * h))
     }

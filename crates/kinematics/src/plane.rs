@@ -23,10 +23,6 @@ use crate::contact_plane::ContactPlane;
 
 use crate::model::{Model, ModelError};
 
-/// Relative finite-difference step of the tool-axis rows (times the parameter's typical
-/// scale), as for orientation rows.
-const FD_STEP: f64 = 1e-3;
-
 impl Model {
     /// Ids of the contact planes, in order.
     pub fn plane_ids(&self) -> Vec<u32> {
@@ -64,13 +60,8 @@ impl Model {
     ) -> Result<Vector3<f64>, ModelError> {
         let pl = self.plane_or_err(plane)?;
         let p = self.tcp_position_ctx(&m.q, &m.context, m.tcp)?;
-        let mut out = Vector3::new(pl.height_mm(&p), 0.0, 0.0);
-        if normal {
-            let z = self.tool_rotation_ctx(&m.q, &m.context)?.column(2).into_owned();
-            let [a, b] = pl.axis_rows(&pl.normal(), &z);
-            (out.y, out.z) = (a, b);
-        }
-        Ok(out)
+        let z = if normal { Some(self.tool_axis(m)?) } else { None };
+        Ok(pl.block(&p, z.as_ref()))
     }
 
     /// Jacobian of [`Model::plane_predict`] with respect to `params`, column-major into `out`
@@ -87,11 +78,7 @@ impl Model {
         let n = pl.normal();
         // position Jacobian of the TCP (zero columns for the plane's own parameters)
         let p = self.jacobian_into(&m.q, &m.context, m.tcp, params, out)?;
-        let z = if normal {
-            Some(self.tool_rotation_ctx(&m.q, &m.context)?.column(2).into_owned())
-        } else {
-            None
-        };
+        let z = if normal { Some(self.tool_axis(m)?) } else { None };
         let mut work = normal.then(|| self.clone());
         for (j, id) in params.iter().enumerate() {
             let col = Vector3::new(out[3 * j], out[3 * j + 1], out[3 * j + 2]);
@@ -115,31 +102,18 @@ impl Model {
             }
             out[3 * j..3 * j + 3].copy_from_slice(&block);
         }
-        let mut predicted = Vector3::new(pl.height_mm(&p), 0.0, 0.0);
-        if let Some(z) = &z {
-            let [a, b] = pl.axis_rows(&n, z);
-            (predicted.y, predicted.z) = (a, b);
-        }
-        Ok(-predicted)
+        Ok(-pl.block(&p, z.as_ref()))
     }
 
     /// Central-difference derivative of the tool axis (z of the tool-changer frame) with
-    /// respect to one parameter; the model is restored afterwards. A parameter of an effect
-    /// that is not switched on is differenced on a copy with the effect on (the derivative at
-    /// zero).
+    /// respect to one parameter ([`Model::central_difference`]).
     fn tool_axis_column(&mut self, m: &Measurement, id: ParamId) -> Result<Vector3<f64>, ModelError> {
-        if !self.has_param(id) {
-            let mut on = self.with_effect_of(id)?;
-            return on.tool_axis_column(m, id);
-        }
-        let v = self.param(id)?;
-        let h = FD_STEP * id.typical_scale();
-        self.set_param(id, v + h)?;
-        let plus = self.tool_rotation_ctx(&m.q, &m.context).map(|r| r.column(2).into_owned());
-        self.set_param(id, v - h)?;
-        let minus = self.tool_rotation_ctx(&m.q, &m.context).map(|r| r.column(2).into_owned());
-        self.set_param(id, v)?;
-        Ok((plus? - minus?) / (2.0 * h))
+        self.central_difference(id, &|model| model.tool_axis(m))
+    }
+
+    /// The tool axis (z of the tool-changer frame) in the world at a measurement's posture.
+    fn tool_axis(&self, m: &Measurement) -> Result<Vector3<f64>, ModelError> {
+        Ok(self.tool_rotation_ctx(&m.q, &m.context)?.column(2).into_owned())
     }
 }
 
