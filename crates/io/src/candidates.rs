@@ -112,12 +112,10 @@ impl CandidateTable {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vatcal_core::{CellFile, Target};
+    use vatcal_core::Target;
 
     fn ur5e() -> Model {
-        let cell = CellFile::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5e.toml"))
-            .expect("fixture");
-        Model::from_cell(&cell).expect("model")
+        crate::tests::fixture_model("ur5e.toml")
     }
 
     fn read(text: &str) -> Result<CandidateTable, IoError> {

@@ -124,7 +124,7 @@ fn errors_name_file_line_and_column() {
     assert!(e.contains("malformed CSV"), "{e}");
 }
 
-fn fixture_model(name: &str) -> Model {
+pub(crate) fn fixture_model(name: &str) -> Model {
     let cell =
         CellFile::load(format!("{}/../../fixtures/{name}", env!("CARGO_MANIFEST_DIR"))).expect("fixture");
     Model::from_cell(&cell).expect("model")

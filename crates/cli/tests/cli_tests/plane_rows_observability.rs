@@ -4,8 +4,8 @@
 //! known 50 mm between them; candidates mixing plane and tracker rows.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
+use super::select_observability::{text, vatcal};
 use nalgebra::Vector3;
 use vatcal_core::{CellFile, Measurement, Target};
 use vatcal_kinematics::{ContactPlane, Model};
@@ -51,14 +51,6 @@ fn write_rows(path: &Path, model: &Model, rows: &[Measurement]) {
         text.push_str(&format!("{plane},{},{},{normal},{xyz},row{i}\n", m.tcp, q.join(",")));
     }
     std::fs::write(path, text).expect("write rows");
-}
-
-fn vatcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vatcal")).args(args).output().expect("run vatcal")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
 }
 
 #[test]

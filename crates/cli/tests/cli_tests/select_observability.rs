@@ -36,11 +36,11 @@ fn write_candidates(path: &Path, rows: &[Measurement]) {
     std::fs::write(path, text).expect("write candidates");
 }
 
-fn vatcal(args: &[&str]) -> Output {
+pub(super) fn vatcal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_vatcal")).args(args).output().expect("run vatcal")
 }
 
-fn text(b: &[u8]) -> String {
+pub(super) fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
 
