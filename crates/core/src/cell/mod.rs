@@ -316,6 +316,21 @@ mod tests {
         assert_eq!(back, cell);
     }
 
+    /// Issue 31: the optional `[[planes]]` round-trip; a zero normal, a radius ≤ 0 and a
+    /// duplicate id are refused naming the field.
+    #[test]
+    fn planes_are_optional_round_trip_and_are_checked() {
+        let plane = "\n[[planes]]\nid = 3\nnormal = [0.0, 0.0, 2.0]\noffset_mm = -50.0\n";
+        let cell = CellFile::from_toml_str(&(canonical_text() + plane), "p").expect("valid");
+        assert_eq!((cell.planes[0].id, cell.planes[0].contact_radius_mm), (3, None));
+        let back = CellFile::from_toml_str(&cell.to_toml_string().expect("s"), "q").expect("reload");
+        assert_eq!(back.planes, cell.planes);
+        expect_invalid(&(canonical_text() + &plane.replace("2.0]", "0.0]")), "planes[id=3].normal");
+        let radius = format!("{plane}contact_radius_mm = 0.0\n");
+        expect_invalid(&(canonical_text() + &radius), "planes[id=3].contact_radius_mm");
+        expect_invalid(&(canonical_text() + plane + plane), "planes[1].id");
+    }
+
     #[test]
     fn unknown_tables_survive() {
         let text =
