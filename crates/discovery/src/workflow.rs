@@ -246,7 +246,7 @@ impl Run {
             let swap = self.swap(index, start, &mut s.candidates, (&held0, &base.j0), ctx)?;
             if let Some((sentence, gone)) = swap {
                 decision = sentence;
-                removed.push(gone);
+                removed.extend(gone);
                 done = false;
             }
         }
@@ -465,7 +465,7 @@ impl Run {
         candidates: &mut [Candidate],
         baseline: (&CrossValidation, &faer::Mat<f64>),
         ctx: &Context<'_>,
-    ) -> Result<Option<(String, RemovedEffect)>, DiscoveryError> {
+    ) -> Result<Option<(String, Vec<RemovedEffect>)>, DiscoveryError> {
         let (added, current, out) = (&mut self.added, &mut self.current, &mut self.swapped_out);
         let Some(swap) = swap_check(start, added, current, candidates, baseline, index, out, ctx)? else {
             return Ok(None);

@@ -8,12 +8,22 @@
 //! refused (held-out not lower, or the validation veto). So when a round adds nothing, every
 //! refitted-but-refused candidate B of that round is tested against every earlier addition A it
 //! looks like on the data — the largest cosine between a direction of B and the span of A's
-//! directions, both with the rest of the model projected out, is at least [`LOOKALIKE_COSINE`]
-//! — by fitting the model with **B in place of A** and cross-validating it on the confirmation
-//! folds: B replaces A when it predicts the held-out points better by at least [`SWAP_Z`]
-//! paired standard errors, its values are plausible and the validation rows are not
-//! significantly worse. At most one swap per round (the best z); an effect swapped out never
-//! comes back (no cycles). After a swap the search continues: the next round screens again.
+//! directions, both with the rest of the model projected out, is at least [`LOOKALIKE_COSINE`].
+//!
+//! The replacements tried ([`trials`]): **B in place of A**; **two look-alikes of A** in its
+//! place when together they have no more parameters than A (a two-parameter link bending
+//! standing in for two one-parameter compliances); and **a look-alike of each of two
+//! additions** in place of both, when they have fewer parameters together. Each is fitted
+//! and cross-validated on the confirmation folds, and decided by a stated rule:
+//! - with as many parameters as what it replaces, it must predict the held-out points better
+//!   by at least [`SWAP_Z`] paired standard errors;
+//! - with **fewer** parameters, simplicity decides: it is taken unless it predicts them worse
+//!   by more than one paired standard error ([`SIMPLER_SWAP_Z`], the one-standard-error rule);
+//! - either way its values must be plausible and the validation rows not significantly worse.
+//!
+//! At most one swap per round (the best z); an effect swapped out never comes back (no
+//! cycles), and a replacement of more than one effect never has more parameters than what it
+//! replaces. After a swap the search continues: the next round screens again.
 
 use std::collections::BTreeMap;
 
@@ -45,22 +55,37 @@ pub const SWAP_Z: f64 = 2.0;
 
 /// One swap made by [`swap_check`].
 pub(super) struct Swap {
-    /// the earlier addition that left the model
-    pub(super) removed: RemovedEffect,
+    /// the earlier additions that left the model
+    pub(super) removed: Vec<RemovedEffect>,
     /// why, for the report's ambiguities
     pub(super) ambiguity: Ambiguity,
     /// the round's decision text
     pub(super) sentence: String,
 }
 
+/// One replacement tried by the swap check: earlier additions `outs` out, candidates `ins`
+/// in, each a look-alike of one of the `outs`; `cosine` is the smallest of their look-alike
+/// cosines.
+#[derive(Clone, Debug)]
+struct Trial {
+    outs: Vec<usize>,
+    ins: Vec<usize>,
+    cosine: f64,
+    /// the paired held-out z the replacement needs ([`SWAP_Z`], or [`SIMPLER_SWAP_Z`] when
+    /// the `ins` have fewer parameters than the `outs`)
+    z_required: f64,
+}
+
 /// The swap check of round `round`, in which nothing was added (`held0`: the confirmation CV
-/// of `current`, `j0` its weighted Jacobian on all data). Replaces at most one earlier addition by a look-alike candidate of the round
-/// that predicts the held-out points significantly better; `swapped_out` holds the effects
-/// already swapped out (never tried again). Returns the swap made, if any.
+/// of `current`, `j0` its weighted Jacobian on all data). Replaces at most one earlier
+/// addition by one look-alike candidate of the round, or by two look-alikes with no more
+/// parameters together than it has, that predict the held-out points significantly better;
+/// `swapped_out` holds the effects already swapped out (never tried again). Returns the swap
+/// made, if any.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn swap_check(
     start: &Model,
-    added: &mut [AddedEffect],
+    added: &mut Vec<AddedEffect>,
     current: &mut Fit,
     candidates: &mut [Candidate],
     (held0, j0): (&CrossValidation, &Mat<f64>),
@@ -72,35 +97,75 @@ pub(super) fn swap_check(
         return Ok(None);
     }
     let pairs = lookalike_pairs(added, current, j0, candidates, swapped_out, ctx)?;
-    let tried: Vec<(usize, usize, f64)> = pairs.into_iter().take(MAX_SWAP_TRIALS).collect();
-    let outcomes: Vec<Option<(HeldOutComparison, Fit)>> = tried
-        .par_iter()
-        .map(|&(k, b, _)| try_swap(start, added, k, &candidates[b], current, held0, ctx))
-        .collect();
-    let mut best: Option<(usize, usize, f64, HeldOutComparison, Fit)> = None;
-    for (&(k, b, cosine), outcome) in tried.iter().zip(outcomes) {
+    let tried = trials(&pairs, added, candidates);
+    let outcomes: Vec<Option<(HeldOutComparison, Fit)>> =
+        tried.par_iter().map(|t| try_swap(start, added, t, candidates, current, held0, ctx)).collect();
+    let mut best: Option<(Trial, HeldOutComparison, Fit)> = None;
+    for (t, outcome) in tried.iter().zip(outcomes) {
         let Some((h, swapped)) = outcome else { continue };
-        if best.as_ref().is_none_or(|w| h.z > w.3.z) {
-            best = Some((k, b, cosine, h, swapped));
+        if best.as_ref().is_none_or(|w| h.z > w.1.z) {
+            best = Some((t.clone(), h, swapped));
         }
     }
-    let Some((k, b, cosine, h, swapped)) = best else { return Ok(None) };
-    record_swap(added, k, candidates, b, cosine, h, swapped, current, round, swapped_out, ctx).map(Some)
+    let Some((t, h, swapped)) = best else { return Ok(None) };
+    record_swap(added, &t, candidates, h, swapped, current, round, swapped_out, ctx).map(Some)
 }
 
 /// At most this many (addition, look-alike) pairs are refitted per swap check (the most
 /// collinear first).
 pub const MAX_SWAP_TRIALS: usize = 8;
 
-/// Replaces `added[k]` by candidate `b` fitted as `swapped`; the record, the ambiguity and the
-/// removed effect.
+/// At most this many replacements of more than one effect (two look-alikes for one addition,
+/// or for two) are refitted per swap check (the most collinear first), besides the
+/// [`MAX_SWAP_TRIALS`] single ones.
+pub const MAX_MULTI_SWAP_TRIALS: usize = 8;
+
+/// Paired z of the held-out improvement a replacement with **fewer** parameters than the
+/// effects it replaces needs: −1, the one-standard-error rule — the simpler model is taken
+/// unless it predicts the held-out points worse by more than one standard error of the
+/// paired difference. Look-alikes the data cannot tell apart are decided by simplicity: a
+/// two-parameter link bending or carriage tilt standing in for a one-parameter compliance
+/// gives way to it. The validation veto and the plausibility bounds still apply.
+pub const SIMPLER_SWAP_Z: f64 = -1.0;
+
+/// The replacements to try, from the look-alike `pairs` (most collinear first):
+/// - each pair as a one-for-one swap;
+/// - every two look-alikes of one addition whose parameters together are no more than the
+///   addition's (one two-parameter effect standing in for two one-parameter ones);
+/// - for every two additions, a look-alike of each, with **fewer** parameters together (two
+///   stand-ins for two simpler effects; with as many, the one-for-one swaps cover it).
+fn trials(pairs: &[(usize, usize, f64)], added: &[AddedEffect], candidates: &[Candidate]) -> Vec<Trial> {
+    let n_out = |outs: &[usize]| outs.iter().map(|&k| added[k].spec.params().len()).sum::<usize>();
+    let trial = |outs: Vec<usize>, ins: Vec<usize>, cosine: f64| {
+        let z_required = if params_of(&ins, candidates) < n_out(&outs) { SIMPLER_SWAP_Z } else { SWAP_Z };
+        Trial { outs, ins, cosine, z_required }
+    };
+    let mut out: Vec<Trial> =
+        pairs.iter().take(MAX_SWAP_TRIALS).map(|&(k, b, cosine)| trial(vec![k], vec![b], cosine)).collect();
+    let mut multi = Vec::new();
+    for (i, &(k1, b1, c1)) in pairs.iter().enumerate() {
+        for &(k2, b2, c2) in &pairs[i + 1..] {
+            let (ins, n_in) = (vec![b1, b2], params_of(&[b1, b2], candidates));
+            let admissible =
+                b1 != b2 && if k1 == k2 { n_in <= n_out(&[k1]) } else { n_in < n_out(&[k1, k2]) };
+            if admissible {
+                let outs = if k1 == k2 { vec![k1] } else { vec![k1.min(k2), k1.max(k2)] };
+                multi.push(trial(outs, ins, c1.min(c2)));
+            }
+        }
+    }
+    multi.sort_by(|x, y| y.cosine.total_cmp(&x.cosine).then(x.outs.cmp(&y.outs)).then(x.ins.cmp(&y.ins)));
+    out.extend(multi.into_iter().take(MAX_MULTI_SWAP_TRIALS));
+    out
+}
+
+/// Replaces the additions `t.outs` by the candidates `t.ins` fitted as `swapped`; the
+/// records, the ambiguity and the removed effects.
 #[allow(clippy::too_many_arguments)]
 fn record_swap(
-    added: &mut [AddedEffect],
-    k: usize,
+    added: &mut Vec<AddedEffect>,
+    t: &Trial,
     candidates: &mut [Candidate],
-    b: usize,
-    cosine: f64,
     h: HeldOutComparison,
     swapped: Fit,
     current: &mut Fit,
@@ -108,51 +173,87 @@ fn record_swap(
     swapped_out: &mut Vec<EffectSpec>,
     ctx: &Context<'_>,
 ) -> Result<Swap, DiscoveryError> {
-    let gap_before = added[k].gap_after.clone();
+    let gap_before = added[t.outs[0]].gap_after.clone();
     let held_all = ctx.cross_validate(&swapped.model, &swapped.params, &ctx.all_folds);
     let gap_after = ctx.gap(&swapped.model, &held_all)?;
-    let c = &candidates[b];
-    let mut evidence = match c.refit.as_ref() {
-        Some((e, ..)) => e.clone(),
-        None => swap_evidence(c, current, &swapped, h, ctx),
+    let mut records = Vec::with_capacity(t.ins.len());
+    for &b in &t.ins {
+        let c = &candidates[b];
+        let mut evidence = match c.refit.as_ref() {
+            Some((e, ..)) => e.clone(),
+            None => swap_evidence(c, current, &swapped, (h, t.z_required), ctx),
+        };
+        evidence.heldout = h;
+        evidence.values = c
+            .new_params
+            .iter()
+            .filter_map(|p| swapped.model.param(*p).ok().map(|v| file_value(*p, v)))
+            .collect::<BTreeMap<_, _>>();
+        records.push(added_record(c, &evidence, &swapped, round, current, &gap_before, &gap_after, ctx)?);
+    }
+    let mut olds: Vec<AddedEffect> = Vec::new();
+    for &k in t.outs.iter().rev() {
+        olds.insert(0, added.remove(k));
+    }
+    added.extend(records);
+    swapped_out.extend(olds.iter().map(|o| o.spec));
+    let labels: Vec<String> = t.ins.iter().map(|&b| candidates[b].spec.label()).collect();
+    let old_labels: Vec<String> =
+        olds.iter().map(|o| format!("{} (added in round {})", o.label, o.round)).collect();
+    for &b in &t.ins {
+        candidates[b].status = CandidateStatus::Added;
+    }
+    let (n_in, n_out) = (params_of(&t.ins, candidates), olds.iter().map(|o| o.spec.params().len()).sum());
+    let why = if n_in < n_out {
+        format!(
+            "fewer parameters ({n_in} for {n_out}) and the held-out points predicted no worse: paired z = {:.2} >= {:.1}",
+            h.z, t.z_required
+        )
+    } else {
+        format!("paired z = {:.2} >= {:.1}", h.z, t.z_required)
     };
-    evidence.heldout = h;
-    evidence.values = c
-        .new_params
-        .iter()
-        .filter_map(|p| swapped.model.param(*p).ok().map(|v| file_value(*p, v)))
-        .collect::<BTreeMap<_, _>>();
-    let record = added_record(c, &evidence, &swapped, round, current, &gap_before, &gap_after, ctx)?;
-    let old = std::mem::replace(&mut added[k], record);
-    swapped_out.push(old.spec);
-    let label = c.spec.label();
-    candidates[b].status = CandidateStatus::Added;
     let sentence = format!(
-        "swapped {} (added in round {}) for its look-alike {} (cosine {cosine:.3} on the data): held-out RMS {:.4} -> {:.4} mm, paired z = {:.2} >= {SWAP_Z}",
-        old.label, old.round, label, h.rms_before_mm, h.rms_after_mm, h.z
+        "swapped {} for {} {} (look-alikes on the data, cosine {:.3}): held-out RMS {:.4} -> {:.4} mm, {why}",
+        old_labels.join(" and "),
+        if labels.len() == 1 { "its look-alike" } else { "the look-alikes" },
+        labels.join(" and "),
+        t.cosine,
+        h.rms_before_mm,
+        h.rms_after_mm,
     );
     let ambiguity = Ambiguity {
         round,
-        chosen: label,
-        rivals: vec![old.label.clone()],
+        chosen: labels.join(" + "),
+        rivals: olds.iter().map(|o| o.label.clone()).collect(),
         basis: "swap".to_string(),
-        validation_z: vec![None],
+        validation_z: vec![None; olds.len()],
         sentence: sentence.clone(),
     };
-    let removed =
-        RemovedEffect { label: old.label, added_in_round: old.round, removed_in_round: round, heldout: h };
+    let removed = olds
+        .into_iter()
+        .map(|o| RemovedEffect {
+            label: o.label,
+            added_in_round: o.round,
+            removed_in_round: round,
+            heldout: h,
+        })
+        .collect();
     *current = swapped;
     Ok(Swap { removed, ambiguity, sentence })
 }
 
+/// The parameters the candidates `ins` add.
+fn params_of(ins: &[usize], candidates: &[Candidate]) -> usize {
+    ins.iter().map(|&b| candidates[b].new_params.len()).sum()
+}
+
 /// The evidence of a look-alike swapped in without a refit of its own this round: the nested
-/// comparison of the swap against the current model (same parameter count), no
-/// confounding list.
+/// comparison of the swap against the current model, no confounding list.
 fn swap_evidence(
     c: &Candidate,
     current: &Fit,
     swapped: &Fit,
-    heldout: HeldOutComparison,
+    (heldout, z_required): (HeldOutComparison, f64),
     ctx: &Context<'_>,
 ) -> RefitEvidence {
     let n = 3 * ctx.measurements.len();
@@ -167,7 +268,7 @@ fn swap_evidence(
             rss(swapped),
         ),
         heldout,
-        z_required: SWAP_Z,
+        z_required,
         negligible_below_mm: 0.0,
         size_rule_waived_above_z: None,
         floor_below_mm: 0.0,
@@ -258,46 +359,55 @@ fn largest_cosine(a: &Mat<f64>, b: &Mat<f64>) -> Result<f64, DiscoveryError> {
     Ok(best)
 }
 
-/// The model with candidate `c` in place of `added[k]` (its values from its own refit when it
-/// has one, else zero): fitted on all data and cross-validated on the confirmation folds,
-/// compared with `held0` (the current model's). `None` unless it predicts the held-out points
-/// better by [`SWAP_Z`], is plausible and leaves the validation rows not significantly worse.
+/// The model with the candidates `t.ins` in place of the additions `t.outs` (a single candidate's
+/// values from its own refit when it has one, else zero): fitted on all data and
+/// cross-validated on the confirmation folds, compared with `held0` (the current model's).
+/// `None` unless it predicts the held-out points better by `t.z_required`, every candidate's
+/// values are plausible and the validation rows are not significantly worse.
 fn try_swap(
     start: &Model,
     added: &[AddedEffect],
-    k: usize,
-    c: &Candidate,
+    t: &Trial,
+    candidates: &[Candidate],
     current: &Fit,
     held0: &CrossValidation,
     ctx: &Context<'_>,
 ) -> Option<(HeldOutComparison, Fit)> {
-    let gone: Vec<ParamId> = added[k].spec.params();
+    let gone: Vec<ParamId> = t.outs.iter().flat_map(|&k| added[k].spec.params()).collect();
     let mut params: Vec<ParamId> = current.params.iter().copied().filter(|p| !gone.contains(p)).collect();
     let known = ParamSet(params.clone());
-    params.extend(c.new_params.iter().copied().filter(|p| !known.0.contains(p)));
+    let ins: Vec<&Candidate> = t.ins.iter().map(|&b| &candidates[b]).collect();
+    for c in &ins {
+        params.extend(c.new_params.iter().copied().filter(|p| !params.contains(p)).collect::<Vec<_>>());
+    }
     let params = ParamSet(params);
     let mut specs: Vec<EffectSpec> =
-        added.iter().enumerate().filter(|(i, _)| *i != k).map(|(_, a)| a.spec).collect();
-    specs.push(c.spec);
-    let base = match c.refit.as_ref() {
-        Some((_, refit, _)) => rebuild(
+        added.iter().enumerate().filter(|(i, _)| !t.outs.contains(i)).map(|(_, a)| a.spec).collect();
+    specs.extend(ins.iter().map(|c| c.spec));
+    let base = match (ins.as_slice(), ins.first().and_then(|c| c.refit.as_ref())) {
+        ([_], Some((_, refit, _))) => rebuild(
             start,
             &specs,
             &refit.model,
             &ParamSet(params.iter().copied().filter(|p| refit.params.index_of(*p).is_some()).collect()),
         )
         .ok()?,
-        None => rebuild(start, &specs, &current.model, &known).ok()?,
+        _ => rebuild(start, &specs, &current.model, &known).ok()?,
     };
     let cv = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
     let h = HeldOutComparison::new(&held0.errors, &cv.errors);
-    if h.z < SWAP_Z {
+    if h.z.is_nan() || h.z < t.z_required {
         return None;
     }
     let swapped = fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()?;
-    let changes: Vec<(ParamId, f64)> =
-        c.new_params.iter().filter_map(|p| swapped.model.param(*p).ok().map(|v| (*p, v))).collect();
-    if plausibility(ctx, &c.spec, &changes).is_err() || validation_worse(current, &swapped, ctx) {
+    for c in &ins {
+        let changes: Vec<(ParamId, f64)> =
+            c.new_params.iter().filter_map(|p| swapped.model.param(*p).ok().map(|v| (*p, v))).collect();
+        if plausibility(ctx, &c.spec, &changes).is_err() {
+            return None;
+        }
+    }
+    if validation_worse(current, &swapped, ctx) {
         return None;
     }
     Some((h, swapped))
