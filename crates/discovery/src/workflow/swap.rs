@@ -36,7 +36,7 @@ use vatcal_observability::assemble_jacobian;
 
 use super::backward::rebuild;
 use super::candidate::Candidate;
-use super::context::{Context, CrossValidation, columns, weigh_rows};
+use super::context::{Context, CrossValidation, columns, weigh_rows, weighted_residual};
 use super::plausible::plausibility;
 use super::record::added_record;
 use super::report::{AddedEffect, Ambiguity, CandidateStatus, RefitEvidence, RemovedEffect, file_value};
@@ -44,7 +44,7 @@ use super::veto::validation_worse;
 use crate::DiscoveryError;
 use crate::criteria::{HeldOutComparison, NestedComparison};
 use crate::fit::{Fit, fit};
-use crate::linear::ColumnSpace;
+use crate::linear::{ColumnSpace, EffectDirections, ScoreTest, score_test};
 
 /// Largest cosine between a candidate's direction and an added effect's span (both with the
 /// rest of the model projected out) from which the two count as look-alikes on the data.
@@ -98,17 +98,20 @@ pub(super) fn swap_check(
     }
     let pairs = lookalike_pairs(added, current, j0, candidates, swapped_out, ctx)?;
     let tried = trials(&pairs, added, candidates);
-    let outcomes: Vec<Option<(HeldOutComparison, Fit)>> =
+    let outcomes: Vec<Option<Outcome>> =
         tried.par_iter().map(|t| try_swap(start, added, t, candidates, current, held0, ctx)).collect();
-    let mut best: Option<(Trial, HeldOutComparison, Fit)> = None;
+    let mut best: Option<(Trial, Outcome)> = None;
     for (t, outcome) in tried.iter().zip(outcomes) {
-        let Some((h, swapped)) = outcome else { continue };
-        if best.as_ref().is_none_or(|w| h.z > w.1.z) {
-            best = Some((t.clone(), h, swapped));
+        let Some(o) = outcome else { continue };
+        if best.as_ref().is_none_or(|w| o.heldout.z > w.1.heldout.z) {
+            best = Some((t.clone(), o));
         }
     }
-    let Some((t, h, swapped)) = best else { return Ok(None) };
-    record_swap(added, &t, candidates, h, swapped, current, round, swapped_out, ctx).map(Some)
+    let Some((t, o)) = best else { return Ok(None) };
+    for (b, score) in o.scores {
+        candidates[b].score = Some(score);
+    }
+    record_swap(added, &t, candidates, o.heldout, o.swapped, current, round, swapped_out, ctx).map(Some)
 }
 
 /// At most this many (addition, look-alike) pairs are refitted per swap check (the most
@@ -285,7 +288,9 @@ fn swap_evidence(
 /// first: the largest cosine between a direction of `b` (switched on at zero in the current
 /// model) and the span of `k`'s directions, both with the rest of the model projected out, at
 /// least [`LOOKALIKE_COSINE`] (`j0`: the current model's weighted Jacobian on all data).
-/// Candidates already swapped out, or without a score, are skipped.
+/// Candidates already swapped out are skipped, and so are those the round could not score,
+/// except the ones the current model **absorbed** (no direction outside its span): those are
+/// exactly the effects an addition may be standing in for.
 fn lookalike_pairs(
     added: &[AddedEffect],
     current: &Fit,
@@ -297,7 +302,7 @@ fn lookalike_pairs(
     let eligible: Vec<usize> = (0..candidates.len())
         .filter(|&b| {
             let c = &candidates[b];
-            c.score.is_some()
+            (c.score.is_some() || c.directions.as_ref().is_some_and(|d| d.dof == 0))
                 && !c.new_params.is_empty()
                 && c.status != CandidateStatus::Added
                 && !swapped_out.contains(&c.spec)
@@ -359,6 +364,14 @@ fn largest_cosine(a: &Mat<f64>, b: &Mat<f64>) -> Result<f64, DiscoveryError> {
     Ok(best)
 }
 
+/// A replacement that passed: its held-out comparison with the current model, its fit, and
+/// the scores of the candidates swapped in that the round could not score.
+struct Outcome {
+    heldout: HeldOutComparison,
+    swapped: Fit,
+    scores: Vec<(usize, ScoreTest)>,
+}
+
 /// The model with the candidates `t.ins` in place of the additions `t.outs` (a single candidate's
 /// values from its own refit when it has one, else zero): fitted on all data and
 /// cross-validated on the confirmation folds, compared with `held0` (the current model's).
@@ -372,7 +385,7 @@ fn try_swap(
     current: &Fit,
     held0: &CrossValidation,
     ctx: &Context<'_>,
-) -> Option<(HeldOutComparison, Fit)> {
+) -> Option<Outcome> {
     let gone: Vec<ParamId> = t.outs.iter().flat_map(|&k| added[k].spec.params()).collect();
     let mut params: Vec<ParamId> = current.params.iter().copied().filter(|p| !gone.contains(p)).collect();
     let known = ParamSet(params.clone());
@@ -410,5 +423,41 @@ fn try_swap(
     if validation_worse(current, &swapped, ctx) {
         return None;
     }
-    Some((h, swapped))
+    let mut scores = Vec::new();
+    for &b in t.ins.iter().filter(|&&b| candidates[b].score.is_none()) {
+        scores.push((b, score_without(start, added, &t.outs, &candidates[b], current, ctx)?));
+    }
+    Some(Outcome { heldout: h, swapped, scores })
+}
+
+/// The score test of candidate `c` at the model without the additions `outs`, refitted on all
+/// data: the screening evidence of a candidate the replaced effects absorbed (in the round's
+/// screening its directions lay in the model's span, so it had no score). `None` when it
+/// cannot be computed or `c` has no direction of its own there either.
+fn score_without(
+    start: &Model,
+    added: &[AddedEffect],
+    outs: &[usize],
+    c: &Candidate,
+    current: &Fit,
+    ctx: &Context<'_>,
+) -> Option<ScoreTest> {
+    let gone: Vec<ParamId> = outs.iter().flat_map(|&k| added[k].spec.params()).collect();
+    let params = ParamSet(current.params.iter().copied().filter(|p| !gone.contains(p)).collect());
+    let specs: Vec<EffectSpec> =
+        added.iter().enumerate().filter(|(i, _)| !outs.contains(i)).map(|(_, a)| a.spec).collect();
+    let base = rebuild(start, &specs, &current.model, &params).ok()?;
+    let without = fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()?;
+    let weights = &ctx.options.identify.weights;
+    let mut j = assemble_jacobian(&without.model, ctx.measurements, &params).ok()?;
+    weigh_rows(&mut j, ctx.measurements, weights);
+    let space = ColumnSpace::of(j.as_ref()).ok()?;
+    let mut with_c = without.model.clone();
+    with_c.enable_effect(c.spec).ok()?;
+    let mut z = assemble_jacobian(&with_c, ctx.measurements, &ParamSet(c.new_params.clone())).ok()?;
+    weigh_rows(&mut z, ctx.measurements, weights);
+    let directions = EffectDirections::new(&space, z.as_ref(), ctx.options.novelty_floor).ok()?;
+    let residual = weighted_residual(&without, ctx.measurements, weights);
+    let sigma = ctx.sigma_hat(&without, ctx.measurements, space.rank());
+    (directions.dof > 0).then(|| score_test(&space, &directions, &residual, sigma * sigma))
 }
