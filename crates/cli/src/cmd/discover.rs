@@ -79,8 +79,9 @@ pub struct Args {
     #[arg(long, default_value_t = 0.001)]
     pub noise_floor_mm: f64,
     /// Do not re-examine earlier additions when the forward search stops (the swap check:
-    /// an added effect is replaced by a look-alike on the data that predicts the held-out
-    /// points significantly better; docs/discovery.md).
+    /// one or two added effects are replaced by one or two look-alikes on the data that
+    /// predict the held-out points significantly better, or, with fewer parameters, no worse
+    /// by more than one standard error; docs/discovery.md).
     #[arg(long)]
     pub no_lookalike_swap: bool,
     /// Do not run the joint search when no single effect and no block passes (all scored

@@ -107,9 +107,10 @@ pub struct DiscoverOptions {
     /// shrinks the gap on data the fit never saw
     pub validation_veto: bool,
     /// when a round adds nothing, re-examine earlier additions against that round's
-    /// look-alikes and swap one in when it predicts the held-out points significantly better
-    /// (the swap check, `workflow/swap.rs`; `vatcal discover --no-lookalike-swap` switches it
-    /// off)
+    /// look-alikes (including candidates the model absorbed) and swap one or two in for one
+    /// or two additions when they predict the held-out points significantly better, or, with
+    /// fewer parameters, no worse by more than one standard error (the swap check,
+    /// `workflow/swap.rs`; `vatcal discover --no-lookalike-swap` switches it off)
     pub lookalike_swap: bool,
     /// the physical floor of the noise reference, σ per axis \[mm\] (default 0.001: the
     /// resolution of the finest instrument vatcal reads, the Sylvac gauges' 1 µm; laser
