@@ -4,19 +4,22 @@
 //! Writes the chosen rows with exactly the columns of the input, and prints O1..O5, rank and
 //! condition number of the selection, followed by the paper's ablation: the best selections
 //! restricted to one and to two calibration positions (probe rows only: plane and tracker rows
-//! have no calibration position and are left out of the restricted pools).
+//! have no calibration position and are left out of the restricted pools). Known distances
+//! (`--point-distance`, `--plane-distance`) are rows in every design (unweighted, as
+//! `vatcal observability` counts them); the ablation leaves them out and says so.
 
 use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use vatcal_core::Measurement;
+use vatcal_core::{Measurement, PointDistance};
+use vatcal_kinematics::Model;
 use vatcal_observability::ObservabilityError;
 use vatcal_observability::detmax::{
-    AblationRow, Candidates, DetmaxOptions, Objective, SelectionIndices, detmax, position_ablation,
-    selection_indices,
+    AblationRow, Candidates, DetmaxOptions, Objective, SelectionIndices, constraint_prior_rows,
+    detmax_with_prior, position_ablation, selection_indices_with_prior,
 };
-use vatcal_observability::sets::{DataDesign, resolve_spec};
+use vatcal_observability::sets::{DataDesign, anchored, resolve_spec};
 
 /// Arguments of `vatcal select`.
 #[derive(Debug, clap::Args)]
@@ -57,6 +60,20 @@ pub struct Args {
     /// order, header and comment lines not counted).
     #[arg(long, value_delimiter = ',')]
     pub fixed: Vec<usize>,
+    /// A known distance between two calibration positions (fixed points), `A,B,MM` or
+    /// `A,B,MM,SIGMA_MM` (as `vatcal identify`; SIGMA_MM is accepted and unused): one row in
+    /// every design, unweighted like `vatcal observability` counts it. It informs only the coordinates of A and B, so it
+    /// matters only when they are among --params. Repeatable.
+    #[arg(long = "point-distance", value_name = "A,B,MM[,SIGMA_MM]")]
+    pub point_distances: Vec<String>,
+    /// A known distance between two parallel contact planes of plane rows, `A,B,MM` or
+    /// `A,B,MM,SIGMA_MM` (plane B lies MM above plane A along their common normal, e.g. a gauge
+    /// block's top face on a table; as `vatcal identify`; SIGMA_MM is accepted and unused):
+    /// three rows in every design
+    /// (distance and parallelism, unweighted like `vatcal observability` counts them) that fix
+    /// the scale plane rows on unknown planes leave free. Repeatable.
+    #[arg(long = "plane-distance", value_name = "A,B,MM[,SIGMA_MM]")]
+    pub plane_distances: Vec<String>,
     /// Skip the 1- and 2-position ablation.
     #[arg(long)]
     pub no_ablation: bool,
@@ -156,7 +173,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     // plane rows: the planes the cell lacks are estimated from the candidates and analysed free
     let (model, free_planes) =
         super::planes::model_with_unknown_planes(&mut cell, model, &args.model, &table.measurements)?;
-    let design = DataDesign { free_planes, ..DataDesign::default() };
+    let design = data_design(&args, &model, free_planes)?;
+    if scale_free(&table.measurements, &design) {
+        // the rank test at the nominal model may not see it (the rows do not fit it exactly)
+        println!(
+            "note: every candidate is on a plane the cell file lacks and no known distance is given: nothing fixes a length, so the scale of the chain is free; give one with --plane-distance A,B,MM or --point-distance A,B,MM"
+        );
+    }
     let n = table.measurements.len();
     anyhow::ensure!(
         n >= args.count,
@@ -174,10 +197,24 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let params = resolve_spec(&args.params, &model, &table.measurements, &design).context("--params")?;
     let candidates = Candidates::from_measurements(&model, &table.measurements, &params)
         .map_err(|e| anyhow::anyhow!("{}: {}", args.candidates.display(), with_line(e, &table.lines)))?;
-    // Objectives other than O1 depend on the column scaling: select on unit columns.
-    let scaled;
-    let work = if objective == Objective::O1 {
-        &candidates
+    // the known distances: rows in every design, unweighted (as `vatcal observability`)
+    let prior =
+        constraint_prior_rows(&model, &design, &params).context("--point-distance / --plane-distance")?;
+    for (k, d) in design.distances.iter().enumerate() {
+        // a point distance informs the two points' coordinates only (select holds them fixed
+        // unless --params names them)
+        if (0..prior.ncols()).all(|c| prior[(k, c)] == 0.0) {
+            println!(
+                "note: --point-distance {},{}: neither point's coordinates are among the parameters, so this distance adds nothing to the selection",
+                d.a, d.b
+            );
+        }
+    }
+    // Objectives other than O1 depend on the column scaling: select on unit columns (the
+    // candidates' column norms; the prior rows scaled the same way).
+    let (scaled, mut scaled_prior);
+    let (work, work_prior) = if objective == Objective::O1 {
+        (&candidates, prior.as_ref())
     } else {
         let f = vatcal_observability::identifiability::column_scale_factors(
             candidates.stacked(),
@@ -185,16 +222,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             vatcal_observability::ColumnScaling::UnitNorm,
         );
         scaled = candidates.scaled(&f);
-        &scaled
+        scaled_prior = prior.clone();
+        vatcal_observability::identifiability::scale_columns(&mut scaled_prior, &f);
+        (&scaled, scaled_prior.as_ref())
     };
-    let selection = detmax(work, &opts).map_err(|e| match e {
-        ObservabilityError::RankDeficient { message, .. } => anyhow::anyhow!(
-            "{}: these candidates cannot identify the parameter set `{}`: {message}",
-            args.candidates.display(),
-            args.params
-        ),
-        other => anyhow::anyhow!("{}: {other}", args.candidates.display()),
-    })?;
+    let selection = detmax_with_prior(work, work_prior, &opts)
+        .map_err(|e| selection_error(e, &args, &table.measurements, &design))?;
     table
         .write_subset(&args.out, &selection.selected)
         .with_context(|| format!("writing the selection to {}", args.out.display()))?;
@@ -212,23 +245,87 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         won.exchanges,
         args.out.display()
     )?;
-    let indices = selection_indices(&candidates, &selection.selected)?;
+    if prior.nrows() > 0 {
+        writeln!(
+            out,
+            "known distances: {} point, {} plane ({} rows in every design, unweighted; counted in the indices below, not as poses)",
+            design.distances.len(),
+            design.plane_distances.len(),
+            prior.nrows()
+        )?;
+    }
+    let indices = selection_indices_with_prior(&candidates, prior.as_ref(), &selection.selected)?;
     writeln!(out, "selection: {}", describe(&indices))?;
     if !args.no_ablation {
-        ablation(&mut out, &candidates, &table.measurements, &opts, args.count)?;
+        let with_prior = prior.nrows() > 0;
+        ablation(&mut out, &candidates, &table.measurements, &opts, args.count, with_prior)?;
     }
     Ok(())
 }
 
+/// The design of the selection: the unknown planes free, the known distances
+/// (`--point-distance`, `--plane-distance`, parsed as `vatcal identify` does), checked against
+/// the model.
+fn data_design(args: &Args, model: &Model, free_planes: Vec<u32>) -> anyhow::Result<DataDesign> {
+    let distances = args
+        .point_distances
+        .iter()
+        .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let design = DataDesign {
+        distances,
+        free_planes,
+        plane_distances: super::planes::plane_distances(&args.plane_distances)?,
+        ..DataDesign::default()
+    };
+    design.check(model).context("--point-distance / --plane-distance")?;
+    Ok(design)
+}
+
+/// True when the candidates are plane rows on planes the cell file lacks (nothing anchored) and
+/// no known distance is given: nothing fixes the scale of the chain.
+fn scale_free(measurements: &[Measurement], design: &DataDesign) -> bool {
+    design.constraint_rows() == 0
+        && measurements.iter().any(|m| m.target.is_plane())
+        && !anchored(measurements, design)
+}
+
+/// The error of a failed selection, naming the candidate file; a rank-deficiency of plane rows
+/// on unknown planes without a known distance names the flags that fix the scale.
+fn selection_error(
+    e: ObservabilityError,
+    args: &Args,
+    measurements: &[Measurement],
+    design: &DataDesign,
+) -> anyhow::Error {
+    match e {
+        ObservabilityError::RankDeficient { message, .. } => {
+            let hint = if scale_free(measurements, design) {
+                "; the candidates are plane contacts on planes the cell file lacks and nothing fixes the scale of the chain: give a known distance between two of the planes (--plane-distance A,B,MM) or two fixed points (--point-distance A,B,MM)"
+            } else {
+                ""
+            };
+            anyhow::anyhow!(
+                "{}: these candidates cannot identify the parameter set `{}`: {message}{hint}",
+                args.candidates.display(),
+                args.params
+            )
+        }
+        other => anyhow::anyhow!("{}: {other}", args.candidates.display()),
+    }
+}
+
 /// The paper's ablation over the probe rows' calibration positions. Plane and tracker rows
 /// have no calibration position: they are left out of every restricted pool (and named), and
-/// without probe rows the ablation is skipped.
+/// without probe rows the ablation is skipped. The known distances are left out of it (said in
+/// its header when there are some).
 fn ablation(
     out: &mut impl Write,
     candidates: &Candidates,
     measurements: &[Measurement],
     opts: &DetmaxOptions,
     count: usize,
+    with_prior: bool,
 ) -> anyhow::Result<()> {
     let positions: Vec<Option<u32>> = measurements.iter().map(|m| m.position()).collect();
     let others = positions.iter().filter(|p| p.is_none()).count();
@@ -239,7 +336,11 @@ fn ablation(
         )?;
         return Ok(());
     }
-    let left_out = if others > 0 { format!("; {others} plane/tracker rows left out") } else { String::new() };
+    let mut left_out =
+        if others > 0 { format!("; {others} plane/tracker rows left out") } else { String::new() };
+    if with_prior {
+        left_out += "; the known distances left out";
+    }
     let ablation_opts = DetmaxOptions { objective: Objective::O1, ..opts.clone() };
     writeln!(
         out,

@@ -145,3 +145,83 @@ fn select_picks_among_plane_and_tracker_rows_and_keeps_the_columns() {
     let input = std::fs::read_to_string(&cands).expect("candidates");
     assert!(lines[1..].iter().all(|l| input.lines().any(|i| i == *l)));
 }
+
+/// The `cond` of `vatcal select`'s `selection:` line.
+fn selection_condition(out: &str) -> f64 {
+    let line = out.lines().find(|l| l.starts_with("selection:")).expect("selection line");
+    let after = line.split("cond ").nth(1).expect("cond");
+    after.split_whitespace().next().expect("value").parse().expect("number")
+}
+
+#[test]
+fn select_on_unknown_planes_takes_the_known_distance_into_every_design() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let truth = truth();
+    let (cands, selected) = (dir.path().join("cands.csv"), dir.path().join("selected.csv"));
+    write_rows(&cands, &truth, &plane_rows(&truth));
+    let (model, cands) = (fixture(), cands.to_str().expect("path").to_string());
+    let (model, out_path) = (model.to_str().expect("path"), selected.to_str().expect("path"));
+    let base = [
+        "select",
+        "--model",
+        model,
+        "--candidates",
+        &cands,
+        "--count",
+        "24",
+        "--restarts",
+        "2",
+        "--seed",
+        "3",
+        "--out",
+        out_path,
+    ];
+    let distance = ["--plane-distance", "1,2,50"];
+
+    // the kinematic set needs the scale: refused without a known distance, naming the flag
+    let kinematic = [&base[..], &["--params", "kinematic"]].concat();
+    let o = vatcal(&kinematic);
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(!o.status.success());
+    assert!(err.contains("nothing fixes the scale") && err.contains("--plane-distance"), "{err}");
+    assert!(out.contains("the scale of the chain is free") && out.contains("--plane-distance"), "{out}");
+    assert!(!selected.exists());
+    let o = vatcal(&[&kinematic[..], &distance[..]].concat());
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("selected 24 of 40 candidates for 28 parameters"), "{out}");
+    assert!(out.contains("known distances: 0 point, 1 plane (3 rows in every design, unweighted"), "{out}");
+    assert!(!out.contains("the scale of the chain is free"), "{out}");
+    assert!(out.contains("rank 28/28"), "{out}");
+    let written = std::fs::read_to_string(&selected).expect("selection");
+    assert_eq!(written.lines().count(), 25, "{written}");
+    let with_distance = selection_condition(&out);
+    // a point distance between fixed calibration positions informs nothing here: said so
+    let o = vatcal(&[&kinematic[..], &["--point-distance", "1,2,100"]].concat());
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("note: --point-distance 1,2: neither point's coordinates"), "{out}");
+
+    // the same parameters named one by one pass the rule; the scale is then only weakly seen
+    // (through the nominal model's misfit), and the distance makes the selection much better
+    // conditioned
+    let names = "plane1_tilt_u,plane1_tilt_v,plane1_offset,plane2_tilt_u,plane2_tilt_v,plane2_offset,tcp1_x,tcp1_y,tcp1_z,theta_offset_2,theta_offset_3,theta_offset_4,theta_offset_5,alpha_1,a_1,d_2,alpha_2,a_2,alpha_3,a_3,alpha_4,a_4,d_5,alpha_5,a_5,beta_1,beta_2,beta_3";
+    let listed = [&base[..], &["--params", names, "--objective", "o2"]].concat();
+    let o = vatcal(&listed);
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("the scale of the chain is free"), "{out}");
+    let without = selection_condition(&out);
+    let o = vatcal(&[&listed[..], &distance[..]].concat());
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    let with = selection_condition(&out);
+    eprintln!(
+        "cond: kinematic with the distance {with_distance:.3e}; listed, o2: {without:.3e} without, {with:.3e} with"
+    );
+    assert!(with < without / 10.0, "{with} vs {without}");
+}

@@ -24,14 +24,33 @@ pub fn selection_indices(
     candidates: &Candidates,
     selected: &[usize],
 ) -> Result<SelectionIndices, ObservabilityError> {
-    let j = candidates.design_jacobian(selected);
-    let raw = crate::indices::observability_indices(j.as_ref(), candidates.params(), ColumnScaling::None)?;
+    indices_of_design(candidates, selected, selected.len())
+}
+
+/// [`selection_indices`] of `design` with O1 counting `poses` poses (a design that holds
+/// prior pseudo-candidates counts only its real poses).
+pub(super) fn indices_of_design(
+    candidates: &Candidates,
+    design: &[usize],
+    poses: usize,
+) -> Result<SelectionIndices, ObservabilityError> {
+    let j = candidates.design_jacobian(design);
+    let raw = crate::indices::observability_indices_for(
+        j.as_ref(),
+        candidates.params(),
+        ColumnScaling::None,
+        poses,
+    )?;
     let factors: Vec<f64> =
         column_norms(candidates).iter().map(|x| if *x > 0.0 { 1.0 / x } else { 1.0 }).collect();
     let mut jn = j;
     crate::identifiability::scale_columns(&mut jn, &factors);
-    let mut normalized =
-        crate::indices::observability_indices(jn.as_ref(), candidates.params(), ColumnScaling::None)?;
+    let mut normalized = crate::indices::observability_indices_for(
+        jn.as_ref(),
+        candidates.params(),
+        ColumnScaling::None,
+        poses,
+    )?;
     normalized.scaling = ColumnScaling::UnitNorm;
     Ok(SelectionIndices { raw, normalized })
 }

@@ -69,6 +69,12 @@
 //! eigenvalues of the updated L × L information matrix (σ_i = √λ_i). Slower (≈ n × shortlist
 //! eigen-decompositions per swap) and dependent on the column scaling of the candidates.
 //!
+//! # Prior information
+//! [`detmax_with_prior`] selects with rows that are in every design (known distances between
+//! fixed points or parallel planes, or any other prior information in the units of the
+//! candidate blocks): they are packed into zero-padded 3-row pseudo-candidates, held fixed,
+//! and stripped from the returned selection; the criterion it reports includes them.
+//!
 //! # Reference
 //! [`naive_detmax`] runs the same exchange with every gain and loss computed from scratch from
 //! the singular values of the stacked design Jacobian — for tests and the benchmark.
@@ -78,6 +84,7 @@ mod bookkeeping;
 mod candidates;
 mod exchange;
 mod options;
+mod prior;
 mod reference;
 mod restarts;
 
@@ -86,5 +93,6 @@ pub use candidates::Candidates;
 pub use options::{
     DetmaxOptions, Initialisation, Objective, RestartOutcome, Selection, log_det, o1_from_log_det,
 };
+pub use prior::{constraint_prior_rows, detmax_with_prior, selection_indices_with_prior, with_prior_rows};
 pub use reference::{log_det_by_svd, naive_detmax};
 pub use restarts::{detmax, greedy, restart_seed};
