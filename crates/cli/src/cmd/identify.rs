@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use vatcal_core::training_range::TrainingRange;
-use vatcal_core::{Measurement, PointDistance, Target};
+use vatcal_core::{Measurement, Target};
 use vatcal_identification::{
     BadRowReport, BadRowsReport, DroppedRow, RobustFit, RobustLoss, RobustOptions, RobustReport,
     SIGMA_ESTIMATOR, calibrate_dropping_outliers, calibrate_robust, flag_outliers,
@@ -145,11 +145,7 @@ fn data_design(
     free_positions: Vec<u32>,
     free_planes: Vec<u32>,
 ) -> anyhow::Result<DataDesign> {
-    let distances = args
-        .point_distances
-        .iter()
-        .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let distances = super::planes::point_distances(&args.point_distances)?;
     let design = DataDesign {
         free_positions,
         distances,

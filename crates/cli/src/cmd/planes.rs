@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use vatcal_core::{CellFile, Measurement, PlaneDistance};
+use vatcal_core::{CellFile, Measurement, PlaneDistance, PointDistance};
 use vatcal_kinematics::Model;
 
 /// Adds the planes the rows name and `cell` lacks (estimated by
@@ -45,5 +45,16 @@ pub fn plane_distances(specs: &[String]) -> anyhow::Result<Vec<PlaneDistance>> {
     specs
         .iter()
         .map(|s| PlaneDistance::parse(s).map_err(anyhow::Error::msg).context("--plane-distance"))
+        .collect()
+}
+
+/// Parses the `--point-distance A,B,MM[,SIGMA_MM]` values.
+///
+/// # Errors
+/// A value [`PointDistance::parse`] refuses, naming the flag.
+pub fn point_distances(specs: &[String]) -> anyhow::Result<Vec<PointDistance>> {
+    specs
+        .iter()
+        .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
         .collect()
 }

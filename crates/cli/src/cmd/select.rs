@@ -12,7 +12,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use vatcal_core::{Measurement, PointDistance};
+use vatcal_core::Measurement;
 use vatcal_kinematics::Model;
 use vatcal_observability::ObservabilityError;
 use vatcal_observability::detmax::{
@@ -267,11 +267,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 /// (`--point-distance`, `--plane-distance`, parsed as `vatcal identify` does), checked against
 /// the model.
 fn data_design(args: &Args, model: &Model, free_planes: Vec<u32>) -> anyhow::Result<DataDesign> {
-    let distances = args
-        .point_distances
-        .iter()
-        .map(|s| PointDistance::parse(s).map_err(anyhow::Error::msg).context("--point-distance"))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let distances = super::planes::point_distances(&args.point_distances)?;
     let design = DataDesign {
         distances,
         free_planes,
