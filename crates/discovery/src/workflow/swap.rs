@@ -386,16 +386,13 @@ fn try_swap(
     held0: &CrossValidation,
     ctx: &Context<'_>,
 ) -> Option<Outcome> {
-    let gone: Vec<ParamId> = t.outs.iter().flat_map(|&k| added[k].spec.params()).collect();
-    let mut params: Vec<ParamId> = current.params.iter().copied().filter(|p| !gone.contains(p)).collect();
-    let known = ParamSet(params.clone());
+    let (known, mut specs) = without(added, &t.outs, current);
+    let mut params = known.0.clone();
     let ins: Vec<&Candidate> = t.ins.iter().map(|&b| &candidates[b]).collect();
     for c in &ins {
         params.extend(c.new_params.iter().copied().filter(|p| !params.contains(p)).collect::<Vec<_>>());
     }
     let params = ParamSet(params);
-    let mut specs: Vec<EffectSpec> =
-        added.iter().enumerate().filter(|(i, _)| !t.outs.contains(i)).map(|(_, a)| a.spec).collect();
     specs.extend(ins.iter().map(|c| c.spec));
     let base = match (ins.as_slice(), ins.first().and_then(|c| c.refit.as_ref())) {
         ([_], Some((_, refit, _))) => rebuild(
@@ -423,41 +420,57 @@ fn try_swap(
     if validation_worse(current, &swapped, ctx) {
         return None;
     }
-    let mut scores = Vec::new();
-    for &b in t.ins.iter().filter(|&&b| candidates[b].score.is_none()) {
-        scores.push((b, score_without(start, added, &t.outs, &candidates[b], current, ctx)?));
-    }
+    let unscored: Vec<usize> = t.ins.iter().copied().filter(|&b| candidates[b].score.is_none()).collect();
+    let scores = if unscored.is_empty() {
+        Vec::new()
+    } else {
+        scores_without(start, added, t, &unscored, candidates, current, ctx)?
+    };
     Some(Outcome { heldout: h, swapped, scores })
 }
 
-/// The score test of candidate `c` at the model without the additions `outs`, refitted on all
-/// data: the screening evidence of a candidate the replaced effects absorbed (in the round's
-/// screening its directions lay in the model's span, so it had no score). `None` when it
-/// cannot be computed or `c` has no direction of its own there either.
-fn score_without(
-    start: &Model,
-    added: &[AddedEffect],
-    outs: &[usize],
-    c: &Candidate,
-    current: &Fit,
-    ctx: &Context<'_>,
-) -> Option<ScoreTest> {
+/// The parameters and switched-on effects of the current model without the additions `outs`.
+fn without(added: &[AddedEffect], outs: &[usize], current: &Fit) -> (ParamSet, Vec<EffectSpec>) {
     let gone: Vec<ParamId> = outs.iter().flat_map(|&k| added[k].spec.params()).collect();
     let params = ParamSet(current.params.iter().copied().filter(|p| !gone.contains(p)).collect());
-    let specs: Vec<EffectSpec> =
-        added.iter().enumerate().filter(|(i, _)| !outs.contains(i)).map(|(_, a)| a.spec).collect();
+    let specs = added.iter().enumerate().filter(|(i, _)| !outs.contains(i)).map(|(_, a)| a.spec).collect();
+    (params, specs)
+}
+
+/// The score tests of the candidates `unscored` (of `t.ins`) at the model without the
+/// additions `t.outs`, refitted once on all data: the screening evidence of candidates the
+/// replaced effects absorbed (in the round's screening their directions lay in the model's
+/// span, so they had no score). `None` when one cannot be computed or has no direction of its
+/// own there either.
+#[allow(clippy::too_many_arguments)]
+fn scores_without(
+    start: &Model,
+    added: &[AddedEffect],
+    t: &Trial,
+    unscored: &[usize],
+    candidates: &[Candidate],
+    current: &Fit,
+    ctx: &Context<'_>,
+) -> Option<Vec<(usize, ScoreTest)>> {
+    let (params, specs) = without(added, &t.outs, current);
     let base = rebuild(start, &specs, &current.model, &params).ok()?;
-    let without = fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()?;
+    let reduced = fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()?;
     let weights = &ctx.options.identify.weights;
-    let mut j = assemble_jacobian(&without.model, ctx.measurements, &params).ok()?;
+    let mut j = assemble_jacobian(&reduced.model, ctx.measurements, &params).ok()?;
     weigh_rows(&mut j, ctx.measurements, weights);
     let space = ColumnSpace::of(j.as_ref()).ok()?;
-    let mut with_c = without.model.clone();
-    with_c.enable_effect(c.spec).ok()?;
-    let mut z = assemble_jacobian(&with_c, ctx.measurements, &ParamSet(c.new_params.clone())).ok()?;
-    weigh_rows(&mut z, ctx.measurements, weights);
-    let directions = EffectDirections::new(&space, z.as_ref(), ctx.options.novelty_floor).ok()?;
-    let residual = weighted_residual(&without, ctx.measurements, weights);
-    let sigma = ctx.sigma_hat(&without, ctx.measurements, space.rank());
-    (directions.dof > 0).then(|| score_test(&space, &directions, &residual, sigma * sigma))
+    let residual = weighted_residual(&reduced, ctx.measurements, weights);
+    let sigma = ctx.sigma_hat(&reduced, ctx.measurements, space.rank());
+    unscored
+        .iter()
+        .map(|&b| {
+            let c = &candidates[b];
+            let mut with_c = reduced.model.clone();
+            with_c.enable_effect(c.spec).ok()?;
+            let mut z = assemble_jacobian(&with_c, ctx.measurements, &ParamSet(c.new_params.clone())).ok()?;
+            weigh_rows(&mut z, ctx.measurements, weights);
+            let directions = EffectDirections::new(&space, z.as_ref(), ctx.options.novelty_floor).ok()?;
+            (directions.dof > 0).then(|| (b, score_test(&space, &directions, &residual, sigma * sigma)))
+        })
+        .collect()
 }
