@@ -138,6 +138,28 @@ impl DataDesign {
         self.distances.len() + 3 * self.plane_distances.len()
     }
 
+    /// The constraint rows' Jacobian at `model` over `params`, unweighted (point distances,
+    /// then plane distances): `constraint_rows()` × `params.len()`, 0 rows when there is no
+    /// known distance. [`assemble_design_jacobian`] appends it after the measurement rows;
+    /// [`detmax_with_prior`](crate::detmax::detmax_with_prior) takes it as the prior rows of a
+    /// selection that knows those distances.
+    ///
+    /// # Errors
+    /// As [`DataDesign::for_each_constraint_row`].
+    pub fn constraint_jacobian(
+        &self,
+        model: &Model,
+        params: &ParamSet,
+    ) -> Result<Mat<f64>, ObservabilityError> {
+        let mut rows = Mat::<f64>::zeros(self.constraint_rows(), params.len());
+        self.for_each_constraint_row(model, &params.0, |k, _, row| {
+            for (c, v) in row.iter().enumerate() {
+                rows[(k, c)] = *v;
+            }
+        })?;
+        Ok(rows)
+    }
+
     /// Every constraint row's residual and Jacobian row over `params` (point distances, then
     /// plane distances), handed to `each(row index, residual, jacobian row)` in order.
     ///
@@ -266,11 +288,7 @@ pub fn assemble_design_jacobian(
     let (m, l) = (j.nrows(), params.len());
     let mut out = Mat::<f64>::zeros(m + design.constraint_rows(), l);
     out.as_mut().get_mut(..m, ..).copy_from(j.as_ref());
-    design.for_each_constraint_row(model, &params.0, |k, _, row| {
-        for (c, v) in row.iter().enumerate() {
-            out[(m + k, c)] = *v;
-        }
-    })?;
+    out.as_mut().get_mut(m.., ..).copy_from(design.constraint_jacobian(model, params)?.as_ref());
     Ok(out)
 }
 

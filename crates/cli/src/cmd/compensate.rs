@@ -174,8 +174,7 @@ fn nominal_model(
 /// Compensates every requested pose and writes the chosen output.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cell = CellFile::load(&args.model)?;
-    let calibrated = Model::from_cell(&cell)
-        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let calibrated = super::model_of(&cell, &args.model)?;
     let model_bytes =
         std::fs::read(&args.model).with_context(|| format!("{}: cannot read", args.model.display()))?;
     let (nominal, nominal_desc) = nominal_or_calibrated(&args, &cell, &calibrated)?;

@@ -80,8 +80,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(path) = &args.model {
         opts.nominal = CellFile::load(path)?;
         opts.nominal_source = path.display().to_string();
-        let model = vatcal_kinematics::Model::from_cell(&opts.nominal)
-            .with_context(|| format!("{}: cannot build the model", path.display()))?;
+        let model = super::model_of(&opts.nominal, path)?;
         if !model.is_meca500_on_guide() {
             chain = Some(model.describe_chain());
         }

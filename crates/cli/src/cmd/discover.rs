@@ -353,8 +353,7 @@ fn print_text(out: &mut impl Write, d: &Discovery) -> std::io::Result<()> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     check_options(&args)?;
     let mut cell = vatcal_core::CellFile::load(&args.model)?;
-    let model = Model::from_cell(&cell)
-        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model = super::model_of(&cell, &args.model)?;
     let (measurements, sources) = args.read.markers_with_sources(&args.measurements, &model)?;
     anyhow::ensure!(!measurements.is_empty(), "{}: no measurement rows", args.measurements.display());
     // issue 31: TCP ids the rows use that the cell lacks are markers at unknown offsets

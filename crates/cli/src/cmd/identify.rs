@@ -160,8 +160,7 @@ fn data_design(
 pub fn run(args: Args) -> anyhow::Result<()> {
     let mut cell = vatcal_core::CellFile::load(&args.model)?;
     let free_positions = add_unknown_positions(&mut cell, args.unknown_positions.as_deref())?;
-    let model = Model::from_cell(&cell)
-        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model = super::model_of(&cell, &args.model)?;
     let (measurements, sources) = read_all(&args, &model)?;
     // issue 31: TCP ids the rows use that the cell lacks are markers at unknown offsets
     let (model, markers) = super::markers::model_with_unknown_tcps(

@@ -77,7 +77,6 @@ pub fn model_with_unknown_tcps(
     rows: &[Measurement],
     sources: &[RowSource],
 ) -> anyhow::Result<(Model, UnknownTcps)> {
-    use anyhow::Context;
     let markers = add_unknown_tcps(cell, model_path, spec, rows, sources)?;
     if let Some(line) = markers.describe() {
         println!("{line}");
@@ -85,8 +84,7 @@ pub fn model_with_unknown_tcps(
     if markers.added.is_empty() {
         return Ok((model, markers));
     }
-    let model = Model::from_cell(cell)
-        .with_context(|| format!("{}: cannot build the model", model_path.display()))?;
+    let model = super::model_of(cell, model_path)?;
     Ok((model, markers))
 }
 

@@ -29,6 +29,10 @@ use vatcal_kinematics::Model;
 
 /// Loads and validates a cell file and builds the model.
 pub fn load_model(path: &Path) -> anyhow::Result<Model> {
-    let cell = CellFile::load(path)?;
-    Model::from_cell(&cell).with_context(|| format!("{}: cannot build the model", path.display()))
+    model_of(&CellFile::load(path)?, path)
+}
+
+/// The model of `cell`, read from `path`; an error names the file.
+pub fn model_of(cell: &CellFile, path: &Path) -> anyhow::Result<Model> {
+    Model::from_cell(cell).with_context(|| format!("{}: cannot build the model", path.display()))
 }

@@ -52,8 +52,7 @@ pub struct Args {
 /// unknown planes free, the known plane distances).
 fn load(args: &Args) -> anyhow::Result<(Model, Vec<Measurement>, DataDesign)> {
     let mut cell = vatcal_core::CellFile::load(&args.model)?;
-    let model = Model::from_cell(&cell)
-        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model = super::model_of(&cell, &args.model)?;
     let measurements = vatcal_io::read_measurements(&args.measurements, &model)?;
     anyhow::ensure!(!measurements.is_empty(), "{}: no measurement rows", args.measurements.display());
     let (model, free_planes) =

@@ -138,8 +138,7 @@ fn parse_start(text: &str, model: &Model) -> anyhow::Result<JointVector> {
 /// Runs the subcommand.
 pub fn run(args: Args) -> anyhow::Result<()> {
     let cell = CellFile::load(&args.model)?;
-    let model = Model::from_cell(&cell)
-        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model = super::model_of(&cell, &args.model)?;
     let geometry = CellGeometry::from_cell(&cell).with_context(|| format!("{}", args.model.display()))?;
     let params = match args.params.trim() {
         // resolved on the candidates by plan_campaign (paper34 on the canonical cell)

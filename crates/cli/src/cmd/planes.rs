@@ -32,8 +32,7 @@ pub fn model_with_unknown_planes(
         ids.iter().map(u32::to_string).collect::<Vec<_>>().join(", ")
     );
     cell.planes.extend(added);
-    let model = Model::from_cell(cell)
-        .with_context(|| format!("{}: cannot build the model", model_path.display()))?;
+    let model = super::model_of(cell, model_path)?;
     Ok((model, ids))
 }
 

@@ -16,8 +16,8 @@ use vatcal_core::Measurement;
 use vatcal_kinematics::Model;
 use vatcal_observability::ObservabilityError;
 use vatcal_observability::detmax::{
-    AblationRow, Candidates, DetmaxOptions, Objective, SelectionIndices, constraint_prior_rows,
-    detmax_with_prior, position_ablation, selection_indices_with_prior,
+    AblationRow, Candidates, DetmaxOptions, Objective, SelectionIndices, detmax_with_prior,
+    position_ablation, selection_indices_with_prior,
 };
 use vatcal_observability::sets::{DataDesign, anchored, resolve_spec};
 
@@ -167,8 +167,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     })?;
     let opts = options(&args, objective)?;
     let mut cell = vatcal_core::CellFile::load(&args.model)?;
-    let model = vatcal_kinematics::Model::from_cell(&cell)
-        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model = super::model_of(&cell, &args.model)?;
     let table = vatcal_io::read_candidates(&args.candidates, &model)?;
     // plane rows: the planes the cell lacks are estimated from the candidates and analysed free
     let (model, free_planes) =
@@ -198,8 +197,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let candidates = Candidates::from_measurements(&model, &table.measurements, &params)
         .map_err(|e| anyhow::anyhow!("{}: {}", args.candidates.display(), with_line(e, &table.lines)))?;
     // the known distances: rows in every design, unweighted (as `vatcal observability`)
-    let prior =
-        constraint_prior_rows(&model, &design, &params).context("--point-distance / --plane-distance")?;
+    let prior = design.constraint_jacobian(&model, &params).context("--point-distance / --plane-distance")?;
     for (k, d) in design.distances.iter().enumerate() {
         // a point distance informs the two points' coordinates only (select holds them fixed
         // unless --params names them)

@@ -230,8 +230,7 @@ fn registered(
 pub fn run(args: Args) -> anyhow::Result<()> {
     // one read of the cell file: the model and its `[training_range]`
     let model_cell = vatcal_core::CellFile::load(&args.model)?;
-    let model = vatcal_kinematics::Model::from_cell(&model_cell)
-        .with_context(|| format!("{}: cannot build the model", args.model.display()))?;
+    let model = super::model_of(&model_cell, &args.model)?;
     let (rows, sources) = args.read.markers_with_sources(&args.tracker, &model)?;
     let (tracker, sources, orientation) = split_orientation(rows, sources);
     // markers: the model must have every TCP the rows use (a calibrated cell written by
@@ -264,8 +263,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                     ids.join(",")
                 );
             }
-            let base = vatcal_kinematics::Model::from_cell(&cell)
-                .with_context(|| format!("{}: cannot build the model", path.display()))?;
+            let base = super::model_of(&cell, path)?;
             let base = if args.register_frame { registered(base, &tracker, path)? } else { base };
             // read again with the baseline: checks the context columns its effects need
             let read = vatcal_io::read_any_measurements_with(&args.tracker, &base, &args.read.options()?)?;

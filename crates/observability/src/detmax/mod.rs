@@ -93,6 +93,6 @@ pub use candidates::Candidates;
 pub use options::{
     DetmaxOptions, Initialisation, Objective, RestartOutcome, Selection, log_det, o1_from_log_det,
 };
-pub use prior::{constraint_prior_rows, detmax_with_prior, selection_indices_with_prior, with_prior_rows};
+pub use prior::{detmax_with_prior, selection_indices_with_prior, with_prior_rows};
 pub use reference::{log_det_by_svd, naive_detmax};
 pub use restarts::{detmax, greedy, restart_seed};

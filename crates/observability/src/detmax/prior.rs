@@ -1,21 +1,18 @@
 //! Selection with prior information: rows that are in every design (e.g. known distances
-//! between fixed points or parallel planes, [`crate::sets::DataDesign::for_each_constraint_row`]),
+//! between fixed points or parallel planes, [`crate::sets::DataDesign::constraint_jacobian`]),
 //! so that the candidates only have to identify what the prior leaves open.
 //!
 //! The prior rows are packed into zero-padded 3-row pseudo-candidates appended after the real
 //! candidates and held in every design as fixed poses; the exchange never removes them, and
 //! they are stripped from what is returned.
 
-use faer::{Mat, MatRef};
-use vatcal_core::ParamSet;
-use vatcal_kinematics::Model;
+use faer::MatRef;
 
 use super::ablation::{SelectionIndices, indices_of_design};
 use super::candidates::Candidates;
 use super::options::{DetmaxOptions, Objective, Selection, o1_from_log_det};
 use super::restarts::detmax;
 use crate::error::ObservabilityError;
-use crate::sets::DataDesign;
 
 /// Number of 3-row pseudo-candidates that hold `rows` prior rows.
 fn pseudo_count(rows: usize) -> usize {
@@ -126,28 +123,6 @@ pub fn selection_indices_with_prior(
     let mut design = selected.to_vec();
     design.extend(candidates.len()..augmented.len());
     indices_of_design(&augmented, &design, selected.len())
-}
-
-/// The constraint rows of `design` (known point distances, then known plane distances) at
-/// `model` over `params`, unweighted, as
-/// [`assemble_design_jacobian`](crate::sets::assemble_design_jacobian) appends them after the
-/// measurement rows: the prior rows of [`detmax_with_prior`] for a selection that knows those
-/// distances. `design.constraint_rows()` × `params.len()`; 0 rows when there is no distance.
-///
-/// # Errors
-/// As [`DataDesign::for_each_constraint_row`].
-pub fn constraint_prior_rows(
-    model: &Model,
-    design: &DataDesign,
-    params: &ParamSet,
-) -> Result<Mat<f64>, ObservabilityError> {
-    let mut rows = Mat::<f64>::zeros(design.constraint_rows(), params.len());
-    design.for_each_constraint_row(model, &params.0, |k, _, row| {
-        for (c, v) in row.iter().enumerate() {
-            rows[(k, c)] = *v;
-        }
-    })?;
-    Ok(rows)
 }
 
 #[cfg(test)]
