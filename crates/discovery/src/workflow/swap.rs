@@ -310,17 +310,8 @@ fn lookalike_pairs(
         })
         .collect();
     // each candidate's weighted columns at the current model (switched on at zero)
-    let with_b: Vec<Option<Mat<f64>>> = eligible
-        .par_iter()
-        .map(|&b| {
-            let c = &candidates[b];
-            let mut m = current.model.clone();
-            m.enable_effect(c.spec).ok()?;
-            let mut j = assemble_jacobian(&m, ctx.measurements, &ParamSet(c.new_params.clone())).ok()?;
-            weigh_rows(&mut j, ctx.measurements, &ctx.options.identify.weights);
-            Some(j)
-        })
-        .collect();
+    let with_b: Vec<Option<Mat<f64>>> =
+        eligible.par_iter().map(|&b| weighted_columns(&current.model, &candidates[b], ctx)).collect();
     let mut pairs = Vec::new();
     for (k, a) in added.iter().enumerate() {
         let own_a: Vec<usize> = a.spec.params().iter().filter_map(|p| current.params.index_of(*p)).collect();
@@ -341,6 +332,16 @@ fn lookalike_pairs(
     }
     pairs.sort_by(|x, y| y.2.total_cmp(&x.2).then(x.0.cmp(&y.0)).then(x.1.cmp(&y.1)));
     Ok(pairs)
+}
+
+/// Candidate `c`'s columns on all data, weighted, at `model` with its effect switched on at
+/// zero (`None` when it cannot be switched on or evaluated).
+fn weighted_columns(model: &Model, c: &Candidate, ctx: &Context<'_>) -> Option<Mat<f64>> {
+    let mut with_c = model.clone();
+    with_c.enable_effect(c.spec).ok()?;
+    let mut j = assemble_jacobian(&with_c, ctx.measurements, &ParamSet(c.new_params.clone())).ok()?;
+    weigh_rows(&mut j, ctx.measurements, &ctx.options.identify.weights);
+    Some(j)
 }
 
 /// The largest cosine between a column of `b` and the span of the columns of `a` (0 when
@@ -464,11 +465,7 @@ fn scores_without(
     unscored
         .iter()
         .map(|&b| {
-            let c = &candidates[b];
-            let mut with_c = reduced.model.clone();
-            with_c.enable_effect(c.spec).ok()?;
-            let mut z = assemble_jacobian(&with_c, ctx.measurements, &ParamSet(c.new_params.clone())).ok()?;
-            weigh_rows(&mut z, ctx.measurements, weights);
+            let z = weighted_columns(&reduced.model, &candidates[b], ctx)?;
             let directions = EffectDirections::new(&space, z.as_ref(), ctx.options.novelty_floor).ok()?;
             (directions.dof > 0).then(|| (b, score_test(&space, &directions, &residual, sigma * sigma)))
         })
