@@ -48,9 +48,26 @@
 //! the norm of its part orthogonal to the already chosen columns exceeds the rank threshold;
 //! otherwise it is dropped as redundant. The identifiable basis therefore always prefers
 //! earlier parameters (faer's `ColPivQr` pivots on the largest remaining norm, which ignores
-//! the preference, so the rule is implemented here). Every dropped column is then written as
-//! the least-squares combination of the kept columns (faer QR), which names the parameters
-//! that absorb it.
+//! the preference, so the rule is implemented here).
+//!
+//! The QR's test on one column's remaining norm misses a dependency whose weights are large:
+//! a column `x` times away from a combination of the kept ones in a direction of singular
+//! value σ keeps a remaining norm of about `σ·x`, so σ = 1e-12 with weights of ~1e4 passes a
+//! threshold of 1e-8. The kept columns could then be more than the SVD rank, with a direction
+//! no data see among them (the UR5e on two unknown parallel planes kept `alpha_0` beside both
+//! planes' tilts: 33 columns, rank 32, smallest singular value 1.1e-12). So the basis is
+//! checked with the SVD criterion of the rank ([`full_rank_basis`]): while the kept columns'
+//! own smallest singular value is at most the threshold, the parameter with the largest entry
+//! in that singular vector is dropped (the one the others explain with the smallest weights;
+//! among entries within [`TIE_FRACTION`] of the largest, the least preferred); if that leaves
+//! fewer than `rank` columns, dropped columns are taken back in preference order as long as
+//! the basis stays of full rank. The basis then has `rank` parameters and is of full rank on
+//! its own — except when the smallest singular value counted in the rank lies within a small
+//! factor of the threshold: no `rank` of the columns may then be of full rank, and the basis is
+//! one short (the UR5e planes with a known distance between them: rank 34, σ₃₄ = 1.1 × the
+//! threshold, basis 33; a largest-norm pivoted QR's 34 columns fall below the threshold too).
+//! Every dropped column is then written as the least-squares combination of the kept columns
+//! (faer QR), which names the parameters that absorb it.
 
 use std::fmt;
 
@@ -287,7 +304,10 @@ pub struct IdentifiabilityReport {
     pub singular_values: Vec<f64>,
     /// relative rank tolerance used (threshold = tolerance · σ₁)
     pub tolerance: f64,
-    /// the identifiable basis chosen in preference order (a subset of the input, input order)
+    /// the identifiable basis chosen in preference order (a subset of the input, input order):
+    /// `rank` parameters whose own columns are of full rank by the same SVD threshold (fewer
+    /// only when a singular value counted in the rank is within a small factor of the
+    /// threshold; [`full_rank_basis`])
     pub identifiable: Vec<ParamId>,
     /// the parameters not in the basis and what absorbs them (input order)
     pub redundant: Vec<Redundancy>,
@@ -331,20 +351,11 @@ impl IdentifiabilityReport {
         }
     }
 
-    /// Parameters to name when the set is rank-deficient: the dropped columns, or (when the
-    /// preference-ordered QR kept everything although the SVD rank is lower, a borderline
-    /// case) the largest entries of the lost directions.
+    /// Parameters to name when the set is rank-deficient: the columns left out of the basis
+    /// (input order). The basis is never larger than the rank ([`full_rank_basis`]), so a
+    /// rank-deficient set always names at least `parameter_count − rank` of them.
     pub fn unidentifiable(&self) -> Vec<ParamId> {
-        if !self.redundant.is_empty() {
-            return self.redundant.iter().map(|r| r.param).collect();
-        }
-        let mut v: Vec<ParamId> = Vec::new();
-        for d in &self.lost_directions {
-            if let Some((p, _)) = d.combination.iter().find(|(p, _)| !v.contains(p)) {
-                v.push(*p);
-            }
-        }
-        v
+        self.redundant.iter().map(|r| r.param).collect()
     }
 }
 
@@ -497,7 +508,7 @@ pub fn analyze_jacobian(
     let threshold = tolerance * singular_values[0];
     let rank = singular_values.iter().filter(|s| **s > threshold).count();
 
-    let kept = preference_ordered_basis(jn.as_ref(), threshold);
+    let kept = full_rank_basis(jn.as_ref(), threshold, rank)?;
     let dropped: Vec<usize> = (0..l).filter(|c| !kept.contains(c)).collect();
     let redundant = explain_dropped(jn.as_ref(), &kept, &dropped, params, &column_norms, &negligible);
     let lost_directions = (rank..l).map(|i| lost_direction(singular_values[i], v.col(i), params)).collect();
@@ -570,6 +581,103 @@ pub fn preference_ordered_basis(a: MatRef<'_, f64>, threshold: f64) -> Vec<usize
         kept.push(c);
     }
     kept
+}
+
+/// The identifiable basis of the (unit-normalised) columns of `a` (module docs, "Which
+/// parameters are kept"): [`preference_ordered_basis`], then made consistent with the SVD rank.
+///
+/// 1. While the kept columns' own smallest singular value is at most `threshold` (the absolute
+///    threshold of the report's rank), the kept column with the largest entry in that singular
+///    vector is dropped — among entries within [`TIE_FRACTION`] of the largest, the one latest
+///    in the input (preference) order. The others explain that column with the smallest
+///    weights, so the basis left is the best conditioned.
+/// 2. While fewer columns are kept than `rank`, the dropped columns are offered back in input
+///    order and taken when the basis stays of full rank.
+/// 3. If the basis is still short of `rank` — two nearly dependent columns, each above the
+///    threshold, can take up a dimension the other columns would fill clearly (seen with fewer
+///    rows than parameters) — steps 1 and 2 are repeated with the QR's and step 2's acceptance raised ten
+///    times at a time (never above the threshold times 1e8), and the first basis of `rank`
+///    columns is taken (else the largest one).
+///
+/// Returns the indices of the kept columns, in input order; their own smallest singular value
+/// is above `threshold`, and their number is `rank` unless no subset of the columns reaches a
+/// direction the SVD counts (possible for a singular value close to the threshold).
+///
+/// # Errors
+/// [`ObservabilityError::Numerical`] when an SVD does not converge.
+pub fn full_rank_basis(
+    a: MatRef<'_, f64>,
+    threshold: f64,
+    rank: usize,
+) -> Result<Vec<usize>, ObservabilityError> {
+    let mut best: Vec<usize> = Vec::new();
+    for step in 0..=8 {
+        let kept = basis_with_acceptance(a, threshold, threshold * 10f64.powi(step), rank)?;
+        if step == 0 || kept.len() > best.len() {
+            best = kept;
+        }
+        if best.len() >= rank {
+            break;
+        }
+    }
+    Ok(best)
+}
+
+/// Steps 1 and 2 of [`full_rank_basis`]: the preference-ordered QR accepting remaining norms
+/// above `accept`, pruned until of full rank by `threshold`, completed with the columns that
+/// keep its smallest singular value above `accept`.
+fn basis_with_acceptance(
+    a: MatRef<'_, f64>,
+    threshold: f64,
+    accept: f64,
+    rank: usize,
+) -> Result<Vec<usize>, ObservabilityError> {
+    let mut kept = preference_ordered_basis(a, accept);
+    loop {
+        let (smallest, direction) = weakest_direction(a, &kept)?;
+        if smallest > threshold {
+            break;
+        }
+        kept.remove(column_to_drop(&direction));
+    }
+    for c in 0..a.ncols() {
+        if kept.len() >= rank {
+            break;
+        }
+        if kept.contains(&c) {
+            continue;
+        }
+        let mut trial = kept.clone();
+        trial.insert(trial.partition_point(|k| *k < c), c);
+        if weakest_direction(a, &trial)?.0 > accept {
+            kept = trial;
+        }
+    }
+    Ok(kept)
+}
+
+/// Entries of a lost direction within this fraction of its largest magnitude count as tied for
+/// dropping ([`full_rank_basis`]): the latest of them in preference order goes. Two columns
+/// that are the same up to a small part of a third give entries like 0.707 and 0.705.
+pub const TIE_FRACTION: f64 = 0.9;
+
+/// The smallest singular value of the columns `cols` of `a` and its right singular vector
+/// (entries in the order of `cols`); ∞ and no entries for no columns.
+fn weakest_direction(a: MatRef<'_, f64>, cols: &[usize]) -> Result<(f64, Vec<f64>), ObservabilityError> {
+    if cols.is_empty() {
+        return Ok((f64::INFINITY, Vec::new()));
+    }
+    let sub = Mat::from_fn(a.nrows(), cols.len(), |r, c| a[(r, cols[c])]);
+    let (s, v) = full_right_svd(sub.as_ref())?;
+    let k = cols.len() - 1;
+    Ok((s[k], v.col(k).iter().copied().collect()))
+}
+
+/// Position of the entry of `x` to drop: the last one within [`TIE_FRACTION`] of the largest
+/// magnitude.
+fn column_to_drop(x: &[f64]) -> usize {
+    let max = x.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    (0..x.len()).rev().find(|&i| x[i].abs() >= TIE_FRACTION * max).unwrap_or(x.len() - 1)
 }
 
 /// Least-squares combination of the kept columns for every dropped column.

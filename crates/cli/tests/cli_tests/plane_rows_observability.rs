@@ -92,6 +92,18 @@ fn observability_of_plane_rows_names_the_lost_base_and_the_scale() {
     assert!(!out.contains("the scale of the chain is free"), "{out}");
     assert!(out.contains("indices") && out.contains("O1 "), "{out}");
 
+    // the default set: every parameter reduced to its identifiable basis, which leaves out
+    // alpha_0 (a turn of the base about x is the same as tilting both planes) and is of full
+    // rank on its own
+    let o = vatcal(&[&base[..], &["--params", "default"]].concat());
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    let basis = out.lines().find(|l| l.starts_with("identifiable (")).expect("basis line");
+    assert!(basis.contains("plane1_tilt_u") && basis.contains("plane2_tilt_u"), "{basis}");
+    assert!(!basis.contains("alpha_0,") && !basis.ends_with("alpha_0"), "{basis}");
+    assert!(out.contains("redundant: none") && !out.contains("NOT FULLY IDENTIFIABLE"), "{out}");
+
     // a plane distance naming a plane the data and the cell do not have
     let o = vatcal(&[&base[..], &["--plane-distance", "1,7,50"]].concat());
     let err = text(&o.stderr);
@@ -198,6 +210,14 @@ fn select_on_unknown_planes_takes_the_known_distance_into_every_design() {
     let written = std::fs::read_to_string(&selected).expect("selection");
     assert_eq!(written.lines().count(), 25, "{written}");
     let with_distance = selection_condition(&out);
+    // the default set (the identifiable basis of every parameter, alpha_0 left out: it trades
+    // exactly against the planes' tilts) selects a design of full rank
+    let o = vatcal(&base);
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    eprintln!("{out}{err}");
+    assert!(o.status.success(), "{err}");
+    assert!(out.contains("selected 24 of 40 candidates for 32 parameters (default"), "{out}");
+    assert!(out.contains("rank 32/32"), "{out}");
     // a point distance between fixed calibration positions informs nothing here: said so
     let o = vatcal(&[&kinematic[..], &["--point-distance", "1,2,100"]].concat());
     let (out, err) = (text(&o.stdout), text(&o.stderr));

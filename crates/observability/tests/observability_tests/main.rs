@@ -6,6 +6,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod basis_rank;
 mod detmax;
 mod identifiability;
 mod indices;
