@@ -31,7 +31,13 @@ fn main() {
         eprintln!("unknown generator version `{version}` (DISCOVERY_BENCHMARK_GENERATOR: v2 or v3)");
         std::process::exit(2);
     };
-    let cases = generate_with(generator, count, seed);
+    let mut cases = generate_with(generator, count, seed);
+    // DISCOVERY_BENCHMARK_CASES=5,51: only those cases of the stream (the same cases as in the
+    // whole run: the stream is drawn first, then filtered)
+    if let Ok(ids) = std::env::var("DISCOVERY_BENCHMARK_CASES") {
+        let ids: Vec<usize> = ids.split(',').filter_map(|s| s.trim().parse().ok()).collect();
+        cases.retain(|c| ids.contains(&c.id));
+    }
     if let Ok(dir) = std::env::var("DISCOVERY_BENCHMARK_REPORTS") {
         std::fs::create_dir_all(&dir).unwrap();
         cases.clone().into_par_iter().for_each(|mut c| {

@@ -21,7 +21,9 @@
 //!   by more than one paired standard error ([`SIMPLER_SWAP_Z`], the one-standard-error rule);
 //! - either way its values must be plausible and the validation rows not significantly worse.
 //!
-//! At most one swap per round (the best z); an effect swapped out never comes back (no
+//! At most one swap per round: of the replacements that pass, those within one paired standard
+//! error of the best z, and of those the one leaving the fewest parameters ([`choose`]); an
+//! effect swapped out never comes back (no
 //! cycles), and a replacement of more than one effect never has more parameters than what it
 //! replaces. After a swap the search continues: the next round screens again.
 
@@ -100,18 +102,35 @@ pub(super) fn swap_check(
     let tried = trials(&pairs, added, candidates);
     let outcomes: Vec<Option<Outcome>> =
         tried.par_iter().map(|t| try_swap(start, added, t, candidates, current, held0, ctx)).collect();
-    let mut best: Option<(Trial, Outcome)> = None;
-    for (t, outcome) in tried.iter().zip(outcomes) {
-        let Some(o) = outcome else { continue };
-        if best.as_ref().is_none_or(|w| o.heldout.z > w.1.heldout.z) {
-            best = Some((t.clone(), o));
-        }
-    }
-    let Some((t, o)) = best else { return Ok(None) };
+    let passed: Vec<(Trial, Outcome)> =
+        tried.into_iter().zip(outcomes).filter_map(|(t, o)| o.map(|o| (t, o))).collect();
+    let Some((t, o)) = choose(passed, added, candidates) else { return Ok(None) };
     for (b, score) in o.scores {
         candidates[b].score = Some(score);
     }
     record_swap(added, &t, candidates, o.heldout, o.swapped, current, round, swapped_out, ctx).map(Some)
+}
+
+/// The replacement to make among those that passed (`passed`), by the one-standard-error
+/// rule that decides each of them: of the replacements within one paired standard error of
+/// the best one's held-out z, the one that leaves the **fewest parameters** in the model, then
+/// the larger z. (Two stand-ins swapped for two simpler effects at z = 2.75 beat one of those
+/// swaps alone at z = 3.04: the data cannot tell the two apart, the first model is smaller.)
+fn choose(
+    passed: Vec<(Trial, Outcome)>,
+    added: &[AddedEffect],
+    candidates: &[Candidate],
+) -> Option<(Trial, Outcome)> {
+    let best_z = passed.iter().map(|(_, o)| o.heldout.z).fold(f64::NEG_INFINITY, f64::max);
+    // the change in the model's parameter count (negative: smaller)
+    let change = |t: &Trial| {
+        let n_out: usize = t.outs.iter().map(|&k| added[k].spec.params().len()).sum();
+        params_of(&t.ins, candidates) as i64 - n_out as i64
+    };
+    passed
+        .into_iter()
+        .filter(|(_, o)| o.heldout.z >= best_z - 1.0)
+        .min_by(|(ta, oa), (tb, ob)| change(ta).cmp(&change(tb)).then(ob.heldout.z.total_cmp(&oa.heldout.z)))
 }
 
 /// At most this many (addition, look-alike) pairs are refitted per swap check (the most

@@ -217,3 +217,26 @@ fn look_alikes_the_model_absorbed_can_replace_what_absorbed_them() {
     }
     assert!(val(&with) <= val(&without), "{} vs {}", val(&with), val(&without));
 }
+
+/// Benchmark generator v3 (frozen), seed 8128, case 51 (canonical cell, probe rows, noise
+/// given; the compliances of joints 2–6 missing from the start, a τ|τ| stiffness of joint 4
+/// hidden): the carriage tilt stands in for the compliance of joint 2 and the bending of link
+/// 2 for the compliance of joint 3. At the swap check three replacements pass: the tilt for
+/// c_2 (paired z ≈ 3.0), the bending for c_3 (z ≈ 2.9) and both for both (z ≈ 2.75). The
+/// largest z used to win, and the bending, swapped only later, was never swapped: the run ended
+/// with it. Now the choice among the replacements that pass follows the rule that passes each:
+/// of those within one standard error of the best z, the one leaving the fewest parameters —
+/// both for both, two parameters for four.
+#[test]
+fn among_passing_swaps_the_smallest_model_within_one_standard_error_is_made() {
+    let (with, without) = swap_on_and_off(8128, 51);
+    let compliances = [EffectSpec::JointCompliance { joint: 2 }, EffectSpec::JointCompliance { joint: 3 }];
+    let stand_ins = ["link-bending (joint 2)".to_string(), EffectSpec::GuideCarriageTilt.label()];
+    assert!(compliances.iter().all(|c| has(&with, *c)), "{:?}", labels(&with));
+    assert!(!labels(&with).iter().any(|l| stand_ins.contains(l)), "{:?}", labels(&with));
+    assert!(stand_ins.iter().all(|l| labels(&without).contains(l)), "{:?}", labels(&without));
+    let swap = with.ambiguities.iter().find(|a| a.basis == "swap").expect("the swap is reported");
+    assert_eq!(swap.rivals, stand_ins.to_vec());
+    assert!(swap.sentence.contains("fewer parameters (2 for 4)"), "{}", swap.sentence);
+    assert!(val(&with) <= val(&without), "{} vs {}", val(&with), val(&without));
+}
