@@ -94,6 +94,12 @@ impl Context<'_> {
         cv
     }
 
+    /// The validation rows when they take part in decisions
+    /// ([`DiscoverOptions::validation_decides`]); `None` otherwise (they only report the gap).
+    pub(super) fn deciding_validation(&self) -> Option<&[Measurement]> {
+        self.validation.filter(|v| !v.is_empty() && self.options.validation_decides)
+    }
+
     pub(super) fn gap(&self, model: &Model, heldout: &CrossValidation) -> Result<Gap, DiscoveryError> {
         let validation = match self.validation {
             Some(v) if !v.is_empty() => Some(ErrorStats::from_errors(&residuals(model, v)?)),

@@ -176,7 +176,7 @@ fn names(v: &[ParamId]) -> String {
 /// Paired z of the swap's improvement on the validation rows over the keep resolution (or over
 /// the current model when keep could not be fitted); `None` without validation rows.
 fn swap_z(keep: Option<&Fit>, swap: Option<&Fit>, current: &Fit, ctx: &Context<'_>) -> Option<f64> {
-    let validation = ctx.validation.filter(|v| !v.is_empty())?;
+    let validation = ctx.deciding_validation()?;
     let swap = swap?;
     let val_errors = |f: &Fit| -> Option<Vec<Option<Vector3<f64>>>> {
         residuals(&f.model, validation).ok().map(|r| r.into_iter().map(Some).collect())
@@ -204,7 +204,7 @@ fn resolution(
         "only-fit" => format!("{chosen_name} kept: the other resolution could not be fitted"),
         _ => format!(
             "kept {chosen_name}, already in the model{}",
-            swap_z.map_or(" (no validation rows to tell them apart)".to_string(), |z| format!(
+            swap_z.map_or(" (the data cannot tell them apart)".to_string(), |z| format!(
                 " (the swap is not significantly better on the validation rows: z = {z:.2})"
             ))
         ),
@@ -301,7 +301,7 @@ fn validation_errors(
     i: usize,
     ctx: &Context<'_>,
 ) -> Result<Option<Vec<Option<Vector3<f64>>>>, DiscoveryError> {
-    match (ctx.validation.filter(|v| !v.is_empty()), candidates[i].refit.as_ref()) {
+    match (ctx.deciding_validation(), candidates[i].refit.as_ref()) {
         (Some(v), Some((_, f, _))) => Ok(Some(residuals(&f.model, v)?.into_iter().map(Some).collect())),
         _ => Ok(None),
     }
@@ -388,16 +388,13 @@ fn rivalry(
     let why = match basis {
         "validation" => format!("{} predicts the validation rows better", label(chosen)),
         "simpler" => format!("the data cannot tell them apart, {} has fewer parameters", label(chosen)),
-        _ if ctx.validation.is_some_and(|v| !v.is_empty()) => {
+        _ if ctx.deciding_validation().is_some() => {
             format!(
                 "neither predicts the validation rows significantly better; kept {}, the larger held-out improvement",
                 label(chosen)
             )
         }
-        _ => format!(
-            "kept {}, the larger held-out improvement (no validation rows to tell them apart)",
-            label(chosen)
-        ),
+        _ => format!("kept {}, the larger held-out improvement", label(chosen)),
     };
     let sentence = format!("{}: indistinguishable on these data; {why}", names.join(" or "));
     Ok(Ambiguity {

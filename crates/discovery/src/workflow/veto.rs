@@ -19,7 +19,7 @@ pub(super) fn veto_on_validation(
     current: &Fit,
     ctx: &Context<'_>,
 ) -> Result<(), DiscoveryError> {
-    let Some(v) = ctx.validation.filter(|v| !v.is_empty() && ctx.options.validation_veto) else {
+    let Some(v) = ctx.deciding_validation().filter(|_| ctx.options.validation_veto) else {
         return Ok(());
     };
     let before: Vec<Option<Vector3<f64>>> = residuals(&current.model, v)?.into_iter().map(Some).collect();
@@ -38,9 +38,10 @@ pub(super) fn veto_on_validation(
 }
 
 /// Whether `fit1` predicts the validation rows significantly worse than `current` (paired z
-/// below `-`[`VETO_Z`]; false without validation rows or with the veto off).
+/// below `-`[`VETO_Z`]; false without validation rows, when they do not decide, or with the
+/// veto off).
 pub(super) fn validation_worse(current: &Fit, fit1: &Fit, ctx: &Context<'_>) -> bool {
-    let Some(v) = ctx.validation.filter(|v| !v.is_empty() && ctx.options.validation_veto) else {
+    let Some(v) = ctx.deciding_validation().filter(|_| ctx.options.validation_veto) else {
         return false;
     };
     match (residuals(&current.model, v), residuals(&fit1.model, v)) {

@@ -1523,7 +1523,12 @@ pub fn run_case(case: Case) -> CaseResult {
 
 /// [`run_case`] with the catalog effects named in `excluded` not proposed
 /// (`DiscoverOptions::excluded_effects`).
-pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
+pub fn run_case_with(case: Case, excluded: &[&str]) -> CaseResult {
+    run_case_tuned(case, |o| o.excluded_effects = excluded.iter().map(|n| n.to_string()).collect())
+}
+
+/// [`run_case`] with the case's options ([`options_for`]) changed by `tune`.
+pub fn run_case_tuned(mut case: Case, tune: impl Fn(&mut DiscoverOptions)) -> CaseResult {
     let Some(data) = CaseData::build(&mut case) else {
         return CaseResult::failed(case, 0, None, f64::NAN, 0.0, "the case could not be generated".into());
     };
@@ -1541,10 +1546,8 @@ pub fn run_case_with(mut case: Case, excluded: &[&str]) -> CaseResult {
         ErrorStats::from_errors(&e).mean
     };
     let floor_mm = floor(&case, &data).ok();
-    let options = DiscoverOptions {
-        excluded_effects: excluded.iter().map(|n| n.to_string()).collect(),
-        ..options_for(&case, &data)
-    };
+    let mut options = options_for(&case, &data);
+    tune(&mut options);
     let t0 = Instant::now();
     let result = discover(&data.nominal, &data.measurements, &data.params, Some(&data.validation), &options);
     let seconds = t0.elapsed().as_secs_f64();
