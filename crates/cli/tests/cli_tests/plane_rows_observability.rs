@@ -6,11 +6,11 @@
 use std::path::{Path, PathBuf};
 
 use super::select_observability::{text, vatcal};
-use nalgebra::Vector3;
 use vatcal_core::{CellFile, Measurement, Target};
-use vatcal_kinematics::{ContactPlane, Model};
+use vatcal_kinematics::Model;
 use vatcal_sim::truth::{
-    ErrorBudget, perturbed_truth, synthetic_plane_contacts, synthetic_tracker_measurements,
+    ErrorBudget, insert_table_and_block, perturbed_truth, synthetic_tracker_measurements,
+    table_and_block_contacts,
 };
 
 fn fixture() -> PathBuf {
@@ -22,15 +22,13 @@ fn truth() -> Model {
     let nominal = Model::from_cell(&CellFile::load(fixture()).expect("fixture")).expect("model");
     let budget = ErrorBudget { compliance_range: (0.0, 0.0), ..ErrorBudget::realistic() };
     let mut t = perturbed_truth(&nominal, 4, &budget);
-    t.insert_plane(1, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), -50.0, 40.0));
-    t.insert_plane(2, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), 0.0, 40.0));
+    insert_table_and_block(&mut t);
     t
 }
 
 /// 20 touches of the table, 20 presses on the block (5 µm contact noise).
 fn plane_rows(truth: &Model) -> Vec<Measurement> {
-    let mut rows = synthetic_plane_contacts(truth, 1, 1, false, 20, 0.005, 1);
-    rows.extend(synthetic_plane_contacts(truth, 2, 1, true, 20, 0.005, 2));
+    let rows = table_and_block_contacts(truth, 20, 0.005);
     assert_eq!(rows.len(), 40);
     rows
 }

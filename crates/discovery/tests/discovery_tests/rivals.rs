@@ -193,6 +193,22 @@ fn swap_on_and_off(
     (with, without)
 }
 
+/// With the swap check (`with`) the effects `ins` are named and the `outs` gone, swapped out in
+/// one reported swap whose sentence says `why`; without it (`without`) the `outs` stay.
+fn assert_swapped(
+    (with, without): (&vatcal_discovery::Discovery, &vatcal_discovery::Discovery),
+    ins: &[EffectSpec],
+    outs: &[String],
+    why: &str,
+) {
+    assert!(ins.iter().all(|c| has(with, *c)), "{:?}", labels(with));
+    assert!(!labels(with).iter().any(|l| outs.contains(l)), "{:?}", labels(with));
+    assert!(outs.iter().all(|l| labels(without).contains(l)), "{:?}", labels(without));
+    let swap = with.ambiguities.iter().find(|a| a.basis == "swap").expect("the swap is reported");
+    assert_eq!(swap.rivals, outs.to_vec());
+    assert!(swap.sentence.contains(why), "{}", swap.sentence);
+}
+
 fn labels(d: &vatcal_discovery::Discovery) -> Vec<String> {
     d.added_effects.iter().map(|a| a.label.clone()).collect()
 }
@@ -220,12 +236,7 @@ fn look_alikes_the_model_absorbed_can_replace_what_absorbed_them() {
     let (with, without) = swap_on_and_off(60606, 75, true);
     let compliances = [EffectSpec::JointCompliance { joint: 2 }, EffectSpec::JointCompliance { joint: 3 }];
     let stand_ins = [EffectSpec::GuideCarriageTilt.label(), "link-bending (joint 2)".to_string()];
-    assert!(compliances.iter().all(|c| has(&with, *c)), "{:?}", labels(&with));
-    assert!(!labels(&with).iter().any(|l| stand_ins.contains(l)), "{:?}", labels(&with));
-    assert!(stand_ins.iter().all(|l| labels(&without).contains(l)), "{:?}", labels(&without));
-    let swap = with.ambiguities.iter().find(|a| a.basis == "swap").expect("the swap is reported");
-    assert_eq!(swap.rivals, stand_ins.to_vec());
-    assert!(swap.sentence.contains("fewer parameters (2 for 4)"), "{}", swap.sentence);
+    assert_swapped((&with, &without), &compliances, &stand_ins, "fewer parameters (2 for 4)");
     for c in compliances {
         let record = with.added_effects.iter().find(|a| a.spec == c).expect("its record");
         assert!(record.score.dof == 1 && record.score.statistic.is_finite() && record.score.statistic > 0.0);
@@ -247,11 +258,6 @@ fn among_passing_swaps_the_smallest_model_within_one_standard_error_is_made() {
     let (with, without) = swap_on_and_off(8128, 51, false);
     let compliances = [EffectSpec::JointCompliance { joint: 2 }, EffectSpec::JointCompliance { joint: 3 }];
     let stand_ins = ["link-bending (joint 2)".to_string(), EffectSpec::GuideCarriageTilt.label()];
-    assert!(compliances.iter().all(|c| has(&with, *c)), "{:?}", labels(&with));
-    assert!(!labels(&with).iter().any(|l| stand_ins.contains(l)), "{:?}", labels(&with));
-    assert!(stand_ins.iter().all(|l| labels(&without).contains(l)), "{:?}", labels(&without));
-    let swap = with.ambiguities.iter().find(|a| a.basis == "swap").expect("the swap is reported");
-    assert_eq!(swap.rivals, stand_ins.to_vec());
-    assert!(swap.sentence.contains("fewer parameters (2 for 4)"), "{}", swap.sentence);
+    assert_swapped((&with, &without), &compliances, &stand_ins, "fewer parameters (2 for 4)");
     assert!(val(&with) <= val(&without), "{} vs {}", val(&with), val(&without));
 }

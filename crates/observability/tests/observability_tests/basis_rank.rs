@@ -20,7 +20,8 @@ use vatcal_observability::sets::{
     DataDesign, GenericSet, analyze_design, assemble_design_jacobian, generic_order, resolve_spec,
 };
 use vatcal_sim::truth::{
-    ErrorBudget, perturbed_truth, synthetic_plane_contacts, synthetic_tracker_measurements,
+    ErrorBudget, insert_table_and_block, perturbed_truth, synthetic_plane_contacts,
+    synthetic_tracker_measurements, table_and_block_contacts,
 };
 
 use crate::common;
@@ -40,15 +41,13 @@ fn ur5e() -> Model {
 fn plane_truth() -> Model {
     let budget = ErrorBudget { compliance_range: (0.0, 0.0), ..ErrorBudget::realistic() };
     let mut t = perturbed_truth(&ur5e(), 4, &budget);
-    t.insert_plane(1, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), -50.0, 40.0));
-    t.insert_plane(2, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), 0.0, 40.0));
+    insert_table_and_block(&mut t);
     t
 }
 
 /// 20 touches of the table, 20 presses on the block (5 µm contact noise), as the CLI test.
 fn plane_rows(truth: &Model) -> Vec<Measurement> {
-    let mut rows = synthetic_plane_contacts(truth, 1, 1, false, 20, 0.005, 1);
-    rows.extend(synthetic_plane_contacts(truth, 2, 1, true, 20, 0.005, 2));
+    let rows = table_and_block_contacts(truth, 20, 0.005);
     assert_eq!(rows.len(), 40);
     rows
 }
@@ -343,8 +342,7 @@ proptest! {
             }
             _ => {
                 let mut truth = perturbed_truth(&ur5e(), seed, &budget);
-                truth.insert_plane(1, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), -50.0, 40.0));
-                truth.insert_plane(2, ContactPlane::new(Vector3::new(0.001, -0.002, 1.0), 0.0, 40.0));
+                insert_table_and_block(&mut truth);
                 let mut rows = synthetic_plane_contacts(&truth, 1, 1, false, count, 0.0, seed);
                 rows.extend(synthetic_plane_contacts(&truth, 2, 1, seed % 2 == 0, count, 0.0, seed + 1));
                 (truth, rows, DataDesign { free_planes: vec![1, 2], ..DataDesign::default() })

@@ -23,7 +23,9 @@ mod planes;
 mod spec;
 mod synthetic;
 
-pub use planes::{add_table_block_walls, synthetic_plane_contacts};
+pub use planes::{
+    add_table_block_walls, insert_table_and_block, synthetic_plane_contacts, table_and_block_contacts,
+};
 pub use spec::{BuiltTruth, TruthError, TruthSpec};
 pub use synthetic::{
     ProbeNoise, ReachError, probe_start_poses, random_joints, reach, synthetic_probe_measurements,

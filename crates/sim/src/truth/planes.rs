@@ -67,6 +67,24 @@ pub fn synthetic_plane_contacts(
     out
 }
 
+/// Inserts the two parallel contact planes of the plane-row examples into `truth`: plane 1,
+/// a table at offset −50 mm, and plane 2, a block's top at offset 0, both with the normal
+/// (0.001, −0.002, 1) (tilted by about 2.2 mrad) and a 40 mm contact face.
+pub fn insert_table_and_block(truth: &mut Model) {
+    let normal = nalgebra::Vector3::new(0.001, -0.002, 1.0);
+    truth.insert_plane(1, vatcal_kinematics::ContactPlane::new(normal, -50.0, 40.0));
+    truth.insert_plane(2, vatcal_kinematics::ContactPlane::new(normal, 0.0, 40.0));
+}
+
+/// The contacts of the plane-row examples on the planes of [`insert_table_and_block`]:
+/// `count` touches of the table by TCP 1 (one row each) and `count` presses on the block with
+/// the tool axis held normal (three rows each), `sigma_mm` contact noise; deterministic.
+pub fn table_and_block_contacts(truth: &Model, count: usize, sigma_mm: f64) -> Vec<Measurement> {
+    let mut rows = synthetic_plane_contacts(truth, 1, 1, false, count, sigma_mm, 1);
+    rows.extend(synthetic_plane_contacts(truth, 2, 1, true, count, sigma_mm, 2));
+    rows
+}
+
 /// Gauss–Newton (Levenberg-damped, minimum-norm) on the joints until the contact block
 /// predicts `target`; `None` without convergence or outside the limits.
 fn touch(
