@@ -95,11 +95,23 @@ pub(super) fn swap_check(
     swapped_out: &mut Vec<EffectSpec>,
     ctx: &Context<'_>,
 ) -> Result<Option<Swap>, DiscoveryError> {
-    if added.is_empty() || held0.errors.iter().all(Option::is_none) {
+    if added.is_empty() {
         return Ok(None);
     }
     let pairs = lookalike_pairs(added, current, j0, candidates, swapped_out, ctx)?;
     let tried = trials(&pairs, added, candidates);
+    if tried.is_empty() {
+        return Ok(None);
+    }
+    // a round whose screening passed nothing has no confirmation baseline yet: the search
+    // stops there all the same, so the check needs one
+    let computed;
+    let held0 = if held0.errors.iter().all(Option::is_none) {
+        computed = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
+        &computed
+    } else {
+        held0
+    };
     let outcomes: Vec<Option<Outcome>> =
         tried.par_iter().map(|t| try_swap(start, added, t, candidates, current, held0, ctx)).collect();
     let passed: Vec<(Trial, Outcome)> =

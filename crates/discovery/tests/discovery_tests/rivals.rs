@@ -261,3 +261,23 @@ fn among_passing_swaps_the_smallest_model_within_one_standard_error_is_made() {
     assert_swapped((&with, &without), &compliances, &stand_ins, "fewer parameters (2 for 4)");
     assert!(val(&with) <= val(&without), "{} vs {}", val(&with), val(&without));
 }
+
+/// Benchmark generator v3 (frozen), seed 21, case 3 (canonical cell, probe rows with
+/// replicates, no noise metadata, fixture errors; the compliances of joints 2–6 missing from
+/// the start): the carriage tilt (round 1) stands in for the compliance of joint 2, and the
+/// search stops in a round whose screening passes nothing. That round had no confirmation
+/// baseline, and the swap check, which needs one, was skipped: the stand-in stayed. The check
+/// now computes the baseline when it has look-alikes to try, and the compliance replaces the
+/// tilt, one parameter for two.
+#[test]
+fn the_swap_check_runs_when_the_last_round_screens_nothing() {
+    let (with, without) = swap_on_and_off(21, 3, false);
+    let last = &with.rounds.last().expect("rounds").decision;
+    let stand_in = [EffectSpec::GuideCarriageTilt.label()];
+    assert_swapped((&with, &without), &[EffectSpec::JointCompliance { joint: 2 }], &stand_in, "1 for 2");
+    let swap_round = with.ambiguities.iter().find(|a| a.basis == "swap").expect("the swap").round;
+    let screened_nothing = without.rounds.last().expect("rounds").decision.contains("above the threshold");
+    assert!(screened_nothing, "{}", without.rounds.last().expect("rounds").decision);
+    assert!(swap_round > 1, "{swap_round}: {last}");
+    assert!(val(&with) <= val(&without), "{} vs {}", val(&with), val(&without));
+}
