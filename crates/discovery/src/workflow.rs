@@ -87,7 +87,7 @@ use self::screen::{Thresholds, rank_candidates, score_candidates};
 use self::setup::{Setup, prepare};
 use self::size::{describe_noise, saturated_sigma};
 use self::stop::{best_passing, gap_over_floor};
-use self::swap::swap_check;
+use self::swap::{SwapCheck, swap_check};
 use self::veto::veto_on_validation;
 use crate::DiscoveryError;
 use crate::fit::{Fit, fit};
@@ -467,8 +467,13 @@ impl Run {
         ctx: &Context<'_>,
     ) -> Result<Option<(String, Vec<RemovedEffect>)>, DiscoveryError> {
         let (added, current, out) = (&mut self.added, &mut self.current, &mut self.swapped_out);
-        let Some(swap) = swap_check(start, added, current, candidates, baseline, index, out, ctx)? else {
-            return Ok(None);
+        let swap = match swap_check(start, added, current, candidates, baseline, index, out, ctx)? {
+            SwapCheck::Made(swap) => swap,
+            SwapCheck::Kept(kept) => {
+                // the search ends here: say why each look-alike tried did not replace its rival
+                self.notes.extend(kept.into_iter().map(|k| format!("round {index}, swap check: {k}")));
+                return Ok(None);
+            }
         };
         self.held_all = ctx.cross_validate(&self.current.model, &self.current.params, &ctx.all_folds);
         self.gap = ctx.gap(&self.current.model, &self.held_all)?;

@@ -83,7 +83,7 @@ struct Trial {
 /// addition by one look-alike candidate of the round, or by two look-alikes with no more
 /// parameters together than it has, that predict the held-out points significantly better;
 /// `swapped_out` holds the effects already swapped out (never tried again). Returns the swap
-/// made, if any.
+/// made, or why each replacement tried was refused.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn swap_check(
     start: &Model,
@@ -94,14 +94,14 @@ pub(super) fn swap_check(
     round: usize,
     swapped_out: &mut Vec<EffectSpec>,
     ctx: &Context<'_>,
-) -> Result<Option<Swap>, DiscoveryError> {
+) -> Result<SwapCheck, DiscoveryError> {
     if added.is_empty() {
-        return Ok(None);
+        return Ok(SwapCheck::Kept(Vec::new()));
     }
     let pairs = lookalike_pairs(added, current, j0, candidates, swapped_out, ctx)?;
     let tried = trials(&pairs, added, candidates);
     if tried.is_empty() {
-        return Ok(None);
+        return Ok(SwapCheck::Kept(Vec::new()));
     }
     // a round whose screening passed nothing has no confirmation baseline yet: the search
     // stops there all the same, so the check needs one
@@ -112,15 +112,46 @@ pub(super) fn swap_check(
     } else {
         held0
     };
-    let outcomes: Vec<Option<Outcome>> =
+    let outcomes: Vec<Result<Outcome, String>> =
         tried.par_iter().map(|t| try_swap(start, added, t, candidates, current, held0, ctx)).collect();
-    let passed: Vec<(Trial, Outcome)> =
-        tried.into_iter().zip(outcomes).filter_map(|(t, o)| o.map(|o| (t, o))).collect();
-    let Some((t, o)) = choose(passed, added, candidates) else { return Ok(None) };
+    let mut passed = Vec::new();
+    let mut kept = Vec::new();
+    for (t, outcome) in tried.into_iter().zip(outcomes) {
+        match outcome {
+            Ok(o) => passed.push((t, o)),
+            Err(why) => kept.push(kept_sentence(&t, &why, added, candidates)),
+        }
+    }
+    let Some((t, o)) = choose(passed, added, candidates) else { return Ok(SwapCheck::Kept(kept)) };
     for (b, score) in o.scores {
         candidates[b].score = Some(score);
     }
-    record_swap(added, &t, candidates, o.heldout, o.swapped, current, round, swapped_out, ctx).map(Some)
+    record_swap(added, &t, candidates, o.heldout, o.swapped, current, round, swapped_out, ctx)
+        .map(SwapCheck::Made)
+}
+
+/// What a swap check did: one swap, or none, with why each replacement tried was refused.
+pub(super) enum SwapCheck {
+    /// a swap was made
+    Made(Swap),
+    /// nothing was swapped: for every replacement tried, the earlier addition kept and why
+    Kept(Vec<String>),
+}
+
+/// The report's sentence for a replacement refused (`why`): which addition was kept over which
+/// look-alike, their cosine and parameter counts.
+fn kept_sentence(t: &Trial, why: &str, added: &[AddedEffect], candidates: &[Candidate]) -> String {
+    let outs: Vec<String> = t.outs.iter().map(|&k| added[k].label.clone()).collect();
+    let ins: Vec<String> = t.ins.iter().map(|&b| candidates[b].spec.label()).collect();
+    let n_out: usize = t.outs.iter().map(|&k| added[k].spec.params().len()).sum();
+    format!(
+        "kept {} over the look-alike{} {} (cosine {:.3}; {} parameter(s) for {n_out}): {why}",
+        outs.join(" and "),
+        if ins.len() == 1 { "" } else { "s" },
+        ins.join(" and "),
+        t.cosine,
+        params_of(&t.ins, candidates),
+    )
 }
 
 /// The replacement to make among those that passed (`passed`), by the one-standard-error
@@ -407,8 +438,9 @@ struct Outcome {
 /// The model with the candidates `t.ins` in place of the additions `t.outs` (a single candidate's
 /// values from its own refit when it has one, else zero): fitted on all data and
 /// cross-validated on the confirmation folds, compared with `held0` (the current model's).
-/// `None` unless it predicts the held-out points better by `t.z_required`, every candidate's
-/// values are plausible and the validation rows are not significantly worse.
+/// Refused, with the reason, unless it predicts the held-out points better by
+/// `t.z_required`, every candidate's values are plausible and the validation rows are not
+/// significantly worse.
 fn try_swap(
     start: &Model,
     added: &[AddedEffect],
@@ -417,7 +449,8 @@ fn try_swap(
     current: &Fit,
     held0: &CrossValidation,
     ctx: &Context<'_>,
-) -> Option<Outcome> {
+) -> Result<Outcome, String> {
+    const UNFITTED: &str = "the replacement could not be fitted";
     let (known, mut specs) = without(added, &t.outs, current);
     let mut params = known.0.clone();
     let ins: Vec<&Candidate> = t.ins.iter().map(|&b| &candidates[b]).collect();
@@ -433,32 +466,42 @@ fn try_swap(
             &refit.model,
             &ParamSet(params.iter().copied().filter(|p| refit.params.index_of(*p).is_some()).collect()),
         )
-        .ok()?,
-        _ => rebuild(start, &specs, &current.model, &known).ok()?,
+        .map_err(|_| UNFITTED.to_string())?,
+        _ => rebuild(start, &specs, &current.model, &known).map_err(|_| UNFITTED.to_string())?,
     };
     let cv = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
     let h = HeldOutComparison::new(&held0.errors, &cv.errors);
     if h.z.is_nan() || h.z < t.z_required {
-        return None;
+        return Err(format!(
+            "with it the held-out points are predicted {} (RMS {:.4} -> {:.4} mm, paired z = {:.2} < {:.1})",
+            if h.z < 0.0 { "worse" } else { "not enough better" },
+            h.rms_before_mm,
+            h.rms_after_mm,
+            h.z,
+            t.z_required
+        ));
     }
-    let swapped = fit(&base, ctx.measurements, &params, &ctx.options.identify).ok()?;
+    let swapped =
+        fit(&base, ctx.measurements, &params, &ctx.options.identify).map_err(|_| UNFITTED.to_string())?;
     for c in &ins {
         let changes: Vec<(ParamId, f64)> =
             c.new_params.iter().filter_map(|p| swapped.model.param(*p).ok().map(|v| (*p, v))).collect();
-        if plausibility(ctx, &c.spec, &changes).is_err() {
-            return None;
+        if let Err(why) = plausibility(ctx, &c.spec, &changes) {
+            return Err(format!("{}: {why}", c.spec.label()));
         }
     }
     if validation_worse(current, &swapped, ctx) {
-        return None;
+        return Err("the validation rows are predicted significantly worse".to_string());
     }
     let unscored: Vec<usize> = t.ins.iter().copied().filter(|&b| candidates[b].score.is_none()).collect();
     let scores = if unscored.is_empty() {
         Vec::new()
     } else {
-        scores_without(start, added, t, &unscored, candidates, current, ctx)?
+        scores_without(start, added, t, &unscored, candidates, current, ctx).ok_or_else(|| {
+            "its score at the model without the replaced effects could not be computed".to_string()
+        })?
     };
-    Some(Outcome { heldout: h, swapped, scores })
+    Ok(Outcome { heldout: h, swapped, scores })
 }
 
 /// The parameters and switched-on effects of the current model without the additions `outs`.

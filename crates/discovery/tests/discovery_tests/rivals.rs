@@ -280,4 +280,8 @@ fn the_swap_check_runs_when_the_last_round_screens_nothing() {
     assert!(screened_nothing, "{}", without.rounds.last().expect("rounds").decision);
     assert!(swap_round > 1, "{swap_round}: {last}");
     assert!(val(&with) <= val(&without), "{} vs {}", val(&with), val(&without));
+    // the search ends with a swap check that keeps the model: every replacement it tried is
+    // reported with the addition kept, the look-alike and why
+    let kept: Vec<&String> = with.notes.iter().filter(|n| n.contains("swap check: kept")).collect();
+    assert!(!kept.is_empty() && kept.iter().all(|n| n.contains("cosine")), "{:?}", with.notes);
 }
