@@ -233,9 +233,9 @@ impl Run {
                 }
             };
         let mut s = self.screen(index, &screen_fit, &base, ctx)?;
-        let held0 = self.confirmation_baseline(index, &s, ctx);
+        let mut held0 = self.confirmation_baseline(index, &s, ctx);
         self.confirm(index, &mut s, &base, &held0, ctx)?;
-        let next = self.choose(index, &mut s.candidates, &base, &held0, ctx)?;
+        let next = self.choose(index, &mut s.candidates, &base, &mut held0, ctx)?;
         let mut decision = decision(next.as_ref(), &s.candidates, s.th.ln_screen);
         let mut done = next.is_none();
         let mut removed = match next {
@@ -243,7 +243,7 @@ impl Run {
             None => Vec::new(),
         };
         if done && ctx.options.lookalike_swap {
-            let swap = self.swap(index, start, &mut s.candidates, (&held0, &base.j0), ctx)?;
+            let swap = self.swap(index, start, &mut s.candidates, (&mut held0, &base.j0), ctx)?;
             if let Some((sentence, gone)) = swap {
                 decision = sentence;
                 removed.extend(gone);
@@ -356,7 +356,7 @@ impl Run {
         index: usize,
         candidates: &mut [Candidate],
         base: &Base,
-        held0: &CrossValidation,
+        held0: &mut CrossValidation,
         ctx: &Context<'_>,
     ) -> Result<Option<Addition>, DiscoveryError> {
         if let Some(best) = best_passing(candidates) {
@@ -463,7 +463,7 @@ impl Run {
         index: usize,
         start: &Model,
         candidates: &mut [Candidate],
-        baseline: (&CrossValidation, &faer::Mat<f64>),
+        baseline: (&mut CrossValidation, &faer::Mat<f64>),
         ctx: &Context<'_>,
     ) -> Result<Option<(String, Vec<RemovedEffect>)>, DiscoveryError> {
         let (added, current, out) = (&mut self.added, &mut self.current, &mut self.swapped_out);

@@ -94,6 +94,15 @@ impl Context<'_> {
         cv
     }
 
+    /// Fills `held0`, the confirmation CV of `current`, when the round has not computed it (its
+    /// screening passed nothing, so it had nothing to confirm): once per round, shared by the
+    /// joint search and the swap check, which need it whatever the screening found.
+    pub(super) fn ensure_confirmation_baseline(&self, held0: &mut CrossValidation, current: &Fit) {
+        if held0.errors.iter().all(Option::is_none) {
+            *held0 = self.cross_validate(&current.model, &current.params, &self.confirm_folds);
+        }
+    }
+
     /// The validation rows when they take part in decisions
     /// ([`DiscoverOptions::validation_decides`]); `None` otherwise (they only report the gap).
     pub(super) fn deciding_validation(&self) -> Option<&[Measurement]> {

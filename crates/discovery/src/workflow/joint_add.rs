@@ -45,7 +45,7 @@ pub(super) fn add_joint(
     candidates: &mut [Candidate],
     current: &Fit,
     (j0, rank0): (&faer::Mat<f64>, usize),
-    held0: &CrossValidation,
+    held0: &mut CrossValidation,
     (round, spend): (usize, f64),
     gap: &Gap,
     ctx: &Context<'_>,
@@ -56,13 +56,8 @@ pub(super) fn add_joint(
         notes.push(format!("round {round}: {}", path_sentence(&path, candidates)));
         return Ok(None);
     }
-    let fresh_baseline;
-    let held0 = if held0.errors.iter().all(Option::is_none) {
-        fresh_baseline = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
-        &fresh_baseline
-    } else {
-        held0
-    };
+    ctx.ensure_confirmation_baseline(held0, current);
+    let held0 = &*held0;
     let th = Thresholds {
         ln_screen: f64::NAN,
         z_required: joint_z(ctx.options.confirm_alpha, ctx.options.max_refits, spend),

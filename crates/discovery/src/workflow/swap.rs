@@ -73,9 +73,17 @@ struct Trial {
     outs: Vec<usize>,
     ins: Vec<usize>,
     cosine: f64,
-    /// the paired held-out z the replacement needs ([`SWAP_Z`], or [`SIMPLER_SWAP_Z`] when
-    /// the `ins` have fewer parameters than the `outs`)
-    z_required: f64,
+    /// the parameters the `ins` add and the `outs` take away
+    n_in: usize,
+    n_out: usize,
+}
+
+impl Trial {
+    /// The paired held-out z the replacement needs: [`SWAP_Z`], or [`SIMPLER_SWAP_Z`] when it
+    /// has fewer parameters than what it replaces.
+    fn z_required(&self) -> f64 {
+        if self.n_in < self.n_out { SIMPLER_SWAP_Z } else { SWAP_Z }
+    }
 }
 
 /// The swap check of round `round`, in which nothing was added (`held0`: the confirmation CV
@@ -90,7 +98,7 @@ pub(super) fn swap_check(
     added: &mut Vec<AddedEffect>,
     current: &mut Fit,
     candidates: &mut [Candidate],
-    (held0, j0): (&CrossValidation, &Mat<f64>),
+    (held0, j0): (&mut CrossValidation, &Mat<f64>),
     round: usize,
     swapped_out: &mut Vec<EffectSpec>,
     ctx: &Context<'_>,
@@ -105,13 +113,8 @@ pub(super) fn swap_check(
     }
     // a round whose screening passed nothing has no confirmation baseline yet: the search
     // stops there all the same, so the check needs one
-    let computed;
-    let held0 = if held0.errors.iter().all(Option::is_none) {
-        computed = ctx.cross_validate(&current.model, &current.params, &ctx.confirm_folds);
-        &computed
-    } else {
-        held0
-    };
+    ctx.ensure_confirmation_baseline(held0, current);
+    let held0 = &*held0;
     let outcomes: Vec<Result<Outcome, String>> =
         tried.par_iter().map(|t| try_swap(start, added, t, candidates, current, held0, ctx)).collect();
     let mut passed = Vec::new();
@@ -122,7 +125,7 @@ pub(super) fn swap_check(
             Err(why) => kept.push(kept_sentence(&t, &why, added, candidates)),
         }
     }
-    let Some((t, o)) = choose(passed, added, candidates) else { return Ok(SwapCheck::Kept(kept)) };
+    let Some((t, o)) = choose(passed) else { return Ok(SwapCheck::Kept(kept)) };
     for (b, score) in o.scores {
         candidates[b].score = Some(score);
     }
@@ -143,14 +146,14 @@ pub(super) enum SwapCheck {
 fn kept_sentence(t: &Trial, why: &str, added: &[AddedEffect], candidates: &[Candidate]) -> String {
     let outs: Vec<String> = t.outs.iter().map(|&k| added[k].label.clone()).collect();
     let ins: Vec<String> = t.ins.iter().map(|&b| candidates[b].spec.label()).collect();
-    let n_out: usize = t.outs.iter().map(|&k| added[k].spec.params().len()).sum();
     format!(
-        "kept {} over the look-alike{} {} (cosine {:.3}; {} parameter(s) for {n_out}): {why}",
+        "kept {} over the look-alike{} {} (cosine {:.3}; {} parameter(s) for {}): {why}",
         outs.join(" and "),
         if ins.len() == 1 { "" } else { "s" },
         ins.join(" and "),
         t.cosine,
-        params_of(&t.ins, candidates),
+        t.n_in,
+        t.n_out,
     )
 }
 
@@ -159,17 +162,10 @@ fn kept_sentence(t: &Trial, why: &str, added: &[AddedEffect], candidates: &[Cand
 /// the best one's held-out z, the one that leaves the **fewest parameters** in the model, then
 /// the larger z. (Two stand-ins swapped for two simpler effects at z = 2.75 beat one of those
 /// swaps alone at z = 3.04: the data cannot tell the two apart, the first model is smaller.)
-fn choose(
-    passed: Vec<(Trial, Outcome)>,
-    added: &[AddedEffect],
-    candidates: &[Candidate],
-) -> Option<(Trial, Outcome)> {
+fn choose(passed: Vec<(Trial, Outcome)>) -> Option<(Trial, Outcome)> {
     let best_z = passed.iter().map(|(_, o)| o.heldout.z).fold(f64::NEG_INFINITY, f64::max);
     // the change in the model's parameter count (negative: smaller)
-    let change = |t: &Trial| {
-        let n_out: usize = t.outs.iter().map(|&k| added[k].spec.params().len()).sum();
-        params_of(&t.ins, candidates) as i64 - n_out as i64
-    };
+    let change = |t: &Trial| t.n_in as i64 - t.n_out as i64;
     passed
         .into_iter()
         .filter(|(_, o)| o.heldout.z >= best_z - 1.0)
@@ -202,8 +198,8 @@ pub const SIMPLER_SWAP_Z: f64 = -1.0;
 fn trials(pairs: &[(usize, usize, f64)], added: &[AddedEffect], candidates: &[Candidate]) -> Vec<Trial> {
     let n_out = |outs: &[usize]| outs.iter().map(|&k| added[k].spec.params().len()).sum::<usize>();
     let trial = |outs: Vec<usize>, ins: Vec<usize>, cosine: f64| {
-        let z_required = if params_of(&ins, candidates) < n_out(&outs) { SIMPLER_SWAP_Z } else { SWAP_Z };
-        Trial { outs, ins, cosine, z_required }
+        let (n_in, n_out) = (params_of(&ins, candidates), n_out(&outs));
+        Trial { outs, ins, cosine, n_in, n_out }
     };
     let mut out: Vec<Trial> =
         pairs.iter().take(MAX_SWAP_TRIALS).map(|&(k, b, cosine)| trial(vec![k], vec![b], cosine)).collect();
@@ -246,7 +242,7 @@ fn record_swap(
         let c = &candidates[b];
         let mut evidence = match c.refit.as_ref() {
             Some((e, ..)) => e.clone(),
-            None => swap_evidence(c, current, &swapped, (h, t.z_required), ctx),
+            None => swap_evidence(c, current, &swapped, (h, t.z_required()), ctx),
         };
         evidence.heldout = h;
         evidence.values = c
@@ -268,14 +264,15 @@ fn record_swap(
     for &b in &t.ins {
         candidates[b].status = CandidateStatus::Added;
     }
-    let (n_in, n_out) = (params_of(&t.ins, candidates), olds.iter().map(|o| o.spec.params().len()).sum());
+    let (n_in, n_out) = (t.n_in, t.n_out);
     let why = if n_in < n_out {
         format!(
             "fewer parameters ({n_in} for {n_out}) and the held-out points predicted no worse: paired z = {:.2} >= {:.1}",
-            h.z, t.z_required
+            h.z,
+            t.z_required()
         )
     } else {
-        format!("paired z = {:.2} >= {:.1}", h.z, t.z_required)
+        format!("paired z = {:.2} >= {:.1}", h.z, t.z_required())
     };
     let sentence = format!(
         "swapped {} for {} {} (look-alikes on the data, cosine {:.3}): held-out RMS {:.4} -> {:.4} mm, {why}",
@@ -439,7 +436,7 @@ struct Outcome {
 /// values from its own refit when it has one, else zero): fitted on all data and
 /// cross-validated on the confirmation folds, compared with `held0` (the current model's).
 /// Refused, with the reason, unless it predicts the held-out points better by
-/// `t.z_required`, every candidate's values are plausible and the validation rows are not
+/// `t.z_required()`, every candidate's values are plausible and the validation rows are not
 /// significantly worse.
 fn try_swap(
     start: &Model,
@@ -471,14 +468,14 @@ fn try_swap(
     };
     let cv = ctx.cross_validate(&base, &params, &ctx.confirm_folds);
     let h = HeldOutComparison::new(&held0.errors, &cv.errors);
-    if h.z.is_nan() || h.z < t.z_required {
+    if h.z.is_nan() || h.z < t.z_required() {
         return Err(format!(
             "with it the held-out points are predicted {} (RMS {:.4} -> {:.4} mm, paired z = {:.2} < {:.1})",
             if h.z < 0.0 { "worse" } else { "not enough better" },
             h.rms_before_mm,
             h.rms_after_mm,
             h.z,
-            t.z_required
+            t.z_required()
         ));
     }
     let swapped =
