@@ -35,7 +35,13 @@ fn main() {
     // DISCOVERY_BENCHMARK_CASES=5,51: only those cases of the stream (the same cases as in the
     // whole run: the stream is drawn first, then filtered)
     if let Ok(ids) = std::env::var("DISCOVERY_BENCHMARK_CASES") {
-        let ids: Vec<usize> = ids.split(',').filter_map(|s| s.trim().parse().ok()).collect();
+        let parsed: Result<Vec<usize>, _> = ids.split(',').map(|s| s.trim().parse::<usize>()).collect();
+        let Ok(ids) = parsed else {
+            eprintln!(
+                "DISCOVERY_BENCHMARK_CASES=`{ids}`: expected case numbers separated by commas, e.g. 5,51"
+            );
+            std::process::exit(2);
+        };
         cases.retain(|c| ids.contains(&c.id));
     }
     if let Ok(dir) = std::env::var("DISCOVERY_BENCHMARK_REPORTS") {
