@@ -48,11 +48,49 @@ fn calibrate_args<'a>(devices: &'a Path, out: &'a Path) -> Vec<&'a str> {
     ]
 }
 
+/// The measurements `--quick` plans.
+const QUICK_MEASUREMENTS: usize = 40;
+
 /// Starts `vatcal calibrate` with `args`, kills it with SIGKILL once `journal` holds
 /// `measurements` measurements.
 fn kill_when(args: &[&str], journal: &Path, measurements: usize) -> usize {
     kill_in(args, || journaled_measurements(journal) >= measurements);
     journaled_measurements(journal)
+}
+
+/// `(steps recorded, steps planned, outcome of the last step)` of a campaign journal: its step
+/// records, its header's `plan_steps` and the `outcome` of its last line; `None` before the
+/// header is complete or while the last line is being written.
+fn journal_progress(journal: &Path) -> Option<(usize, usize, String)> {
+    let text = std::fs::read_to_string(journal).ok()?;
+    let json =
+        |line: &str| -> Option<serde_json::Value> { serde_json::from_str(line.split_once(' ')?.1).ok() };
+    let planned = usize::try_from(json(text.lines().next()?)?["plan_steps"].as_u64()?).ok()?;
+    let last = json(text.lines().last()?)?["outcome"]["outcome"].as_str().unwrap_or_default().to_string();
+    Some((text.matches("\"record\":\"step\"").count(), planned, last))
+}
+
+/// Starts `vatcal calibrate` with `args` and kills it with SIGKILL once `journal` holds a third
+/// of the steps its header plans, right after a measurement (the kill then falls between two
+/// steps, as [`kill_when`]'s); returns the measurements journaled by then.
+fn kill_a_third_into(args: &[&str], journal: &Path) -> usize {
+    kill_in(args, || {
+        journal_progress(journal)
+            .is_some_and(|(done, planned, last)| planned > 0 && 3 * done >= planned && last == "measured")
+    });
+    journaled_measurements(journal)
+}
+
+/// `dir/name`, created.
+fn subdir(dir: &Path, name: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::create_dir_all(&path).expect("create dir");
+    path
+}
+
+/// The value of a scoped thread; its panic goes on in the caller.
+fn join<T>(handle: std::thread::ScopedJoinHandle<'_, T>) -> T {
+    handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
 }
 
 fn attempts(out: &Path, stage: &str) -> u64 {
@@ -67,27 +105,36 @@ fn attempts(out: &Path, stage: &str) -> u64 {
 fn kill_9_during_the_campaign_and_the_discovery_then_resume_gives_an_uninterrupted_run() {
     let dir = tempfile::tempdir().expect("tmp");
     let reference = dir.path().join("reference");
-    {
-        let cell = start_cell(3);
-        let devices = devices_file(&cell, dir.path());
-        let stdout = ok(&vatcal(&calibrate_args(&devices, &reference)));
-        assert!(stdout.contains("stages run: plan, campaign, identify, discovery"), "{stdout}");
-    }
-    let planned = rows_without_time(&reference.join("measurements.csv")).len();
-    let extra = rows_without_time(&reference.join("discovery_measurements.csv")).len();
-    assert_eq!(planned, 40);
-    assert!(extra >= 24, "{extra} discovery measurements");
-
     let cell = start_cell(3);
     let devices = devices_file(&cell, dir.path());
     let out = dir.path().join("killed");
     let args = calibrate_args(&devices, &out);
-    let at = kill_when(&args, &out.join("campaign.journal"), planned / 3);
-    assert!(at < planned, "killed after the end of the campaign ({at} of {planned})");
     let mut resume = args.clone();
     resume.push("--resume");
-    let at = kill_when(&resume, &out.join("discovery.journal"), extra / 3);
-    assert!(at < extra, "killed after the end of the discovery campaign ({at} of {extra})");
+    // the uninterrupted reference (on its own cell) and the killed run are independent: they run
+    // side by side, the killed run's kills a third into `--quick`'s measurements and a third into
+    // its own discovery journal's plan (the reference's counts are checked once it is done)
+    let (campaign_at, discovery_at) = std::thread::scope(|scope| {
+        let uninterrupted = scope.spawn(|| {
+            let cell = start_cell(3);
+            let devices = devices_file(&cell, &subdir(dir.path(), "reference-cell"));
+            let stdout = ok(&vatcal(&calibrate_args(&devices, &reference)));
+            assert!(stdout.contains("stages run: plan, campaign, identify, discovery"), "{stdout}");
+        });
+        let campaign_at = kill_when(&args, &out.join("campaign.journal"), QUICK_MEASUREMENTS / 3);
+        let discovery_at = kill_a_third_into(&resume, &out.join("discovery.journal"));
+        join(uninterrupted);
+        (campaign_at, discovery_at)
+    });
+    let planned = rows_without_time(&reference.join("measurements.csv")).len();
+    let extra = rows_without_time(&reference.join("discovery_measurements.csv")).len();
+    assert_eq!(planned, QUICK_MEASUREMENTS);
+    assert!(extra >= 24, "{extra} discovery measurements");
+    assert!(campaign_at < planned, "killed after the end of the campaign ({campaign_at} of {planned})");
+    assert!(
+        discovery_at < extra,
+        "killed after the end of the discovery campaign ({discovery_at} of {extra})"
+    );
     let stdout = ok(&vatcal(&resume));
     assert!(stdout.contains("stages run: discovery"), "{stdout}");
     assert!(stdout.contains("recomputed from the run folder: plan, campaign, identify"), "{stdout}");
@@ -219,13 +266,22 @@ fn calibrate_over_tcp_registers_the_tracker_and_agrees_with_the_demo() {
     let demo = dir.path().join("demo");
     let mut args = vec!["demo", "--out", s(&demo)];
     args.extend(SMALL);
-    ok(&vatcal(&args));
-    let out = calibrate_over_tcp(dir.path(), "run");
+    // the demo, the uninterrupted run and the killed and resumed run are independent child
+    // processes (the runs over TCP each on a cell of its own): they run side by side
+    let (out, killed) = std::thread::scope(|scope| {
+        let demo_run = scope.spawn(|| ok(&vatcal(&args)));
+        let killed = scope.spawn(|| {
+            killed_and_resumed_run_over_tcp(&subdir(dir.path(), "killed-cell"), &dir.path().join("killed"))
+        });
+        let out = calibrate_over_tcp(dir.path(), "run");
+        join(demo_run);
+        (out, join(killed))
+    });
     let (d, c) = (report(&demo), report(&out));
     assert!(d.get("tracker_registration").is_none(), "the demo's in-process tracker is not registered");
     the_tracker_is_registered_at_the_simulators_pose(&c, &out);
     the_validation_agrees_with_the_demo(&d, &c);
-    killed_and_resumed_runs_measure_what_the_uninterrupted_run_measured(dir.path(), &out, &c);
+    killed_and_resumed_runs_measure_what_the_uninterrupted_run_measured(&killed, &out, &c);
 }
 
 /// `vatcal calibrate` of every stage against a simulated cell served over TCP (seed 3, time
@@ -314,36 +370,59 @@ fn tracked(out: &Path) -> usize {
         .map_or(0, |t| t.matches("\"outcome\":\"tracked\"").count())
 }
 
-/// kill -9 during the plan, `--resume`, kill -9 during the validation (after the
-/// registration), `--resume`: the same measurements as the uninterrupted run `out` (report
-/// `c`), none twice.
+/// The tracker points the validation of [`SMALL`] measures: 40 random poses (one TCP each) and
+/// 40 slices of the printing path × 3 TCPs × 3 models (nominal, calibrated, discovered). A
+/// third of them (133) ends a slice: a kill there falls before the next move.
+const SMALL_TRACKER_POINTS: usize = 40 + 40 * 3 * 3;
+
+/// A killed and resumed `vatcal calibrate` of every stage (seed 3, the sizes of the demo) on a
+/// simulated cell of its own (its devices file in `cell_dir`), run folder `killed`: kill -9
+/// during the plan, `--resume`, kill -9 during the validation (after the registration, a third
+/// into its tracker points), `--resume`.
+fn killed_and_resumed_run_over_tcp(cell_dir: &Path, killed: &Path) -> KilledRun {
+    let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
+    let devices = cell.devices_file(cell_dir);
+    let mut args = vec!["calibrate", "--devices", s(&devices), "--operator", "auto", "--out", s(killed)];
+    args.extend(SMALL);
+    kill_in(&args, || stage_running(killed, "plan"));
+    args.push("--resume");
+    kill_in(&args, || tracked(killed) >= SMALL_TRACKER_POINTS / 3);
+    let tracked_at_the_kill = tracked(killed);
+    let stdout = ok(&vatcal(&args));
+    KilledRun { out: killed.to_path_buf(), tracked_at_the_kill, stdout }
+}
+
+/// The outcome of [`killed_and_resumed_run_over_tcp`].
+struct KilledRun {
+    /// its run folder
+    out: PathBuf,
+    /// the tracker points journaled when the validation was killed
+    tracked_at_the_kill: usize,
+    /// the standard output of the last `--resume`
+    stdout: String,
+}
+
+/// The killed and resumed run `run` measured what the uninterrupted run `out` (report `c`)
+/// measured, none twice.
 fn killed_and_resumed_runs_measure_what_the_uninterrupted_run_measured(
-    dir: &Path,
+    run: &KilledRun,
     out: &Path,
     c: &serde_json::Value,
 ) {
-    let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
-    let devices = cell.devices_file(dir);
-    let killed = dir.join("killed");
-    let mut args = vec!["calibrate", "--devices", s(&devices), "--operator", "auto", "--out", s(&killed)];
-    args.extend(SMALL);
-    kill_in(&args, || stage_running(&killed, "plan"));
-    args.push("--resume");
+    let (killed, stdout) = (&run.out, &run.stdout);
     let planned = tracked(out);
-    kill_in(&args, || tracked(&killed) >= planned / 3);
-    assert!(tracked(&killed) < planned, "killed after the end of the validation");
-    let stdout = ok(&vatcal(&args));
+    assert!(run.tracked_at_the_kill < planned, "killed after the end of the validation");
     assert!(stdout.contains("stages run: validation, compensation"), "{stdout}");
     for csv in ["measurements.csv", "discovery_measurements.csv"] {
         assert_eq!(rows_without_time(&killed.join(csv)), rows_without_time(&out.join(csv)), "{csv}");
     }
-    the_tracker_points_agree(&killed, out);
-    assert_eq!(tracked(&killed), planned, "a tracker point measured twice or lost");
-    assert_eq!(attempts(&killed, "plan"), 2);
-    assert_eq!(attempts(&killed, "validation"), 2);
-    assert_eq!(attempts(&killed, "campaign"), 1);
+    the_tracker_points_agree(killed, out);
+    assert_eq!(tracked(killed), planned, "a tracker point measured twice or lost");
+    assert_eq!(attempts(killed, "plan"), 2);
+    assert_eq!(attempts(killed, "validation"), 2);
+    assert_eq!(attempts(killed, "campaign"), 1);
     assert_eq!(
-        report(&killed)["tracker_registration"]["points"],
+        report(killed)["tracker_registration"]["points"],
         c["tracker_registration"]["points"],
         "the resumed validation reuses the registration"
     );
