@@ -333,45 +333,49 @@ fn kill_9_then_resume_gives_the_measurements_of_an_uninterrupted_run() {
     let plan = plan(5, dir.path());
     let planned = planned_measurements(&plan);
 
-    // uninterrupted, on its own fresh cell
-    let reference = {
-        let cell = start_cell(5);
-        let devices = devices_file(&cell, &dir.path().join("."));
-        let out = dir.path().join("reference");
-        ok(&vatcal(&campaign_args(&devices, &plan, &out)));
-        rows_without_time(&out.join("measurements.csv"))
-    };
-    assert_eq!(reference.len(), planned);
-
     let cell = start_cell(5);
     let devices = devices_file(&cell, dir.path());
     let out = dir.path().join("killed");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
-        .args(campaign_args(&devices, &plan, &out))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("spawn");
-    let journal = out.join("campaign.journal");
-    let deadline = Instant::now() + Duration::from_secs(120);
-    while journaled_measurements(&journal) < planned / 3 {
-        assert!(Instant::now() < deadline, "the child recorded too few measurements");
-        assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    child.kill().expect("SIGKILL");
-    child.wait().expect("reap");
-    let before = journaled_measurements(&journal);
-    assert!(before < planned, "killed after the end ({before} of {planned})");
-    eprintln!("killed after {before} of {planned} measurements");
+    // the uninterrupted reference, on its own fresh cell, runs beside the killed and resumed run
+    let reference = std::thread::scope(|scope| {
+        let reference = scope.spawn(|| {
+            let cell = start_cell(5);
+            let cell_dir = dir.path().join("reference-cell");
+            std::fs::create_dir_all(&cell_dir).expect("create dir");
+            let devices = devices_file(&cell, &cell_dir);
+            let out = dir.path().join("reference");
+            ok(&vatcal(&campaign_args(&devices, &plan, &out)));
+            rows_without_time(&out.join("measurements.csv"))
+        });
+        let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
+            .args(campaign_args(&devices, &plan, &out))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn");
+        let journal = out.join("campaign.journal");
+        let deadline = Instant::now() + Duration::from_secs(120);
+        while journaled_measurements(&journal) < planned / 3 {
+            assert!(Instant::now() < deadline, "the child recorded too few measurements");
+            assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        child.kill().expect("SIGKILL");
+        child.wait().expect("reap");
+        let before = journaled_measurements(&journal);
+        assert!(before < planned, "killed after the end ({before} of {planned})");
+        eprintln!("killed after {before} of {planned} measurements");
 
-    let mut args = campaign_args(&devices, &plan, &out);
-    let fresh = vatcal(&args);
-    assert!(!fresh.status.success(), "an existing journal without --resume must be refused");
-    assert!(String::from_utf8_lossy(&fresh.stderr).contains("--resume"));
-    args.push("--resume");
-    let stdout = ok(&vatcal(&args));
-    assert!(stdout.contains("resumed at step"), "{stdout}");
+        let mut args = campaign_args(&devices, &plan, &out);
+        let fresh = vatcal(&args);
+        assert!(!fresh.status.success(), "an existing journal without --resume must be refused");
+        assert!(String::from_utf8_lossy(&fresh.stderr).contains("--resume"));
+        args.push("--resume");
+        let stdout = ok(&vatcal(&args));
+        assert!(stdout.contains("resumed at step"), "{stdout}");
+        reference.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+    });
+    assert_eq!(reference.len(), planned);
     assert_eq!(rows_without_time(&out.join("measurements.csv")), reference);
 }
 

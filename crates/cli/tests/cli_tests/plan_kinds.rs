@@ -51,14 +51,21 @@ fn validation_and_discovery_plans_run_by_hand_over_tcp() {
     campaign(&devices, &plan, &run, false);
     let calibrated = identify_run(&run);
 
-    // validation by hand
-    let (vplan, planned) = plan_validation(dir.path(), &calibrated);
-    a_validation_plan_without_a_tracker_is_refused(dir.path(), &devices, &vplan);
-    let rows = validation_killed_half_way_and_resumed(dir.path(), &devices, &vplan, planned);
-    the_calibrated_model_validates_better_than_the_nominal(dir.path(), &calibrated, &rows, planned);
-
-    // discovery by hand
-    discovery_plan_campaign_and_discover(dir.path(), &devices, &calibrated);
+    std::thread::scope(|scope| {
+        // discovery by hand, on a second cell of the same seed beside the validation
+        let discovery = scope.spawn(|| {
+            let cell = SimCellProcess::start(&["--seed", "3", "--time-scale", "1000"]);
+            let dir = dir.path().join("discovery-cell");
+            std::fs::create_dir_all(&dir).expect("create dir");
+            discovery_plan_campaign_and_discover(&dir, &cell.devices_file(&dir), &calibrated);
+        });
+        // validation by hand
+        let (vplan, planned) = plan_validation(dir.path(), &calibrated);
+        a_validation_plan_without_a_tracker_is_refused(dir.path(), &devices, &vplan);
+        let rows = validation_killed_half_way_and_resumed(dir.path(), &devices, &vplan, planned);
+        the_calibrated_model_validates_better_than_the_nominal(dir.path(), &calibrated, &rows, planned);
+        discovery.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+    });
 }
 
 /// `vatcal plan --kind validation`: 20 random poses and the printing path of the nominal and
