@@ -44,6 +44,21 @@ fn main() {
         };
         cases.retain(|c| ids.contains(&c.id));
     }
+    // DISCOVERY_BENCHMARK_ROWS=360: a robustness study, not the benchmark: every case fitted on
+    // that many rows instead of the generator's (v3: 180); the cases are otherwise the same
+    if let Ok(text) = std::env::var("DISCOVERY_BENCHMARK_ROWS") {
+        let Ok(n) = text.trim().parse::<usize>() else {
+            eprintln!("DISCOVERY_BENCHMARK_ROWS=`{text}`: expected a number of rows, e.g. 360");
+            std::process::exit(2);
+        };
+        for c in &mut cases {
+            for h in &mut c.hidden {
+                if let common::benchmark::Shape::Campaign { rows, .. } = &mut h.shape {
+                    *rows = n;
+                }
+            }
+        }
+    }
     if let Ok(dir) = std::env::var("DISCOVERY_BENCHMARK_REPORTS") {
         std::fs::create_dir_all(&dir).unwrap();
         cases.clone().into_par_iter().for_each(|mut c| {
