@@ -2,23 +2,34 @@
 //! port): one background thread owns some TCP listeners and their clients and feeds a
 //! [`SimService`] — the protocol's state machine — with connections, received bytes and time.
 //!
-//! The loop is the same for every device: accept new clients, read what each client sent
-//! (without blocking), hand the bytes to the service, write what the service answers to the
-//! right clients, sleep one [`TICK`] when nothing arrived, repeat. A [`SimServer`] handle injects the socket-level faults every simulator
-//! offers: drop every client, stall (keep the connections open but answer nothing), stop.
+//! The loop is the same for every device: accept new clients, take what each client sent, hand
+//! the bytes to the service, write what the service answers to the right clients, wait for the
+//! next bytes (at most one [`TICK`]) when nothing arrived, repeat. Each client's socket is read
+//! by a small thread of its own that passes the bytes to the loop over a channel, so the loop
+//! wakes as soon as a request arrives instead of at the next tick (a simulated campaign makes
+//! thousands of request/answer round trips). A [`SimServer`] handle injects the socket-level
+//! faults every simulator offers: drop every client, stall (keep the connections open but
+//! answer nothing), stop.
 
 use std::io::{self, Read, Write};
-use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver, SyncSender};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-/// Granularity of the loop: the sleep of a turn in which no client sent anything (client reads
-/// do not block).
+/// Granularity of the loop: the longest wait of a turn in which no client sent anything (the
+/// loop wakes as soon as bytes arrive), the sleep of a stalled turn, and how long a new
+/// connection may wait to be accepted.
 pub const TICK: Duration = Duration::from_millis(1);
 /// A client that does not read its answers for this long is dropped.
 pub const WRITE_TIMEOUT: Duration = Duration::from_millis(500);
+/// Reads in flight from the clients' reader threads to the loop; a full channel holds the
+/// readers back (while stalled, the bytes then wait in the kernel as they would unread).
+const EVENTS_IN_FLIGHT: usize = 256;
+/// Stack of a client's reader thread (a read loop with a 4 KiB buffer).
+const READER_STACK: usize = 128 * 1024;
 
 /// A connected client: its number (unique for the server's lifetime) and the index of the
 /// listener it came through (the order given to [`SimServer::spawn`]).
@@ -96,8 +107,17 @@ impl SimServer {
             .collect::<io::Result<Vec<_>>>()?;
         let addrs = listeners.iter().map(TcpListener::local_addr).collect::<io::Result<Vec<_>>>()?;
         let flags = Arc::new(Flags::default());
-        let mut server =
-            Server { listeners, clients: Vec::new(), next_id: 0, service, flags: Arc::clone(&flags) };
+        let (events_tx, events) = mpsc::sync_channel(EVENTS_IN_FLIGHT);
+        let mut server = Server {
+            name: name.to_owned(),
+            listeners,
+            clients: Vec::new(),
+            next_id: 0,
+            service,
+            flags: Arc::clone(&flags),
+            events_tx,
+            events,
+        };
         let thread = std::thread::Builder::new().name(name.to_owned()).spawn(move || server.run())?;
         Ok(Self { addrs, flags, thread: Some(thread) })
     }
@@ -132,16 +152,29 @@ impl Drop for SimServer {
 struct Client {
     id: ClientId,
     stream: TcpStream,
-    /// bytes read while stalled, handed to the service once the stall ends
+    /// bytes received and not yet handed to the service (all of them while stalled)
     held: Vec<u8>,
+    /// the reader thread saw the end of the stream (or a read error) after `held`
+    ended: bool,
     open: bool,
 }
 
 impl Client {
     /// True when the peer has closed the connection (pending input counts as open).
     fn is_closed(&self) -> bool {
+        if !self.held.is_empty() {
+            return false;
+        }
+        if self.ended {
+            return true;
+        }
+        // its reader thread may not have run since the peer left: ask the socket (the reader
+        // takes a timeout of its own read in this window as "nothing yet")
         let mut probe = [0u8; 1];
-        match self.stream.peek(&mut probe) {
+        let _ = self.stream.set_read_timeout(Some(TICK));
+        let peeked = self.stream.peek(&mut probe);
+        let _ = self.stream.set_read_timeout(None);
+        match peeked {
             Ok(0) => true,
             Ok(_) => false,
             Err(e) => !is_transient(&e),
@@ -149,16 +182,56 @@ impl Client {
     }
 }
 
+impl Drop for Client {
+    /// Shuts the socket down (its reader thread holds a clone, so dropping alone would not
+    /// close it): the peer sees the end of the stream and the reader thread ends.
+    fn drop(&mut self) {
+        let _ = self.stream.shutdown(Shutdown::Both);
+    }
+}
+
+/// What a client's reader thread passes to the loop.
+enum Event {
+    /// bytes from client number `.0`
+    Bytes(u64, Vec<u8>),
+    /// client number `.0` closed its side or its socket failed
+    Ended(u64),
+}
+
+/// The reader thread of client `id`: blocking reads, each one's bytes sent to the loop, until
+/// the stream ends (the peer closed, or the loop shut the socket down) or the loop is gone.
+fn read_client(mut stream: TcpStream, id: u64, events: SyncSender<Event>) {
+    let mut buf = [0u8; 4096];
+    loop {
+        match stream.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => {
+                if events.send(Event::Bytes(id, buf[..n].to_vec())).is_err() {
+                    return;
+                }
+            }
+            Err(e) if is_transient(&e) => {}
+            Err(_) => break,
+        }
+    }
+    let _ = events.send(Event::Ended(id));
+}
+
 fn is_transient(e: &io::Error) -> bool {
     matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted)
 }
 
 struct Server<S> {
+    /// the thread name, also the prefix of the reader threads' names
+    name: String,
     listeners: Vec<TcpListener>,
     clients: Vec<Client>,
     next_id: u64,
     service: S,
     flags: Arc<Flags>,
+    /// cloned into every reader thread (so the channel never disconnects while the loop runs)
+    events_tx: SyncSender<Event>,
+    events: Receiver<Event>,
 }
 
 impl<S: SimService> Server<S> {
@@ -178,15 +251,51 @@ impl<S: SimService> Server<S> {
             let busy = self.serve_once();
             self.reap();
             if !busy {
-                std::thread::sleep(TICK);
+                // until a client sends something, at most one tick (the service's poll cadence)
+                if let Ok(event) = self.events.recv_timeout(TICK) {
+                    self.note(event);
+                }
             }
         }
+    }
+
+    /// Files a reader thread's event with its client (events of forgotten clients are dropped).
+    fn note(&mut self, event: Event) {
+        let (id, bytes) = match event {
+            Event::Bytes(id, bytes) => (id, Some(bytes)),
+            Event::Ended(id) => (id, None),
+        };
+        if let Some(c) = self.clients.iter_mut().find(|c| c.id.id == id) {
+            match bytes {
+                Some(bytes) => c.held.extend_from_slice(&bytes),
+                None => c.ended = true,
+            }
+        }
+    }
+
+    /// Files every event already waiting.
+    fn note_waiting(&mut self) {
+        while let Ok(event) = self.events.try_recv() {
+            self.note(event);
+        }
+    }
+
+    /// Starts the reader thread of a new client.
+    fn spawn_reader(&self, stream: &TcpStream, id: u64) -> io::Result<()> {
+        let stream = stream.try_clone()?;
+        let events = self.events_tx.clone();
+        std::thread::Builder::new()
+            .name(format!("{}-rx{id}", self.name))
+            .stack_size(READER_STACK)
+            .spawn(move || read_client(stream, id, events))
+            .map(drop)
     }
 
     fn accept(&mut self) {
         for listener in 0..self.listeners.len() {
             while let Ok((stream, _)) = self.listeners[listener].accept() {
                 // a peer that left since the last turn must not block a newcomer
+                self.note_waiting();
                 for c in &mut self.clients {
                     if c.open && c.is_closed() {
                         c.open = false;
@@ -196,15 +305,19 @@ impl<S: SimService> Server<S> {
                 let _ = stream.set_nonblocking(false);
                 let _ = stream.set_nodelay(true);
                 let _ = stream.set_write_timeout(Some(WRITE_TIMEOUT));
-                let _ = stream.set_read_timeout(Some(TICK));
+                let _ = stream.set_read_timeout(None);
                 let id = ClientId { id: self.next_id, listener };
                 self.next_id += 1;
                 let mut stream = stream;
                 match self.service.connect(id) {
                     Admission::Accept(greeting) => {
-                        if greeting.is_empty() || stream.write_all(&greeting).is_ok() {
-                            self.clients.push(Client { id, stream, held: Vec::new(), open: true });
+                        if (greeting.is_empty() || stream.write_all(&greeting).is_ok())
+                            && self.spawn_reader(&stream, id.id).is_ok()
+                        {
+                            let client = Client { id, stream, held: Vec::new(), ended: false, open: true };
+                            self.clients.push(client);
                         } else {
+                            let _ = stream.shutdown(Shutdown::Both);
                             self.service.disconnected(id);
                         }
                     }
@@ -216,37 +329,25 @@ impl<S: SimService> Server<S> {
         }
     }
 
-    /// One turn: every client's waiting bytes (read without blocking: a socket read timeout
-    /// is rounded up to the kernel's tick, 4–10 ms, which every delayed answer — a tracker
-    /// reading, the end of a motion — would wait on), the service's timed answers. Returns
-    /// whether any bytes arrived (else the loop sleeps one [`TICK`]).
+    /// One turn: every client's waiting bytes (received by its reader thread), the service's
+    /// timed answers. Returns whether any bytes arrived (else the loop waits for some, at most
+    /// one [`TICK`]).
     fn serve_once(&mut self) -> bool {
+        self.note_waiting();
         let mut out = Vec::new();
         let mut busy = false;
-        for i in 0..self.clients.len() {
-            let mut buf = [0u8; 4096];
-            let client = &mut self.clients[i];
-            let mut input = std::mem::take(&mut client.held);
-            let _ = client.stream.set_nonblocking(true);
-            let read = client.stream.read(&mut buf);
-            let _ = client.stream.set_nonblocking(false);
-            match read {
-                Ok(0) => client.open = false,
-                Ok(n) => {
-                    busy = true;
-                    input.extend_from_slice(&buf[..n]);
-                }
-                Err(e) if is_transient(&e) => {}
-                Err(_) => client.open = false,
-            }
+        for client in &mut self.clients {
             if self.flags.stalled.load(Ordering::SeqCst) {
-                // stalled while reading: keep the bytes, answer later
-                client.held = input;
+                // stalled during the turn: keep the bytes, answer later
                 continue;
             }
+            let input = std::mem::take(&mut client.held);
+            if client.ended {
+                client.open = false;
+            }
             if !input.is_empty() {
-                let id = client.id;
-                out.extend(self.service.input(id, &input));
+                busy = true;
+                out.extend(self.service.input(client.id, &input));
             }
         }
         out.extend(self.service.poll());
