@@ -75,7 +75,16 @@ impl ErrorEffect for JointStiffnessNonlinear {
     fn needs_torques(&self) -> bool {
         true
     }
-    fn contributions(&self, s: &EffectSpec, x: &EffectInputs<'_>, add: &mut dyn FnMut(EffectParam, Hook, f64)) {
+    /// The term beyond the linear compliance `c_i` of the same joint.
+    fn prerequisites(&self, s: &EffectSpec) -> Vec<EffectSpec> {
+        vec![EffectSpec::JointCompliance { joint: INSTANCES.joint(s) }]
+    }
+    fn contributions(
+        &self,
+        s: &EffectSpec,
+        x: &EffectInputs<'_>,
+        add: &mut dyn FnMut(EffectParam, Hook, f64),
+    ) {
         let joint = INSTANCES.joint(s);
         let tau = x.torques.get(joint as usize - 1).copied().unwrap_or(0.0);
         add(param(joint), Hook::Joint(joint), tau * tau.abs());
@@ -103,5 +112,9 @@ mod tests {
             assert_eq!(super::super::hook_of(param(3), &x), Some((Hook::Joint(3), tau * f64::abs(tau))));
         }
         assert!(JointStiffnessNonlinear.needs_torques());
+        assert_eq!(
+            JointStiffnessNonlinear.prerequisites(&spec(3)),
+            vec![EffectSpec::JointCompliance { joint: 3 }]
+        );
     }
 }

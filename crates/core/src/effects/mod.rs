@@ -607,6 +607,15 @@ pub trait ErrorEffect: Sync + fmt::Debug {
     fn also_try(&self, _candidate: &EffectSpec) -> Vec<EffectSpec> {
         Vec::new()
     }
+    /// The lower-order effects the instance `spec` is a correction of (the hierarchy
+    /// principle: a higher-order term of a physical law is fitted with its first-order term;
+    /// e.g. the `τ|τ|` term of a joint's spring with its linear compliance). When one of them is
+    /// not in the model, discovery proposes the instance **together with it** and records both,
+    /// so the higher-order term never stands in alone for the missing first-order one.
+    /// Default: none.
+    fn prerequisites(&self, _spec: &EffectSpec) -> Vec<EffectSpec> {
+        Vec::new()
+    }
     /// The per-measurement context columns (file names) the instance's predictions depend
     /// on (e.g. `dir3` for a backlash of joint 3, `time_s`).
     fn data_columns(&self, _spec: &EffectSpec) -> &'static [&'static str] {

@@ -122,6 +122,54 @@ pub(super) fn added_record(
     })
 }
 
+/// The record `r` of candidate `c`, followed by one record per lower-order effect it was
+/// proposed with ([`super::screen::missing_prerequisites`]: the linear compliance fitted with
+/// a `τ|τ|` term), each with its own parameters' values and the same evidence; `r` keeps only
+/// the values of `c`'s own parameters.
+pub(super) fn with_prerequisites(mut r: AddedEffect, c: &Candidate, fit1: &Fit) -> Vec<AddedEffect> {
+    // only those it was proposed with and that the fit holds (a refit resolving rivals may
+    // have kept a look-alike already in the model in their place)
+    let lower: Vec<EffectSpec> = c
+        .spec
+        .effect()
+        .map(|e| e.prerequisites(&c.spec))
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|e| {
+            let params = e.params();
+            params.iter().any(|p| c.new_params.contains(p))
+                && params.iter().all(|p| fit1.params.index_of(*p).is_some())
+        })
+        .collect();
+    if lower.is_empty() {
+        return vec![r];
+    }
+    let keys =
+        |spec: &EffectSpec| -> Vec<String> { spec.params().iter().map(|p| file_value(*p, 0.0).0).collect() };
+    let only = |m: &BTreeMap<String, f64>, k: &[String]| -> BTreeMap<String, f64> {
+        m.iter().filter(|(name, _)| k.contains(name)).map(|(name, v)| (name.clone(), *v)).collect()
+    };
+    let mut out = Vec::with_capacity(1 + lower.len());
+    for spec in lower {
+        let k = keys(&spec);
+        let mut p = r.clone();
+        p.effect = spec.kind().name().to_string();
+        p.joint = spec.joint();
+        p.label = spec.label();
+        p.meaning = meaning(spec.kind()).to_string();
+        p.spec = spec;
+        p.how = format!("{}; the first-order term of {}, fitted with it", r.how, r.label);
+        p.values = only(&r.values, &k);
+        p.std_errors = only(&r.std_errors, &k);
+        out.push(p);
+    }
+    let own = keys(&c.spec);
+    r.values = only(&r.values, &own);
+    r.std_errors = only(&r.std_errors, &own);
+    out.insert(0, r);
+    out
+}
+
 /// Predicted TCP uncertainty of the final model at the validation poses (or the measurement
 /// poses), without and with the systematic CMM errors.
 pub(super) fn predicted_uncertainty(
@@ -206,7 +254,12 @@ pub(super) fn record_group(
     for i in members {
         let mut r = added_record(&candidates[*i], evidence, &fit1, round, current, gap, &gap_after, ctx)?;
         r.how = how(members.len() - 1, evidence);
-        records.push(r);
+        for rec in with_prerequisites(r, &candidates[*i], &fit1) {
+            // a member's lower-order effect may be a member too: one record each
+            if !records.iter().any(|x: &AddedEffect| x.spec == rec.spec) {
+                records.push(rec);
+            }
+        }
         candidates[*i].status = CandidateStatus::Added;
     }
     let extra = records.split_off(1);

@@ -98,8 +98,12 @@ pub(super) fn score_candidates(
     let mut out: Vec<Candidate> = Vec::new();
     let excluded = |spec: &EffectSpec| ctx.options.excluded_effects.iter().any(|n| n == spec.kind().name());
     for spec in candidates(&current.model, ctx.measurements).into_iter().filter(|s| !excluded(s)) {
-        let new_params: Vec<ParamId> =
-            spec.params().into_iter().filter(|p| current.params.index_of(*p).is_none()).collect();
+        let new_params: Vec<ParamId> = missing_prerequisites(&spec, current)
+            .iter()
+            .flat_map(|e| e.params())
+            .chain(spec.params())
+            .filter(|p| current.params.index_of(*p).is_none())
+            .collect();
         let status = if let Some(why) = missing_data(&spec, &data) {
             let what = match spec.joint() {
                 Some(_) => format!("{} (every joint)", spec.kind()),
@@ -203,6 +207,21 @@ pub(super) fn rank_candidates(candidates: &mut [Candidate]) {
     screening_weights(candidates);
     let key = |c: &Candidate| c.weighted_ln_p().unwrap_or(f64::INFINITY);
     candidates.sort_by(|a, b| key(a).total_cmp(&key(b)));
+}
+
+/// The lower-order effects of `spec` ([`vatcal_core::effects::ErrorEffect::prerequisites`])
+/// that are not in the model `current`: none of their parameters fitted and all of them zero.
+/// Discovery proposes `spec` together with them.
+pub(super) fn missing_prerequisites(spec: &EffectSpec, current: &Fit) -> Vec<EffectSpec> {
+    let absent = |p: &ParamId| {
+        current.params.index_of(*p).is_none() && current.model.param(*p).is_ok_and(|v| v == 0.0)
+    };
+    spec.effect()
+        .map(|e| e.prerequisites(spec))
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|lower| lower.params().iter().all(absent))
+        .collect()
 }
 
 #[cfg(test)]

@@ -40,7 +40,7 @@ use super::backward::rebuild;
 use super::candidate::Candidate;
 use super::context::{Context, CrossValidation, columns, weigh_rows, weighted_residual};
 use super::plausible::plausibility;
-use super::record::added_record;
+use super::record::{added_record, with_prerequisites};
 use super::report::{AddedEffect, Ambiguity, CandidateStatus, RefitEvidence, RemovedEffect, file_value};
 use super::veto::validation_worse;
 use crate::DiscoveryError;
@@ -250,15 +250,21 @@ fn record_swap(
             .iter()
             .filter_map(|p| swapped.model.param(*p).ok().map(|v| file_value(*p, v)))
             .collect::<BTreeMap<_, _>>();
-        records.push(added_record(c, &evidence, &swapped, round, current, &gap_before, &gap_after, ctx)?);
+        let r = added_record(c, &evidence, &swapped, round, current, &gap_before, &gap_after, ctx)?;
+        for rec in with_prerequisites(r, c, &swapped) {
+            if !records.iter().any(|x: &AddedEffect| x.spec == rec.spec) {
+                records.push(rec);
+            }
+        }
     }
     let mut olds: Vec<AddedEffect> = Vec::new();
     for &k in t.outs.iter().rev() {
         olds.insert(0, added.remove(k));
     }
+    // every effect that enters, the lower-order ones proposed with a candidate included
+    let labels: Vec<String> = records.iter().map(|r| r.label.clone()).collect();
     added.extend(records);
     swapped_out.extend(olds.iter().map(|o| o.spec));
-    let labels: Vec<String> = t.ins.iter().map(|&b| candidates[b].spec.label()).collect();
     let old_labels: Vec<String> =
         olds.iter().map(|o| format!("{} (added in round {})", o.label, o.round)).collect();
     for &b in &t.ins {
