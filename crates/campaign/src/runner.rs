@@ -231,6 +231,40 @@ pub struct CampaignReport {
     pub skipped: usize,
 }
 
+impl CampaignReport {
+    /// The devices' working time of the campaign \[s\]: the sum of its steps' durations (each
+    /// record's time since the previous one). The first step of a resumed run
+    /// ([`StepRecord::resumed`]) is counted at the median duration of the other steps: the
+    /// time since its previous record includes the stop, the recovery and the restart
+    /// (minutes to hours on a real cell; a simulated cell's clock runs on while the program is
+    /// down), which is not time the devices spent on the plan. Without a resume it is the last
+    /// record's time.
+    pub fn device_s(&self) -> f64 {
+        let mut own = Vec::with_capacity(self.records.len());
+        let (mut previous_s, mut resumes) = (0.0, 0usize);
+        for r in &self.records {
+            let duration = (r.time_s - previous_s).max(0.0);
+            previous_s = r.time_s;
+            if r.resumed {
+                resumes += 1;
+            } else {
+                own.push(duration);
+            }
+        }
+        let total: f64 = own.iter().sum();
+        if resumes == 0 || own.is_empty() {
+            return total;
+        }
+        own.sort_by(f64::total_cmp);
+        let median = if own.len() % 2 == 1 {
+            own[own.len() / 2]
+        } else {
+            0.5 * (own[own.len() / 2 - 1] + own[own.len() / 2])
+        };
+        total + resumes as f64 * median
+    }
+}
+
 /// Runs campaigns on a set of devices.
 pub struct Campaign<'a> {
     devices: CellDevices<'a>,
@@ -771,4 +805,50 @@ pub fn export_measurements_for(
     let m = j.measurements();
     vatcal_io::write_measurements_for(csv, &m, kinds)?;
     Ok(m.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn report(times_s: &[f64], resumed_at: Option<usize>) -> CampaignReport {
+        let records = times_s
+            .iter()
+            .enumerate()
+            .map(|(step, &time_s)| StepRecord {
+                step,
+                time_s,
+                temperature_c: None,
+                state: CellState {
+                    joints: JointVector::default(),
+                    arm_from: JointVector::default(),
+                    guide_from_mm: None,
+                    dir: Vec::new(),
+                    placement: None,
+                },
+                outcome: StepOutcome::Moved,
+                resumed: resumed_at == Some(step),
+            })
+            .collect();
+        CampaignReport {
+            measurements: Vec::new(),
+            records,
+            resumed_at_step: resumed_at,
+            torn_bytes_dropped: 0,
+            skipped: 0,
+        }
+    }
+
+    #[test]
+    fn device_time_leaves_out_the_stop_and_restart_of_a_resumed_run() {
+        // steps of 10, 12, 11 s; an uninterrupted run: the last record's time
+        let uninterrupted = report(&[10.0, 22.0, 33.0, 45.0], None);
+        assert_eq!(uninterrupted.device_s(), 45.0);
+        // the same run stopped after step 1 and resumed an hour later: step 2 is counted at the
+        // median of the other steps (10, 12, 12 s: 12 s), not at the hour
+        let resumed = report(&[10.0, 22.0, 3633.0, 3645.0], Some(2));
+        assert!((resumed.device_s() - (10.0 + 12.0 + 12.0 + 12.0)).abs() < 1e-12, "{}", resumed.device_s());
+        assert!((resumed.device_s() - uninterrupted.device_s()).abs() < 2.0);
+        assert_eq!(report(&[], None).device_s(), 0.0);
+    }
 }

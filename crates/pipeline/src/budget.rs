@@ -192,9 +192,11 @@ pub fn journal_end(journal: &Path) -> Option<JointVector> {
     j.records().last().map(|r| r.state.joints)
 }
 
-/// Device time of a measured campaign: the span of its journal records \[s\].
+/// Device time of a measured campaign \[s\]: its steps' durations, a stop and restart
+/// between them left out ([`vatcal_campaign::CampaignReport::device_s`]), so that a run killed
+/// and resumed spends the budget an uninterrupted run spends.
 pub fn campaign_device_s(report: &vatcal_campaign::CampaignReport) -> f64 {
-    report.records.last().map_or(0.0, |r| r.time_s)
+    report.device_s()
 }
 
 /// The size of a Detmax batch whose campaign fits `available_s`: `measure(count)` plans a batch

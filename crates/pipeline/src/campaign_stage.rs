@@ -34,12 +34,13 @@ pub fn campaign_stage(
     Ok(report)
 }
 
-/// The devices' clock span of a campaign: this process's clock readings (`clock_delta_s`) for
-/// a campaign run from its start, else the journal's last record (its time since the journal
-/// began, continued across restarts).
+/// The devices' time for a campaign: this process's clock readings (`clock_delta_s`) for a
+/// campaign run from its start, else the journal's step durations with the stop and restart
+/// left out ([`CampaignReport::device_s`]).
 pub fn device_span(report: &CampaignReport, clock_delta_s: f64) -> f64 {
     match report.resumed_at_step {
         None => clock_delta_s,
-        Some(_) => report.records.last().map_or(clock_delta_s, |r| r.time_s),
+        Some(_) if report.records.is_empty() => clock_delta_s,
+        Some(_) => report.device_s(),
     }
 }

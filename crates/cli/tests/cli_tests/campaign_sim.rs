@@ -347,19 +347,9 @@ fn kill_9_then_resume_gives_the_measurements_of_an_uninterrupted_run() {
             ok(&vatcal(&campaign_args(&devices, &plan, &out)));
             rows_without_time(&out.join("measurements.csv"))
         });
-        let mut child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
-            .args(campaign_args(&devices, &plan, &out))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn");
+        let mut child = campaign_child(&campaign_args(&devices, &plan, &out), Stdio::null);
         let journal = out.join("campaign.journal");
-        let deadline = Instant::now() + Duration::from_secs(120);
-        while journaled_measurements(&journal) < planned / 3 {
-            assert!(Instant::now() < deadline, "the child recorded too few measurements");
-            assert!(child.try_wait().expect("wait").is_none(), "the child ended before it was killed");
-            std::thread::sleep(Duration::from_millis(5));
-        }
+        wait_for_measurements(&journal, planned / 3, Some(&mut child));
         child.kill().expect("SIGKILL");
         child.wait().expect("reap");
         let before = journaled_measurements(&journal);
@@ -387,18 +377,9 @@ fn a_dropped_connection_stops_with_one_line_naming_the_device_and_resume_loses_n
     let cell = start_cell(7);
     let devices = devices_file(&cell, dir.path());
     let out = dir.path().join("run");
-    let child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
-        .args(campaign_args(&devices, &plan, &out))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn");
+    let child = campaign_child(&campaign_args(&devices, &plan, &out), Stdio::piped);
     let journal = out.join("campaign.journal");
-    let deadline = Instant::now() + Duration::from_secs(120);
-    while journaled_measurements(&journal) < planned / 2 {
-        assert!(Instant::now() < deadline, "the child recorded too few measurements");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    wait_for_measurements(&journal, planned / 2, None);
     cell.drop_connections(Device::Guide);
     let o = child.wait_with_output().expect("wait");
     let stderr = String::from_utf8_lossy(&o.stderr);
@@ -418,6 +399,29 @@ fn a_dropped_connection_stops_with_one_line_naming_the_device_and_resume_loses_n
     let measured_ids: Vec<String> =
         rows.iter().map(|r| r.split(',').take(2).collect::<Vec<_>>().join(",")).collect();
     assert_eq!(measured_ids, planned_ids(&plan));
+}
+
+/// `vatcal` with `args` as a child process, its stdout and stderr made by `stdio`.
+fn campaign_child<A: AsRef<std::ffi::OsStr>>(args: &[A], stdio: fn() -> Stdio) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_vatcal"))
+        .args(args)
+        .stdout(stdio())
+        .stderr(stdio())
+        .spawn()
+        .expect("spawn")
+}
+
+/// Waits (at most 120 s) until `journal` holds `at_least` measurements; with `child`, fails
+/// when it ends first.
+fn wait_for_measurements(journal: &Path, at_least: usize, mut child: Option<&mut Child>) {
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while journaled_measurements(journal) < at_least {
+        assert!(Instant::now() < deadline, "the child recorded too few measurements");
+        if let Some(c) = child.as_mut() {
+            assert!(c.try_wait().expect("wait").is_none(), "the child ended before it was killed");
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
 }
 
 /// Waits at most `limit` for `child` to end and returns its output (killed and failed after).
@@ -463,18 +467,9 @@ fn fault_then_resume(
     let cell = start_cell(seed);
     let devices = devices_file(&cell, dir.path());
     let out = dir.path().join("run");
-    let child = Command::new(env!("CARGO_BIN_EXE_vatcal"))
-        .args(campaign_args(&devices, &plan, &out))
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn");
+    let child = campaign_child(&campaign_args(&devices, &plan, &out), Stdio::piped);
     let journal = out.join("campaign.journal");
-    let deadline = Instant::now() + Duration::from_secs(120);
-    while journaled_measurements(&journal) < planned / 3 {
-        assert!(Instant::now() < deadline, "the child recorded too few measurements");
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    wait_for_measurements(&journal, planned / 3, None);
     let t0 = Instant::now();
     inject(&cell);
     let o = wait_output(child, Duration::from_secs(30));
