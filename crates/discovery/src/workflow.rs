@@ -81,7 +81,9 @@ use self::candidate::{Candidate, candidate_score};
 use self::confirm::confirm_screened;
 use self::context::{Context, CrossValidation, summarize_fit, weigh_rows};
 use self::joint_add::add_joint;
-use self::record::{Addition, added_effect, decision, findings, predicted_uncertainty, with_prerequisites};
+use self::record::{
+    Addition, added_effect, decision, findings, predicted_uncertainty, push_with_prerequisites,
+};
 use self::rivals::choose_among_rivals;
 use self::screen::{Thresholds, rank_candidates, score_candidates};
 use self::setup::{Setup, prepare};
@@ -409,7 +411,8 @@ impl Run {
         self.confirm_cv = candidates[b].refit.as_mut().map(|r| {
             std::mem::replace(&mut r.2, CrossValidation { errors: Vec::new(), skipped: Vec::new() })
         });
-        let mut records = with_prerequisites(added, &candidates[b], &fit1);
+        let mut records = Vec::new();
+        push_with_prerequisites(&mut records, added, &candidates[b], &fit1);
         let added = records.remove(0);
         Ok(Addition {
             added,

@@ -192,13 +192,6 @@ pub fn journal_end(journal: &Path) -> Option<JointVector> {
     j.records().last().map(|r| r.state.joints)
 }
 
-/// Device time of a measured campaign \[s\]: its steps' durations, a stop and restart
-/// between them left out ([`vatcal_campaign::CampaignReport::device_s`]), so that a run killed
-/// and resumed spends the budget an uninterrupted run spends.
-pub fn campaign_device_s(report: &vatcal_campaign::CampaignReport) -> f64 {
-    report.device_s()
-}
-
 /// The size of a Detmax batch whose campaign fits `available_s`: `measure(count)` plans a batch
 /// of `count` and predicts its device time. Starting from `count`, the count is scaled by the
 /// ratio of the time available for measurements (placements apart) to the predicted one and

@@ -26,9 +26,7 @@ use vatcal_kinematics::Model;
 use vatcal_planning::geometry::CellGeometry;
 use vatcal_planning::plan::{Plan, PlanOptions, StepKind, campaign_candidates, plan_selection};
 
-use crate::budget::{
-    BatchSpend, BudgetReport, MIN_SIGMA_GAIN, PREDICTION_MARGIN, campaign_device_s, measure_steps,
-};
+use crate::budget::{BatchSpend, BudgetReport, MIN_SIGMA_GAIN, PREDICTION_MARGIN, measure_steps};
 use crate::campaign_runner::run_campaign;
 use crate::folders::{LOOP_PROPOSAL, RunFolder};
 use crate::{DeviceSet, PipelineError, Progress, RunOptions, Stage, plan_options};
@@ -572,10 +570,12 @@ pub fn measurement_loop(
         nominal.joint_kinds(),
     )?;
     if let Some(b) = budget {
+        // a stop and restart between its steps is not spent budget
+        let device_s = made.device_s();
         if let Some(last) = b.batches.last_mut() {
-            last.device_s = Some(campaign_device_s(&made));
+            last.device_s = Some(device_s);
         }
-        b.spent_s += campaign_device_s(&made);
+        b.spent_s += device_s;
         b.stop = "the targeted batch was the stage's last (one per run)".into();
     }
     let mut with_loop = all.to_vec();

@@ -31,8 +31,8 @@ use vatcal_planning::output::PlanSummary;
 use vatcal_planning::plan::plan_campaign;
 
 use crate::budget::{
-    BatchSpend, BudgetReport, DEFAULT_DISCOVERY_BUDGET_S, DeviceTimeModel, PREDICTION_MARGIN,
-    campaign_device_s, fit_batch, journal_end, measure_steps, targeted_reserve_s,
+    BatchSpend, BudgetReport, DEFAULT_DISCOVERY_BUDGET_S, DeviceTimeModel, PREDICTION_MARGIN, fit_batch,
+    journal_end, measure_steps, targeted_reserve_s,
 };
 use crate::campaign_runner::run_campaign;
 pub use crate::discovery_loop::LoopDevices;
@@ -458,7 +458,7 @@ fn detmax_spend(
         batch: "detmax".into(),
         planned: measure_steps(tour),
         predicted_s: time.predict_s(tour, arm_at),
-        device_s: Some(campaign_device_s(campaign)),
+        device_s: Some(campaign.device_s()),
     });
     Some(report)
 }

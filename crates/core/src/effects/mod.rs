@@ -296,6 +296,11 @@ impl EffectSpec {
         self.effect().map_or_else(Vec::new, |e| e.params(self))
     }
 
+    /// The lower-order effects this instance corrects ([`ErrorEffect::prerequisites`]).
+    pub fn prerequisites(&self) -> Vec<EffectSpec> {
+        self.effect().map_or_else(Vec::new, |e| e.prerequisites(self))
+    }
+
     /// Short human label, e.g. `joint-cyclic (joint 4, harmonic 1)`.
     pub fn label(&self) -> String {
         self.effect().map_or_else(|| format!("{self:?}"), |e| e.label(self))

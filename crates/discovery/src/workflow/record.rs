@@ -122,18 +122,22 @@ pub(super) fn added_record(
     })
 }
 
-/// The record `r` of candidate `c`, followed by one record per lower-order effect it was
-/// proposed with ([`super::screen::missing_prerequisites`]: the linear compliance fitted with
-/// a `τ|τ|` term), each with its own parameters' values and the same evidence; `r` keeps only
-/// the values of `c`'s own parameters.
-pub(super) fn with_prerequisites(mut r: AddedEffect, c: &Candidate, fit1: &Fit) -> Vec<AddedEffect> {
+/// Appends to `records` the record `r` of candidate `c`, then one record per lower-order effect
+/// it was proposed with ([`super::screen::missing_prerequisites`]: the linear compliance fitted
+/// with a `τ|τ|` term), each with its own parameters' values and the same evidence; `r` keeps
+/// only the values of `c`'s own parameters. An effect already in `records` (a lower-order
+/// effect that was a candidate of the same group too) is not recorded twice.
+pub(super) fn push_with_prerequisites(
+    records: &mut Vec<AddedEffect>,
+    mut r: AddedEffect,
+    c: &Candidate,
+    fit1: &Fit,
+) {
     // only those it was proposed with and that the fit holds (a refit resolving rivals may
     // have kept a look-alike already in the model in their place)
     let lower: Vec<EffectSpec> = c
         .spec
-        .effect()
-        .map(|e| e.prerequisites(&c.spec))
-        .unwrap_or_default()
+        .prerequisites()
         .into_iter()
         .filter(|e| {
             let params = e.params();
@@ -141,15 +145,20 @@ pub(super) fn with_prerequisites(mut r: AddedEffect, c: &Candidate, fit1: &Fit) 
                 && params.iter().all(|p| fit1.params.index_of(*p).is_some())
         })
         .collect();
+    let mut push = |rec: AddedEffect| {
+        if !records.iter().any(|x| x.spec == rec.spec) {
+            records.push(rec);
+        }
+    };
     if lower.is_empty() {
-        return vec![r];
+        return push(r);
     }
     let keys =
         |spec: &EffectSpec| -> Vec<String> { spec.params().iter().map(|p| file_value(*p, 0.0).0).collect() };
     let only = |m: &BTreeMap<String, f64>, k: &[String]| -> BTreeMap<String, f64> {
         m.iter().filter(|(name, _)| k.contains(name)).map(|(name, v)| (name.clone(), *v)).collect()
     };
-    let mut out = Vec::with_capacity(1 + lower.len());
+    let mut lower_records = Vec::with_capacity(lower.len());
     for spec in lower {
         let k = keys(&spec);
         let mut p = r.clone();
@@ -161,13 +170,13 @@ pub(super) fn with_prerequisites(mut r: AddedEffect, c: &Candidate, fit1: &Fit) 
         p.how = format!("{}; the first-order term of {}, fitted with it", r.how, r.label);
         p.values = only(&r.values, &k);
         p.std_errors = only(&r.std_errors, &k);
-        out.push(p);
+        lower_records.push(p);
     }
     let own = keys(&c.spec);
     r.values = only(&r.values, &own);
     r.std_errors = only(&r.std_errors, &own);
-    out.insert(0, r);
-    out
+    push(r);
+    lower_records.into_iter().for_each(push);
 }
 
 /// Predicted TCP uncertainty of the final model at the validation poses (or the measurement
@@ -254,12 +263,7 @@ pub(super) fn record_group(
     for i in members {
         let mut r = added_record(&candidates[*i], evidence, &fit1, round, current, gap, &gap_after, ctx)?;
         r.how = how(members.len() - 1, evidence);
-        for rec in with_prerequisites(r, &candidates[*i], &fit1) {
-            // a member's lower-order effect may be a member too: one record each
-            if !records.iter().any(|x: &AddedEffect| x.spec == rec.spec) {
-                records.push(rec);
-            }
-        }
+        push_with_prerequisites(&mut records, r, &candidates[*i], &fit1);
         candidates[*i].status = CandidateStatus::Added;
     }
     let extra = records.split_off(1);

@@ -216,12 +216,7 @@ pub(super) fn missing_prerequisites(spec: &EffectSpec, current: &Fit) -> Vec<Eff
     let absent = |p: &ParamId| {
         current.params.index_of(*p).is_none() && current.model.param(*p).is_ok_and(|v| v == 0.0)
     };
-    spec.effect()
-        .map(|e| e.prerequisites(spec))
-        .unwrap_or_default()
-        .into_iter()
-        .filter(|lower| lower.params().iter().all(absent))
-        .collect()
+    spec.prerequisites().into_iter().filter(|lower| lower.params().iter().all(absent)).collect()
 }
 
 #[cfg(test)]

@@ -40,7 +40,7 @@ use super::backward::rebuild;
 use super::candidate::Candidate;
 use super::context::{Context, CrossValidation, columns, weigh_rows, weighted_residual};
 use super::plausible::plausibility;
-use super::record::{added_record, with_prerequisites};
+use super::record::{added_record, push_with_prerequisites};
 use super::report::{AddedEffect, Ambiguity, CandidateStatus, RefitEvidence, RemovedEffect, file_value};
 use super::veto::validation_worse;
 use crate::DiscoveryError;
@@ -251,11 +251,7 @@ fn record_swap(
             .filter_map(|p| swapped.model.param(*p).ok().map(|v| file_value(*p, v)))
             .collect::<BTreeMap<_, _>>();
         let r = added_record(c, &evidence, &swapped, round, current, &gap_before, &gap_after, ctx)?;
-        for rec in with_prerequisites(r, c, &swapped) {
-            if !records.iter().any(|x: &AddedEffect| x.spec == rec.spec) {
-                records.push(rec);
-            }
-        }
+        push_with_prerequisites(&mut records, r, c, &swapped);
     }
     let mut olds: Vec<AddedEffect> = Vec::new();
     for &k in t.outs.iter().rev() {
